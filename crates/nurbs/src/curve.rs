@@ -1,0 +1,224 @@
+//! NURBS curves in 2-D and 3-D over borrowed storage.
+
+use crate::basis::{basis_funs, ders_basis_funs};
+use crate::bbox::Aabb;
+use crate::error::{At, NurbsError};
+use crate::knots::{Dir, Knots};
+use crate::point::Point;
+use crate::{MAX_DERIV, MAX_ORDER};
+
+/// A validated NURBS curve borrowing its knots and homogeneous control points
+/// `(w·x, w)`.
+///
+/// Evaluation is total: parameters are clamped into the domain (NaN maps to its start), and
+/// every output is finite for finite, validated data.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Curve<'a, P: Point> {
+    knots: Knots<'a>,
+    points: &'a [P::Hom],
+}
+
+/// Point and derivatives with respect to `u`. Entries above the requested order are zero.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct CurveDerivs<P> {
+    /// `C(u)`.
+    pub point: P,
+    /// `C'(u)`.
+    pub du: P,
+    /// `C''(u)`.
+    pub duu: P,
+}
+
+/// Point, derivatives and the differential geometry derived from them.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct CurveFrame<P> {
+    /// `C(u)`, `C'(u)`, `C''(u)`.
+    pub derivs: CurveDerivs<P>,
+    /// Unit tangent (the limit direction where `C'` vanishes).
+    pub tangent: P,
+    /// Unit normal, see [`Point::curve_normal`].
+    pub normal: P,
+    /// Curvature: signed for planar curves (positive turning counter-clockwise, so positive on a
+    /// counter-clockwise circle), unsigned for spatial ones; 0 where `C'` vanishes.
+    pub curvature: f32,
+}
+
+/// Below this relative size a first derivative counts as vanished (a degenerate
+/// parametrisation such as a collapsed control polygon edge).
+const DEGENERATE_REL: f32 = 1e-5;
+
+impl<'a, P: Point> Curve<'a, P> {
+    /// Validates a curve of `degree` with `knots` and homogeneous control points
+    /// `points[i] = (w_i·P_i, w_i)`.
+    pub fn new(degree: usize, knots: &'a [f32], points: &'a [P::Hom]) -> Result<Self, NurbsError> {
+        let knots = Knots::validate(knots, degree, points.len(), Dir::Curve)?;
+        for (i, &h) in points.iter().enumerate() {
+            let (xw, w) = P::split(h);
+            if !(w.is_finite() && w > 0.0) {
+                return Err(NurbsError::Weight {
+                    at: At::I(i),
+                    value: w,
+                });
+            }
+            if !xw.is_finite() || !(xw * (1.0 / w)).is_finite() {
+                return Err(NurbsError::PointNotFinite { at: At::I(i) });
+            }
+        }
+        Ok(Curve { knots, points })
+    }
+
+    /// A view over data that was validated before (by an owned type).
+    #[cfg(feature = "alloc")]
+    pub(crate) fn from_validated(knots: Knots<'a>, points: &'a [P::Hom]) -> Self {
+        Curve { knots, points }
+    }
+
+    /// Degree.
+    #[inline]
+    pub fn degree(&self) -> usize {
+        self.knots.degree()
+    }
+
+    /// The validated knot vector.
+    #[inline]
+    pub fn knots(&self) -> Knots<'a> {
+        self.knots
+    }
+
+    /// Homogeneous control points.
+    #[inline]
+    pub fn points(&self) -> &'a [P::Hom] {
+        self.points
+    }
+
+    /// Cartesian control point `i` and its weight, or `None` past the end.
+    #[inline]
+    pub fn control_point(&self, i: usize) -> Option<(P, f32)> {
+        self.points.get(i).map(|&h| {
+            let (xw, w) = P::split(h);
+            (xw * (1.0 / w), w)
+        })
+    }
+
+    /// Parameter domain `[a, b]`.
+    #[inline]
+    pub fn domain(&self) -> (f32, f32) {
+        self.knots.domain()
+    }
+
+    /// Whether start and end points coincide within `tol` (metres): a closed curve, on which a
+    /// tracker wraps the parameter instead of clamping it.
+    pub fn is_closed(&self, tol: f32) -> bool {
+        let (a, b) = self.domain();
+        (self.point(a) - self.point(b)).length_squared() <= tol * tol
+    }
+
+    /// Box of the control polygon; contains the whole curve.
+    pub fn bounding_box(&self) -> Aabb<P> {
+        // Validation guarantees at least degree + 1 >= 2 points.
+        Aabb::from_homogeneous(self.points).unwrap_or(Aabb {
+            min: P::ZERO,
+            max: P::ZERO,
+        })
+    }
+
+    /// `C(u)` (Piegl & Tiller A4.1).
+    #[inline]
+    pub fn point(&self, u: f32) -> P {
+        let u = self.knots.clamp(u);
+        let p = self.degree();
+        let span = self.knots.find_span(u);
+        let mut n = [0.0; MAX_ORDER];
+        basis_funs(self.knots.as_slice(), span, u, p, &mut n);
+        let mut cw = P::Hom::default();
+        for (j, &nj) in n.iter().enumerate().take(p + 1) {
+            cw += self.points[span - p + j] * nj;
+        }
+        let (xw, w) = P::split(cw);
+        xw * (1.0 / w)
+    }
+
+    /// `C(u)` and its derivatives up to `order` (at most [`MAX_DERIV`]) (Piegl & Tiller A3.2 on
+    /// the homogeneous curve, then A4.2 for the rational quotient).
+    #[inline]
+    pub fn derivs(&self, u: f32, order: usize) -> CurveDerivs<P> {
+        let u = self.knots.clamp(u);
+        let d = order.min(MAX_DERIV);
+        let p = self.degree();
+        let span = self.knots.find_span(u);
+        let mut nders = [[0.0; MAX_ORDER]; MAX_DERIV + 1];
+        ders_basis_funs(self.knots.as_slice(), span, u, p, d, &mut nders);
+        let mut aw = [P::Hom::default(); MAX_DERIV + 1];
+        for j in 0..=p {
+            let pw = self.points[span - p + j];
+            for k in 0..=d {
+                aw[k] += pw * nders[k][j];
+            }
+        }
+        // A4.2 with binomial coefficients for k <= 2 written out.
+        let (a0, w0) = P::split(aw[0]);
+        let (a1, w1) = P::split(aw[1]);
+        let (a2, w2) = P::split(aw[2]);
+        let inv_w = 1.0 / w0;
+        let c0 = a0 * inv_w;
+        let c1 = if d >= 1 {
+            (a1 - c0 * w1) * inv_w
+        } else {
+            P::ZERO
+        };
+        let c2 = if d >= 2 {
+            (a2 - c1 * (2.0 * w1) - c0 * w2) * inv_w
+        } else {
+            P::ZERO
+        };
+        CurveDerivs {
+            point: c0,
+            du: c1,
+            duu: c2,
+        }
+    }
+
+    /// Point, derivatives, unit tangent, unit normal and curvature at `u`.
+    pub fn frame(&self, u: f32) -> CurveFrame<P> {
+        let u = self.knots.clamp(u);
+        let d = self.derivs(u, 2);
+        let l1 = d.du.length_squared();
+        let scale = self.knots.domain_len();
+        let degenerate = l1
+            <= (DEGENERATE_REL * scale) * (DEGENERATE_REL * scale) * d.duu.length_squared()
+            || l1 <= f32::MIN_POSITIVE;
+        let tangent = if !degenerate {
+            d.du.try_normalize()
+        } else {
+            // C'(u ± h) ≈ ±h C''(u): the limit direction seen from inside the domain.
+            let (_, b) = self.domain();
+            let side = if u >= b { -1.0 } else { 1.0 };
+            (d.duu * side).try_normalize()
+        };
+        let tangent = tangent
+            .or_else(|| {
+                let (a, b) = self.domain();
+                (self.point(b) - self.point(a)).try_normalize()
+            })
+            .unwrap_or_else(|| unit_first_axis::<P>());
+        let curvature = if degenerate {
+            0.0
+        } else {
+            let len = libm::sqrtf(l1);
+            P::curvature_numerator(d.du, d.duu) / (l1 * len)
+        };
+        CurveFrame {
+            derivs: d,
+            tangent,
+            normal: P::curve_normal(tangent, d.duu),
+            curvature,
+        }
+    }
+}
+
+/// `(1, 0, …)`: the last-resort direction for a curve that is a single point.
+fn unit_first_axis<P: Point>() -> P {
+    let mut c = [0.0f32; 4];
+    c[0] = 1.0;
+    P::from_slice(&c[..P::DIM]).unwrap_or(P::ZERO)
+}

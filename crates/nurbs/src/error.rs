@@ -1,0 +1,246 @@
+//! Typed validation errors. Every invalid input is rejected once, at construction, with an
+//! error that names the field; evaluation itself never fails.
+
+use core::fmt;
+
+/// Which input field an error refers to.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Field {
+    /// Degree of a curve.
+    Degree,
+    /// Degree of a surface along u.
+    DegreeU,
+    /// Degree of a surface along v.
+    DegreeV,
+    /// Knot vector of a curve.
+    Knots,
+    /// Knot vector of a surface along u.
+    KnotsU,
+    /// Knot vector of a surface along v.
+    KnotsV,
+    /// Control points.
+    Points,
+    /// Weights.
+    Weights,
+}
+
+impl Field {
+    /// The field's name as it appears in a `scene/1` file.
+    pub const fn name(self) -> &'static str {
+        match self {
+            Field::Degree => "degree",
+            Field::DegreeU => "degree[0] (u)",
+            Field::DegreeV => "degree[1] (v)",
+            Field::Knots => "knots",
+            Field::KnotsU => "knots[0] (u)",
+            Field::KnotsV => "knots[1] (v)",
+            Field::Points => "points",
+            Field::Weights => "weights",
+        }
+    }
+}
+
+/// Position of a control point or weight: `[i]` on a curve, `[i][j]` on a surface.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum At {
+    /// Index into a curve's control polygon.
+    I(usize),
+    /// Index into a surface's control net, `i` along u and `j` along v.
+    Ij(usize, usize),
+}
+
+impl fmt::Display for At {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            At::I(i) => write!(f, "[{i}]"),
+            At::Ij(i, j) => write!(f, "[{i}][{j}]"),
+        }
+    }
+}
+
+/// Why a curve or surface definition was rejected.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum NurbsError {
+    /// Degree is 0 or above [`crate::MAX_DEGREE`].
+    Degree {
+        /// Which degree.
+        field: Field,
+        /// The degree given.
+        degree: usize,
+    },
+    /// Knot count is not (number of control points) + degree + 1.
+    KnotCount {
+        /// Which knot vector.
+        field: Field,
+        /// Required count.
+        expected: usize,
+        /// Given count.
+        found: usize,
+    },
+    /// A knot is NaN or infinite.
+    KnotNotFinite {
+        /// Which knot vector.
+        field: Field,
+        /// Index of the knot.
+        index: usize,
+    },
+    /// `knots[index] < knots[index - 1]`.
+    KnotsDecreasing {
+        /// Which knot vector.
+        field: Field,
+        /// Index of the first knot that is smaller than its predecessor.
+        index: usize,
+    },
+    /// The first or last `degree + 1` knots are not equal (the curve must interpolate its end
+    /// points).
+    NotClamped {
+        /// Which knot vector.
+        field: Field,
+    },
+    /// First and last knot are equal: the parameter domain has zero length.
+    EmptyDomain {
+        /// Which knot vector.
+        field: Field,
+    },
+    /// An interior knot repeats more than `degree` times, which would tear the curve apart.
+    KnotMultiplicity {
+        /// Which knot vector.
+        field: Field,
+        /// Index of the first copy of the knot.
+        index: usize,
+        /// How often it repeats.
+        multiplicity: usize,
+    },
+    /// Fewer than `degree + 1` control points in a direction.
+    TooFewPoints {
+        /// Which control points.
+        field: Field,
+        /// Given count.
+        found: usize,
+        /// Minimum count (degree + 1).
+        needed: usize,
+    },
+    /// A control point has a NaN or infinite coordinate.
+    PointNotFinite {
+        /// Position of the point.
+        at: At,
+    },
+    /// A weight is not finite or not strictly positive.
+    Weight {
+        /// Position of the weight.
+        at: At,
+        /// The offending value.
+        value: f32,
+    },
+    /// The number of weights differs from the number of control points.
+    WeightCount {
+        /// Required count.
+        expected: usize,
+        /// Given count.
+        found: usize,
+    },
+    /// A row of the control net (or of the weights) has a different length from the first.
+    RaggedNet {
+        /// Which array.
+        field: Field,
+        /// Index of the offending row.
+        row: usize,
+        /// Length of row 0.
+        expected: usize,
+        /// Length of this row.
+        found: usize,
+    },
+    /// A control point has the wrong number of coordinates.
+    Dimension {
+        /// Position of the point.
+        at: At,
+        /// Required coordinates.
+        expected: usize,
+        /// Given coordinates.
+        found: usize,
+    },
+}
+
+impl fmt::Display for NurbsError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        use NurbsError::*;
+        match *self {
+            Degree { field, degree } => write!(
+                f,
+                "{}: degree {degree} is not supported (must be 1..={})",
+                field.name(),
+                crate::MAX_DEGREE
+            ),
+            KnotCount {
+                field,
+                expected,
+                found,
+            } => write!(
+                f,
+                "{}: expected {expected} knots (control points + degree + 1), found {found}",
+                field.name()
+            ),
+            KnotNotFinite { field, index } => {
+                write!(f, "{}[{index}]: knot is not a finite number", field.name())
+            }
+            KnotsDecreasing { field, index } => write!(
+                f,
+                "{}[{index}]: knots must be non-decreasing, but this one is smaller than the one before",
+                field.name()
+            ),
+            NotClamped { field } => write!(
+                f,
+                "{}: the first and last degree + 1 knots must be equal (clamped knot vector)",
+                field.name()
+            ),
+            EmptyDomain { field } => write!(
+                f,
+                "{}: first and last knot are equal, the parameter domain is empty",
+                field.name()
+            ),
+            KnotMultiplicity {
+                field,
+                index,
+                multiplicity,
+            } => write!(
+                f,
+                "{}[{index}]: interior knot repeated {multiplicity} times, more than the degree (the patch would fall apart)",
+                field.name()
+            ),
+            TooFewPoints {
+                field,
+                found,
+                needed,
+            } => write!(
+                f,
+                "{}: {found} control points, at least degree + 1 = {needed} needed",
+                field.name()
+            ),
+            PointNotFinite { at } => write!(f, "points{at}: coordinate is not a finite number"),
+            Weight { at, value } => {
+                write!(f, "weights{at}: weight {value} must be finite and > 0")
+            }
+            WeightCount { expected, found } => write!(
+                f,
+                "weights: {found} weights given for {expected} control points"
+            ),
+            RaggedNet {
+                field,
+                row,
+                expected,
+                found,
+            } => write!(
+                f,
+                "{}[{row}]: row has {found} entries, row 0 has {expected} (control net must be rectangular)",
+                field.name()
+            ),
+            Dimension {
+                at,
+                expected,
+                found,
+            } => write!(f, "points{at}: {found} coordinates, expected {expected}"),
+        }
+    }
+}
+
+impl core::error::Error for NurbsError {}

@@ -1,0 +1,274 @@
+//! NURBS surfaces in 3-D over borrowed storage.
+
+use crate::basis::{basis_funs, ders_basis_funs};
+use crate::bbox::Aabb;
+use crate::error::{At, NurbsError};
+use crate::knots::{Dir, Knots};
+use crate::{MAX_DERIV, MAX_ORDER};
+use glam::{Vec3, Vec4};
+
+/// A validated NURBS surface borrowing its knots and homogeneous control net.
+///
+/// `points[i * count_v + j] = (w_ij·P_ij, w_ij)`, with `i` along u and `j` along v. Evaluation
+/// clamps `(u, v)` into the domain and is total.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Surface<'a> {
+    ku: Knots<'a>,
+    kv: Knots<'a>,
+    points: &'a [Vec4],
+}
+
+/// `S` and its partial derivatives. Entries above the requested order are zero.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct SurfaceDerivs {
+    /// `S(u, v)`.
+    pub point: Vec3,
+    /// `∂S/∂u`.
+    pub du: Vec3,
+    /// `∂S/∂v`.
+    pub dv: Vec3,
+    /// `∂²S/∂u²`.
+    pub duu: Vec3,
+    /// `∂²S/∂u∂v`.
+    pub duv: Vec3,
+    /// `∂²S/∂v²`.
+    pub dvv: Vec3,
+}
+
+/// A first derivative this much smaller (relative, parameter-scale free) than the other counts
+/// as vanished: the surface is degenerate there, like the poles of a sphere of revolution.
+const DEGENERATE_REL: f32 = 1e-4;
+
+impl<'a> Surface<'a> {
+    /// Validates a surface of degrees `(p, q)` with knot vectors `(U, V)` and a control net of
+    /// `count_v` points along v (the count along u is `points.len() / count_v`).
+    pub fn new(
+        degree: (usize, usize),
+        knots: (&'a [f32], &'a [f32]),
+        count_v: usize,
+        points: &'a [Vec4],
+    ) -> Result<Self, NurbsError> {
+        let count_u = points.len().checked_div(count_v).unwrap_or(0);
+        let kv = Knots::validate(knots.1, degree.1, count_v, Dir::V)?;
+        let ku = Knots::validate(knots.0, degree.0, count_u, Dir::U)?;
+        if count_u * count_v != points.len() {
+            return Err(NurbsError::RaggedNet {
+                field: crate::Field::Points,
+                row: count_u,
+                expected: count_v,
+                found: points.len() - count_u * count_v,
+            });
+        }
+        for (k, &h) in points.iter().enumerate() {
+            let at = At::Ij(k / count_v, k % count_v);
+            let w = h.w;
+            if !(w.is_finite() && w > 0.0) {
+                return Err(NurbsError::Weight { at, value: w });
+            }
+            if !h.truncate().is_finite() || !(h.truncate() / w).is_finite() {
+                return Err(NurbsError::PointNotFinite { at });
+            }
+        }
+        Ok(Surface { ku, kv, points })
+    }
+
+    /// A view over data that was validated before (by an owned type).
+    #[cfg(feature = "alloc")]
+    pub(crate) fn from_validated(ku: Knots<'a>, kv: Knots<'a>, points: &'a [Vec4]) -> Self {
+        Surface { ku, kv, points }
+    }
+
+    /// Degrees `(p, q)`.
+    #[inline]
+    pub fn degree(&self) -> (usize, usize) {
+        (self.ku.degree(), self.kv.degree())
+    }
+
+    /// Knot vectors `(U, V)`.
+    #[inline]
+    pub fn knots(&self) -> (Knots<'a>, Knots<'a>) {
+        (self.ku, self.kv)
+    }
+
+    /// Control net size `(along u, along v)`.
+    #[inline]
+    pub fn counts(&self) -> (usize, usize) {
+        (self.ku.n_points(), self.kv.n_points())
+    }
+
+    /// Homogeneous control net, row-major with `i` along u.
+    #[inline]
+    pub fn points(&self) -> &'a [Vec4] {
+        self.points
+    }
+
+    /// Cartesian control point `(i, j)` and its weight, or `None` outside the net.
+    pub fn control_point(&self, i: usize, j: usize) -> Option<(Vec3, f32)> {
+        let (nu, nv) = self.counts();
+        if i >= nu || j >= nv {
+            return None;
+        }
+        let h = self.points[i * nv + j];
+        Some((h.truncate() / h.w, h.w))
+    }
+
+    /// Domains `((u_min, u_max), (v_min, v_max))`.
+    #[inline]
+    pub fn domain(&self) -> ((f32, f32), (f32, f32)) {
+        (self.ku.domain(), self.kv.domain())
+    }
+
+    /// Box of the control net; contains the whole surface.
+    pub fn bounding_box(&self) -> Aabb<Vec3> {
+        Aabb::from_homogeneous(self.points).unwrap_or(Aabb {
+            min: Vec3::ZERO,
+            max: Vec3::ZERO,
+        })
+    }
+
+    /// `S(u, v)` (Piegl & Tiller A4.3).
+    #[inline]
+    pub fn point(&self, u: f32, v: f32) -> Vec3 {
+        let (u, v) = (self.ku.clamp(u), self.kv.clamp(v));
+        let (p, q) = self.degree();
+        let nv = self.kv.n_points();
+        let (su, sv) = (self.ku.find_span(u), self.kv.find_span(v));
+        let mut bu = [0.0; MAX_ORDER];
+        let mut bv = [0.0; MAX_ORDER];
+        basis_funs(self.ku.as_slice(), su, u, p, &mut bu);
+        basis_funs(self.kv.as_slice(), sv, v, q, &mut bv);
+        let mut sw = Vec4::ZERO;
+        for (r, &bur) in bu.iter().enumerate().take(p + 1) {
+            let row = &self.points[(su - p + r) * nv + sv - q..][..q + 1];
+            let mut temp = Vec4::ZERO;
+            for (&pw, &bvs) in row.iter().zip(bv.iter()) {
+                temp += pw * bvs;
+            }
+            sw += temp * bur;
+        }
+        sw.truncate() / sw.w
+    }
+
+    /// `S` and its partial derivatives up to total order `order` (at most [`MAX_DERIV`])
+    /// (Piegl & Tiller A3.6 on the homogeneous surface, then A4.4).
+    #[inline]
+    pub fn derivs(&self, u: f32, v: f32, order: usize) -> SurfaceDerivs {
+        let (u, v) = (self.ku.clamp(u), self.kv.clamp(v));
+        let d = order.min(MAX_DERIV);
+        let (p, q) = self.degree();
+        let nv = self.kv.n_points();
+        let (su, sv) = (self.ku.find_span(u), self.kv.find_span(v));
+        let mut nu_d = [[0.0; MAX_ORDER]; MAX_DERIV + 1];
+        let mut nv_d = [[0.0; MAX_ORDER]; MAX_DERIV + 1];
+        ders_basis_funs(self.ku.as_slice(), su, u, p, d, &mut nu_d);
+        ders_basis_funs(self.kv.as_slice(), sv, v, q, d, &mut nv_d);
+        // skl[k][l]: homogeneous ∂^(k+l) / ∂u^k ∂v^l, k + l <= d.
+        let mut skl = [[Vec4::ZERO; MAX_DERIV + 1]; MAX_DERIV + 1];
+        for r in 0..=p {
+            let row = &self.points[(su - p + r) * nv + sv - q..][..q + 1];
+            let mut temp = [Vec4::ZERO; MAX_DERIV + 1];
+            for (s, &pw) in row.iter().enumerate() {
+                for l in 0..=d {
+                    temp[l] += pw * nv_d[l][s];
+                }
+            }
+            for k in 0..=d {
+                for l in 0..=d - k {
+                    skl[k][l] += temp[l] * nu_d[k][r];
+                }
+            }
+        }
+        rational_surface_derivs(&skl, d)
+    }
+
+    /// Unit normal `S_u × S_v / |S_u × S_v|` at `(u, v)`; see [`Surface::normal_from`].
+    #[inline]
+    pub fn normal(&self, u: f32, v: f32) -> Vec3 {
+        let d = self.derivs(u, v, 1);
+        self.normal_from(u, v, &d)
+    }
+
+    /// Unit normal from already evaluated first derivatives at `(u, v)`.
+    ///
+    /// Where one first derivative vanishes (the poles of a sphere of revolution, a collapsed
+    /// edge) it returns the finite limit normal: if `S_u → 0` at `v = v₀`, then
+    /// `S_u(u, v₀ + h) ≈ h S_uv` and the normal is the direction of `h (S_uv × S_v)` with `h`
+    /// pointing into the domain (and symmetrically for `S_v → 0`).
+    pub fn normal_from(&self, u: f32, v: f32, d: &SurfaceDerivs) -> Vec3 {
+        let (u, v) = (self.ku.clamp(u), self.kv.clamp(v));
+        let n = d.du.cross(d.dv);
+        let lu = d.du.length_squared() * sq(self.ku.domain_len());
+        let lv = d.dv.length_squared() * sq(self.kv.domain_len());
+        let rel = DEGENERATE_REL * DEGENERATE_REL;
+        let u_vanishes = lu <= rel * lv;
+        let v_vanishes = lv <= rel * lu;
+        if !u_vanishes && !v_vanishes {
+            if let Some(n) = n.try_normalize() {
+                return n;
+            }
+        }
+        let d2 = self.derivs(u, v, 2);
+        if u_vanishes && !v_vanishes {
+            let h = if v >= self.kv.domain().1 { -1.0 } else { 1.0 };
+            if let Some(n) = (d2.duv.cross(d2.dv) * h).try_normalize() {
+                return n;
+            }
+        }
+        if v_vanishes && !u_vanishes {
+            let h = if u >= self.ku.domain().1 { -1.0 } else { 1.0 };
+            if let Some(n) = (d2.du.cross(d2.duv) * h).try_normalize() {
+                return n;
+            }
+        }
+        // Both vanish or are parallel: look a little way towards the middle of the domain.
+        let ((u0, u1), (v0, v1)) = self.domain();
+        let nudge = 1e-3;
+        let un = u + (0.5 * (u0 + u1) - u) * nudge;
+        let vn = v + (0.5 * (v0 + v1) - v) * nudge;
+        let dn = self.derivs(un, vn, 1);
+        dn.du.cross(dn.dv).try_normalize().unwrap_or(Vec3::Z)
+    }
+}
+
+#[inline]
+fn sq(x: f32) -> f32 {
+    x * x
+}
+
+/// Piegl & Tiller A4.4 for total order `d <= 2`: Cartesian derivatives of the rational surface
+/// from the homogeneous ones.
+#[inline]
+fn rational_surface_derivs(
+    skl: &[[Vec4; MAX_DERIV + 1]; MAX_DERIV + 1],
+    d: usize,
+) -> SurfaceDerivs {
+    const BIN: [[f32; 3]; 3] = [[1.0, 0.0, 0.0], [1.0, 1.0, 0.0], [1.0, 2.0, 1.0]];
+    let w = |k: usize, l: usize| skl[k][l].w;
+    let inv_w = 1.0 / w(0, 0);
+    let mut c = [[Vec3::ZERO; MAX_DERIV + 1]; MAX_DERIV + 1];
+    for k in 0..=d {
+        for l in 0..=d - k {
+            let mut v = skl[k][l].truncate();
+            for j in 1..=l {
+                v -= c[k][l - j] * (BIN[l][j] * w(0, j));
+            }
+            for i in 1..=k {
+                v -= c[k - i][l] * (BIN[k][i] * w(i, 0));
+                let mut v2 = Vec3::ZERO;
+                for j in 1..=l {
+                    v2 += c[k - i][l - j] * (BIN[l][j] * w(i, j));
+                }
+                v -= v2 * BIN[k][i];
+            }
+            c[k][l] = v * inv_w;
+        }
+    }
+    SurfaceDerivs {
+        point: c[0][0],
+        du: c[1][0],
+        dv: c[0][1],
+        duu: c[2][0],
+        duv: c[1][1],
+        dvv: c[0][2],
+    }
+}

@@ -1,0 +1,127 @@
+//! `cargo xtask ci`: installs what the checks need when it is missing, then runs every check
+//! CI runs, in order, stopping at the first failure.
+
+use std::env;
+use std::process::{Command, ExitCode};
+
+/// The embedded target the no_std crates and the firmware are built for.
+const EMBEDDED_TARGET: &str = "thumbv7em-none-eabihf";
+
+/// no_std crates cross-built for the board (their default `std` feature off).
+const NO_STD_CRATES: &[&str] = &["nurbs"];
+
+fn main() -> ExitCode {
+    let args: Vec<String> = env::args().skip(1).collect();
+    match args.first().map(String::as_str) {
+        Some("ci") => match ci() {
+            Ok(()) => {
+                println!("xtask ci: all checks passed");
+                ExitCode::SUCCESS
+            }
+            Err(e) => {
+                eprintln!("xtask ci: FAILED: {e}");
+                ExitCode::FAILURE
+            }
+        },
+        _ => {
+            eprintln!(
+                "usage: cargo xtask ci\n\n\
+                 ci    install what is missing (rustup target {EMBEDDED_TARGET}, clippy, rustfmt),\n\
+                 \x20     then: cargo fmt --check, clippy -D warnings, cargo test --workspace,\n\
+                 \x20     and cross-build every no_std crate for {EMBEDDED_TARGET}"
+            );
+            ExitCode::from(2)
+        }
+    }
+}
+
+fn ci() -> Result<(), String> {
+    ensure_toolchain()?;
+    let cargo = env::var("CARGO").unwrap_or_else(|_| "cargo".into());
+    run(&cargo, &["fmt", "--all", "--check"])?;
+    run(
+        &cargo,
+        &[
+            "clippy",
+            "--workspace",
+            "--all-targets",
+            "--",
+            "-D",
+            "warnings",
+        ],
+    )?;
+    run(&cargo, &["test", "--workspace"])?;
+    for krate in NO_STD_CRATES {
+        run(
+            &cargo,
+            &[
+                "build",
+                "--release",
+                "-p",
+                krate,
+                "--no-default-features",
+                "--target",
+                EMBEDDED_TARGET,
+            ],
+        )?;
+        run(
+            &cargo,
+            &[
+                "clippy",
+                "-p",
+                krate,
+                "--no-default-features",
+                "--target",
+                EMBEDDED_TARGET,
+                "--",
+                "-D",
+                "warnings",
+            ],
+        )?;
+    }
+    Ok(())
+}
+
+/// Adds the embedded target and the clippy/rustfmt components when rustup lacks them.
+fn ensure_toolchain() -> Result<(), String> {
+    let targets = output("rustup", &["target", "list", "--installed"])
+        .map_err(|e| format!("cannot ask rustup for installed targets ({e}); install rustup"))?;
+    if !targets.lines().any(|l| l.trim() == EMBEDDED_TARGET) {
+        println!("xtask: installing rust target {EMBEDDED_TARGET}");
+        run("rustup", &["target", "add", EMBEDDED_TARGET])
+            .map_err(|e| format!("could not install the rust target {EMBEDDED_TARGET}: {e}"))?;
+    }
+    let components = output("rustup", &["component", "list", "--installed"]).unwrap_or_default();
+    for comp in ["clippy", "rustfmt"] {
+        if !components.lines().any(|l| l.starts_with(comp)) {
+            println!("xtask: installing rustup component {comp}");
+            run("rustup", &["component", "add", comp])
+                .map_err(|e| format!("could not install the rustup component {comp}: {e}"))?;
+        }
+    }
+    Ok(())
+}
+
+fn output(cmd: &str, args: &[&str]) -> Result<String, String> {
+    let out = Command::new(cmd)
+        .args(args)
+        .output()
+        .map_err(|e| format!("cannot start `{cmd}`: {e}"))?;
+    if !out.status.success() {
+        return Err(format!("`{cmd} {}` failed", args.join(" ")));
+    }
+    Ok(String::from_utf8_lossy(&out.stdout).into_owned())
+}
+
+fn run(cmd: &str, args: &[&str]) -> Result<(), String> {
+    println!("\n==> {cmd} {}", args.join(" "));
+    let status = Command::new(cmd)
+        .args(args)
+        .status()
+        .map_err(|e| format!("cannot start `{cmd}`: {e}"))?;
+    if status.success() {
+        Ok(())
+    } else {
+        Err(format!("`{cmd} {}` exited with {status}", args.join(" ")))
+    }
+}
