@@ -1,6 +1,6 @@
 //! NURBS curves in 2-D and 3-D over borrowed storage.
 
-use crate::basis::{basis_funs, ders_basis_funs};
+use crate::basis::ders_basis_funs;
 use crate::bbox::Aabb;
 use crate::error::{At, NurbsError};
 use crate::knots::{Dir, Knots};
@@ -125,48 +125,42 @@ impl<'a, P: Point> Curve<'a, P> {
     /// `C(u)` (Piegl & Tiller A4.1).
     #[inline]
     pub fn point(&self, u: f32) -> P {
-        let u = self.knots.clamp(u);
-        let p = self.degree();
-        let span = self.knots.find_span(u);
-        let mut n = [0.0; MAX_ORDER];
-        basis_funs(self.knots.as_slice(), span, u, p, &mut n);
-        let mut cw = P::Hom::default();
-        for (j, &nj) in n.iter().enumerate().take(p + 1) {
-            cw += self.points[span - p + j] * nj;
-        }
-        let (xw, w) = P::split(cw);
-        xw * (1.0 / w)
+        self.derivs_of::<0>(u).point
     }
 
     /// `C(u)` and its derivatives up to `order` (at most [`MAX_DERIV`]) (Piegl & Tiller A3.2 on
     /// the homogeneous curve, then A4.2 for the rational quotient).
     #[inline]
     pub fn derivs(&self, u: f32, order: usize) -> CurveDerivs<P> {
+        // Monomorphised per order so the small loops unroll.
+        match order {
+            0 => self.derivs_of::<0>(u),
+            1 => self.derivs_of::<1>(u),
+            _ => self.derivs_of::<2>(u),
+        }
+    }
+
+    #[inline]
+    fn derivs_of<const D: usize>(&self, u: f32) -> CurveDerivs<P> {
         let u = self.knots.clamp(u);
-        let d = order.min(MAX_DERIV);
         let p = self.degree();
         let span = self.knots.find_span(u);
         let mut nders = [[0.0; MAX_ORDER]; MAX_DERIV + 1];
-        ders_basis_funs(self.knots.as_slice(), span, u, p, d, &mut nders);
+        ders_basis_funs(self.knots.as_slice(), span, u, p, D, &mut nders);
         let mut aw = [P::Hom::default(); MAX_DERIV + 1];
-        for j in 0..=p {
-            let pw = self.points[span - p + j];
-            for k in 0..=d {
+        for (j, &pw) in self.points[span - p..][..p + 1].iter().enumerate() {
+            for k in 0..=D {
                 aw[k] += pw * nders[k][j];
             }
         }
-        // A4.2 with binomial coefficients for k <= 2 written out.
+        // A4.2 with the binomial coefficients for k <= 2 written out.
         let (a0, w0) = P::split(aw[0]);
         let (a1, w1) = P::split(aw[1]);
         let (a2, w2) = P::split(aw[2]);
         let inv_w = 1.0 / w0;
         let c0 = a0 * inv_w;
-        let c1 = if d >= 1 {
-            (a1 - c0 * w1) * inv_w
-        } else {
-            P::ZERO
-        };
-        let c2 = if d >= 2 {
+        let c1 = if D >= 1 { (a1 - c0 * w1) * inv_w } else { P::ZERO };
+        let c2 = if D >= 2 {
             (a2 - c1 * (2.0 * w1) - c0 * w2) * inv_w
         } else {
             P::ZERO

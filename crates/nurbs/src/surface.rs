@@ -1,6 +1,6 @@
 //! NURBS surfaces in 3-D over borrowed storage.
 
-use crate::basis::{basis_funs, ders_basis_funs};
+use crate::basis::ders_basis_funs;
 use crate::bbox::Aabb;
 use crate::error::{At, NurbsError};
 use crate::knots::{Dir, Knots};
@@ -129,56 +129,48 @@ impl<'a> Surface<'a> {
     /// `S(u, v)` (Piegl & Tiller A4.3).
     #[inline]
     pub fn point(&self, u: f32, v: f32) -> Vec3 {
-        let (u, v) = (self.ku.clamp(u), self.kv.clamp(v));
-        let (p, q) = self.degree();
-        let nv = self.kv.n_points();
-        let (su, sv) = (self.ku.find_span(u), self.kv.find_span(v));
-        let mut bu = [0.0; MAX_ORDER];
-        let mut bv = [0.0; MAX_ORDER];
-        basis_funs(self.ku.as_slice(), su, u, p, &mut bu);
-        basis_funs(self.kv.as_slice(), sv, v, q, &mut bv);
-        let mut sw = Vec4::ZERO;
-        for (r, &bur) in bu.iter().enumerate().take(p + 1) {
-            let row = &self.points[(su - p + r) * nv + sv - q..][..q + 1];
-            let mut temp = Vec4::ZERO;
-            for (&pw, &bvs) in row.iter().zip(bv.iter()) {
-                temp += pw * bvs;
-            }
-            sw += temp * bur;
-        }
-        sw.truncate() / sw.w
+        self.derivs_of::<0>(u, v).point
     }
 
     /// `S` and its partial derivatives up to total order `order` (at most [`MAX_DERIV`])
     /// (Piegl & Tiller A3.6 on the homogeneous surface, then A4.4).
     #[inline]
     pub fn derivs(&self, u: f32, v: f32, order: usize) -> SurfaceDerivs {
+        // Monomorphised per order so the small loops unroll.
+        match order {
+            0 => self.derivs_of::<0>(u, v),
+            1 => self.derivs_of::<1>(u, v),
+            _ => self.derivs_of::<2>(u, v),
+        }
+    }
+
+    #[inline]
+    fn derivs_of<const D: usize>(&self, u: f32, v: f32) -> SurfaceDerivs {
         let (u, v) = (self.ku.clamp(u), self.kv.clamp(v));
-        let d = order.min(MAX_DERIV);
         let (p, q) = self.degree();
         let nv = self.kv.n_points();
         let (su, sv) = (self.ku.find_span(u), self.kv.find_span(v));
         let mut nu_d = [[0.0; MAX_ORDER]; MAX_DERIV + 1];
         let mut nv_d = [[0.0; MAX_ORDER]; MAX_DERIV + 1];
-        ders_basis_funs(self.ku.as_slice(), su, u, p, d, &mut nu_d);
-        ders_basis_funs(self.kv.as_slice(), sv, v, q, d, &mut nv_d);
-        // skl[k][l]: homogeneous ∂^(k+l) / ∂u^k ∂v^l, k + l <= d.
+        ders_basis_funs(self.ku.as_slice(), su, u, p, D, &mut nu_d);
+        ders_basis_funs(self.kv.as_slice(), sv, v, q, D, &mut nv_d);
+        // skl[k][l]: homogeneous ∂^(k+l) / ∂u^k ∂v^l, k + l <= D.
         let mut skl = [[Vec4::ZERO; MAX_DERIV + 1]; MAX_DERIV + 1];
         for r in 0..=p {
             let row = &self.points[(su - p + r) * nv + sv - q..][..q + 1];
             let mut temp = [Vec4::ZERO; MAX_DERIV + 1];
             for (s, &pw) in row.iter().enumerate() {
-                for l in 0..=d {
+                for l in 0..=D {
                     temp[l] += pw * nv_d[l][s];
                 }
             }
-            for k in 0..=d {
-                for l in 0..=d - k {
+            for k in 0..=D {
+                for l in 0..=D - k {
                     skl[k][l] += temp[l] * nu_d[k][r];
                 }
             }
         }
-        rational_surface_derivs(&skl, d)
+        rational_surface_derivs(&skl, D)
     }
 
     /// Unit normal `S_u × S_v / |S_u × S_v|` at `(u, v)`; see [`Surface::normal_from`].
