@@ -1,0 +1,17 @@
+#![doc = include_str!("../README.md")]
+#![cfg_attr(not(feature = "std"), no_std)]
+#![warn(missing_docs)]
+
+#[cfg(feature = "alloc")]
+extern crate alloc;
+
+mod linalg;
+mod newton;
+mod patch;
+mod track;
+
+pub use newton::{NewtonConfig, NewtonResult, newton};
+pub use patch::{Jet, Patch};
+pub use track::{
+    Law, PERIODIC_TOL, Track, Tracker, TrackerConfig, stable_gain_limit, theorem_gain,
+};
