@@ -159,7 +159,11 @@ impl<'a, P: Point> Curve<'a, P> {
         let (a2, w2) = P::split(aw[2]);
         let inv_w = 1.0 / w0;
         let c0 = a0 * inv_w;
-        let c1 = if D >= 1 { (a1 - c0 * w1) * inv_w } else { P::ZERO };
+        let c1 = if D >= 1 {
+            (a1 - c0 * w1) * inv_w
+        } else {
+            P::ZERO
+        };
         let c2 = if D >= 2 {
             (a2 - c1 * (2.0 * w1) - c0 * w2) * inv_w
         } else {

@@ -197,6 +197,10 @@ impl Point for Vec3 {
         if perp.length_squared() > 1e-12 * d2.length_squared().max(f32::MIN_POSITIVE)
             && perp.length_squared() > f32::MIN_POSITIVE
         {
+            // Second Gram–Schmidt pass: on a nearly straight piece the first one cancels most of
+            // `d2` and leaves a rounding error of order eps·|d2| along `t`, which would tilt the
+            // normal by eps·|d2|/|perp| (up to ~0.1 rad at the threshold above).
+            let perp = perp - t * perp.dot(t);
             perp.normalize()
         } else {
             t.any_orthonormal_vector()

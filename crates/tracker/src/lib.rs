@@ -5,11 +5,17 @@
 #[cfg(feature = "alloc")]
 extern crate alloc;
 
+mod chain;
+mod contact;
 mod linalg;
 mod newton;
 mod patch;
 mod track;
 
+pub use chain::{
+    Chain, ChainError, ChainTracker, JOIN_TOL_M, MAX_CHAIN_CURVES, Vertex, VertexKind,
+};
+pub use contact::{Contact, Feature, Penalty};
 pub use newton::{NewtonConfig, NewtonResult, newton};
 pub use patch::{Jet, Patch};
 pub use track::{

@@ -13,7 +13,9 @@ pub(crate) fn solve_spd<const N: usize>(
     match N {
         1 => {
             let d = a[0][0];
-            if !(d > rel_tol * d.abs().max(f32::MIN_POSITIVE)) || d <= f32::MIN_POSITIVE {
+            // Written so that NaN also fails.
+            let positive = d > rel_tol * d.abs() && d > f32::MIN_POSITIVE;
+            if !positive {
                 return None;
             }
             x[0] = b[0] / d;
@@ -22,7 +24,8 @@ pub(crate) fn solve_spd<const N: usize>(
             let (p, q, r) = (a[0][0], a[0][1], a[1][1]);
             let det = p * r - q * q;
             let scale = p * r + q * q;
-            if !(p > 0.0 && det > rel_tol * scale) || det <= f32::MIN_POSITIVE {
+            let positive = p > 0.0 && det > rel_tol * scale && det > f32::MIN_POSITIVE;
+            if !positive {
                 return None;
             }
             let inv = 1.0 / det;

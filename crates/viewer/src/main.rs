@@ -1,1 +1,80 @@
-fn main() {}
+//! `viewer`: see `viewer --help`.
+
+use std::io::{self, Write};
+use std::path::Path;
+use std::process::ExitCode;
+
+use anyhow::{Context, Result, anyhow};
+use clap::{CommandFactory, Parser};
+use viewer::cli::{Cli, Command, EXIT_BAD_INPUT, EXIT_BAD_SETUP, EvalArgs, PatchSelection};
+use viewer::eval::{self, EvalError};
+use viewer::scene::{Patch, Scene};
+
+fn main() -> ExitCode {
+    match Cli::parse().command {
+        None => no_command(),
+        Some(Command::Eval(args)) => eval_command(&args),
+    }
+}
+
+fn no_command() -> ExitCode {
+    let help = Cli::command().render_help();
+    eprintln!("viewer: the desktop GUI is not implemented yet; use a subcommand.\n\n{help}");
+    ExitCode::from(EXIT_BAD_SETUP)
+}
+
+fn eval_command(args: &EvalArgs) -> ExitCode {
+    let scene = match Scene::load(&args.scene).context("invalid scene") {
+        Ok(scene) => scene,
+        Err(e) => return fail(&e, EXIT_BAD_SETUP),
+    };
+    let (label, patch) = match select(&scene, &args.scene, args.select) {
+        Ok(selected) => selected,
+        Err(e) => return fail(&e, EXIT_BAD_SETUP),
+    };
+    match eval::run(patch, io::stdin().lock(), io::stdout().lock()) {
+        Ok(_) => ExitCode::SUCCESS,
+        // The reader went away (`| head`): not an error of ours.
+        Err(EvalError::Write(e)) if e.kind() == io::ErrorKind::BrokenPipe => ExitCode::SUCCESS,
+        Err(e) => fail(
+            &anyhow::Error::new(e).context(format!("eval of {label}")),
+            EXIT_BAD_INPUT,
+        ),
+    }
+}
+
+/// The selected patch and a label naming it: `object 1 ("circle"), patch 0 (planar curve)`.
+fn select<'a>(scene: &'a Scene, file: &Path, sel: PatchSelection) -> Result<(String, &'a Patch)> {
+    let objects = scene.objects().len();
+    let object = scene.object(sel.object).ok_or_else(|| {
+        anyhow!(
+            "--object {}: {} has {objects} object(s), indices 0..={}",
+            sel.object,
+            file.display(),
+            objects.saturating_sub(1)
+        )
+    })?;
+    let patches = object.patches().len();
+    let patch = object.patch(sel.patch).ok_or_else(|| {
+        anyhow!(
+            "--patch {}: object {} ({:?}) has {patches} patch(es), indices 0..={}",
+            sel.patch,
+            sel.object,
+            object.name(),
+            patches.saturating_sub(1)
+        )
+    })?;
+    let label = format!(
+        "object {} ({:?}), patch {} ({})",
+        sel.object,
+        object.name(),
+        sel.patch,
+        patch.kind()
+    );
+    Ok((label, patch))
+}
+
+fn fail(error: &anyhow::Error, code: u8) -> ExitCode {
+    let _ = writeln!(io::stderr(), "error: {error:#}");
+    ExitCode::from(code)
+}

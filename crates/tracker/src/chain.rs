@@ -1,0 +1,498 @@
+//! 2-D objects: chains of planar NURBS curves meeting at vertices, their Voronoi regions, and
+//! the feature state machine that keeps one tracker on the right feature (thesis §2.1.4,
+//! Fig. 2.1.4–2.1.5).
+//!
+//! # Regions
+//!
+//! At vertex `V` between curve `a` (ending there with unit tangent `t_in`, outward normal
+//! `n_in`) and curve `b` (starting there with `t_out`, `n_out`), with `r = x − V`:
+//!
+//! - `x` projects onto `a` near `V` iff `r·t_in ≤ 0`, onto `b` iff `r·t_out ≥ 0`: the region
+//!   boundaries are the normal lines at the end points, as in the thesis.
+//! - Where only one holds, that curve's region. Where neither holds, the vertex's own wedge:
+//!   external for a convex vertex (before contact), internal for a reflex one (after contact).
+//! - Where both hold, the two regions overlap (inside a convex vertex, outside a reflex one)
+//!   and the bisector of the tangent lines, `r·(n_in − n_out) = 0`, splits them: the internal
+//!   Voronoi boundary of a convex corner and the external one of a reflex corner.
+//!
+//! A smooth (G¹) vertex has no wedge and no bisector; the normal line alone splits `a` from
+//! `b`, so the contact normal, and with it the force, is continuous across it.
+//!
+//! The state machine only moves between neighbours (curve ↔ its end vertices ↔ next curve),
+//! so a HIP pushed deep into a thin object never pops through to the far side.
+
+use crate::contact::{Contact, Feature};
+use crate::patch::Patch;
+use crate::track::{Tracker, TrackerConfig};
+use nurbs::{Curve, Vec2};
+
+/// Largest number of curves in a chain (fixed storage, no allocation).
+pub const MAX_CHAIN_CURVES: usize = 32;
+
+/// Consecutive curves must meet within this distance (metres).
+pub const JOIN_TOL_M: f32 = 1e-5;
+
+/// Why a chain was rejected.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum ChainError {
+    /// No curves.
+    Empty,
+    /// More than [`MAX_CHAIN_CURVES`] curves.
+    TooManyCurves {
+        /// Given count.
+        count: usize,
+    },
+    /// Curve `curve` does not start where curve `curve − 1` ends.
+    Gap {
+        /// Index of the curve whose start is off.
+        curve: usize,
+        /// Distance between the end and the start (metres).
+        gap_m: f32,
+    },
+    /// A closed chain runs clockwise, so its normals `t × k̂` would point inward.
+    Clockwise,
+}
+
+impl core::fmt::Display for ChainError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        match *self {
+            ChainError::Empty => write!(f, "patches: an object needs at least one curve"),
+            ChainError::TooManyCurves { count } => write!(
+                f,
+                "patches: {count} curves, at most {MAX_CHAIN_CURVES} per object"
+            ),
+            ChainError::Gap { curve, gap_m } => write!(
+                f,
+                "patches[{curve}]: starts {gap_m} m away from where patch {} ends (curves of an object must join end to start, within {JOIN_TOL_M} m)",
+                curve.wrapping_sub(1)
+            ),
+            ChainError::Clockwise => write!(
+                f,
+                "patches: the closed chain runs clockwise, so its normals point inward; reverse the order of the curves and of their points"
+            ),
+        }
+    }
+}
+
+impl core::error::Error for ChainError {}
+
+/// How two curves meet at a vertex.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum VertexKind {
+    /// Tangent-continuous join: no vertex region.
+    Smooth,
+    /// Outer corner (turning counter-clockwise): an external vertex region.
+    Convex,
+    /// Inner corner (turning clockwise): an internal vertex region.
+    Reflex,
+    /// The free end of an open chain.
+    End,
+}
+
+/// A vertex and the data of its Voronoi regions, computed once at load.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Vertex {
+    /// Position.
+    pub position: Vec2,
+    /// Curve ending here, if any.
+    pub incoming: Option<u16>,
+    /// Curve starting here, if any.
+    pub outgoing: Option<u16>,
+    /// Unit tangent of the incoming curve at its end.
+    pub t_in: Vec2,
+    /// Unit tangent of the outgoing curve at its start.
+    pub t_out: Vec2,
+    /// Kind of join.
+    pub kind: VertexKind,
+}
+
+impl Vertex {
+    fn n_in(&self) -> Vec2 {
+        Vec2::new(self.t_in.y, -self.t_in.x)
+    }
+    fn n_out(&self) -> Vec2 {
+        Vec2::new(self.t_out.y, -self.t_out.x)
+    }
+
+    /// The region of `x` among {incoming curve, vertex, outgoing curve} (see the module docs).
+    pub fn region(&self, index: u16, x: Vec2) -> Feature {
+        let r = x - self.position;
+        let vertex = Feature::Vertex(index);
+        match (self.incoming, self.outgoing) {
+            (Some(a), Some(b)) => {
+                let on_a = r.dot(self.t_in) <= 0.0;
+                let on_b = r.dot(self.t_out) >= 0.0;
+                match (on_a, on_b) {
+                    (true, false) => Feature::Patch(a),
+                    (false, true) => Feature::Patch(b),
+                    (false, false) => match self.kind {
+                        // No wedge at a smooth join: split along the shared normal line.
+                        VertexKind::Smooth => Feature::Patch(b),
+                        _ => vertex,
+                    },
+                    (true, true) => {
+                        let toward_a = r.dot(self.n_in() - self.n_out());
+                        let a_closer = match self.kind {
+                            VertexKind::Convex => toward_a > 0.0,
+                            VertexKind::Reflex => toward_a < 0.0,
+                            VertexKind::Smooth | VertexKind::End => true,
+                        };
+                        if a_closer {
+                            Feature::Patch(a)
+                        } else {
+                            Feature::Patch(b)
+                        }
+                    }
+                }
+            }
+            (Some(a), None) => {
+                if r.dot(self.t_in) <= 0.0 {
+                    Feature::Patch(a)
+                } else {
+                    vertex
+                }
+            }
+            (None, Some(b)) => {
+                if r.dot(self.t_out) >= 0.0 {
+                    Feature::Patch(b)
+                } else {
+                    vertex
+                }
+            }
+            (None, None) => vertex,
+        }
+    }
+}
+
+/// A validated chain of planar curves, oriented so that `n = t × k̂` points out of the object
+/// (counter-clockwise when closed), with its vertex regions.
+#[derive(Clone, Copy, Debug)]
+pub struct Chain<'a> {
+    curves: &'a [Curve<'a, Vec2>],
+    closed: bool,
+    vertices: [Vertex; MAX_CHAIN_CURVES + 1],
+    n_vertices: usize,
+}
+
+impl<'a> Chain<'a> {
+    /// Checks that consecutive curves join, detects whether the chain closes, checks the
+    /// orientation of closed chains and computes the vertex regions.
+    pub fn new(curves: &'a [Curve<'a, Vec2>]) -> Result<Self, ChainError> {
+        let n = curves.len();
+        if n == 0 {
+            return Err(ChainError::Empty);
+        }
+        if n > MAX_CHAIN_CURVES {
+            return Err(ChainError::TooManyCurves { count: n });
+        }
+        let start = |c: &Curve<'a, Vec2>| c.point(c.domain().0);
+        let end = |c: &Curve<'a, Vec2>| c.point(c.domain().1);
+        for i in 1..n {
+            let gap = (start(&curves[i]) - end(&curves[i - 1])).length();
+            if gap > JOIN_TOL_M {
+                return Err(ChainError::Gap {
+                    curve: i,
+                    gap_m: gap,
+                });
+            }
+        }
+        let closed = (start(&curves[0]) - end(&curves[n - 1])).length() <= JOIN_TOL_M;
+        if closed && signed_area(curves) < 0.0 {
+            return Err(ChainError::Clockwise);
+        }
+        let blank = Vertex {
+            position: Vec2::ZERO,
+            incoming: None,
+            outgoing: None,
+            t_in: Vec2::X,
+            t_out: Vec2::X,
+            kind: VertexKind::End,
+        };
+        let mut vertices = [blank; MAX_CHAIN_CURVES + 1];
+        let n_vertices = if closed { n } else { n + 1 };
+        for (k, v) in vertices.iter_mut().enumerate().take(n_vertices) {
+            let incoming = if k > 0 {
+                Some(k - 1)
+            } else if closed {
+                Some(n - 1)
+            } else {
+                None
+            };
+            let outgoing = if k < n { Some(k) } else { None };
+            let t_in = incoming.map(|a| {
+                let c = &curves[a];
+                c.frame(c.domain().1).tangent
+            });
+            let t_out = outgoing.map(|b| {
+                let c = &curves[b];
+                c.frame(c.domain().0).tangent
+            });
+            let position = match outgoing {
+                Some(b) => start(&curves[b]),
+                None => end(&curves[n - 1]),
+            };
+            let kind = match (t_in, t_out) {
+                (Some(ti), Some(to)) => {
+                    let cross = ti.perp_dot(to);
+                    if cross.abs() <= 1e-4 && ti.dot(to) > 0.0 {
+                        VertexKind::Smooth
+                    } else if cross > 0.0 {
+                        VertexKind::Convex
+                    } else {
+                        VertexKind::Reflex
+                    }
+                }
+                _ => VertexKind::End,
+            };
+            *v = Vertex {
+                position,
+                incoming: incoming.map(|i| i as u16),
+                outgoing: outgoing.map(|i| i as u16),
+                t_in: t_in.or(t_out).unwrap_or(Vec2::X),
+                t_out: t_out.or(t_in).unwrap_or(Vec2::X),
+                kind,
+            };
+        }
+        Ok(Chain {
+            curves,
+            closed,
+            vertices,
+            n_vertices,
+        })
+    }
+
+    /// The curves.
+    pub fn curves(&self) -> &'a [Curve<'a, Vec2>] {
+        self.curves
+    }
+
+    /// Whether the last curve ends where the first starts.
+    pub fn is_closed(&self) -> bool {
+        self.closed
+    }
+
+    /// The vertices: vertex `k` is the start of curve `k` (and, for an open chain, the last one
+    /// is the end of the last curve).
+    pub fn vertices(&self) -> &[Vertex] {
+        &self.vertices[..self.n_vertices]
+    }
+
+    /// Index of the vertex at the start (`end = false`) or end of curve `i`.
+    fn vertex_of(&self, i: usize, end: bool) -> Option<usize> {
+        let k = if end { i + 1 } else { i };
+        if k < self.n_vertices {
+            Some(k)
+        } else if self.closed {
+            Some(k % self.n_vertices)
+        } else {
+            None
+        }
+    }
+
+    /// The feature closest to `x` and the parameter there, by dense sampling of every curve
+    /// (used to start tracking from nothing).
+    pub fn coarse_closest(&self, x: Vec2) -> (usize, f32) {
+        const SAMPLES: usize = 64;
+        let mut best = (0, 0.0, f32::INFINITY);
+        for (i, c) in self.curves.iter().enumerate() {
+            let (a, b) = c.domain();
+            for s in 0..=SAMPLES {
+                let u = a + (b - a) * s as f32 / SAMPLES as f32;
+                let d = (c.point(u) - x).length_squared();
+                if d < best.2 {
+                    best = (i, u, d);
+                }
+            }
+        }
+        (best.0, best.1)
+    }
+}
+
+/// Signed area of a closed chain, from a sampled polygon (positive counter-clockwise).
+fn signed_area(curves: &[Curve<'_, Vec2>]) -> f32 {
+    const SAMPLES: usize = 32;
+    let mut area = 0.0;
+    for c in curves {
+        let (a, b) = c.domain();
+        let mut prev = c.point(a);
+        for s in 1..=SAMPLES {
+            let p = c.point(a + (b - a) * s as f32 / SAMPLES as f32);
+            area += prev.perp_dot(p);
+            prev = p;
+        }
+    }
+    0.5 * area
+}
+
+/// The per-tick state of tracking one chain: the active feature and the tracker on the
+/// active curve. Holds no borrow, so it can live in a `static`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ChainTracker {
+    feature: Feature,
+    tracker: Tracker<Vec2, 1>,
+    curve: usize,
+}
+
+/// Most feature switches in one tick (enough to cross a vertex into the next curve).
+const MAX_SWITCHES: usize = 4;
+
+impl ChainTracker {
+    /// Starts on the feature nearest to `hip` (found by sampling every curve).
+    pub fn new(chain: &Chain<'_>, hip: Vec2, cfg: TrackerConfig) -> Self {
+        let (i, u) = chain.coarse_closest(hip);
+        ChainTracker {
+            feature: Feature::Patch(i as u16),
+            tracker: Tracker::new(&chain.curves[i], [u], cfg),
+            curve: i,
+        }
+    }
+
+    /// Active feature.
+    pub fn feature(&self) -> Feature {
+        self.feature
+    }
+
+    /// The curve the tracker is on and its parameter.
+    pub fn position(&self) -> (usize, f32) {
+        (self.curve, self.tracker.t()[0])
+    }
+
+    /// Puts the tracker on curve `i` at parameter `u` (e.g. to pin a god-object).
+    pub fn reset(&mut self, chain: &Chain<'_>, i: usize, u: f32) {
+        let i = i.min(chain.curves.len() - 1);
+        self.curve = i;
+        self.feature = Feature::Patch(i as u16);
+        self.tracker = Tracker::new(&chain.curves[i], [u], *self.tracker.config());
+    }
+
+    /// One tick: track the closest point to `hip` and switch features as the HIP crosses
+    /// region boundaries (unless `allow_switch` is false, as during static friction at a
+    /// corner, when the tracker stays on its curve and clamps at its ends).
+    pub fn update(
+        &mut self,
+        chain: &Chain<'_>,
+        hip: Vec2,
+        period_s: f32,
+        allow_switch: bool,
+    ) -> Contact<Vec2> {
+        let curves = chain.curves;
+        for _ in 0..MAX_SWITCHES {
+            match self.feature {
+                Feature::Vertex(k) => {
+                    let v = chain.vertices[k as usize];
+                    let next = v.region(k, hip);
+                    if next == self.feature || !allow_switch {
+                        return vertex_contact(
+                            &v,
+                            self.feature,
+                            self.curve,
+                            self.tracker.t()[0],
+                            hip,
+                        );
+                    }
+                    self.enter(chain, next, &v);
+                }
+                _ => {
+                    let c = &curves[self.curve];
+                    let tr = self.tracker.update(c, hip, period_s);
+                    if allow_switch {
+                        // Test both end vertices: the normal lines and, inside a corner, the
+                        // bisector decide whether the HIP has left this curve's region.
+                        let mut switched = false;
+                        for end in [false, true] {
+                            if let Some(k) = chain.vertex_of(self.curve, end) {
+                                let v = chain.vertices[k];
+                                let next = v.region(k as u16, hip);
+                                if next != Feature::Patch(self.curve as u16) {
+                                    self.enter(chain, next, &v);
+                                    switched = true;
+                                    break;
+                                }
+                            }
+                        }
+                        if switched {
+                            continue;
+                        }
+                    }
+                    let inside = tr.signed_distance < 0.0;
+                    return Contact {
+                        feature: Feature::Patch(self.curve as u16),
+                        patch: self.curve as u16,
+                        params: [tr.t[0], 0.0],
+                        point: tr.point,
+                        normal: tr.normal,
+                        depth: -tr.signed_distance,
+                        psi: [tr.psi[0], 0.0],
+                        inside,
+                    };
+                }
+            }
+        }
+        // Out of switches this tick: report where we are without moving further.
+        let c = &curves[self.curve];
+        let jet = c.jet(self.tracker.t(), 1);
+        let n = c.normal(self.tracker.t(), &jet);
+        let depth = (jet.point - hip).dot(n);
+        Contact {
+            feature: self.feature,
+            patch: self.curve as u16,
+            params: [self.tracker.t()[0], 0.0],
+            point: jet.point,
+            normal: n,
+            depth,
+            psi: [jet.psi(jet.point - hip)[0], 0.0],
+            inside: depth > 0.0,
+        }
+    }
+
+    /// Switches to `next`, a neighbour across vertex `v`, initialising the tracker at the
+    /// matching end of the new curve.
+    fn enter(&mut self, chain: &Chain<'_>, next: Feature, v: &Vertex) {
+        match next {
+            Feature::Patch(i) => {
+                let c = &chain.curves[i as usize];
+                let (a, b) = c.domain();
+                let u = if Some(i) == v.outgoing { a } else { b };
+                self.curve = i as usize;
+                self.tracker.reset(c, [u]);
+            }
+            Feature::Vertex(_) => {
+                // Stay on the curve the vertex was reached from, parked at that end.
+                let (i, u) = match v.incoming {
+                    Some(a) if a as usize == self.curve => (a, chain.curves[a as usize].domain().1),
+                    _ => match v.outgoing {
+                        Some(b) => (b, chain.curves[b as usize].domain().0),
+                        None => (self.curve as u16, self.tracker.t()[0]),
+                    },
+                };
+                self.curve = i as usize;
+                self.tracker.reset(&chain.curves[self.curve], [u]);
+            }
+            _ => {}
+        }
+        self.feature = next;
+    }
+}
+
+/// Contact with a vertex: the closest point is the vertex itself and the normal runs along
+/// `x − V`, outward (external wedge of a convex vertex) or inward (internal wedge of a reflex
+/// one).
+fn vertex_contact(v: &Vertex, feature: Feature, curve: usize, u: f32, hip: Vec2) -> Contact<Vec2> {
+    let r = hip - v.position;
+    let inside = v.kind == VertexKind::Reflex;
+    let dist = r.length();
+    let dir = r
+        .try_normalize()
+        .unwrap_or((v.n_in() + v.n_out()).normalize_or(Vec2::Y));
+    let (normal, depth) = if inside { (-dir, dist) } else { (dir, -dist) };
+    Contact {
+        feature,
+        patch: curve as u16,
+        params: [u, 0.0],
+        point: v.position,
+        normal,
+        depth,
+        psi: [0.0, 0.0],
+        inside,
+    }
+}

@@ -1,0 +1,1123 @@
+//! The `scene/1` file format: objects made of NURBS patches, each with its material.
+//!
+//! A scene is read in two steps. serde parses the JSON into private raw types that mirror the
+//! file (strict: unknown fields are errors), then validation turns them into [`Scene`],
+//! [`Object`], [`Material`] and [`Patch`], whose patches are already validated `nurbs` curves
+//! and surfaces. Every error says where it is: object index and name, patch index, field
+//! (and, for JSON errors, line and column).
+//!
+//! ```json
+//! {
+//!   "format": "scene/1",
+//!   "objects": [
+//!     { "name": "wedge",
+//!       "material": { "stiffness_n_per_m": 1000.0, "damping_ns_per_m": 0.0,
+//!                     "mu_static": 0.7, "mu_dynamic": 0.5 },
+//!       "patches": [
+//!         { "degree": 3, "knots": [0, 0, 0, 0, 1, 1, 1, 1],
+//!           "points": [[0.0, 0.0], [0.01, 0.02], [0.03, 0.01], [0.04, 0.0]],
+//!           "weights": [1, 1, 1, 1] } ] } ]
+//! }
+//! ```
+//!
+//! A patch with a scalar `degree` is a curve: flat `knots`, `points[i]` of 2 (planar) or 3
+//! (spatial) Cartesian coordinates, all of one dimension. A patch with `degree: [p, q]` is a
+//! surface: `knots: [U, V]`, `points[i][j]` of 3 coordinates with `i` along u and `j` along v.
+//! `weights` is optional (all 1) and has the shape of `points` without the coordinates.
+//! Points are Cartesian (not multiplied by their weight), in metres, in the device frame.
+
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+
+use nurbs::{At, CurveBuf, Field, NurbsError, Point, SurfaceBuf, Vec2, Vec3};
+use serde::Deserialize;
+use serde::de::{self, DeserializeOwned, Deserializer, SeqAccess, Visitor};
+
+/// The value of the `format` field this module reads.
+pub const FORMAT: &str = "scene/1";
+
+/// A validated scene: at least one object.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Scene {
+    objects: Vec<Object>,
+}
+
+/// A named object: its material and at least one patch.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Object {
+    name: String,
+    material: Material,
+    patches: Vec<Patch>,
+}
+
+/// Contact material of an object. All values finite, non-negative, and
+/// `mu_static >= mu_dynamic`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Material {
+    stiffness_n_per_m: f32,
+    damping_ns_per_m: f32,
+    mu_static: f32,
+    mu_dynamic: f32,
+}
+
+/// One validated NURBS patch of an object.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Patch {
+    /// A planar curve (points with 2 coordinates).
+    Curve2(CurveBuf<Vec2>),
+    /// A spatial curve (points with 3 coordinates).
+    Curve3(CurveBuf<Vec3>),
+    /// A surface.
+    Surface(SurfaceBuf),
+}
+
+/// Why a scene was rejected. The message names the file (for [`Scene::load`]), the object
+/// (index and name), the patch and the field.
+#[derive(Debug, thiserror::Error)]
+pub enum SceneError {
+    /// The file could not be read.
+    #[error("cannot read {}: {error}", path.display())]
+    Read {
+        /// The file.
+        path: PathBuf,
+        /// Why.
+        error: std::io::Error,
+    },
+    /// An error in the named file.
+    #[error("{}: {error}", path.display())]
+    File {
+        /// The file.
+        path: PathBuf,
+        /// The error in it.
+        error: Box<SceneError>,
+    },
+    /// JSON syntax error, wrong type, missing or unknown field. serde_json's message ends with
+    /// the line and column.
+    #[error("{}{error}", prefix(location))]
+    Json {
+        /// Where in the document, e.g. `object 0 ("wedge"), patch 1: points[2][0]`; empty at the
+        /// top level.
+        location: String,
+        /// serde_json's error, with line and column.
+        error: serde_json::Error,
+    },
+    /// Missing or unsupported `format`.
+    #[error("format: {}, expected \"{FORMAT}\"", match found {
+        Some(f) => format!("unsupported format {f}"),
+        None => "missing".to_owned(),
+    })]
+    Format {
+        /// The value found (as JSON text, so a string is quoted), if any.
+        found: Option<String>,
+    },
+    /// `objects` is empty.
+    #[error("objects: the scene has no objects, at least one is needed")]
+    NoObjects,
+    /// An error inside an object.
+    #[error("object {index} ({name:?}), {error}")]
+    Object {
+        /// Index in `objects`.
+        index: usize,
+        /// The object's name.
+        name: String,
+        /// What is wrong.
+        error: ObjectError,
+    },
+}
+
+fn prefix(location: &str) -> String {
+    if location.is_empty() {
+        String::new()
+    } else {
+        format!("{location}: ")
+    }
+}
+
+impl SceneError {
+    /// Line and column (both from 1) of a JSON error.
+    pub fn line_column(&self) -> Option<(usize, usize)> {
+        match self {
+            SceneError::Json { error, .. } => Some((error.line(), error.column())),
+            SceneError::File { error, .. } => error.line_column(),
+            _ => None,
+        }
+    }
+}
+
+/// An error inside one object.
+#[derive(Debug, thiserror::Error)]
+pub enum ObjectError {
+    /// Invalid material.
+    #[error(transparent)]
+    Material(#[from] MaterialError),
+    /// `patches` is empty.
+    #[error("patches: the object has no patches, at least one is needed")]
+    NoPatches,
+    /// An error in one patch.
+    #[error("patch {index}: {error}")]
+    Patch {
+        /// Index in `patches`.
+        index: usize,
+        /// What is wrong.
+        error: PatchError,
+    },
+}
+
+/// An error in one patch.
+#[derive(Debug, thiserror::Error)]
+pub enum PatchError {
+    /// The arrays have the wrong nesting or the wrong number of entries for the kind of patch.
+    #[error("{field}: {problem}")]
+    Shape {
+        /// The field, e.g. `knots` or `points[3]`.
+        field: String,
+        /// What is wrong with it.
+        problem: String,
+    },
+    /// The curve or surface is invalid (its message starts with the field).
+    #[error(transparent)]
+    Nurbs(#[from] NurbsError),
+}
+
+/// An invalid material value. The message starts with `material.<field>`.
+#[derive(Clone, Copy, Debug, PartialEq, thiserror::Error)]
+pub enum MaterialError {
+    /// A value is negative or not finite.
+    #[error("material.{field}: {value} must be finite and >= 0")]
+    Range {
+        /// The field.
+        field: &'static str,
+        /// The value given.
+        value: f32,
+    },
+    /// Dynamic friction exceeds static friction.
+    #[error(
+        "material.mu_dynamic: {mu_dynamic} is larger than mu_static ({mu_static}); \
+         dynamic friction must not exceed static friction"
+    )]
+    FrictionOrder {
+        /// Static friction coefficient.
+        mu_static: f32,
+        /// Dynamic friction coefficient.
+        mu_dynamic: f32,
+    },
+}
+
+impl MaterialError {
+    /// The field at fault.
+    pub fn field(&self) -> &'static str {
+        match self {
+            MaterialError::Range { field, .. } => field,
+            MaterialError::FrictionOrder { .. } => "mu_dynamic",
+        }
+    }
+}
+
+impl Scene {
+    /// Parses and validates a `scene/1` document.
+    pub fn from_json_str(text: &str) -> Result<Self, SceneError> {
+        // The format is checked first so that a file of another version is reported as such,
+        // not as a list of unknown fields.
+        // Read as a map rather than a struct, which serde would also accept as an array.
+        let header: serde_json::Map<String, serde_json::Value> = parse(text)?;
+        match header.get("format") {
+            Some(serde_json::Value::String(f)) if f == FORMAT => {}
+            found => {
+                return Err(SceneError::Format {
+                    found: found.map(serde_json::Value::to_string),
+                });
+            }
+        }
+        let raw: RawScene = parse(text)?;
+        Self::from_raw(raw)
+    }
+
+    /// Reads, parses and validates a `scene/1` file; errors name the file.
+    pub fn load(path: impl AsRef<Path>) -> Result<Self, SceneError> {
+        let path = path.as_ref();
+        let text = std::fs::read_to_string(path).map_err(|error| SceneError::Read {
+            path: path.to_owned(),
+            error,
+        })?;
+        Self::from_json_str(&text).map_err(|error| SceneError::File {
+            path: path.to_owned(),
+            error: Box::new(error),
+        })
+    }
+
+    /// A scene of the given objects; at least one.
+    pub fn new(objects: Vec<Object>) -> Result<Self, SceneError> {
+        if objects.is_empty() {
+            return Err(SceneError::NoObjects);
+        }
+        Ok(Scene { objects })
+    }
+
+    /// The objects (at least one).
+    pub fn objects(&self) -> &[Object] {
+        &self.objects
+    }
+
+    /// Object `index`, if there is one.
+    pub fn object(&self, index: usize) -> Option<&Object> {
+        self.objects.get(index)
+    }
+
+    fn from_raw(raw: RawScene) -> Result<Self, SceneError> {
+        let objects = raw
+            .objects
+            .into_iter()
+            .enumerate()
+            .map(|(index, o)| {
+                let name = o.name.clone();
+                Object::from_raw(o).map_err(|error| SceneError::Object { index, name, error })
+            })
+            .collect::<Result<Vec<_>, _>>()?;
+        Scene::new(objects)
+    }
+}
+
+impl Object {
+    /// An object of at least one patch.
+    pub fn new(
+        name: impl Into<String>,
+        material: Material,
+        patches: Vec<Patch>,
+    ) -> Result<Self, ObjectError> {
+        if patches.is_empty() {
+            return Err(ObjectError::NoPatches);
+        }
+        Ok(Object {
+            name: name.into(),
+            material,
+            patches,
+        })
+    }
+
+    /// Name (free text, not necessarily unique).
+    pub fn name(&self) -> &str {
+        &self.name
+    }
+
+    /// Material.
+    pub fn material(&self) -> &Material {
+        &self.material
+    }
+
+    /// Patches (at least one).
+    pub fn patches(&self) -> &[Patch] {
+        &self.patches
+    }
+
+    /// Patch `index`, if there is one.
+    pub fn patch(&self, index: usize) -> Option<&Patch> {
+        self.patches.get(index)
+    }
+
+    fn from_raw(raw: RawObject) -> Result<Self, ObjectError> {
+        let m = raw.material;
+        let material = Material::new(
+            m.stiffness_n_per_m,
+            m.damping_ns_per_m,
+            m.mu_static,
+            m.mu_dynamic,
+        )?;
+        let patches = raw
+            .patches
+            .iter()
+            .enumerate()
+            .map(|(index, p)| {
+                Patch::from_raw(p).map_err(|error| ObjectError::Patch { index, error })
+            })
+            .collect::<Result<Vec<_>, _>>()?;
+        Object::new(raw.name, material, patches)
+    }
+}
+
+impl Material {
+    /// Validates a material: every value finite and >= 0, `mu_static >= mu_dynamic`.
+    pub fn new(
+        stiffness_n_per_m: f32,
+        damping_ns_per_m: f32,
+        mu_static: f32,
+        mu_dynamic: f32,
+    ) -> Result<Self, MaterialError> {
+        for (field, value) in [
+            ("stiffness_n_per_m", stiffness_n_per_m),
+            ("damping_ns_per_m", damping_ns_per_m),
+            ("mu_static", mu_static),
+            ("mu_dynamic", mu_dynamic),
+        ] {
+            if !(value.is_finite() && value >= 0.0) {
+                return Err(MaterialError::Range { field, value });
+            }
+        }
+        if mu_dynamic > mu_static {
+            return Err(MaterialError::FrictionOrder {
+                mu_static,
+                mu_dynamic,
+            });
+        }
+        Ok(Material {
+            stiffness_n_per_m,
+            damping_ns_per_m,
+            mu_static,
+            mu_dynamic,
+        })
+    }
+
+    /// Contact stiffness, N/m.
+    pub fn stiffness_n_per_m(&self) -> f32 {
+        self.stiffness_n_per_m
+    }
+
+    /// Contact damping, N·s/m.
+    pub fn damping_ns_per_m(&self) -> f32 {
+        self.damping_ns_per_m
+    }
+
+    /// Static friction coefficient.
+    pub fn mu_static(&self) -> f32 {
+        self.mu_static
+    }
+
+    /// Dynamic (sliding) friction coefficient, at most [`Material::mu_static`].
+    pub fn mu_dynamic(&self) -> f32 {
+        self.mu_dynamic
+    }
+}
+
+impl Patch {
+    /// `"planar curve"`, `"spatial curve"` or `"surface"`.
+    pub fn kind(&self) -> &'static str {
+        match self {
+            Patch::Curve2(_) => "planar curve",
+            Patch::Curve3(_) => "spatial curve",
+            Patch::Surface(_) => "surface",
+        }
+    }
+
+    fn from_raw(raw: &RawPatch) -> Result<Self, PatchError> {
+        match &raw.degree {
+            Nested::Num(_) => {
+                let degree = integer(&raw.degree, Field::Degree.name())?;
+                curve_from_raw(raw, degree)
+            }
+            Nested::List(pq) if pq.len() == 2 => {
+                let p = integer(&pq[0], Field::DegreeU.name())?;
+                let q = integer(&pq[1], Field::DegreeV.name())?;
+                surface_from_raw(raw, (p, q))
+            }
+            Nested::List(pq) => Err(shape(
+                "degree",
+                format!(
+                    "expected an integer (curve) or [p, q] (surface), found an array of {}",
+                    pq.len()
+                ),
+            )),
+        }
+    }
+}
+
+fn curve_from_raw(raw: &RawPatch, degree: usize) -> Result<Patch, PatchError> {
+    let knots = numbers(&raw.knots, "knots")?;
+    let coords = list(&raw.points, "points", "an array of points")?
+        .iter()
+        .enumerate()
+        .map(|(i, p)| numbers(p, &format!("points[{i}]")))
+        .collect::<Result<Vec<_>, _>>()?;
+    let weights = raw
+        .weights
+        .as_ref()
+        .map(|w| numbers(w, "weights"))
+        .transpose()?;
+    // The first point fixes the dimension; an empty polygon is left to nurbs to reject.
+    match coords.first().map_or(2, Vec::len) {
+        2 => Ok(Patch::Curve2(curve_buf(degree, knots, &coords, weights)?)),
+        3 => Ok(Patch::Curve3(curve_buf(degree, knots, &coords, weights)?)),
+        found => Err(shape(
+            "points[0]",
+            format!("{found} coordinates, expected 2 (planar curve) or 3 (spatial curve)"),
+        )),
+    }
+}
+
+fn curve_buf<P: Point>(
+    degree: usize,
+    knots: Vec<f32>,
+    coords: &[Vec<f32>],
+    weights: Option<Vec<f32>>,
+) -> Result<CurveBuf<P>, NurbsError> {
+    let points = coords
+        .iter()
+        .enumerate()
+        .map(|(i, c)| {
+            P::from_slice(c).ok_or(NurbsError::Dimension {
+                at: At::I(i),
+                expected: P::DIM,
+                found: c.len(),
+            })
+        })
+        .collect::<Result<Vec<P>, _>>()?;
+    CurveBuf::from_cartesian(degree, knots, &points, weights.as_deref())
+}
+
+fn surface_from_raw(raw: &RawPatch, degree: (usize, usize)) -> Result<Patch, PatchError> {
+    let uv = list(&raw.knots, "knots", "[U, V], two arrays of knots")?;
+    let [ku, kv] = uv else {
+        return Err(shape(
+            "knots",
+            format!(
+                "a surface needs two knot vectors [U, V], found {} entries",
+                uv.len()
+            ),
+        ));
+    };
+    let knots = (numbers(ku, "knots[0]")?, numbers(kv, "knots[1]")?);
+    let rows = list(&raw.points, "points", "an array of rows of points")?
+        .iter()
+        .enumerate()
+        .map(|(i, row)| {
+            list(row, &format!("points[{i}]"), "a row of points")?
+                .iter()
+                .enumerate()
+                .map(|(j, p)| {
+                    let c = numbers(p, &format!("points[{i}][{j}]"))?;
+                    <Vec3 as Point>::from_slice(&c).ok_or_else(|| {
+                        NurbsError::Dimension {
+                            at: At::Ij(i, j),
+                            expected: 3,
+                            found: c.len(),
+                        }
+                        .into()
+                    })
+                })
+                .collect::<Result<Vec<Vec3>, PatchError>>()
+        })
+        .collect::<Result<Vec<_>, _>>()?;
+    let weights = match &raw.weights {
+        None => None,
+        Some(w) => Some(
+            list(w, "weights", "an array of rows of weights")?
+                .iter()
+                .enumerate()
+                .map(|(i, row)| numbers(row, &format!("weights[{i}]")))
+                .collect::<Result<Vec<_>, _>>()?,
+        ),
+    };
+    // nurbs reports this as a count of weights against control points; here they are rows.
+    if let Some(w) = &weights {
+        if w.len() != rows.len() {
+            return Err(shape(
+                "weights",
+                format!(
+                    "{} rows of weights given for {} rows of points",
+                    w.len(),
+                    rows.len()
+                ),
+            ));
+        }
+    }
+    Ok(Patch::Surface(SurfaceBuf::from_rows(
+        degree,
+        knots,
+        &rows,
+        weights.as_deref(),
+    )?))
+}
+
+fn shape(field: impl Into<String>, problem: impl Into<String>) -> PatchError {
+    PatchError::Shape {
+        field: field.into(),
+        problem: problem.into(),
+    }
+}
+
+fn integer(n: &Nested, field: &str) -> Result<usize, PatchError> {
+    match *n {
+        // `as` saturates; nurbs rejects a huge degree with its own message.
+        Nested::Num(x) if x >= 0.0 && x.fract() == 0.0 => Ok(x as usize),
+        Nested::Num(x) => Err(shape(field, format!("{x} is not a non-negative integer"))),
+        Nested::List(_) => Err(shape(field, "expected an integer, found an array")),
+    }
+}
+
+fn list<'a>(n: &'a Nested, field: &str, what: &str) -> Result<&'a [Nested], PatchError> {
+    match n {
+        Nested::List(items) => Ok(items),
+        Nested::Num(_) => Err(shape(field, format!("expected {what}, found a number"))),
+    }
+}
+
+fn numbers(n: &Nested, field: &str) -> Result<Vec<f32>, PatchError> {
+    list(n, field, "an array of numbers")?
+        .iter()
+        .enumerate()
+        .map(|(i, x)| match *x {
+            // Rounded once to the f32 of the loop; an overflow becomes ∞, which nurbs rejects.
+            Nested::Num(v) => Ok(v as f32),
+            Nested::List(_) => Err(shape(
+                format!("{field}[{i}]"),
+                "expected a number, found an array",
+            )),
+        })
+        .collect()
+}
+
+// ---------------------------------------------------------------------------------------------
+// Raw types: the file as written. New fields go here (with `#[serde(default)]` when optional)
+// and into the validation above.
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields, rename = "Scene")]
+struct RawScene {
+    #[allow(dead_code, reason = "checked before, in `Scene::from_json_str`")]
+    format: String,
+    objects: Vec<RawObject>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields, rename = "Object")]
+struct RawObject {
+    name: String,
+    material: RawMaterial,
+    patches: Vec<RawPatch>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields, rename = "Material")]
+struct RawMaterial {
+    stiffness_n_per_m: f32,
+    damping_ns_per_m: f32,
+    mu_static: f32,
+    mu_dynamic: f32,
+}
+
+/// The arrays are read as nested numbers and shaped afterwards, because whether a patch is a
+/// curve or a surface follows from `degree`, which may come after the other fields.
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields, rename = "Patch")]
+struct RawPatch {
+    degree: Nested,
+    knots: Nested,
+    points: Nested,
+    #[serde(default)]
+    weights: Option<Nested>,
+}
+
+/// A number or an array of (arrays of …) numbers.
+enum Nested {
+    Num(f64),
+    List(Vec<Nested>),
+}
+
+impl<'de> Deserialize<'de> for Nested {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        struct NestedVisitor;
+        impl<'de> Visitor<'de> for NestedVisitor {
+            type Value = Nested;
+            fn expecting(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+                f.write_str("a number or an array")
+            }
+            fn visit_u64<E: de::Error>(self, v: u64) -> Result<Nested, E> {
+                Ok(Nested::Num(v as f64))
+            }
+            fn visit_i64<E: de::Error>(self, v: i64) -> Result<Nested, E> {
+                Ok(Nested::Num(v as f64))
+            }
+            fn visit_f64<E: de::Error>(self, v: f64) -> Result<Nested, E> {
+                Ok(Nested::Num(v))
+            }
+            fn visit_seq<A: SeqAccess<'de>>(self, mut seq: A) -> Result<Nested, A::Error> {
+                let mut items = Vec::with_capacity(seq.size_hint().unwrap_or(0).min(1024));
+                while let Some(item) = seq.next_element()? {
+                    items.push(item);
+                }
+                Ok(Nested::List(items))
+            }
+        }
+        d.deserialize_any(NestedVisitor)
+    }
+}
+
+fn parse<T: DeserializeOwned>(text: &str) -> Result<T, SceneError> {
+    let mut de = serde_json::Deserializer::from_str(text);
+    let value = serde_path_to_error::deserialize(&mut de).map_err(|e| {
+        let location = describe(e.path(), text);
+        SceneError::Json {
+            location,
+            error: e.into_inner(),
+        }
+    })?;
+    de.end().map_err(|error| SceneError::Json {
+        location: String::new(),
+        error,
+    })?;
+    Ok(value)
+}
+
+/// `objects[0].patches[1].points[2]` → `object 0 ("wedge"), patch 1: points[2]`, in the words
+/// of the validation errors.
+fn describe(path: &serde_path_to_error::Path, text: &str) -> String {
+    use serde_path_to_error::Segment;
+    let segments: Vec<&Segment> = path.iter().collect();
+    let mut head = Vec::new();
+    let mut rest = segments.as_slice();
+    if let [Segment::Map { key }, Segment::Seq { index }, tail @ ..] = rest {
+        if key == "objects" {
+            head.push(match object_name(text, *index) {
+                Some(name) => format!("object {index} ({name:?})"),
+                None => format!("object {index}"),
+            });
+            rest = tail;
+            if let [Segment::Map { key }, Segment::Seq { index }, tail @ ..] = rest {
+                if key == "patches" {
+                    head.push(format!("patch {index}"));
+                    rest = tail;
+                }
+            }
+        }
+    }
+    let mut field = String::new();
+    for s in rest {
+        match s {
+            Segment::Map { key } | Segment::Enum { variant: key } => {
+                if !field.is_empty() {
+                    field.push('.');
+                }
+                field.push_str(key);
+            }
+            Segment::Seq { index } => {
+                let _ = write!(field, "[{index}]");
+            }
+            Segment::Unknown => field.push('?'),
+        }
+    }
+    // Same punctuation as the validation errors: `object 0 ("a"), material.x` and
+    // `object 0 ("a"), patch 1: knots`.
+    let separator = if head.len() == 1 { ", " } else { ": " };
+    let mut out = head.join(", ");
+    if !field.is_empty() {
+        if !out.is_empty() {
+            out.push_str(separator);
+        }
+        out.push_str(&field);
+    }
+    out
+}
+
+/// The name of object `index`, if the document is valid JSON and has one.
+fn object_name(text: &str, index: usize) -> Option<String> {
+    let v: serde_json::Value = serde_json::from_str(text).ok()?;
+    v.get("objects")?
+        .get(index)?
+        .get("name")?
+        .as_str()
+        .map(str::to_owned)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const EXAMPLE: &str = r#"{
+  "format": "scene/1",
+  "objects": [
+    {
+      "name": "wedge",
+      "material": { "stiffness_n_per_m": 1000.0, "damping_ns_per_m": 0.0, "mu_static": 0.7, "mu_dynamic": 0.5 },
+      "patches": [
+        { "degree": 3, "knots": [0, 0, 0, 0, 1, 1, 1, 1],
+          "points": [[0.0, 0.0], [0.01, 0.02], [0.03, 0.01], [0.04, 0.0]],
+          "weights": [1, 1, 1, 1] },
+        { "degree": [2, 3], "knots": [[0, 0, 0, 1, 1, 1], [0, 0, 0, 0, 1, 1, 1, 1]],
+          "points": [[[0, 0, 0], [0, 1, 0], [0, 2, 0], [0, 3, 0]],
+                     [[1, 0, 1], [1, 1, 1], [1, 2, 1], [1, 3, 1]],
+                     [[2, 0, 0], [2, 1, 0], [2, 2, 0], [2, 3, 0]]] }
+      ]
+    }
+  ]
+}"#;
+
+    /// The example with `from` replaced by `to` (exactly once).
+    fn edited(from: &str, to: &str) -> String {
+        assert_eq!(EXAMPLE.matches(from).count(), 1, "{from:?} must occur once");
+        EXAMPLE.replacen(from, to, 1)
+    }
+
+    fn error(text: &str) -> String {
+        match Scene::from_json_str(text) {
+            Ok(_) => panic!("expected an error"),
+            Err(e) => e.to_string(),
+        }
+    }
+
+    fn assert_mentions(msg: &str, parts: &[&str]) {
+        for p in parts {
+            assert!(msg.contains(p), "{msg:?} should mention {p:?}");
+        }
+    }
+
+    #[test]
+    fn example_loads() {
+        let scene = Scene::from_json_str(EXAMPLE).expect("example is valid");
+        let [object] = scene.objects() else {
+            panic!("one object")
+        };
+        assert_eq!(object.name(), "wedge");
+        assert_eq!(object.material().stiffness_n_per_m(), 1000.0);
+        assert_eq!(object.material().mu_static(), 0.7);
+        assert_eq!(object.material().mu_dynamic(), 0.5);
+        let [Patch::Curve2(c), Patch::Surface(s)] = object.patches() else {
+            panic!("a planar curve and a surface, got {:?}", object.patches())
+        };
+        assert_eq!(c.degree(), 3);
+        assert_eq!(c.view().point(1.0), Vec2::new(0.04, 0.0));
+        assert_eq!(s.degree(), (2, 3));
+        assert_eq!(s.counts(), (3, 4));
+        // points[i][j] with i along u: S(1, 0) is points[2][0].
+        assert_eq!(s.view().point(1.0, 0.0), Vec3::new(2.0, 0.0, 0.0));
+        assert_eq!(s.view().point(0.0, 1.0), Vec3::new(0.0, 3.0, 0.0));
+    }
+
+    #[test]
+    fn weights_are_cartesian() {
+        // A weight on a point that is not multiplied in: the point is interpolated at the ends
+        // whatever its weight.
+        let text = edited("\"weights\": [1, 1, 1, 1]", "\"weights\": [3, 1, 2, 5]");
+        let scene = Scene::from_json_str(&text).expect("valid");
+        let Some(Patch::Curve2(c)) = scene.objects()[0].patch(0) else {
+            panic!("planar curve")
+        };
+        assert_eq!(c.view().point(1.0), Vec2::new(0.04, 0.0));
+        assert_eq!(
+            c.view().control_point(1),
+            Some((Vec2::new(0.01, 0.02), 1.0))
+        );
+    }
+
+    #[test]
+    fn spatial_curve() {
+        let text = edited(
+            "[[0.0, 0.0], [0.01, 0.02], [0.03, 0.01], [0.04, 0.0]]",
+            "[[0, 0, 0], [0.01, 0.02, 0], [0.03, 0.01, 0.01], [0.04, 0, 0.02]]",
+        );
+        let scene = Scene::from_json_str(&text).expect("valid");
+        assert!(matches!(
+            scene.objects()[0].patch(0),
+            Some(Patch::Curve3(_))
+        ));
+    }
+
+    #[test]
+    fn unknown_field_top_level() {
+        let msg = error(&edited(
+            "\"format\": \"scene/1\",",
+            "\"format\": \"scene/1\", \"units\": \"m\",",
+        ));
+        assert_mentions(&msg, &["unknown field `units`", "line 2"]);
+    }
+
+    #[test]
+    fn unknown_field_in_object() {
+        let msg = error(&edited(
+            "\"name\": \"wedge\",",
+            "\"name\": \"wedge\", \"colour\": 1,",
+        ));
+        assert_mentions(
+            &msg,
+            &["object 0 (\"wedge\")", "unknown field `colour`", "line 5"],
+        );
+    }
+
+    #[test]
+    fn unknown_field_in_material() {
+        let msg = error(&edited(
+            "\"mu_dynamic\": 0.5",
+            "\"mu_dynamic\": 0.5, \"mu_kinetic\": 0.4",
+        ));
+        assert_mentions(
+            &msg,
+            &[
+                "object 0 (\"wedge\")",
+                "material",
+                "unknown field `mu_kinetic`",
+                "line 6",
+            ],
+        );
+    }
+
+    #[test]
+    fn unknown_field_in_patch() {
+        let msg = error(&edited(
+            "\"degree\": [2, 3],",
+            "\"degree\": [2, 3], \"rational\": true,",
+        ));
+        assert_mentions(
+            &msg,
+            &[
+                "object 0 (\"wedge\"), patch 1",
+                "unknown field `rational`",
+                "line 11",
+            ],
+        );
+    }
+
+    #[test]
+    fn missing_field() {
+        let msg = error(&edited("\"mu_static\": 0.7, ", ""));
+        assert_mentions(
+            &msg,
+            &[
+                "object 0 (\"wedge\"), material",
+                "missing field `mu_static`",
+            ],
+        );
+    }
+
+    #[test]
+    fn wrong_type_names_the_path_and_position() {
+        let msg = error(&edited("[0.03, 0.01]", "[0.03, \"x\"]"));
+        assert_mentions(
+            &msg,
+            &[
+                "object 0 (\"wedge\"), patch 0: points[2][1]",
+                "invalid type",
+                "line 9",
+            ],
+        );
+        let msg = error(&edited("\"name\": \"wedge\"", "\"name\": 7"));
+        assert_mentions(&msg, &["object 0, name: invalid type", "line 5"]);
+    }
+
+    #[test]
+    fn syntax_error_has_line_and_column() {
+        let text = edited("\"mu_dynamic\": 0.5 }", "\"mu_dynamic\": 0.5 ");
+        let e = Scene::from_json_str(&text).expect_err("syntax error");
+        let (line, _column) = e.line_column().expect("a JSON error");
+        assert!(line >= 6, "{e}");
+        let e = Scene::from_json_str(&format!("{EXAMPLE} x")).expect_err("trailing characters");
+        assert_mentions(&e.to_string(), &["trailing characters", "line 18"]);
+    }
+
+    #[test]
+    fn bad_format() {
+        let msg = error(&edited("\"scene/1\"", "\"scene/2\""));
+        assert_eq!(
+            msg,
+            "format: unsupported format \"scene/2\", expected \"scene/1\""
+        );
+        let msg = error(&edited("\"format\": \"scene/1\",", ""));
+        assert_eq!(msg, "format: missing, expected \"scene/1\"");
+        // A newer file with fields this version does not know is reported by its format.
+        let msg = error(&edited(
+            "\"format\": \"scene/1\",",
+            "\"format\": \"scene/2\", \"lights\": [],",
+        ));
+        assert_mentions(&msg, &["format", "scene/2"]);
+        let msg = error(&edited("\"scene/1\"", "1"));
+        assert_eq!(msg, "format: unsupported format 1, expected \"scene/1\"");
+        let msg = error("[\"scene/1\", []]");
+        assert_mentions(&msg, &["invalid type: sequence, expected a map", "line 1"]);
+    }
+
+    #[test]
+    fn empty_lists() {
+        let msg = error(r#"{ "format": "scene/1", "objects": [] }"#);
+        assert_eq!(
+            msg,
+            "objects: the scene has no objects, at least one is needed"
+        );
+        let msg = error(
+            r#"{ "format": "scene/1", "objects": [ { "name": "ghost", "material":
+            { "stiffness_n_per_m": 1, "damping_ns_per_m": 0, "mu_static": 0, "mu_dynamic": 0 },
+            "patches": [] } ] }"#,
+        );
+        assert_eq!(
+            msg,
+            "object 0 (\"ghost\"), patches: the object has no patches, at least one is needed"
+        );
+    }
+
+    #[test]
+    fn material_validation_names_the_field() {
+        let msg = error(&edited(
+            "\"stiffness_n_per_m\": 1000.0",
+            "\"stiffness_n_per_m\": -1",
+        ));
+        assert_eq!(
+            msg,
+            "object 0 (\"wedge\"), material.stiffness_n_per_m: -1 must be finite and >= 0"
+        );
+        let msg = error(&edited(
+            "\"damping_ns_per_m\": 0.0",
+            "\"damping_ns_per_m\": 1e39",
+        ));
+        assert_mentions(
+            &msg,
+            &["object 0 (\"wedge\")", "material.damping_ns_per_m", "inf"],
+        );
+        let msg = error(&edited("\"mu_dynamic\": 0.5", "\"mu_dynamic\": 0.8"));
+        assert_mentions(
+            &msg,
+            &[
+                "object 0 (\"wedge\")",
+                "material.mu_dynamic",
+                "mu_static (0.7)",
+            ],
+        );
+        let msg = error(&edited("\"mu_dynamic\": 0.5", "\"mu_dynamic\": -0.1"));
+        assert_mentions(&msg, &["material.mu_dynamic: -0.1 must be finite and >= 0"]);
+    }
+
+    #[test]
+    fn wrong_dimension_points() {
+        let msg = error(&edited("[0.01, 0.02]", "[0.01, 0.02, 0.0]"));
+        assert_eq!(
+            msg,
+            "object 0 (\"wedge\"), patch 0: points[1]: 3 coordinates, expected 2"
+        );
+        let msg = error(&edited(
+            "[[0.0, 0.0], [0.01",
+            "[[0.0, 0.0, 0.0, 1.0], [0.01",
+        ));
+        assert_mentions(
+            &msg,
+            &[
+                "object 0 (\"wedge\"), patch 0: points[0]: 4 coordinates",
+                "2 (planar",
+            ],
+        );
+        let msg = error(&edited("[1, 2, 1], [1, 3, 1]]", "[1, 2], [1, 3, 1]]"));
+        assert_eq!(
+            msg,
+            "object 0 (\"wedge\"), patch 1: points[1][2]: 2 coordinates, expected 3"
+        );
+    }
+
+    #[test]
+    fn ragged_net() {
+        let msg = error(&edited(", [1, 3, 1]]", "]"));
+        assert_mentions(
+            &msg,
+            &["object 0 (\"wedge\"), patch 1: points[1]: row has 3 entries"],
+        );
+    }
+
+    #[test]
+    fn weights_shape_mismatch() {
+        let msg = error(&edited(
+            "\"weights\": [1, 1, 1, 1]",
+            "\"weights\": [1, 1, 1]",
+        ));
+        assert_eq!(
+            msg,
+            "object 0 (\"wedge\"), patch 0: weights: 3 weights given for 4 control points"
+        );
+        let surface_weights = "\"knots\": [[0, 0, 0, 1, 1, 1], [0, 0, 0, 0, 1, 1, 1, 1]],";
+        let msg = error(&edited(
+            surface_weights,
+            &format!("{surface_weights} \"weights\": [[1, 1, 1, 1], [1, 1, 1], [1, 1, 1, 1]],"),
+        ));
+        assert_mentions(
+            &msg,
+            &["object 0 (\"wedge\"), patch 1: weights[1]: row has 3 entries"],
+        );
+        let msg = error(&edited(
+            surface_weights,
+            &format!("{surface_weights} \"weights\": [[1, 1, 1, 1], [1, 1, 1, 1]],"),
+        ));
+        assert_eq!(
+            msg,
+            "object 0 (\"wedge\"), patch 1: weights: 2 rows of weights given for 3 rows of points"
+        );
+        let msg = error(&edited(
+            surface_weights,
+            &format!("{surface_weights} \"weights\": [1, 1, 1],"),
+        ));
+        assert_mentions(
+            &msg,
+            &["object 0 (\"wedge\"), patch 1: weights[0]: expected an array of numbers"],
+        );
+        let msg = error(&edited(
+            surface_weights,
+            &format!("{surface_weights} \"weights\": [[1, 1, 1, 1], [1, 0, 1, 1], [1, 1, 1, 1]],"),
+        ));
+        assert_eq!(
+            msg,
+            "object 0 (\"wedge\"), patch 1: weights[1][1]: weight 0 must be finite and > 0"
+        );
+    }
+
+    #[test]
+    fn nurbs_validation_failure() {
+        let msg = error(&edited("[0, 0, 0, 1, 1, 1], [0", "[0, 0, 0, 1, 1], [0"));
+        assert_eq!(
+            msg,
+            "object 0 (\"wedge\"), patch 1: knots[0] (u): expected 6 knots (control points + degree + 1), found 5"
+        );
+        let msg = error(&edited("\"degree\": 3,", "\"degree\": 0,"));
+        assert_mentions(&msg, &["object 0 (\"wedge\"), patch 0: degree: degree 0"]);
+        let msg = error(&edited(
+            "[0, 0, 0, 0, 1, 1, 1, 1],",
+            "[0, 0, 0, 0, 1, 1, 0.5, 1],",
+        ));
+        assert_mentions(&msg, &["patch 0: knots[6]: knots must be non-decreasing"]);
+    }
+
+    #[test]
+    fn shape_errors() {
+        let msg = error(&edited("\"degree\": 3,", "\"degree\": 2.5,"));
+        assert_eq!(
+            msg,
+            "object 0 (\"wedge\"), patch 0: degree: 2.5 is not a non-negative integer"
+        );
+        let msg = error(&edited("\"degree\": [2, 3],", "\"degree\": [2, 3, 1],"));
+        assert_mentions(
+            &msg,
+            &["patch 1: degree: expected an integer (curve) or [p, q]"],
+        );
+        let msg = error(&edited(
+            "[[0, 0, 0, 1, 1, 1], [0, 0, 0, 0, 1, 1, 1, 1]]",
+            "[0, 0, 0, 1, 1, 1]",
+        ));
+        assert_mentions(
+            &msg,
+            &["patch 1: knots: a surface needs two knot vectors [U, V], found 6 entries"],
+        );
+        let msg = error(&edited(
+            "[[0, 0, 0, 1, 1, 1], [0, 0, 0, 0, 1, 1, 1, 1]]",
+            "[[0, 0, 0, 1, 1, 1], 1]",
+        ));
+        assert_mentions(
+            &msg,
+            &["patch 1: knots[1]: expected an array of numbers, found a number"],
+        );
+        let msg = error(&edited(
+            "[0, 0, 0, 0, 1, 1, 1, 1],",
+            "[[0, 0, 0, 0, 1, 1, 1, 1]],",
+        ));
+        assert_mentions(
+            &msg,
+            &["patch 0: knots[0]: expected a number, found an array"],
+        );
+    }
+
+    #[test]
+    fn load_names_the_file() {
+        let e = Scene::load("no/such/scene.json").expect_err("missing file");
+        assert_mentions(&e.to_string(), &["cannot read no/such/scene.json"]);
+        let dir = std::env::temp_dir().join(format!("viewer-scene-test-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).expect("temp dir");
+        let path = dir.join("bad.json");
+        std::fs::write(&path, edited("\"mu_dynamic\": 0.5", "\"mu_dynamic\": 0.9"))
+            .expect("write temp file");
+        let e = Scene::load(&path).expect_err("invalid");
+        let msg = e.to_string();
+        let _ = std::fs::remove_dir_all(&dir);
+        assert_mentions(
+            &msg,
+            &["bad.json: object 0 (\"wedge\"), material.mu_dynamic"],
+        );
+    }
+}

@@ -1,0 +1,294 @@
+//! The `viewer` binary end to end: output against closed-form geometry, exit statuses and
+//! messages.
+
+use std::io::Write;
+use std::path::PathBuf;
+use std::process::{Command, Output, Stdio};
+
+fn examples() -> String {
+    let path = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../scenes/examples.json");
+    path.to_str().expect("UTF-8 path").to_owned()
+}
+
+/// Runs the binary with `stdin` as standard input.
+fn viewer(args: &[&str], stdin: &str) -> Output {
+    let mut child = Command::new(env!("CARGO_BIN_EXE_viewer"))
+        .args(args)
+        .stdin(Stdio::piped())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("viewer starts");
+    if let Some(mut input) = child.stdin.take() {
+        // The process may exit before reading (invalid scene): a broken pipe is expected then.
+        let _ = input.write_all(stdin.as_bytes());
+    }
+    child.wait_with_output().expect("viewer runs")
+}
+
+fn stdout_lines(out: &Output) -> Vec<serde_json::Value> {
+    String::from_utf8_lossy(&out.stdout)
+        .lines()
+        .map(|l| serde_json::from_str(l).expect("each output line is one JSON object"))
+        .collect()
+}
+
+fn stderr(out: &Output) -> String {
+    String::from_utf8_lossy(&out.stderr).into_owned()
+}
+
+fn vector(v: &serde_json::Value) -> Vec<f64> {
+    v.as_array()
+        .expect("an array")
+        .iter()
+        .map(|x| x.as_f64().expect("a number"))
+        .collect()
+}
+
+fn number(v: &serde_json::Value) -> f64 {
+    v.as_f64().expect("a number")
+}
+
+/// A scene file in a fresh temporary directory, removed on drop.
+struct TempScene {
+    dir: PathBuf,
+    path: PathBuf,
+}
+
+impl TempScene {
+    fn new(name: &str, text: &str) -> Self {
+        let dir = std::env::temp_dir().join(format!("viewer-cli-{}-{name}", std::process::id()));
+        std::fs::create_dir_all(&dir).expect("temp dir");
+        let path = dir.join(format!("{name}.json"));
+        std::fs::write(&path, text).expect("write scene");
+        TempScene { dir, path }
+    }
+
+    fn path(&self) -> &str {
+        self.path.to_str().expect("UTF-8 path")
+    }
+}
+
+impl Drop for TempScene {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_dir_all(&self.dir);
+    }
+}
+
+#[test]
+fn circle_points_lie_on_the_circle() {
+    // scenes/examples.json, object 1: centre (0, 0.09), radius 0.03, counter-clockwise.
+    let (c, r) = ([0.0, 0.09], 0.03);
+    let input: String = (0..=64).map(|k| format!("{}\n", k as f64 / 64.0)).collect();
+    let out = viewer(
+        &["eval", &examples(), "--object", "1", "--patch", "0"],
+        &format!("# u\n{input}"),
+    );
+    assert!(out.status.success(), "{}", stderr(&out));
+    assert_eq!(out.status.code(), Some(0));
+    assert!(out.stderr.is_empty(), "{}", stderr(&out));
+    let lines = stdout_lines(&out);
+    assert_eq!(lines.len(), 65);
+    for line in &lines {
+        let p = vector(&line["p"]);
+        let n = vector(&line["normal"]);
+        let t = vector(&line["tangent"]);
+        let radius = (p[0] - c[0]).hypot(p[1] - c[1]);
+        assert!((radius - r).abs() < 1e-6, "|p - c| = {radius} at {line}");
+        // Outward normal (p − c)/r, tangent a quarter turn counter-clockwise from it.
+        let outward = [(p[0] - c[0]) / r, (p[1] - c[1]) / r];
+        assert!(
+            (n[0] - outward[0]).abs() < 1e-4 && (n[1] - outward[1]).abs() < 1e-4,
+            "{line}"
+        );
+        assert!(
+            (t[0] + outward[1]).abs() < 1e-4 && (t[1] - outward[0]).abs() < 1e-4,
+            "{line}"
+        );
+        let curvature = number(&line["curvature"]);
+        assert!(
+            (curvature - 1.0 / r).abs() < 1e-3 / r,
+            "curvature {curvature} at {line}"
+        );
+    }
+    // Quarter points of the 9-point circle are its control points on the circle.
+    let quarter = vector(&lines[16]["p"]);
+    assert!(
+        quarter[0].abs() < 1e-7 && (quarter[1] - 0.12).abs() < 1e-7,
+        "{quarter:?}"
+    );
+}
+
+#[test]
+fn surface_matches_the_bezier_closed_form() {
+    // scenes/examples.json, object 2: a bicubic Bézier patch with evenly spaced x (along u)
+    // and y (along v) and the four inner points raised by h = 0.02. Bernstein sums give
+    // x = −0.03 + 0.06 u, y = 0.06 + 0.06 v, z = h (B1 + B2)(u) (B1 + B2)(v)
+    // = 9 h u(1−u) v(1−v).
+    let h = 0.02;
+    let grid = [0.0, 0.1, 0.25, 0.5, 0.8, 1.0];
+    let mut input = String::new();
+    for u in grid {
+        for v in grid {
+            input.push_str(&format!("{u} {v}\n"));
+        }
+    }
+    let out = viewer(&["eval", &examples(), "--object", "2"], &input);
+    assert_eq!(out.status.code(), Some(0), "{}", stderr(&out));
+    let lines = stdout_lines(&out);
+    assert_eq!(lines.len(), grid.len() * grid.len());
+    for line in &lines {
+        let (u, v) = (number(&line["u"]), number(&line["v"]));
+        let p = vector(&line["p"]);
+        let expected = [
+            -0.03 + 0.06 * u,
+            0.06 + 0.06 * v,
+            9.0 * h * u * (1.0 - u) * v * (1.0 - v),
+        ];
+        for k in 0..3 {
+            assert!(
+                (p[k] - expected[k]).abs() < 1e-6,
+                "p = {p:?}, expected {expected:?}"
+            );
+        }
+        let du = [0.06, 0.0, 9.0 * h * (1.0 - 2.0 * u) * v * (1.0 - v)];
+        let dv = [0.0, 0.06, 9.0 * h * u * (1.0 - u) * (1.0 - 2.0 * v)];
+        let duv = 9.0 * h * (1.0 - 2.0 * u) * (1.0 - 2.0 * v);
+        for (got, want) in [(vector(&line["du"]), du), (vector(&line["dv"]), dv)] {
+            for k in 0..3 {
+                assert!(
+                    (got[k] - want[k]).abs() < 1e-5,
+                    "{got:?} vs {want:?} at {line}"
+                );
+            }
+        }
+        assert!((vector(&line["duv"])[2] - duv).abs() < 1e-4, "{line}");
+        let n = [
+            du[1] * dv[2] - du[2] * dv[1],
+            du[2] * dv[0] - du[0] * dv[2],
+            du[0] * dv[1] - du[1] * dv[0],
+        ];
+        let len = (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt();
+        let normal = vector(&line["normal"]);
+        for k in 0..3 {
+            assert!(
+                (normal[k] - n[k] / len).abs() < 1e-5,
+                "{normal:?} at {line}"
+            );
+        }
+    }
+}
+
+#[test]
+fn bad_line_exits_1_after_answering_the_lines_before() {
+    let out = viewer(
+        &["eval", &examples(), "--object", "1"],
+        "0\n0.5\n\n0.5 x\n0.7\n",
+    );
+    assert_eq!(out.status.code(), Some(1));
+    assert_eq!(stdout_lines(&out).len(), 2);
+    let err = stderr(&out);
+    assert!(err.contains("line 4 (\"0.5 x\")"), "{err}");
+    assert!(err.contains("expected 1 value(s)"), "{err}");
+    assert!(err.contains("object 1 (\"circle\"), patch 0"), "{err}");
+}
+
+#[test]
+fn out_of_domain_exits_1_and_reports_the_domain() {
+    let out = viewer(
+        &["eval", &examples(), "--object", "2"],
+        "0.5 0.5\n0.5 1.25\n",
+    );
+    assert_eq!(out.status.code(), Some(1));
+    assert_eq!(stdout_lines(&out).len(), 1);
+    let err = stderr(&out);
+    assert!(
+        err.contains("line 2 (\"0.5 1.25\"): v = 1.25 is outside the domain [0, 1]"),
+        "{err}"
+    );
+    let out = viewer(&["eval", &examples()], "inf\n");
+    assert_eq!(out.status.code(), Some(1));
+    assert!(stderr(&out).contains("line 1 (\"inf\"): u: inf is not a finite number"));
+}
+
+#[test]
+fn invalid_scene_exits_2_naming_object_patch_and_field() {
+    let scene = TempScene::new(
+        "bad-knots",
+        r#"{ "format": "scene/1", "objects": [ { "name": "lid",
+            "material": { "stiffness_n_per_m": 1, "damping_ns_per_m": 0, "mu_static": 0.5, "mu_dynamic": 0.5 },
+            "patches": [
+              { "degree": 1, "knots": [0, 0, 1, 1], "points": [[0, 0.1], [0.01, 0.1]] },
+              { "degree": 2, "knots": [0, 0, 0, 1, 1], "points": [[0, 0.1], [0.01, 0.1], [0.02, 0.1]] }
+            ] } ] }"#,
+    );
+    let out = viewer(&["eval", scene.path()], "0.5\n");
+    assert_eq!(out.status.code(), Some(2));
+    assert!(out.stdout.is_empty());
+    let err = stderr(&out);
+    assert!(err.contains("bad-knots.json"), "{err}");
+    assert!(
+        err.contains("object 0 (\"lid\"), patch 1: knots: expected 6 knots"),
+        "{err}"
+    );
+
+    let scene = TempScene::new("typo", r#"{ "format": "scene/1", "object": [] }"#);
+    let out = viewer(&["eval", scene.path()], "");
+    assert_eq!(out.status.code(), Some(2));
+    let err = stderr(&out);
+    assert!(err.contains("unknown field `object`"), "{err}");
+    assert!(err.contains("line 1 column"), "{err}");
+}
+
+#[test]
+fn missing_file_and_bad_indices_exit_2() {
+    let out = viewer(&["eval", "no/such/scene.json"], "");
+    assert_eq!(out.status.code(), Some(2));
+    assert!(stderr(&out).contains("no/such/scene.json"));
+
+    let out = viewer(&["eval", &examples(), "--object", "3"], "0\n");
+    assert_eq!(out.status.code(), Some(2));
+    assert!(stderr(&out).contains("--object 3"), "{}", stderr(&out));
+
+    let out = viewer(
+        &["eval", &examples(), "--object", "1", "--patch", "1"],
+        "0\n",
+    );
+    assert_eq!(out.status.code(), Some(2));
+    let err = stderr(&out);
+    assert!(
+        err.contains("--patch 1: object 1 (\"circle\") has 1 patch"),
+        "{err}"
+    );
+
+    let out = viewer(&["eval", &examples(), "--object", "x"], "");
+    assert_eq!(out.status.code(), Some(2));
+}
+
+#[test]
+fn help_documents_input_output_and_exit_status() {
+    let out = viewer(&["eval", "--help"], "");
+    assert_eq!(out.status.code(), Some(0));
+    let help = String::from_utf8_lossy(&out.stdout);
+    for needle in [
+        "--object",
+        "--patch",
+        "`u v` for a surface",
+        "#",
+        "u, p, du, duu, tangent, normal, curvature",
+        "u, v, p, du, dv, duu, duv, dvv, normal",
+        "Exit status",
+        "2  bad command line",
+    ] {
+        assert!(help.contains(needle), "help lacks {needle:?}:\n{help}");
+    }
+}
+
+#[test]
+fn no_subcommand_prints_help_and_exits_2() {
+    let out = viewer(&[], "");
+    assert_eq!(out.status.code(), Some(2));
+    let err = stderr(&out);
+    assert!(err.contains("GUI"), "{err}");
+    assert!(err.contains("eval"), "{err}");
+}
