@@ -22,6 +22,7 @@
 //! so a HIP pushed deep into a thin object never pops through to the far side.
 
 use crate::contact::{Contact, Feature};
+use crate::newton::{NewtonConfig, newton};
 use crate::patch::Patch;
 use crate::track::{Tracker, TrackerConfig};
 use nurbs::{Curve, Vec2};
@@ -340,6 +341,7 @@ impl ChainTracker {
     /// Starts on the feature nearest to `hip` (found by sampling every curve).
     pub fn new(chain: &Chain<'_>, hip: Vec2, cfg: TrackerConfig) -> Self {
         let (i, u) = chain.coarse_closest(hip);
+        let u = newton(&chain.curves[i], hip, [u], &NewtonConfig::default()).t[0];
         ChainTracker {
             feature: Feature::Patch(i as u16),
             tracker: Tracker::new(&chain.curves[i], [u], cfg),
@@ -396,10 +398,14 @@ impl ChainTracker {
                     let c = &curves[self.curve];
                     let tr = self.tracker.update(c, hip, period_s);
                     if allow_switch {
-                        // Test both end vertices: the normal lines and, inside a corner, the
+                        // The vertex at the end the closest point is nearer to (the region
+                        // tests are local to a vertex: a far vertex's normal line can cross
+                        // the whole object): its normal lines and, inside a corner, its
                         // bisector decide whether the HIP has left this curve's region.
+                        let (a, b) = c.domain();
+                        let near_end = tr.t[0] >= 0.5 * (a + b);
                         let mut switched = false;
-                        for end in [false, true] {
+                        for end in [near_end] {
                             if let Some(k) = chain.vertex_of(self.curve, end) {
                                 let v = chain.vertices[k];
                                 let next = v.region(k as u16, hip);

@@ -7,6 +7,7 @@ extern crate alloc;
 
 mod chain;
 mod contact;
+mod global;
 mod linalg;
 mod newton;
 mod patch;
@@ -16,6 +17,9 @@ pub use chain::{
     Chain, ChainError, ChainTracker, JOIN_TOL_M, MAX_CHAIN_CURVES, Vertex, VertexKind,
 };
 pub use contact::{Contact, Feature, Penalty};
+pub use global::{
+    BezierPiece, BezierSplit, Closest, CurvePiece, GlobalConfig, SurfacePiece, closest_point,
+};
 pub use newton::{NewtonConfig, NewtonResult, newton};
 pub use patch::{Jet, Patch};
 pub use track::{
