@@ -96,6 +96,13 @@ pub trait BezierPiece<P: Point, const N: usize>: Clone + core::fmt::Debug {
     /// Box of the Cartesian control points: contains the piece (positive weights).
     fn bounding_box(&self) -> Aabb<P>;
 
+    /// A lower bound on the squared distance from `x` to the piece, given its
+    /// [`bounding_box`](Self::bounding_box): the larger of the distance to the box and the
+    /// distance to the slab `{y : (y − x)·v ≥ min_i (P_i − x)·v}` with `v` pointing from `x` to
+    /// the box centre (both contain the control points' convex hull). The slab is what stays
+    /// tight for a far query and a tilted piece, where the box is loose.
+    fn lower_bound(&self, x: P, bb: &Aabb<P>) -> f32;
+
     /// Corner `k < 2ᴺ` (bit `i` set: the end of direction `i`) with its parameters: corner
     /// control points lie on the patch. `None` for `k ≥ 2ᴺ`.
     fn corner(&self, k: usize) -> Option<([f32; N], P)>;
@@ -221,6 +228,24 @@ fn de_casteljau<H: Copy + Add<Output = H> + Mul<f32, Output = H>>(
     w[0]
 }
 
+/// See [`BezierPiece::lower_bound`].
+#[inline]
+fn hull_lower_bound<P: Point>(points: impl Iterator<Item = P>, x: P, bb: &Aabb<P>) -> f32 {
+    let box_lb = bb.distance_squared(x);
+    let v = bb.center() - x;
+    let v2 = v.length_squared();
+    if !(v2 > 0.0 && v2.is_finite()) {
+        return box_lb;
+    }
+    let m = points.map(|p| (p - x).dot(v)).fold(f32::INFINITY, f32::min);
+    if m > 0.0 {
+        // `max` drops a NaN from an overflowing m².
+        box_lb.max(m * m / v2)
+    } else {
+        box_lb
+    }
+}
+
 #[inline]
 fn cartesian<P: Point>(h: P::Hom) -> P {
     let (xw, w) = P::split(h);
@@ -274,6 +299,11 @@ impl<P: Point> BezierPiece<P, 1> for CurvePiece<P> {
             bb = bb.include(cartesian::<P>(h));
         }
         bb
+    }
+
+    fn lower_bound(&self, x: P, bb: &Aabb<P>) -> f32 {
+        let pts = self.pts[..=self.degree].iter().map(|&h| cartesian::<P>(h));
+        hull_lower_bound(pts, x, bb)
     }
 
     fn corner(&self, k: usize) -> Option<([f32; 1], P)> {
@@ -388,6 +418,14 @@ impl BezierPiece<Vec3, 2> for SurfacePiece {
             }
         }
         bb
+    }
+
+    fn lower_bound(&self, x: Vec3, bb: &Aabb<Vec3>) -> f32 {
+        let (p, q) = self.degree;
+        let pts = self.pts[..=p]
+            .iter()
+            .flat_map(move |row| row[..=q].iter().map(|&h| cartesian::<Vec3>(h)));
+        hull_lower_bound(pts, x, bb)
     }
 
     fn corner(&self, k: usize) -> Option<([f32; 2], Vec3)> {
@@ -573,9 +611,12 @@ struct Search<'s, S: BezierSplit<N>, const N: usize> {
 }
 
 impl<S: BezierSplit<N>, const N: usize> Search<'_, S, N> {
-    fn offer(&mut self, t: [f32; N], point: S::P) {
+    /// Takes `point` as the best if it is closer, or (`ties`) as close: a polished point wins
+    /// a tie against a corner, whose distance can agree to the last bit while its parameter
+    /// is off the stationary point.
+    fn offer(&mut self, t: [f32; N], point: S::P, ties: bool) {
         let d2 = (point - self.x).length_squared();
-        if d2 < self.best_d2 {
+        if d2 < self.best_d2 || (ties && d2 == self.best_d2) {
             self.best_d2 = d2;
             self.best_d = libm::sqrtf(d2);
             self.best_t = t;
@@ -592,41 +633,55 @@ impl<S: BezierSplit<N>, const N: usize> Search<'_, S, N> {
     fn polish(&mut self, t0: [f32; N]) {
         self.polishes = self.polishes.saturating_add(1);
         let r = newton(&self.patch, self.x, t0, &self.cfg.newton);
-        self.offer(r.t, r.point);
+        self.offer(r.t, r.point, true);
     }
 
-    fn descend(&mut self, piece: &mut S::Piece, bb: Aabb<S::P>, depth: u32) {
-        if self.hopeless(bb.distance_squared(self.x)) {
+    /// Visits a piece whose box is `bb`. `polished`: a Newton polish already ran from an
+    /// enclosing piece.
+    fn descend(&mut self, piece: &mut S::Piece, bb: Aabb<S::P>, depth: u32, polished: bool) {
+        if self.hopeless(piece.lower_bound(self.x, &bb)) {
             return;
         }
         self.visited = self.visited.saturating_add(1);
         for k in 0..1usize << N {
             if let Some((t, point)) = piece.corner(k) {
-                self.offer(t, point);
+                self.offer(t, point, false);
             }
         }
+        let params = piece.params();
+        let mut middle = [0.0; N];
+        for i in 0..N {
+            middle[i] = lerp(params[i].0, params[i].1);
+        }
         let diag2 = (bb.max - bb.min).length_squared();
+        // The first piece on a branch that is small against the best distance gets a polish:
+        // its local minimum is a good upper bound early, which is what makes pruning bite.
+        let mut polished = polished;
+        if !polished && diag2 <= self.cfg.leaf_ratio * self.cfg.leaf_ratio * self.best_d2 {
+            self.polish(middle);
+            polished = true;
+        }
         let tol2 = self.cfg.tolerance * self.cfg.tolerance;
-        let small = diag2 <= self.cfg.leaf_ratio * self.cfg.leaf_ratio * self.best_d2;
-        if small || diag2 <= tol2 || depth >= self.max_depth {
-            let params = piece.params();
-            let mut t = [0.0; N];
-            for i in 0..N {
-                t[i] = lerp(params[i].0, params[i].1);
+        if diag2 <= tol2 || depth >= self.max_depth {
+            // A leaf: its middle is a sample; a sample that beats everything so far sits in
+            // the best basin seen yet, so polish it.
+            let before = self.best_d2;
+            self.offer(middle, piece.point_at([0.5; N]), false);
+            if self.best_d2 < before {
+                self.polish(middle);
             }
-            self.polish(t);
             return;
         }
         let dir = piece.split_direction();
         let mut upper = piece.split(dir);
         let bb_lo = piece.bounding_box();
         let bb_hi = upper.bounding_box();
-        if bb_lo.distance_squared(self.x) <= bb_hi.distance_squared(self.x) {
-            self.descend(piece, bb_lo, depth + 1);
-            self.descend(&mut upper, bb_hi, depth + 1);
+        if piece.lower_bound(self.x, &bb_lo) <= upper.lower_bound(self.x, &bb_hi) {
+            self.descend(piece, bb_lo, depth + 1, polished);
+            self.descend(&mut upper, bb_hi, depth + 1, polished);
         } else {
-            self.descend(&mut upper, bb_hi, depth + 1);
-            self.descend(piece, bb_lo, depth + 1);
+            self.descend(&mut upper, bb_hi, depth + 1, polished);
+            self.descend(piece, bb_lo, depth + 1, polished);
         }
     }
 }
@@ -691,10 +746,11 @@ pub fn closest_point<S: BezierSplit<N>, const N: usize>(
         if let Some(piece) = patch.bezier_piece(unflatten(flat, &counts)) {
             for k in 0..1usize << N {
                 if let Some((t, point)) = piece.corner(k) {
-                    search.offer(t, point);
+                    search.offer(t, point, false);
                 }
             }
-            let lb = piece.bounding_box().distance_squared(x);
+            let bb = piece.bounding_box();
+            let lb = piece.lower_bound(x, &bb);
             if nearest.is_none_or(|(_, best)| lb < best) {
                 nearest = Some((flat, lb));
             }
@@ -705,7 +761,7 @@ pub fn closest_point<S: BezierSplit<N>, const N: usize>(
         for flat in core::iter::once(near).chain((0..total).filter(|&f| f != near)) {
             if let Some(mut piece) = patch.bezier_piece(unflatten(flat, &counts)) {
                 let bb = piece.bounding_box();
-                search.descend(&mut piece, bb, 0);
+                search.descend(&mut piece, bb, 0, false);
             }
         }
     }

@@ -11,6 +11,9 @@ mod global;
 mod linalg;
 mod newton;
 mod patch;
+#[cfg(feature = "alloc")]
+mod polygon;
+mod shell;
 mod track;
 
 pub use chain::{
@@ -22,6 +25,15 @@ pub use global::{
 };
 pub use newton::{NewtonConfig, NewtonResult, newton};
 pub use patch::{Jet, Patch};
+#[cfg(feature = "alloc")]
+pub use polygon::{
+    MAX_CURVE_DEPTH, MAX_MESH_CELLS, MAX_POLYLINE_VERTICES, Polyline, SegmentHit, TriMesh,
+    TriangleHit, closest_point_on_segment, closest_point_on_triangle,
+};
+pub use shell::{
+    Corner, Edge, MAX_CORNER_VALENCE, MAX_SHELL_CORNERS, MAX_SHELL_EDGES, MAX_SHELL_PATCHES,
+    SHELL_JOIN_TOL_M, Shell, ShellError, ShellTracker, Side,
+};
 pub use track::{
     Law, PERIODIC_TOL, Track, Tracker, TrackerConfig, stable_gain_limit, theorem_gain,
 };

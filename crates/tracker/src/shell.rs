@@ -1,0 +1,716 @@
+//! 3-D objects: shells of NURBS surface patches meeting at edges and corners, their Voronoi
+//! regions and the feature state machine (thesis §2.1.4 extended to surfaces).
+//!
+//! # Topology (computed once at load)
+//!
+//! Every side of every patch (`u = u₀`, `u = u₁`, `v = v₀`, `v = v₁`) is classified by sampling:
+//! *collapsed* (a pole, e.g. of a sphere of revolution), *periodic* (it meets the opposite side
+//! of the same patch: the tracker wraps there), *shared* with a side of another patch (an
+//! edge, possibly with reversed direction), or *open* (the rim of an open shell). Patch
+//! corners that coincide are merged into corners.
+//!
+//! # Regions
+//!
+//! At a point `E` of an edge shared by patches `a` and `b`, with outward normals `n_a`, `n_b`
+//! and inward conormals `m_a`, `m_b` (tangent to the patch, orthogonal to the edge, pointing
+//! into it), and `r = x − E`:
+//!
+//! - `x` projects into `a` iff `r·m_a ≥ 0` (the edge's normal plane of `a` is the region
+//!   boundary, as the end-point normals are in 2-D), into `b` iff `r·m_b ≥ 0`;
+//! - neither: the edge's own wedge, external for a convex edge (`n_a·m_b < 0`), internal for a
+//!   reflex one;
+//! - both: the bisector plane `r·(n_a − n_b) = 0` splits them (inside a convex edge, outside a
+//!   reflex one); a smooth (G¹) edge has neither wedge nor bisector.
+//!
+//! At a corner `K`, `x` belongs to an incident patch when it projects into that patch's corner
+//! quadrant (`r` has non-negative components along both inward side directions), to an
+//! incident edge when it projects onto the edge (`r·d ≥ 0` along the edge direction from `K`)
+//! but into neither of its patches, and to the corner otherwise.
+//!
+//! These tests use the tangent planes at the edge or corner, so they are exact for flat
+//! patches and first-order accurate near the feature for curved ones, which is where they
+//! decide anything: the state machine only tests the side nearest to the closest point, and
+//! only moves between neighbours (patch ↔ edge ↔ corner ↔ patch), so a HIP pushed deep never
+//! pops through to the far side of a thin object.
+//!
+//! Edge parameters are carried from one patch to the other by their relative position along
+//! the side; for sides parametrised differently the tracker corrects the remaining offset in
+//! its next updates.
+
+use crate::contact::{Contact, Feature};
+use crate::newton::{NewtonConfig, newton};
+use crate::patch::Patch;
+use crate::track::{Track, Tracker, TrackerConfig};
+use nurbs::{Surface, Vec3};
+
+/// Largest number of patches in a shell (fixed storage, no allocation).
+pub const MAX_SHELL_PATCHES: usize = 16;
+/// Largest number of edges (shared or open sides).
+pub const MAX_SHELL_EDGES: usize = 4 * MAX_SHELL_PATCHES;
+/// Largest number of corners.
+pub const MAX_SHELL_CORNERS: usize = 4 * MAX_SHELL_PATCHES;
+/// Largest number of patch corners meeting at one corner.
+pub const MAX_CORNER_VALENCE: usize = 8;
+/// Sides and corners must meet within this distance (metres).
+pub const SHELL_JOIN_TOL_M: f32 = 1e-5;
+
+/// Why a shell was rejected.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum ShellError {
+    /// No patches.
+    Empty,
+    /// More than [`MAX_SHELL_PATCHES`] patches.
+    TooManyPatches {
+        /// Given count.
+        count: usize,
+    },
+    /// A side matches more than one other side.
+    NonManifold {
+        /// Patch index.
+        patch: usize,
+        /// Side index (0: u = u₀, 1: u = u₁, 2: v = v₀, 3: v = v₁).
+        side: usize,
+    },
+    /// More than [`MAX_CORNER_VALENCE`] patch corners at one corner.
+    CornerValence {
+        /// Patch index of the corner that overflowed.
+        patch: usize,
+    },
+    /// A closed shell whose normals point inward (negative enclosed volume).
+    InwardNormals,
+}
+
+impl core::fmt::Display for ShellError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        match *self {
+            ShellError::Empty => write!(f, "patches: an object needs at least one surface"),
+            ShellError::TooManyPatches { count } => write!(
+                f,
+                "patches: {count} surfaces, at most {MAX_SHELL_PATCHES} per object"
+            ),
+            ShellError::NonManifold { patch, side } => write!(
+                f,
+                "patches[{patch}]: side {} is shared by more than two patches",
+                SIDE_NAMES[side]
+            ),
+            ShellError::CornerValence { patch } => write!(
+                f,
+                "patches[{patch}]: more than {MAX_CORNER_VALENCE} patch corners meet at one of its corners"
+            ),
+            ShellError::InwardNormals => write!(
+                f,
+                "patches: the closed shell's normals S_u × S_v point inward; swap u and v (or reverse one direction) in every patch"
+            ),
+        }
+    }
+}
+
+impl core::error::Error for ShellError {}
+
+const SIDE_NAMES: [&str; 4] = ["u = u_min", "u = u_max", "v = v_min", "v = v_max"];
+
+/// What lies across one side of a patch.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Side {
+    /// Nothing: the rim of an open shell (an edge with one patch).
+    Open(u16),
+    /// The side collapses to a point (a pole).
+    Collapsed,
+    /// The side meets the opposite side of the same patch.
+    Periodic,
+    /// Edge `e`, shared with another patch.
+    Shared(u16),
+}
+
+/// An edge: a side of patch `a`, and possibly the matching side of patch `b`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Edge {
+    /// First patch and its side.
+    pub a: (u16, u8),
+    /// Second patch and its side (`None` on the rim of an open shell).
+    pub b: Option<(u16, u8)>,
+    /// Whether the two sides run in opposite directions.
+    pub reversed: bool,
+}
+
+/// A corner where patch corners meet.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Corner {
+    /// Position.
+    pub position: Vec3,
+    /// Incident patch corners: `(patch, corner)` with corner bits `(v_max << 1) | u_max`.
+    incident: [(u16, u8); MAX_CORNER_VALENCE],
+    n_incident: u8,
+}
+
+impl Corner {
+    /// Incident patch corners `(patch, corner)`, corner = `(v_is_max << 1) | u_is_max`.
+    pub fn incident(&self) -> &[(u16, u8)] {
+        &self.incident[..self.n_incident as usize]
+    }
+}
+
+/// A validated shell of surface patches with its topology.
+#[derive(Clone, Copy, Debug)]
+pub struct Shell<'a> {
+    patches: &'a [Surface<'a>],
+    sides: [[Side; 4]; MAX_SHELL_PATCHES],
+    edges: [Edge; MAX_SHELL_EDGES],
+    n_edges: usize,
+    corners: [Corner; MAX_SHELL_CORNERS],
+    n_corners: usize,
+    corner_of: [[u16; 4]; MAX_SHELL_PATCHES],
+    closed: bool,
+}
+
+/// Parameters of the point at relative position `w ∈ [0, 1]` along side `side` of `s`.
+fn side_param(s: &Surface<'_>, side: usize, w: f32) -> [f32; 2] {
+    let [(u0, u1), (v0, v1)] = Patch::domain(s);
+    match side {
+        0 => [u0, v0 + (v1 - v0) * w],
+        1 => [u1, v0 + (v1 - v0) * w],
+        2 => [u0 + (u1 - u0) * w, v0],
+        _ => [u0 + (u1 - u0) * w, v1],
+    }
+}
+
+/// Relative position along side `side` of the parameters `t`.
+fn side_position(s: &Surface<'_>, side: usize, t: [f32; 2]) -> f32 {
+    let [(u0, u1), (v0, v1)] = Patch::domain(s);
+    let w = if side < 2 {
+        (t[1] - v0) / (v1 - v0)
+    } else {
+        (t[0] - u0) / (u1 - u0)
+    };
+    w.clamp(0.0, 1.0)
+}
+
+/// Parameters of corner `k` (bits `(v_max << 1) | u_max`).
+fn corner_param(s: &Surface<'_>, k: usize) -> [f32; 2] {
+    let [(u0, u1), (v0, v1)] = Patch::domain(s);
+    [
+        if k & 1 == 1 { u1 } else { u0 },
+        if k & 2 == 2 { v1 } else { v0 },
+    ]
+}
+
+const SIDE_SAMPLES: usize = 5;
+
+fn side_points(s: &Surface<'_>, side: usize) -> [Vec3; SIDE_SAMPLES] {
+    let mut p = [Vec3::ZERO; SIDE_SAMPLES];
+    for (k, q) in p.iter_mut().enumerate() {
+        let t = side_param(s, side, k as f32 / (SIDE_SAMPLES - 1) as f32);
+        *q = s.point(t[0], t[1]);
+    }
+    p
+}
+
+fn within(a: Vec3, b: Vec3) -> bool {
+    (a - b).length_squared() <= SHELL_JOIN_TOL_M * SHELL_JOIN_TOL_M
+}
+
+impl<'a> Shell<'a> {
+    /// Classifies every side, finds edges and corners, and checks the orientation of a closed
+    /// shell.
+    pub fn new(patches: &'a [Surface<'a>]) -> Result<Self, ShellError> {
+        let n = patches.len();
+        if n == 0 {
+            return Err(ShellError::Empty);
+        }
+        if n > MAX_SHELL_PATCHES {
+            return Err(ShellError::TooManyPatches { count: n });
+        }
+        let mut sides = [[Side::Collapsed; 4]; MAX_SHELL_PATCHES];
+        let blank_edge = Edge {
+            a: (0, 0),
+            b: None,
+            reversed: false,
+        };
+        let mut edges = [blank_edge; MAX_SHELL_EDGES];
+        let mut n_edges = 0;
+        let mut assigned = [[false; 4]; MAX_SHELL_PATCHES];
+        for i in 0..n {
+            for s in 0..4 {
+                if assigned[i][s] {
+                    continue;
+                }
+                let pts = side_points(&patches[i], s);
+                if pts.iter().all(|&p| within(p, pts[0])) {
+                    sides[i][s] = Side::Collapsed;
+                    assigned[i][s] = true;
+                    continue;
+                }
+                let opposite = s ^ 1;
+                let opp = side_points(&patches[i], opposite);
+                if pts.iter().zip(opp.iter()).all(|(&p, &q)| within(p, q)) {
+                    sides[i][s] = Side::Periodic;
+                    sides[i][opposite] = Side::Periodic;
+                    assigned[i][s] = true;
+                    assigned[i][opposite] = true;
+                    continue;
+                }
+                let mut found: Option<(usize, usize, bool)> = None;
+                for j in (i + 1)..n {
+                    for s2 in 0..4 {
+                        let q = side_points(&patches[j], s2);
+                        let fwd = pts.iter().zip(q.iter()).all(|(&p, &q)| within(p, q));
+                        let rev = pts.iter().zip(q.iter().rev()).all(|(&p, &q)| within(p, q));
+                        if fwd || rev {
+                            if found.is_some() || assigned[j][s2] {
+                                return Err(ShellError::NonManifold { patch: i, side: s });
+                            }
+                            found = Some((j, s2, !fwd));
+                        }
+                    }
+                }
+                let e = n_edges as u16;
+                edges[n_edges] = Edge {
+                    a: (i as u16, s as u8),
+                    b: found.map(|(j, s2, _)| (j as u16, s2 as u8)),
+                    reversed: found.is_some_and(|f| f.2),
+                };
+                n_edges += 1;
+                assigned[i][s] = true;
+                match found {
+                    Some((j, s2, _)) => {
+                        sides[i][s] = Side::Shared(e);
+                        sides[j][s2] = Side::Shared(e);
+                        assigned[j][s2] = true;
+                    }
+                    None => sides[i][s] = Side::Open(e),
+                }
+            }
+        }
+        // Corners: merge coincident patch corners.
+        let blank_corner = Corner {
+            position: Vec3::ZERO,
+            incident: [(0, 0); MAX_CORNER_VALENCE],
+            n_incident: 0,
+        };
+        let mut corners = [blank_corner; MAX_SHELL_CORNERS];
+        let mut n_corners = 0;
+        let mut corner_of = [[u16::MAX; 4]; MAX_SHELL_PATCHES];
+        for i in 0..n {
+            for k in 0..4 {
+                let t = corner_param(&patches[i], k);
+                let p = patches[i].point(t[0], t[1]);
+                let idx = match corners[..n_corners]
+                    .iter()
+                    .position(|c| within(c.position, p))
+                {
+                    Some(c) => c,
+                    None => {
+                        corners[n_corners].position = p;
+                        n_corners += 1;
+                        n_corners - 1
+                    }
+                };
+                let c = &mut corners[idx];
+                if c.n_incident as usize >= MAX_CORNER_VALENCE {
+                    return Err(ShellError::CornerValence { patch: i });
+                }
+                c.incident[c.n_incident as usize] = (i as u16, k as u8);
+                c.n_incident += 1;
+                corner_of[i][k] = idx as u16;
+            }
+        }
+        let closed = sides[..n]
+            .iter()
+            .all(|s| s.iter().all(|x| !matches!(x, Side::Open(_))));
+        let shell = Shell {
+            patches,
+            sides,
+            edges,
+            n_edges,
+            corners,
+            n_corners,
+            corner_of,
+            closed,
+        };
+        if closed && shell.enclosed_volume() < 0.0 {
+            return Err(ShellError::InwardNormals);
+        }
+        Ok(shell)
+    }
+
+    /// The patches.
+    pub fn patches(&self) -> &'a [Surface<'a>] {
+        self.patches
+    }
+
+    /// What lies across each side of patch `i` (`[u₀, u₁, v₀, v₁]`).
+    pub fn sides(&self, i: usize) -> [Side; 4] {
+        self.sides[i.min(MAX_SHELL_PATCHES - 1)]
+    }
+
+    /// The edges.
+    pub fn edges(&self) -> &[Edge] {
+        &self.edges[..self.n_edges]
+    }
+
+    /// The corners.
+    pub fn corners(&self) -> &[Corner] {
+        &self.corners[..self.n_corners]
+    }
+
+    /// Whether every side is shared, periodic or collapsed (a closed surface).
+    pub fn is_closed(&self) -> bool {
+        self.closed
+    }
+
+    /// Volume enclosed by the shell, `⅓ ∮ x·n dA` by the midpoint rule on a 24×24 grid per
+    /// patch: positive when the normals point outward.
+    fn enclosed_volume(&self) -> f32 {
+        const G: usize = 24;
+        let mut vol = 0.0;
+        for s in self.patches {
+            let [(u0, u1), (v0, v1)] = Patch::domain(s);
+            let (du, dv) = ((u1 - u0) / G as f32, (v1 - v0) / G as f32);
+            for i in 0..G {
+                for j in 0..G {
+                    let d = s.derivs(u0 + (i as f32 + 0.5) * du, v0 + (j as f32 + 0.5) * dv, 1);
+                    vol += d.point.dot(d.du.cross(d.dv)) * du * dv;
+                }
+            }
+        }
+        vol / 3.0
+    }
+
+    /// The patch and parameters nearest to `x` by sampling every patch on a grid, then
+    /// polished by Newton (used to start tracking from nothing).
+    pub fn coarse_closest(&self, x: Vec3) -> (usize, [f32; 2]) {
+        const G: usize = 16;
+        let mut best = (0, [0.0, 0.0], f32::INFINITY);
+        for (i, s) in self.patches.iter().enumerate() {
+            let [(u0, u1), (v0, v1)] = Patch::domain(s);
+            for a in 0..=G {
+                for b in 0..=G {
+                    let t = [
+                        u0 + (u1 - u0) * a as f32 / G as f32,
+                        v0 + (v1 - v0) * b as f32 / G as f32,
+                    ];
+                    let d = (s.point(t[0], t[1]) - x).length_squared();
+                    if d < best.2 {
+                        best = (i, t, d);
+                    }
+                }
+            }
+        }
+        let t = newton(&self.patches[best.0], x, best.1, &NewtonConfig::default()).t;
+        (best.0, t)
+    }
+}
+
+/// Geometry of patch `s` at a point of its side `side`: point, unit outward normal, unit
+/// inward conormal and unit edge tangent (direction of increasing side parameter).
+fn side_frame(s: &Surface<'_>, side: usize, t: [f32; 2]) -> (Vec3, Vec3, Vec3, Vec3) {
+    let jet = s.jet(t, 1);
+    let n = Patch::normal(s, t, &jet);
+    let (along, across, sign) = match side {
+        0 => (jet.d[1], jet.d[0], 1.0),
+        1 => (jet.d[1], jet.d[0], -1.0),
+        2 => (jet.d[0], jet.d[1], 1.0),
+        _ => (jet.d[0], jet.d[1], -1.0),
+    };
+    let tangent = along
+        .try_normalize()
+        .unwrap_or_else(|| n.any_orthonormal_vector());
+    // Inward conormal: in the tangent plane, orthogonal to the edge.
+    let m = (n.cross(tangent) * sign)
+        .try_normalize()
+        .map(|m| if m.dot(across * sign) < 0.0 { -m } else { m })
+        .unwrap_or(across * sign);
+    (jet.point, n, m, tangent)
+}
+
+/// The per-tick state of tracking one shell: active feature and one surface tracker.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ShellTracker {
+    feature: Feature,
+    tracker: Tracker<Vec3, 2>,
+    patch: usize,
+}
+
+const MAX_SWITCHES: usize = 4;
+/// Sides are tested when the closest point is within this fraction of the domain from them.
+const NEAR_SIDE: f32 = 0.25;
+
+enum Decision {
+    Stay,
+    Patch(usize, [f32; 2]),
+    Edge(u16),
+    Corner(u16),
+}
+
+impl ShellTracker {
+    /// Starts on the patch nearest to `hip`.
+    pub fn new(shell: &Shell<'_>, hip: Vec3, cfg: TrackerConfig) -> Self {
+        let (i, t) = shell.coarse_closest(hip);
+        ShellTracker {
+            feature: Feature::Patch(i as u16),
+            tracker: Tracker::new(&shell.patches[i], t, cfg),
+            patch: i,
+        }
+    }
+
+    /// Active feature.
+    pub fn feature(&self) -> Feature {
+        self.feature
+    }
+
+    /// The patch the tracker is on and its parameters.
+    pub fn position(&self) -> (usize, [f32; 2]) {
+        (self.patch, self.tracker.t())
+    }
+
+    /// Puts the tracker on patch `i` at `t`.
+    pub fn reset(&mut self, shell: &Shell<'_>, i: usize, t: [f32; 2]) {
+        let i = i.min(shell.patches.len() - 1);
+        self.patch = i;
+        self.feature = Feature::Patch(i as u16);
+        self.tracker = Tracker::new(&shell.patches[i], t, *self.tracker.config());
+    }
+
+    /// One tick, as [`crate::ChainTracker::update`] for 2-D objects.
+    pub fn update(
+        &mut self,
+        shell: &Shell<'_>,
+        hip: Vec3,
+        period_s: f32,
+        allow_switch: bool,
+    ) -> Contact<Vec3> {
+        let mut last = None;
+        for _ in 0..MAX_SWITCHES {
+            let s = &shell.patches[self.patch];
+            let tr = self.tracker.update(s, hip, period_s);
+            last = Some(tr);
+            if !allow_switch {
+                break;
+            }
+            let decision = match self.feature {
+                Feature::Corner(c) => self.corner_decision(shell, c as usize, hip),
+                _ => self.side_decision(shell, &tr, hip),
+            };
+            match decision {
+                Decision::Stay => break,
+                Decision::Patch(j, t) => {
+                    self.patch = j;
+                    self.feature = Feature::Patch(j as u16);
+                    self.tracker.reset(&shell.patches[j], t);
+                }
+                Decision::Edge(e) => {
+                    if self.feature == Feature::Edge(e) {
+                        break;
+                    }
+                    self.feature = Feature::Edge(e);
+                }
+                Decision::Corner(c) => {
+                    if self.feature == Feature::Corner(c) {
+                        break;
+                    }
+                    self.feature = Feature::Corner(c);
+                    // Park the tracker on an incident patch corner.
+                    let (p, k) = shell.corners[c as usize].incident()[0];
+                    self.patch = p as usize;
+                    let t = corner_param(&shell.patches[self.patch], k as usize);
+                    self.tracker.reset(&shell.patches[self.patch], t);
+                }
+            }
+        }
+        let tr = match last {
+            Some(tr) => tr,
+            None => self
+                .tracker
+                .update(&shell.patches[self.patch], hip, period_s),
+        };
+        self.contact(shell, &tr, hip)
+    }
+
+    /// The side of the current patch nearest to the closest point, if near enough to matter.
+    fn nearest_side(&self, shell: &Shell<'_>, t: [f32; 2]) -> Option<usize> {
+        let [(u0, u1), (v0, v1)] = Patch::domain(&shell.patches[self.patch]);
+        let d = [
+            (t[0] - u0) / (u1 - u0),
+            (u1 - t[0]) / (u1 - u0),
+            (t[1] - v0) / (v1 - v0),
+            (v1 - t[1]) / (v1 - v0),
+        ];
+        let mut best = 0;
+        for k in 1..4 {
+            if d[k] < d[best] {
+                best = k;
+            }
+        }
+        (d[best] <= NEAR_SIDE).then_some(best)
+    }
+
+    fn side_decision(&self, shell: &Shell<'_>, tr: &Track<Vec3, 2>, hip: Vec3) -> Decision {
+        let a = self.patch;
+        let sa_patch = &shell.patches[a];
+        // At a patch corner (both parameters clamped), hand over to the corner test.
+        if tr.at_boundary[0] != 0 && tr.at_boundary[1] != 0 {
+            let k = usize::from(tr.at_boundary[0] > 0) | (usize::from(tr.at_boundary[1] > 0) << 1);
+            let c = shell.corner_of[a][k];
+            if c != u16::MAX {
+                return match self.corner_decision(shell, c as usize, hip) {
+                    Decision::Patch(j, _) if j == a => Decision::Stay,
+                    d => d,
+                };
+            }
+        }
+        let Some(side) = self.nearest_side(shell, tr.t) else {
+            return if matches!(self.feature, Feature::Edge(_)) {
+                Decision::Patch(a, tr.t)
+            } else {
+                Decision::Stay
+            };
+        };
+        let w = side_position(sa_patch, side, tr.t);
+        let ta = side_param(sa_patch, side, w);
+        let (e_pt, n_a, m_a, _) = side_frame(sa_patch, side, ta);
+        let r = hip - e_pt;
+        let on_a = r.dot(m_a) >= 0.0;
+        let stay = || {
+            if matches!(self.feature, Feature::Edge(_)) {
+                Decision::Patch(a, tr.t)
+            } else {
+                Decision::Stay
+            }
+        };
+        match shell.sides[a][side] {
+            Side::Collapsed | Side::Periodic => stay(),
+            Side::Open(e) => {
+                if on_a {
+                    stay()
+                } else {
+                    Decision::Edge(e)
+                }
+            }
+            Side::Shared(e) => {
+                let edge = shell.edges[e as usize];
+                let (b, sb) = if edge.a.0 as usize == a && edge.a.1 as usize == side {
+                    match edge.b {
+                        Some(x) => x,
+                        None => return stay(),
+                    }
+                } else {
+                    edge.a
+                };
+                let sb_patch = &shell.patches[b as usize];
+                let wb = if edge.reversed { 1.0 - w } else { w };
+                let tb = side_param(sb_patch, sb as usize, wb);
+                let (_, n_b, m_b, _) = side_frame(sb_patch, sb as usize, tb);
+                let on_b = r.dot(m_b) >= 0.0;
+                let bend = n_a.dot(m_b);
+                let smooth = bend.abs() <= 1e-4 && n_a.dot(n_b) > 0.0;
+                match (on_a, on_b) {
+                    (true, false) => stay(),
+                    (false, true) => Decision::Patch(b as usize, tb),
+                    (false, false) => {
+                        if smooth {
+                            Decision::Patch(b as usize, tb)
+                        } else {
+                            Decision::Edge(e)
+                        }
+                    }
+                    (true, true) => {
+                        let toward_a = r.dot(n_a - n_b);
+                        let a_closer = if smooth {
+                            true
+                        } else if bend < 0.0 {
+                            toward_a > 0.0
+                        } else {
+                            toward_a < 0.0
+                        };
+                        if a_closer {
+                            stay()
+                        } else {
+                            Decision::Patch(b as usize, tb)
+                        }
+                    }
+                }
+            }
+        }
+    }
+
+    fn corner_decision(&self, shell: &Shell<'_>, c: usize, hip: Vec3) -> Decision {
+        let corner = &shell.corners[c];
+        let r = hip - corner.position;
+        // A patch whose corner quadrant the HIP projects into.
+        for &(p, k) in corner.incident() {
+            let s = &shell.patches[p as usize];
+            let t = corner_param(s, k as usize);
+            let jet = s.jet(t, 1);
+            let du = if k & 1 == 1 { -jet.d[0] } else { jet.d[0] };
+            let dv = if k & 2 == 2 { -jet.d[1] } else { jet.d[1] };
+            if r.dot(du) >= 0.0 && r.dot(dv) >= 0.0 {
+                // Step slightly into the patch so the tracker starts off the corner.
+                return Decision::Patch(p as usize, t);
+            }
+        }
+        // An edge the HIP projects onto.
+        for &(p, k) in corner.incident() {
+            let s = &shell.patches[p as usize];
+            let t = corner_param(s, k as usize);
+            let jet = s.jet(t, 1);
+            for (side, d) in [
+                (
+                    if k & 1 == 1 { 1 } else { 0 },
+                    if k & 2 == 2 { -jet.d[1] } else { jet.d[1] },
+                ),
+                (
+                    if k & 2 == 2 { 3 } else { 2 },
+                    if k & 1 == 1 { -jet.d[0] } else { jet.d[0] },
+                ),
+            ] {
+                if r.dot(d) > 0.0 {
+                    match shell.sides[p as usize][side] {
+                        Side::Shared(e) | Side::Open(e) => return Decision::Edge(e),
+                        _ => {}
+                    }
+                }
+            }
+        }
+        Decision::Corner(c as u16)
+    }
+
+    fn contact(&self, shell: &Shell<'_>, tr: &Track<Vec3, 2>, hip: Vec3) -> Contact<Vec3> {
+        let patch_contact = || Contact {
+            feature: self.feature,
+            patch: self.patch as u16,
+            params: tr.t,
+            point: tr.point,
+            normal: tr.normal,
+            depth: -tr.signed_distance,
+            psi: tr.psi,
+            inside: tr.signed_distance < 0.0,
+        };
+        match self.feature {
+            Feature::Patch(_) => patch_contact(),
+            Feature::Edge(_) | Feature::Corner(_) => {
+                let point = match self.feature {
+                    Feature::Corner(c) => shell.corners[c as usize].position,
+                    _ => tr.point,
+                };
+                let r = hip - point;
+                // Inside a reflex edge the HIP is behind the patch normal.
+                let inside = r.dot(tr.normal) < 0.0;
+                let dist = r.length();
+                let dir = r.try_normalize().unwrap_or(tr.normal);
+                let (normal, depth) = if inside { (-dir, dist) } else { (dir, -dist) };
+                let _ = shell;
+                Contact {
+                    feature: self.feature,
+                    patch: self.patch as u16,
+                    params: tr.t,
+                    point,
+                    normal,
+                    depth,
+                    psi: tr.psi,
+                    inside,
+                }
+            }
+            Feature::Vertex(_) => patch_contact(),
+        }
+    }
+}
