@@ -51,7 +51,9 @@ impl<P: Point> Aabb<P> {
     /// Whether `p` is inside or on the box.
     #[inline]
     pub fn contains(&self, p: P) -> bool {
-        self.min.min(p) == self.min && self.max.max(p) == self.max
+        // Written with `<=` so that NaN coordinates are outside.
+        let (lo, hi) = (p - self.min, self.max - p);
+        lo.min(hi).min(P::ZERO) == P::ZERO && (lo.dot(lo) + hi.dot(hi)).is_finite()
     }
 
     /// Centre of the box.

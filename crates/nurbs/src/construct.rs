@@ -38,7 +38,9 @@ pub fn bezier_curve<P: Point>(points: &[P]) -> Result<CurveBuf<P>, NurbsError> {
 /// control points, in the arc's own `(x, y)` frame with unit radius.
 fn unit_arc(start_rad: f64, sweep_rad: f64) -> (Vec<f32>, Vec<(f64, f64, f64)>) {
     let sweep = sweep_rad.clamp(0.0, TAU);
-    let narcs = ((sweep / FRAC_PI_2 - 1e-9).ceil() as usize).clamp(1, 4);
+    // The tolerance absorbs f32 rounding of the sweep (a quarter circle given as
+    // `FRAC_PI_2 as f32` is one arc, not two).
+    let narcs = ((sweep / FRAC_PI_2 - 1e-6).ceil() as usize).clamp(1, 4);
     let dtheta = sweep / narcs as f64;
     let w1 = libm::cos(dtheta / 2.0);
     let mut pts = Vec::with_capacity(2 * narcs + 1);

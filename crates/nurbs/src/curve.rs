@@ -218,5 +218,5 @@ impl<'a, P: Point> Curve<'a, P> {
 fn unit_first_axis<P: Point>() -> P {
     let mut c = [0.0f32; 4];
     c[0] = 1.0;
-    P::from_slice(&c[..P::DIM]).unwrap_or(P::ZERO)
+    P::from_coords(&c[..P::DIM]).unwrap_or(P::ZERO)
 }

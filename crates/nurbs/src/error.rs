@@ -20,6 +20,10 @@ pub enum Field {
     KnotsV,
     /// Control points.
     Points,
+    /// Control net rows (the count along u).
+    PointsU,
+    /// Control net columns (the count along v).
+    PointsV,
     /// Weights.
     Weights,
 }
@@ -35,6 +39,8 @@ impl Field {
             Field::KnotsU => "knots[0] (u)",
             Field::KnotsV => "knots[1] (v)",
             Field::Points => "points",
+            Field::PointsU => "points (rows, along u)",
+            Field::PointsV => "points[i] (along v)",
             Field::Weights => "weights",
         }
     }
@@ -60,6 +66,7 @@ impl fmt::Display for At {
 
 /// Why a curve or surface definition was rejected.
 #[derive(Clone, Copy, Debug, PartialEq)]
+#[non_exhaustive]
 pub enum NurbsError {
     /// Degree is 0 or above [`crate::MAX_DEGREE`].
     Degree {
@@ -101,6 +108,14 @@ pub enum NurbsError {
     EmptyDomain {
         /// Which knot vector.
         field: Field,
+    },
+    /// Two distinct knots are closer than [`crate::MIN_SPAN_REL`] of the domain: the basis
+    /// functions' derivatives would overflow `f32` there.
+    SpanTooShort {
+        /// Which knot vector.
+        field: Field,
+        /// Index of the second knot of the span.
+        index: usize,
     },
     /// An interior knot repeats more than `degree` times, which would tear the curve apart.
     KnotMultiplicity {
@@ -197,6 +212,12 @@ impl fmt::Display for NurbsError {
                 f,
                 "{}: first and last knot are equal, the parameter domain is empty",
                 field.name()
+            ),
+            SpanTooShort { field, index } => write!(
+                f,
+                "{}[{index}]: knot differs from the one before by less than {} of the domain (merge the two knots or space them out)",
+                field.name(),
+                crate::MIN_SPAN_REL
             ),
             KnotMultiplicity {
                 field,

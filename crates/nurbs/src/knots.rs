@@ -61,12 +61,18 @@ impl<'a> Knots<'a> {
         }
         if n_points < degree + 1 {
             return Err(NurbsError::TooFewPoints {
-                field: Field::Points,
+                field: match dir {
+                    Dir::Curve => Field::Points,
+                    Dir::U => Field::PointsU,
+                    Dir::V => Field::PointsV,
+                },
                 found: n_points,
                 needed: degree + 1,
             });
         }
-        let expected = n_points + degree + 1;
+        // Saturating: a control point count near usize::MAX (garbage from a file or a wire)
+        // must be a KnotCount error, not an overflow panic.
+        let expected = n_points.saturating_add(degree + 1);
         if knots.len() != expected {
             return Err(NurbsError::KnotCount {
                 field,
@@ -90,6 +96,16 @@ impl<'a> Knots<'a> {
         }
         if knots[p] >= knots[last - p] {
             return Err(NurbsError::EmptyDomain { field });
+        }
+        let min_span = crate::MIN_SPAN_REL * (knots[last - p] - knots[p]);
+        if let Some(index) = knots
+            .windows(2)
+            .position(|w| w[1] > w[0] && w[1] - w[0] < min_span)
+        {
+            return Err(NurbsError::SpanTooShort {
+                field,
+                index: index + 1,
+            });
         }
         // Multiplicity of every distinct value: ends exactly p + 1, interior at most p.
         let mut start = 0;

@@ -32,5 +32,9 @@ pub use surface::{Surface, SurfaceDerivs};
 pub const MAX_DEGREE: usize = 7;
 /// Highest supported order (`degree + 1`): the size of the fixed basis-function buffers.
 pub const MAX_ORDER: usize = MAX_DEGREE + 1;
+/// Smallest non-empty knot span, relative to the domain length. Shorter spans make the
+/// basis derivatives overflow `f32` (they scale with 1 / span^order), so validation rejects
+/// them.
+pub const MIN_SPAN_REL: f32 = 1e-5;
 /// Highest derivative order evaluated.
 pub const MAX_DERIV: usize = 2;

@@ -51,7 +51,7 @@ pub trait Point:
     /// Coordinates as a slice.
     fn as_slice(&self) -> &[f32];
     /// Builds a point from exactly `DIM` coordinates; `None` for any other length.
-    fn from_slice(c: &[f32]) -> Option<Self>;
+    fn from_coords(c: &[f32]) -> Option<Self>;
     /// Squared norm of the "cross product" of `a` and `b`: `|a × b|²` in 3-D, the squared
     /// perp-dot product in 2-D. Computed as `|a|²|b|² − (a·b)²` is numerically worse, so each
     /// dimension uses its exact form.
@@ -121,7 +121,7 @@ impl Point for Vec2 {
         self.as_ref()
     }
     #[inline]
-    fn from_slice(c: &[f32]) -> Option<Self> {
+    fn from_coords(c: &[f32]) -> Option<Self> {
         match c {
             [x, y] => Some(Vec2::new(*x, *y)),
             _ => None,
@@ -176,7 +176,7 @@ impl Point for Vec3 {
         self.as_ref()
     }
     #[inline]
-    fn from_slice(c: &[f32]) -> Option<Self> {
+    fn from_coords(c: &[f32]) -> Option<Self> {
         match c {
             [x, y, z] => Some(Vec3::new(*x, *y, *z)),
             _ => None,

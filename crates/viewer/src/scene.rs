@@ -452,7 +452,7 @@ fn curve_buf<P: Point>(
         .iter()
         .enumerate()
         .map(|(i, c)| {
-            P::from_slice(c).ok_or(NurbsError::Dimension {
+            P::from_coords(c).ok_or(NurbsError::Dimension {
                 at: At::I(i),
                 expected: P::DIM,
                 found: c.len(),
@@ -483,7 +483,7 @@ fn surface_from_raw(raw: &RawPatch, degree: (usize, usize)) -> Result<Patch, Pat
                 .enumerate()
                 .map(|(j, p)| {
                     let c = numbers(p, &format!("points[{i}][{j}]"))?;
-                    <Vec3 as Point>::from_slice(&c).ok_or_else(|| {
+                    <Vec3 as Point>::from_coords(&c).ok_or_else(|| {
                         NurbsError::Dimension {
                             at: At::Ij(i, j),
                             expected: 3,
