@@ -10,6 +10,7 @@ mod contact;
 mod global;
 mod linalg;
 mod newton;
+mod object;
 mod patch;
 #[cfg(feature = "alloc")]
 mod polygon;
@@ -24,6 +25,7 @@ pub use global::{
     BezierPiece, BezierSplit, Closest, CurvePiece, GlobalConfig, SurfacePiece, closest_point,
 };
 pub use newton::{NewtonConfig, NewtonResult, newton};
+pub use object::{Frame, Object};
 pub use patch::{Jet, Patch};
 #[cfg(feature = "alloc")]
 pub use polygon::{

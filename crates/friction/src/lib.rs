@@ -1,0 +1,10 @@
+#![doc = include_str!("../README.md")]
+#![cfg_attr(not(feature = "std"), no_std)]
+#![warn(missing_docs)]
+
+mod material;
+pub mod models;
+mod render;
+
+pub use material::{FrictionMaterial, ModelKind, Stribeck};
+pub use render::{FrictionOutput, FrictionRenderer, Mode, cp_config};

@@ -1,0 +1,174 @@
+//! One interface over 2-D chains and 3-D shells, so the layers above (friction, the device's
+//! controller) are written once for both.
+
+use crate::chain::{Chain, ChainTracker};
+use crate::contact::{Contact, Feature};
+use crate::patch::Patch;
+use crate::shell::{Shell, ShellTracker};
+use crate::track::TrackerConfig;
+use nurbs::{Point, Vec2, Vec3};
+
+/// A multi-patch object whose closest point can be tracked.
+pub trait Object {
+    /// The space it lives in.
+    type P: Point;
+    /// Per-tick tracking state (feature and tracker); `Copy`, holds no borrow.
+    type State: Copy + core::fmt::Debug;
+
+    /// Starts tracking from nothing at `hip` (nearest feature by search).
+    fn start(&self, hip: Self::P, cfg: TrackerConfig) -> Self::State;
+
+    /// One tick of tracking (see [`ChainTracker::update`]).
+    fn track(
+        &self,
+        state: &mut Self::State,
+        hip: Self::P,
+        period_s: f32,
+        allow_switch: bool,
+    ) -> Contact<Self::P>;
+
+    /// The active feature of a state.
+    fn feature(state: &Self::State) -> Feature;
+
+    /// Where a state's tracker is: patch and parameters (`[u, 0]` on curves).
+    fn position(state: &Self::State) -> (usize, [f32; 2]);
+
+    /// Puts a state's tracker on `patch` at `params`.
+    fn place(&self, state: &mut Self::State, patch: usize, params: [f32; 2]);
+
+    /// Point, unit outward normal and unit tangent (along the first parameter) of `patch` at
+    /// `params`.
+    fn frame(&self, patch: usize, params: [f32; 2]) -> Frame<Self::P>;
+
+    /// Parameters of the point reached by moving `displacement` (tangential, small) from
+    /// `params` on `patch`: one Gauss–Newton step, clamped into the domain.
+    fn offset(&self, patch: usize, params: [f32; 2], displacement: Self::P) -> [f32; 2];
+
+    /// Number of patches.
+    fn patch_count(&self) -> usize;
+}
+
+impl Object for Chain<'_> {
+    type P = Vec2;
+    type State = ChainTracker;
+
+    fn start(&self, hip: Vec2, cfg: TrackerConfig) -> ChainTracker {
+        ChainTracker::new(self, hip, cfg)
+    }
+
+    fn track(
+        &self,
+        state: &mut ChainTracker,
+        hip: Vec2,
+        period_s: f32,
+        allow_switch: bool,
+    ) -> Contact<Vec2> {
+        state.update(self, hip, period_s, allow_switch)
+    }
+
+    fn feature(state: &ChainTracker) -> Feature {
+        state.feature()
+    }
+
+    fn position(state: &ChainTracker) -> (usize, [f32; 2]) {
+        let (i, u) = state.position();
+        (i, [u, 0.0])
+    }
+
+    fn place(&self, state: &mut ChainTracker, patch: usize, params: [f32; 2]) {
+        state.reset(self, patch, params[0]);
+    }
+
+    fn frame(&self, patch: usize, params: [f32; 2]) -> Frame<Vec2> {
+        let c = &self.curves()[patch.min(self.curves().len() - 1)];
+        frame_of(c, [params[0]])
+    }
+
+    fn offset(&self, patch: usize, params: [f32; 2], displacement: Vec2) -> [f32; 2] {
+        let c = &self.curves()[patch.min(self.curves().len() - 1)];
+        let t = offset_on(c, [params[0]], displacement);
+        [t[0], 0.0]
+    }
+
+    fn patch_count(&self) -> usize {
+        self.curves().len()
+    }
+}
+
+impl Object for Shell<'_> {
+    type P = Vec3;
+    type State = ShellTracker;
+
+    fn start(&self, hip: Vec3, cfg: TrackerConfig) -> ShellTracker {
+        ShellTracker::new(self, hip, cfg)
+    }
+
+    fn track(
+        &self,
+        state: &mut ShellTracker,
+        hip: Vec3,
+        period_s: f32,
+        allow_switch: bool,
+    ) -> Contact<Vec3> {
+        state.update(self, hip, period_s, allow_switch)
+    }
+
+    fn feature(state: &ShellTracker) -> Feature {
+        state.feature()
+    }
+
+    fn position(state: &ShellTracker) -> (usize, [f32; 2]) {
+        state.position()
+    }
+
+    fn place(&self, state: &mut ShellTracker, patch: usize, params: [f32; 2]) {
+        state.reset(self, patch, params);
+    }
+
+    fn frame(&self, patch: usize, params: [f32; 2]) -> Frame<Vec3> {
+        let s = &self.patches()[patch.min(self.patches().len() - 1)];
+        frame_of(s, params)
+    }
+
+    fn offset(&self, patch: usize, params: [f32; 2], displacement: Vec3) -> [f32; 2] {
+        let s = &self.patches()[patch.min(self.patches().len() - 1)];
+        offset_on(s, params, displacement)
+    }
+
+    fn patch_count(&self) -> usize {
+        self.patches().len()
+    }
+}
+
+/// Point, unit outward normal and unit tangent of a patch at a parameter.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Frame<P> {
+    /// The point.
+    pub point: P,
+    /// Unit outward normal.
+    pub normal: P,
+    /// Unit tangent along the first parameter (orthogonal to the normal).
+    pub tangent: P,
+}
+
+fn frame_of<S: Patch<N>, const N: usize>(s: &S, t: [f32; N]) -> Frame<S::P> {
+    let jet = s.jet(t, 1);
+    let normal = s.normal(t, &jet);
+    let along = jet.d[0] - normal * jet.d[0].dot(normal);
+    Frame {
+        point: jet.point,
+        normal,
+        tangent: along.try_normalize().unwrap_or(normal),
+    }
+}
+
+fn offset_on<S: Patch<N>, const N: usize>(s: &S, t: [f32; N], displacement: S::P) -> [f32; N] {
+    let jet = s.jet(t, 1);
+    let step = crate::track::gauss_newton_step(&jet.metric(), &jet.psi(-displacement));
+    let domain = s.domain();
+    let mut out = t;
+    for i in 0..N {
+        out[i] = crate::track::clamp(t[i] + step[i], domain[i]);
+    }
+    out
+}
