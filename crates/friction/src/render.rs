@@ -141,7 +141,8 @@ impl<O: Object> FrictionRenderer<O> {
     /// `period_s`.
     pub fn new(object: &O, material: FrictionMaterial, hip: O::P, period_s: f32) -> Self {
         let cp = object.start(hip, cp_config());
-        let go = object.start(hip, go_config(&material, period_s));
+        let mut go = object.start(hip, go_config(&material, period_s));
+        O::set_sliding(&mut go, true);
         let law = match material.model {
             ModelKind::StickSlip => LawState::StickSlip,
             ModelKind::CoulombViscous => LawState::Coulomb(CoulombViscous {

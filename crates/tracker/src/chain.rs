@@ -332,6 +332,7 @@ pub struct ChainTracker {
     feature: Feature,
     tracker: Tracker<Vec2, 1>,
     curve: usize,
+    sliding: bool,
 }
 
 /// Most feature switches in one tick (enough to cross a vertex into the next curve).
@@ -346,12 +347,20 @@ impl ChainTracker {
             feature: Feature::Patch(i as u16),
             tracker: Tracker::new(&chain.curves[i], [u], cfg),
             curve: i,
+            sliding: false,
         }
     }
 
     /// Active feature.
     pub fn feature(&self) -> Feature {
         self.feature
+    }
+
+    /// In sliding mode the tracked point moves over the object like a point on its surface:
+    /// it changes curve only when it reaches a vertex (its parameter clamps at the end), never
+    /// by jumping across a region boundary. That is how a god-object moves.
+    pub fn set_sliding(&mut self, sliding: bool) {
+        self.sliding = sliding;
     }
 
     /// The curve the tracker is on and its parameter.
@@ -397,7 +406,7 @@ impl ChainTracker {
                 _ => {
                     let c = &curves[self.curve];
                     let tr = self.tracker.update(c, hip, period_s);
-                    if allow_switch {
+                    if allow_switch && (!self.sliding || tr.at_boundary[0] != 0) {
                         // The vertex at the end the closest point is nearer to (the region
                         // tests are local to a vertex: a far vertex's normal line can cross
                         // the whole object): its normal lines and, inside a corner, its

@@ -30,6 +30,10 @@ pub trait Object {
     /// The active feature of a state.
     fn feature(state: &Self::State) -> Feature;
 
+    /// Makes a state's tracker slide over the object (switch only at patch boundaries), as a
+    /// god-object does; see [`ChainTracker::set_sliding`].
+    fn set_sliding(state: &mut Self::State, sliding: bool);
+
     /// Where a state's tracker is: patch and parameters (`[u, 0]` on curves).
     fn position(state: &Self::State) -> (usize, [f32; 2]);
 
@@ -68,6 +72,10 @@ impl Object for Chain<'_> {
 
     fn feature(state: &ChainTracker) -> Feature {
         state.feature()
+    }
+
+    fn set_sliding(state: &mut ChainTracker, sliding: bool) {
+        state.set_sliding(sliding);
     }
 
     fn position(state: &ChainTracker) -> (usize, [f32; 2]) {
@@ -115,6 +123,10 @@ impl Object for Shell<'_> {
 
     fn feature(state: &ShellTracker) -> Feature {
         state.feature()
+    }
+
+    fn set_sliding(state: &mut ShellTracker, sliding: bool) {
+        state.set_sliding(sliding);
     }
 
     fn position(state: &ShellTracker) -> (usize, [f32; 2]) {

@@ -429,6 +429,7 @@ pub struct ShellTracker {
     feature: Feature,
     tracker: Tracker<Vec3, 2>,
     patch: usize,
+    sliding: bool,
 }
 
 const MAX_SWITCHES: usize = 4;
@@ -450,6 +451,7 @@ impl ShellTracker {
             feature: Feature::Patch(i as u16),
             tracker: Tracker::new(&shell.patches[i], t, cfg),
             patch: i,
+            sliding: false,
         }
     }
 
@@ -461,6 +463,12 @@ impl ShellTracker {
     /// The patch the tracker is on and its parameters.
     pub fn position(&self) -> (usize, [f32; 2]) {
         (self.patch, self.tracker.t())
+    }
+
+    /// Sliding mode, as [`crate::ChainTracker::set_sliding`]: switch features only when the
+    /// tracked point reaches a patch boundary.
+    pub fn set_sliding(&mut self, sliding: bool) {
+        self.sliding = sliding;
     }
 
     /// Puts the tracker on patch `i` at `t`.
@@ -484,7 +492,12 @@ impl ShellTracker {
             let s = &shell.patches[self.patch];
             let tr = self.tracker.update(s, hip, period_s);
             last = Some(tr);
-            if !allow_switch {
+            let at_boundary = tr.at_boundary.iter().any(|&b| b != 0);
+            if !allow_switch
+                || (self.sliding
+                    && !at_boundary
+                    && self.feature == Feature::Patch(self.patch as u16))
+            {
                 break;
             }
             let decision = match self.feature {
