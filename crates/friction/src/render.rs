@@ -322,8 +322,9 @@ impl<O: Object> FrictionRenderer<O> {
                     .unwrap_or_else(|| -cp_velocity.try_normalize().unwrap_or(O::P::ZERO));
                 friction = dir * (mu * f_n);
                 psi = psi_go;
+                // Caught up: within the distance tolerance, or μ within 1 % of its way to μ_d.
                 let gap2 = (g.point - contact.point).length_squared();
-                if gap2 <= m.converge_tol_m * m.converge_tol_m {
+                if gap2 <= m.converge_tol_m * m.converge_tol_m || psi_go <= 0.01 * self.psi0 {
                     self.mode = Mode::Slip;
                 }
                 (go_patch, go_params, go_point, normal, tangent, normal_force) =

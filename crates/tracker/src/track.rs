@@ -16,7 +16,7 @@
 //! and stable for `0 < α (1 + κ d) < 2`.
 
 use crate::linalg::{
-    mat_vec, max_eigenvalue_product, norm2, regularized_inverse, scale, scaled_identity,
+    mat_vec, max_eigenvalue_product, norm2, regularized_inverse, scale, scaled_identity, solve_spd,
 };
 use crate::patch::{Jet, Patch};
 use nurbs::Point;
@@ -46,8 +46,9 @@ pub struct TrackerConfig {
     /// the normalised law takes this many Gauss–Newton steps.
     pub iterations: u8,
     /// Feed-forward inside the ε-ball: when `|Ψ| < convergence_radius`, add
-    /// `G⁻¹ Jᵀ Δx_HIP`, the first-order motion of the closest point caused by the HIP's
-    /// displacement over the tick (implicit function theorem on `Ψ = 0` with `H ≈ G`). This
+    /// `H⁻¹ Jᵀ Δx_HIP`, the first-order motion of the closest point caused by the HIP's
+    /// displacement over the tick (implicit function theorem on `Ψ(t, x) = 0`; `G⁻¹` where
+    /// `H` is not positive definite). This
     /// is the thesis's compensation that makes the tracking asymptotically, not only
     /// practically, stable against a moving HIP.
     pub feedforward: bool,
@@ -227,7 +228,10 @@ impl<P: Point, const N: usize> Tracker<P, N> {
                 && self.cfg.feedforward
                 && norm2(&psi) < self.cfg.convergence_radius * self.cfg.convergence_radius
             {
-                let ff = gauss_newton_step(&g, &self.jet.psi(-hip_step));
+                // Implicit function theorem on Ψ(t, x) = 0: H dt = Jᵀ dx.
+                let rhs = self.jet.psi(hip_step);
+                let ff = solve_spd(self.jet.hessian(gamma), rhs, 1e-6)
+                    .unwrap_or_else(|| mat_vec(&regularized_inverse(&g), &rhs));
                 for i in 0..N {
                     delta[i] += ff[i];
                 }

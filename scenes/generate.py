@@ -1,0 +1,181 @@
+#!/usr/bin/env python3
+"""Writes the thesis scenarios' scenes and HIP trajectories (standard library only).
+
+    python3 scenes/generate.py
+
+thesis-2d: two NURBS curves (rational quadratic 60-degree arcs, radius 40 mm) meeting at a
+sharp convex vertex, like Fig. 3.2.1(a), in the pantograph's workspace; the trajectory
+reproduces events 1-13 of thesis section 3.2.1.
+thesis-3d: a bicubic NURBS bump; the trajectory keeps u constant and moves along v with the
+stick / slip / stick / slip sequence of section 3.2.2 (Fig. 3.2.6-3.2.7).
+"""
+import json
+import math
+import os
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+RATE = 1000.0  # trajectory samples per second (the sim interpolates anyway)
+
+MATERIAL = {
+    "stiffness_n_per_m": 1000.0,
+    "damping_ns_per_m": 0.0,
+    "mu_static": 0.7,
+    "mu_dynamic": 0.5,
+}
+
+# --- thesis-2d -------------------------------------------------------------------------
+R = 0.04
+C0 = (-0.02, 0.06)  # centre of the circle carrying patch 0 (the right-hand curve)
+C1 = (0.02, 0.06)  # centre of the circle carrying patch 1 (the left-hand curve)
+
+
+def arc(c, a0_deg, a1_deg):
+    """Rational quadratic arc, counter-clockwise (outward normals), sweep < 90 degrees."""
+    a0, a1 = math.radians(a0_deg), math.radians(a1_deg)
+    half = (a1 - a0) / 2
+    w = math.cos(half)
+    mid = a0 + half
+    p0 = (c[0] + R * math.cos(a0), c[1] + R * math.sin(a0))
+    p1 = (c[0] + R / w * math.cos(mid), c[1] + R / w * math.sin(mid))
+    p2 = (c[0] + R * math.cos(a1), c[1] + R * math.sin(a1))
+    return {
+        "degree": 2,
+        "knots": [0, 0, 0, 1, 1, 1],
+        "points": [list(p0), list(p1), list(p2)],
+        "weights": [1, w, 1],
+    }
+
+
+def polar(c, r, deg):
+    a = math.radians(deg)
+    return (c[0] + r * math.cos(a), c[1] + r * math.sin(a))
+
+
+def thesis_2d():
+    scene = {
+        "format": "scene/1",
+        "objects": [
+            {
+                "name": "two curves meeting at a vertex (thesis Fig. 3.2.1)",
+                "material": MATERIAL,
+                "patches": [arc(C0, 0.0, 60.0), arc(C1, 120.0, 180.0)],
+            }
+        ],
+    }
+    # Waypoint segments: (duration_s, function of s in [0, 1] -> point).
+    def radial(deg, r0, r1):
+        return lambda s: polar(C0, r0 + (r1 - r0) * s, deg)
+
+    def along(r, d0, d1):
+        return lambda s: polar(C0, r, d0 + (d1 - d0) * s)
+
+    x_g, y_g = polar(C0, R - 0.003, 56.0)
+    segs = [
+        (0.2, radial(20.0, R + 0.005, R - 0.002)),  # -> 1: press in along the normal, 2 mm
+        (0.5, along(R - 0.002, 20.0, 35.0)),  # 1 -> 2 -> 3: stuck, breakaway, transition, slip
+        (0.2, radial(35.0, R - 0.002, R - 0.004)),  # 3 -> 4 -> 5: press deeper: stuck again
+        (0.5, along(R - 0.004, 35.0, 48.0)),  # 5 -> 6 -> 7 -> 8: stuck, breakaway, slip
+        (0.2, radial(48.0, R - 0.004, R + 0.005)),  # 8 -> 9: leave the object
+        (0.2, along(R + 0.005, 48.0, 56.0)),  # 9 -> 10: outside, towards the corner
+        (0.2, radial(56.0, R + 0.005, R - 0.003)),  # 10 -> 11: press in near the corner
+        (0.3, lambda s: (x_g - 0.0057 * s, y_g)),  # 11 -> 12 -> 13: horizontally onto curve 2
+        (0.2, lambda s: (x_g - 0.0057, y_g)),  # hold
+    ]
+    return scene, segs
+
+
+# --- thesis-3d -------------------------------------------------------------------------
+# A bicubic Bezier bump over x in [-0.04, 0.04], y in [0.06, 0.12], z up (outward).
+XS = [-0.04, -0.0133333, 0.0133333, 0.04]
+YS = [0.06, 0.08, 0.10, 0.12]
+ZS = [[0.0, 0.0, 0.0, 0.0], [0.0, 0.012, 0.012, 0.0], [0.0, 0.012, 0.012, 0.0], [0.0, 0.0, 0.0, 0.0]]
+
+
+def bern(i, t):
+    return math.comb(3, i) * t**i * (1 - t) ** (3 - i)
+
+
+def dbern(i, t):
+    return 3 * ((bern3(i - 1, t) if i > 0 else 0.0) - (bern3(i, t) if i < 3 else 0.0))
+
+
+def bern3(i, t):
+    # degree-2 Bernstein polynomial B_{i,2}
+    return math.comb(2, i) * t**i * (1 - t) ** (2 - i)
+
+
+def surf(u, v):
+    p = [0.0, 0.0, 0.0]
+    du = [0.0, 0.0, 0.0]
+    dv = [0.0, 0.0, 0.0]
+    for i in range(4):
+        for j in range(4):
+            q = (XS[i], YS[j], ZS[i][j])
+            for k in range(3):
+                p[k] += bern(i, u) * bern(j, v) * q[k]
+                du[k] += dbern(i, u) * bern(j, v) * q[k]
+                dv[k] += bern(i, u) * dbern(j, v) * q[k]
+    n = cross(du, dv)
+    ln = math.sqrt(sum(c * c for c in n))
+    return p, [c / ln for c in n]
+
+
+def cross(a, b):
+    return [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
+
+
+def thesis_3d():
+    scene = {
+        "format": "scene/1",
+        "objects": [
+            {
+                "name": "bicubic bump (thesis Fig. 3.2.5)",
+                "material": MATERIAL,
+                "patches": [
+                    {
+                        "degree": [3, 3],
+                        "knots": [[0, 0, 0, 0, 1, 1, 1, 1], [0, 0, 0, 0, 1, 1, 1, 1]],
+                        "points": [[[XS[i], YS[j], ZS[i][j]] for j in range(4)] for i in range(4)],
+                    }
+                ],
+            }
+        ],
+    }
+    U = 0.5
+
+    def at(v, depth):
+        p, n = surf(U, v)
+        return tuple(p[k] - depth * n[k] for k in range(3))
+
+    segs = [
+        (0.2, lambda s: at(0.25, -0.005 + 0.007 * s)),  # 1 -> 2: press in, 2 mm
+        (0.5, lambda s: at(0.25 + 0.2 * s, 0.002)),  # 2 -> 3 -> 4: stuck, breakaway, slip along v
+        (0.2, lambda s: at(0.45, 0.002 + 0.002 * s)),  # 4 -> 5: press deeper: stuck
+        (0.6, lambda s: at(0.45 + 0.25 * s, 0.004)),  # 5 -> 6 -> 7 -> 8: stuck, breakaway, slip
+    ]
+    return scene, segs
+
+
+def write(name, scene, segs):
+    with open(os.path.join(HERE, f"{name}.json"), "w") as f:
+        json.dump(scene, f, indent=1)
+        f.write("\n")
+    dim = len(segs[0][1](0.0))
+    header = "t,x,y" if dim == 2 else "t,x,y,z"
+    rows = []
+    t0 = 0.0
+    for dur, fn in segs:
+        n = int(round(dur * RATE))
+        for k in range(n):
+            rows.append((t0 + k / RATE, fn(k / n)))
+        t0 += dur
+    rows.append((t0, segs[-1][1](1.0)))
+    with open(os.path.join(HERE, f"{name}.csv"), "w") as f:
+        f.write(header + "\n")
+        for t, p in rows:
+            f.write(f"{t:.4f}," + ",".join(f"{c:.7f}" for c in p) + "\n")
+
+
+if __name__ == "__main__":
+    write("thesis-2d", *thesis_2d())
+    write("thesis-3d", *thesis_3d())
