@@ -32,7 +32,7 @@
 use crate::material::{FrictionMaterial, ModelKind};
 use crate::models::{CoulombViscous, Dahl, FrictionLaw, Karnopp, LuGre, TangentialInput};
 use nurbs::Point;
-use tracker::{Contact, Law, Object, TrackerConfig};
+use tracker::{Contact, Frame, Law, Object, TrackerConfig};
 
 /// Friction mode.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -76,13 +76,13 @@ pub struct FrictionOutput<P> {
     pub point_of_application: P,
     /// Unit normal at the point of application.
     pub normal: P,
-    /// Unit tangent at the point of application along the first parameter; the sign
-    /// reference of `friction_force_n`.
+    /// Unit tangent at the point of application, the sign reference of `friction_force_n`:
+    /// the curve's tangent in 2-D; in 3-D whichever parameter direction (u or v) the friction
+    /// lies closer to.
     pub tangent: P,
     /// Normal force (N), ≥ 0.
     pub normal_force_n: f32,
-    /// Friction force (N), signed along `tangent` (in 3-D: its magnitude, signed by its
-    /// component along `tangent`).
+    /// Friction force (N): its magnitude, signed by its component along `tangent`.
     pub friction_force_n: f32,
     /// Friction force vector (N).
     pub friction: P,
@@ -303,7 +303,7 @@ impl<O: Object> FrictionRenderer<O> {
                     self.psi0 = 0.0;
                 }
                 (go_patch, go_params, go_point, normal, tangent, normal_force) =
-                    (p, t, fr.point, fr.normal, fr.tangent, f_n);
+                    (p, t, fr.point, fr.normal, reference(&fr, friction), f_n);
             }
             Mode::Transition => {
                 let g = object.track(&mut self.go, hip, period_s, true);
@@ -328,7 +328,7 @@ impl<O: Object> FrictionRenderer<O> {
                     self.mode = Mode::Slip;
                 }
                 (go_patch, go_params, go_point, normal, tangent, normal_force) =
-                    (p, t, g.point, fr.normal, fr.tangent, f_n);
+                    (p, t, g.point, fr.normal, reference(&fr, friction), f_n);
             }
             Mode::Slip => {
                 object.place(&mut self.go, cp_patch, cp_params);
@@ -342,7 +342,7 @@ impl<O: Object> FrictionRenderer<O> {
                     cp_params,
                     contact.point,
                     contact.normal,
-                    fr.tangent,
+                    reference(&fr, friction),
                     f_n,
                 );
             }
@@ -424,14 +424,25 @@ impl<O: Object> FrictionRenderer<O> {
             go_params: cp_params,
             point_of_application: contact.point,
             normal: contact.normal,
-            tangent: fr.tangent,
+            tangent: reference(&fr, friction),
             normal_force_n: f_n,
-            friction_force_n: signed_along(friction, fr.tangent),
+            friction_force_n: signed_along(friction, reference(&fr, friction)),
             friction,
             total: contact.normal * f_n + friction,
             mu,
             psi: contact.psi[0],
         }
+    }
+}
+
+/// The sign reference for a friction force: the frame's tangent or bitangent, whichever `f`
+/// lies closer to.
+#[inline]
+fn reference<P: Point>(fr: &Frame<P>, f: P) -> P {
+    if f.dot(fr.bitangent).abs() > f.dot(fr.tangent).abs() {
+        fr.bitangent
+    } else {
+        fr.tangent
     }
 }
 

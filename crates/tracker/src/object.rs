@@ -161,16 +161,29 @@ pub struct Frame<P> {
     pub normal: P,
     /// Unit tangent along the first parameter (orthogonal to the normal).
     pub tangent: P,
+    /// Unit tangent along the second parameter, orthogonalised against the normal (equal to
+    /// `tangent` on curves).
+    pub bitangent: P,
 }
 
 fn frame_of<S: Patch<N>, const N: usize>(s: &S, t: [f32; N]) -> Frame<S::P> {
     let jet = s.jet(t, 1);
     let normal = s.normal(t, &jet);
-    let along = jet.d[0] - normal * jet.d[0].dot(normal);
+    let in_plane = |d: S::P| {
+        (d - normal * d.dot(normal))
+            .try_normalize()
+            .unwrap_or(normal)
+    };
+    let tangent = in_plane(jet.d[0]);
     Frame {
         point: jet.point,
         normal,
-        tangent: along.try_normalize().unwrap_or(normal),
+        tangent,
+        bitangent: if N > 1 {
+            in_plane(jet.d[N - 1])
+        } else {
+            tangent
+        },
     }
 }
 
