@@ -53,7 +53,8 @@ pub fn newton<S: Patch<N>, const N: usize>(
     cfg: &NewtonConfig,
 ) -> NewtonResult<S::P, N> {
     let domain = patch.domain();
-    let periodic = patch.periodic(PERIODIC_TOL);
+    // Closedness costs a few dozen evaluations: find it out only if a step leaves the domain.
+    let mut periodic: Option<[bool; N]> = None;
     let mut t = t0;
     for i in 0..N {
         t[i] = clamp(t[i], domain[i]);
@@ -87,7 +88,8 @@ pub fn newton<S: Patch<N>, const N: usize>(
         for i in 0..N {
             let (a, b) = domain[i];
             let mut ti = t[i] + delta[i];
-            if periodic[i] {
+            let leaves = ti > domain[i].1 || ti < domain[i].0;
+            if leaves && periodic.get_or_insert_with(|| patch.periodic(PERIODIC_TOL))[i] {
                 let len = b - a;
                 if ti > b || ti < a {
                     ti = a + (ti - a) - len * libm::floorf((ti - a) / len);
