@@ -3,31 +3,31 @@
 //!
 //! # Algorithm 1, as implemented
 //!
-//! - **Free → stuck**: on contact the GO is pinned at the closest point (CP).
-//! - **Stuck**: the GO stays pinned; `F = K (GO − HIP)` split at the GO (the point of
-//!   application) into `F_N` along the normal and `F_T` in the tangent plane. The friction is
-//!   `F_T` while `|F_T| ≤ μ_s F_N`. The CP tracker's feature switch is inhibited (static
-//!   friction at a corner, §3.1.2).
-//! - **Breakaway → transition**: the GO is released and converges to the CP under the
-//!   feedback law (normalised, with feed-forward of the HIP's motion, time constant
-//!   [`FrictionMaterial::transition_time_s`]); μ falls from μ_s to μ_d with the GO's
-//!   projection error ([`crate::Stribeck`]); friction `μ F_N` along `F_T`.
-//! - **Slip**: GO = CP; friction `μ_d F_N` against the CP's tangential velocity.
-//! - **Slip → stuck** when the CP stops or reverses, or when `μ_d F_N[k] > μ_s F_N[k−1]`
-//!   (the normal force jumps). The GO is then reset to the surface point `F_f / K` ahead of
-//!   the CP, so the spring reproduces the friction force of the previous tick: the force is
-//!   continuous. This is the thesis's "GO is reset to a location that ensures force
-//!   continuity" (§3.1.1); Algorithm 1 writes the same thing as a scalar offset added to
-//!   `F_T`. Doing it with the GO's position keeps one formula for the stuck force and makes
-//!   the offset decay the right way when the HIP reverses.
+//! The force is always the spring `K (GO − HIP)` from the HIP to the god-object (GO, the point
+//! of application), split at the GO into the normal force `F_N` and the friction `F_T`.
 //!
-//! Two readings of the thesis that differ from a literal transcription, and why:
-//! - Algorithm 1 adds the offset again in the dynamic state (`F_f = F_offset + μ F_N`), which
-//!   would count the friction twice right after breakaway; here the dynamic friction is
-//!   `μ F_N`, which equals `|F_T|` at breakaway, so the force stays continuous.
-//! - Fig. 3.1.2 also shows a self-transition in the stuck state that resets the GO to the CP
-//!   when the CP reverses; Algorithm 1 does not have it and it would drop the friction force
-//!   to zero in one tick, so it is left out.
+//! - **Free → stuck**: on contact the GO is pinned at the closest point (CP).
+//! - **Stuck**: the GO stays pinned; friction `F_T` while `|F_T| ≤ μ_s F_N`. The CP tracker's
+//!   feature switch is inhibited (static friction at a corner, §3.1.2).
+//! - **Breakaway → transition**: the thesis's GO tracker is released from the stuck point and
+//!   converges to the CP under the feedback law (normalised, with feed-forward of the HIP's
+//!   motion, time constant [`FrictionMaterial::transition_time_s`]); its projection error sets
+//!   μ, falling from μ_s to μ_d ([`crate::Stribeck`]).
+//! - **Slip**: μ = μ_d.
+//! - **Dynamic → stuck** when the CP stops or reverses, or when `μ_d F_N[k] > μ_s F_N[k−1]`
+//!   (the normal force jumps): the GO is pinned where it is.
+//!
+//! In the transition and in slip the GO is towed behind the CP at the distance where the
+//! spring carries exactly `μ F_N` (`μ · depth` on a flat surface). This is where the
+//! implementation departs from a literal reading of the thesis, which keeps the GO on the CP
+//! while slipping (friction `μ_d F_N` added as a separate vector) and, on slip → stuck, "resets
+//! the GO to a location that ensures force continuity" (Algorithm 1 writes it as an offset
+//! added to `F_T`). That reset stretches the spring out of nothing: it injects `½ F_f² / K` of
+//! energy each time, and a HIP going back and forth gains energy from friction, which a user
+//! feels as an active, buzzing surface. Keeping the GO where the spring already carries the
+//! friction gives the same forces (μ_d F_N in slip, continuity at every switch) while friction
+//! can only dissipate: the GO only ever moves towards the HIP. The GO is therefore
+//! `μ_d · depth` behind the CP in slip rather than on it.
 
 use crate::material::{FrictionMaterial, ModelKind};
 use crate::models::{CoulombViscous, Dahl, FrictionLaw, Karnopp, LuGre, TangentialInput};
@@ -112,6 +112,8 @@ pub struct FrictionRenderer<O: Object> {
     go: O::State,
     mode: Mode,
     law: LawState<O::P>,
+    /// The point of application (the GO the spring pulls to): patch and parameters.
+    pa: (usize, [f32; 2]),
     prev_cp: Option<O::P>,
     prev_velocity: O::P,
     prev_normal_force: f32,
@@ -176,6 +178,7 @@ impl<O: Object> FrictionRenderer<O> {
             go,
             mode: Mode::Free,
             law,
+            pa: (0, [0.0; 2]),
             prev_cp: None,
             prev_velocity: O::P::ZERO,
             prev_normal_force: 0.0,
@@ -262,111 +265,150 @@ impl<O: Object> FrictionRenderer<O> {
 
         if self.mode == Mode::Free {
             self.mode = Mode::Stuck;
-            object.place(&mut self.go, cp_patch, cp_params);
+            self.pa = (cp_patch, cp_params);
         }
 
-        let mut mu = m.mu_static;
-        let mut psi = contact.psi[0];
-
-        // Slip: check the exits first, with this tick's normal force.
-        if self.mode == Mode::Slip {
+        // Dynamic → stuck when the CP stops or reverses, or the normal force jumps
+        // (μ_d F_N[k] > μ_s F_N[k−1]). The GO stays where it is, so the spring, and with it the
+        // force, carries on unchanged.
+        if matches!(self.mode, Mode::Transition | Mode::Slip) {
             let fn_now = (k * contact.depth + damping(contact.normal)).max(0.0);
             let reversed = cp_velocity.dot(self.prev_velocity) < 0.0;
             let stopped =
                 cp_velocity.length_squared() < m.stop_speed_m_per_s * m.stop_speed_m_per_s;
             let jump = m.mu_dynamic * fn_now > m.mu_static * self.prev_normal_force;
             if reversed || stopped || jump {
-                // Stuck again, with the GO placed where its spring carries the friction force
-                // of the previous tick.
                 self.mode = Mode::Stuck;
-                let params = object.offset(cp_patch, cp_params, self.prev_friction * (1.0 / k));
-                object.place(&mut self.go, cp_patch, params);
             }
         }
 
-        let (go_patch, go_params, go_point, normal, tangent, normal_force, friction);
+        let mut mu = m.mu_static;
+        let mut psi = contact.psi[0];
         match self.mode {
-            Mode::Stuck | Mode::Free => {
-                let (p, t) = O::position(&self.go);
-                let fr = object.frame(p, t);
-                let f = (fr.point - hip) * k;
-                let f_n = (f.dot(fr.normal) + damping(fr.normal)).max(0.0);
-                let f_t = f - fr.normal * f.dot(fr.normal);
-                let limit = m.mu_static * f_n;
-                if f_t.length_squared() <= limit * limit {
-                    friction = f_t;
-                    mu = m.mu_static;
-                } else {
-                    // Breakaway: friction at its static limit this tick, GO released.
-                    friction = f_t.try_normalize().unwrap_or(O::P::ZERO) * limit;
-                    self.mode = Mode::Transition;
-                    self.psi0 = 0.0;
-                }
-                (go_patch, go_params, go_point, normal, tangent, normal_force) =
-                    (p, t, fr.point, fr.normal, reference(&fr, friction), f_n);
-            }
             Mode::Transition => {
+                // The thesis's GO, released at breakaway, converges to the CP; its projection
+                // error sets μ.
                 let g = object.track(&mut self.go, hip, period_s, true);
-                let (p, t) = O::position(&self.go);
-                let fr = object.frame(p, t);
-                let f = (g.point - hip) * k;
-                let f_n = (f.dot(fr.normal) + damping(fr.normal)).max(0.0);
-                let f_t = f - fr.normal * f.dot(fr.normal);
                 let psi_go = sqrt(g.psi[0] * g.psi[0] + g.psi[1] * g.psi[1]);
                 if self.psi0 <= 0.0 {
                     self.psi0 = psi_go.max(f32::MIN_POSITIVE);
                 }
-                mu = m.stribeck.mu(m.mu_static, m.mu_dynamic, psi_go / self.psi0);
-                let dir = f_t
-                    .try_normalize()
-                    .unwrap_or_else(|| -cp_velocity.try_normalize().unwrap_or(O::P::ZERO));
-                friction = dir * (mu * f_n);
-                psi = psi_go;
-                // Caught up: within the distance tolerance, or μ within 1 % of its way to μ_d.
-                let gap2 = (g.point - contact.point).length_squared();
-                if gap2 <= m.converge_tol_m * m.converge_tol_m || psi_go <= 0.01 * self.psi0 {
+                // Caught up: within the distance tolerance, or μ within 1 % of its way to μ_d;
+                // the last 1 % is snapped, so this tick already renders slip.
+                let gap = g.point - contact.point;
+                let caught_up = gap.length_squared() <= m.converge_tol_m * m.converge_tol_m
+                    || psi_go <= 0.01 * self.psi0;
+                mu = if caught_up {
                     self.mode = Mode::Slip;
-                }
-                (go_patch, go_params, go_point, normal, tangent, normal_force) =
-                    (p, t, g.point, fr.normal, reference(&fr, friction), f_n);
+                    m.mu_dynamic
+                } else {
+                    m.stribeck.mu(m.mu_static, m.mu_dynamic, psi_go / self.psi0)
+                };
+                psi = psi_go;
+                self.pa = self.tow(object, &contact, hip, cp_velocity, mu);
             }
             Mode::Slip => {
-                object.place(&mut self.go, cp_patch, cp_params);
-                let fr = object.frame(cp_patch, cp_params);
-                let f_n = (k * contact.depth + damping(contact.normal)).max(0.0);
                 mu = m.mu_dynamic;
-                let dir = -cp_velocity.try_normalize().unwrap_or(O::P::ZERO);
-                friction = dir * (mu * f_n);
-                (go_patch, go_params, go_point, normal, tangent, normal_force) = (
-                    cp_patch,
-                    cp_params,
-                    contact.point,
-                    contact.normal,
-                    reference(&fr, friction),
-                    f_n,
-                );
+                self.pa = self.tow(object, &contact, hip, cp_velocity, mu);
+            }
+            Mode::Stuck | Mode::Free => {}
+        }
+
+        // The force is the spring from the HIP to the point of application (the GO).
+        let (pa_patch, pa_params) = self.pa;
+        let fr = object.frame(pa_patch, pa_params);
+        let f = (fr.point - hip) * k;
+        let normal_force = (f.dot(fr.normal) + damping(fr.normal)).max(0.0);
+        let mut friction = tangential(f, fr.normal);
+        if self.mode == Mode::Stuck {
+            let limit = m.mu_static * normal_force;
+            if friction.length_squared() > limit * limit {
+                // Breakaway: the GO moves to the static limit (continuous: the spring was just
+                // past it) and the thesis's GO tracker is released from the stuck point.
+                self.mode = Mode::Transition;
+                self.psi0 = 0.0;
+                object.place(&mut self.go, pa_patch, pa_params);
+                let behind = friction.try_normalize().unwrap_or(O::P::ZERO);
+                self.pa = self.lag_point(object, &contact, hip, behind, m.mu_static, f32::INFINITY);
+                friction = behind * limit;
             }
         }
         self.prev_velocity = cp_velocity;
         self.prev_normal_force = normal_force;
         self.prev_friction = friction;
-        let total = normal * normal_force + friction;
+        let go = object.frame(self.pa.0, self.pa.1);
+        let total = fr.normal * normal_force + friction;
         FrictionOutput {
             mode: self.mode,
             contact,
-            go: go_point,
-            go_patch: go_patch as u16,
-            go_params,
-            point_of_application: go_point,
-            normal,
-            tangent,
+            go: go.point,
+            go_patch: self.pa.0 as u16,
+            go_params: self.pa.1,
+            point_of_application: go.point,
+            normal: fr.normal,
+            tangent: reference(&fr, friction),
             normal_force_n: normal_force,
-            friction_force_n: signed_along(friction, tangent),
+            friction_force_n: signed_along(friction, reference(&fr, friction)),
             friction,
             total,
             mu,
             psi,
         }
+    }
+
+    /// Moves the GO (the point of application) while sliding: it is towed behind the CP like a
+    /// trailer, keeping its bearing from the CP, at the distance where the spring to the HIP
+    /// carries `μ F_N` (see [`Self::lag_point`]), but never further from the CP than it already
+    /// is. So the GO only ever moves towards the HIP (friction can only dissipate), a turn of
+    /// the HIP swings it round smoothly (the force direction never jumps), and a GO that is
+    /// closer than the target distance (the HIP pressed deeper) waits for the spring to
+    /// stretch, as when stuck.
+    fn tow(
+        &self,
+        object: &O,
+        contact: &Contact<O::P>,
+        hip: O::P,
+        cp_velocity: O::P,
+        mu: f32,
+    ) -> (usize, [f32; 2]) {
+        let old = object.frame(self.pa.0, self.pa.1).point;
+        let offset = tangential(old - contact.point, contact.normal);
+        let dist2 = offset.length_squared();
+        let behind = offset
+            .try_normalize()
+            .unwrap_or_else(|| -cp_velocity.try_normalize().unwrap_or(O::P::ZERO));
+        self.lag_point(object, contact, hip, behind, mu, sqrt(dist2))
+    }
+
+    /// The surface point behind the CP (in the tangential direction `behind`), at most
+    /// `max_lag_m` from it, where the spring to the HIP carries a friction force `μ F_N`, both
+    /// measured at that point. On a flat surface that is `μ · depth` from the CP; on a curved
+    /// one the tilt of the normal changes the split by about `κ · depth`, so two secant
+    /// corrections of the distance follow.
+    fn lag_point(
+        &self,
+        object: &O,
+        contact: &Contact<O::P>,
+        hip: O::P,
+        behind: O::P,
+        mu: f32,
+        max_lag_m: f32,
+    ) -> (usize, [f32; 2]) {
+        let (patch, params) = O::position(&self.cp);
+        let mut lag_m = mu * contact.depth.max(0.0);
+        let mut at = object.offset(patch, params, behind * lag_m.min(max_lag_m));
+        for _ in 0..2 {
+            let fr = object.frame(patch, at);
+            let d = fr.point - hip;
+            let f_n = d.dot(fr.normal);
+            let f_t = sqrt(tangential(d, fr.normal).length_squared());
+            if f_t <= f32::MIN_POSITIVE || f_n <= 0.0 {
+                break;
+            }
+            lag_m *= mu * f_n / f_t;
+            at = object.offset(patch, params, behind * lag_m.min(max_lag_m));
+        }
+        (patch, at)
     }
 
     /// The velocity-based laws: penalty normal force at the CP, friction from the law.
@@ -444,6 +486,12 @@ fn reference<P: Point>(fr: &Frame<P>, f: P) -> P {
     } else {
         fr.tangent
     }
+}
+
+/// The part of `v` orthogonal to the unit normal `n`.
+#[inline]
+fn tangential<P: Point>(v: P, n: P) -> P {
+    v - n * v.dot(n)
 }
 
 /// `|f|` signed by its component along `t`.

@@ -40,7 +40,7 @@ fn unit_arc(start_rad: f64, sweep_rad: f64) -> (Vec<f32>, Vec<(f64, f64, f64)>) 
     let sweep = sweep_rad.clamp(0.0, TAU);
     // The tolerance absorbs f32 rounding of the sweep (a quarter circle given as
     // `FRAC_PI_2 as f32` is one arc, not two).
-    let narcs = ((sweep / FRAC_PI_2 - 1e-6).ceil() as usize).clamp(1, 4);
+    let narcs = (libm::ceil(sweep / FRAC_PI_2 - 1e-6) as usize).clamp(1, 4);
     let dtheta = sweep / narcs as f64;
     let w1 = libm::cos(dtheta / 2.0);
     let mut pts = Vec::with_capacity(2 * narcs + 1);

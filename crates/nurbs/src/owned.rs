@@ -35,13 +35,13 @@ impl<P: Point> CurveBuf<P> {
         points: &[P],
         weights: Option<&[f32]>,
     ) -> Result<Self, NurbsError> {
-        if let Some(w) = weights {
-            if w.len() != points.len() {
-                return Err(NurbsError::WeightCount {
-                    expected: points.len(),
-                    found: w.len(),
-                });
-            }
+        if let Some(w) = weights
+            && w.len() != points.len()
+        {
+            return Err(NurbsError::WeightCount {
+                expected: points.len(),
+                found: w.len(),
+            });
         }
         let mut hom = Vec::with_capacity(points.len());
         for (i, &p) in points.iter().enumerate() {

@@ -194,10 +194,11 @@ impl<'a> Surface<'a> {
         let rel = DEGENERATE_REL * DEGENERATE_REL;
         let u_vanishes = lu <= rel * lv;
         let v_vanishes = lv <= rel * lu;
-        if !u_vanishes && !v_vanishes {
-            if let Some(n) = n.try_normalize() {
-                return n;
-            }
+        if !u_vanishes
+            && !v_vanishes
+            && let Some(n) = n.try_normalize()
+        {
+            return n;
         }
         let d2 = self.derivs(u, v, 2);
         if u_vanishes && !v_vanishes {

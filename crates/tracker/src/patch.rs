@@ -81,6 +81,14 @@ pub trait Patch<const N: usize> {
     /// coincide within `tol` metres): a tracker wraps such a parameter instead of clamping.
     fn periodic(&self, tol: f32) -> [bool; N];
 
+    /// Which sides of the domain collapse to a single point (the poles of a sphere of
+    /// revolution): `[[at min, at max]; N]`. Crossing such a side continues on the opposite
+    /// side of the pole.
+    fn collapsed(&self, tol: f32) -> [[bool; 2]; N] {
+        let _ = tol;
+        [[false; 2]; N]
+    }
+
     /// The middle of the domain.
     fn center(&self) -> [f32; N] {
         let d = self.domain();
@@ -160,6 +168,28 @@ impl Patch<2> for Surface<'_> {
 
     fn bounding_box(&self) -> Aabb<Vec3> {
         Surface::bounding_box(self)
+    }
+
+    fn collapsed(&self, tol: f32) -> [[bool; 2]; 2] {
+        let ((u0, u1), (v0, v1)) = Surface::domain(self);
+        const SAMPLES: usize = 5;
+        let tol2 = tol * tol;
+        let mut out = [[true; 2]; 2];
+        for k in 1..SAMPLES {
+            let s = k as f32 / (SAMPLES - 1) as f32;
+            let (u, v) = (u0 + (u1 - u0) * s, v0 + (v1 - v0) * s);
+            for (side, fixed) in [u0, u1].into_iter().enumerate() {
+                if (self.point(fixed, v) - self.point(fixed, v0)).length_squared() > tol2 {
+                    out[0][side] = false;
+                }
+            }
+            for (side, fixed) in [v0, v1].into_iter().enumerate() {
+                if (self.point(u, fixed) - self.point(u0, fixed)).length_squared() > tol2 {
+                    out[1][side] = false;
+                }
+            }
+        }
+        out
     }
 
     fn periodic(&self, tol: f32) -> [bool; 2] {

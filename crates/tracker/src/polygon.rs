@@ -50,9 +50,9 @@ impl<P: Point> Polyline<P> {
     /// Every knot span is one starting interval (the curve is smooth inside a span only). An
     /// interval is split at its parameter midpoint while the chord height, the largest distance
     /// of the curve points at ¼, ½ and ¾ of the interval from the chord, exceeds `tol_m`; a
-    /// span is bisected at most [`MAX_CURVE_DEPTH`] times and the polyline stops refining at
-    /// [`MAX_POLYLINE_VERTICES`] vertices, so a zero, negative or NaN tolerance is bounded by
-    /// these caps. Vertices lie on the curve; zero-length segments are dropped.
+    /// span is bisected at most [`MAX_CURVE_DEPTH`] times and the polyline never exceeds
+    /// [`MAX_POLYLINE_VERTICES`] vertices, so the work stays bounded for a zero, negative or
+    /// NaN tolerance. Vertices lie on the curve; zero-length segments are dropped.
     pub fn tessellate(curve: &Curve<'_, P>, tol_m: f32) -> Self {
         let (a, b) = curve.domain();
         let mut points = Vec::new();
@@ -60,13 +60,15 @@ impl<P: Point> Polyline<P> {
         let first = curve.point(a);
         points.push(first);
         params.push(a);
+        let knots = curve.knots().as_slice();
+        let spans = knots.windows(2).filter(|w| w[1] > w[0]).count();
         let mut ctx = CurveTess {
             curve,
             tol_m,
             points,
             params,
+            splits_left: MAX_POLYLINE_VERTICES.saturating_sub(1 + spans),
         };
-        let knots = curve.knots().as_slice();
         let mut start = a;
         let mut start_point = first;
         for &k in knots {
@@ -170,6 +172,9 @@ struct CurveTess<'c, 'a, P: Point> {
     tol_m: f32,
     points: Vec<P>,
     params: Vec<f32>,
+    /// Every pending interval emits one vertex and every split adds one interval, so
+    /// limiting the splits to `MAX_POLYLINE_VERTICES − 1 − spans` caps the vertex count.
+    splits_left: usize,
 }
 
 impl<P: Point> CurveTess<'_, '_, P> {
@@ -177,11 +182,9 @@ impl<P: Point> CurveTess<'_, '_, P> {
     fn subdivide(&mut self, u0: f32, p0: P, u1: f32, p1: P, depth: u32) {
         let um = 0.5 * (u0 + u1);
         // `um` can equal an end in f32 once the interval is a few ulps wide.
-        let splittable = depth < MAX_CURVE_DEPTH
-            && self.points.len() < MAX_POLYLINE_VERTICES
-            && um > u0
-            && um < u1;
+        let splittable = depth < MAX_CURVE_DEPTH && self.splits_left > 0 && um > u0 && um < u1;
         if splittable && self.exceeds(u0, p0, u1, p1) {
+            self.splits_left -= 1;
             let pm = self.curve.point(um);
             self.subdivide(u0, p0, um, pm, depth + 1);
             self.subdivide(um, pm, u1, p1, depth + 1);
@@ -198,13 +201,23 @@ impl<P: Point> CurveTess<'_, '_, P> {
     /// Whether the chord height over `[u0, u1]`, sampled at ¼, ½ and ¾, exceeds the tolerance
     /// (true for a NaN tolerance).
     fn exceeds(&self, u0: f32, p0: P, u1: f32, p1: P) -> bool {
-        let tol2 = self.tol_m * self.tol_m;
         [0.25f32, 0.5, 0.75].iter().any(|&s| {
             let p = self.curve.point(u0 + (u1 - u0) * s);
             let (q, _) = closest_point_on_segment(p0, p1, p);
-            let h2 = (p - q).length_squared();
-            !(h2 <= tol2) || self.tol_m <= 0.0 && h2 > 0.0
+            exceeds((p - q).length_squared(), self.tol_m)
         })
+    }
+}
+
+/// Whether a squared deviation `h2` exceeds the tolerance `tol_m`: always for a NaN, and for
+/// any nonzero deviation when the tolerance is not positive (the caps then bound the work).
+fn exceeds(h2: f32, tol_m: f32) -> bool {
+    if tol_m.is_nan() || h2.is_nan() {
+        true
+    } else if tol_m <= 0.0 {
+        h2 > 0.0
+    } else {
+        h2 > tol_m * tol_m
     }
 }
 
@@ -215,7 +228,7 @@ pub fn closest_point_on_segment<P: Point>(a: P, b: P, x: P) -> (P, f32) {
     let l2 = ab.length_squared();
     let s = if l2 > 0.0 { (x - a).dot(ab) / l2 } else { 0.0 };
     // NaN (non-finite input) → 0.
-    let s = s.max(0.0).min(1.0);
+    let s = if s.is_nan() { 0.0 } else { s.clamp(0.0, 1.0) };
     (a + ab * s, s)
 }
 
@@ -300,14 +313,13 @@ impl TriMesh {
     /// (v-interval) whose u-edge (v-edge) midpoint, or centre, deviates by more than `tol_m` is
     /// bisected across the whole grid. Passes repeat until no cell exceeds the tolerance, up to
     /// [`MAX_MESH_CELLS`] cells. Each cell `(u_i, v_j)–(u_{i+1}, v_{j+1})` becomes the triangles
-    /// `(00, 10, 11)` and `(00, 11, 01)`, oriented like `S_u × S_v`; triangles of zero area
-    /// (at poles and collapsed edges) are dropped.
+    /// `(00, 10, 11)` and `(00, 11, 01)`, oriented like `S_u × S_v`; degenerate triangles (of
+    /// zero area, or slivers of a collapsed edge such as a pole) are dropped.
     pub fn tessellate(surface: &Surface<'_>, tol_m: f32) -> Self {
         let (ku, kv) = surface.knots();
         let mut us = distinct_knots(ku.as_slice(), ku.domain());
         let mut vs = distinct_knots(kv.as_slice(), kv.domain());
-        let tol2 = tol_m * tol_m;
-        let exceeds = |h2: f32| !(h2 <= tol2) || tol_m <= 0.0 && h2 > 0.0;
+        let exceeds = |h2: f32| exceeds(h2, tol_m);
         for _ in 0..MAX_MESH_PASSES {
             let grid = Grid::evaluate(surface, &us, &vs);
             let mut split_u = alloc::vec![false; us.len() - 1];
@@ -471,12 +483,20 @@ fn cell_triangles(p00: Vec3, p10: Vec3, p01: Vec3, p11: Vec3) -> [Option<[Vec3; 
     [[p00, p10, p11], [p00, p11, p01]].map(|[a, b, c]| triangle_normal(a, b, c).map(|_| [a, b, c]))
 }
 
-/// Unit normal `(b − a) × (c − a)` normalised, `None` for a triangle of (numerically) zero
-/// area relative to its size.
+/// Unit normal `(b − a) × (c − a)` normalised, `None` for a degenerate triangle: one of
+/// (numerically) zero area, or with an edge shorter than 10⁻⁴ of the longest. The second test
+/// catches the slivers of collapsed grid edges (a pole evaluated at different `u` gives points
+/// a few ulps apart), whose normals are rounding noise.
 fn triangle_normal(a: Vec3, b: Vec3, c: Vec3) -> Option<Vec3> {
     let n = (b - a).cross(c - a);
-    let scale = (b - a).length_squared().max((c - a).length_squared());
-    if n.length_squared() <= 1e-12 * scale * scale {
+    let edges = [
+        (b - a).length_squared(),
+        (c - b).length_squared(),
+        (a - c).length_squared(),
+    ];
+    let longest = edges.iter().copied().fold(0.0, f32::max);
+    let shortest = edges.iter().copied().fold(f32::INFINITY, f32::min);
+    if n.length_squared() <= 1e-12 * longest * longest || shortest <= 1e-8 * longest {
         return None;
     }
     n.try_normalize()

@@ -8,8 +8,9 @@
 //! obeys `e ← (I − K T H) e`, which is stable iff `0 < K T λ(H) < 2` for every eigenvalue.
 //! On the surface (`Γ → 0`) `H` is the first fundamental form `G`; at signed distance `d`
 //! on a curve of curvature `κ` it is `|S_u|² (1 + κ d)` (positive `κ d` on the convex side).
-//! [`stable_gain_limit`] gives `2 / (T λ_max(H))`; with [`TrackerConfig::step_guard`] the
-//! plain law caps its effective gain at `0.95 ×` the limit computed from `trace(G)`.
+//! [`stable_gain_limit`] gives `2 / (T λ_max(H))`. With [`TrackerConfig::step_guard`] (on by
+//! default) either law caps `ρ = λ_max(M H)` of its step `δ = −M Ψ` at 1, the deadbeat
+//! (Newton) step: beyond it a step only overshoots, beyond 2 it diverges.
 //!
 //! The normalised law scales the gain by the inverse metric, `δ = −α G⁻¹ Ψ`, which for
 //! `α = 1` is one Gauss–Newton step: dimensionless, independent of the parametrisation speed,
@@ -138,6 +139,7 @@ pub struct Tracker<P: Point, const N: usize> {
     jet: Jet<P, N>,
     domain: [(f32, f32); N],
     periodic: [bool; N],
+    collapsed: [[bool; 2]; N],
     last_hip: Option<P>,
 }
 
@@ -158,6 +160,7 @@ impl<P: Point, const N: usize> Tracker<P, N> {
             jet: patch.jet(t, 2),
             domain,
             periodic: patch.periodic(PERIODIC_TOL),
+            collapsed: patch.collapsed(PERIODIC_TOL),
             last_hip: None,
         }
     }
@@ -223,17 +226,22 @@ impl<P: Point, const N: usize> Tracker<P, N> {
             for v in delta.iter_mut() {
                 *v = -*v;
             }
-            // Feed-forward once per tick, inside the ε-ball only.
+            // Feed-forward once per tick, inside the ε-ball only. The feedback step already
+            // sees this tick's HIP, so predicting first and correcting after gives
+            // δ = −M Ψ(t, x) + (I − M H) δ_ff: nothing is added for a deadbeat step (M = H⁻¹),
+            // all of δ_ff for a slow one.
             if k == 0
                 && self.cfg.feedforward
                 && norm2(&psi) < self.cfg.convergence_radius * self.cfg.convergence_radius
             {
                 // Implicit function theorem on Ψ(t, x) = 0: H dt = Jᵀ dx.
+                let h = self.jet.hessian(gamma);
                 let rhs = self.jet.psi(hip_step);
-                let ff = solve_spd(self.jet.hessian(gamma), rhs, 1e-6)
+                let ff = solve_spd(h, rhs, 1e-6)
                     .unwrap_or_else(|| mat_vec(&regularized_inverse(&g), &rhs));
+                let mh_ff = mat_vec(&m, &mat_vec(&h, &ff));
                 for i in 0..N {
-                    delta[i] += ff[i];
+                    delta[i] += ff[i] - mh_ff[i];
                 }
             }
             self.step(patch, delta);
@@ -245,6 +253,7 @@ impl<P: Point, const N: usize> Tracker<P, N> {
     /// Applies a parameter step with the trust region, clamping or wrapping, and refreshes the
     /// cached jet.
     fn step<S: Patch<N, P = P>>(&mut self, patch: &S, delta: [f32; N]) {
+        let mut t = self.t;
         for i in 0..N {
             let (a, b) = self.domain[i];
             let len = b - a;
@@ -254,16 +263,39 @@ impl<P: Point, const N: usize> Tracker<P, N> {
             } else {
                 0.0
             };
-            let mut t = self.t[i] + d;
+            t[i] = self.t[i] + d;
+        }
+        for i in 0..N {
+            let (a, b) = self.domain[i];
+            let len = b - a;
             if self.periodic[i] {
                 // |d| ≤ len / 2, so one wrap is enough.
-                if t > b {
-                    t -= len;
-                } else if t < a {
-                    t += len;
+                if t[i] > b {
+                    t[i] -= len;
+                } else if t[i] < a {
+                    t[i] += len;
+                }
+            } else if let Some(j) = (0..N).find(|&j| j != i && self.periodic[j]) {
+                // Past a pole: continue down the opposite meridian (half a period round).
+                let over = if t[i] > b && self.collapsed[i][1] {
+                    Some(b)
+                } else if t[i] < a && self.collapsed[i][0] {
+                    Some(a)
+                } else {
+                    None
+                };
+                if let Some(pole) = over {
+                    t[i] = 2.0 * pole - t[i];
+                    let (aj, bj) = self.domain[j];
+                    t[j] += 0.5 * (bj - aj);
+                    if t[j] > bj {
+                        t[j] -= bj - aj;
+                    }
                 }
             }
-            self.t[i] = clamp(t, self.domain[i]);
+        }
+        for i in 0..N {
+            self.t[i] = clamp(t[i], self.domain[i]);
         }
         self.jet = patch.jet(self.t, 2);
     }
@@ -290,7 +322,8 @@ impl<P: Point, const N: usize> Tracker<P, N> {
             point: self.jet.point,
             normal,
             psi: self.jet.psi(gamma),
-            signed_distance: -gamma.dot(normal),
+            // Saturated: a HIP near f32::MAX must not report an infinite distance.
+            signed_distance: (-gamma.dot(normal)).clamp(-f32::MAX, f32::MAX),
             at_boundary,
         }
     }

@@ -188,7 +188,7 @@ fn inside_path_switches_at_bisectors_both_ways() {
         } else {
             vec![start, corners[0], corners[2], corners[1], start]
         };
-        let _ = order;
+
         for w in pts.windows(2) {
             for k in 0..600 {
                 path.push(w[0] + (w[1] - w[0]) * (k as f32 / 600.0));
