@@ -114,6 +114,8 @@ pub struct FrictionRenderer<O: Object> {
     law: LawState<O::P>,
     /// The point of application (the GO the spring pulls to): patch and parameters.
     pa: (usize, [f32; 2]),
+    /// Where the GO was at the end of the last tick.
+    pa_point: O::P,
     prev_cp: Option<O::P>,
     prev_velocity: O::P,
     prev_normal_force: f32,
@@ -179,6 +181,7 @@ impl<O: Object> FrictionRenderer<O> {
             mode: Mode::Free,
             law,
             pa: (0, [0.0; 2]),
+            pa_point: O::P::ZERO,
             prev_cp: None,
             prev_velocity: O::P::ZERO,
             prev_normal_force: 0.0,
@@ -336,7 +339,13 @@ impl<O: Object> FrictionRenderer<O> {
         self.prev_velocity = cp_velocity;
         self.prev_normal_force = normal_force;
         self.prev_friction = friction;
-        let go = object.frame(self.pa.0, self.pa.1);
+        // After a breakaway the GO moved this tick; otherwise `fr` is already its frame.
+        let go = if self.pa == (pa_patch, pa_params) {
+            fr
+        } else {
+            object.frame(self.pa.0, self.pa.1)
+        };
+        self.pa_point = go.point;
         let total = fr.normal * normal_force + friction;
         FrictionOutput {
             mode: self.mode,
@@ -371,8 +380,7 @@ impl<O: Object> FrictionRenderer<O> {
         cp_velocity: O::P,
         mu: f32,
     ) -> (usize, [f32; 2]) {
-        let old = object.frame(self.pa.0, self.pa.1).point;
-        let offset = tangential(old - contact.point, contact.normal);
+        let offset = tangential(self.pa_point - contact.point, contact.normal);
         let dist2 = offset.length_squared();
         let behind = offset
             .try_normalize()
