@@ -279,7 +279,9 @@ impl<O: Object> FrictionRenderer<O> {
             let reversed = cp_velocity.dot(self.prev_velocity) < 0.0;
             let stopped =
                 cp_velocity.length_squared() < m.stop_speed_m_per_s * m.stop_speed_m_per_s;
-            let jump = m.mu_dynamic * fn_now > m.mu_static * self.prev_normal_force;
+            // A relative margin keeps f32 noise from firing it when μ_s = μ_d.
+            let jump =
+                m.mu_dynamic * fn_now > m.mu_static * self.prev_normal_force * (1.0 + 1e-4) + 1e-6;
             if reversed || stopped || jump {
                 self.mode = Mode::Stuck;
             }

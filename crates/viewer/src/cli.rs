@@ -1,22 +1,23 @@
-//! The command line, as clap types. `main.rs` runs it; later issues add `closest`, `sim`,
+//! The command line, as clap types. `main.rs` runs it; later issues add `closest`,
 //! `device …`, and the GUI when no subcommand is given.
 
 use std::path::PathBuf;
 
 use clap::{Args, Parser, Subcommand};
 
-/// Exit status: an input line was bad (not a number, wrong count, outside the domain) or the
-/// output could not be written.
+/// Exit status: an input line was bad (not a number, wrong count, outside the domain; `eval`)
+/// or the output could not be written.
 pub const EXIT_BAD_INPUT: u8 = 1;
-/// Exit status: the command line, the scene file or the object/patch index was invalid.
+/// Exit status: the command line, the scene file, the trajectory file or the object/patch
+/// index was invalid.
 pub const EXIT_BAD_SETUP: u8 = 2;
 
 const EXIT_CODES: &str = "\
 Exit status:
   0  success
   1  a bad input line (eval), or the output could not be written
-  2  bad command line, unreadable or invalid scene, bad --object/--patch index,
-     or no subcommand (the desktop GUI is not there yet)";
+  2  bad command line, unreadable or invalid scene or trajectory, bad --object/--patch
+     index, or no subcommand (the desktop GUI is not there yet)";
 
 /// Haptic rendering of NURBS models: the desktop viewer (to come) and headless tools.
 #[derive(Debug, Parser)]
@@ -34,6 +35,9 @@ pub enum Command {
     /// Evaluate one patch of a scene at parameters read from standard input.
     #[command(long_about = EVAL_ABOUT, after_long_help = EVAL_AFTER)]
     Eval(EvalArgs),
+    /// Simulate the haptic loop along a prescribed HIP trajectory and write a run log.
+    #[command(long_about = SIM_ABOUT, after_long_help = SIM_AFTER)]
+    Sim(SimArgs),
 }
 
 const EVAL_ABOUT: &str = "\
@@ -79,6 +83,95 @@ pub struct EvalArgs {
     pub select: PatchSelection,
 }
 
+const SIM_ABOUT: &str = "\
+Simulate the haptic loop along a prescribed HIP trajectory and write a run log.
+
+The HIP follows the trajectory, linearly interpolated and sampled at the tick rate from its \
+first to its last time. Every tick runs the whole pipeline for one object of the scene: \
+closest-point tracking with the Voronoi feature state machine, then the friction renderer \
+with the object's material (the stick-slip algorithm of the thesis, or the model the \
+material names); the HIP velocity is the backward difference of the sampled HIP. A 2-D \
+trajectory needs an object of planar curves, a 3-D one an object of surfaces.";
+
+const SIM_AFTER: &str = "\
+Trajectory (--trajectory, CSV):
+  a header line `t,x,y` (planar) or `t,x,y,z` (spatial), then one line per sample of as many
+  comma-separated numbers: time in seconds, position in metres (device frame). Times strictly
+  increase, all values are finite, at least two samples. Blank lines and lines starting
+  with `#` are skipped. Example:
+    t,x,y
+    0.0, 0.0, 0.09
+    0.5, 0.0, 0.078
+    1.5, 0.02, 0.078
+
+Run log (--out, CSV), one row per tick, with exactly these columns (the _z ones for 3-D):
+  t_s                        time (s)
+  hip_x,hip_y[,hip_z]        HIP position (m)
+  cp_x,cp_y[,cp_z]           closest point on the object (m)
+  go_x,go_y[,go_z]           god-object, where the force acts (m)
+  patch                      active patch index, -1 when free
+  mode                       free | stuck | transition | slip
+  depth_m                    penetration depth (m), clamped at 0 (so 0 when free)
+  normal_force_n             normal force (N), >= 0
+  friction_force_n           friction force (N), signed along the patch tangent (direction
+                             of increasing u; in 3-D of u or v, whichever the force lies
+                             closer to)
+  mu                         friction coefficient in use (0 when free)
+  psi                        projection error of the GO in transition, of the CP otherwise
+  force_x,force_y[,force_z]  total force on the HIP (N)
+
+Plot (--plot, PNG): normal, friction and total force magnitude against time over coloured
+bands of the mode (top), the CP and GO parameters against time (bottom).
+
+Progress goes to standard error, every 10%.
+
+Exit status:
+  0  run log (and plot) written
+  1  the run log or the plot could not be written
+  2  bad command line (--rate-hz must be finite and > 0), unreadable or invalid scene or
+     trajectory (the message names the file and line), bad --object, or a trajectory whose
+     dimension does not match the object
+
+Example:
+  viewer sim scenes/examples.json --object 1 --trajectory press.csv --out run.csv --plot run.png";
+
+/// Arguments of `sim`.
+#[derive(Debug, Args)]
+pub struct SimArgs {
+    /// Scene file (JSON, format `scene/1`).
+    #[arg(value_name = "SCENE")]
+    pub scene: PathBuf,
+    /// The HIP's path: CSV with a header `t,x,y` or `t,x,y,z` (see below).
+    #[arg(long, value_name = "TRAJ.csv")]
+    pub trajectory: PathBuf,
+    /// Where to write the run log (CSV, one row per tick).
+    #[arg(long, value_name = "RUN.csv")]
+    pub out: PathBuf,
+    /// Also draw the run into this PNG file.
+    #[arg(long, value_name = "RUN.png")]
+    pub plot: Option<PathBuf>,
+    /// Tick rate in Hz (finite, > 0).
+    #[arg(
+        long,
+        value_name = "HZ",
+        default_value_t = 1000.0,
+        value_parser = tick_rate,
+        allow_negative_numbers = true
+    )]
+    pub rate_hz: f64,
+    /// Index of the object in the scene's `objects` array, from 0.
+    #[arg(long, value_name = "I", default_value_t = 0)]
+    pub object: usize,
+}
+
+fn tick_rate(text: &str) -> Result<f64, String> {
+    match text.trim().parse::<f64>() {
+        Ok(r) if r.is_finite() && r > 0.0 => Ok(r),
+        Ok(r) => Err(format!("{r} is not a tick rate; it must be finite and > 0")),
+        Err(e) => Err(format!("{e}")),
+    }
+}
+
 /// Chooses one patch of a scene.
 #[derive(Clone, Copy, Debug, Args)]
 pub struct PatchSelection {
@@ -116,5 +209,63 @@ mod tests {
         };
         assert_eq!((args.select.object, args.select.patch), (0, 0));
         assert!(Cli::try_parse_from(["viewer", "eval", "s.json", "--object", "-1"]).is_err());
+    }
+
+    #[test]
+    fn sim_arguments() {
+        let cli = Cli::try_parse_from([
+            "viewer",
+            "sim",
+            "s.json",
+            "--trajectory",
+            "t.csv",
+            "--out",
+            "r.csv",
+        ])
+        .expect("valid command line");
+        let Some(Command::Sim(args)) = cli.command else {
+            panic!("sim")
+        };
+        assert_eq!(args.scene, PathBuf::from("s.json"));
+        assert_eq!(args.trajectory, PathBuf::from("t.csv"));
+        assert_eq!(args.out, PathBuf::from("r.csv"));
+        assert_eq!((args.plot, args.rate_hz, args.object), (None, 1000.0, 0));
+        let cli = Cli::try_parse_from([
+            "viewer",
+            "sim",
+            "s.json",
+            "--trajectory",
+            "t.csv",
+            "--out",
+            "r.csv",
+            "--plot",
+            "r.png",
+            "--rate-hz",
+            "2500",
+            "--object",
+            "2",
+        ])
+        .expect("valid command line");
+        let Some(Command::Sim(args)) = cli.command else {
+            panic!("sim")
+        };
+        assert_eq!(args.plot, Some(PathBuf::from("r.png")));
+        assert_eq!((args.rate_hz, args.object), (2500.0, 2));
+        for bad in ["0", "-5", "inf", "NaN", "fast"] {
+            let e = Cli::try_parse_from([
+                "viewer",
+                "sim",
+                "s.json",
+                "--trajectory",
+                "t.csv",
+                "--out",
+                "r.csv",
+                "--rate-hz",
+                bad,
+            ])
+            .expect_err(bad);
+            assert!(e.to_string().contains("--rate-hz"), "{e}");
+        }
+        assert!(Cli::try_parse_from(["viewer", "sim", "s.json", "--out", "r.csv"]).is_err());
     }
 }

@@ -3,4 +3,7 @@
 
 pub mod cli;
 pub mod eval;
+pub mod plot;
 pub mod scene;
+pub mod sim;
+pub mod trajectory;

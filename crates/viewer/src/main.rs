@@ -1,19 +1,25 @@
 //! `viewer`: see `viewer --help`.
 
+use std::fs::File;
 use std::io::{self, Write};
 use std::path::Path;
 use std::process::ExitCode;
 
 use anyhow::{Context, Result, anyhow};
 use clap::{CommandFactory, Parser};
-use viewer::cli::{Cli, Command, EXIT_BAD_INPUT, EXIT_BAD_SETUP, EvalArgs, PatchSelection};
+use viewer::cli::{
+    Cli, Command, EXIT_BAD_INPUT, EXIT_BAD_SETUP, EvalArgs, PatchSelection, SimArgs,
+};
 use viewer::eval::{self, EvalError};
+use viewer::plot;
 use viewer::scene::{Patch, Scene};
+use viewer::sim::{self, Trajectory};
 
 fn main() -> ExitCode {
     match Cli::parse().command {
         None => no_command(),
         Some(Command::Eval(args)) => eval_command(&args),
+        Some(Command::Sim(args)) => sim_command(&args),
     }
 }
 
@@ -41,6 +47,58 @@ fn eval_command(args: &EvalArgs) -> ExitCode {
             EXIT_BAD_INPUT,
         ),
     }
+}
+
+fn sim_command(args: &SimArgs) -> ExitCode {
+    let scene = match Scene::load(&args.scene).context("invalid scene") {
+        Ok(scene) => scene,
+        Err(e) => return fail(&e, EXIT_BAD_SETUP),
+    };
+    let trajectory = match Trajectory::load(&args.trajectory).context("invalid trajectory") {
+        Ok(t) => t,
+        Err(e) => return fail(&e, EXIT_BAD_SETUP),
+    };
+    if let Err(e) = sim::validate(&scene, args.object, &trajectory, args.rate_hz) {
+        return fail(&anyhow::Error::new(e), EXIT_BAD_SETUP);
+    }
+    // Before the run, so that a bad output path does not wait for it.
+    let out = match File::create(&args.out)
+        .with_context(|| format!("cannot create {}", args.out.display()))
+    {
+        Ok(f) => f,
+        Err(e) => return fail(&e, EXIT_BAD_INPUT),
+    };
+    let plot_file = args.plot.as_ref().map(|path| {
+        File::create(path).with_context(|| format!("cannot create plot {}", path.display()))
+    });
+    if let Some(Err(e)) = plot_file {
+        return fail(&e, EXIT_BAD_INPUT);
+    }
+    let mut shown = 0;
+    let progress = |done: usize, total: usize| {
+        let tenths = done * 10 / total.max(1);
+        if tenths > shown {
+            shown = tenths;
+            eprintln!("sim: {:>3}% ({done}/{total} ticks)", tenths * 10);
+        }
+    };
+    let run = match sim::run(&scene, args.object, &trajectory, args.rate_hz, progress) {
+        Ok(run) => run,
+        Err(e) => return fail(&anyhow::Error::new(e), EXIT_BAD_SETUP),
+    };
+    if let Err(e) = run
+        .write_csv(out)
+        .with_context(|| format!("cannot write {}", args.out.display()))
+    {
+        return fail(&e, EXIT_BAD_INPUT);
+    }
+    let plotted = args.plot.as_ref().map_or(Ok(()), |path| {
+        plot::write_png(&run, path, plot::DEFAULT_SIZE)
+    });
+    if let Err(e) = plotted {
+        return fail(&anyhow::Error::new(e), EXIT_BAD_INPUT);
+    }
+    ExitCode::SUCCESS
 }
 
 /// The selected patch and a label naming it: `object 1 ("circle"), patch 0 (planar curve)`.

@@ -25,13 +25,39 @@
 //! surface: `knots: [U, V]`, `points[i][j]` of 3 coordinates with `i` along u and `j` along v.
 //! `weights` is optional (all 1) and has the shape of `points` without the coordinates.
 //! Points are Cartesian (not multiplied by their weight), in metres, in the device frame.
+//!
+//! An object is either a 2-D chain of planar curves ([`tracker::Chain`]: consecutive curves
+//! join end to start, a closed chain runs counter-clockwise) or a 3-D shell of surfaces
+//! ([`tracker::Shell`]); a single patch of either kind is a valid object. Spatial curves and
+//! objects that mix planar curves and surfaces are rejected.
+//!
+//! The `material` has four required fields (`stiffness_n_per_m`, `damping_ns_per_m`,
+//! `mu_static`, `mu_dynamic`) and optional friction-rendering fields, whose defaults are
+//! [`friction::FrictionMaterial::default`]'s (see [`Material::friction_material`]):
+//!
+//! | field | default | valid |
+//! |---|---|---|
+//! | `stribeck` | `"linear"` | `"linear"`, `{"power": n}` (integer n in 1..=255), `"smoothstep"` |
+//! | `transition_time_s` | 0.02 | > 0 |
+//! | `converge_tol_m` | 1e-5 | > 0 |
+//! | `stop_speed_m_per_s` | 1e-3 | ≥ 0 |
+//! | `model` | `"stick_slip"` | `"stick_slip"`, `"coulomb_viscous"`, `"karnopp"`, `"dahl"`, `"lugre"` |
+//! | `viscous_ns_per_m` | 0 | ≥ 0 |
+//! | `karnopp_band_m_per_s` | 1e-3 | ≥ 0 |
+//! | `bristle_stiffness_n_per_m` | 2000 | > 0 |
+//! | `bristle_damping_ns_per_m` | 0 | ≥ 0 |
+//! | `stribeck_speed_m_per_s` | 0.01 | > 0 |
+//!
+//! Every number must be finite.
 
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
-use nurbs::{At, CurveBuf, Field, NurbsError, Point, SurfaceBuf, Vec2, Vec3};
+use friction::{FrictionMaterial, ModelKind, Stribeck};
+use nurbs::{At, Curve, CurveBuf, Field, NurbsError, Point, Surface, SurfaceBuf, Vec2, Vec3};
 use serde::Deserialize;
 use serde::de::{self, DeserializeOwned, Deserializer, SeqAccess, Visitor};
+use tracker::{Chain, ChainError, Shell, ShellError};
 
 /// The value of the `format` field this module reads.
 pub const FORMAT: &str = "scene/1";
@@ -50,14 +76,12 @@ pub struct Object {
     patches: Vec<Patch>,
 }
 
-/// Contact material of an object. All values finite, non-negative, and
-/// `mu_static >= mu_dynamic`.
+/// Contact and friction material of an object: a validated
+/// [`friction::FrictionMaterial`]. All values finite, non-negative (some strictly positive,
+/// see the module docs), and `mu_static >= mu_dynamic`.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Material {
-    stiffness_n_per_m: f32,
-    damping_ns_per_m: f32,
-    mu_static: f32,
-    mu_dynamic: f32,
+    friction: FrictionMaterial,
 }
 
 /// One validated NURBS patch of an object.
@@ -161,6 +185,28 @@ pub enum ObjectError {
         /// What is wrong.
         error: PatchError,
     },
+    /// A patch that is neither a planar curve nor a surface, or whose kind differs from the
+    /// first patch's.
+    #[error(
+        "patch {index}: {}; an object is either all planar curves (a 2-D chain) or all \
+         surfaces (a 3-D shell)",
+        match first { Some(first) => format!("a {found}, but patch 0 is a {first}"),
+                      None => format!("a {found}") }
+    )]
+    Kind {
+        /// Index in `patches`.
+        index: usize,
+        /// Its kind ([`Patch::kind`]).
+        found: &'static str,
+        /// The kind of patch 0 when that one is valid but different.
+        first: Option<&'static str>,
+    },
+    /// The planar curves do not form a valid chain (its message starts with the field).
+    #[error(transparent)]
+    Chain(#[from] ChainError),
+    /// The surfaces do not form a valid shell (its message starts with the field).
+    #[error(transparent)]
+    Shell(#[from] ShellError),
 }
 
 /// An error in one patch.
@@ -190,6 +236,20 @@ pub enum MaterialError {
         /// The value given.
         value: f32,
     },
+    /// A value that must be strictly positive is not, or is not finite.
+    #[error("material.{field}: {value} must be finite and > 0")]
+    Positive {
+        /// The field.
+        field: &'static str,
+        /// The value given.
+        value: f32,
+    },
+    /// The exponent of `stribeck: {"power": n}` is not an integer in 1..=255.
+    #[error("material.stribeck.power: {value} must be an integer from 1 to 255")]
+    Exponent {
+        /// The value given.
+        value: f64,
+    },
     /// Dynamic friction exceeds static friction.
     #[error(
         "material.mu_dynamic: {mu_dynamic} is larger than mu_static ({mu_static}); \
@@ -207,7 +267,8 @@ impl MaterialError {
     /// The field at fault.
     pub fn field(&self) -> &'static str {
         match self {
-            MaterialError::Range { field, .. } => field,
+            MaterialError::Range { field, .. } | MaterialError::Positive { field, .. } => field,
+            MaterialError::Exponent { .. } => "stribeck",
             MaterialError::FrictionOrder { .. } => "mu_dynamic",
         }
     }
@@ -278,7 +339,8 @@ impl Scene {
 }
 
 impl Object {
-    /// An object of at least one patch.
+    /// An object of at least one patch, all planar curves that form a valid
+    /// [`tracker::Chain`] or all surfaces that form a valid [`tracker::Shell`].
     pub fn new(
         name: impl Into<String>,
         material: Material,
@@ -287,11 +349,13 @@ impl Object {
         if patches.is_empty() {
             return Err(ObjectError::NoPatches);
         }
-        Ok(Object {
+        let object = Object {
             name: name.into(),
             material,
             patches,
-        })
+        };
+        object.check_topology()?;
+        Ok(object)
     }
 
     /// Name (free text, not necessarily unique).
@@ -314,14 +378,63 @@ impl Object {
         self.patches.get(index)
     }
 
+    /// Whether the object is a 2-D chain of planar curves or a 3-D shell of surfaces.
+    pub fn space(&self) -> Space {
+        match self.patches[0] {
+            Patch::Surface(_) => Space::Spatial,
+            Patch::Curve2(_) | Patch::Curve3(_) => Space::Planar,
+        }
+    }
+
+    /// Views of the curves, for [`tracker::Chain::new`], when the object is planar.
+    pub fn curve_views(&self) -> Option<Vec<Curve<'_, Vec2>>> {
+        self.patches
+            .iter()
+            .map(|p| match p {
+                Patch::Curve2(c) => Some(c.view()),
+                _ => None,
+            })
+            .collect()
+    }
+
+    /// Views of the surfaces, for [`tracker::Shell::new`], when the object is spatial.
+    pub fn surface_views(&self) -> Option<Vec<Surface<'_>>> {
+        self.patches
+            .iter()
+            .map(|p| match p {
+                Patch::Surface(s) => Some(s.view()),
+                _ => None,
+            })
+            .collect()
+    }
+
+    /// Every patch of one kind, planar curves or surfaces, and the chain or shell valid.
+    fn check_topology(&self) -> Result<(), ObjectError> {
+        let first = &self.patches[0];
+        for (index, patch) in self.patches.iter().enumerate() {
+            let kind = |first| ObjectError::Kind {
+                index,
+                found: patch.kind(),
+                first,
+            };
+            match patch {
+                Patch::Curve3(_) => return Err(kind(None)),
+                _ if std::mem::discriminant(patch) != std::mem::discriminant(first) => {
+                    return Err(kind(Some(first.kind())));
+                }
+                _ => {}
+            }
+        }
+        if let Some(curves) = self.curve_views() {
+            Chain::new(&curves)?;
+        } else if let Some(surfaces) = self.surface_views() {
+            Shell::new(&surfaces)?;
+        }
+        Ok(())
+    }
+
     fn from_raw(raw: RawObject) -> Result<Self, ObjectError> {
-        let m = raw.material;
-        let material = Material::new(
-            m.stiffness_n_per_m,
-            m.damping_ns_per_m,
-            m.mu_static,
-            m.mu_dynamic,
-        )?;
+        let material = Material::from_raw(&raw.material)?;
         let patches = raw
             .patches
             .iter()
@@ -334,56 +447,161 @@ impl Object {
     }
 }
 
+/// Where an object or a trajectory lives.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Space {
+    /// The plane (x, y): planar curves, 2-D trajectories.
+    Planar,
+    /// Space (x, y, z): surfaces, 3-D trajectories.
+    Spatial,
+}
+
+impl Space {
+    /// Number of coordinates, 2 or 3.
+    pub fn dim(self) -> usize {
+        match self {
+            Space::Planar => 2,
+            Space::Spatial => 3,
+        }
+    }
+}
+
+impl std::fmt::Display for Space {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            Space::Planar => "2-D",
+            Space::Spatial => "3-D",
+        })
+    }
+}
+
 impl Material {
-    /// Validates a material: every value finite and >= 0, `mu_static >= mu_dynamic`.
+    /// Validates a material of the four required values, with the defaults of
+    /// [`FrictionMaterial::default`] for the rest: every value finite and >= 0,
+    /// `mu_static >= mu_dynamic`.
     pub fn new(
         stiffness_n_per_m: f32,
         damping_ns_per_m: f32,
         mu_static: f32,
         mu_dynamic: f32,
     ) -> Result<Self, MaterialError> {
-        for (field, value) in [
-            ("stiffness_n_per_m", stiffness_n_per_m),
-            ("damping_ns_per_m", damping_ns_per_m),
-            ("mu_static", mu_static),
-            ("mu_dynamic", mu_dynamic),
-        ] {
-            if !(value.is_finite() && value >= 0.0) {
-                return Err(MaterialError::Range { field, value });
-            }
-        }
-        if mu_dynamic > mu_static {
-            return Err(MaterialError::FrictionOrder {
-                mu_static,
-                mu_dynamic,
-            });
-        }
-        Ok(Material {
+        Self::from_friction(FrictionMaterial {
             stiffness_n_per_m,
             damping_ns_per_m,
             mu_static,
             mu_dynamic,
+            ..FrictionMaterial::default()
         })
+    }
+
+    /// Validates every field of a friction material (ranges in the module docs).
+    pub fn from_friction(m: FrictionMaterial) -> Result<Self, MaterialError> {
+        for (field, value) in [
+            ("stiffness_n_per_m", m.stiffness_n_per_m),
+            ("damping_ns_per_m", m.damping_ns_per_m),
+            ("mu_static", m.mu_static),
+            ("mu_dynamic", m.mu_dynamic),
+        ] {
+            non_negative(field, value)?;
+        }
+        if m.mu_dynamic > m.mu_static {
+            return Err(MaterialError::FrictionOrder {
+                mu_static: m.mu_static,
+                mu_dynamic: m.mu_dynamic,
+            });
+        }
+        if let Stribeck::Power { exponent: 0 } = m.stribeck {
+            return Err(MaterialError::Exponent { value: 0.0 });
+        }
+        positive("transition_time_s", m.transition_time_s)?;
+        positive("converge_tol_m", m.converge_tol_m)?;
+        non_negative("stop_speed_m_per_s", m.stop_speed_m_per_s)?;
+        non_negative("viscous_ns_per_m", m.viscous_ns_per_m)?;
+        non_negative("karnopp_band_m_per_s", m.karnopp_band_m_per_s)?;
+        positive("bristle_stiffness_n_per_m", m.bristle_stiffness_n_per_m)?;
+        non_negative("bristle_damping_ns_per_m", m.bristle_damping_ns_per_m)?;
+        positive("stribeck_speed_m_per_s", m.stribeck_speed_m_per_s)?;
+        Ok(Material { friction: m })
+    }
+
+    /// The parameters of the friction renderer.
+    pub fn friction_material(&self) -> FrictionMaterial {
+        self.friction
     }
 
     /// Contact stiffness, N/m.
     pub fn stiffness_n_per_m(&self) -> f32 {
-        self.stiffness_n_per_m
+        self.friction.stiffness_n_per_m
     }
 
     /// Contact damping, N·s/m.
     pub fn damping_ns_per_m(&self) -> f32 {
-        self.damping_ns_per_m
+        self.friction.damping_ns_per_m
     }
 
     /// Static friction coefficient.
     pub fn mu_static(&self) -> f32 {
-        self.mu_static
+        self.friction.mu_static
     }
 
     /// Dynamic (sliding) friction coefficient, at most [`Material::mu_static`].
     pub fn mu_dynamic(&self) -> f32 {
-        self.mu_dynamic
+        self.friction.mu_dynamic
+    }
+
+    fn from_raw(m: &RawMaterial) -> Result<Self, MaterialError> {
+        let d = FrictionMaterial::default();
+        let stribeck = match m.stribeck {
+            None | Some(RawStribeck::Linear) => Stribeck::Linear,
+            Some(RawStribeck::Smoothstep) => Stribeck::Smoothstep,
+            Some(RawStribeck::Power(n)) if n.fract() == 0.0 && (1.0..=255.0).contains(&n) => {
+                Stribeck::Power { exponent: n as u8 }
+            }
+            Some(RawStribeck::Power(value)) => return Err(MaterialError::Exponent { value }),
+        };
+        let model = match m.model {
+            None | Some(RawModel::StickSlip) => ModelKind::StickSlip,
+            Some(RawModel::CoulombViscous) => ModelKind::CoulombViscous,
+            Some(RawModel::Karnopp) => ModelKind::Karnopp,
+            Some(RawModel::Dahl) => ModelKind::Dahl,
+            Some(RawModel::LuGre) => ModelKind::LuGre,
+        };
+        Material::from_friction(FrictionMaterial {
+            stiffness_n_per_m: m.stiffness_n_per_m,
+            damping_ns_per_m: m.damping_ns_per_m,
+            mu_static: m.mu_static,
+            mu_dynamic: m.mu_dynamic,
+            stribeck,
+            transition_time_s: m.transition_time_s.unwrap_or(d.transition_time_s),
+            converge_tol_m: m.converge_tol_m.unwrap_or(d.converge_tol_m),
+            stop_speed_m_per_s: m.stop_speed_m_per_s.unwrap_or(d.stop_speed_m_per_s),
+            model,
+            viscous_ns_per_m: m.viscous_ns_per_m.unwrap_or(d.viscous_ns_per_m),
+            karnopp_band_m_per_s: m.karnopp_band_m_per_s.unwrap_or(d.karnopp_band_m_per_s),
+            bristle_stiffness_n_per_m: m
+                .bristle_stiffness_n_per_m
+                .unwrap_or(d.bristle_stiffness_n_per_m),
+            bristle_damping_ns_per_m: m
+                .bristle_damping_ns_per_m
+                .unwrap_or(d.bristle_damping_ns_per_m),
+            stribeck_speed_m_per_s: m.stribeck_speed_m_per_s.unwrap_or(d.stribeck_speed_m_per_s),
+        })
+    }
+}
+
+fn non_negative(field: &'static str, value: f32) -> Result<(), MaterialError> {
+    if value.is_finite() && value >= 0.0 {
+        Ok(())
+    } else {
+        Err(MaterialError::Range { field, value })
+    }
+}
+
+fn positive(field: &'static str, value: f32) -> Result<(), MaterialError> {
+    if value.is_finite() && value > 0.0 {
+        Ok(())
+    } else {
+        Err(MaterialError::Positive { field, value })
     }
 }
 
@@ -506,17 +724,15 @@ fn surface_from_raw(raw: &RawPatch, degree: (usize, usize)) -> Result<Patch, Pat
         ),
     };
     // nurbs reports this as a count of weights against control points; here they are rows.
-    if let Some(w) = &weights {
-        if w.len() != rows.len() {
-            return Err(shape(
-                "weights",
-                format!(
-                    "{} rows of weights given for {} rows of points",
-                    w.len(),
-                    rows.len()
-                ),
-            ));
-        }
+    if let Some(w) = weights.as_ref().filter(|w| w.len() != rows.len()) {
+        return Err(shape(
+            "weights",
+            format!(
+                "{} rows of weights given for {} rows of points",
+                w.len(),
+                rows.len()
+            ),
+        ));
     }
     Ok(Patch::Surface(SurfaceBuf::from_rows(
         degree,
@@ -591,6 +807,46 @@ struct RawMaterial {
     damping_ns_per_m: f32,
     mu_static: f32,
     mu_dynamic: f32,
+    #[serde(default)]
+    stribeck: Option<RawStribeck>,
+    #[serde(default)]
+    transition_time_s: Option<f32>,
+    #[serde(default)]
+    converge_tol_m: Option<f32>,
+    #[serde(default)]
+    stop_speed_m_per_s: Option<f32>,
+    #[serde(default)]
+    model: Option<RawModel>,
+    #[serde(default)]
+    viscous_ns_per_m: Option<f32>,
+    #[serde(default)]
+    karnopp_band_m_per_s: Option<f32>,
+    #[serde(default)]
+    bristle_stiffness_n_per_m: Option<f32>,
+    #[serde(default)]
+    bristle_damping_ns_per_m: Option<f32>,
+    #[serde(default)]
+    stribeck_speed_m_per_s: Option<f32>,
+}
+
+/// `"linear"`, `{"power": n}` or `"smoothstep"`.
+#[derive(Clone, Copy, Deserialize)]
+#[serde(rename_all = "snake_case", rename = "Stribeck")]
+enum RawStribeck {
+    Linear,
+    Power(f64),
+    Smoothstep,
+}
+
+#[derive(Clone, Copy, Deserialize)]
+#[serde(rename_all = "snake_case", rename = "Model")]
+enum RawModel {
+    StickSlip,
+    CoulombViscous,
+    Karnopp,
+    Dahl,
+    #[serde(rename = "lugre")]
+    LuGre,
 }
 
 /// The arrays are read as nested numbers and shaped afterwards, because whether a patch is a
@@ -663,19 +919,15 @@ fn describe(path: &serde_path_to_error::Path, text: &str) -> String {
     let segments: Vec<&Segment> = path.iter().collect();
     let mut head = Vec::new();
     let mut rest = segments.as_slice();
-    if let [Segment::Map { key }, Segment::Seq { index }, tail @ ..] = rest {
-        if key == "objects" {
-            head.push(match object_name(text, *index) {
-                Some(name) => format!("object {index} ({name:?})"),
-                None => format!("object {index}"),
-            });
+    if let Some((index, tail)) = keyed_index(rest, "objects") {
+        head.push(match object_name(text, index) {
+            Some(name) => format!("object {index} ({name:?})"),
+            None => format!("object {index}"),
+        });
+        rest = tail;
+        if let Some((index, tail)) = keyed_index(rest, "patches") {
+            head.push(format!("patch {index}"));
             rest = tail;
-            if let [Segment::Map { key }, Segment::Seq { index }, tail @ ..] = rest {
-                if key == "patches" {
-                    head.push(format!("patch {index}"));
-                    rest = tail;
-                }
-            }
         }
     }
     let mut field = String::new();
@@ -706,6 +958,20 @@ fn describe(path: &serde_path_to_error::Path, text: &str) -> String {
     out
 }
 
+/// `(index, rest)` when `path` starts with the field `name` and an index into it.
+fn keyed_index<'a>(
+    path: &'a [&'a serde_path_to_error::Segment],
+    name: &str,
+) -> Option<(usize, &'a [&'a serde_path_to_error::Segment])> {
+    use serde_path_to_error::Segment;
+    match path {
+        [Segment::Map { key }, Segment::Seq { index }, tail @ ..] if key == name => {
+            Some((*index, tail))
+        }
+        _ => None,
+    }
+}
+
 /// The name of object `index`, if the document is valid JSON and has one.
 fn object_name(text: &str, index: usize) -> Option<String> {
     let v: serde_json::Value = serde_json::from_str(text).ok()?;
@@ -729,13 +995,14 @@ mod tests {
       "patches": [
         { "degree": 3, "knots": [0, 0, 0, 0, 1, 1, 1, 1],
           "points": [[0.0, 0.0], [0.01, 0.02], [0.03, 0.01], [0.04, 0.0]],
-          "weights": [1, 1, 1, 1] },
+          "weights": [1, 1, 1, 1] } ] },
+    { "name": "bump",
+      "material": { "stiffness_n_per_m": 500.0, "damping_ns_per_m": 0.5, "mu_static": 0.3, "mu_dynamic": 0.3 },
+      "patches": [
         { "degree": [2, 3], "knots": [[0, 0, 0, 1, 1, 1], [0, 0, 0, 0, 1, 1, 1, 1]],
           "points": [[[0, 0, 0], [0, 1, 0], [0, 2, 0], [0, 3, 0]],
                      [[1, 0, 1], [1, 1, 1], [1, 2, 1], [1, 3, 1]],
-                     [[2, 0, 0], [2, 1, 0], [2, 2, 0], [2, 3, 0]]] }
-      ]
-    }
+                     [[2, 0, 0], [2, 1, 0], [2, 2, 0], [2, 3, 0]]] } ] }
   ]
 }"#;
 
@@ -761,16 +1028,22 @@ mod tests {
     #[test]
     fn example_loads() {
         let scene = Scene::from_json_str(EXAMPLE).expect("example is valid");
-        let [object] = scene.objects() else {
-            panic!("one object")
+        let [wedge, bump] = scene.objects() else {
+            panic!("two objects")
         };
-        assert_eq!(object.name(), "wedge");
-        assert_eq!(object.material().stiffness_n_per_m(), 1000.0);
-        assert_eq!(object.material().mu_static(), 0.7);
-        assert_eq!(object.material().mu_dynamic(), 0.5);
-        let [Patch::Curve2(c), Patch::Surface(s)] = object.patches() else {
-            panic!("a planar curve and a surface, got {:?}", object.patches())
+        assert_eq!(wedge.name(), "wedge");
+        assert_eq!(wedge.material().stiffness_n_per_m(), 1000.0);
+        assert_eq!(wedge.material().mu_static(), 0.7);
+        assert_eq!(wedge.material().mu_dynamic(), 0.5);
+        assert_eq!(wedge.space(), Space::Planar);
+        assert_eq!(bump.space(), Space::Spatial);
+        let ([Patch::Curve2(c)], [Patch::Surface(s)]) = (wedge.patches(), bump.patches()) else {
+            panic!("a planar curve and a surface")
         };
+        assert_eq!(wedge.curve_views().map(|v| v.len()), Some(1));
+        assert!(wedge.surface_views().is_none());
+        assert_eq!(bump.surface_views().map(|v| v.len()), Some(1));
+        assert!(bump.curve_views().is_none());
         assert_eq!(c.degree(), 3);
         assert_eq!(c.view().point(1.0), Vec2::new(0.04, 0.0));
         assert_eq!(s.degree(), (2, 3));
@@ -797,16 +1070,16 @@ mod tests {
     }
 
     #[test]
-    fn spatial_curve() {
+    fn spatial_curve_is_not_an_object() {
         let text = edited(
             "[[0.0, 0.0], [0.01, 0.02], [0.03, 0.01], [0.04, 0.0]]",
             "[[0, 0, 0], [0.01, 0.02, 0], [0.03, 0.01, 0.01], [0.04, 0, 0.02]]",
         );
-        let scene = Scene::from_json_str(&text).expect("valid");
-        assert!(matches!(
-            scene.objects()[0].patch(0),
-            Some(Patch::Curve3(_))
-        ));
+        assert_eq!(
+            error(&text),
+            "object 0 (\"wedge\"), patch 0: a spatial curve; an object is either all planar \
+             curves (a 2-D chain) or all surfaces (a 3-D shell)"
+        );
     }
 
     #[test]
@@ -856,9 +1129,9 @@ mod tests {
         assert_mentions(
             &msg,
             &[
-                "object 0 (\"wedge\"), patch 1",
+                "object 1 (\"bump\"), patch 0",
                 "unknown field `rational`",
-                "line 11",
+                "line 14",
             ],
         );
     }
@@ -897,7 +1170,7 @@ mod tests {
         let (line, _column) = e.line_column().expect("a JSON error");
         assert!(line >= 6, "{e}");
         let e = Scene::from_json_str(&format!("{EXAMPLE} x")).expect_err("trailing characters");
-        assert_mentions(&e.to_string(), &["trailing characters", "line 18"]);
+        assert_mentions(&e.to_string(), &["trailing characters", "line 19"]);
     }
 
     #[test]
@@ -991,7 +1264,7 @@ mod tests {
         let msg = error(&edited("[1, 2, 1], [1, 3, 1]]", "[1, 2], [1, 3, 1]]"));
         assert_eq!(
             msg,
-            "object 0 (\"wedge\"), patch 1: points[1][2]: 2 coordinates, expected 3"
+            "object 1 (\"bump\"), patch 0: points[1][2]: 2 coordinates, expected 3"
         );
     }
 
@@ -1000,7 +1273,7 @@ mod tests {
         let msg = error(&edited(", [1, 3, 1]]", "]"));
         assert_mentions(
             &msg,
-            &["object 0 (\"wedge\"), patch 1: points[1]: row has 3 entries"],
+            &["object 1 (\"bump\"), patch 0: points[1]: row has 3 entries"],
         );
     }
 
@@ -1021,7 +1294,7 @@ mod tests {
         ));
         assert_mentions(
             &msg,
-            &["object 0 (\"wedge\"), patch 1: weights[1]: row has 3 entries"],
+            &["object 1 (\"bump\"), patch 0: weights[1]: row has 3 entries"],
         );
         let msg = error(&edited(
             surface_weights,
@@ -1029,7 +1302,7 @@ mod tests {
         ));
         assert_eq!(
             msg,
-            "object 0 (\"wedge\"), patch 1: weights: 2 rows of weights given for 3 rows of points"
+            "object 1 (\"bump\"), patch 0: weights: 2 rows of weights given for 3 rows of points"
         );
         let msg = error(&edited(
             surface_weights,
@@ -1037,7 +1310,7 @@ mod tests {
         ));
         assert_mentions(
             &msg,
-            &["object 0 (\"wedge\"), patch 1: weights[0]: expected an array of numbers"],
+            &["object 1 (\"bump\"), patch 0: weights[0]: expected an array of numbers"],
         );
         let msg = error(&edited(
             surface_weights,
@@ -1045,7 +1318,7 @@ mod tests {
         ));
         assert_eq!(
             msg,
-            "object 0 (\"wedge\"), patch 1: weights[1][1]: weight 0 must be finite and > 0"
+            "object 1 (\"bump\"), patch 0: weights[1][1]: weight 0 must be finite and > 0"
         );
     }
 
@@ -1054,7 +1327,7 @@ mod tests {
         let msg = error(&edited("[0, 0, 0, 1, 1, 1], [0", "[0, 0, 0, 1, 1], [0"));
         assert_eq!(
             msg,
-            "object 0 (\"wedge\"), patch 1: knots[0] (u): expected 6 knots (control points + degree + 1), found 5"
+            "object 1 (\"bump\"), patch 0: knots[0] (u): expected 6 knots (control points + degree + 1), found 5"
         );
         let msg = error(&edited("\"degree\": 3,", "\"degree\": 0,"));
         assert_mentions(&msg, &["object 0 (\"wedge\"), patch 0: degree: degree 0"]);
@@ -1075,7 +1348,7 @@ mod tests {
         let msg = error(&edited("\"degree\": [2, 3],", "\"degree\": [2, 3, 1],"));
         assert_mentions(
             &msg,
-            &["patch 1: degree: expected an integer (curve) or [p, q]"],
+            &["object 1 (\"bump\"), patch 0: degree: expected an integer (curve) or [p, q]"],
         );
         let msg = error(&edited(
             "[[0, 0, 0, 1, 1, 1], [0, 0, 0, 0, 1, 1, 1, 1]]",
@@ -1083,7 +1356,9 @@ mod tests {
         ));
         assert_mentions(
             &msg,
-            &["patch 1: knots: a surface needs two knot vectors [U, V], found 6 entries"],
+            &[
+                "object 1 (\"bump\"), patch 0: knots: a surface needs two knot vectors [U, V], found 6 entries",
+            ],
         );
         let msg = error(&edited(
             "[[0, 0, 0, 1, 1, 1], [0, 0, 0, 0, 1, 1, 1, 1]]",
@@ -1091,7 +1366,9 @@ mod tests {
         ));
         assert_mentions(
             &msg,
-            &["patch 1: knots[1]: expected an array of numbers, found a number"],
+            &[
+                "object 1 (\"bump\"), patch 0: knots[1]: expected an array of numbers, found a number",
+            ],
         );
         let msg = error(&edited(
             "[0, 0, 0, 0, 1, 1, 1, 1],",
@@ -1118,6 +1395,283 @@ mod tests {
         assert_mentions(
             &msg,
             &["bad.json: object 0 (\"wedge\"), material.mu_dynamic"],
+        );
+    }
+
+    /// The example's first material with `extra` fields added.
+    fn with_material(extra: &str) -> String {
+        edited(
+            "\"mu_dynamic\": 0.5 }",
+            &format!("\"mu_dynamic\": 0.5, {extra} }}"),
+        )
+    }
+
+    #[test]
+    fn friction_fields_default_to_the_friction_crate() {
+        let scene = Scene::from_json_str(EXAMPLE).expect("valid");
+        let m = scene.objects()[0].material().friction_material();
+        assert_eq!(
+            m,
+            FrictionMaterial {
+                stiffness_n_per_m: 1000.0,
+                damping_ns_per_m: 0.0,
+                mu_static: 0.7,
+                mu_dynamic: 0.5,
+                ..FrictionMaterial::default()
+            }
+        );
+        assert_eq!(m.stribeck, Stribeck::Linear);
+        assert_eq!(m.model, ModelKind::StickSlip);
+        assert_eq!(m.transition_time_s, 0.02);
+        assert_eq!(m.converge_tol_m, 1e-5);
+        assert_eq!(m.stop_speed_m_per_s, 1e-3);
+        assert_eq!(m.viscous_ns_per_m, 0.0);
+        assert_eq!(m.karnopp_band_m_per_s, 1e-3);
+        assert_eq!(m.bristle_stiffness_n_per_m, 2000.0);
+        assert_eq!(m.bristle_damping_ns_per_m, 0.0);
+        assert_eq!(m.stribeck_speed_m_per_s, 0.01);
+    }
+
+    #[test]
+    fn friction_fields_are_read() {
+        let text = with_material(
+            r#""stribeck": {"power": 3}, "transition_time_s": 0.05, "converge_tol_m": 2e-6,
+               "stop_speed_m_per_s": 0.002, "model": "lugre", "viscous_ns_per_m": 0.4,
+               "karnopp_band_m_per_s": 0.003, "bristle_stiffness_n_per_m": 5000,
+               "bristle_damping_ns_per_m": 1.5, "stribeck_speed_m_per_s": 0.02"#,
+        );
+        let scene = Scene::from_json_str(&text).expect("valid");
+        let m = scene.objects()[0].material().friction_material();
+        assert_eq!(
+            m,
+            FrictionMaterial {
+                stiffness_n_per_m: 1000.0,
+                damping_ns_per_m: 0.0,
+                mu_static: 0.7,
+                mu_dynamic: 0.5,
+                stribeck: Stribeck::Power { exponent: 3 },
+                transition_time_s: 0.05,
+                converge_tol_m: 2e-6,
+                stop_speed_m_per_s: 0.002,
+                model: ModelKind::LuGre,
+                viscous_ns_per_m: 0.4,
+                karnopp_band_m_per_s: 0.003,
+                bristle_stiffness_n_per_m: 5000.0,
+                bristle_damping_ns_per_m: 1.5,
+                stribeck_speed_m_per_s: 0.02,
+            }
+        );
+        for (json, stribeck) in [
+            (r#""linear""#, Stribeck::Linear),
+            (r#""smoothstep""#, Stribeck::Smoothstep),
+            (r#"{"power": 1}"#, Stribeck::Power { exponent: 1 }),
+            (r#"{"power": 255}"#, Stribeck::Power { exponent: 255 }),
+        ] {
+            let text = with_material(&format!("\"stribeck\": {json}"));
+            let scene = Scene::from_json_str(&text).unwrap_or_else(|e| panic!("{json}: {e}"));
+            assert_eq!(
+                scene.objects()[0].material().friction_material().stribeck,
+                stribeck
+            );
+        }
+        for (json, model) in [
+            ("stick_slip", ModelKind::StickSlip),
+            ("coulomb_viscous", ModelKind::CoulombViscous),
+            ("karnopp", ModelKind::Karnopp),
+            ("dahl", ModelKind::Dahl),
+            ("lugre", ModelKind::LuGre),
+        ] {
+            let text = with_material(&format!("\"model\": \"{json}\""));
+            let scene = Scene::from_json_str(&text).unwrap_or_else(|e| panic!("{json}: {e}"));
+            assert_eq!(
+                scene.objects()[0].material().friction_material().model,
+                model
+            );
+        }
+    }
+
+    #[test]
+    fn friction_field_validation_names_the_field() {
+        let prefix = "object 0 (\"wedge\"), material.";
+        for (extra, message) in [
+            (
+                "\"transition_time_s\": 0",
+                "transition_time_s: 0 must be finite and > 0",
+            ),
+            (
+                "\"converge_tol_m\": -1e-5",
+                "converge_tol_m: -0.00001 must be finite and > 0",
+            ),
+            (
+                "\"stop_speed_m_per_s\": -1",
+                "stop_speed_m_per_s: -1 must be finite and >= 0",
+            ),
+            (
+                "\"viscous_ns_per_m\": 1e39",
+                "viscous_ns_per_m: inf must be finite and >= 0",
+            ),
+            (
+                "\"karnopp_band_m_per_s\": -0.5",
+                "karnopp_band_m_per_s: -0.5 must be finite and >= 0",
+            ),
+            (
+                "\"bristle_stiffness_n_per_m\": 0",
+                "bristle_stiffness_n_per_m: 0 must be finite and > 0",
+            ),
+            (
+                "\"bristle_damping_ns_per_m\": -2",
+                "bristle_damping_ns_per_m: -2 must be finite and >= 0",
+            ),
+            (
+                "\"stribeck_speed_m_per_s\": 0",
+                "stribeck_speed_m_per_s: 0 must be finite and > 0",
+            ),
+            (
+                "\"stribeck\": {\"power\": 0}",
+                "stribeck.power: 0 must be an integer from 1 to 255",
+            ),
+            (
+                "\"stribeck\": {\"power\": 2.5}",
+                "stribeck.power: 2.5 must be an integer from 1 to 255",
+            ),
+            (
+                "\"stribeck\": {\"power\": 256}",
+                "stribeck.power: 256 must be an integer from 1 to 255",
+            ),
+        ] {
+            assert_eq!(
+                error(&with_material(extra)),
+                format!("{prefix}{message}"),
+                "{extra}"
+            );
+        }
+        // Wrong names and shapes are JSON errors at the field.
+        let msg = error(&with_material("\"model\": \"viscous\""));
+        assert_mentions(
+            &msg,
+            &[
+                "object 0 (\"wedge\"), material.model",
+                "unknown variant `viscous`",
+                "line 6",
+            ],
+        );
+        let msg = error(&with_material("\"stribeck\": \"cubic\""));
+        assert_mentions(
+            &msg,
+            &[
+                "material.stribeck",
+                "unknown variant `cubic`",
+                "`linear`, `power`, `smoothstep`",
+            ],
+        );
+        let msg = error(&with_material("\"stribeck\": {\"power\": \"2\"}"));
+        assert_mentions(&msg, &["material.stribeck", "invalid type"]);
+        let msg = error(&with_material("\"transition_time_s\": \"fast\""));
+        assert_mentions(&msg, &["material.transition_time_s", "invalid type"]);
+        let msg = error(&with_material("\"transition_time\": 0.1"));
+        assert_mentions(&msg, &["material", "unknown field `transition_time`"]);
+    }
+
+    #[test]
+    fn material_from_friction_validates_every_field() {
+        let good = FrictionMaterial::default();
+        assert_eq!(
+            Material::from_friction(good).map(|m| m.friction_material()),
+            Ok(good)
+        );
+        let bad = FrictionMaterial {
+            stribeck: Stribeck::Power { exponent: 0 },
+            ..good
+        };
+        assert_eq!(
+            Material::from_friction(bad).map_err(|e| e.field()),
+            Err("stribeck")
+        );
+        let bad = FrictionMaterial {
+            converge_tol_m: f32::NAN,
+            ..good
+        };
+        assert_eq!(
+            Material::from_friction(bad).map_err(|e| e.field()),
+            Err("converge_tol_m")
+        );
+    }
+
+    #[test]
+    fn object_kinds_are_not_mixed() {
+        let surface = r#"{ "degree": [1, 1], "knots": [[0, 0, 1, 1], [0, 0, 1, 1]],
+            "points": [[[0, 0, 0], [0, 1, 0]], [[1, 0, 0], [1, 1, 0]]] }"#;
+        let text = edited(
+            "\"weights\": [1, 1, 1, 1] } ] },",
+            &format!("\"weights\": [1, 1, 1, 1] }}, {surface} ] }},"),
+        );
+        assert_eq!(
+            error(&text),
+            "object 0 (\"wedge\"), patch 1: a surface, but patch 0 is a planar curve; an \
+             object is either all planar curves (a 2-D chain) or all surfaces (a 3-D shell)"
+        );
+    }
+
+    #[test]
+    fn chain_errors_name_the_object() {
+        // A second curve that does not start where the first ends.
+        let curve =
+            r#"{ "degree": 1, "knots": [0, 0, 1, 1], "points": [[0.05, 0.0], [0.06, 0.0]] }"#;
+        let text = edited(
+            "\"weights\": [1, 1, 1, 1] } ] },",
+            &format!("\"weights\": [1, 1, 1, 1] }}, {curve} ] }},"),
+        );
+        let msg = error(&text);
+        assert_mentions(
+            &msg,
+            &[
+                "object 0 (\"wedge\"), patches[1]: starts 0.01",
+                "from where patch 0 ends",
+            ],
+        );
+        // Joined: a valid open chain of two curves.
+        let curve =
+            r#"{ "degree": 1, "knots": [0, 0, 1, 1], "points": [[0.04, 0.0], [0.06, 0.0]] }"#;
+        let text = edited(
+            "\"weights\": [1, 1, 1, 1] } ] },",
+            &format!("\"weights\": [1, 1, 1, 1] }}, {curve} ] }},"),
+        );
+        let scene = Scene::from_json_str(&text).expect("joined curves");
+        assert_eq!(scene.objects()[0].curve_views().map(|c| c.len()), Some(2));
+        // A closed chain that runs clockwise.
+        let square = r#"[
+            { "degree": 1, "knots": [0, 0, 1, 1], "points": [[0, 0], [0, 0.01]] },
+            { "degree": 1, "knots": [0, 0, 1, 1], "points": [[0, 0.01], [0.01, 0.01]] },
+            { "degree": 1, "knots": [0, 0, 1, 1], "points": [[0.01, 0.01], [0.01, 0]] },
+            { "degree": 1, "knots": [0, 0, 1, 1], "points": [[0.01, 0], [0, 0]] } ]"#;
+        let text = format!(
+            r#"{{ "format": "scene/1", "objects": [ {{ "name": "box", "material":
+            {{ "stiffness_n_per_m": 1, "damping_ns_per_m": 0, "mu_static": 0, "mu_dynamic": 0 }},
+            "patches": {square} }} ] }}"#
+        );
+        assert_mentions(
+            &error(&text),
+            &["object 0 (\"box\"), patches: the closed chain runs clockwise"],
+        );
+    }
+
+    #[test]
+    fn shell_errors_name_the_object() {
+        let patch = r#"{ "degree": [1, 1], "knots": [[0, 0, 1, 1], [0, 0, 1, 1]],
+            "points": [[[0, 0, 0], [0, 1, 0]], [[1, 0, 0], [1, 1, 0]]] }"#;
+        let patches = vec![patch; tracker::MAX_SHELL_PATCHES + 1].join(", ");
+        let text = format!(
+            r#"{{ "format": "scene/1", "objects": [ {{ "name": "stack", "material":
+            {{ "stiffness_n_per_m": 1, "damping_ns_per_m": 0, "mu_static": 0, "mu_dynamic": 0 }},
+            "patches": [ {patches} ] }} ] }}"#
+        );
+        assert_eq!(
+            error(&text),
+            format!(
+                "object 0 (\"stack\"), patches: {} surfaces, at most {} per object",
+                tracker::MAX_SHELL_PATCHES + 1,
+                tracker::MAX_SHELL_PATCHES
+            )
         );
     }
 }

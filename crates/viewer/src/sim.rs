@@ -1,0 +1,617 @@
+//! The host simulation behind `viewer sim`: a HIP that follows a prescribed trajectory, and the
+//! whole haptic pipeline (closest-point tracking, the Voronoi feature state machine, friction)
+//! run once per tick, as in the thesis's simulations (§3.2).
+//!
+//! Each tick `i` at `t = t₀ + i / rate`: the HIP is the trajectory interpolated at `t`, its
+//! velocity the backward difference of the sampled HIP (zero at the first tick), and one
+//! [`FrictionRenderer`] for the object turns them into a [`FrictionOutput`], recorded as a
+//! [`Tick`]. Planar trajectories drive a chain of planar curves ([`tracker::Chain`]), spatial
+//! ones a shell of surfaces ([`tracker::Shell`]); [`Tick`] stores both as `Vec3` with `z = 0`
+//! for planar runs.
+//!
+//! [`Run::write_csv`] writes the run log: one row per tick, columns [`csv_header`].
+
+use std::io::{self, Write};
+
+use friction::{FrictionMaterial, FrictionOutput, FrictionRenderer, Mode};
+use nurbs::{Point, Vec3};
+use tracker::{Chain, ChainError, Feature, Object as TrackedObject, Shell, ShellError};
+
+use crate::scene::{Scene, Space};
+pub use crate::trajectory::{Trajectory, TrajectoryError, TrajectoryProblem};
+
+/// Default tick rate of `sim` (Hz).
+pub const DEFAULT_RATE_HZ: f64 = 1000.0;
+
+/// Largest number of ticks of one run (about 2 GB of records; 2.8 h at 1 kHz).
+pub const MAX_TICKS: usize = 10_000_000;
+
+/// What one tick of the pipeline produced. Vectors are in the device frame, `z = 0` in a
+/// planar run.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Tick {
+    /// Time (s).
+    pub t_s: f64,
+    /// HIP position (m).
+    pub hip: Vec3,
+    /// HIP velocity fed to the renderer (m/s): backward difference of the sampled HIP.
+    pub hip_velocity: Vec3,
+    /// Closest point (CP) on the object (m).
+    pub cp: Vec3,
+    /// God-object (GO) (m): the point of application of the force; equal to the CP except
+    /// while stuck or in transition.
+    pub go: Vec3,
+    /// The active patch (the CP tracker's patch) while in contact, `None` when free.
+    pub patch: Option<usize>,
+    /// The active feature of the CP tracker (patch, vertex, edge or corner).
+    pub feature: Feature,
+    /// Friction mode after the tick.
+    pub mode: Mode,
+    /// Signed penetration depth at the CP (m): positive inside, negative outside. The CSV's
+    /// `depth_m` is this clamped at 0.
+    pub depth_m: f32,
+    /// Normal force (N), ≥ 0.
+    pub normal_force_n: f32,
+    /// Friction force (N), signed along [`Tick::tangent`].
+    pub friction_force_n: f32,
+    /// Friction coefficient in use (0 when free).
+    pub mu: f32,
+    /// Projection error of the GO in the transition, of the CP otherwise.
+    pub psi: f32,
+    /// Unit normal at the point of application.
+    pub normal: Vec3,
+    /// Unit tangent at the point of application, the sign reference of
+    /// [`Tick::friction_force_n`]: along increasing `u` on curves; on surfaces along `u` or
+    /// `v`, whichever the friction lies closer to ([`FrictionOutput::tangent`]).
+    pub tangent: Vec3,
+    /// Friction force vector (N).
+    pub friction: Vec3,
+    /// Total force on the HIP (N): normal plus friction.
+    pub force: Vec3,
+    /// Patch of the CP tracker (also when free).
+    pub cp_patch: usize,
+    /// First parameter (`u`) of the CP on [`Tick::cp_patch`].
+    pub cp_param: f32,
+    /// Parameters of the CP (`[u, 0]` on curves).
+    pub cp_params: [f32; 2],
+    /// Patch of the GO.
+    pub go_patch: usize,
+    /// First parameter (`u`) of the GO on [`Tick::go_patch`].
+    pub go_param: f32,
+    /// Parameters of the GO (`[u, 0]` on curves).
+    pub go_params: [f32; 2],
+}
+
+/// A whole simulation.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Run {
+    /// Planar or spatial.
+    pub space: Space,
+    /// Index of the object in the scene.
+    pub object: usize,
+    /// Its name.
+    pub object_name: String,
+    /// The material it was rendered with.
+    pub material: FrictionMaterial,
+    /// Tick rate (Hz).
+    pub rate_hz: f64,
+    /// One record per tick.
+    pub ticks: Vec<Tick>,
+}
+
+/// Why a simulation could not start.
+#[derive(Debug, PartialEq, thiserror::Error)]
+pub enum SimError {
+    /// No such object.
+    #[error("--object {index}: the scene has {count} object(s), indices 0..={}", count - 1)]
+    ObjectIndex {
+        /// Index asked for.
+        index: usize,
+        /// Objects in the scene (at least one).
+        count: usize,
+    },
+    /// The tick rate is not a positive finite number.
+    #[error("--rate-hz {rate_hz}: the tick rate must be finite and > 0")]
+    Rate {
+        /// The rate given.
+        rate_hz: f64,
+    },
+    /// The trajectory's dimension does not match the object's.
+    #[error(
+        "the trajectory is {trajectory} but object {index} ({name:?}) is {}; {}",
+        match object { Space::Planar => "a 2-D chain of planar curves",
+                       Space::Spatial => "a 3-D shell of surfaces" },
+        match trajectory { Space::Planar => "a t,x,y trajectory needs an object of planar curves",
+                           Space::Spatial => "a t,x,y,z trajectory needs an object of surfaces" }
+    )]
+    Space {
+        /// The trajectory's space.
+        trajectory: Space,
+        /// The object's space.
+        object: Space,
+        /// Object index.
+        index: usize,
+        /// Object name.
+        name: String,
+    },
+    /// The run would be too long to hold in memory.
+    #[error(
+        "{ticks} ticks ({duration_s} s at {rate_hz} Hz): at most {MAX_TICKS} per run; \
+         lower --rate-hz or shorten the trajectory"
+    )]
+    TooManyTicks {
+        /// Ticks the run would have.
+        ticks: f64,
+        /// Trajectory duration (s).
+        duration_s: f64,
+        /// Rate (Hz).
+        rate_hz: f64,
+    },
+    /// The object is not a valid chain (the scene loader rejects these already).
+    #[error("object {index}: {error}")]
+    Chain {
+        /// Object index.
+        index: usize,
+        /// What is wrong.
+        error: ChainError,
+    },
+    /// The object is not a valid shell (the scene loader rejects these already).
+    #[error("object {index}: {error}")]
+    Shell {
+        /// Object index.
+        index: usize,
+        /// What is wrong.
+        error: ShellError,
+    },
+}
+
+/// Checks everything [`run`] checks before its first tick, without running it; returns the
+/// number of ticks.
+pub fn validate(
+    scene: &Scene,
+    object: usize,
+    trajectory: &Trajectory,
+    rate_hz: f64,
+) -> Result<usize, SimError> {
+    let count = scene.objects().len();
+    let o = scene.object(object).ok_or(SimError::ObjectIndex {
+        index: object,
+        count,
+    })?;
+    if !(rate_hz.is_finite() && rate_hz > 0.0) {
+        return Err(SimError::Rate { rate_hz });
+    }
+    if o.space() != trajectory.space() {
+        return Err(SimError::Space {
+            trajectory: trajectory.space(),
+            object: o.space(),
+            index: object,
+            name: o.name().to_owned(),
+        });
+    }
+    let ticks = trajectory.tick_count(rate_hz);
+    // Finite times and rate: never NaN.
+    if ticks > MAX_TICKS as f64 {
+        return Err(SimError::TooManyTicks {
+            ticks,
+            duration_s: trajectory.end_s() - trajectory.start_s(),
+            rate_hz,
+        });
+    }
+    Ok(ticks as usize)
+}
+
+/// Runs object `object` of `scene` with its material along `trajectory` at `rate_hz`.
+/// `progress(done, total)` is called after every tick.
+pub fn run(
+    scene: &Scene,
+    object: usize,
+    trajectory: &Trajectory,
+    rate_hz: f64,
+    progress: impl FnMut(usize, usize),
+) -> Result<Run, SimError> {
+    let n = validate(scene, object, trajectory, rate_hz)?;
+    let o = &scene.objects()[object];
+    let material = o.material().friction_material();
+    let space_error = || SimError::Space {
+        trajectory: trajectory.space(),
+        object: o.space(),
+        index: object,
+        name: o.name().to_owned(),
+    };
+    let ticks = match trajectory.space() {
+        Space::Planar => {
+            let curves = o.curve_views().ok_or_else(space_error)?;
+            let chain = Chain::new(&curves).map_err(|error| SimError::Chain {
+                index: object,
+                error,
+            })?;
+            simulate(&chain, material, trajectory, rate_hz, n, progress)
+        }
+        Space::Spatial => {
+            let surfaces = o.surface_views().ok_or_else(space_error)?;
+            let shell = Shell::new(&surfaces).map_err(|error| SimError::Shell {
+                index: object,
+                error,
+            })?;
+            simulate(&shell, material, trajectory, rate_hz, n, progress)
+        }
+    };
+    Ok(Run {
+        space: trajectory.space(),
+        object,
+        object_name: o.name().to_owned(),
+        material,
+        rate_hz,
+        ticks,
+    })
+}
+
+/// The tick loop, once for chains and shells.
+fn simulate<O: TrackedObject>(
+    object: &O,
+    material: FrictionMaterial,
+    trajectory: &Trajectory,
+    rate_hz: f64,
+    n: usize,
+    mut progress: impl FnMut(usize, usize),
+) -> Vec<Tick> {
+    let period_s = (1.0 / rate_hz) as f32;
+    let start = trajectory.at(trajectory.start_s());
+    let mut renderer = FrictionRenderer::new(object, material, point::<O::P>(start), period_s);
+    let mut previous = start;
+    let mut ticks = Vec::with_capacity(n);
+    for i in 0..n {
+        let t_s = trajectory.tick_time_s(i, rate_hz);
+        let xyz = trajectory.at(t_s);
+        let velocity = if i == 0 {
+            [0.0; 3]
+        } else {
+            [0, 1, 2].map(|k| (xyz[k] - previous[k]) * rate_hz)
+        };
+        previous = xyz;
+        let (hip, hip_velocity) = (point::<O::P>(xyz), point::<O::P>(velocity));
+        let out = renderer.tick(object, hip, hip_velocity, period_s);
+        ticks.push(record(t_s, hip, hip_velocity, &out));
+        progress(i + 1, n);
+    }
+    ticks
+}
+
+fn record<P: Point>(t_s: f64, hip: P, hip_velocity: P, out: &FrictionOutput<P>) -> Tick {
+    let c = &out.contact;
+    Tick {
+        t_s,
+        hip: vec3(hip),
+        hip_velocity: vec3(hip_velocity),
+        cp: vec3(c.point),
+        go: vec3(out.go),
+        patch: (out.mode != Mode::Free).then_some(c.patch as usize),
+        feature: c.feature,
+        mode: out.mode,
+        depth_m: c.depth,
+        normal_force_n: out.normal_force_n,
+        friction_force_n: out.friction_force_n,
+        mu: out.mu,
+        psi: out.psi,
+        normal: vec3(out.normal),
+        tangent: vec3(out.tangent),
+        friction: vec3(out.friction),
+        force: vec3(out.total),
+        cp_patch: c.patch as usize,
+        cp_param: c.params[0],
+        cp_params: c.params,
+        go_patch: out.go_patch as usize,
+        go_param: out.go_params[0],
+        go_params: out.go_params,
+    }
+}
+
+/// The first `P::DIM` coordinates, rounded to the loop's `f32`.
+fn point<P: Point>(xyz: [f64; 3]) -> P {
+    let c = xyz.map(|v| v as f32);
+    P::from_coords(&c[..P::DIM]).unwrap_or(P::ZERO)
+}
+
+fn vec3<P: Point>(p: P) -> Vec3 {
+    let c = p.as_slice();
+    let at = |i: usize| c.get(i).copied().unwrap_or(0.0);
+    Vec3::new(at(0), at(1), at(2))
+}
+
+/// The run log's header: `t_s,hip_x,hip_y[,hip_z],cp_x,cp_y[,cp_z],go_x,go_y[,go_z],patch,mode,
+/// depth_m,normal_force_n,friction_force_n,mu,psi,force_x,force_y[,force_z]` (the `_z` columns
+/// for spatial runs only).
+pub fn csv_header(space: Space) -> String {
+    let axes: &[&str] = match space {
+        Space::Planar => &["x", "y"],
+        Space::Spatial => &["x", "y", "z"],
+    };
+    let vector = |name: &str| {
+        axes.iter()
+            .map(|a| format!("{name}_{a}"))
+            .collect::<Vec<_>>()
+            .join(",")
+    };
+    format!(
+        "t_s,{},{},{},patch,mode,depth_m,normal_force_n,friction_force_n,mu,psi,{}",
+        vector("hip"),
+        vector("cp"),
+        vector("go"),
+        vector("force")
+    )
+}
+
+impl Run {
+    /// Writes the run log: [`csv_header`], then one row per tick. `patch` is −1 when free,
+    /// `mode` one of `free`, `stuck`, `transition`, `slip`, `depth_m` the penetration depth
+    /// clamped at 0 (so 0 when free).
+    pub fn write_csv(&self, out: impl Write) -> io::Result<()> {
+        let mut w = io::BufWriter::new(out);
+        writeln!(w, "{}", csv_header(self.space))?;
+        let dim = self.space.dim();
+        for k in &self.ticks {
+            write!(w, "{}", k.t_s)?;
+            for v in [k.hip, k.cp, k.go] {
+                for x in &v.to_array()[..dim] {
+                    write!(w, ",{x:?}")?;
+                }
+            }
+            let patch = k.patch.map_or(-1, |p| p as i64);
+            write!(
+                w,
+                ",{patch},{},{:?},{:?},{:?},{:?},{:?}",
+                k.mode.name(),
+                k.depth_m.max(0.0),
+                k.normal_force_n,
+                k.friction_force_n,
+                k.mu,
+                k.psi
+            )?;
+            for x in &k.force.to_array()[..dim] {
+                write!(w, ",{x:?}")?;
+            }
+            writeln!(w)?;
+        }
+        w.flush()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Object 0, a flat floor: the line y = 0.08 drawn from x = 0.05 to −0.05, so that its
+    /// outward normal `t × k̂` points up (+y). K = 1000 N/m, μ_s = 0.7, μ_d = 0.5, no damping.
+    /// Object 1, the plane z = 0 over x ∈ [−0.03, 0.03], y ∈ [0.06, 0.12], normal +z;
+    /// K = 500 N/m, μ_s = 0.4, μ_d = 0.3.
+    fn floor_scene() -> Scene {
+        Scene::from_json_str(
+            r#"{ "format": "scene/1", "objects": [
+              { "name": "floor",
+                "material": { "stiffness_n_per_m": 1000, "damping_ns_per_m": 0,
+                              "mu_static": 0.7, "mu_dynamic": 0.5 },
+                "patches": [ { "degree": 1, "knots": [0, 0, 1, 1],
+                               "points": [[0.05, 0.08], [-0.05, 0.08]] } ] },
+              { "name": "bump",
+                "material": { "stiffness_n_per_m": 500, "damping_ns_per_m": 0,
+                              "mu_static": 0.4, "mu_dynamic": 0.3 },
+                "patches": [ { "degree": [1, 1], "knots": [[0, 0, 1, 1], [0, 0, 1, 1]],
+                               "points": [[[-0.03, 0.06, 0], [-0.03, 0.12, 0]],
+                                          [[0.03, 0.06, 0], [0.03, 0.12, 0]]] } ] } ] }"#,
+        )
+        .unwrap_or_else(|e| panic!("{e}"))
+    }
+
+    /// Approach from above, press 2 mm in, hold, then slide 20 mm to the right.
+    fn press_and_slide() -> Trajectory {
+        Trajectory::from_samples(
+            Space::Planar,
+            [
+                (0.0, [0.0, 0.085, 0.0]),
+                (0.1, [0.0, 0.078, 0.0]),
+                (0.2, [0.0, 0.078, 0.0]),
+                (1.2, [0.02, 0.078, 0.0]),
+            ],
+        )
+        .unwrap_or_else(|e| panic!("{e}"))
+    }
+
+    #[test]
+    fn header_columns() {
+        assert_eq!(
+            csv_header(Space::Planar),
+            "t_s,hip_x,hip_y,cp_x,cp_y,go_x,go_y,patch,mode,depth_m,normal_force_n,\
+             friction_force_n,mu,psi,force_x,force_y"
+        );
+        assert_eq!(
+            csv_header(Space::Spatial),
+            "t_s,hip_x,hip_y,hip_z,cp_x,cp_y,cp_z,go_x,go_y,go_z,patch,mode,depth_m,\
+             normal_force_n,friction_force_n,mu,psi,force_x,force_y,force_z"
+        );
+    }
+
+    #[test]
+    fn press_in_and_slide_on_a_floor() {
+        let scene = floor_scene();
+        let mut calls = 0;
+        let run = run(&scene, 0, &press_and_slide(), 1000.0, |done, total| {
+            calls += 1;
+            assert_eq!((done, total), (calls, 1201));
+        })
+        .unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(run.ticks.len(), 1201);
+        assert_eq!(calls, 1201);
+        assert_eq!(run.space, Space::Planar);
+
+        // The modes appear in the order of Algorithm 1, each once.
+        let mut order: Vec<Mode> = Vec::new();
+        for k in &run.ticks {
+            if order.last() != Some(&k.mode) {
+                order.push(k.mode);
+            }
+        }
+        assert_eq!(
+            order,
+            [Mode::Free, Mode::Stuck, Mode::Transition, Mode::Slip],
+            "mode sequence"
+        );
+
+        // Pressed 2 mm into a floor of K = 1000 N/m: F_N = 2 N along +y.
+        let at = |t: f64| {
+            run.ticks
+                .iter()
+                .find(|k| (k.t_s - t).abs() < 1e-9)
+                .unwrap_or_else(|| panic!("a tick at {t}"))
+        };
+        let held = at(0.15);
+        assert_eq!(held.mode, Mode::Stuck);
+        assert_eq!(held.patch, Some(0));
+        assert!((held.depth_m - 0.002).abs() < 1e-6, "{held:?}");
+        assert!((held.normal_force_n - 2.0).abs() < 1e-3, "{held:?}");
+        assert!(held.friction_force_n.abs() < 1e-3, "{held:?}");
+        assert!((held.force - Vec3::new(0.0, 2.0, 0.0)).length() < 1e-3);
+
+        // Free before contact: nothing.
+        let free = at(0.0);
+        assert_eq!((free.mode, free.patch), (Mode::Free, None));
+        assert_eq!(free.force, Vec3::ZERO);
+
+        // Stuck while sliding starts: the GO stays where contact began, the spring K·(GO −
+        // HIP) carries the friction until |F_T| = μ_s F_N = 1.4 N, i.e. 1.4 mm of travel.
+        let stuck: Vec<&Tick> = run
+            .ticks
+            .iter()
+            .filter(|k| k.mode == Mode::Stuck && k.t_s > 0.2)
+            .collect();
+        let last_stuck = stuck.last().expect("stuck while sliding");
+        assert!(
+            (last_stuck.go.x - 0.0).abs() < 1e-6,
+            "GO pinned at x = 0: {last_stuck:?}"
+        );
+        let travel = last_stuck.hip.x;
+        assert!((travel - 0.0014).abs() < 3e-5, "breakaway after {travel} m");
+
+        // Slip: F_N = K·2 mm = 2 N and the friction μ_d·F_N = 1 N against the motion (−x).
+        let slips: Vec<&Tick> = run.ticks.iter().filter(|k| k.mode == Mode::Slip).collect();
+        assert!(slips.len() > 500, "{} slip ticks", slips.len());
+        // The first is the tick that ends the transition, with its μ slightly above μ_d.
+        for k in &slips[1..] {
+            assert!((k.normal_force_n - 2.0).abs() < 1e-3, "{k:?}");
+            assert!((k.friction.x + 1.0).abs() < 1e-3, "{k:?}");
+            assert!(k.friction.y.abs() < 1e-3, "{k:?}");
+            assert!(
+                (k.force - Vec3::new(-1.0, 2.0, 0.0)).length() < 2e-3,
+                "{k:?}"
+            );
+            assert_eq!(k.mu, 0.5);
+            // The GO is on the floor, at or behind the CP (Algorithm 1 has it at the CP; a
+            // renderer may let it trail so that its spring carries the friction).
+            assert!(
+                (k.go.y - 0.08).abs() < 1e-6 && k.go.x <= k.cp.x + 1e-6,
+                "{k:?}"
+            );
+            // The floor's parameter runs right to left: u = (0.05 − x) / 0.1.
+            assert!((k.cp_param - (0.05 - k.hip.x) / 0.1).abs() < 1e-4, "{k:?}");
+        }
+        // friction_force_n is signed along the tangent, which runs along −x on this floor.
+        assert!((slips[1].friction_force_n - 1.0).abs() < 1e-3);
+        assert_eq!(slips[1].tangent.x, -1.0);
+    }
+
+    #[test]
+    fn csv_has_one_row_per_tick() {
+        let scene = floor_scene();
+        let run =
+            run(&scene, 0, &press_and_slide(), 200.0, |_, _| {}).unwrap_or_else(|e| panic!("{e}"));
+        let mut out = Vec::new();
+        run.write_csv(&mut out).expect("write to memory");
+        let text = String::from_utf8(out).expect("UTF-8");
+        let lines: Vec<&str> = text.lines().collect();
+        assert_eq!(lines[0], csv_header(Space::Planar));
+        assert_eq!(lines.len(), 1 + run.ticks.len());
+        assert_eq!(run.ticks.len(), 241);
+        for line in &lines[1..] {
+            assert_eq!(line.split(',').count(), 16, "{line}");
+        }
+        assert!(lines[1].starts_with("0,0.0,0.085,"), "{}", lines[1]);
+        assert!(lines[1].contains(",-1,free,0.0,0.0,0.0,"), "{}", lines[1]);
+        let last: Vec<&str> = lines[lines.len() - 1].split(',').collect();
+        assert_eq!(last[0], "1.2");
+        assert_eq!((last[7], last[8]), ("0", "slip"));
+        let depth: f32 = last[9].parse().expect("number");
+        assert!((depth - 0.002).abs() < 1e-6);
+    }
+
+    #[test]
+    fn spatial_run_on_a_flat_patch() {
+        // The plane z = 0 with normal S_u × S_v = +z; press 2 mm and slide along y.
+        let scene = floor_scene();
+        let trajectory = Trajectory::from_samples(
+            Space::Spatial,
+            [
+                (0.0, [0.0, 0.08, 0.005]),
+                (0.1, [0.0, 0.08, -0.002]),
+                (0.6, [0.0, 0.1, -0.002]),
+            ],
+        )
+        .unwrap_or_else(|e| panic!("{e}"));
+        let run = run(&scene, 1, &trajectory, 1000.0, |_, _| {}).unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(run.space, Space::Spatial);
+        let modes: Vec<Mode> = run.ticks.iter().map(|k| k.mode).collect();
+        let first_slip = modes.iter().position(|&m| m == Mode::Slip).expect("slips");
+        assert!(
+            modes[first_slip..].iter().all(|&m| m == Mode::Slip),
+            "slips to the end"
+        );
+        let last = run.ticks.last().expect("ticks");
+        // K = 500 N/m, 2 mm: F_N = 1 N; μ_d = 0.3: friction 0.3 N against +y.
+        assert!((last.normal_force_n - 1.0).abs() < 1e-3, "{last:?}");
+        assert!(
+            (last.friction - Vec3::new(0.0, -0.3, 0.0)).length() < 1e-3,
+            "{last:?}"
+        );
+        let mut out = Vec::new();
+        run.write_csv(&mut out).expect("write");
+        let text = String::from_utf8(out).expect("UTF-8");
+        assert_eq!(
+            text.lines().next(),
+            Some(csv_header(Space::Spatial).as_str())
+        );
+        assert!(text.lines().skip(1).all(|l| l.split(',').count() == 20));
+    }
+
+    #[test]
+    fn setup_errors() {
+        let scene = floor_scene();
+        let planar = press_and_slide();
+        let e = run(&scene, 2, &planar, 1000.0, |_, _| {}).expect_err("no object 2");
+        assert_eq!(
+            e.to_string(),
+            "--object 2: the scene has 2 object(s), indices 0..=1"
+        );
+        for rate in [0.0, -1.0, f64::NAN, f64::INFINITY] {
+            let e = run(&scene, 0, &planar, rate, |_, _| {}).expect_err("bad rate");
+            assert!(matches!(e, SimError::Rate { .. }), "{e}");
+        }
+        let e = run(&scene, 1, &planar, 1000.0, |_, _| {}).expect_err("2-D on a surface");
+        assert_eq!(
+            e.to_string(),
+            "the trajectory is 2-D but object 1 (\"bump\") is a 3-D shell of surfaces; a t,x,y \
+             trajectory needs an object of planar curves"
+        );
+        let spatial = Trajectory::from_samples(Space::Spatial, [(0.0, [0.0; 3]), (1.0, [0.0; 3])])
+            .expect("valid");
+        let e = run(&scene, 0, &spatial, 1000.0, |_, _| {}).expect_err("3-D on a curve");
+        assert!(
+            e.to_string()
+                .contains("a t,x,y,z trajectory needs an object of surfaces"),
+            "{e}"
+        );
+        let long = Trajectory::from_samples(Space::Planar, [(0.0, [0.0; 3]), (1e5, [0.0; 3])])
+            .expect("valid");
+        let e = validate(&scene, 0, &long, 1000.0).expect_err("too long");
+        assert!(matches!(e, SimError::TooManyTicks { .. }), "{e}");
+        assert_eq!(validate(&scene, 0, &planar, 1000.0), Ok(1201));
+    }
+}

@@ -1,0 +1,328 @@
+//! `viewer sim` end to end: run log, plot, progress, exit statuses and messages.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn examples() -> String {
+    let path = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../scenes/examples.json");
+    path.to_str().expect("UTF-8 path").to_owned()
+}
+
+fn viewer(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_viewer"))
+        .args(args)
+        .output()
+        .expect("viewer runs")
+}
+
+fn stderr(out: &Output) -> String {
+    String::from_utf8_lossy(&out.stderr).into_owned()
+}
+
+/// A fresh temporary directory, removed on drop.
+struct TempDir(PathBuf);
+
+impl TempDir {
+    fn new(name: &str) -> Self {
+        let dir = std::env::temp_dir().join(format!("viewer-sim-{}-{name}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).expect("temp dir");
+        TempDir(dir)
+    }
+
+    /// Writes `text` to `name` in the directory and returns its path.
+    fn file(&self, name: &str, text: &str) -> String {
+        let path = self.0.join(name);
+        std::fs::write(&path, text).expect("write file");
+        self.path(name)
+    }
+
+    fn path(&self, name: &str) -> String {
+        self.0.join(name).to_str().expect("UTF-8 path").to_owned()
+    }
+}
+
+impl Drop for TempDir {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_dir_all(&self.0);
+    }
+}
+
+/// Onto the top of the circle of scenes/examples.json (object 1: centre (0, 0.09), radius
+/// 0.03), 2 mm in, then 5 mm along it: 0.3 s.
+const PRESS: &str = "t,x,y\n0,0,0.125\n0.1,0,0.118\n0.3,-0.005,0.118\n";
+
+#[test]
+fn run_log_and_plot() {
+    let dir = TempDir::new("ok");
+    let traj = dir.file("press.csv", PRESS);
+    let (out, png) = (dir.path("run.csv"), dir.path("run.png"));
+    let result = viewer(&[
+        "sim",
+        &examples(),
+        "--object",
+        "1",
+        "--trajectory",
+        &traj,
+        "--out",
+        &out,
+        "--plot",
+        &png,
+        "--rate-hz",
+        "500",
+    ]);
+    assert_eq!(result.status.code(), Some(0), "{}", stderr(&result));
+    assert!(result.stdout.is_empty());
+    let err = stderr(&result);
+    assert!(err.contains("sim: 100% (151/151 ticks)"), "{err}");
+    assert!(err.contains("sim:  50%"), "{err}");
+
+    let text = std::fs::read_to_string(&out).expect("run log");
+    let lines: Vec<&str> = text.lines().collect();
+    assert_eq!(
+        lines[0],
+        "t_s,hip_x,hip_y,cp_x,cp_y,go_x,go_y,patch,mode,depth_m,normal_force_n,\
+         friction_force_n,mu,psi,force_x,force_y"
+    );
+    // 0.3 s at 500 Hz, both ends included.
+    assert_eq!(lines.len(), 1 + 151);
+    let rows: Vec<Vec<&str>> = lines[1..].iter().map(|l| l.split(',').collect()).collect();
+    assert!(rows.iter().all(|r| r.len() == 16));
+    assert_eq!(rows[0][0], "0");
+    assert_eq!(rows[150][0], "0.3");
+    assert_eq!((rows[0][7], rows[0][8]), ("-1", "free"));
+    // Pressed 2 mm into K = 1000 N/m: about 2 N once in contact at the bottom of the press.
+    let pressed = &rows[50];
+    assert_eq!(pressed[0], "0.1");
+    assert_eq!((pressed[7], pressed[8]), ("0", "stuck"));
+    let depth: f64 = pressed[9].parse().expect("depth");
+    let normal: f64 = pressed[10].parse().expect("normal force");
+    assert!((depth - 0.002).abs() < 1e-6, "{depth}");
+    assert!((normal - 2.0).abs() < 1e-3, "{normal}");
+    let modes: Vec<&str> = rows.iter().map(|r| r[8]).collect();
+    assert!(
+        modes
+            .iter()
+            .all(|m| ["free", "stuck", "transition", "slip"].contains(m))
+    );
+    assert!(modes.contains(&"slip"), "{modes:?}");
+
+    let bytes = std::fs::read(&png).expect("plot written");
+    assert!(bytes.starts_with(b"\x89PNG\r\n\x1a\n"), "a PNG file");
+    assert!(bytes.len() > 10_000, "{} bytes", bytes.len());
+}
+
+#[test]
+fn spatial_run_log_has_z_columns() {
+    let dir = TempDir::new("3d");
+    // Object 2 of the examples: the bump z = 9 h u(1−u) v(1−v), h = 0.02, over x ∈ [−0.03,
+    // 0.03], y ∈ [0.06, 0.12]; its top is z = 0.01125 at (0, 0.09).
+    let traj = dir.file(
+        "press3.csv",
+        "t,x,y,z\n0,0,0.09,0.02\n0.05,0,0.09,0.0105\n0.1,0,0.095,0.0105\n",
+    );
+    let out = dir.path("run3.csv");
+    let result = viewer(&[
+        "sim",
+        &examples(),
+        "--object",
+        "2",
+        "--trajectory",
+        &traj,
+        "--out",
+        &out,
+    ]);
+    assert_eq!(result.status.code(), Some(0), "{}", stderr(&result));
+    let text = std::fs::read_to_string(&out).expect("run log");
+    let lines: Vec<&str> = text.lines().collect();
+    assert_eq!(
+        lines[0],
+        "t_s,hip_x,hip_y,hip_z,cp_x,cp_y,cp_z,go_x,go_y,go_z,patch,mode,depth_m,\
+         normal_force_n,friction_force_n,mu,psi,force_x,force_y,force_z"
+    );
+    assert_eq!(lines.len(), 1 + 101);
+    assert!(lines[1..].iter().all(|l| l.split(',').count() == 20));
+}
+
+#[test]
+fn bad_trajectories_exit_2_naming_file_and_line() {
+    let dir = TempDir::new("bad");
+    let out = dir.path("run.csv");
+    let cases = [
+        (
+            "header.csv",
+            "time,x,y\n0,0,0\n1,0,0\n",
+            "header.csv: line 1: header `time,x,y`",
+        ),
+        (
+            "count.csv",
+            "t,x,y\n0,0,0.1\n1,0\n",
+            "count.csv: line 3: 2 value(s), expected 3",
+        ),
+        (
+            "nan.csv",
+            "t,x,y\n0,0,0.1\n1,NaN,0.1\n",
+            "nan.csv: line 3: x: NaN is not a finite",
+        ),
+        (
+            "text.csv",
+            "t,x,y\n0,0,0.1\n1,0,high\n",
+            "text.csv: line 3: y: `high` is not a number",
+        ),
+        (
+            "order.csv",
+            "t,x,y\n0,0,0.1\n1,0,0.1\n0.5,0,0.1\n",
+            "order.csv: line 4: t = 0.5",
+        ),
+        (
+            "short.csv",
+            "t,x,y\n0,0,0.1\n",
+            "short.csv: line 2: 1 data row(s)",
+        ),
+    ];
+    for (name, text, message) in cases {
+        let traj = dir.file(name, text);
+        let result = viewer(&["sim", &examples(), "--trajectory", &traj, "--out", &out]);
+        assert_eq!(result.status.code(), Some(2), "{name}");
+        let err = stderr(&result);
+        assert!(err.contains("invalid trajectory"), "{name}: {err}");
+        assert!(err.contains(message), "{name}: {err} lacks {message:?}");
+    }
+    assert!(!Path::new(&out).exists(), "nothing written for bad input");
+
+    let result = viewer(&[
+        "sim",
+        &examples(),
+        "--trajectory",
+        "no/such/traj.csv",
+        "--out",
+        &out,
+    ]);
+    assert_eq!(result.status.code(), Some(2));
+    assert!(stderr(&result).contains("cannot read no/such/traj.csv"));
+}
+
+#[test]
+fn setup_errors_exit_2() {
+    let dir = TempDir::new("setup");
+    let traj = dir.file("press.csv", PRESS);
+    let out = dir.path("run.csv");
+    // A planar trajectory on the surface object.
+    let result = viewer(&[
+        "sim",
+        &examples(),
+        "--object",
+        "2",
+        "--trajectory",
+        &traj,
+        "--out",
+        &out,
+    ]);
+    assert_eq!(result.status.code(), Some(2));
+    let err = stderr(&result);
+    assert!(
+        err.contains("the trajectory is 2-D but object 2 (\"bump\") is a 3-D shell of surfaces"),
+        "{err}"
+    );
+    let result = viewer(&[
+        "sim",
+        &examples(),
+        "--object",
+        "3",
+        "--trajectory",
+        &traj,
+        "--out",
+        &out,
+    ]);
+    assert_eq!(result.status.code(), Some(2));
+    assert!(stderr(&result).contains("--object 3: the scene has 3 object(s)"));
+    for rate in ["0", "-1", "inf", "NaN"] {
+        let result = viewer(&[
+            "sim",
+            &examples(),
+            "--trajectory",
+            &traj,
+            "--out",
+            &out,
+            "--rate-hz",
+            rate,
+        ]);
+        assert_eq!(result.status.code(), Some(2), "{rate}");
+        assert!(
+            stderr(&result).contains("finite and > 0"),
+            "{}",
+            stderr(&result)
+        );
+    }
+    let result = viewer(&[
+        "sim",
+        "no/such/scene.json",
+        "--trajectory",
+        &traj,
+        "--out",
+        &out,
+    ]);
+    assert_eq!(result.status.code(), Some(2));
+    assert!(stderr(&result).contains("no/such/scene.json"));
+    assert!(!Path::new(&out).exists());
+}
+
+#[test]
+fn unwritable_output_exits_1() {
+    let dir = TempDir::new("io");
+    let traj = dir.file("press.csv", PRESS);
+    let result = viewer(&[
+        "sim",
+        &examples(),
+        "--object",
+        "1",
+        "--trajectory",
+        &traj,
+        "--out",
+        &dir.path("missing/dir/run.csv"),
+    ]);
+    assert_eq!(result.status.code(), Some(1));
+    let err = stderr(&result);
+    assert!(err.contains("cannot create"), "{err}");
+    assert!(err.contains("missing/dir/run.csv"), "{err}");
+    assert!(!err.contains("sim: "), "fails before running: {err}");
+
+    let result = viewer(&[
+        "sim",
+        &examples(),
+        "--object",
+        "1",
+        "--trajectory",
+        &traj,
+        "--out",
+        &dir.path("run.csv"),
+        "--plot",
+        &dir.path("missing/run.png"),
+    ]);
+    assert_eq!(result.status.code(), Some(1));
+    let err = stderr(&result);
+    assert!(err.contains("cannot create plot"), "{err}");
+    assert!(!err.contains("sim: "), "fails before running: {err}");
+}
+
+#[test]
+fn help_documents_the_formats() {
+    let out = viewer(&["sim", "--help"]);
+    assert_eq!(out.status.code(), Some(0));
+    let help = String::from_utf8_lossy(&out.stdout);
+    for needle in [
+        "--trajectory",
+        "--out",
+        "--plot",
+        "--rate-hz",
+        "--object",
+        "`t,x,y` (planar) or `t,x,y,z` (spatial)",
+        "hip_x,hip_y[,hip_z]",
+        "free | stuck | transition | slip",
+        "depth_m",
+        "-1 when free",
+        "Exit status",
+    ] {
+        assert!(help.contains(needle), "help lacks {needle:?}:\n{help}");
+    }
+}
