@@ -112,15 +112,17 @@ pub struct FrictionRenderer<O: Object> {
     go: O::State,
     mode: Mode,
     law: LawState<O::P>,
-    /// The point of application (the GO the spring pulls to): patch and parameters.
-    pa: (usize, [f32; 2]),
-    /// Where the GO was at the end of the last tick.
-    pa_point: O::P,
+    /// The transition's projection-error ratio Ψ/Ψ₀ (1 at breakaway).
+    s: f32,
+    /// Correction of the GO's distance for the surface's curvature (1 on a flat surface).
+    lag_gain: f32,
+    /// The GO's target last tick (rate-limited), and the HIP last tick.
+    prev_target: Option<O::P>,
+    prev_hip: Option<O::P>,
     prev_cp: Option<O::P>,
     prev_velocity: O::P,
     prev_normal_force: f32,
     prev_friction: O::P,
-    psi0: f32,
 }
 
 /// The CP tracker's settings: one Gauss–Newton step per tick.
@@ -128,14 +130,12 @@ pub fn cp_config() -> TrackerConfig {
     TrackerConfig::default()
 }
 
-/// The GO tracker's settings for the transition: each tick closes `T/τ` of the gap and follows
-/// the HIP's motion by feed-forward.
-fn go_config(material: &FrictionMaterial, period_s: f32) -> TrackerConfig {
-    let alpha = (period_s / material.transition_time_s.max(period_s)).clamp(0.0, 1.0);
+/// The GO tracker's settings: it slides towards its target (the point behind the CP where the
+/// spring carries the friction force) half the way each tick; the residual lag of a moving
+/// target is taken up by the curvature correction of the GO's distance.
+fn go_config() -> TrackerConfig {
     TrackerConfig {
-        law: Law::Normalized { alpha },
-        feedforward: true,
-        convergence_radius: f32::INFINITY,
+        law: Law::Normalized { alpha: 0.5 },
         ..TrackerConfig::default()
     }
 }
@@ -145,7 +145,8 @@ impl<O: Object> FrictionRenderer<O> {
     /// `period_s`.
     pub fn new(object: &O, material: FrictionMaterial, hip: O::P, period_s: f32) -> Self {
         let cp = object.start(hip, cp_config());
-        let mut go = object.start(hip, go_config(&material, period_s));
+        let mut go = object.start(hip, go_config());
+        let _ = period_s;
         O::set_sliding(&mut go, true);
         let law = match material.model {
             ModelKind::StickSlip => LawState::StickSlip,
@@ -180,13 +181,14 @@ impl<O: Object> FrictionRenderer<O> {
             go,
             mode: Mode::Free,
             law,
-            pa: (0, [0.0; 2]),
-            pa_point: O::P::ZERO,
+            s: 0.0,
+            lag_gain: 1.0,
+            prev_target: None,
+            prev_hip: None,
             prev_cp: None,
             prev_velocity: O::P::ZERO,
             prev_normal_force: 0.0,
             prev_friction: O::P::ZERO,
-            psi0: 0.0,
         }
     }
 
@@ -225,6 +227,8 @@ impl<O: Object> FrictionRenderer<O> {
 
         if !contact.inside {
             self.mode = Mode::Free;
+            self.prev_target = None;
+            self.prev_hip = Some(hip);
             self.prev_normal_force = 0.0;
             self.prev_friction = O::P::ZERO;
             self.prev_velocity = cp_velocity;
@@ -268,7 +272,7 @@ impl<O: Object> FrictionRenderer<O> {
 
         if self.mode == Mode::Free {
             self.mode = Mode::Stuck;
-            self.pa = (cp_patch, cp_params);
+            object.place(&mut self.go, cp_patch, cp_params);
         }
 
         // Dynamic → stuck when the CP stops or reverses, or the normal force jumps
@@ -282,80 +286,127 @@ impl<O: Object> FrictionRenderer<O> {
             // A relative margin keeps f32 noise from firing it when μ_s = μ_d.
             let jump =
                 m.mu_dynamic * fn_now > m.mu_static * self.prev_normal_force * (1.0 + 1e-4) + 1e-6;
-            if reversed || stopped || jump {
+            // Sticking needs a spring that static friction can hold; a GO still catching up
+            // (the HIP stopped while it lagged) slides on until it can.
+            let (p, t) = O::position(&self.go);
+            let at = object.frame(p, t);
+            let spring = (at.point - hip) * k;
+            let holds = tangential(spring, at.normal).length_squared()
+                <= square(m.mu_static * spring.dot(at.normal).max(0.0));
+            if (reversed || stopped || jump) && holds {
                 self.mode = Mode::Stuck;
             }
         }
 
         let mut mu = m.mu_static;
         let mut psi = contact.psi[0];
-        match self.mode {
-            Mode::Transition => {
-                // The thesis's GO, released at breakaway, converges to the CP; its projection
-                // error sets μ.
-                let g = object.track(&mut self.go, hip, period_s, true);
-                let psi_go = sqrt(g.psi[0] * g.psi[0] + g.psi[1] * g.psi[1]);
-                if self.psi0 <= 0.0 {
-                    self.psi0 = psi_go.max(f32::MIN_POSITIVE);
-                }
-                // Caught up: within the distance tolerance, or μ within 1 % of its way to μ_d;
-                // the last 1 % is snapped, so this tick already renders slip.
-                let gap = g.point - contact.point;
-                let caught_up = gap.length_squared() <= m.converge_tol_m * m.converge_tol_m
-                    || psi_go <= 0.01 * self.psi0;
-                mu = if caught_up {
+        if matches!(self.mode, Mode::Transition | Mode::Slip) {
+            let go_now = object
+                .frame(O::position(&self.go).0, O::position(&self.go).1)
+                .point;
+            let offset = tangential(go_now - contact.point, contact.normal);
+            let dist = sqrt(offset.length_squared());
+            let behind = offset
+                .try_normalize()
+                .unwrap_or_else(|| -cp_velocity.try_normalize().unwrap_or(O::P::ZERO));
+            let mut lag = if self.mode == Mode::Transition {
+                // The thesis's transition: the GO's projection error decays under the
+                // normalised law, `Ψ/Ψ₀ = (1 − T/τ)ᵏ`, and sets μ through the Stribeck curve.
+                self.s *= 1.0 - (period_s / m.transition_time_s.max(period_s)).min(1.0);
+                if self.s <= 0.01 {
+                    // The last 1 % of μ's way is snapped: this tick already renders slip.
                     self.mode = Mode::Slip;
-                    m.mu_dynamic
+                    mu = m.mu_dynamic;
                 } else {
-                    m.stribeck.mu(m.mu_static, m.mu_dynamic, psi_go / self.psi0)
-                };
-                psi = psi_go;
-                self.pa = self.tow(object, &contact, hip, cp_velocity, mu);
-            }
-            Mode::Slip => {
+                    mu = m.stribeck.mu(m.mu_static, m.mu_dynamic, self.s);
+                }
+                psi = self.s;
+                mu * contact.depth.max(0.0) * self.lag_gain
+            } else {
                 mu = m.mu_dynamic;
-                self.pa = self.tow(object, &contact, hip, cp_velocity, mu);
-            }
-            Mode::Stuck | Mode::Free => {}
+                mu * contact.depth.max(0.0) * self.lag_gain
+            };
+            // Never pushed away from the CP: a GO closer than its slip distance (the HIP pressed
+            // deeper) waits for the spring to stretch, as when stuck.
+            lag = lag.min(dist);
+            // The GO slides over the surface (changing patch only at a boundary) half the way
+            // each tick towards a target `lag` behind the CP. The target itself moves no faster
+            // than the HIP (plus the Stribeck relaxation): where it would jump, because the CP
+            // crossed a sharp corner and the depth now counts from the other patch, the force
+            // falls steeply but continuously (thesis Fig. 3.2.2, interval 12 → 13).
+            let raw = contact.point + behind * lag;
+            let hip_step = sqrt((hip - self.prev_hip.unwrap_or(hip)).length_squared());
+            let rate = (period_s / m.transition_time_s.max(period_s)).min(1.0);
+            let target = match self.prev_target {
+                Some(prev) => {
+                    let step = raw - prev;
+                    let len = sqrt(step.length_squared());
+                    // With the HIP, plus the rest of the way at the transition's rate (1/τ).
+                    let reach = 1.5 * hip_step + rate * len + 1e-7;
+                    if len > reach {
+                        prev + step * (reach / len)
+                    } else {
+                        raw
+                    }
+                }
+                None => raw,
+            };
+            self.prev_target = Some(target);
+            object.track(&mut self.go, target, period_s, true);
         }
 
-        // The force is the spring from the HIP to the point of application (the GO).
-        let (pa_patch, pa_params) = self.pa;
-        let fr = object.frame(pa_patch, pa_params);
+        // The force is the spring from the HIP to the god-object.
+        let (go_patch, go_params) = O::position(&self.go);
+        let fr = object.frame(go_patch, go_params);
         let f = (fr.point - hip) * k;
         let normal_force = (f.dot(fr.normal) + damping(fr.normal)).max(0.0);
         let mut friction = tangential(f, fr.normal);
-        if self.mode == Mode::Stuck {
-            let limit = m.mu_static * normal_force;
-            if friction.length_squared() > limit * limit {
-                // Breakaway: the GO moves to the static limit (continuous: the spring was just
-                // past it) and the thesis's GO tracker is released from the stuck point.
-                self.mode = Mode::Transition;
-                self.psi0 = 0.0;
-                object.place(&mut self.go, pa_patch, pa_params);
-                let behind = friction.try_normalize().unwrap_or(O::P::ZERO);
-                self.pa = self.lag_point(object, &contact, hip, behind, m.mu_static, f32::INFINITY);
-                friction = behind * limit;
+        let f_t = sqrt(friction.length_squared());
+        match self.mode {
+            Mode::Stuck => {
+                let limit = m.mu_static * normal_force;
+                if f_t > limit {
+                    // Breakaway: friction at the static limit this tick, then the transition,
+                    // whose target starts at the GO.
+                    self.mode = Mode::Transition;
+                    self.s = 1.0;
+                    self.prev_target = Some(fr.point);
+                    friction = friction * (limit / f_t);
+                }
             }
+            Mode::Transition | Mode::Slip => {
+                // While the GO catches up with a target that moved away (the HIP let go, or the
+                // depth reference changed at a corner) the spring can exceed μ F_N for a few
+                // ticks: the rendered friction never does.
+                let limit = mu * normal_force;
+                if f_t > limit {
+                    friction = friction * (limit / f_t);
+                }
+                // On a curved surface the tilt of the normal between CP and GO changes the
+                // split of the spring by about κ·depth: adjust the GO's distance over the next
+                // ticks so that |F_T| = μ F_N.
+                if f_t > f32::MIN_POSITIVE && normal_force > 0.0 {
+                    let ratio = (mu * normal_force / f_t).clamp(0.5, 2.0);
+                    self.lag_gain = (self.lag_gain * (1.0 + 0.5 * (ratio - 1.0))).clamp(0.5, 2.0);
+                }
+            }
+            Mode::Free => {}
         }
+        if self.mode == Mode::Stuck {
+            self.prev_target = None;
+        }
+        self.prev_hip = Some(hip);
         self.prev_velocity = cp_velocity;
         self.prev_normal_force = normal_force;
         self.prev_friction = friction;
-        // After a breakaway the GO moved this tick; otherwise `fr` is already its frame.
-        let go = if self.pa == (pa_patch, pa_params) {
-            fr
-        } else {
-            object.frame(self.pa.0, self.pa.1)
-        };
-        self.pa_point = go.point;
         let total = fr.normal * normal_force + friction;
         FrictionOutput {
             mode: self.mode,
             contact,
-            go: go.point,
-            go_patch: self.pa.0 as u16,
-            go_params: self.pa.1,
-            point_of_application: go.point,
+            go: fr.point,
+            go_patch: go_patch as u16,
+            go_params,
+            point_of_application: fr.point,
             normal: fr.normal,
             tangent: reference(&fr, friction),
             normal_force_n: normal_force,
@@ -365,60 +416,6 @@ impl<O: Object> FrictionRenderer<O> {
             mu,
             psi,
         }
-    }
-
-    /// Moves the GO (the point of application) while sliding: it is towed behind the CP like a
-    /// trailer, keeping its bearing from the CP, at the distance where the spring to the HIP
-    /// carries `μ F_N` (see [`Self::lag_point`]), but never further from the CP than it already
-    /// is. So the GO only ever moves towards the HIP (friction can only dissipate), a turn of
-    /// the HIP swings it round smoothly (the force direction never jumps), and a GO that is
-    /// closer than the target distance (the HIP pressed deeper) waits for the spring to
-    /// stretch, as when stuck.
-    fn tow(
-        &self,
-        object: &O,
-        contact: &Contact<O::P>,
-        hip: O::P,
-        cp_velocity: O::P,
-        mu: f32,
-    ) -> (usize, [f32; 2]) {
-        let offset = tangential(self.pa_point - contact.point, contact.normal);
-        let dist2 = offset.length_squared();
-        let behind = offset
-            .try_normalize()
-            .unwrap_or_else(|| -cp_velocity.try_normalize().unwrap_or(O::P::ZERO));
-        self.lag_point(object, contact, hip, behind, mu, sqrt(dist2))
-    }
-
-    /// The surface point behind the CP (in the tangential direction `behind`), at most
-    /// `max_lag_m` from it, where the spring to the HIP carries a friction force `μ F_N`, both
-    /// measured at that point. On a flat surface that is `μ · depth` from the CP; on a curved
-    /// one the tilt of the normal changes the split by about `κ · depth`, so two secant
-    /// corrections of the distance follow.
-    fn lag_point(
-        &self,
-        object: &O,
-        contact: &Contact<O::P>,
-        hip: O::P,
-        behind: O::P,
-        mu: f32,
-        max_lag_m: f32,
-    ) -> (usize, [f32; 2]) {
-        let (patch, params) = O::position(&self.cp);
-        let mut lag_m = mu * contact.depth.max(0.0);
-        let mut at = object.offset(patch, params, behind * lag_m.min(max_lag_m));
-        for _ in 0..2 {
-            let fr = object.frame(patch, at);
-            let d = fr.point - hip;
-            let f_n = d.dot(fr.normal);
-            let f_t = sqrt(tangential(d, fr.normal).length_squared());
-            if f_t <= f32::MIN_POSITIVE || f_n <= 0.0 {
-                break;
-            }
-            lag_m *= mu * f_n / f_t;
-            at = object.offset(patch, params, behind * lag_m.min(max_lag_m));
-        }
-        (patch, at)
     }
 
     /// The velocity-based laws: penalty normal force at the CP, friction from the law.
@@ -496,6 +493,11 @@ fn reference<P: Point>(fr: &Frame<P>, f: P) -> P {
     } else {
         fr.tangent
     }
+}
+
+#[inline]
+fn square(x: f32) -> f32 {
+    x * x
 }
 
 /// The part of `v` orthogonal to the unit normal `n`.

@@ -81,7 +81,10 @@ fn stuck_friction_is_the_spring_until_mu_s_fn_then_slip_at_mu_d_fn() {
             Mode::Transition => {
                 saw[2] = true;
                 assert!(o.mu <= 0.7 + 1e-6 && o.mu >= 0.5 - 1e-6);
-                assert!((o.friction.length() - o.mu * o.normal_force_n).abs() < 1e-4);
+                // The GO follows its target half the way per tick, so the friction trails the
+                // Stribeck curve by at most a tick's worth of μ's fall, and never exceeds it.
+                assert!(o.friction.length() <= o.mu * o.normal_force_n + 1e-4);
+                assert!(o.friction.length() >= 0.5 * o.normal_force_n - 1e-4);
             }
             Mode::Slip => {
                 saw[3] = true;
