@@ -24,7 +24,7 @@ impl Stribeck {
     /// `m(s)` for `s` clamped to [0, 1].
     #[inline]
     pub fn shape(&self, s: f32) -> f32 {
-        let s = s.max(0.0).min(1.0);
+        let s = if s.is_nan() { 0.0 } else { s.clamp(0.0, 1.0) };
         match *self {
             Stribeck::Linear => s,
             Stribeck::Power { exponent } => {
