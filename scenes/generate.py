@@ -69,17 +69,17 @@ def thesis_2d():
     def along(r, d0, d1):
         return lambda s: polar(C0, r, d0 + (d1 - d0) * s)
 
-    x_g, y_g = polar(C0, R - 0.003, 56.0)
+    x_g, y_g = polar(C0, R - 0.002, 54.0)
     segs = [
         (0.2, radial(20.0, R + 0.005, R - 0.002)),  # -> 1: press in along the normal, 2 mm
         (0.5, along(R - 0.002, 20.0, 35.0)),  # 1 -> 2 -> 3: stuck, breakaway, transition, slip
         (0.2, radial(35.0, R - 0.002, R - 0.004)),  # 3 -> 4 -> 5: press deeper: stuck again
         (0.5, along(R - 0.004, 35.0, 48.0)),  # 5 -> 6 -> 7 -> 8: stuck, breakaway, slip
         (0.2, radial(48.0, R - 0.004, R + 0.005)),  # 8 -> 9: leave the object
-        (0.2, along(R + 0.005, 48.0, 56.0)),  # 9 -> 10: outside, towards the corner
-        (0.2, radial(56.0, R + 0.005, R - 0.003)),  # 10 -> 11: press in near the corner
-        (0.3, lambda s: (x_g - 0.0057 * s, y_g)),  # 11 -> 12 -> 13: horizontally onto curve 2
-        (0.2, lambda s: (x_g - 0.0057, y_g)),  # hold
+        (0.2, along(R + 0.005, 48.0, 54.0)),  # 9 -> 10: outside, towards the corner
+        (0.2, radial(54.0, R + 0.005, R - 0.002)),  # 10 -> 11: press in near the corner
+        (0.36, lambda s: (x_g - 0.0068 * s, y_g)),  # 11 -> 12 -> 13: horizontally onto curve 2
+        (0.16, lambda s: (x_g - 0.0068, y_g)),  # hold
     ]
     return scene, segs
 

@@ -280,9 +280,11 @@ impl<O: Object> FrictionRenderer<O> {
         // force, carries on unchanged.
         if matches!(self.mode, Mode::Transition | Mode::Slip) {
             let fn_now = (k * contact.depth + damping(contact.normal)).max(0.0);
-            let reversed = cp_velocity.dot(self.prev_velocity) < 0.0;
-            let stopped =
-                cp_velocity.length_squared() < m.stop_speed_m_per_s * m.stop_speed_m_per_s;
+            let slow = |v: O::P| v.length_squared() < square(m.stop_speed_m_per_s);
+            let stopped = slow(cp_velocity);
+            // A reversal is a real change of direction, not rounding noise around standstill.
+            let reversed =
+                cp_velocity.dot(self.prev_velocity) < 0.0 && !stopped && !slow(self.prev_velocity);
             // A relative margin keeps f32 noise from firing it when μ_s = μ_d.
             let jump =
                 m.mu_dynamic * fn_now > m.mu_static * self.prev_normal_force * (1.0 + 1e-4) + 1e-6;
@@ -293,6 +295,10 @@ impl<O: Object> FrictionRenderer<O> {
             let spring = (at.point - hip) * k;
             let holds = tangential(spring, at.normal).length_squared()
                 <= square(m.mu_static * spring.dot(at.normal).max(0.0));
+            // A transition runs its course while the CP stands still (the HIP pulled straight
+            // out, or pressed straight in): stopping only ends a slip. Otherwise unloading
+            // would chatter between stuck and transition every few ticks.
+            let stopped = stopped && self.mode == Mode::Slip;
             if (reversed || stopped || jump) && holds {
                 self.mode = Mode::Stuck;
             }
