@@ -1,5 +1,5 @@
-//! The command line, as clap types. `main.rs` runs it; later issues add `closest`,
-//! `device …`, and the GUI when no subcommand is given.
+//! The command line, as clap types. `main.rs` runs it; later issues add `device …` and the
+//! GUI when no subcommand is given.
 
 use std::path::PathBuf;
 
@@ -35,9 +35,53 @@ pub enum Command {
     /// Evaluate one patch of a scene at parameters read from standard input.
     #[command(long_about = EVAL_ABOUT, after_long_help = EVAL_AFTER)]
     Eval(EvalArgs),
+    /// Closest points of one object to query points read from standard input.
+    #[command(long_about = CLOSEST_ABOUT, after_long_help = CLOSEST_AFTER)]
+    Closest(ClosestArgs),
     /// Simulate the haptic loop along a prescribed HIP trajectory and write a run log.
     #[command(long_about = SIM_ABOUT, after_long_help = SIM_AFTER)]
     Sim(SimArgs),
+}
+
+const CLOSEST_ABOUT: &str = "\
+Closest points of one object to query points read from standard input.
+
+Reads one point per line: `x y` for an object of planar curves, `x y z` for an object of \
+surfaces (metres, whitespace-separated). Blank lines and lines starting with `#` are \
+skipped. For each point runs the global search (branch and bound over the patches' Bézier \
+pieces, then Newton) on every patch and writes the nearest result as one JSON object on its \
+own line, flushed at once.";
+
+const CLOSEST_AFTER: &str = "\
+Output fields:
+  patch            index of the patch the closest point lies on
+  u [, v]          its parameters (v only for surfaces)
+  point            the closest point (m)
+  distance         distance from the query to it (m)
+  signed_distance  the distance, negative when the query is inside the object
+  normal           unit outward normal of the patch at the closest point
+
+Errors: a wrong number of values, a value that is not a finite number or a malformed line
+stops the run with a message on standard error naming the line number and its content; the
+lines before it have been answered.
+
+Exit status:
+  0  every line answered
+  1  a bad input line, or the output could not be written
+  2  bad command line, unreadable or invalid scene, or --object out of range
+
+Example:
+  printf '0.05 0.1\\n0 0.09\\n' | viewer closest scenes/examples.json --object 1";
+
+/// Arguments of `closest`.
+#[derive(Debug, Args)]
+pub struct ClosestArgs {
+    /// Scene file (JSON, format `scene/1`).
+    #[arg(value_name = "SCENE")]
+    pub scene: PathBuf,
+    /// Index of the object in the scene's `objects` array, from 0.
+    #[arg(long, value_name = "I", default_value_t = 0)]
+    pub object: usize,
 }
 
 const EVAL_ABOUT: &str = "\

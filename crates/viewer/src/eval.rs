@@ -109,6 +109,9 @@ pub enum EvalError {
     /// Writing the output failed.
     #[error("cannot write output: {0}")]
     Write(io::Error),
+    /// The object has no patches to answer from.
+    #[error("the object has no patches")]
+    Empty,
 }
 
 /// What is wrong with an input line.
@@ -161,8 +164,55 @@ pub enum LineProblem {
 /// line). Returns the number of queries answered; stops at the first bad line.
 pub fn run<R: BufRead, W: Write>(
     patch: &Patch,
-    mut input: R,
+    input: R,
     mut output: W,
+) -> Result<usize, EvalError> {
+    answer_lines(input, |text| match patch {
+        Patch::Curve2(c) => {
+            let c = c.view();
+            let [u] = parse_query(text, ["u"], "u", [c.domain()])?;
+            Ok(write_json(&mut output, &sample_curve(&c, u))?)
+        }
+        Patch::Curve3(c) => {
+            let c = c.view();
+            let [u] = parse_query(text, ["u"], "u", [c.domain()])?;
+            Ok(write_json(&mut output, &sample_curve(&c, u))?)
+        }
+        Patch::Surface(s) => {
+            let s = s.view();
+            let (du, dv) = s.domain();
+            let [u, v] = parse_query(text, ["u", "v"], "u v", [du, dv])?;
+            Ok(write_json(&mut output, &sample_surface(&s, u, v))?)
+        }
+    })
+}
+
+/// What answering one line can fail with: the line itself, or the output.
+#[derive(Debug)]
+pub(crate) enum Answer {
+    /// The line is bad.
+    Line(LineProblem),
+    /// Writing failed.
+    Output(EvalError),
+}
+
+impl From<LineProblem> for Answer {
+    fn from(p: LineProblem) -> Self {
+        Answer::Line(p)
+    }
+}
+
+impl From<EvalError> for Answer {
+    fn from(e: EvalError) -> Self {
+        Answer::Output(e)
+    }
+}
+
+/// Feeds every query line of `input` (trimmed; blank and `#` lines skipped) to `answer`.
+/// Returns the number answered; stops at the first bad line with an error naming it.
+pub(crate) fn answer_lines<R: BufRead>(
+    mut input: R,
+    mut answer: impl FnMut(&str) -> Result<(), Answer>,
 ) -> Result<usize, EvalError> {
     let mut buf = Vec::new();
     let mut line = 0;
@@ -182,44 +232,32 @@ pub fn run<R: BufRead, W: Write>(
         if text.is_empty() || text.starts_with('#') {
             continue;
         }
-        let at_line = |problem| EvalError::Line {
-            line,
-            content: text.to_owned(),
-            problem,
-        };
-        match patch {
-            Patch::Curve2(c) => {
-                let c = c.view();
-                let [u] = parse_query(text, ["u"], [c.domain()]).map_err(at_line)?;
-                write_json(&mut output, &sample_curve(&c, u))?;
+        match answer(text) {
+            Ok(()) => answered += 1,
+            Err(Answer::Line(problem)) => {
+                return Err(EvalError::Line {
+                    line,
+                    content: text.to_owned(),
+                    problem,
+                });
             }
-            Patch::Curve3(c) => {
-                let c = c.view();
-                let [u] = parse_query(text, ["u"], [c.domain()]).map_err(at_line)?;
-                write_json(&mut output, &sample_curve(&c, u))?;
-            }
-            Patch::Surface(s) => {
-                let s = s.view();
-                let (du, dv) = s.domain();
-                let [u, v] = parse_query(text, ["u", "v"], [du, dv]).map_err(at_line)?;
-                write_json(&mut output, &sample_surface(&s, u, v))?;
-            }
+            Err(Answer::Output(e)) => return Err(e),
         }
-        answered += 1;
     }
 }
 
 /// Parses `N` whitespace-separated finite values, each inside its domain.
-fn parse_query<const N: usize>(
+pub(crate) fn parse_query<const N: usize>(
     text: &str,
     names: [&'static str; N],
+    all_names: &'static str,
     domains: [(f32, f32); N],
 ) -> Result<[f32; N], LineProblem> {
     let words: Vec<&str> = text.split_whitespace().collect();
     if words.len() != N {
         return Err(LineProblem::Count {
             expected: N,
-            names: if N == 1 { "u" } else { "u v" },
+            names: all_names,
             found: words.len(),
         });
     }
@@ -247,7 +285,10 @@ fn parse_query<const N: usize>(
     Ok(values)
 }
 
-fn write_json<W: Write, T: Serialize>(output: &mut W, value: &T) -> Result<(), EvalError> {
+pub(crate) fn write_json<W: Write, T: Serialize>(
+    output: &mut W,
+    value: &T,
+) -> Result<(), EvalError> {
     serde_json::to_writer(&mut *output, value).map_err(|e| EvalError::Write(e.into()))?;
     output.write_all(b"\n").map_err(EvalError::Write)?;
     output.flush().map_err(EvalError::Write)

@@ -2,6 +2,7 @@
 #![warn(missing_docs)]
 
 pub mod cli;
+pub mod closest;
 pub mod eval;
 pub mod plot;
 pub mod scene;

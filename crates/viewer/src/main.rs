@@ -8,8 +8,9 @@ use std::process::ExitCode;
 use anyhow::{Context, Result, anyhow};
 use clap::{CommandFactory, Parser};
 use viewer::cli::{
-    Cli, Command, EXIT_BAD_INPUT, EXIT_BAD_SETUP, EvalArgs, PatchSelection, SimArgs,
+    Cli, ClosestArgs, Command, EXIT_BAD_INPUT, EXIT_BAD_SETUP, EvalArgs, PatchSelection, SimArgs,
 };
+use viewer::closest;
 use viewer::eval::{self, EvalError};
 use viewer::plot;
 use viewer::scene::{Patch, Scene};
@@ -20,6 +21,36 @@ fn main() -> ExitCode {
         None => no_command(),
         Some(Command::Eval(args)) => eval_command(&args),
         Some(Command::Sim(args)) => sim_command(&args),
+        Some(Command::Closest(args)) => closest_command(&args),
+    }
+}
+
+fn closest_command(args: &ClosestArgs) -> ExitCode {
+    let scene = match Scene::load(&args.scene).context("invalid scene") {
+        Ok(scene) => scene,
+        Err(e) => return fail(&e, EXIT_BAD_SETUP),
+    };
+    let Some(object) = scene.object(args.object) else {
+        let n = scene.objects().len();
+        let e = anyhow!(
+            "--object {}: {} has {n} object(s), indices 0..={}",
+            args.object,
+            args.scene.display(),
+            n.saturating_sub(1)
+        );
+        return fail(&e, EXIT_BAD_SETUP);
+    };
+    match closest::run(object, io::stdin().lock(), io::stdout().lock()) {
+        Ok(_) => ExitCode::SUCCESS,
+        Err(EvalError::Write(e)) if e.kind() == io::ErrorKind::BrokenPipe => ExitCode::SUCCESS,
+        Err(e) => fail(
+            &anyhow::Error::new(e).context(format!(
+                "closest on object {} ({:?})",
+                args.object,
+                object.name()
+            )),
+            EXIT_BAD_INPUT,
+        ),
     }
 }
 
