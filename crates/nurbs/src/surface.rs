@@ -202,13 +202,16 @@ impl<'a> Surface<'a> {
         }
         let d2 = self.derivs(u, v, 2);
         if u_vanishes && !v_vanishes {
-            let h = if v >= self.kv.domain().1 { -1.0 } else { 1.0 };
+            // Into the domain from the nearer end.
+            let (v0, v1) = self.kv.domain();
+            let h = if v - v0 > v1 - v { -1.0 } else { 1.0 };
             if let Some(n) = (d2.duv.cross(d2.dv) * h).try_normalize() {
                 return n;
             }
         }
         if v_vanishes && !u_vanishes {
-            let h = if u >= self.ku.domain().1 { -1.0 } else { 1.0 };
+            let (u0, u1) = self.ku.domain();
+            let h = if u - u0 > u1 - u { -1.0 } else { 1.0 };
             if let Some(n) = (d2.du.cross(d2.duv) * h).try_normalize() {
                 return n;
             }

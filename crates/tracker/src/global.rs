@@ -1,6 +1,6 @@
 //! Global closest-point search: the true closest point on a patch, found from nothing (no
-//! warm start), by branch and bound over the patch's rational Bézier pieces and a Newton
-//! polish (P&T §6.1) at the leaves.
+//! warm start), by branch and bound over the patch's rational Bézier pieces, with a
+//! safeguarded Newton polish (P&T §6.1) at the leaves.
 //!
 //! # Algorithm
 //!
@@ -11,30 +11,50 @@
 //!    knot insertion, no allocation. A surface is blossomed along `u` column by column, then
 //!    along `v` row by row.
 //! 2. **Bounds.** With positive weights a rational Bézier piece lies in the convex hull of its
-//!    Cartesian control points, so the squared distance from `x` to their box is a lower
-//!    bound for the piece; its corner control points lie on the patch and give upper bounds.
-//! 3. **Branch and bound.** Pieces are visited nearest box first, depth-first, halved at the
+//!    Cartesian control points. The lower bound is the larger of the squared distances from
+//!    `x` to their box and to a slab facing `x` ([`BezierPiece::lower_bound`]); the corner
+//!    control points lie on the patch and give upper bounds.
+//! 3. **Branch and bound.** Pieces are visited nearest first, depth-first, halved at the
 //!    parameter midpoint by de Casteljau on the homogeneous points (a surface piece across
-//!    its longer direction, measured on the control net), nearer child first. A piece is
+//!    the direction in which its control net is longer), nearer child first. A piece is
 //!    pruned when its lower bound cannot beat the best distance so far by more than
-//!    [`GlobalConfig::tolerance`].
-//! 4. **Leaves.** A piece whose box is small against the best distance so far (or smaller
-//!    than the tolerance, or at the depth cap) is polished by [`newton`] on the whole patch
-//!    from the piece's middle parameter. The best point seen is polished once more at the end.
+//!    [`GlobalConfig::tolerance`]. The first piece on a branch whose box is small against the
+//!    best distance ([`GlobalConfig::polish_ratio`]) is polished from its middle, for an early,
+//!    tight upper bound.
+//! 4. **Leaves.** Subdivision stops at the depth cap or below the tolerance; a leaf that is
+//!    still not pruned is polished from its middle parameter (and from its nearest corner
+//!    when that is nearer than the middle: a leaf can straddle two minima). The best point
+//!    found is polished once more at the end, so that it satisfies the first-order condition.
+//!
+//! The polish is Newton's method on the whole patch as in [`newton`](crate::newton()), with
+//! Levenberg–Marquardt damping and bounds handled as an active set (see
+//! `projected_newton`): plain Newton with clamping can jump out of the basin a leaf samples,
+//! or stall on the boundary of the domain short of a minimum there.
+//!
+//! # Cost
+//!
+//! On a bicubic 8 × 8 net (25 pieces), queries around the surface visit about 27 pieces and
+//! run about 10 polishes on average (see the `pieces_visited` test). The worst case is a query
+//! equidistant from much of the patch (the centre of a sphere): nothing can be pruned and
+//! every leaf is visited, `2^MAX_DEPTH` per piece.
 //!
 //! # Stack
 //!
-//! The search recurses; each level keeps one piece (the sibling still to visit). A surface
-//! piece is `[[Vec4; 8]; 8]` (1 KiB), and the depth is capped at
-//! [`BezierPiece::MAX_DEPTH`] = 10 for surfaces, so the recursion needs about 11 KiB
-//! (measured on x86-64, release: under 14 KiB for the whole call, Newton included). Curve
-//! pieces are 128 B (`Vec4`) or 96 B (`Vec3`) with a depth cap of 16: about 4 KiB.
+//! The search recurses, one level per halving; each level keeps one piece (the sibling still
+//! to visit) and little else (the per-piece work is out of line). A surface piece is
+//! `[[Vec4; 8]; 8]` (1 KiB) and surfaces stop at depth 9 ([`BezierPiece::MAX_DEPTH`] of
+//! [`SurfacePiece`]): ten levels of 1.2 KiB. Worst case for a surface, from the release
+//! build's frame sizes on thumbv7em: entry 0.4 KiB + root piece 1.1 KiB + 10 × 1.2 KiB + the
+//! polish at the deepest leaf (surface jet included) 2.0 KiB ≈ 15.5 KiB; measured on x86-64
+//! by stack painting, 15.7 KiB. A curve piece is 96 B (planar) or 128 B (spatial), the depth
+//! cap 16: about 7 KiB.
 
 use core::ops::{Add, Mul};
 
-use crate::newton::{NewtonConfig, newton};
+use crate::linalg::solve_spd;
+use crate::newton::NewtonConfig;
 use crate::patch::{Jet, Patch};
-use crate::track::PERIODIC_TOL;
+use crate::track::{PERIODIC_TOL, clamp};
 use nurbs::{Aabb, Curve, MAX_ORDER, Point, Surface, Vec3, Vec4};
 
 /// Settings of [`closest_point`].
@@ -43,14 +63,14 @@ pub struct GlobalConfig {
     /// Distance tolerance (metres). A piece is pruned unless it could hold a point closer than
     /// the best so far by more than this, and a piece smaller than this is not split further.
     pub tolerance: f32,
-    /// A piece whose control box diagonal is at most this fraction of the best distance so
-    /// far is a leaf: at that size the distance has a single minimum over the piece, and
-    /// Newton from its middle finds it.
-    pub leaf_ratio: f32,
+    /// The first piece on a branch whose control box diagonal is at most this fraction of the
+    /// best distance so far is polished from its middle: at that size the piece usually holds
+    /// a single minimum, and finding it early makes pruning effective.
+    pub polish_ratio: f32,
     /// Depth cap of the subdivision; the piece type's [`BezierPiece::MAX_DEPTH`] caps it again
     /// so that the stack stays bounded.
     pub max_depth: u8,
-    /// The polish.
+    /// Tolerances (P&T eq. 6.4–6.5) and iteration cap of each polish.
     pub newton: NewtonConfig,
 }
 
@@ -58,7 +78,7 @@ impl Default for GlobalConfig {
     fn default() -> Self {
         GlobalConfig {
             tolerance: 1e-7,
-            leaf_ratio: 0.25,
+            polish_ratio: 0.25,
             max_depth: 16,
             newton: NewtonConfig::default(),
         }
@@ -79,9 +99,10 @@ pub struct Closest<P, const N: usize> {
     pub normal: P,
     /// `(x − S)·n`: positive outside, negative inside.
     pub signed_distance: f32,
-    /// Bézier pieces (and sub-pieces) the branch and bound examined.
+    /// Bézier pieces and sub-pieces the branch and bound examined (those not pruned on
+    /// arrival): the measure of work, with `polishes`.
     pub pieces_visited: u32,
-    /// Newton polishes run.
+    /// Polishes (local Newton solves) run.
     pub polishes: u32,
 }
 
@@ -145,9 +166,10 @@ fn mid<H: Copy + Add<Output = H> + Mul<f32, Output = H>>(a: H, b: H) -> H {
 }
 
 /// The blossom `f(args[0], …, args[p−1])` of the degree-`p` B-spline over the non-empty span
-/// `s` (`knots[s] < knots[s+1]`), with `ctrl[j] = P[s−p+j]`: de Boor's algorithm with a
-/// distinct argument per level (P&T §5.2 via the de Boor recurrence, Ramshaw's blossoming).
-/// With arguments in the span every `α` is in [0, 1], so weights stay positive.
+/// `s` (`knots[s] < knots[s+1]`), with `ctrl[j] = P[s−p+j]`: de Boor's algorithm (the
+/// triangular scheme of P&T eq. 5.15 / A5.2) with a distinct argument per level, which
+/// evaluates the blossom (Ramshaw). With arguments in the span every `α` is in [0, 1], so
+/// weights stay positive.
 #[inline]
 fn blossom<H: Copy + Add<Output = H> + Mul<f32, Output = H>>(
     knots: &[f32],
@@ -253,7 +275,7 @@ fn cartesian<P: Point>(h: P::Hom) -> P {
 }
 
 #[inline]
-fn lerp(a: f32, b: f32) -> f32 {
+fn midpoint(a: f32, b: f32) -> f32 {
     0.5 * (a + b)
 }
 
@@ -326,7 +348,7 @@ impl<P: Point> BezierPiece<P, 1> for CurvePiece<P> {
         if dir != 0 {
             return *self;
         }
-        let m = lerp(self.range.0, self.range.1);
+        let m = midpoint(self.range.0, self.range.1);
         let upper = CurvePiece {
             pts: halve(&mut self.pts, self.degree),
             degree: self.degree,
@@ -352,7 +374,7 @@ impl<P: Point> BezierSplit<1> for Curve<'_, P> {
         }
         let s = p + k[0];
         let (a, b) = (knots[s], knots[s + 1]);
-        if !(a < b) {
+        if a >= b {
             return None;
         }
         let mut ctrl = [P::Hom::default(); MAX_ORDER];
@@ -399,7 +421,7 @@ impl SurfacePiece {
 }
 
 impl BezierPiece<Vec3, 2> for SurfacePiece {
-    const MAX_DEPTH: u32 = 10;
+    const MAX_DEPTH: u32 = 9;
 
     fn params(&self) -> [(f32, f32); 2] {
         self.range
@@ -503,7 +525,7 @@ impl BezierPiece<Vec3, 2> for SurfacePiece {
             }
             _ => return upper,
         }
-        let m = lerp(self.range[dir].0, self.range[dir].1);
+        let m = midpoint(self.range[dir].0, self.range[dir].1);
         self.range[dir].1 = m;
         upper.range[dir].0 = m;
         upper
@@ -562,7 +584,7 @@ impl BezierSplit<2> for Surface<'_> {
 // The search
 // ---------------------------------------------------------------------------------------------
 
-/// The patch with its periodicity computed once: [`newton`] asks for it on every call, and a
+/// The patch with its periodicity computed once: every polish asks for it, and a
 /// surface answers by sampling its boundary.
 struct Cached<'s, S, const N: usize> {
     patch: &'s S,
@@ -595,6 +617,10 @@ impl<S: Patch<N>, const N: usize> Patch<N> for Cached<'_, S, N> {
             self.patch.periodic(tol)
         }
     }
+
+    fn collapsed(&self, tol: f32) -> [[bool; 2]; N] {
+        self.patch.collapsed(tol)
+    }
 }
 
 struct Search<'s, S: BezierSplit<N>, const N: usize> {
@@ -611,12 +637,12 @@ struct Search<'s, S: BezierSplit<N>, const N: usize> {
 }
 
 impl<S: BezierSplit<N>, const N: usize> Search<'_, S, N> {
-    /// Takes `point` as the best if it is closer, or (`ties`) as close: a polished point wins
-    /// a tie against a corner, whose distance can agree to the last bit while its parameter
+    /// Takes `point` as the best if it is closer, or (`polished`) as close: a polished point
+    /// wins a tie against a corner, whose distance can agree to the last bit while its parameter
     /// is off the stationary point.
-    fn offer(&mut self, t: [f32; N], point: S::P, ties: bool) {
+    fn offer(&mut self, t: [f32; N], point: S::P, polished: bool) {
         let d2 = (point - self.x).length_squared();
-        if d2 < self.best_d2 || (ties && d2 == self.best_d2) {
+        if d2 < self.best_d2 || (polished && d2 == self.best_d2) {
             self.best_d2 = d2;
             self.best_d = libm::sqrtf(d2);
             self.best_t = t;
@@ -631,47 +657,61 @@ impl<S: BezierSplit<N>, const N: usize> Search<'_, S, N> {
     }
 
     fn polish(&mut self, t0: [f32; N]) {
-        self.polishes = self.polishes.saturating_add(1);
-        let r = newton(&self.patch, self.x, t0, &self.cfg.newton);
-        self.offer(r.t, r.point, true);
+        let (t, point) = self.run_polish(t0);
+        self.offer(t, point, true);
     }
 
-    /// Visits a piece whose box is `bb`. `polished`: a Newton polish already ran from an
-    /// enclosing piece.
+    /// [`projected_newton`] from `t0` (out of line: its state must not sit in every frame of
+    /// the recursion).
+    #[inline(never)]
+    fn run_polish(&mut self, t0: [f32; N]) -> ([f32; N], S::P) {
+        self.polishes = self.polishes.saturating_add(1);
+        projected_newton(&self.patch, self.x, t0, &self.cfg.newton)
+    }
+
+    /// Pass 1: every piece's corners for a first upper bound; returns the (flat index of the)
+    /// piece nearest by its lower bound. Out of line, like [`Self::root`], so that the pieces
+    /// it extracts do not sit in [`closest_point`]'s frame during the recursion.
+    #[inline(never)]
+    fn survey(&mut self, counts: &[usize; N], total: usize) -> Option<usize> {
+        let mut nearest: Option<(usize, f32)> = None;
+        for flat in 0..total {
+            if let Some(piece) = self.patch.patch.bezier_piece(unflatten(flat, counts)) {
+                for k in 0..1usize << N {
+                    if let Some((t, point)) = piece.corner(k) {
+                        self.offer(t, point, false);
+                    }
+                }
+                let lb = piece.lower_bound(self.x, &piece.bounding_box());
+                if nearest.is_none_or(|(_, best)| lb < best) {
+                    nearest = Some((flat, lb));
+                }
+            }
+        }
+        nearest.map(|(flat, _)| flat)
+    }
+
+    /// Branch and bound from the piece over knot interval `k`.
+    #[inline(never)]
+    fn root(&mut self, k: [usize; N]) {
+        // Recursing on the piece inside the option (not a copy of it) keeps one piece here.
+        let mut slot = self.patch.patch.bezier_piece(k);
+        if let Some(piece) = slot.as_mut() {
+            let bb = piece.bounding_box();
+            self.descend(piece, bb, 0, false);
+        }
+    }
+
+    /// Visits a piece whose box is `bb`, at `depth` halvings below its knot span. `polished`:
+    /// a polish already ran from an enclosing piece.
     fn descend(&mut self, piece: &mut S::Piece, bb: Aabb<S::P>, depth: u32, polished: bool) {
         if self.hopeless(piece.lower_bound(self.x, &bb)) {
             return;
         }
-        self.visited = self.visited.saturating_add(1);
-        for k in 0..1usize << N {
-            if let Some((t, point)) = piece.corner(k) {
-                self.offer(t, point, false);
-            }
-        }
-        let params = piece.params();
-        let mut middle = [0.0; N];
-        for i in 0..N {
-            middle[i] = lerp(params[i].0, params[i].1);
-        }
-        let diag2 = (bb.max - bb.min).length_squared();
-        // The first piece on a branch that is small against the best distance gets a polish:
-        // its local minimum is a good upper bound early, which is what makes pruning bite.
-        let mut polished = polished;
-        if !polished && diag2 <= self.cfg.leaf_ratio * self.cfg.leaf_ratio * self.best_d2 {
-            self.polish(middle);
-            polished = true;
-        }
-        let tol2 = self.cfg.tolerance * self.cfg.tolerance;
-        if diag2 <= tol2 || depth >= self.max_depth {
-            // A leaf: its middle is a sample; a sample that beats everything so far sits in
-            // the best basin seen yet, so polish it.
-            let before = self.best_d2;
-            self.offer(middle, piece.point_at([0.5; N]), false);
-            if self.best_d2 < before {
-                self.polish(middle);
-            }
+        let leaf = depth >= self.max_depth;
+        let Some(polished) = self.examine(piece, &bb, leaf, polished) else {
             return;
-        }
+        };
         let dir = piece.split_direction();
         let mut upper = piece.split(dir);
         let bb_lo = piece.bounding_box();
@@ -683,6 +723,253 @@ impl<S: BezierSplit<N>, const N: usize> Search<'_, S, N> {
             self.descend(&mut upper, bb_hi, depth + 1, polished);
             self.descend(piece, bb_lo, depth + 1, polished);
         }
+    }
+
+    /// The work on one piece that survived pruning, out of line so that its locals are not
+    /// in every frame of the recursion: offers the corners, polishes where due, and returns
+    /// `None` at a leaf (`leaf`: the depth cap is reached) or `Some(polished)` when the piece
+    /// is to be split.
+    #[inline(never)]
+    fn examine(
+        &mut self,
+        piece: &S::Piece,
+        bb: &Aabb<S::P>,
+        leaf: bool,
+        polished: bool,
+    ) -> Option<bool> {
+        self.visited = self.visited.saturating_add(1);
+        for k in 0..1usize << N {
+            if let Some((t, point)) = piece.corner(k) {
+                self.offer(t, point, false);
+            }
+        }
+        let params = piece.params();
+        let mut middle = [0.0; N];
+        for i in 0..N {
+            middle[i] = midpoint(params[i].0, params[i].1);
+        }
+        let diag2 = (bb.max - bb.min).length_squared();
+        // The first piece on a branch that is small against the best distance gets a polish:
+        // its local minimum is a good upper bound early, which is what makes pruning bite.
+        let polish_here =
+            !polished && diag2 <= self.cfg.polish_ratio * self.cfg.polish_ratio * self.best_d2;
+        if polish_here {
+            self.polish(middle);
+        }
+        let tol2 = self.cfg.tolerance * self.cfg.tolerance;
+        if !(leaf || diag2 <= tol2) {
+            return Some(polished || polish_here);
+        }
+        // A leaf that survived pruning may still hold a better minimum than the best so far
+        // (two basins can differ by less than a leaf's sampling error), so it gets its own
+        // polish. A leaf can hold two minima, typically one inside and one on an edge of the
+        // domain; when a corner is nearer than the middle, the polish from the middle may
+        // slide into the other one, so polish from that corner as well.
+        if !polish_here {
+            self.polish(middle);
+        }
+        let d2_middle = (piece.point_at([0.5; N]) - self.x).length_squared();
+        let mut nearest: Option<([f32; N], f32)> = None;
+        for k in 0..1usize << N {
+            if let Some((t, point)) = piece.corner(k) {
+                let d2 = (point - self.x).length_squared();
+                if d2 < d2_middle && nearest.is_none_or(|(_, best)| d2 < best) {
+                    nearest = Some((t, d2));
+                }
+            }
+        }
+        if let Some((t, _)) = nearest {
+            self.polish(t);
+        }
+        None
+    }
+}
+
+/// Hard cap on the iterations of one polish, whatever [`NewtonConfig::max_iterations`] says.
+const MAX_POLISH_ITERATIONS: u32 = 64;
+
+/// The polish: Newton's method for `Ψ(t) = 0` as in [`newton`](crate::newton()) (P&T §6.1,
+/// full Hessian `H = Sᵢ·Sⱼ + Γ·Sᵢⱼ`, stopping tests of eq. 6.4–6.5), made safe for a global
+/// search:
+/// - Levenberg–Marquardt damping, `δ = −(H + λ diag G)⁻¹ Ψ`, with `λ` raised until the step
+///   does not move away from `x` and lowered after every success: pure Newton near a
+///   minimum, a scaled gradient step in a curved valley or where `H` is indefinite. Plain
+///   Newton with clamping can jump into another basin, or onto a corner of the domain, and
+///   lose the minimum a leaf was sampling;
+/// - bounds as an active set: a direction whose parameter sits on an open bound with `Ψᵢ` or
+///   the step pushing outwards is held, and the others take the reduced step, so it
+///   converges to minima on the boundary instead of stalling there.
+///
+/// Returns the parameters and the point there.
+fn projected_newton<S: Patch<N>, const N: usize>(
+    patch: &S,
+    x: S::P,
+    t0: [f32; N],
+    cfg: &NewtonConfig,
+) -> ([f32; N], S::P) {
+    const LAMBDA_MIN: f32 = 1e-4;
+    const ATTEMPTS: usize = 16;
+    let domain = patch.domain();
+    let periodic = patch.periodic(PERIODIC_TOL);
+    let eps1_sq = cfg.point_tol * cfg.point_tol;
+    let eps2_sq = cfg.cosine_tol * cfg.cosine_tol;
+    let mut t = t0;
+    let mut jet = patch.jet(t, 2);
+    let mut lambda = 0.0f32;
+    // The configured cap, but never unbounded work (a cap of u32::MAX with zero tolerances
+    // would otherwise creep along the noise floor for a long time).
+    for _ in 0..cfg.max_iterations.min(MAX_POLISH_ITERATIONS) {
+        let gamma = jet.point - x;
+        let g2 = gamma.length_squared();
+        // Also stops on NaN (a NaN tolerance included).
+        let apart = g2 > eps1_sq;
+        if !apart {
+            break;
+        }
+        let psi = jet.psi(gamma);
+        let at_lower = |i: usize| !periodic[i] && t[i] <= domain[i].0;
+        let at_upper = |i: usize| !periodic[i] && t[i] >= domain[i].1;
+        let mut held = [false; N];
+        for i in 0..N {
+            held[i] = (at_lower(i) && psi[i] > 0.0) || (at_upper(i) && psi[i] < 0.0);
+        }
+        // P&T eq. (6.4) on the free directions.
+        if (0..N).all(|i| held[i] || psi[i] * psi[i] <= eps2_sq * jet.d[i].length_squared() * g2) {
+            break;
+        }
+        let hessian = jet.hessian(gamma);
+        let metric = jet.metric();
+        // Near the minimum the distance is flat to within the rounding of the evaluation
+        // (coordinates carry errors of a few ε |S|), so a step may raise it by that much.
+        let scale = libm::sqrtf(jet.point.length_squared()) + libm::sqrtf(x.length_squared());
+        let noise = 8.0 * f32::EPSILON * libm::sqrtf(g2) * scale;
+        let mut moved = None;
+        for _ in 0..ATTEMPTS {
+            let Some(mut delta) = damped_step(&hessian, &metric, &psi, &held, lambda) else {
+                lambda = (4.0 * lambda).max(LAMBDA_MIN);
+                continue;
+            };
+            // Also hold the directions on a bound that this step pushes outwards: a clamped
+            // step need not go downhill.
+            for _ in 0..N {
+                let mut grown = false;
+                for i in 0..N {
+                    let out = (at_lower(i) && delta[i] < 0.0) || (at_upper(i) && delta[i] > 0.0);
+                    if !held[i] && out {
+                        held[i] = true;
+                        grown = true;
+                    }
+                }
+                if !grown {
+                    break;
+                }
+                delta = damped_step(&hessian, &metric, &psi, &held, lambda).unwrap_or([0.0; N]);
+            }
+            // Stop the step where it first meets a bound, and land exactly on it: clamping
+            // the other components instead would move along the boundary by a step computed
+            // for a free parameter, possibly into another basin.
+            let mut alpha = 1.0f32;
+            let mut limit = None;
+            for i in 0..N {
+                if held[i] || periodic[i] {
+                    continue;
+                }
+                let (a, b) = domain[i];
+                let room = if delta[i] < 0.0 {
+                    (t[i] - a) / -delta[i]
+                } else if delta[i] > 0.0 {
+                    (b - t[i]) / delta[i]
+                } else {
+                    f32::INFINITY
+                };
+                if room < alpha {
+                    alpha = room.max(0.0);
+                    limit = Some((i, if delta[i] < 0.0 { a } else { b }));
+                }
+            }
+            let mut tn = t;
+            for i in 0..N {
+                if !held[i] {
+                    tn[i] = wrap_or_clamp(t[i] + alpha * delta[i], domain[i], periodic[i]);
+                }
+            }
+            if let Some((i, bound)) = limit {
+                tn[i] = bound;
+            }
+            let jn = patch.jet(tn, 2);
+            if (jn.point - x).length_squared() <= g2 + noise {
+                moved = Some((tn, jn));
+                lambda = if lambda > 4.0 * LAMBDA_MIN {
+                    0.25 * lambda
+                } else {
+                    0.0
+                };
+                break;
+            }
+            lambda = (4.0 * lambda).max(LAMBDA_MIN);
+        }
+        let Some((tn, jn)) = moved else {
+            break;
+        };
+        let mut dt = [0.0; N];
+        for i in 0..N {
+            dt[i] = tn[i] - t[i];
+        }
+        // A wrapped step is long in parameter while the point barely moves: measure both.
+        let small = (jn.point - jet.point).length_squared() <= eps1_sq
+            && jet.displacement(&dt).length_squared() <= eps1_sq;
+        t = tn;
+        jet = jn;
+        if small {
+            break;
+        }
+    }
+    (t, jet.point)
+}
+
+/// `−(H + λ diag G)⁻¹ Ψ` on the directions not `held` (zero on the held ones); `None` where
+/// the damped matrix is not positive definite.
+fn damped_step<const N: usize>(
+    hessian: &[[f32; N]; N],
+    metric: &[[f32; N]; N],
+    psi: &[f32; N],
+    held: &[bool; N],
+    lambda: f32,
+) -> Option<[f32; N]> {
+    let mut a = *hessian;
+    let mut rhs = [0.0; N];
+    // Marquardt's diag G, plus a little of Levenberg's identity (scaled by trace G) so that a
+    // vanishing Sᵢ (a pole) is damped too.
+    let floor = 1e-3 * crate::linalg::trace(metric) + f32::MIN_POSITIVE;
+    for i in 0..N {
+        if held[i] {
+            for j in 0..N {
+                a[i][j] = 0.0;
+                a[j][i] = 0.0;
+            }
+            a[i][i] = 1.0;
+        } else {
+            a[i][i] += lambda * (metric[i][i] + floor);
+            rhs[i] = -psi[i];
+        }
+    }
+    let d = solve_spd(a, rhs, 1e-6)?;
+    let mut out = [0.0; N];
+    for i in 0..N {
+        if !held[i] {
+            out[i] = d[i];
+        }
+    }
+    Some(out)
+}
+
+/// `t` wrapped into `[a, b]` on a closed direction, clamped on an open one (NaN → `a`).
+fn wrap_or_clamp(t: f32, (a, b): (f32, f32), periodic: bool) -> f32 {
+    if periodic && (t < a || t > b) {
+        let len = b - a;
+        clamp(t - len * libm::floorf((t - a) / len), (a, b))
+    } else {
+        clamp(t, (a, b))
     }
 }
 
@@ -738,36 +1025,25 @@ pub fn closest_point<S: BezierSplit<N>, const N: usize>(
         polishes: 0,
     };
 
-    // Pass 1: every piece's corners for a first upper bound, and the piece nearest by box.
     let counts = patch.interval_counts();
     let total = counts.iter().fold(1usize, |a, &c| a.saturating_mul(c));
-    let mut nearest: Option<(usize, f32)> = None;
-    for flat in 0..total {
-        if let Some(piece) = patch.bezier_piece(unflatten(flat, &counts)) {
-            for k in 0..1usize << N {
-                if let Some((t, point)) = piece.corner(k) {
-                    search.offer(t, point, false);
-                }
-            }
-            let bb = piece.bounding_box();
-            let lb = piece.lower_bound(x, &bb);
-            if nearest.is_none_or(|(_, best)| lb < best) {
-                nearest = Some((flat, lb));
-            }
-        }
-    }
-    // Pass 2: branch and bound, nearest piece first, then the rest in order.
-    if let Some((near, _)) = nearest {
+    if let Some(near) = search.survey(&counts, total) {
+        // Branch and bound, nearest piece first, then the rest in order.
         for flat in core::iter::once(near).chain((0..total).filter(|&f| f != near)) {
-            if let Some(mut piece) = patch.bezier_piece(unflatten(flat, &counts)) {
-                let bb = piece.bounding_box();
-                search.descend(&mut piece, bb, 0, false);
-            }
+            search.root(unflatten(flat, &counts));
         }
     }
-    search.polish(search.best_t);
-
-    let t = search.best_t;
+    // The final polish settles on the stationary point of the best basin. Near a minimum
+    // the distance is flat, so a sample can beat the stationary point by rounding noise
+    // alone; within the tolerance plus that noise, the polished point wins.
+    let (t_polished, point) = search.run_polish(search.best_t);
+    let scale = libm::sqrtf(x.length_squared()) + libm::sqrtf(point.length_squared());
+    let slack = cfg.tolerance + 8.0 * f32::EPSILON * scale;
+    let t = if libm::sqrtf((point - x).length_squared()) <= search.best_d + slack {
+        t_polished
+    } else {
+        search.best_t
+    };
     let jet = patch.jet(t, 2);
     let normal = patch.normal(t, &jet);
     let gamma = x - jet.point;

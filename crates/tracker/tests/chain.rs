@@ -175,11 +175,6 @@ fn inside_path_switches_at_bisectors_both_ways() {
     let inset = |p: Vec2| centroid + (p - centroid) * 0.8;
     let corners = [inset(a), inset(b), inset(c)];
     for forward in [true, false] {
-        let order: Vec<usize> = if forward {
-            vec![0, 1, 2, 0]
-        } else {
-            vec![0, 2, 1, 0]
-        };
         let mut path = Vec::new();
         // Start in the middle of side 0 (bottom).
         let start = (corners[0] + corners[1]) * 0.5;
@@ -262,7 +257,7 @@ fn no_force_jump_across_smooth_join() {
         std::f32::consts::PI,
     )
     .unwrap();
-    let curves = vec![left, right];
+    let curves = [left, right];
     let views: Vec<_> = curves.iter().map(|c| c.view()).collect();
     let chain = Chain::new(&views).unwrap();
     assert!(chain.is_closed());
