@@ -82,18 +82,23 @@ pub fn run<R: BufRead, W: Write>(
     if let Some(curves) = object.curve_views() {
         answer_lines(input, |text| {
             let [x, y] = parse_query(text, ["x", "y"], "x y", [all; 2])?;
-            let c = nearest(&curves, Vec2::new(x, y)).ok_or(Answer::Output(EvalError::Empty))?;
+            let c = nearest(&curves, Vec2::new(x, y)).ok_or(Answer::Output(
+                EvalError::Unsupported("the object has no patches"),
+            ))?;
             Ok(write_json(&mut output, &c)?)
         })
     } else if let Some(surfaces) = object.surface_views() {
         answer_lines(input, |text| {
             let [x, y, z] = parse_query(text, ["x", "y", "z"], "x y z", [all; 3])?;
-            let c =
-                nearest(&surfaces, Vec3::new(x, y, z)).ok_or(Answer::Output(EvalError::Empty))?;
+            let c = nearest(&surfaces, Vec3::new(x, y, z)).ok_or(Answer::Output(
+                EvalError::Unsupported("the object has no patches"),
+            ))?;
             Ok(write_json(&mut output, &c)?)
         })
     } else {
-        Err(EvalError::Empty)
+        Err(EvalError::Unsupported(
+            "the object is made of spatial curves (a wire); closest needs planar curves or surfaces",
+        ))
     }
 }
 

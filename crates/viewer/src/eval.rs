@@ -109,9 +109,9 @@ pub enum EvalError {
     /// Writing the output failed.
     #[error("cannot write output: {0}")]
     Write(io::Error),
-    /// The object has no patches to answer from.
-    #[error("the object has no patches")]
-    Empty,
+    /// The object is not one the command can answer for.
+    #[error("{0}")]
+    Unsupported(&'static str),
 }
 
 /// What is wrong with an input line.

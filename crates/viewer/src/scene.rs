@@ -185,11 +185,10 @@ pub enum ObjectError {
         /// What is wrong.
         error: PatchError,
     },
-    /// A patch that is neither a planar curve nor a surface, or whose kind differs from the
-    /// first patch's.
+    /// A patch whose kind differs from the first patch's.
     #[error(
-        "patch {index}: {}; an object is either all planar curves (a 2-D chain) or all \
-         surfaces (a 3-D shell)",
+        "patch {index}: {}; an object is all planar curves (a 2-D chain), all surfaces (a 3-D \
+         shell) or all spatial curves (a wire, for eval only)",
         match first { Some(first) => format!("a {found}, but patch 0 is a {first}"),
                       None => format!("a {found}") }
     )]
@@ -381,8 +380,8 @@ impl Object {
     /// Whether the object is a 2-D chain of planar curves or a 3-D shell of surfaces.
     pub fn space(&self) -> Space {
         match self.patches[0] {
-            Patch::Surface(_) => Space::Spatial,
-            Patch::Curve2(_) | Patch::Curve3(_) => Space::Planar,
+            Patch::Surface(_) | Patch::Curve3(_) => Space::Spatial,
+            Patch::Curve2(_) => Space::Planar,
         }
     }
 
@@ -408,7 +407,9 @@ impl Object {
             .collect()
     }
 
-    /// Every patch of one kind, planar curves or surfaces, and the chain or shell valid.
+    /// Every patch of one kind, and a chain of planar curves or a shell of surfaces valid. An
+    /// object of spatial curves (a wire) is valid scene content that `eval` evaluates; the
+    /// haptic commands need a chain or a shell and say so.
     fn check_topology(&self) -> Result<(), ObjectError> {
         let first = &self.patches[0];
         for (index, patch) in self.patches.iter().enumerate() {
@@ -417,12 +418,8 @@ impl Object {
                 found: patch.kind(),
                 first,
             };
-            match patch {
-                Patch::Curve3(_) => return Err(kind(None)),
-                _ if std::mem::discriminant(patch) != std::mem::discriminant(first) => {
-                    return Err(kind(Some(first.kind())));
-                }
-                _ => {}
+            if std::mem::discriminant(patch) != std::mem::discriminant(first) {
+                return Err(kind(Some(first.kind())));
             }
         }
         if let Some(curves) = self.curve_views() {
@@ -1070,16 +1067,15 @@ mod tests {
     }
 
     #[test]
-    fn spatial_curve_is_not_an_object() {
+    fn spatial_curve_object_is_a_wire_for_eval() {
         let text = edited(
             "[[0.0, 0.0], [0.01, 0.02], [0.03, 0.01], [0.04, 0.0]]",
             "[[0, 0, 0], [0.01, 0.02, 0], [0.03, 0.01, 0.01], [0.04, 0, 0.02]]",
         );
-        assert_eq!(
-            error(&text),
-            "object 0 (\"wedge\"), patch 0: a spatial curve; an object is either all planar \
-             curves (a 2-D chain) or all surfaces (a 3-D shell)"
-        );
+        let scene = Scene::from_json_str(&text).expect("a wire of spatial curves is valid");
+        let wire = &scene.objects()[0];
+        assert!(matches!(wire.patches()[0], Patch::Curve3(_)));
+        assert!(wire.curve_views().is_none() && wire.surface_views().is_none());
     }
 
     #[test]
@@ -1608,7 +1604,8 @@ mod tests {
         assert_eq!(
             error(&text),
             "object 0 (\"wedge\"), patch 1: a surface, but patch 0 is a planar curve; an \
-             object is either all planar curves (a 2-D chain) or all surfaces (a 3-D shell)"
+             object is all planar curves (a 2-D chain), all surfaces (a 3-D shell) or all \
+             spatial curves (a wire, for eval only)"
         );
     }
 
