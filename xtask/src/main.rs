@@ -8,7 +8,7 @@ use std::process::{Command, ExitCode};
 const EMBEDDED_TARGET: &str = "thumbv7em-none-eabihf";
 
 /// no_std crates cross-built for the board (their default `std` feature off).
-const NO_STD_CRATES: &[&str] = &["nurbs", "tracker", "friction"];
+const NO_STD_CRATES: &[&str] = &["nurbs", "tracker", "friction", "device"];
 
 fn main() -> ExitCode {
     let args: Vec<String> = env::args().skip(1).collect();
