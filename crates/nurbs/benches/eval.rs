@@ -5,17 +5,6 @@ use criterion::{Criterion, criterion_group, criterion_main};
 use nurbs::{CurveBuf, SurfaceBuf, Vec2, Vec3};
 use std::hint::black_box;
 
-/// Clamped uniform knots for `n` control points of degree `p` on [0, 1].
-fn uniform_knots(n: usize, p: usize) -> Vec<f32> {
-    let inner = n - p;
-    let mut k = vec![0.0; p + 1];
-    for i in 1..inner {
-        k.push(i as f32 / inner as f32);
-    }
-    k.extend(std::iter::repeat_n(1.0, p + 1));
-    k
-}
-
 fn bicubic(rational: bool) -> SurfaceBuf {
     let rows: Vec<Vec<Vec3>> = (0..8)
         .map(|i| {
@@ -32,7 +21,10 @@ fn bicubic(rational: bool) -> SurfaceBuf {
         .collect();
     SurfaceBuf::from_rows(
         (3, 3),
-        (uniform_knots(8, 3), uniform_knots(8, 3)),
+        (
+            nurbs::construct::uniform_knots(8, 3),
+            nurbs::construct::uniform_knots(8, 3),
+        ),
         &rows,
         rational.then_some(weights.as_slice()),
     )
@@ -69,7 +61,8 @@ fn bench(c: &mut Criterion) {
     let pts: Vec<Vec2> = (0..8)
         .map(|i| Vec2::new(i as f32 / 7.0, ((i * 5) % 3) as f32 * 0.1))
         .collect();
-    let curve = CurveBuf::from_cartesian(3, uniform_knots(8, 3), &pts, None).expect("valid curve");
+    let curve = CurveBuf::from_cartesian(3, nurbs::construct::uniform_knots(8, 3), &pts, None)
+        .expect("valid curve");
     let view = curve.view();
     let mut i = 0;
     c.bench_function("curve/cubic8/point+d1+d2", |b| {

@@ -22,6 +22,19 @@ fn bezier_knots(p: usize) -> Vec<f32> {
     k
 }
 
+/// The clamped uniform knot vector on [0, 1] for `n_points` control points of `degree`
+/// (interior knots evenly spaced, each once); empty when `n_points <= degree`.
+pub fn uniform_knots(n_points: usize, degree: usize) -> Vec<f32> {
+    if n_points <= degree {
+        return Vec::new();
+    }
+    let spans = n_points - degree;
+    let mut k = vec![0.0; degree + 1];
+    k.extend((1..spans).map(|i| i as f32 / spans as f32));
+    k.resize(n_points + degree + 1, 1.0);
+    k
+}
+
 /// The straight segment from `a` to `b`, degree 1, domain [0, 1].
 pub fn line<P: Point>(a: P, b: P) -> Result<CurveBuf<P>, NurbsError> {
     CurveBuf::from_cartesian(1, vec![0.0, 0.0, 1.0, 1.0], &[a, b], None)

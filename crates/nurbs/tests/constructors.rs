@@ -641,3 +641,25 @@ fn revolve_with_zero_axis_uses_z() {
     let b = construct::revolve(&prof, Vec3::ZERO, Vec3::Z, 1.0).unwrap();
     assert_eq!(a, b);
 }
+
+/// Uniform clamped knots: p + 1 zeros, evenly spaced interior knots, p + 1 ones, and the right
+/// count for the control points (the Piegl & Tiller convention m = n + p + 1).
+#[test]
+fn uniform_knots_are_clamped_and_even() {
+    assert_eq!(
+        nurbs::construct::uniform_knots(5, 2),
+        vec![0.0, 0.0, 0.0, 1.0 / 3.0, 2.0 / 3.0, 1.0, 1.0, 1.0]
+    );
+    assert_eq!(
+        nurbs::construct::uniform_knots(4, 3),
+        vec![0.0, 0.0, 0.0, 0.0, 1.0, 1.0, 1.0, 1.0]
+    );
+    assert!(nurbs::construct::uniform_knots(3, 3).is_empty());
+    for (n, p) in [(8, 3), (12, 5), (2, 1)] {
+        let k = nurbs::construct::uniform_knots(n, p);
+        assert!(
+            nurbs::Knots::new(&k, p, n).is_ok(),
+            "{n} points, degree {p}"
+        );
+    }
+}

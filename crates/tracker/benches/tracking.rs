@@ -47,17 +47,6 @@ const WARM_CYCLES: usize = 2;
 // Geometry (f32, the source of truth)
 // ---------------------------------------------------------------------------------------------
 
-/// Clamped uniform knots for `n` control points of degree `p` on [0, 1].
-fn uniform_knots(n: usize, p: usize) -> Vec<f32> {
-    let inner = n - p;
-    let mut k = vec![0.0; p + 1];
-    for i in 1..inner {
-        k.push(i as f32 / inner as f32);
-    }
-    k.extend(std::iter::repeat_n(1.0, p + 1));
-    k
-}
-
 fn surface_net() -> Vec<Vec<Vec3>> {
     (0..8)
         .map(|i| {
@@ -444,7 +433,7 @@ fn f32x2(t: [f64; 2]) -> [f32; 2] {
 
 fn surface(c: &mut Criterion) {
     let net32 = surface_net();
-    let knots32 = uniform_knots(8, 3);
+    let knots32 = nurbs::construct::uniform_knots(8, 3);
     let ours = SurfaceBuf::from_rows::<_, Vec<f32>>(
         (3, 3),
         (knots32.clone(), knots32.clone()),
@@ -672,7 +661,7 @@ fn surface(c: &mut Criterion) {
 
 fn curve(c: &mut Criterion) {
     let pts32 = curve_points();
-    let knots32 = uniform_knots(8, 3);
+    let knots32 = nurbs::construct::uniform_knots(8, 3);
     let ours = CurveBuf::from_cartesian(3, knots32.clone(), &pts32, None).expect("valid curve");
     let view = ours.view();
     let pts64: Vec<Vector2<f64>> = pts32
