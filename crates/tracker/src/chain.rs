@@ -22,7 +22,7 @@
 //! so a HIP pushed deep into a thin object never pops through to the far side.
 
 use crate::contact::{Contact, Feature};
-use crate::newton::{NewtonConfig, newton};
+use crate::global::{GlobalConfig, closest_point};
 use crate::patch::Patch;
 use crate::track::{Tracker, TrackerConfig};
 use nurbs::{Curve, Vec2};
@@ -290,19 +290,15 @@ impl<'a> Chain<'a> {
         }
     }
 
-    /// The feature closest to `x` and the parameter there, by dense sampling of every curve
+    /// The curve closest to `x` and the parameter there: the global search on every curve
     /// (used to start tracking from nothing).
-    pub fn coarse_closest(&self, x: Vec2) -> (usize, f32) {
-        const SAMPLES: usize = 64;
+    pub fn nearest(&self, x: Vec2) -> (usize, f32) {
+        let cfg = GlobalConfig::default();
         let mut best = (0, 0.0, f32::INFINITY);
         for (i, c) in self.curves.iter().enumerate() {
-            let (a, b) = c.domain();
-            for s in 0..=SAMPLES {
-                let u = a + (b - a) * s as f32 / SAMPLES as f32;
-                let d = (c.point(u) - x).length_squared();
-                if d < best.2 {
-                    best = (i, u, d);
-                }
+            let r = closest_point(c, x, &cfg);
+            if r.distance_squared < best.2 {
+                best = (i, r.t[0], r.distance_squared);
             }
         }
         (best.0, best.1)
@@ -339,10 +335,9 @@ pub struct ChainTracker {
 const MAX_SWITCHES: usize = 4;
 
 impl ChainTracker {
-    /// Starts on the feature nearest to `hip` (found by sampling every curve).
+    /// Starts on the curve nearest to `hip` (found by the global search).
     pub fn new(chain: &Chain<'_>, hip: Vec2, cfg: TrackerConfig) -> Self {
-        let (i, u) = chain.coarse_closest(hip);
-        let u = newton(&chain.curves[i], hip, [u], &NewtonConfig::default()).t[0];
+        let (i, u) = chain.nearest(hip);
         ChainTracker {
             feature: Feature::Patch(i as u16),
             tracker: Tracker::new(&chain.curves[i], [u], cfg),

@@ -38,7 +38,7 @@
 //! its next updates.
 
 use crate::contact::{Contact, Feature};
-use crate::newton::{NewtonConfig, newton};
+use crate::global::{GlobalConfig, closest_point};
 use crate::patch::Patch;
 use crate::track::{Track, Tracker, TrackerConfig};
 use nurbs::{Surface, Vec3};
@@ -376,28 +376,18 @@ impl<'a> Shell<'a> {
         vol / 3.0
     }
 
-    /// The patch and parameters nearest to `x` by sampling every patch on a grid, then
-    /// polished by Newton (used to start tracking from nothing).
-    pub fn coarse_closest(&self, x: Vec3) -> (usize, [f32; 2]) {
-        const G: usize = 16;
-        let mut best = (0, [0.0, 0.0], f32::INFINITY);
+    /// The patch and parameters nearest to `x`: the global search on every patch (used to
+    /// start tracking from nothing).
+    pub fn nearest(&self, x: Vec3) -> (usize, [f32; 2]) {
+        let cfg = GlobalConfig::default();
+        let mut best = (0, [0.0; 2], f32::INFINITY);
         for (i, s) in self.patches.iter().enumerate() {
-            let [(u0, u1), (v0, v1)] = Patch::domain(s);
-            for a in 0..=G {
-                for b in 0..=G {
-                    let t = [
-                        u0 + (u1 - u0) * a as f32 / G as f32,
-                        v0 + (v1 - v0) * b as f32 / G as f32,
-                    ];
-                    let d = (s.point(t[0], t[1]) - x).length_squared();
-                    if d < best.2 {
-                        best = (i, t, d);
-                    }
-                }
+            let r = closest_point(s, x, &cfg);
+            if r.distance_squared < best.2 {
+                best = (i, r.t, r.distance_squared);
             }
         }
-        let t = newton(&self.patches[best.0], x, best.1, &NewtonConfig::default()).t;
-        (best.0, t)
+        (best.0, best.1)
     }
 }
 
@@ -446,7 +436,7 @@ enum Decision {
 impl ShellTracker {
     /// Starts on the patch nearest to `hip`.
     pub fn new(shell: &Shell<'_>, hip: Vec3, cfg: TrackerConfig) -> Self {
-        let (i, t) = shell.coarse_closest(hip);
+        let (i, t) = shell.nearest(hip);
         ShellTracker {
             feature: Feature::Patch(i as u16),
             tracker: Tracker::new(&shell.patches[i], t, cfg),
