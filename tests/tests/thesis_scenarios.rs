@@ -241,3 +241,40 @@ fn thesis_3d_stick_slip_along_v() {
         );
     }
 }
+
+/// The runner compares friction laws: the same path through every model the material can
+/// name. Each runs without NaN, never exceeds μ_s F_N, and the Coulomb law gives exactly
+/// μ_d F_N against the motion while the closest point slides.
+#[test]
+fn every_friction_model_runs_the_thesis_2d_path() {
+    let dir = concat!(env!("CARGO_MANIFEST_DIR"), "/../scenes/");
+    let text = std::fs::read_to_string(format!("{dir}thesis-2d.json")).unwrap();
+    let traj = Trajectory::load(format!("{dir}thesis-2d.csv")).unwrap();
+    for model in ["stick_slip", "coulomb_viscous", "karnopp", "dahl", "lugre"] {
+        let edited = text.replacen(
+            "\"mu_dynamic\": 0.5",
+            &format!("\"mu_dynamic\": 0.5, \"model\": \"{model}\""),
+            1,
+        );
+        let scene = Scene::from_json_str(&edited).unwrap();
+        let r = run(&scene, 0, &traj, 1000.0, |_, _| {}).unwrap();
+        for t in &r.ticks {
+            assert!(t.force.is_finite() && t.friction.is_finite(), "{model}");
+            assert!(
+                t.friction.length() <= MU_S * t.normal_force_n + 1e-3,
+                "{model}: {t:?}"
+            );
+        }
+        if model == "coulomb_viscous" {
+            let sliding: Vec<&Tick> = r
+                .ticks
+                .iter()
+                .filter(|t| t.mode == Mode::Slip && t.normal_force_n > 0.5)
+                .collect();
+            assert!(sliding.len() > 100);
+            for t in sliding {
+                assert!((t.friction.length() - MU_D * t.normal_force_n).abs() < 1e-3);
+            }
+        }
+    }
+}

@@ -106,7 +106,10 @@ impl<P: Point> FrictionLaw<P> for Dahl<P> {
         // F' = (F + σ₀ v T) / (1 + σ₀ |v| T / F_c)
         let next =
             (self.state + i.velocity * (self.sigma0_n_per_m * i.period_s)) * (1.0 / (1.0 + decay));
-        self.state = if next.is_finite() { next } else { P::ZERO };
+        let next = if next.is_finite() { next } else { P::ZERO };
+        // |F| ≤ F_c holds for a constant normal force; when F_N falls the bristles slip to
+        // the new limit.
+        self.state = clamp_length(next, fc.max(0.0));
         -self.state
     }
     fn reset(&mut self) {
@@ -159,6 +162,11 @@ impl<P: Point> FrictionLaw<P> for LuGre<P> {
         };
         let z_next = (self.z + i.velocity * i.period_s) * (1.0 / (1.0 + k * i.period_s));
         let z_next = if z_next.is_finite() { z_next } else { P::ZERO };
+        // The steady deflection is g(v)/σ₀ ≤ F_s/σ₀; when F_N falls the bristles slip to it.
+        let z_next = clamp_length(
+            z_next,
+            g.max(0.0) / self.sigma0_n_per_m.max(f32::MIN_POSITIVE),
+        );
         let zdot = (z_next - self.z) * (1.0 / i.period_s.max(f32::MIN_POSITIVE));
         self.z = z_next;
         -(self.z * self.sigma0_n_per_m
@@ -167,6 +175,17 @@ impl<P: Point> FrictionLaw<P> for LuGre<P> {
     }
     fn reset(&mut self) {
         self.z = P::ZERO;
+    }
+}
+
+/// `v` shortened to at most `max` long.
+#[inline]
+fn clamp_length<P: Point>(v: P, max: f32) -> P {
+    let l2 = v.length_squared();
+    if l2 > max * max && l2 > 0.0 {
+        v * (max / sqrt(l2))
+    } else {
+        v
     }
 }
 
