@@ -24,7 +24,7 @@
 use crate::contact::{Contact, Feature};
 use crate::global::{GlobalConfig, closest_point};
 use crate::patch::Patch;
-use crate::track::{Tracker, TrackerConfig};
+use crate::track::{PERIODIC_TOL, Tracker, TrackerConfig};
 use nurbs::{Curve, Vec2};
 
 /// Largest number of curves in a chain (fixed storage, no allocation).
@@ -170,6 +170,8 @@ impl Vertex {
 #[derive(Clone, Copy, Debug)]
 pub struct Chain<'a> {
     curves: &'a [Curve<'a, Vec2>],
+    /// Whether each curve closes on itself (a tracker wraps there), found once at load.
+    periodic: [bool; MAX_CHAIN_CURVES],
     closed: bool,
     vertices: [Vertex; MAX_CHAIN_CURVES + 1],
     n_vertices: usize,
@@ -254,8 +256,13 @@ impl<'a> Chain<'a> {
                 kind,
             };
         }
+        let mut periodic = [false; MAX_CHAIN_CURVES];
+        for (p, c) in periodic.iter_mut().zip(curves) {
+            *p = c.is_closed(PERIODIC_TOL);
+        }
         Ok(Chain {
             curves,
+            periodic,
             closed,
             vertices,
             n_vertices,
@@ -265,6 +272,11 @@ impl<'a> Chain<'a> {
     /// The curves.
     pub fn curves(&self) -> &'a [Curve<'a, Vec2>] {
         self.curves
+    }
+
+    /// A tracker on curve `i` at `u`, with the curve's closedness known from load.
+    fn tracker_on(&self, i: usize, u: f32, cfg: TrackerConfig) -> Tracker<Vec2, 1> {
+        Tracker::with_topology(&self.curves[i], [u], cfg, [self.periodic[i]], [[false; 2]])
     }
 
     /// Whether the last curve ends where the first starts.
@@ -340,7 +352,7 @@ impl ChainTracker {
         let (i, u) = chain.nearest(hip);
         ChainTracker {
             feature: Feature::Patch(i as u16),
-            tracker: Tracker::new(&chain.curves[i], [u], cfg),
+            tracker: chain.tracker_on(i, u, cfg),
             curve: i,
             sliding: false,
         }
@@ -368,7 +380,7 @@ impl ChainTracker {
         let i = i.min(chain.curves.len() - 1);
         self.curve = i;
         self.feature = Feature::Patch(i as u16);
-        self.tracker = Tracker::new(&chain.curves[i], [u], *self.tracker.config());
+        self.tracker = chain.tracker_on(i, u, *self.tracker.config());
     }
 
     /// One tick: track the closest point to `hip` and switch features as the HIP crosses
@@ -460,11 +472,10 @@ impl ChainTracker {
     fn enter(&mut self, chain: &Chain<'_>, next: Feature, v: &Vertex) {
         match next {
             Feature::Patch(i) => {
-                let c = &chain.curves[i as usize];
-                let (a, b) = c.domain();
+                let (a, b) = chain.curves[i as usize].domain();
                 let u = if Some(i) == v.outgoing { a } else { b };
                 self.curve = i as usize;
-                self.tracker.reset(c, [u]);
+                self.tracker = chain.tracker_on(self.curve, u, *self.tracker.config());
             }
             Feature::Vertex(_) => {
                 // Stay on the curve the vertex was reached from, parked at that end.
@@ -476,7 +487,7 @@ impl ChainTracker {
                     },
                 };
                 self.curve = i as usize;
-                self.tracker.reset(&chain.curves[self.curve], [u]);
+                self.tracker = chain.tracker_on(self.curve, u, *self.tracker.config());
             }
             _ => {}
         }

@@ -338,6 +338,18 @@ impl<'a> Shell<'a> {
         self.patches
     }
 
+    /// A tracker on patch `i` at `t`, with the patch's periodic and collapsed sides known from
+    /// the classification at load.
+    fn tracker_on(&self, i: usize, t: [f32; 2], cfg: TrackerConfig) -> Tracker<Vec3, 2> {
+        let sides = self.sides[i];
+        let periodic = [sides[0] == Side::Periodic, sides[2] == Side::Periodic];
+        let collapsed = [
+            [sides[0] == Side::Collapsed, sides[1] == Side::Collapsed],
+            [sides[2] == Side::Collapsed, sides[3] == Side::Collapsed],
+        ];
+        Tracker::with_topology(&self.patches[i], t, cfg, periodic, collapsed)
+    }
+
     /// What lies across each side of patch `i` (`[u₀, u₁, v₀, v₁]`).
     pub fn sides(&self, i: usize) -> [Side; 4] {
         self.sides[i.min(MAX_SHELL_PATCHES - 1)]
@@ -439,7 +451,7 @@ impl ShellTracker {
         let (i, t) = shell.nearest(hip);
         ShellTracker {
             feature: Feature::Patch(i as u16),
-            tracker: Tracker::new(&shell.patches[i], t, cfg),
+            tracker: shell.tracker_on(i, t, cfg),
             patch: i,
             sliding: false,
         }
@@ -466,7 +478,7 @@ impl ShellTracker {
         let i = i.min(shell.patches.len() - 1);
         self.patch = i;
         self.feature = Feature::Patch(i as u16);
-        self.tracker = Tracker::new(&shell.patches[i], t, *self.tracker.config());
+        self.tracker = shell.tracker_on(i, t, *self.tracker.config());
     }
 
     /// One tick, as [`crate::ChainTracker::update`] for 2-D objects.
@@ -499,7 +511,7 @@ impl ShellTracker {
                 Decision::Patch(j, t) => {
                     self.patch = j;
                     self.feature = Feature::Patch(j as u16);
-                    self.tracker.reset(&shell.patches[j], t);
+                    self.tracker = shell.tracker_on(j, t, *self.tracker.config());
                 }
                 Decision::Edge(e) => {
                     if self.feature == Feature::Edge(e) {
@@ -516,7 +528,7 @@ impl ShellTracker {
                     let (p, k) = shell.corners[c as usize].incident()[0];
                     self.patch = p as usize;
                     let t = corner_param(&shell.patches[self.patch], k as usize);
-                    self.tracker.reset(&shell.patches[self.patch], t);
+                    self.tracker = shell.tracker_on(self.patch, t, *self.tracker.config());
                 }
             }
         }

@@ -165,7 +165,32 @@ impl<P: Point, const N: usize> Tracker<P, N> {
         }
     }
 
-    /// Moves the test point to `t` (re-initialisation, e.g. after a feature switch).
+    /// A tracker on `patch` whose closedness (`periodic`) and collapsed sides are already known
+    /// (an object classifies its patches once at load), so no sampling happens here.
+    pub fn with_topology<S: Patch<N, P = P>>(
+        patch: &S,
+        t0: [f32; N],
+        cfg: TrackerConfig,
+        periodic: [bool; N],
+        collapsed: [[bool; 2]; N],
+    ) -> Self {
+        let domain = patch.domain();
+        let mut t = t0;
+        for i in 0..N {
+            t[i] = clamp(t[i], domain[i]);
+        }
+        Tracker {
+            cfg,
+            t,
+            jet: patch.jet(t, 2),
+            domain,
+            periodic,
+            collapsed,
+            last_hip: None,
+        }
+    }
+
+    /// Moves the test point to `t` on the same patch (re-initialisation).
     pub fn reset<S: Patch<N, P = P>>(&mut self, patch: &S, t: [f32; N]) {
         for i in 0..N {
             self.t[i] = clamp(t[i], self.domain[i]);
