@@ -1,0 +1,144 @@
+//! The wire protocol shared by the firmware and the host: 64-byte frames with a CRC, the
+//! messages, the scene upload and the compact binary scene.
+//!
+//! Everything here is `no_std` and allocation-free except [`encode_scene`] (host, `std`).
+//! Decoding is total: any byte string gives a message or an [`ErrorCode`], never a panic.
+//! All multi-byte values are little-endian; floats are IEEE-754 `f32`.
+//!
+//! # Frame (at most 64 bytes: one USB full-speed HID report)
+//!
+//! | offset | size | field |
+//! |---|---|---|
+//! | 0 | 1 | protocol version ([`VERSION`] = 1) |
+//! | 1 | 1 | message type ([`MessageType`]) |
+//! | 2 | 2 | sequence number (u16, per sender, wrapping) |
+//! | 4 | 1 | payload length `n` (0 ..= [`MAX_PAYLOAD`] = 57) |
+//! | 5 | n | payload |
+//! | 5 + n | 2 | CRC-16/CCITT-FALSE of bytes `0 .. 5 + n` |
+//!
+//! A frame may be followed by padding (a fixed 64-byte HID report); the decoder ignores it.
+//! The decoder checks length, then CRC, then version, type and payload, so a damaged frame
+//! reads as [`ErrorCode::BadLength`] or [`ErrorCode::BadCrc`], and the sequence number is only
+//! trusted (echoed in the nack) once the CRC is good.
+//!
+//! # Messages (payload bytes)
+//!
+//! | type | message | dir | payload | layout |
+//! |---|---|---|---|---|
+//! | 0x01 | [`Message::Hello`] | both | 8 | software version `[u8; 3]`, scene capacity u32, max payload u8 |
+//! | 0x02 | [`Message::Heartbeat`] | → dev | 4 | host uptime ms u32 |
+//! | 0x10 | [`Message::SceneBegin`] | → dev | 8 | total length u32, CRC-32 of the scene u32 |
+//! | 0x11 | [`Message::SceneChunk`] | → dev | 5 ..= 57 | byte offset u32, 1 ..= [`MAX_CHUNK`] = 53 bytes |
+//! | 0x12 | [`Message::SceneCommit`] | → dev | 0 | |
+//! | 0x20 | [`Message::Ack`] | → host | 2 | acked sequence number u16 |
+//! | 0x21 | [`Message::Nack`] | → host | 7 | rejected seq u16 ([`UNKNOWN_SEQ`] if unreadable), [`ErrorCode`] u8, object u8, patch u8 ([`NO_INDEX`] if none), expected seq u16 |
+//! | 0x30 | [`Message::SetMaterial`] | → dev | 52 | object u8, material (51, below) |
+//! | 0x31 | [`Message::EnableForces`] | → dev | 0 | |
+//! | 0x32 | [`Message::DisableForces`] | → dev | 0 | |
+//! | 0x33 | [`Message::Calibrate`] | → dev | 0 | |
+//! | 0x34 | [`Message::ClearFaults`] | → dev | 2 | fault mask u16 |
+//! | 0x40 | [`Message::Status`] | → host | 18 | flags u8 (bit 0 forces enabled, bit 1 calibrated), faults u16, scene length u32, scene CRC-32 u32, upload bytes received u32, expected seq u16, last error u8 |
+//! | 0x50 | [`Message::Telemetry`] | → host | 57 | below |
+//!
+//! Material (51 bytes): 12 × f32 — stiffness N/m, damping N·s/m, μs, μd, transition time s,
+//! convergence tolerance m, stop speed m/s, viscous N·s/m, Karnopp band m/s, bristle
+//! stiffness N/m, bristle damping N·s/m, Stribeck speed m/s — then Stribeck tag u8 (0 linear,
+//! 1 power, 2 smoothstep), exponent u8 (≥ 1 for power, else 0), model u8 (0 stick–slip,
+//! 1 Coulomb–viscous, 2 Karnopp, 3 Dahl, 4 LuGre). Decoding validates the `scene/1` ranges
+//! ([`material_valid`]).
+//!
+//! Telemetry (57 bytes, so the frame is exactly 64):
+//!
+//! | offset | size | field |
+//! |---|---|---|
+//! | 0 | 4 | time µs (u32) |
+//! | 4 | 8 | HIP x, y (f32, m) |
+//! | 12 | 8 | CP x, y |
+//! | 20 | 8 | GO x, y |
+//! | 28 | 4 | normal force (f32, N) |
+//! | 32 | 4 | friction force (f32, N) |
+//! | 36 | 8 | total force x, y (f32, N) |
+//! | 44 | 4 | Ψ (f32) |
+//! | 48 | 2 | μ × 10⁴ (u16) |
+//! | 50 | 2 | tick duration µs (u16) |
+//! | 52 | 2 | fault flags (u16) |
+//! | 54 | 2 | feature: kind in bits 15–14 (0 patch, 1 vertex, 2 edge, 3 corner), index in bits 13–0; 0xFFFF none |
+//! | 56 | 1 | friction mode (0 free, 1 stuck, 2 transition, 3 slip) |
+//!
+//! The frame's sequence number counts ticks, so the host sees dropped telemetry as gaps.
+//!
+//! # Scene upload
+//!
+//! `SceneBegin { total_len, crc32 }`, then `SceneChunk`s whose offsets follow each other with
+//! no gap or overlap, then `SceneCommit`; the device acks or nacks every frame.
+//! [`SceneReceiver`] implements the device side; [`scene_upload`] produces the messages.
+//!
+//! # Scene on the wire
+//!
+//! | bytes | field |
+//! |---|---|
+//! | 4 | magic `"NRBS"` |
+//! | 1 | format version ([`SCENE_VERSION`] = 1) |
+//! | 1 | object count (1 ..= [`MAX_OBJECTS`]) |
+//! | 2 | reserved, 0 |
+//! | per object: 51 | material (as above) |
+//! | 1 | patch count (≥ 1) |
+//! | per planar curve: 1 | kind [`KIND_CURVE2`] = 1 |
+//! | 1 | degree |
+//! | 2 | knot count `m` (u16) |
+//! | 2 | control point count `n` (u16) |
+//! | 4m | knots (f32) |
+//! | 12n | homogeneous points `(w·x, w·y, w)` (f32) |
+//! | per surface: 1 | kind [`KIND_SURFACE`] = 2 |
+//! | 2 | degrees p, q |
+//! | 4 | knot counts along u, v (u16 each) |
+//! | 4 | control point counts along u, v (u16 each) |
+//! | 4 (m_u + m_v) | knots U then V (f32) |
+//! | 16 n_u n_v | homogeneous points `(w·x, w·y, w·z, w)`, `i` along u major (f32) |
+//!
+//! Points are homogeneous, as `nurbs` stores them, so a scene survives the trip
+//! bit-for-bit. Nothing may follow the last patch. [`SceneStore::decode`] validates it all
+//! with the host's own checks: materials, `nurbs::Curve::new` / `nurbs::Surface::new` per
+//! patch, `tracker::Chain::new` / `tracker::Shell::new` per object.
+
+mod crc;
+mod error;
+mod message;
+mod receiver;
+mod scene;
+mod wire;
+
+pub use crc::{Crc32, crc16_ccitt_false, crc32};
+pub use error::ErrorCode;
+pub use message::{
+    CRC_LEN, Frame, FrameError, HEADER_LEN, Hello, MAX_CHUNK, MAX_FEATURE_INDEX, MAX_FRAME,
+    MAX_PAYLOAD, Message, MessageType, NO_INDEX, Nack, SceneChunk, Status, TELEMETRY_LEN,
+    Telemetry, UNKNOWN_SEQ, VERSION,
+};
+pub use receiver::{SceneReceiver, SceneValidator};
+pub use scene::{
+    KIND_CURVE2, KIND_SURFACE, MAX_CURVE_POINTS, MAX_KNOTS, MAX_OBJECTS, MAX_PATCHES,
+    MAX_SURFACE_POINTS, PatchKind, SCENE_MAGIC, SCENE_VERSION, SceneError, SceneFault, SceneStore,
+    decode_scene,
+};
+#[cfg(feature = "std")]
+pub use scene::{WireObject, WirePatch, encode_scene};
+pub use wire::{MATERIAL_LEN, material_valid};
+
+/// The messages that upload `scene`: a begin, chunks of up to [`MAX_CHUNK`] bytes, a commit.
+/// Scenes longer than `u32::MAX` bytes are not representable; the receiver's capacity is far
+/// smaller anyway.
+pub fn scene_upload(scene: &[u8]) -> impl Iterator<Item = Message> + '_ {
+    let total_len = u32::try_from(scene.len()).unwrap_or(u32::MAX);
+    let begin = Message::SceneBegin {
+        total_len,
+        crc32: crc32(scene),
+    };
+    let chunks = scene.chunks(MAX_CHUNK).enumerate().filter_map(|(i, data)| {
+        let offset = u32::try_from(i * MAX_CHUNK).ok()?;
+        SceneChunk::new(offset, data).map(Message::SceneChunk)
+    });
+    core::iter::once(begin)
+        .chain(chunks)
+        .chain(core::iter::once(Message::SceneCommit))
+}

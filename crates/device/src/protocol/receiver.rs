@@ -1,0 +1,222 @@
+//! The device side of a link: sequence tracking and scene upload.
+
+use super::scene::{SceneError, SceneStore};
+use super::{Crc32, ErrorCode, Frame, Message, NO_INDEX, Nack, SceneChunk, UNKNOWN_SEQ, crc32};
+
+/// Checks an assembled scene before the receiver activates it.
+pub trait SceneValidator {
+    /// `Ok` when the device can run `scene`.
+    fn validate(&mut self, scene: &[u8]) -> Result<(), SceneError>;
+}
+
+impl<F: FnMut(&[u8]) -> Result<(), SceneError>> SceneValidator for F {
+    fn validate(&mut self, scene: &[u8]) -> Result<(), SceneError> {
+        self(scene)
+    }
+}
+
+/// Decodes the scene into the store: on success the store holds exactly the scene the
+/// receiver activates; on failure the store is empty. So validate into a scratch store (or,
+/// after a failed commit, decode [`SceneReceiver::active_scene`] again), not into the store
+/// the tick is running on.
+impl SceneValidator for SceneStore {
+    fn validate(&mut self, scene: &[u8]) -> Result<(), SceneError> {
+        self.decode(scene)
+    }
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+struct Upload {
+    total_len: usize,
+    crc32: u32,
+    received: usize,
+    crc_so_far: Crc32,
+}
+
+/// Receives host frames on the device: tracks the host's sequence numbers and assembles
+/// uploaded scenes in a double buffer of `N` bytes each (no allocation).
+///
+/// - The first frame, and any [`Message::Hello`], sets the expected sequence number; after
+///   that each frame must carry the next one (wrapping). A frame with another number is
+///   rejected with [`ErrorCode::SequenceGap`] (the nack carries the expected number) and
+///   changes nothing.
+/// - **Every rejected frame leaves the receiver exactly as it was**: the expected sequence
+///   number, the upload in progress, and the active scene. Only accepted frames advance the
+///   sequence number.
+/// - An upload runs `SceneBegin` → `SceneChunk`s in order (each at the offset where the last
+///   ended) → `SceneCommit`. Chunks go to the staging buffer; the commit checks the length,
+///   the CRC-32 and the validator, and only then swaps staging and active. A new
+///   `SceneBegin` (or a `Hello`) abandons an upload in progress.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct SceneReceiver<const N: usize = 8192> {
+    buffers: [[u8; N]; 2],
+    active: usize,
+    active_len: usize,
+    active_crc: u32,
+    upload: Option<Upload>,
+    expected_seq: Option<u16>,
+}
+
+impl<const N: usize> Default for SceneReceiver<N> {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl<const N: usize> SceneReceiver<N> {
+    /// A receiver with an empty active scene and no sequence number yet.
+    pub const fn new() -> Self {
+        SceneReceiver {
+            buffers: [[0; N]; 2],
+            active: 0,
+            active_len: 0,
+            active_crc: 0,
+            upload: None,
+            expected_seq: None,
+        }
+    }
+
+    /// The active scene's bytes (empty before the first commit).
+    pub fn active_scene(&self) -> &[u8] {
+        &self.buffers[self.active & 1][..self.active_len.min(N)]
+    }
+
+    /// CRC-32 of the active scene (0 before the first commit).
+    pub fn active_crc32(&self) -> u32 {
+        self.active_crc
+    }
+
+    /// The sequence number expected next, once known.
+    pub fn expected_seq(&self) -> Option<u16> {
+        self.expected_seq
+    }
+
+    /// Bytes received of the upload in progress, if any.
+    pub fn upload_received(&self) -> Option<usize> {
+        self.upload.map(|u| u.received)
+    }
+
+    /// Decodes and handles one frame. Scene-upload messages are handled here; every
+    /// accepted frame is returned so the caller acts on the others (and acks it, see
+    /// [`SceneReceiver::reply`]). Rejections come back as the nack to send.
+    pub fn receive(
+        &mut self,
+        bytes: &[u8],
+        validator: &mut impl SceneValidator,
+    ) -> Result<Frame, Nack> {
+        let frame = Frame::decode(bytes).map_err(|e| self.nack(e.seq, e.code, None))?;
+        let seq = frame.seq;
+        let resync = matches!(frame.message, Message::Hello(_)) || self.expected_seq.is_none();
+        if !resync && self.expected_seq != Some(seq) {
+            return Err(self.nack(Some(seq), ErrorCode::SequenceGap, None));
+        }
+        match frame.message {
+            Message::Hello(_) => self.upload = None,
+            Message::SceneBegin { total_len, crc32 } => self.begin(total_len, crc32, seq)?,
+            Message::SceneChunk(chunk) => self.chunk(&chunk, seq)?,
+            Message::SceneCommit => self.commit(validator, seq)?,
+            Message::Ack { .. } | Message::Nack(_) | Message::Status(_) | Message::Telemetry(_) => {
+                return Err(self.nack(Some(seq), ErrorCode::UnexpectedMessage, None));
+            }
+            Message::Heartbeat { .. }
+            | Message::SetMaterial { .. }
+            | Message::EnableForces
+            | Message::DisableForces
+            | Message::Calibrate
+            | Message::ClearFaults { .. } => {}
+        }
+        self.expected_seq = Some(seq.wrapping_add(1));
+        Ok(frame)
+    }
+
+    /// The reply to the outcome of [`SceneReceiver::receive`]: an ack or the nack.
+    pub fn reply(outcome: &Result<Frame, Nack>) -> Message {
+        match outcome {
+            Ok(frame) => Message::Ack { seq: frame.seq },
+            Err(nack) => Message::Nack(*nack),
+        }
+    }
+
+    fn nack(&self, seq: Option<u16>, code: ErrorCode, scene: Option<&SceneError>) -> Nack {
+        let index = |i: Option<u8>| i.unwrap_or(NO_INDEX);
+        Nack {
+            seq: seq.unwrap_or(UNKNOWN_SEQ),
+            code,
+            object: index(scene.and_then(|e| e.object)),
+            patch: index(scene.and_then(|e| e.patch)),
+            expected_seq: self.expected_seq.unwrap_or(UNKNOWN_SEQ),
+        }
+    }
+
+    fn begin(&mut self, total_len: u32, crc32: u32, seq: u16) -> Result<(), Nack> {
+        let total_len = usize::try_from(total_len).unwrap_or(usize::MAX);
+        if total_len > N {
+            return Err(self.nack(Some(seq), ErrorCode::SceneTooLarge, None));
+        }
+        self.upload = Some(Upload {
+            total_len,
+            crc32,
+            received: 0,
+            crc_so_far: Crc32::new(),
+        });
+        Ok(())
+    }
+
+    fn chunk(&mut self, chunk: &SceneChunk, seq: u16) -> Result<(), Nack> {
+        let Some(mut upload) = self.upload else {
+            return Err(self.nack(Some(seq), ErrorCode::NoUpload, None));
+        };
+        let offset = usize::try_from(chunk.offset).unwrap_or(usize::MAX);
+        let data = chunk.data();
+        let code = if offset < upload.received {
+            Some(ErrorCode::DuplicateChunk)
+        } else if offset > upload.received {
+            Some(ErrorCode::MissingChunk)
+        } else if data.len() > upload.total_len - upload.received {
+            Some(ErrorCode::ChunkPastEnd)
+        } else {
+            None
+        };
+        if let Some(code) = code {
+            return Err(self.nack(Some(seq), code, None));
+        }
+        let end = offset + data.len();
+        let staging = &mut self.buffers[(self.active + 1) & 1];
+        let Some(dst) = staging.get_mut(offset..end) else {
+            // Unreachable: `end <= total_len <= N`.
+            return Err(self.nack(Some(seq), ErrorCode::ChunkPastEnd, None));
+        };
+        dst.copy_from_slice(data);
+        upload.crc_so_far.update(data);
+        upload.received = end;
+        self.upload = Some(upload);
+        Ok(())
+    }
+
+    fn commit(&mut self, validator: &mut impl SceneValidator, seq: u16) -> Result<(), Nack> {
+        let Some(upload) = self.upload else {
+            return Err(self.nack(Some(seq), ErrorCode::NoUpload, None));
+        };
+        if upload.received != upload.total_len {
+            return Err(self.nack(Some(seq), ErrorCode::LengthMismatch, None));
+        }
+        let staging_index = (self.active + 1) & 1;
+        let Some(scene) = self.buffers[staging_index].get(..upload.total_len) else {
+            return Err(self.nack(Some(seq), ErrorCode::LengthMismatch, None));
+        };
+        // The running CRC covers exactly the bytes written, so recomputing is a cross-check
+        // that costs one pass at commit only.
+        let crc = upload.crc_so_far.finish();
+        if crc != upload.crc32 || crc32(scene) != crc {
+            return Err(self.nack(Some(seq), ErrorCode::SceneCrc, None));
+        }
+        if let Err(e) = validator.validate(scene) {
+            return Err(self.nack(Some(seq), e.code(), Some(&e)));
+        }
+        self.active = staging_index;
+        self.active_len = upload.total_len;
+        self.active_crc = crc;
+        self.upload = None;
+        Ok(())
+    }
+}

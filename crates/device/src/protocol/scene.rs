@@ -1,0 +1,564 @@
+//! The compact binary scene (`scene/1` on the wire) and its fixed-capacity, validated storage.
+
+use friction::FrictionMaterial;
+use nurbs::{Curve, NurbsError, Surface, Vec2, Vec3, Vec4};
+use tracker::{Chain, ChainError, MAX_CHAIN_CURVES, MAX_SHELL_PATCHES, Shell, ShellError};
+
+use super::ErrorCode;
+use super::wire::{Reader, get_material};
+
+/// First bytes of a wire scene.
+pub const SCENE_MAGIC: [u8; 4] = *b"NRBS";
+/// Version of the wire scene format.
+pub const SCENE_VERSION: u8 = 1;
+/// Most objects in a scene.
+pub const MAX_OBJECTS: usize = 8;
+/// Most patches in a scene (all objects together).
+pub const MAX_PATCHES: usize = 32;
+/// Most knots in a scene (all knot vectors together).
+pub const MAX_KNOTS: usize = 512;
+/// Most control points of planar curves in a scene.
+pub const MAX_CURVE_POINTS: usize = 512;
+/// Most control points of surfaces in a scene.
+pub const MAX_SURFACE_POINTS: usize = 512;
+
+/// Patch kind byte: a planar curve.
+pub const KIND_CURVE2: u8 = 1;
+/// Patch kind byte: a surface.
+pub const KIND_SURFACE: u8 = 2;
+
+/// The kind of a patch, and of an object (all its patches have one kind).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum PatchKind {
+    /// A planar curve; an object of them is a [`tracker::Chain`].
+    Curve2,
+    /// A surface; an object of them is a [`tracker::Shell`].
+    Surface,
+}
+
+/// What is wrong with a scene.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum SceneFault {
+    /// Not the wire scene format: see [`ErrorCode::SceneFormat`].
+    Format,
+    /// Larger than the fixed storage ([`MAX_OBJECTS`], [`MAX_PATCHES`], [`MAX_KNOTS`],
+    /// [`MAX_CURVE_POINTS`], [`MAX_SURFACE_POINTS`], u8/u16 counts on the wire).
+    Capacity,
+    /// A material out of range or with an unknown tag.
+    Material(ErrorCode),
+    /// A patch fails NURBS validation.
+    Patch(NurbsError),
+    /// An object mixes planar curves and surfaces.
+    MixedKinds,
+    /// An object's curves do not form a chain.
+    Chain(ChainError),
+    /// An object's surfaces do not form a shell.
+    Shell(ShellError),
+}
+
+/// Why a scene was rejected, and where.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SceneError {
+    /// Object index, if the fault is in one object.
+    pub object: Option<u8>,
+    /// Patch index within the object, if the fault is in one patch.
+    pub patch: Option<u8>,
+    /// What.
+    pub fault: SceneFault,
+}
+
+impl SceneError {
+    fn at(object: usize, patch: Option<usize>, fault: SceneFault) -> Self {
+        SceneError {
+            object: u8::try_from(object).ok(),
+            patch: patch.and_then(|p| u8::try_from(p).ok()),
+            fault,
+        }
+    }
+
+    fn whole(fault: SceneFault) -> Self {
+        SceneError {
+            object: None,
+            patch: None,
+            fault,
+        }
+    }
+
+    /// The nack code.
+    pub fn code(&self) -> ErrorCode {
+        match self.fault {
+            SceneFault::Format => ErrorCode::SceneFormat,
+            SceneFault::Capacity => ErrorCode::SceneCapacity,
+            SceneFault::Material(code) => code,
+            SceneFault::Patch(_) => ErrorCode::ScenePatch,
+            SceneFault::MixedKinds | SceneFault::Chain(_) | SceneFault::Shell(_) => {
+                ErrorCode::SceneTopology
+            }
+        }
+    }
+}
+
+impl core::fmt::Display for SceneError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        if let Some(o) = self.object {
+            write!(f, "object {o}, ")?;
+        }
+        if let Some(p) = self.patch {
+            write!(f, "patch {p}: ")?;
+        }
+        match &self.fault {
+            SceneFault::Patch(e) => write!(f, "{e}"),
+            SceneFault::Chain(e) => write!(f, "{e}"),
+            SceneFault::Shell(e) => write!(f, "{e}"),
+            SceneFault::MixedKinds => write!(f, "mixes planar curves and surfaces"),
+            SceneFault::Material(code) => write!(f, "material: {code}"),
+            SceneFault::Format | SceneFault::Capacity => write!(f, "{}", self.code()),
+        }
+    }
+}
+
+impl core::error::Error for SceneError {}
+
+#[derive(Clone, Copy, Debug)]
+struct ObjectRecord {
+    material: FrictionMaterial,
+    first_patch: usize,
+    n_patches: usize,
+    kind: PatchKind,
+}
+
+#[derive(Clone, Copy, Debug, Default)]
+struct PatchRecord {
+    degree: (u8, u8),
+    knots: usize,
+    n_knots: (u16, u16),
+    points: usize,
+    counts: (u16, u16),
+}
+
+/// A decoded, validated scene in fixed-capacity storage (no allocation): knots and
+/// homogeneous control points in flat arrays, views built on demand.
+///
+/// About 16 KiB; on the device it lives in a `static`, on the host in a `Box`.
+#[derive(Clone, Debug)]
+pub struct SceneStore {
+    objects: [Option<ObjectRecord>; MAX_OBJECTS],
+    n_objects: usize,
+    patches: [PatchRecord; MAX_PATCHES],
+    n_patches: usize,
+    knots: [f32; MAX_KNOTS],
+    n_knots: usize,
+    curve_points: [Vec3; MAX_CURVE_POINTS],
+    n_curve_points: usize,
+    surface_points: [Vec4; MAX_SURFACE_POINTS],
+    n_surface_points: usize,
+}
+
+impl Default for SceneStore {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl SceneStore {
+    /// An empty store (no objects).
+    pub const fn new() -> Self {
+        SceneStore {
+            objects: [None; MAX_OBJECTS],
+            n_objects: 0,
+            patches: [PatchRecord {
+                degree: (0, 0),
+                knots: 0,
+                n_knots: (0, 0),
+                points: 0,
+                counts: (0, 0),
+            }; MAX_PATCHES],
+            n_patches: 0,
+            knots: [0.0; MAX_KNOTS],
+            n_knots: 0,
+            curve_points: [Vec3::ZERO; MAX_CURVE_POINTS],
+            n_curve_points: 0,
+            surface_points: [Vec4::ZERO; MAX_SURFACE_POINTS],
+            n_surface_points: 0,
+        }
+    }
+
+    fn clear(&mut self) {
+        self.n_objects = 0;
+        self.n_patches = 0;
+        self.n_knots = 0;
+        self.n_curve_points = 0;
+        self.n_surface_points = 0;
+        self.objects = [None; MAX_OBJECTS];
+    }
+
+    /// Number of objects (0 when empty or after a failed decode).
+    pub fn object_count(&self) -> usize {
+        self.n_objects
+    }
+
+    fn object(&self, object: usize) -> Option<&ObjectRecord> {
+        self.objects.get(object)?.as_ref()
+    }
+
+    /// Material of `object`.
+    pub fn material(&self, object: usize) -> Option<FrictionMaterial> {
+        self.object(object).map(|o| o.material)
+    }
+
+    /// Kind of `object`'s patches.
+    pub fn kind(&self, object: usize) -> Option<PatchKind> {
+        self.object(object).map(|o| o.kind)
+    }
+
+    /// Number of patches of `object`.
+    pub fn patch_count(&self, object: usize) -> Option<usize> {
+        self.object(object).map(|o| o.n_patches)
+    }
+
+    fn patch_record(&self, object: usize, patch: usize, kind: PatchKind) -> Option<&PatchRecord> {
+        let o = self.object(object)?;
+        if o.kind != kind || patch >= o.n_patches {
+            return None;
+        }
+        self.patches.get(o.first_patch + patch)
+    }
+
+    fn knot_slices(&self, p: &PatchRecord) -> Option<(&[f32], &[f32])> {
+        let (nu, nv) = (usize::from(p.n_knots.0), usize::from(p.n_knots.1));
+        let u = self.knots.get(p.knots..p.knots + nu)?;
+        let v = self.knots.get(p.knots + nu..p.knots + nu + nv)?;
+        Some((u, v))
+    }
+
+    /// Patch `patch` of `object` when that object is a chain of planar curves. Builds the view
+    /// with [`Curve::new`], so it costs one validation pass: build views once, at load.
+    pub fn curve(&self, object: usize, patch: usize) -> Option<Curve<'_, Vec2>> {
+        let p = self.patch_record(object, patch, PatchKind::Curve2)?;
+        let (knots, _) = self.knot_slices(p)?;
+        let points = self
+            .curve_points
+            .get(p.points..p.points + usize::from(p.counts.0))?;
+        Curve::new(usize::from(p.degree.0), knots, points).ok()
+    }
+
+    /// Patch `patch` of `object` when that object is a shell of surfaces (see
+    /// [`SceneStore::curve`] for the cost).
+    pub fn surface(&self, object: usize, patch: usize) -> Option<Surface<'_>> {
+        let p = self.patch_record(object, patch, PatchKind::Surface)?;
+        let knots = self.knot_slices(p)?;
+        let n = usize::from(p.counts.0) * usize::from(p.counts.1);
+        let points = self.surface_points.get(p.points..p.points + n)?;
+        let degree = (usize::from(p.degree.0), usize::from(p.degree.1));
+        Surface::new(degree, knots, usize::from(p.counts.1), points).ok()
+    }
+
+    /// Parses and validates a wire scene into this store, replacing its contents. On error
+    /// the store is left empty (no objects), never half-filled.
+    ///
+    /// Validation is the host's: every material (the `scene/1` ranges), every patch with
+    /// [`Curve::new`] / [`Surface::new`], every object with [`Chain::new`] / [`Shell::new`].
+    pub fn decode(&mut self, bytes: &[u8]) -> Result<(), SceneError> {
+        self.clear();
+        let result = self.parse(bytes).and_then(|()| self.check_topology());
+        if result.is_err() {
+            self.clear();
+        }
+        result
+    }
+
+    fn parse(&mut self, bytes: &[u8]) -> Result<(), SceneError> {
+        let format = || SceneError::whole(SceneFault::Format);
+        let r = &mut Reader::new(bytes);
+        if r.take(4) != Some(&SCENE_MAGIC[..]) || r.u8() != Some(SCENE_VERSION) {
+            return Err(format());
+        }
+        let n_objects = usize::from(r.u8().ok_or_else(format)?);
+        if r.u16() != Some(0) || n_objects == 0 {
+            return Err(format());
+        }
+        if n_objects > MAX_OBJECTS {
+            return Err(SceneError::whole(SceneFault::Capacity));
+        }
+        for o in 0..n_objects {
+            let format = || SceneError::at(o, None, SceneFault::Format);
+            let material =
+                get_material(r).map_err(|code| SceneError::at(o, None, material_fault(code)))?;
+            let n_patches = usize::from(r.u8().ok_or_else(format)?);
+            if n_patches == 0 {
+                return Err(format());
+            }
+            let first_patch = self.n_patches;
+            let mut kind = None;
+            for p in 0..n_patches {
+                let k = self
+                    .parse_patch(r)
+                    .map_err(|fault| SceneError::at(o, Some(p), fault))?;
+                if kind.is_some_and(|kind| kind != k) {
+                    return Err(SceneError::at(o, Some(p), SceneFault::MixedKinds));
+                }
+                kind = Some(k);
+            }
+            self.objects[o] = kind.map(|kind| ObjectRecord {
+                material,
+                first_patch,
+                n_patches,
+                kind,
+            });
+            self.n_objects = o + 1;
+        }
+        if r.remaining() != 0 {
+            return Err(format());
+        }
+        Ok(())
+    }
+
+    fn parse_patch(&mut self, r: &mut Reader<'_>) -> Result<PatchKind, SceneFault> {
+        let f = SceneFault::Format;
+        if self.n_patches >= MAX_PATCHES {
+            return Err(SceneFault::Capacity);
+        }
+        let kind = match r.u8().ok_or(f)? {
+            KIND_CURVE2 => PatchKind::Curve2,
+            KIND_SURFACE => PatchKind::Surface,
+            _ => return Err(f),
+        };
+        let mut rec = PatchRecord::default();
+        match kind {
+            PatchKind::Curve2 => {
+                rec.degree = (r.u8().ok_or(f)?, 0);
+                rec.n_knots = (r.u16().ok_or(f)?, 0);
+                rec.counts = (r.u16().ok_or(f)?, 1);
+            }
+            PatchKind::Surface => {
+                rec.degree = (r.u8().ok_or(f)?, r.u8().ok_or(f)?);
+                rec.n_knots = (r.u16().ok_or(f)?, r.u16().ok_or(f)?);
+                rec.counts = (r.u16().ok_or(f)?, r.u16().ok_or(f)?);
+            }
+        }
+        let n_knots = usize::from(rec.n_knots.0) + usize::from(rec.n_knots.1);
+        let n_points = usize::from(rec.counts.0) * usize::from(rec.counts.1);
+        let coords: usize = match kind {
+            PatchKind::Curve2 => 3,
+            PatchKind::Surface => 4,
+        };
+        // Check the bytes are there before the capacity, so truncation is a format error
+        // whatever the counts.
+        let bytes = n_knots
+            .saturating_add(coords.saturating_mul(n_points))
+            .saturating_mul(4);
+        if r.remaining() < bytes {
+            return Err(f);
+        }
+        let (knot_room, point_room) = match kind {
+            PatchKind::Curve2 => (
+                MAX_KNOTS - self.n_knots,
+                MAX_CURVE_POINTS - self.n_curve_points,
+            ),
+            PatchKind::Surface => (
+                MAX_KNOTS - self.n_knots,
+                MAX_SURFACE_POINTS - self.n_surface_points,
+            ),
+        };
+        if n_knots > knot_room || n_points > point_room {
+            return Err(SceneFault::Capacity);
+        }
+        rec.knots = self.n_knots;
+        let knots = self
+            .knots
+            .get_mut(rec.knots..rec.knots + n_knots)
+            .ok_or(SceneFault::Capacity)?;
+        for k in knots {
+            *k = r.f32().ok_or(f)?;
+        }
+        self.n_knots += n_knots;
+        match kind {
+            PatchKind::Curve2 => {
+                rec.points = self.n_curve_points;
+                let points = self
+                    .curve_points
+                    .get_mut(rec.points..rec.points + n_points)
+                    .ok_or(SceneFault::Capacity)?;
+                for p in points {
+                    *p = Vec3::new(r.f32().ok_or(f)?, r.f32().ok_or(f)?, r.f32().ok_or(f)?);
+                }
+                self.n_curve_points += n_points;
+            }
+            PatchKind::Surface => {
+                rec.points = self.n_surface_points;
+                let points = self
+                    .surface_points
+                    .get_mut(rec.points..rec.points + n_points)
+                    .ok_or(SceneFault::Capacity)?;
+                for p in points {
+                    *p = Vec4::new(
+                        r.f32().ok_or(f)?,
+                        r.f32().ok_or(f)?,
+                        r.f32().ok_or(f)?,
+                        r.f32().ok_or(f)?,
+                    );
+                }
+                self.n_surface_points += n_points;
+            }
+        }
+        self.patches[self.n_patches] = rec;
+        self.n_patches += 1;
+        let result = match kind {
+            PatchKind::Curve2 => {
+                let (knots, _) = self.knot_slices(&rec).ok_or(SceneFault::Capacity)?;
+                let points = &self.curve_points[rec.points..rec.points + n_points];
+                Curve::<Vec2>::new(usize::from(rec.degree.0), knots, points).map(|_| ())
+            }
+            PatchKind::Surface => {
+                let knots = self.knot_slices(&rec).ok_or(SceneFault::Capacity)?;
+                let points = &self.surface_points[rec.points..rec.points + n_points];
+                let degree = (usize::from(rec.degree.0), usize::from(rec.degree.1));
+                Surface::new(degree, knots, usize::from(rec.counts.1), points).map(|_| ())
+            }
+        };
+        result.map_err(SceneFault::Patch)?;
+        Ok(kind)
+    }
+
+    fn check_topology(&self) -> Result<(), SceneError> {
+        for o in 0..self.n_objects {
+            let Some(rec) = self.object(o) else {
+                return Err(SceneError::at(o, None, SceneFault::Format));
+            };
+            let patch_fault = |p: usize| {
+                // Unreachable: every patch was validated while parsing.
+                SceneError::at(o, Some(p), SceneFault::Format)
+            };
+            match rec.kind {
+                PatchKind::Curve2 => {
+                    if rec.n_patches > MAX_CHAIN_CURVES {
+                        let count = rec.n_patches;
+                        let fault = SceneFault::Chain(ChainError::TooManyCurves { count });
+                        return Err(SceneError::at(o, None, fault));
+                    }
+                    let first = self.curve(o, 0).ok_or_else(|| patch_fault(0))?;
+                    let mut curves = [first; MAX_CHAIN_CURVES];
+                    for (p, c) in curves.iter_mut().enumerate().take(rec.n_patches) {
+                        *c = self.curve(o, p).ok_or_else(|| patch_fault(p))?;
+                    }
+                    Chain::new(&curves[..rec.n_patches])
+                        .map_err(|e| SceneError::at(o, None, SceneFault::Chain(e)))?;
+                }
+                PatchKind::Surface => {
+                    if rec.n_patches > MAX_SHELL_PATCHES {
+                        let count = rec.n_patches;
+                        let fault = SceneFault::Shell(ShellError::TooManyPatches { count });
+                        return Err(SceneError::at(o, None, fault));
+                    }
+                    let first = self.surface(o, 0).ok_or_else(|| patch_fault(0))?;
+                    let mut surfaces = [first; MAX_SHELL_PATCHES];
+                    for (p, s) in surfaces.iter_mut().enumerate().take(rec.n_patches) {
+                        *s = self.surface(o, p).ok_or_else(|| patch_fault(p))?;
+                    }
+                    Shell::new(&surfaces[..rec.n_patches])
+                        .map_err(|e| SceneError::at(o, None, SceneFault::Shell(e)))?;
+                }
+            }
+        }
+        Ok(())
+    }
+}
+
+fn material_fault(code: ErrorCode) -> SceneFault {
+    match code {
+        // A material cut short is a truncated scene.
+        ErrorCode::BadPayloadLength => SceneFault::Format,
+        code => SceneFault::Material(code),
+    }
+}
+
+/// Parses and validates a wire scene into `store` (see [`SceneStore::decode`]).
+pub fn decode_scene(bytes: &[u8], store: &mut SceneStore) -> Result<(), SceneError> {
+    store.decode(bytes)
+}
+
+#[cfg(feature = "std")]
+pub use host::{WireObject, WirePatch, encode_scene};
+
+#[cfg(feature = "std")]
+mod host {
+    use super::*;
+    use crate::protocol::wire::{Sink, put_material};
+
+    /// One patch to encode: a borrowed view (from `CurveBuf::view` / `SurfaceBuf::view`).
+    #[derive(Clone, Copy, Debug)]
+    pub enum WirePatch<'a> {
+        /// A planar curve.
+        Curve(Curve<'a, Vec2>),
+        /// A surface.
+        Surface(Surface<'a>),
+    }
+
+    /// One object to encode.
+    #[derive(Clone, Copy, Debug)]
+    pub struct WireObject<'a> {
+        /// Its material.
+        pub material: FrictionMaterial,
+        /// Its patches, in chain / shell order.
+        pub patches: &'a [WirePatch<'a>],
+    }
+
+    /// Encodes a scene in the wire format and checks it the way the device will
+    /// ([`SceneStore::decode`]): a scene this returns is one the device accepts.
+    pub fn encode_scene(objects: &[WireObject<'_>]) -> Result<Vec<u8>, SceneError> {
+        let cap = |o, p| SceneError::at(o, p, SceneFault::Capacity);
+        let count16 = |n: usize, o, p| u16::try_from(n).map_err(|_| cap(o, Some(p)));
+        let mut out = Vec::new();
+        out.put(&SCENE_MAGIC);
+        out.u8(SCENE_VERSION);
+        out.u8(u8::try_from(objects.len()).map_err(|_| SceneError::whole(SceneFault::Capacity))?);
+        out.u16(0);
+        for (o, obj) in objects.iter().enumerate() {
+            put_material(&mut out, &obj.material);
+            out.u8(u8::try_from(obj.patches.len()).map_err(|_| cap(o, None))?);
+            for (p, patch) in obj.patches.iter().enumerate() {
+                match patch {
+                    WirePatch::Curve(c) => {
+                        let knots = c.knots().as_slice();
+                        out.u8(KIND_CURVE2);
+                        out.u8(u8::try_from(c.degree()).map_err(|_| cap(o, Some(p)))?);
+                        out.u16(count16(knots.len(), o, p)?);
+                        out.u16(count16(c.points().len(), o, p)?);
+                        for &k in knots {
+                            out.f32(k);
+                        }
+                        for h in c.points() {
+                            for v in h.to_array() {
+                                out.f32(v);
+                            }
+                        }
+                    }
+                    WirePatch::Surface(s) => {
+                        let (ku, kv) = s.knots();
+                        let (ku, kv) = (ku.as_slice(), kv.as_slice());
+                        let (p_u, p_v) = s.degree();
+                        let (n_u, n_v) = s.counts();
+                        out.u8(KIND_SURFACE);
+                        out.u8(u8::try_from(p_u).map_err(|_| cap(o, Some(p)))?);
+                        out.u8(u8::try_from(p_v).map_err(|_| cap(o, Some(p)))?);
+                        out.u16(count16(ku.len(), o, p)?);
+                        out.u16(count16(kv.len(), o, p)?);
+                        out.u16(count16(n_u, o, p)?);
+                        out.u16(count16(n_v, o, p)?);
+                        for &k in ku.iter().chain(kv) {
+                            out.f32(k);
+                        }
+                        for h in s.points() {
+                            for v in h.to_array() {
+                                out.f32(v);
+                            }
+                        }
+                    }
+                }
+            }
+        }
+        let mut store = Box::new(SceneStore::new());
+        store.decode(&out)?;
+        Ok(out)
+    }
+}

@@ -1,0 +1,128 @@
+//! The simulated pantograph against the physics it models: energy conservation without
+//! dissipation, the hand's static equilibrium, the equilibrium against a motor force
+//! (τ = Jᵀ F), and encoder quantisation.
+#![allow(clippy::unwrap_used)]
+
+use device::simulator::{SimParams, SimulatedPantograph};
+use device::spec::DeviceSpec;
+use nurbs::Vec2;
+
+const DT: f32 = 1e-3;
+
+fn start() -> Vec2 {
+    Vec2::new(0.0, 0.09)
+}
+
+/// No motor, no damping anywhere, the hand's spring only: kinetic + spring energy is
+/// conserved (semi-implicit Euler is symplectic: the energy error stays bounded, here below
+/// 1 % over 200 ms of oscillation).
+#[test]
+fn energy_is_conserved_without_dissipation() {
+    let spec = DeviceSpec {
+        joint_damping_nms_per_rad: [f32::MIN_POSITIVE; 2],
+        ..DeviceSpec::default()
+    };
+    let params = SimParams {
+        hand_damping_ns_per_m: f32::MIN_POSITIVE,
+        substeps: 20,
+        ..SimParams::default()
+    };
+    let mut sim = SimulatedPantograph::new(spec, params, start()).unwrap();
+    let target = start() + Vec2::new(0.01, 0.005);
+    let energy = |s: &SimulatedPantograph| {
+        let (x, _) = s.hip().unwrap();
+        s.kinetic_energy().unwrap()
+            + 0.5 * params.hand_stiffness_n_per_m * (target - x).length_squared()
+    };
+    let e0 = energy(&sim);
+    let mut max_ke: f32 = 0.0;
+    for _ in 0..200 {
+        sim.step([0.0; 2], target, DT).unwrap();
+        max_ke = max_ke.max(sim.kinetic_energy().unwrap());
+        let e = energy(&sim);
+        assert!((e - e0).abs() < 0.01 * e0, "energy {e} vs {e0}");
+    }
+    assert!(
+        max_ke > 0.5 * e0,
+        "the arm actually swung (max KE {max_ke} of {e0})"
+    );
+}
+
+/// With damping and no motor force the hand brings the HIP to its target.
+#[test]
+fn hand_pulls_the_handle_to_its_target() {
+    let mut sim =
+        SimulatedPantograph::new(DeviceSpec::default(), SimParams::default(), start()).unwrap();
+    let target = Vec2::new(-0.02, 0.11);
+    for _ in 0..3000 {
+        sim.step([0.0; 2], target, DT).unwrap();
+    }
+    let (x, v) = sim.hip().unwrap();
+    assert!((x - target).length() < 1e-4, "HIP {x:?}");
+    assert!(v.length() < 1e-3);
+}
+
+/// Motors rendering a constant force F against the hand: at rest the forces balance,
+/// k_h (target − x) + F = 0, so x = target + F / k_h. The currents come from τ = Jᵀ F through
+/// the description's motor model, so this checks the whole chain force → torque → current →
+/// torque → acceleration.
+#[test]
+fn motor_force_balances_the_hand() {
+    let spec = DeviceSpec::default();
+    let params = SimParams::default();
+    let mut sim = SimulatedPantograph::new(spec, params, start()).unwrap();
+    let arm = spec.validate().unwrap();
+    let force = Vec2::new(1.5, -0.9);
+    let target = start();
+    for _ in 0..4000 {
+        let tau = arm.joint_torques(sim.joint_angles(), force).unwrap();
+        let currents = [0, 1].map(|i| {
+            spec.motor_direction[i].sign() * tau[i]
+                / (spec.transmission_ratio[i] * spec.torque_constant_nm_per_a[i])
+        });
+        sim.step(currents, target, DT).unwrap();
+    }
+    let (x, _) = sim.hip().unwrap();
+    let expected = target + force / params.hand_stiffness_n_per_m;
+    assert!((x - expected).length() < 2e-5, "{x:?} vs {expected:?}");
+}
+
+/// Encoders read whole counts: the angle from the counts is within one count of the true
+/// angle, and the counts move by the expected amount when the joint turns.
+#[test]
+fn encoder_counts_quantise_the_joint_angles() {
+    let spec = DeviceSpec::default();
+    let mut sim = SimulatedPantograph::new(spec, SimParams::default(), start()).unwrap();
+    let per_rad = spec.counts_per_joint_rad();
+    for _ in 0..500 {
+        sim.step([0.3, -0.2], start() + Vec2::new(0.02, 0.0), DT)
+            .unwrap();
+        let from_counts = spec.joint_angles(sim.encoder_counts());
+        let truth = sim.joint_angles();
+        for i in 0..2 {
+            assert!(
+                (from_counts[i] - truth[i]).abs() <= 1.0 / per_rad[i] + 1e-6,
+                "joint {i}: {} vs {}",
+                from_counts[i],
+                truth[i]
+            );
+        }
+    }
+}
+
+#[test]
+fn bad_parameters_are_rejected() {
+    let bad = SimParams {
+        handle_mass_kg: f32::NAN,
+        ..SimParams::default()
+    };
+    assert!(SimulatedPantograph::new(DeviceSpec::default(), bad, start()).is_err());
+    assert!(
+        SimulatedPantograph::new(
+            DeviceSpec::default(),
+            SimParams::default(),
+            Vec2::new(0.0, 0.5)
+        )
+        .is_err()
+    );
+}
