@@ -1,6 +1,7 @@
 #![doc = include_str!("../README.md")]
 #![cfg_attr(not(feature = "std"), no_std)]
 #![warn(missing_docs)]
+pub mod controller;
 pub mod kinematics;
 pub mod protocol;
 pub mod safety;

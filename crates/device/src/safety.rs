@@ -18,7 +18,9 @@
 //!    [`Faults::THERMAL`].
 //!
 //! Forces are off while any fault is latched, while forces are disabled, or while the device
-//! is not calibrated. Faults stay latched until [`Safety::clear_faults`], which clears only
+//! is not calibrated. Switching off is immediate (not rate-limited); switching back on starts
+//! the ramp-in, whose first tick outputs zero and which reaches the full force after
+//! `ramp_time_s`. Faults stay latched until [`Safety::clear_faults`], which clears only
 //! the causes whose condition is gone.
 //!
 //! Passivity has two parts: [`check_passivity`], the sampled-data bound a scene loader applies
@@ -157,21 +159,7 @@ bitset! {
     }
 }
 
-/// An axis-aligned box in the device frame (metres) the HIP must stay inside.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct WorkspaceBox {
-    /// Lower-left corner, m.
-    pub min_m: Vec2,
-    /// Upper-right corner, m.
-    pub max_m: Vec2,
-}
-
-impl WorkspaceBox {
-    /// Whether `p` is inside the box (boundary included). False for NaN.
-    pub fn contains(&self, p: Vec2) -> bool {
-        p.x >= self.min_m.x && p.x <= self.max_m.x && p.y >= self.min_m.y && p.y <= self.max_m.y
-    }
-}
+pub use crate::spec::WorkspaceBox;
 
 /// Per-motor first-order thermal model.
 ///
@@ -276,8 +264,8 @@ impl Default for SafetyConfig {
             max_joint_step_rad: 0.05,
             heartbeat_timeout_s: 0.1,
             workspace: WorkspaceBox {
-                min_m: Vec2::new(-0.06, 0.04),
-                max_m: Vec2::new(0.06, 0.14),
+                min_in_device: Vec2::new(-0.06, 0.04),
+                max_in_device: Vec2::new(0.06, 0.14),
             },
             thermal: ThermalConfig::default(),
             passivity: PassivityConfig::default(),
@@ -292,7 +280,7 @@ pub enum ConfigError {
     NotPositive(&'static str),
     /// The field must be finite and ≥ 0.
     Negative(&'static str),
-    /// `workspace.min_m` must be finite and below `workspace.max_m` on both axes.
+    /// `workspace.min_in_device` must be finite and below `workspace.max_in_device` on both axes.
     EmptyWorkspace,
     /// `thermal.peak_current_a` must be ≥ `thermal.continuous_current_a`.
     PeakBelowContinuous,
@@ -306,7 +294,7 @@ impl fmt::Display for ConfigError {
             Self::NotPositive(field) => write!(f, "safety config: {field} must be finite and > 0"),
             Self::Negative(field) => write!(f, "safety config: {field} must be finite and >= 0"),
             Self::EmptyWorkspace => f.write_str(
-                "safety config: workspace.min_m must be finite and below workspace.max_m",
+                "safety config: workspace.min_in_device must be finite and below workspace.max_in_device",
             ),
             Self::PeakBelowContinuous => f.write_str(
                 "safety config: thermal.peak_current_a must be >= thermal.continuous_current_a",
@@ -363,7 +351,10 @@ impl SafetyConfig {
             }
         }
         let ws = self.workspace;
-        if !(ws.min_m.is_finite() && ws.max_m.is_finite() && ws.min_m.cmplt(ws.max_m).all()) {
+        if !(ws.min_in_device.is_finite()
+            && ws.max_in_device.is_finite()
+            && ws.min_in_device.cmplt(ws.max_in_device).all())
+        {
             return Err(ConfigError::EmptyWorkspace);
         }
         let th = self.thermal;

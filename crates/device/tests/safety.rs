@@ -64,7 +64,7 @@ fn config_errors_name_the_field() {
     };
     assert_eq!(bad.validate(), Err(ConfigError::Negative("ramp_time_s")));
     let mut bad = SafetyConfig::default();
-    bad.workspace.min_m.x = 1.0;
+    bad.workspace.min_in_device.x = 1.0;
     assert_eq!(bad.validate(), Err(ConfigError::EmptyWorkspace));
     let mut bad = SafetyConfig::default();
     bad.thermal.peak_current_a = 0.5;
@@ -632,7 +632,7 @@ fn passivity_controller_removes_the_leak() {
 
 fn scalar() -> impl Strategy<Value = f32> {
     prop_oneof![
-        8 => -0.2f32..0.2,
+        30 => -0.2f32..0.2,
         1 => any::<f32>(),
         1 => prop_oneof![
             Just(f32::NAN),
@@ -659,7 +659,7 @@ prop_compose! {
         currents in (scalar(), scalar()),
         forces_enabled in prop::bool::weighted(0.9),
         calibrated in prop::bool::weighted(0.9),
-        clear in prop::bool::weighted(0.2),
+        clear in prop::bool::weighted(0.3),
     ) -> (SafetyInput, bool) {
         (SafetyInput {
             force_n: force,
