@@ -53,7 +53,11 @@ fn ci() -> Result<(), String> {
     // A fixed proptest seed in CI: a run that lands must not depend on luck. Plain
     // `cargo test` (and CI with PROPTEST_RNG_SEED set) explores new cases every run.
     let seed = env::var("PROPTEST_RNG_SEED").unwrap_or_else(|_| "20261122".into());
-    run_with_env(&cargo, &["test", "--workspace"], &[("PROPTEST_RNG_SEED", &seed)])?;
+    run_with_env(
+        &cargo,
+        &["test", "--workspace"],
+        &[("PROPTEST_RNG_SEED", &seed)],
+    )?;
     for krate in NO_STD_CRATES {
         run(
             &cargo,
