@@ -6,7 +6,7 @@
 //! can swap it between two ticks; [`Controller::load_scene`] resets the renderer at that
 //! boundary, after the whole scene has been received and validated.
 
-use friction::{FrictionMaterial, FrictionRenderer, Mode};
+use friction::{FrictionMaterial, FrictionOutput, FrictionRenderer, Mode};
 use nurbs::Vec2;
 use tracker::Object;
 
@@ -52,6 +52,15 @@ pub struct TickOutput {
     pub currents_a: [f32; 2],
     /// The tick's telemetry frame.
     pub telemetry: Telemetry,
+    /// The joint angles (rad) the tick measured, `None` before calibration or in an
+    /// unassembled pose.
+    pub joint_angles_rad: Option<[f32; 2]>,
+    /// The joint torques (N·m) the currents produce: `Jᵀ F` of the safe force
+    /// (`telemetry.force_n`) at [`TickOutput::joint_angles_rad`], scaled down with the
+    /// currents when a current limit cut them; zero while the currents are.
+    pub joint_torques_nm: [f32; 2],
+    /// The renderer's output before the safety layer, `None` without a scene or a pose.
+    pub render: Option<FrictionOutput<Vec2>>,
 }
 
 /// The controller of one device.
@@ -128,6 +137,36 @@ impl<O: Object<P = Vec2>> Controller<O> {
         Ok(())
     }
 
+    /// The same controller for another object type (calibration, safety state, material,
+    /// forces and heartbeat carried over), with the renderer reset as [`Controller::load_scene`]
+    /// resets it. Lets a host that owns its scene storage rebuild borrowed views after a swap:
+    /// the controller's type names the views' lifetime, so it cannot outlive the storage.
+    pub fn rebind<O2: Object<P = Vec2>>(self) -> Controller<O2> {
+        Controller {
+            spec: self.spec,
+            arm: self.arm,
+            calibration: self.calibration,
+            safety: self.safety,
+            period_s: self.period_s,
+            material: self.material,
+            renderer: None,
+            forces_enabled: self.forces_enabled,
+            last_heartbeat_s: self.last_heartbeat_s,
+            previous: self.previous,
+            last_currents_a: self.last_currents_a,
+        }
+    }
+
+    /// The device description.
+    pub fn spec(&self) -> &DeviceSpec {
+        &self.spec
+    }
+
+    /// Whether force output is enabled (the safety layer may still hold it off).
+    pub fn forces_enabled(&self) -> bool {
+        self.forces_enabled
+    }
+
     /// Drops the scene: no object, no force.
     pub fn unload_scene(&mut self) {
         self.material = None;
@@ -188,6 +227,9 @@ impl<O: Object<P = Vec2>> Controller<O> {
             return TickOutput {
                 currents_a: [0.0; 2],
                 telemetry,
+                joint_angles_rad: None,
+                joint_torques_nm: [0.0; 2],
+                render: None,
             };
         };
         let (velocity, joint_step) = match self.previous {
@@ -202,6 +244,7 @@ impl<O: Object<P = Vec2>> Controller<O> {
 
         // Rendering.
         let mut force = Vec2::ZERO;
+        let mut render = None;
         if let (Some(object), Some(material)) = (object, self.material) {
             let renderer = self
                 .renderer
@@ -216,6 +259,7 @@ impl<O: Object<P = Vec2>> Controller<O> {
             telemetry.mu_e4 = Telemetry::quantize_mu(out.mu);
             telemetry.feature = (out.mode != Mode::Free).then_some(out.contact.feature);
             telemetry.mode = out.mode;
+            render = Some(out);
         }
 
         // Safety, then Jᵀ F → currents.
@@ -232,16 +276,22 @@ impl<O: Object<P = Vec2>> Controller<O> {
         });
         telemetry.faults = safe.faults.bits();
         telemetry.force_n = safe.force_n;
-        let currents_a = self
+        let (currents_a, joint_torques_nm) = self
             .arm
             .joint_torques(theta, safe.force_n)
             .ok()
-            .and_then(|tau| self.spec.motor_command(&self.calibration, tau).ok())
-            .map_or([0.0; 2], |c| c.current_a);
+            .and_then(|tau| {
+                let command = self.spec.motor_command(&self.calibration, tau).ok()?;
+                Some((command.current_a, tau.map(|t| t * command.scale)))
+            })
+            .unwrap_or(([0.0; 2], [0.0; 2]));
         self.last_currents_a = currents_a;
         TickOutput {
             currents_a,
             telemetry,
+            joint_angles_rad: Some(theta),
+            joint_torques_nm,
+            render,
         }
     }
 }

@@ -2,6 +2,8 @@
 #![cfg_attr(not(feature = "std"), no_std)]
 #![warn(missing_docs)]
 pub mod controller;
+#[cfg(feature = "std")]
+pub mod host;
 pub mod kinematics;
 pub mod protocol;
 pub mod safety;

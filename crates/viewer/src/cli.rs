@@ -41,6 +41,79 @@ pub enum Command {
     /// Simulate the haptic loop along a prescribed HIP trajectory and write a run log.
     #[command(long_about = SIM_ABOUT, after_long_help = SIM_AFTER)]
     Sim(SimArgs),
+    /// Talk to a haptic device: list the boards, monitor telemetry.
+    #[command(subcommand)]
+    Device(DeviceCommand),
+}
+
+/// `device …` subcommands.
+#[derive(Debug, Subcommand)]
+pub enum DeviceCommand {
+    /// List the boards (USB HID and USB serial) that answer the protocol's hello.
+    #[command(after_long_help = DEVICE_LIST_AFTER)]
+    List,
+    /// Print a device's telemetry, dropped frames and faults.
+    #[command(after_long_help = DEVICE_MONITOR_AFTER)]
+    Monitor(MonitorArgs),
+}
+
+const DEVICE_LIST_AFTER: &str = "\
+Enumerates HID devices with the board's USB id (pid.codes 1209:0001, a placeholder) and USB \
+serial ports, sends each a hello and waits 200 ms for the answer. Prints a table of those that \
+answered (kind, path, firmware version, scene capacity, product), or `no devices found`. A \
+backend the OS does not provide is reported on standard error.
+
+Exit status:
+  0  always, with or without devices";
+
+const DEVICE_MONITOR_AFTER: &str = "\
+Output, one line each:
+  t=<s> seq=<n> hip=(x,y) force=(fx,fy) normal=<N> mode=<mode> feature=<f> faults=<list>
+                                     every --every'th telemetry frame (m, N, device frame)
+  dropped <n> frame(s) before seq <s> (total <t>)
+                                     a gap in the device's sequence numbers
+  faults: <list>                     the latched faults changed (`-` when none)
+  nack: frame <s>: <reason>          the device rejected a frame
+A last line `received <n> telemetry frames, dropped <m>` ends the run.
+
+The monitor is the host: it sends a heartbeat every 50 ms, which keeps the device's watchdog
+fed. With --sim the simulated pantograph runs in real time (calibrated at once, forces off, no
+scene) and its virtual hand moves on a slow 1 cm circle.
+
+Exit status:
+  0  ran for --seconds (or until interrupted)
+  1  the link failed during the run, or the output could not be written
+  2  bad command line, or the device could not be opened or did not answer the hello
+
+Example:
+  viewer device monitor --sim --seconds 2 --every 100";
+
+/// Arguments of `device monitor`.
+#[derive(Debug, Args)]
+pub struct MonitorArgs {
+    /// Serial port of the board (`/dev/ttyACM0`, `COM3`).
+    #[arg(long, value_name = "PATH", conflicts_with_all = ["hid", "sim"])]
+    pub port: Option<PathBuf>,
+    /// The first USB HID board.
+    #[arg(long, conflicts_with = "sim")]
+    pub hid: bool,
+    /// The simulated pantograph in this process (no hardware needed).
+    #[arg(long)]
+    pub sim: bool,
+    /// Stop after this many seconds (finite, >= 0); without it, run until interrupted.
+    #[arg(long, value_name = "S", value_parser = seconds, allow_negative_numbers = true)]
+    pub seconds: Option<f64>,
+    /// Print every N-th telemetry frame (N >= 1).
+    #[arg(long, value_name = "N", default_value_t = 100, value_parser = clap::value_parser!(u64).range(1..))]
+    pub every: u64,
+}
+
+fn seconds(text: &str) -> Result<f64, String> {
+    match text.trim().parse::<f64>() {
+        Ok(s) if s.is_finite() && s >= 0.0 => Ok(s),
+        Ok(s) => Err(format!("{s} is not a duration; it must be finite and >= 0")),
+        Err(e) => Err(format!("{e}")),
+    }
 }
 
 const CLOSEST_ABOUT: &str = "\
@@ -163,9 +236,25 @@ Run log (--out, CSV), one row per tick, with exactly these columns (the _z ones 
   mu                         friction coefficient in use (0 when free)
   psi                        projection error of the GO in transition, of the CP otherwise
   force_x,force_y[,force_z]  total force on the HIP (N)
+With --device five more columns follow:
+  theta1_rad,theta2_rad      joint angles the controller measured from the encoders (rad)
+  tau1_nm,tau2_nm            joint torques the motor currents produce (N m): J^T F of the
+                             logged force at the logged angles (less if a current limit cut)
+  faults                     latched safety faults, a decimal bitset: 1 numeric, 2 velocity,
+                             4 encoder, 8 watchdog, 16 workspace, 32 thermal; 0 when none
+
+Closed loop (--device): instead of the HIP, the trajectory moves the target of a virtual
+hand (a spring-damper, --hand-stiffness) that holds the handle of a simulated pantograph
+(the default device: rigid-body dynamics, encoder quantisation, current limits). The
+device's controller calibrates on the end stops, enables forces (20 ms ramp-in), gets a
+heartbeat every tick and renders the object's material; a material stiffer than the device
+renders passively at the tick rate is rendered with the passivity controller on (a note on
+standard error says so). The hip_ columns are the handle's actual position, force_ the
+force after the safety layer. Only objects of planar curves (the pantograph is 2-DoF).
 
 Plot (--plot, PNG): normal, friction and total force magnitude against time over coloured
-bands of the mode (top), the CP and GO parameters against time (bottom).
+bands of the mode (top), the CP and GO parameters against time (bottom); with --device also
+the joint torques against time (a third panel).
 
 Progress goes to standard error, every 10%.
 
@@ -174,10 +263,12 @@ Exit status:
   1  the run log or the plot could not be written
   2  bad command line (--rate-hz must be finite and > 0), unreadable or invalid scene or
      trajectory (the message names the file and line), bad --object, or a trajectory whose
-     dimension does not match the object
+     dimension does not match the object, or --device with an object of surfaces or a
+     trajectory that starts out of the device's reach
 
 Example:
-  viewer sim scenes/examples.json --object 1 --trajectory press.csv --out run.csv --plot run.png";
+  viewer sim scenes/examples.json --object 1 --trajectory press.csv --out run.csv --plot run.png
+  viewer sim scenes/thesis-2d.json --device --trajectory scenes/thesis-2d.csv --out run.csv";
 
 /// Arguments of `sim`.
 #[derive(Debug, Args)]
@@ -206,6 +297,28 @@ pub struct SimArgs {
     /// Index of the object in the scene's `objects` array, from 0.
     #[arg(long, value_name = "I", default_value_t = 0)]
     pub object: usize,
+    /// Close the loop through the simulated pantograph and the device's controller: the
+    /// trajectory moves the virtual hand's target (see below).
+    #[arg(long)]
+    pub device: bool,
+    /// With --device: the virtual hand's grip stiffness in N/m (finite, > 0).
+    #[arg(
+        long,
+        value_name = "N_PER_M",
+        default_value_t = 300.0,
+        value_parser = hand_stiffness,
+        allow_negative_numbers = true,
+        requires = "device"
+    )]
+    pub hand_stiffness: f64,
+}
+
+fn hand_stiffness(text: &str) -> Result<f64, String> {
+    match text.trim().parse::<f64>() {
+        Ok(k) if k.is_finite() && k > 0.0 => Ok(k),
+        Ok(k) => Err(format!("{k} is not a stiffness; it must be finite and > 0")),
+        Err(e) => Err(format!("{e}")),
+    }
 }
 
 fn tick_rate(text: &str) -> Result<f64, String> {
@@ -311,5 +424,42 @@ mod tests {
             assert!(e.to_string().contains("--rate-hz"), "{e}");
         }
         assert!(Cli::try_parse_from(["viewer", "sim", "s.json", "--out", "r.csv"]).is_err());
+    }
+
+    #[test]
+    fn sim_device_arguments() {
+        let base = [
+            "viewer",
+            "sim",
+            "s.json",
+            "--trajectory",
+            "t.csv",
+            "--out",
+            "r.csv",
+        ];
+        let cli = Cli::try_parse_from(base).expect("valid");
+        let Some(Command::Sim(args)) = cli.command else {
+            panic!("sim")
+        };
+        assert!(!args.device);
+        let cli = Cli::try_parse_from(base.iter().chain(&["--device", "--hand-stiffness", "800"]))
+            .expect("valid");
+        let Some(Command::Sim(args)) = cli.command else {
+            panic!("sim")
+        };
+        assert!(args.device);
+        assert_eq!(args.hand_stiffness, 800.0);
+        let cli = Cli::try_parse_from(base.iter().chain(&["--device"])).expect("valid");
+        let Some(Command::Sim(args)) = cli.command else {
+            panic!("sim")
+        };
+        assert_eq!(args.hand_stiffness, 300.0);
+        // The grip only means something in the closed loop.
+        assert!(Cli::try_parse_from(base.iter().chain(&["--hand-stiffness", "800"])).is_err());
+        for bad in ["0", "-1", "inf"] {
+            let e = Cli::try_parse_from(base.iter().chain(&["--device", "--hand-stiffness", bad]))
+                .expect_err(bad);
+            assert!(e.to_string().contains("--hand-stiffness"), "{e}");
+        }
     }
 }

@@ -3,6 +3,7 @@
 
 pub mod cli;
 pub mod closest;
+pub mod devices;
 pub mod eval;
 pub mod plot;
 pub mod scene;

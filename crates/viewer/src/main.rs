@@ -22,6 +22,7 @@ fn main() -> ExitCode {
         Some(Command::Eval(args)) => eval_command(&args),
         Some(Command::Sim(args)) => sim_command(&args),
         Some(Command::Closest(args)) => closest_command(&args),
+        Some(Command::Device(command)) => device_command(&command),
     }
 }
 
@@ -89,7 +90,12 @@ fn sim_command(args: &SimArgs) -> ExitCode {
         Ok(t) => t,
         Err(e) => return fail(&e, EXIT_BAD_SETUP),
     };
-    if let Err(e) = sim::validate(&scene, args.object, &trajectory, args.rate_hz) {
+    let checked = if args.device {
+        sim::validate_device(&scene, args.object, &trajectory, args.rate_hz)
+    } else {
+        sim::validate(&scene, args.object, &trajectory, args.rate_hz)
+    };
+    if let Err(e) = checked {
         return fail(&anyhow::Error::new(e), EXIT_BAD_SETUP);
     }
     // Before the run, so that a bad output path does not wait for it.
@@ -113,7 +119,34 @@ fn sim_command(args: &SimArgs) -> ExitCode {
             eprintln!("sim: {:>3}% ({done}/{total} ticks)", tenths * 10);
         }
     };
-    let run = match sim::run(&scene, args.object, &trajectory, args.rate_hz, progress) {
+    let result = if args.device {
+        let hand = sim::SimParams {
+            hand_stiffness_n_per_m: args.hand_stiffness as f32,
+            ..sim::SimParams::default()
+        };
+        sim::run_device(
+            &scene,
+            args.object,
+            &trajectory,
+            args.rate_hz,
+            hand,
+            progress,
+        )
+        .map(|device_run| {
+            if device_run.passivity_control {
+                let m = &device_run.run.material;
+                eprintln!(
+                    "sim: note: K = {} N/m with b = {} N·s/m exceeds what the device renders \
+                     passively at {} Hz; the passivity controller is on",
+                    m.stiffness_n_per_m, m.damping_ns_per_m, args.rate_hz
+                );
+            }
+            device_run.run
+        })
+    } else {
+        sim::run(&scene, args.object, &trajectory, args.rate_hz, progress)
+    };
+    let run = match result {
         Ok(run) => run,
         Err(e) => return fail(&anyhow::Error::new(e), EXIT_BAD_SETUP),
     };
@@ -166,4 +199,78 @@ fn select<'a>(scene: &'a Scene, file: &Path, sel: PatchSelection) -> Result<(Str
 fn fail(error: &anyhow::Error, code: u8) -> ExitCode {
     let _ = writeln!(io::stderr(), "error: {error:#}");
     ExitCode::from(code)
+}
+
+fn device_command(command: &viewer::cli::DeviceCommand) -> ExitCode {
+    use viewer::cli::DeviceCommand;
+    use viewer::devices;
+    match command {
+        DeviceCommand::List => {
+            let (found, problems) = devices::find_devices();
+            for p in problems {
+                eprintln!("device list: {p}");
+            }
+            match devices::write_table(&found, io::stdout().lock()) {
+                Ok(()) => ExitCode::SUCCESS,
+                Err(e) if e.kind() == io::ErrorKind::BrokenPipe => ExitCode::SUCCESS,
+                Err(e) => fail(&anyhow::Error::new(e), EXIT_BAD_INPUT),
+            }
+        }
+        DeviceCommand::Monitor(args) => device_monitor(args),
+    }
+}
+
+fn device_monitor(args: &viewer::cli::MonitorArgs) -> ExitCode {
+    use std::time::Duration;
+    use viewer::devices::{self, Target};
+    let target = match (&args.port, args.hid, args.sim) {
+        (Some(path), _, _) => Target::Serial(path.to_string_lossy().into_owned()),
+        (None, true, _) => Target::Hid,
+        (None, false, true) => Target::Sim,
+        (None, false, false) => {
+            let e = anyhow!("device monitor: choose a device with --port PATH, --hid or --sim");
+            return fail(&e, EXIT_BAD_SETUP);
+        }
+    };
+    let mut opened = match devices::open(&target).with_context(|| format!("cannot open {target:?}"))
+    {
+        Ok(opened) => opened,
+        Err(e) => return fail(&e, EXIT_BAD_SETUP),
+    };
+    let [a, b, c] = opened.hello.software;
+    eprintln!(
+        "device monitor: connected to {target:?}: firmware {a}.{b}.{c}, scene capacity {} bytes",
+        opened.hello.scene_capacity
+    );
+    let hand = opened.hand.clone();
+    let move_hand = |elapsed: Duration| match &hand {
+        Some(hand) => hand.set_target(devices::sim_hand_target(elapsed)),
+        None => Ok(()),
+    };
+    let duration = args.seconds.map(Duration::from_secs_f64);
+    let mut out = io::stdout().lock();
+    match devices::monitor(
+        opened.link.as_mut(),
+        duration,
+        args.every,
+        move_hand,
+        &mut out,
+    ) {
+        Ok(summary) => {
+            let _ = writeln!(
+                out,
+                "received {} telemetry frames, dropped {}",
+                summary.telemetry, summary.dropped
+            );
+            ExitCode::SUCCESS
+        }
+        // The reader went away (`| head`): not an error of ours.
+        Err(e)
+            if e.downcast_ref::<io::Error>()
+                .is_some_and(|e| e.kind() == io::ErrorKind::BrokenPipe) =>
+        {
+            ExitCode::SUCCESS
+        }
+        Err(e) => fail(&e.context("device monitor"), EXIT_BAD_INPUT),
+    }
 }

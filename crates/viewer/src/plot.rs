@@ -99,9 +99,17 @@ fn draw(run: &Run, root: &DrawingArea<BitMapBackend<'_>, Shift>) -> DrawResult<(
     );
     let root = root.titled(&title, (FONT, 22))?;
     let height = root.dim_in_pixel().1;
-    let (top, bottom) = root.split_vertically(height * 58 / 100);
-    forces(run, &top)?;
-    parameters(run, &bottom)?;
+    if run.is_device_run() {
+        let (top, rest) = root.split_vertically(height * 44 / 100);
+        let (middle, bottom) = rest.split_vertically(height * 28 / 100);
+        forces(run, &top)?;
+        parameters(run, &middle)?;
+        torques(run, &bottom)?;
+    } else {
+        let (top, bottom) = root.split_vertically(height * 58 / 100);
+        forces(run, &top)?;
+        parameters(run, &bottom)?;
+    }
     Ok(())
 }
 
@@ -308,6 +316,52 @@ fn parameters(run: &Run, area: &DrawingArea<BitMapBackend<'_>, Shift>) -> DrawRe
             .draw_series(LineSeries::new(points, style))?
             .label(label)
             .legend(move |(x, y)| PathElement::new([(x, y), (x + 18, y)], style));
+    }
+    chart
+        .configure_series_labels()
+        .position(SeriesLabelPosition::UpperLeft)
+        .background_style(WHITE.mix(0.9))
+        .border_style(BLACK.mix(0.5))
+        .label_font((FONT, 14))
+        .draw()?;
+    Ok(())
+}
+
+/// The joint torques of a device run.
+fn torques(run: &Run, area: &DrawingArea<BitMapBackend<'_>, Shift>) -> DrawResult<()> {
+    let ticks = &run.ticks;
+    let columns = area.dim_in_pixel().0 as usize;
+    let tau = |k: &Tick, joint: usize| k.device.map_or(0.0, |d| d.tau_nm[joint]) as f64;
+    let peak = ticks
+        .iter()
+        .flat_map(|k| [tau(k, 0).abs(), tau(k, 1).abs()])
+        .filter(|t| t.is_finite())
+        .fold(0.0f64, f64::max);
+    let top = if peak > 0.0 { peak * 1.15 } else { 1.0 };
+    let mut chart = ChartBuilder::on(area)
+        .margin(12)
+        .margin_right(24)
+        .x_label_area_size(40)
+        .y_label_area_size(70)
+        .caption(
+            "joint torques J^T F of the force after the safety layer",
+            (FONT, 18),
+        )
+        .build_cartesian_2d(time_range(ticks), -top..top)?;
+    mesh(&mut chart, "torque (N\u{b7}m)")?;
+    let lines = [
+        ("\u{3c4}1", 0, RGBColor(200, 110, 20)),
+        ("\u{3c4}2", 1, RGBColor(20, 120, 160)),
+    ];
+    for (label, joint, colour) in lines {
+        let all: Vec<(f64, f64)> = ticks.iter().map(|k| (k.t_s, tau(k, joint))).collect();
+        chart
+            .draw_series(LineSeries::new(
+                decimate(&all, columns),
+                colour.stroke_width(2),
+            ))?
+            .label(label)
+            .legend(move |(x, y)| PathElement::new([(x, y), (x + 18, y)], colour.stroke_width(2)));
     }
     chart
         .configure_series_labels()

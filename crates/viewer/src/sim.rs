@@ -9,12 +9,24 @@
 //! ones a shell of surfaces ([`tracker::Shell`]); [`Tick`] stores both as `Vec3` with `z = 0`
 //! for planar runs.
 //!
-//! [`Run::write_csv`] writes the run log: one row per tick, columns [`csv_header`].
+//! [`run_device`] closes the loop through the device instead: the trajectory moves the target
+//! of a virtual hand that holds the handle of a [`SimulatedPantograph`], and the device's own
+//! [`Controller`] (encoder counts → kinematics → tracker → friction → safety → Jᵀ F → motor
+//! currents) pushes back. Its ticks carry a [`DeviceSample`] as well.
+//!
+//! [`Run::write_csv`] writes the run log: one row per tick, columns [`csv_header`], followed
+//! by [`DEVICE_COLUMNS`] for device runs.
 
 use std::io::{self, Write};
 
+use device::controller::{Controller, ControllerError, TickOutput};
+use device::kinematics::KinematicsError;
+use device::safety::SafetyConfig;
+pub use device::simulator::SimParams;
+use device::simulator::{SimulatedPantograph, SimulatorError};
+use device::spec::DeviceSpec;
 use friction::{FrictionMaterial, FrictionOutput, FrictionRenderer, Mode};
-use nurbs::{Point, Vec3};
+use nurbs::{Point, Vec2, Vec3};
 use tracker::{Chain, ChainError, Feature, Object as TrackedObject, Shell, ShellError};
 
 use crate::scene::{Scene, Space};
@@ -80,6 +92,22 @@ pub struct Tick {
     pub go_param: f32,
     /// Parameters of the GO (`[u, 0]` on curves).
     pub go_params: [f32; 2],
+    /// What the device did this tick, in a [`run_device`] run; `None` in a prescribed-HIP
+    /// run.
+    pub device: Option<DeviceSample>,
+}
+
+/// The device side of one closed-loop tick.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct DeviceSample {
+    /// Joint angles the controller measured from the encoder counts (rad); 0 when it could
+    /// not (uncalibrated or unassembled).
+    pub theta_rad: [f32; 2],
+    /// Joint torques the motor currents produce (N·m): `Jᵀ F` of [`Tick::force`] at
+    /// [`DeviceSample::theta_rad`], unless a current limit scaled them down.
+    pub tau_nm: [f32; 2],
+    /// The latched fault bits ([`device::safety::Faults`]); 0 when none.
+    pub faults: u16,
 }
 
 /// A whole simulation.
@@ -162,6 +190,32 @@ pub enum SimError {
         index: usize,
         /// What is wrong.
         error: ShellError,
+    },
+    /// `--device` with an object of surfaces: the pantograph has two degrees of freedom.
+    #[error(
+        "--device: object {index} ({name:?}) is a 3-D shell of surfaces, but the pantograph \
+         is a 2-DoF planar device; it renders only objects of planar curves"
+    )]
+    Surface {
+        /// Object index.
+        index: usize,
+        /// Object name.
+        name: String,
+    },
+    /// The device controller refused its configuration or the material.
+    #[error("device controller: {0}")]
+    Controller(ControllerError),
+    /// The simulated pantograph could not start (the trajectory's first point out of reach,
+    /// or a bad parameter).
+    #[error("simulated pantograph: {0}")]
+    Simulator(SimulatorError),
+    /// The simulated arm was driven into a singular or unassembled configuration.
+    #[error("simulated pantograph at t = {t_s} s: {error}")]
+    Arm {
+        /// Time of the tick (s).
+        t_s: f64,
+        /// What happened.
+        error: KinematicsError,
     },
 }
 
@@ -278,6 +332,169 @@ fn simulate<O: TrackedObject>(
     ticks
 }
 
+/// A closed-loop run ([`run_device`]).
+#[derive(Clone, Debug, PartialEq)]
+pub struct DeviceRun {
+    /// The ticks, each with its [`DeviceSample`].
+    pub run: Run,
+    /// Whether the material is stiffer than the device renders passively at this rate, so
+    /// that the controller renders it with the time-domain passivity controller on.
+    pub passivity_control: bool,
+}
+
+/// Ramp-in of the force after it is enabled (s): short, so that a trajectory that starts
+/// close to the object still feels it.
+pub const DEVICE_RAMP_TIME_S: f32 = 0.02;
+
+/// Checks everything [`run_device`] checks before its first tick, without running it; returns
+/// the number of ticks.
+pub fn validate_device(
+    scene: &Scene,
+    object: usize,
+    trajectory: &Trajectory,
+    rate_hz: f64,
+) -> Result<usize, SimError> {
+    if let Some(o) = scene.object(object)
+        && o.space() == Space::Spatial
+    {
+        return Err(SimError::Surface {
+            index: object,
+            name: o.name().to_owned(),
+        });
+    }
+    validate(scene, object, trajectory, rate_hz)
+}
+
+/// The closed loop: object `object` of `scene` (planar curves only) on the default
+/// [`DeviceSpec`] at `rate_hz`, the virtual hand's target moving along `trajectory` and
+/// holding the handle with the grip of `hand`.
+///
+/// The controller calibrates on the end stops, enables forces (ramping in over
+/// [`DEVICE_RAMP_TIME_S`]), gets a heartbeat every tick and renders the object's material,
+/// with the passivity controller on when the material is stiffer than the device renders
+/// passively ([`DeviceRun::passivity_control`]). Each tick the controller reads the
+/// simulated encoders, and the simulated pantograph then moves for one period under the
+/// controller's currents and the hand. The ticks' HIP and HIP velocity are the handle's
+/// true ones (not the target's), `force` the force after the safety layer, the other
+/// rendering fields the renderer's. `progress(done, total)` is called after every tick.
+pub fn run_device(
+    scene: &Scene,
+    object: usize,
+    trajectory: &Trajectory,
+    rate_hz: f64,
+    hand: SimParams,
+    mut progress: impl FnMut(usize, usize),
+) -> Result<DeviceRun, SimError> {
+    let n = validate_device(scene, object, trajectory, rate_hz)?;
+    let o = &scene.objects()[object];
+    let material = o.material().friction_material();
+    let curves = o.curve_views().ok_or_else(|| SimError::Surface {
+        index: object,
+        name: o.name().to_owned(),
+    })?;
+    let chain = Chain::new(&curves).map_err(|error| SimError::Chain {
+        index: object,
+        error,
+    })?;
+
+    let spec = DeviceSpec::default();
+    let period_s = (1.0 / rate_hz) as f32;
+    let safety = SafetyConfig {
+        period_s,
+        ramp_time_s: DEVICE_RAMP_TIME_S,
+        ..SafetyConfig::default()
+    };
+    let mut controller: Controller<Chain<'_>> =
+        Controller::new(spec, safety).map_err(SimError::Controller)?;
+    let passivity_control = match controller.load_scene(material, false) {
+        Ok(()) => false,
+        Err(ControllerError::Passivity(_)) => {
+            controller
+                .load_scene(material, true)
+                .map_err(SimError::Controller)?;
+            true
+        }
+        Err(e) => return Err(SimError::Controller(e)),
+    };
+    // The counts the encoders read with both joints resting on their end stops.
+    let per_rad = spec.counts_per_joint_rad();
+    let stops = [0, 1].map(|i| {
+        let counts = (spec.encoder_direction[i].sign() * spec.end_stop_rad[i] * per_rad[i]).floor();
+        spec.encoder_offset_counts[i].wrapping_add(counts as i32)
+    });
+    controller.calibrate(stops).map_err(SimError::Controller)?;
+    controller.set_forces_enabled(true);
+
+    let start = trajectory.at(trajectory.start_s());
+    let mut arm = SimulatedPantograph::new(spec, hand, vec2(start)).map_err(SimError::Simulator)?;
+    let mut ticks = Vec::with_capacity(n);
+    for i in 0..n {
+        let t_s = trajectory.tick_time_s(i, rate_hz);
+        let now_s = t_s as f32;
+        let (hip, hip_velocity) = arm.hip().map_err(|error| SimError::Arm { t_s, error })?;
+        controller.heartbeat(now_s);
+        let out = controller.tick(Some(&chain), arm.encoder_counts(), now_s);
+        ticks.push(device_record(t_s, hip, hip_velocity, &out));
+        arm.step(out.currents_a, vec2(trajectory.at(t_s)), period_s)
+            .map_err(|error| SimError::Arm { t_s, error })?;
+        progress(i + 1, n);
+    }
+    Ok(DeviceRun {
+        run: Run {
+            space: Space::Planar,
+            object,
+            object_name: o.name().to_owned(),
+            material,
+            rate_hz,
+            ticks,
+        },
+        passivity_control,
+    })
+}
+
+fn vec2(xyz: [f64; 3]) -> Vec2 {
+    Vec2::new(xyz[0] as f32, xyz[1] as f32)
+}
+
+fn device_record(t_s: f64, hip: Vec2, hip_velocity: Vec2, out: &TickOutput) -> Tick {
+    let mut tick = match &out.render {
+        Some(render) => record(t_s, hip, hip_velocity, render),
+        None => Tick {
+            t_s,
+            hip: vec3(hip),
+            hip_velocity: vec3(hip_velocity),
+            cp: Vec3::ZERO,
+            go: Vec3::ZERO,
+            patch: None,
+            feature: Feature::Patch(0),
+            mode: Mode::Free,
+            depth_m: 0.0,
+            normal_force_n: 0.0,
+            friction_force_n: 0.0,
+            mu: 0.0,
+            psi: 0.0,
+            normal: Vec3::ZERO,
+            tangent: Vec3::ZERO,
+            friction: Vec3::ZERO,
+            force: Vec3::ZERO,
+            cp_patch: 0,
+            cp_param: 0.0,
+            cp_params: [0.0; 2],
+            go_patch: 0,
+            go_param: 0.0,
+            go_params: [0.0; 2],
+            device: None,
+        },
+    };
+    tick.force = vec3(out.telemetry.force_n);
+    tick.device = Some(DeviceSample {
+        theta_rad: out.joint_angles_rad.unwrap_or([0.0; 2]),
+        tau_nm: out.joint_torques_nm,
+        faults: out.telemetry.faults,
+    });
+    tick
+}
+
 fn record<P: Point>(t_s: f64, hip: P, hip_velocity: P, out: &FrictionOutput<P>) -> Tick {
     let c = &out.contact;
     Tick {
@@ -304,6 +521,7 @@ fn record<P: Point>(t_s: f64, hip: P, hip_velocity: P, out: &FrictionOutput<P>) 
         go_patch: out.go_patch as usize,
         go_param: out.go_params[0],
         go_params: out.go_params,
+        device: None,
     }
 }
 
@@ -318,6 +536,10 @@ fn vec3<P: Point>(p: P) -> Vec3 {
     let at = |i: usize| c.get(i).copied().unwrap_or(0.0);
     Vec3::new(at(0), at(1), at(2))
 }
+
+/// The columns a device run ([`run_device`]) appends to [`csv_header`]: the measured joint
+/// angles (rad), the joint torques (N·m) and the latched fault bits as a decimal number.
+pub const DEVICE_COLUMNS: &str = "theta1_rad,theta2_rad,tau1_nm,tau2_nm,faults";
 
 /// The run log's header: `t_s,hip_x,hip_y[,hip_z],cp_x,cp_y[,cp_z],go_x,go_y[,go_z],patch,mode,
 /// depth_m,normal_force_n,friction_force_n,mu,psi,force_x,force_y[,force_z]` (the `_z` columns
@@ -345,10 +567,16 @@ pub fn csv_header(space: Space) -> String {
 impl Run {
     /// Writes the run log: [`csv_header`], then one row per tick. `patch` is −1 when free,
     /// `mode` one of `free`, `stuck`, `transition`, `slip`, `depth_m` the penetration depth
-    /// clamped at 0 (so 0 when free).
+    /// clamped at 0 (so 0 when free). A device run (its first tick has a [`DeviceSample`])
+    /// appends [`DEVICE_COLUMNS`] (0 in a tick without a sample).
     pub fn write_csv(&self, out: impl Write) -> io::Result<()> {
         let mut w = io::BufWriter::new(out);
-        writeln!(w, "{}", csv_header(self.space))?;
+        let device = self.is_device_run();
+        if device {
+            writeln!(w, "{},{DEVICE_COLUMNS}", csv_header(self.space))?;
+        } else {
+            writeln!(w, "{}", csv_header(self.space))?;
+        }
         let dim = self.space.dim();
         for k in &self.ticks {
             write!(w, "{}", k.t_s)?;
@@ -371,9 +599,27 @@ impl Run {
             for x in &k.force.to_array()[..dim] {
                 write!(w, ",{x:?}")?;
             }
+            if device {
+                let d = k.device.unwrap_or(DeviceSample {
+                    theta_rad: [0.0; 2],
+                    tau_nm: [0.0; 2],
+                    faults: 0,
+                });
+                write!(
+                    w,
+                    ",{:?},{:?},{:?},{:?},{}",
+                    d.theta_rad[0], d.theta_rad[1], d.tau_nm[0], d.tau_nm[1], d.faults
+                )?;
+            }
             writeln!(w)?;
         }
         w.flush()
+    }
+
+    /// Whether this is a closed-loop run of the device ([`run_device`]): its ticks carry a
+    /// [`DeviceSample`].
+    pub fn is_device_run(&self) -> bool {
+        self.ticks.first().is_some_and(|k| k.device.is_some())
     }
 }
 

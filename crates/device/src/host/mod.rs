@@ -1,0 +1,192 @@
+//! Host side of the wire protocol (`std`): one [`Link`] trait and its three transports.
+//!
+//! - [`HidLink`]: USB HID, one frame per 64-byte report ([`list_hid`] enumerates boards by
+//!   [`USB_VID`] / [`USB_PID`]);
+//! - [`SerialLink`]: a serial port (USB CDC-ACM or a UART), frames [COBS](cobs)-encoded and
+//!   delimited by `0x00` ([`list_serial`] enumerates ports);
+//! - [`SimLink`]: the simulated pantograph and the device's own [`Controller`] on a thread of
+//!   this process, speaking the same frames.
+//!
+//! A link numbers the frames it sends (per sender, wrapping, as the protocol requires) and
+//! hands back every frame it receives with the device's sequence number, so the caller sees
+//! dropped frames as gaps.
+//!
+//! [`Controller`]: crate::controller::Controller
+
+pub mod cobs;
+mod hid;
+mod serial;
+mod sim;
+
+use std::time::{Duration, Instant};
+
+pub use hid::{HidDeviceInfo, HidLink, USB_PID, USB_VID, list_hid};
+pub use serial::{BAUD, SerialLink, SerialPortInfo, list_serial};
+pub use sim::{SimConfig, SimHand, SimLink};
+
+use crate::controller::ControllerError;
+use crate::protocol::{
+    Frame, FrameError, Hello, MAX_FRAME, MAX_PAYLOAD, Message, Nack, scene_upload,
+};
+use crate::simulator::SimulatorError;
+
+/// Why a link operation failed.
+#[derive(Debug, thiserror::Error)]
+pub enum LinkError {
+    /// The HID backend failed (no hidraw / udev, permission, device gone).
+    #[error("USB HID: {0}")]
+    Hid(#[from] hidapi::HidError),
+    /// The serial port failed.
+    #[error("serial port: {0}")]
+    Serial(#[from] serialport::Error),
+    /// Reading or writing the transport failed.
+    #[error("I/O: {0}")]
+    Io(#[from] std::io::Error),
+    /// Bytes arrived that are not a frame.
+    #[error("bad frame: {}", .0.code)]
+    Frame(FrameError),
+    /// The device rejected a frame.
+    #[error("device rejected frame {}: {}", .0.seq, .0.code)]
+    Nack(Nack),
+    /// No answer in time.
+    #[error("no answer from the device within {0:?}")]
+    Timeout(Duration),
+    /// The other end is gone (the simulator thread stopped, the device was unplugged).
+    #[error("link closed")]
+    Closed,
+    /// The simulated device could not start.
+    #[error("simulated device: {0}")]
+    Simulator(#[from] SimulatorError),
+    /// The simulated device's controller could not start.
+    #[error("simulated device: {0}")]
+    Controller(#[from] ControllerError),
+}
+
+/// The host's own [`Hello`]: this crate's version, no scene capacity (the host receives no
+/// scenes), the protocol's payload size.
+pub fn host_hello() -> Hello {
+    Hello {
+        software: software_version(),
+        scene_capacity: 0,
+        max_payload: MAX_PAYLOAD as u8,
+    }
+}
+
+fn software_version() -> [u8; 3] {
+    let part = |s: &str| s.parse::<u8>().unwrap_or(0);
+    [
+        part(env!("CARGO_PKG_VERSION_MAJOR")),
+        part(env!("CARGO_PKG_VERSION_MINOR")),
+        part(env!("CARGO_PKG_VERSION_PATCH")),
+    ]
+}
+
+/// Numbers the frames one sender sends (wrapping u16) and encodes them.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Sequencer {
+    next: u16,
+}
+
+impl Sequencer {
+    /// Encodes `message` as the next frame into a zero-padded 64-byte report; returns the
+    /// report, the frame's length and its sequence number.
+    pub fn encode(&mut self, message: &Message) -> ([u8; MAX_FRAME], usize, u16) {
+        let seq = self.next;
+        self.next = self.next.wrapping_add(1);
+        let (report, n) = Frame {
+            seq,
+            message: *message,
+        }
+        .to_report();
+        (report, n, seq)
+    }
+}
+
+/// A connection to a device.
+pub trait Link: core::fmt::Debug {
+    /// Sends `message` as the next frame; returns its sequence number.
+    fn send(&mut self, message: &Message) -> Result<u16, LinkError>;
+
+    /// The next frame from the device, or `None` when none arrived within `timeout`.
+    fn recv(&mut self, timeout: Duration) -> Result<Option<Frame>, LinkError>;
+
+    /// Sends `message` and waits for its ack; other frames arriving meanwhile (telemetry)
+    /// are dropped. A nack is [`LinkError::Nack`].
+    fn request(&mut self, message: &Message, timeout: Duration) -> Result<(), LinkError> {
+        let seq = self.send(message)?;
+        let deadline = Instant::now() + timeout;
+        loop {
+            let left = deadline.saturating_duration_since(Instant::now());
+            match self.recv(left)? {
+                Some(Frame {
+                    message: Message::Ack { seq: s },
+                    ..
+                }) if s == seq => return Ok(()),
+                Some(Frame {
+                    message: Message::Nack(n),
+                    ..
+                }) if n.seq == seq || n.seq == crate::protocol::UNKNOWN_SEQ => {
+                    return Err(LinkError::Nack(n));
+                }
+                Some(_) => {}
+                None => return Err(LinkError::Timeout(timeout)),
+            }
+            if Instant::now() >= deadline {
+                return Err(LinkError::Timeout(timeout));
+            }
+        }
+    }
+
+    /// Opens the session: sends the host's [`Hello`] and waits for the device's.
+    fn hello(&mut self, timeout: Duration) -> Result<Hello, LinkError> {
+        self.send(&Message::Hello(host_hello()))?;
+        let deadline = Instant::now() + timeout;
+        loop {
+            let left = deadline.saturating_duration_since(Instant::now());
+            match self.recv(left)? {
+                Some(Frame {
+                    message: Message::Hello(h),
+                    ..
+                }) => return Ok(h),
+                Some(_) => {}
+                None => return Err(LinkError::Timeout(timeout)),
+            }
+            if Instant::now() >= deadline {
+                return Err(LinkError::Timeout(timeout));
+            }
+        }
+    }
+
+    /// Uploads a wire scene (from [`encode_scene`](crate::protocol::encode_scene)): begin,
+    /// chunks, commit, each acked before the next is sent. `timeout` is per frame.
+    fn upload_scene(&mut self, scene: &[u8], timeout: Duration) -> Result<(), LinkError> {
+        for message in scene_upload(scene) {
+            self.request(&message, timeout)?;
+        }
+        Ok(())
+    }
+}
+
+/// Counts the frames lost between sequence numbers (wrapping).
+#[derive(Clone, Copy, Debug, Default)]
+pub struct GapCounter {
+    last: Option<u16>,
+    /// Frames missing so far.
+    pub dropped: u64,
+    /// Frames seen so far.
+    pub received: u64,
+}
+
+impl GapCounter {
+    /// Records a frame with sequence number `seq`; returns how many frames were missing
+    /// just before it (0 when it follows the last one).
+    pub fn observe(&mut self, seq: u16) -> u16 {
+        let gap = self
+            .last
+            .map_or(0, |last| seq.wrapping_sub(last).wrapping_sub(1));
+        self.last = Some(seq);
+        self.received += 1;
+        self.dropped += u64::from(gap);
+        gap
+    }
+}

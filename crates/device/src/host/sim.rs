@@ -1,0 +1,374 @@
+//! In-process link: the simulated pantograph and the device's [`Controller`] on a thread,
+//! behind the same frames a board sends.
+//!
+//! The thread plays the firmware: at every tick it handles the frames the host sent
+//! ([`SceneReceiver`] for sequence numbers and scene uploads), runs one controller tick on
+//! the simulated encoders, steps the simulated arm with the commanded currents and the
+//! virtual hand, and sends one telemetry frame. Every accepted frame is acked (rejected ones
+//! nacked); a hello is also answered with the device's hello, a heartbeat with a status.
+//!
+//! The thread owns the decoded [`SceneStore`]; the controller borrows the object each tick,
+//! so the chain views are built once per scene and the controller is
+//! [rebound](Controller::rebind) to them after every swap. The first object of the scene is
+//! rendered, when it is a chain of planar curves (the pantograph is planar: surfaces are
+//! accepted but render nothing).
+
+use std::sync::mpsc::{self, Receiver, RecvTimeoutError, Sender, SyncSender, TryRecvError};
+use std::thread::JoinHandle;
+use std::time::{Duration, Instant};
+
+use nurbs::{Curve, Vec2};
+use tracker::Chain;
+
+use super::{Link, LinkError, Sequencer, software_version};
+use crate::controller::Controller;
+use crate::protocol::{
+    Frame, Hello, MAX_FRAME, MAX_PAYLOAD, Message, SceneReceiver, SceneStore, Status,
+};
+use crate::safety::SafetyConfig;
+use crate::simulator::{SimParams, SimulatedPantograph};
+use crate::spec::DeviceSpec;
+
+/// Scene capacity of the simulated device (bytes), as the firmware's receiver.
+const SCENE_CAPACITY: usize = 8192;
+/// Frames the simulated device may have in flight to the host. When the host falls behind, a
+/// paced simulation drops telemetry (the host sees gaps); an unpaced one waits.
+const QUEUE: usize = 64;
+
+/// How to run the simulated device.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SimConfig {
+    /// The device.
+    pub spec: DeviceSpec,
+    /// Its safety limits; `period_s` is the tick period.
+    pub safety: SafetyConfig,
+    /// The simulated arm and hand.
+    pub params: SimParams,
+    /// Where the handle starts (m, device frame); the hand's target starts there too.
+    pub start_hip: Vec2,
+    /// Tick in real time (`true`), or as fast as the host reads telemetry (`false`, for
+    /// tests: nothing is dropped and the run does not depend on the machine's speed).
+    pub paced: bool,
+    /// Render materials stiffer than the device renders passively, with the passivity
+    /// controller on (a board decides this in its firmware; the wire does not carry it).
+    pub passivity_control: bool,
+}
+
+impl Default for SimConfig {
+    /// The default pantograph at 1 kHz with the default limits, held by a firm hand
+    /// (2000 N/m, 5 N·s/m) at (0, 0.09) m, paced, passivity controller on.
+    fn default() -> Self {
+        SimConfig {
+            spec: DeviceSpec::default(),
+            safety: SafetyConfig::default(),
+            params: SimParams {
+                hand_stiffness_n_per_m: 2000.0,
+                hand_damping_ns_per_m: 5.0,
+                ..SimParams::default()
+            },
+            start_hip: Vec2::new(0.0, 0.09),
+            paced: true,
+            passivity_control: true,
+        }
+    }
+}
+
+#[derive(Debug)]
+enum ToDevice {
+    Frame([u8; MAX_FRAME]),
+    HandTarget(Vec2),
+}
+
+/// The simulated device on its own thread. Dropping the link stops the thread.
+#[derive(Debug)]
+pub struct SimLink {
+    to_device: Option<Sender<ToDevice>>,
+    from_device: Option<Receiver<[u8; MAX_FRAME]>>,
+    thread: Option<JoinHandle<()>>,
+    seq: Sequencer,
+}
+
+impl SimLink {
+    /// Starts the simulated device (uncalibrated, forces off, no scene).
+    pub fn spawn(config: SimConfig) -> Result<Self, LinkError> {
+        let controller: Controller<Chain<'static>> = Controller::new(config.spec, config.safety)?;
+        let arm = SimulatedPantograph::new(config.spec, config.params, config.start_hip)?;
+        let (to_device, commands) = mpsc::channel();
+        let (frames, from_device) = mpsc::sync_channel(QUEUE);
+        let thread = std::thread::Builder::new()
+            .name("sim-device".into())
+            .spawn(move || {
+                let mut device = SimDevice {
+                    config,
+                    commands,
+                    frames,
+                    arm,
+                    hand_target: config.start_hip,
+                    receiver: Box::new(SceneReceiver::new()),
+                    scratch: Box::new(SceneStore::new()),
+                    seq: Sequencer::default(),
+                    tick: 0,
+                    last_error: 0,
+                    started: Instant::now(),
+                };
+                device.run(controller);
+            })?;
+        Ok(SimLink {
+            to_device: Some(to_device),
+            from_device: Some(from_device),
+            thread: Some(thread),
+            seq: Sequencer::default(),
+        })
+    }
+
+    /// Moves the virtual hand's target (m, device frame): the hand pulls the handle there
+    /// through its spring.
+    pub fn set_hand_target(&self, target: Vec2) -> Result<(), LinkError> {
+        self.command(ToDevice::HandTarget(target))
+    }
+
+    /// A handle that moves the virtual hand while the link itself is borrowed elsewhere.
+    pub fn hand(&self) -> Result<SimHand, LinkError> {
+        Ok(SimHand {
+            to_device: self.to_device.clone().ok_or(LinkError::Closed)?,
+        })
+    }
+
+    fn command(&self, command: ToDevice) -> Result<(), LinkError> {
+        self.to_device
+            .as_ref()
+            .ok_or(LinkError::Closed)?
+            .send(command)
+            .map_err(|_| LinkError::Closed)
+    }
+}
+
+/// Moves the virtual hand of a [`SimLink`] (see [`SimLink::hand`]).
+#[derive(Clone, Debug)]
+pub struct SimHand {
+    to_device: Sender<ToDevice>,
+}
+
+impl SimHand {
+    /// See [`SimLink::set_hand_target`].
+    pub fn set_target(&self, target: Vec2) -> Result<(), LinkError> {
+        self.to_device
+            .send(ToDevice::HandTarget(target))
+            .map_err(|_| LinkError::Closed)
+    }
+}
+
+impl Drop for SimLink {
+    fn drop(&mut self) {
+        // Closing both channels ends the thread whether it waits to send or to tick (a
+        // `SimHand` still alive keeps the command channel open: the thread then ends at its
+        // next telemetry frame, which finds the host's receiver gone).
+        self.to_device.take();
+        self.from_device.take();
+        if let Some(thread) = self.thread.take() {
+            let _ = thread.join();
+        }
+    }
+}
+
+impl Link for SimLink {
+    fn send(&mut self, message: &Message) -> Result<u16, LinkError> {
+        let (report, _, seq) = self.seq.encode(message);
+        self.command(ToDevice::Frame(report))?;
+        Ok(seq)
+    }
+
+    fn recv(&mut self, timeout: Duration) -> Result<Option<Frame>, LinkError> {
+        let from_device = self.from_device.as_ref().ok_or(LinkError::Closed)?;
+        match from_device.recv_timeout(timeout) {
+            Ok(bytes) => Frame::decode(&bytes).map(Some).map_err(LinkError::Frame),
+            Err(RecvTimeoutError::Timeout) => Ok(None),
+            Err(RecvTimeoutError::Disconnected) => Err(LinkError::Closed),
+        }
+    }
+}
+
+/// Why the thread left a scene epoch.
+enum EpochEnd {
+    /// A scene upload was committed into `scratch`.
+    Swap,
+    /// The host is gone.
+    Stop,
+}
+
+struct SimDevice {
+    config: SimConfig,
+    commands: Receiver<ToDevice>,
+    frames: SyncSender<[u8; MAX_FRAME]>,
+    arm: SimulatedPantograph,
+    hand_target: Vec2,
+    receiver: Box<SceneReceiver<SCENE_CAPACITY>>,
+    /// Where commits are validated (decoded); swapped with the active store on success.
+    scratch: Box<SceneStore>,
+    seq: Sequencer,
+    tick: u64,
+    last_error: u8,
+    started: Instant,
+}
+
+/// The first object's curves, when it is a planar chain.
+fn chain_curves(store: &SceneStore) -> Vec<Curve<'_, Vec2>> {
+    let n = store.patch_count(0).unwrap_or(0);
+    (0..n).map_while(|p| store.curve(0, p)).collect()
+}
+
+impl SimDevice {
+    fn run(&mut self, controller: Controller<Chain<'static>>) {
+        let mut store = Box::new(SceneStore::new());
+        let mut parked = controller;
+        loop {
+            let curves = chain_curves(&store);
+            let chain = Chain::new(&curves).ok();
+            let mut active = parked.rebind();
+            let end = self.epoch(&mut active, chain.as_ref());
+            parked = active.rebind();
+            match end {
+                EpochEnd::Stop => return,
+                EpochEnd::Swap => {
+                    std::mem::swap(&mut store, &mut self.scratch);
+                    let loaded = store
+                        .material(0)
+                        .map(|m| parked.load_scene(m, self.config.passivity_control));
+                    if !matches!(loaded, Some(Ok(()))) {
+                        parked.unload_scene();
+                    }
+                }
+            }
+        }
+    }
+
+    fn now_s(&self) -> f32 {
+        (self.tick as f64 * f64::from(self.config.safety.period_s)) as f32
+    }
+
+    /// Ticks on the current scene until a new one is committed or the host leaves.
+    fn epoch<'a>(
+        &mut self,
+        controller: &mut Controller<Chain<'a>>,
+        chain: Option<&Chain<'a>>,
+    ) -> EpochEnd {
+        let period_s = self.config.safety.period_s;
+        loop {
+            loop {
+                match self.commands.try_recv() {
+                    Ok(ToDevice::HandTarget(t)) => self.hand_target = t,
+                    Ok(ToDevice::Frame(bytes)) => match self.handle(controller, &bytes) {
+                        Ok(true) => return EpochEnd::Swap,
+                        Ok(false) => {}
+                        Err(()) => return EpochEnd::Stop,
+                    },
+                    Err(TryRecvError::Empty) => break,
+                    Err(TryRecvError::Disconnected) => return EpochEnd::Stop,
+                }
+            }
+            let begun = Instant::now();
+            let now_s = self.now_s();
+            let mut out = controller.tick(chain, self.arm.encoder_counts(), now_s);
+            // An arm driven into a singular pose stays there, as a real one on its stops.
+            let _ = self.arm.step(out.currents_a, self.hand_target, period_s);
+            out.telemetry.tick_us = u16::try_from(begun.elapsed().as_micros()).unwrap_or(u16::MAX);
+            if self.emit(&Message::Telemetry(out.telemetry)).is_err() {
+                return EpochEnd::Stop;
+            }
+            self.tick += 1;
+            if self.config.paced {
+                let due =
+                    self.started + Duration::from_secs_f64(self.tick as f64 * f64::from(period_s));
+                let now = Instant::now();
+                if due > now {
+                    std::thread::sleep(due - now);
+                } else if now - due > Duration::from_millis(100) {
+                    // Far behind (the machine was suspended): restart the clock, don't race.
+                    self.started =
+                        now - Duration::from_secs_f64(self.tick as f64 * f64::from(period_s));
+                }
+            }
+        }
+    }
+
+    /// Handles one host frame; `Ok(true)` when it committed a scene.
+    fn handle(&mut self, controller: &mut Controller<Chain<'_>>, bytes: &[u8]) -> Result<bool, ()> {
+        let outcome = self.receiver.receive(bytes, &mut *self.scratch);
+        self.emit(&SceneReceiver::<SCENE_CAPACITY>::reply(&outcome))?;
+        let frame = match outcome {
+            Ok(frame) => frame,
+            Err(nack) => {
+                self.last_error = nack.code as u8;
+                return Ok(false);
+            }
+        };
+        match frame.message {
+            Message::Hello(_) => self.emit(&Message::Hello(Hello {
+                software: software_version(),
+                scene_capacity: SCENE_CAPACITY as u32,
+                max_payload: MAX_PAYLOAD as u8,
+            }))?,
+            Message::Heartbeat { .. } => {
+                controller.heartbeat(self.now_s());
+                let status = Status {
+                    forces_enabled: controller.forces_enabled(),
+                    calibrated: controller.is_calibrated(),
+                    faults: controller.faults().bits(),
+                    scene_len: u32::try_from(self.receiver.active_scene().len()).unwrap_or(0),
+                    scene_crc32: self.receiver.active_crc32(),
+                    upload_received: self
+                        .receiver
+                        .upload_received()
+                        .and_then(|n| u32::try_from(n).ok())
+                        .unwrap_or(0),
+                    expected_seq: self.receiver.expected_seq().unwrap_or(0),
+                    last_error: self.last_error,
+                };
+                self.emit(&Message::Status(status))?;
+            }
+            Message::SceneCommit => return Ok(true),
+            Message::SetMaterial {
+                object: 0,
+                material,
+            } => {
+                let loaded = controller.load_scene(material, self.config.passivity_control);
+                if loaded.is_err() {
+                    self.last_error = crate::protocol::ErrorCode::BadMaterial as u8;
+                }
+            }
+            Message::EnableForces => controller.set_forces_enabled(true),
+            Message::DisableForces => controller.set_forces_enabled(false),
+            Message::Calibrate => {
+                // The simulated joints "rest on their end stops": the counts read there.
+                let spec = &self.config.spec;
+                let per_rad = spec.counts_per_joint_rad();
+                let home = [0, 1].map(|i| {
+                    let stop = spec.encoder_direction[i].sign() * spec.end_stop_rad[i] * per_rad[i];
+                    spec.encoder_offset_counts[i].wrapping_add(libm::floorf(stop) as i32)
+                });
+                if controller.calibrate(home).is_err() {
+                    self.last_error = crate::protocol::ErrorCode::BadField as u8;
+                }
+            }
+            Message::ClearFaults { .. } => {
+                controller.clear_faults();
+            }
+            _ => {}
+        }
+        Ok(false)
+    }
+
+    /// Sends one frame to the host. Paced, a full queue drops the frame (its sequence number
+    /// is spent, so the host sees the gap); unpaced, it waits for the host.
+    fn emit(&mut self, message: &Message) -> Result<(), ()> {
+        let (report, _, _) = self.seq.encode(message);
+        if self.config.paced {
+            match self.frames.try_send(report) {
+                Ok(()) | Err(mpsc::TrySendError::Full(_)) => Ok(()),
+                Err(mpsc::TrySendError::Disconnected(_)) => Err(()),
+            }
+        } else {
+            self.frames.send(report).map_err(|_| ())
+        }
+    }
+}

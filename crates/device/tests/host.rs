@@ -1,0 +1,274 @@
+//! Host links: COBS against the published examples, the in-process simulated device end to
+//! end through the wire protocol, and device enumeration on a machine without devices.
+#![allow(clippy::unwrap_used)]
+
+use std::time::Duration;
+
+use device::host::{GapCounter, Link, SimConfig, SimLink, cobs, list_hid, list_serial};
+use device::protocol::{Frame, Message, WireObject, WirePatch, encode_scene};
+use device::safety::Faults;
+use friction::{FrictionMaterial, Mode};
+use nurbs::Vec2;
+use nurbs::construct::arc;
+
+const TIMEOUT: Duration = Duration::from_secs(5);
+
+/// The examples of the COBS article (Cheshire & Baker 1999) as tabulated on Wikipedia's
+/// "Consistent Overhead Byte Stuffing" page, delimiter omitted.
+fn published() -> Vec<(Vec<u8>, Vec<u8>)> {
+    let seq = |a: u8, b: u8| (a..=b).collect::<Vec<u8>>();
+    let cat = |parts: &[&[u8]]| parts.concat();
+    vec![
+        (vec![0x00], vec![0x01, 0x01]),
+        (vec![0x00, 0x00], vec![0x01, 0x01, 0x01]),
+        (vec![0x00, 0x11, 0x00], vec![0x01, 0x02, 0x11, 0x01]),
+        (
+            vec![0x11, 0x22, 0x00, 0x33],
+            vec![0x03, 0x11, 0x22, 0x02, 0x33],
+        ),
+        (
+            vec![0x11, 0x22, 0x33, 0x44],
+            vec![0x05, 0x11, 0x22, 0x33, 0x44],
+        ),
+        (
+            vec![0x11, 0x00, 0x00, 0x00],
+            vec![0x02, 0x11, 0x01, 0x01, 0x01],
+        ),
+        // 01 02 … FE (254 bytes): one full block.
+        (seq(0x01, 0xFE), cat(&[&[0xFF], &seq(0x01, 0xFE)])),
+        // 00 01 … FE (255 bytes).
+        (seq(0x00, 0xFE), cat(&[&[0x01, 0xFF], &seq(0x01, 0xFE)])),
+        // 01 02 … FF (255 bytes).
+        (
+            seq(0x01, 0xFF),
+            cat(&[&[0xFF], &seq(0x01, 0xFE), &[0x02, 0xFF]]),
+        ),
+        // 02 03 … FF 00 (255 bytes).
+        (
+            cat(&[&seq(0x02, 0xFF), &[0x00]]),
+            cat(&[&[0xFF], &seq(0x02, 0xFF), &[0x01, 0x01]]),
+        ),
+        // 03 04 … FF 00 01 (255 bytes).
+        (
+            cat(&[&seq(0x03, 0xFF), &[0x00, 0x01]]),
+            cat(&[&[0xFE], &seq(0x03, 0xFF), &[0x02, 0x01]]),
+        ),
+    ]
+}
+
+#[test]
+fn cobs_matches_the_published_examples() {
+    for (data, encoded) in published() {
+        assert_eq!(cobs::encode(&data), encoded, "encode {data:02x?}");
+        assert_eq!(
+            cobs::decode(&encoded).unwrap(),
+            data,
+            "decode {encoded:02x?}"
+        );
+        assert!(encoded.len() <= cobs::max_encoded_len(data.len()));
+    }
+    assert_eq!(cobs::encode(&[]), vec![0x01]);
+    assert_eq!(cobs::decode(&[0x01]).unwrap(), Vec::<u8>::new());
+}
+
+#[test]
+fn cobs_round_trips_and_rejects_damage() {
+    // Deterministic pseudo-random packets, zero-heavy and zero-free, up to 600 bytes.
+    let mut state = 0x2545_F491_u32;
+    for len in 0..600 {
+        let data: Vec<u8> = (0..len)
+            .map(|_| {
+                state ^= state << 13;
+                state ^= state >> 17;
+                state ^= state << 5;
+                if state.is_multiple_of(3) {
+                    0
+                } else {
+                    state as u8
+                }
+            })
+            .collect();
+        let encoded = cobs::encode(&data);
+        assert!(!encoded.contains(&0), "len {len}");
+        assert!(encoded.len() <= cobs::max_encoded_len(len));
+        assert_eq!(cobs::decode(&encoded).unwrap(), data, "len {len}");
+    }
+    assert_eq!(
+        cobs::decode(&[0x03, 0x11]),
+        Err(cobs::CobsError::Truncated(0))
+    );
+    assert_eq!(
+        cobs::decode(&[0x03, 0x11, 0x00]),
+        Err(cobs::CobsError::Zero(2))
+    );
+    assert_eq!(cobs::decode(&[0x00]), Err(cobs::CobsError::Zero(0)));
+}
+
+/// Enumeration works on machines without devices (CI) and never panics: a list, possibly
+/// empty, or an error that says what is missing.
+#[test]
+fn enumeration_never_panics() {
+    match list_hid() {
+        Ok(devices) => {
+            for d in devices {
+                assert_eq!(
+                    (d.vendor_id, d.product_id),
+                    (device::host::USB_VID, device::host::USB_PID)
+                );
+            }
+        }
+        Err(e) => assert!(!e.to_string().is_empty()),
+    }
+    match list_serial() {
+        Ok(ports) => assert!(ports.iter().all(|p| !p.path.is_empty())),
+        Err(e) => assert!(!e.to_string().is_empty()),
+    }
+}
+
+/// The thesis-2d object (thesis Fig. 3.2.1): two circular arcs of radius 4 cm meeting at a
+/// vertex on top, the lens between them inside.
+fn thesis_2d_scene() -> Vec<u8> {
+    let deg = std::f32::consts::PI / 180.0;
+    let r = 0.04;
+    let right = arc(
+        Vec2::new(-0.02, 0.06),
+        Vec2::X * r,
+        Vec2::Y * r,
+        0.0,
+        60.0 * deg,
+    )
+    .unwrap();
+    let left = arc(
+        Vec2::new(0.02, 0.06),
+        Vec2::X * r,
+        Vec2::Y * r,
+        120.0 * deg,
+        60.0 * deg,
+    )
+    .unwrap();
+    let patches = [
+        WirePatch::Curve(right.view()),
+        WirePatch::Curve(left.view()),
+    ];
+    encode_scene(&[WireObject {
+        material: FrictionMaterial::default(),
+        patches: &patches,
+    }])
+    .unwrap()
+}
+
+fn unpaced() -> SimLink {
+    SimLink::spawn(SimConfig {
+        paced: false,
+        start_hip: Vec2::new(0.03, 0.075),
+        ..SimConfig::default()
+    })
+    .unwrap()
+}
+
+/// Reads `n` frames, feeding the watchdog every 20 telemetry frames when `heartbeat`;
+/// returns the telemetry, and checks the device's sequence numbers have no gap.
+fn run(link: &mut SimLink, n: usize, heartbeat: bool) -> Vec<device::protocol::Telemetry> {
+    let mut gaps = GapCounter::default();
+    let mut telemetry = Vec::new();
+    while telemetry.len() < n {
+        let Frame { seq, message } = link.recv(TIMEOUT).unwrap().expect("a frame");
+        assert_eq!(gaps.observe(seq), 0, "gap before frame {seq}");
+        if let Message::Telemetry(t) = message {
+            if heartbeat && telemetry.len().is_multiple_of(20) {
+                link.send(&Message::Heartbeat { uptime_ms: 0 }).unwrap();
+            }
+            telemetry.push(t);
+        }
+    }
+    assert_eq!(gaps.dropped, 0);
+    telemetry
+}
+
+#[test]
+fn sim_link_renders_the_uploaded_scene_and_trips_the_watchdog() {
+    let mut link = unpaced();
+    let hello = link.hello(TIMEOUT).unwrap();
+    assert_eq!(hello.scene_capacity, 8192);
+
+    let scene = thesis_2d_scene();
+    link.upload_scene(&scene, TIMEOUT).unwrap();
+    // The upload took longer than the watchdog: feed it, then clear the latched fault.
+    link.request(&Message::Heartbeat { uptime_ms: 0 }, TIMEOUT)
+        .unwrap();
+    link.request(&Message::ClearFaults { mask: u16::MAX }, TIMEOUT)
+        .unwrap();
+    link.request(&Message::Calibrate, TIMEOUT).unwrap();
+    link.request(&Message::EnableForces, TIMEOUT).unwrap();
+    link.request(&Message::Heartbeat { uptime_ms: 0 }, TIMEOUT)
+        .unwrap();
+
+    let status = loop {
+        if let Some(Frame {
+            message: Message::Status(s),
+            ..
+        }) = link.recv(TIMEOUT).unwrap()
+        {
+            break s;
+        }
+    };
+    assert!(status.calibrated && status.forces_enabled, "{status:?}");
+    assert_eq!(status.faults, 0, "{status:?}");
+    assert_eq!(status.scene_len as usize, scene.len());
+
+    // Free space first: the HIP rests outside the lens.
+    let free = run(&mut link, 200, true);
+    assert!(free.iter().all(|t| t.mode == Mode::Free && t.faults == 0));
+
+    // The hand moves in over 400 ms and pushes 5 mm into the right arc (a jump would trip
+    // the velocity limit).
+    let (from, to) = (Vec2::new(0.03, 0.075), Vec2::new(0.012, 0.075));
+    let mut contact = Vec::new();
+    for k in 1..=20 {
+        link.set_hand_target(from.lerp(to, k as f32 / 20.0))
+            .unwrap();
+        contact.extend(run(&mut link, 20, true));
+    }
+    contact.extend(run(&mut link, 1000, true));
+    let faults = contact.iter().find(|t| t.faults != 0);
+    assert!(faults.is_none(), "faults in contact: {faults:?}");
+    let pressed = contact
+        .iter()
+        .filter(|t| t.mode != Mode::Free && t.force_normal_n > 0.0 && t.force_n.length() > 0.0)
+        .count();
+    assert!(pressed > 500, "{pressed} ticks in contact");
+    let last = contact.last().unwrap();
+    assert!(last.force_n.length() > 0.5, "{last:?}");
+    // Telemetry time advances one period per tick.
+    let dt_us = contact
+        .windows(2)
+        .map(|w| w[1].time_us.wrapping_sub(w[0].time_us));
+    assert!(dt_us.into_iter().all(|d| (999..=1001).contains(&d)));
+
+    // The host stops: the watchdog trips and the force drops to zero.
+    let silent = run(&mut link, 300, false);
+    let last = silent.last().unwrap();
+    assert!(
+        Faults::from_bits_truncate(last.faults).contains(Faults::WATCHDOG),
+        "{last:?}"
+    );
+    assert_eq!(last.force_n, Vec2::ZERO);
+}
+
+#[test]
+fn sim_link_nacks_a_bad_scene_and_paced_link_answers_hello() {
+    let mut link = unpaced();
+    link.hello(TIMEOUT).unwrap();
+    let mut scene = thesis_2d_scene();
+    scene[0] = b'X';
+    match link.upload_scene(&scene, TIMEOUT) {
+        Err(device::host::LinkError::Nack(n)) => {
+            assert_eq!(n.code, device::protocol::ErrorCode::SceneFormat)
+        }
+        other => panic!("{other:?}"),
+    }
+    drop(link);
+
+    let mut paced = SimLink::spawn(SimConfig::default()).unwrap();
+    assert_eq!(paced.hello(TIMEOUT).unwrap().max_payload, 57);
+}

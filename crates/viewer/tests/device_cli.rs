@@ -1,0 +1,68 @@
+//! `viewer device …` end to end: listing without hardware, monitoring the simulated device.
+
+use std::process::{Command, Output};
+
+fn viewer(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_viewer"))
+        .args(args)
+        .output()
+        .expect("viewer runs")
+}
+
+#[test]
+fn monitor_sim_prints_telemetry_and_exits_0() {
+    let out = viewer(&[
+        "device",
+        "monitor",
+        "--sim",
+        "--seconds",
+        "0.2",
+        "--every",
+        "10",
+    ]);
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "{stdout}\n{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let telemetry = stdout.lines().filter(|l| l.starts_with("t=")).count();
+    assert!(telemetry >= 2, "{stdout}");
+    assert!(
+        stdout
+            .lines()
+            .any(|l| l.contains("hip=") && l.contains("mode=free"))
+    );
+    let last = stdout.lines().last().unwrap_or_default();
+    assert!(
+        last.starts_with("received ") && last.contains("dropped"),
+        "{last}"
+    );
+}
+
+#[test]
+fn list_exits_0_with_or_without_devices() {
+    let out = viewer(&["device", "list"]);
+    assert!(out.status.success(), "{out:?}");
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        stdout.trim() == "no devices found" || stdout.starts_with("kind"),
+        "{stdout}"
+    );
+}
+
+#[test]
+fn monitor_needs_a_device_and_a_valid_duration() {
+    let out = viewer(&["device", "monitor"]);
+    assert_eq!(out.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("--sim"));
+    for bad in [
+        &["--sim", "--seconds", "-1"][..],
+        &["--sim", "--hid"],
+        &["--sim", "--every", "0"],
+    ] {
+        let mut args = vec!["device", "monitor"];
+        args.extend_from_slice(bad);
+        assert_eq!(viewer(&args).status.code(), Some(2), "{bad:?}");
+    }
+}
