@@ -104,6 +104,17 @@ enum LawState<P> {
     LuGre(LuGre<P>),
 }
 
+impl<P: Point> LawState<P> {
+    /// Forgets the bristle state of the laws that have one (contact lost).
+    fn reset(&mut self) {
+        match self {
+            LawState::Dahl(l) => FrictionLaw::<P>::reset(l),
+            LawState::LuGre(l) => FrictionLaw::<P>::reset(l),
+            _ => {}
+        }
+    }
+}
+
 /// The whole friction renderer for one object: CP tracker, GO tracker and state machine.
 #[derive(Clone, Copy, Debug)]
 pub struct FrictionRenderer<O: Object> {
@@ -232,29 +243,17 @@ impl<O: Object> FrictionRenderer<O> {
             self.prev_normal_force = 0.0;
             self.prev_friction = O::P::ZERO;
             self.prev_velocity = cp_velocity;
-            if let LawState::Dahl(d) = &mut self.law {
-                FrictionLaw::<O::P>::reset(d);
-            }
-            if let LawState::LuGre(l) = &mut self.law {
-                FrictionLaw::<O::P>::reset(l);
-            }
+            self.law.reset();
             let frame = object.frame(cp_patch, cp_params);
-            return FrictionOutput {
-                mode: Mode::Free,
+            return at_cp(
+                Mode::Free,
                 contact,
-                go: contact.point,
-                go_patch: cp_patch as u16,
-                go_params: cp_params,
-                point_of_application: contact.point,
-                normal: contact.normal,
-                tangent: frame.tangent,
-                normal_force_n: 0.0,
-                friction_force_n: 0.0,
-                friction: O::P::ZERO,
-                total: O::P::ZERO,
-                mu: 0.0,
-                psi: contact.psi[0],
-            };
+                (cp_patch, cp_params),
+                &frame,
+                0.0,
+                O::P::ZERO,
+                0.0,
+            );
         }
 
         let damping = |n: O::P| -m.damping_ns_per_m * hip_velocity.dot(n);
@@ -471,22 +470,44 @@ impl<O: Object> FrictionRenderer<O> {
         } else {
             0.0
         };
-        FrictionOutput {
-            mode: self.mode,
+        at_cp(
+            self.mode,
             contact,
-            go: contact.point,
-            go_patch: cp_patch as u16,
-            go_params: cp_params,
-            point_of_application: contact.point,
-            normal: contact.normal,
-            tangent: reference(&fr, friction),
-            normal_force_n: f_n,
-            friction_force_n: signed_along(friction, reference(&fr, friction)),
+            (cp_patch, cp_params),
+            &fr,
+            f_n,
             friction,
-            total: contact.normal * f_n + friction,
             mu,
-            psi: contact.psi[0],
-        }
+        )
+    }
+}
+
+/// The output when the force acts at the closest point (free, and the velocity-based laws).
+fn at_cp<P: Point>(
+    mode: Mode,
+    contact: Contact<P>,
+    (patch, params): (usize, [f32; 2]),
+    frame: &Frame<P>,
+    normal_force_n: f32,
+    friction: P,
+    mu: f32,
+) -> FrictionOutput<P> {
+    let tangent = reference(frame, friction);
+    FrictionOutput {
+        mode,
+        contact,
+        go: contact.point,
+        go_patch: patch as u16,
+        go_params: params,
+        point_of_application: contact.point,
+        normal: contact.normal,
+        tangent,
+        normal_force_n,
+        friction_force_n: signed_along(friction, tangent),
+        friction,
+        total: contact.normal * normal_force_n + friction,
+        mu,
+        psi: contact.psi[0],
     }
 }
 

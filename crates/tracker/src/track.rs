@@ -149,20 +149,9 @@ pub const PERIODIC_TOL: f32 = 1e-6;
 impl<P: Point, const N: usize> Tracker<P, N> {
     /// A tracker on `patch` starting at `t0` (clamped into the domain).
     pub fn new<S: Patch<N, P = P>>(patch: &S, t0: [f32; N], cfg: TrackerConfig) -> Self {
-        let domain = patch.domain();
-        let mut t = t0;
-        for i in 0..N {
-            t[i] = clamp(t[i], domain[i]);
-        }
-        Tracker {
-            cfg,
-            t,
-            jet: patch.jet(t, 2),
-            domain,
-            periodic: patch.periodic(PERIODIC_TOL),
-            collapsed: patch.collapsed(PERIODIC_TOL),
-            last_hip: None,
-        }
+        let periodic = patch.periodic(PERIODIC_TOL);
+        let collapsed = patch.collapsed(PERIODIC_TOL);
+        Self::with_topology(patch, t0, cfg, periodic, collapsed)
     }
 
     /// A tracker on `patch` whose closedness (`periodic`) and collapsed sides are already known

@@ -224,17 +224,22 @@ fn forces(run: &Run, area: &DrawingArea<BitMapBackend<'_>, Shift>) -> DrawResult
             .label(label)
             .legend(move |(x, y)| PathElement::new([(x, y), (x + 18, y)], colour.stroke_width(2)));
     }
+    legend(&mut chart, SeriesLabelPosition::UpperRight)
+}
+
+type Chart<'a> = ChartContext<'a, BitMapBackend<'a>, Cartesian2d<RangedCoordf64, RangedCoordf64>>;
+
+/// The legend box of a panel.
+fn legend(chart: &mut Chart<'_>, position: SeriesLabelPosition) -> DrawResult<()> {
     chart
         .configure_series_labels()
-        .position(SeriesLabelPosition::UpperRight)
+        .position(position)
         .background_style(WHITE.mix(0.9))
         .border_style(BLACK.mix(0.5))
         .label_font((FONT, 14))
         .draw()?;
     Ok(())
 }
-
-type Chart<'a> = ChartContext<'a, BitMapBackend<'a>, Cartesian2d<RangedCoordf64, RangedCoordf64>>;
 
 /// Axes, labels and a light grid (major lines only).
 fn mesh(chart: &mut Chart<'_>, y_desc: &str) -> DrawResult<()> {
@@ -317,14 +322,7 @@ fn parameters(run: &Run, area: &DrawingArea<BitMapBackend<'_>, Shift>) -> DrawRe
             .label(label)
             .legend(move |(x, y)| PathElement::new([(x, y), (x + 18, y)], style));
     }
-    chart
-        .configure_series_labels()
-        .position(SeriesLabelPosition::UpperLeft)
-        .background_style(WHITE.mix(0.9))
-        .border_style(BLACK.mix(0.5))
-        .label_font((FONT, 14))
-        .draw()?;
-    Ok(())
+    legend(&mut chart, SeriesLabelPosition::UpperLeft)
 }
 
 /// The joint torques of a device run.
@@ -363,14 +361,7 @@ fn torques(run: &Run, area: &DrawingArea<BitMapBackend<'_>, Shift>) -> DrawResul
             .label(label)
             .legend(move |(x, y)| PathElement::new([(x, y), (x + 18, y)], colour.stroke_width(2)));
     }
-    chart
-        .configure_series_labels()
-        .position(SeriesLabelPosition::UpperLeft)
-        .background_style(WHITE.mix(0.9))
-        .border_style(BLACK.mix(0.5))
-        .label_font((FONT, 14))
-        .draw()?;
-    Ok(())
+    legend(&mut chart, SeriesLabelPosition::UpperLeft)
 }
 
 #[cfg(test)]
