@@ -7,4 +7,4 @@ pub mod models;
 mod render;
 
 pub use material::{FrictionMaterial, ModelKind, Stribeck};
-pub use render::{FrictionOutput, FrictionRenderer, Mode, cp_config};
+pub use render::{FrictionOutput, FrictionRenderer, Mode, SwitchCause, cp_config};

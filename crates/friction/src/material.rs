@@ -1,12 +1,13 @@
 //! Friction parameters of a material.
 
-/// How μ falls from μ_s to μ_d during the stuck → slip transition, as a function of
-/// `s = |Ψ_GO| / |Ψ_GO at breakaway|` ∈ [0, 1] (1 at breakaway, 0 once the god-object has
-/// caught up): `μ = μ_d + (μ_s − μ_d) · m(s)`.
+/// The Stribeck curve of the stuck → slip transition: how μ falls from μ_s to μ_d with the
+/// god-object's slip speed `v`, `μ(v) = μ_d + (μ_s − μ_d) · m(s)` with
+/// `s = 1 − (v / v_s)²` clamped to [0, 1] (1 at rest, 0 at and above the Stribeck speed `v_s`,
+/// [`FrictionMaterial::stribeck_speed_m_per_s`]).
 ///
-/// The projection error of the god-object is proportional to its speed along the surface
-/// (`ṫ = −KΨ`), so `m` shapes the velocity-dependent Stribeck drop. All shapes are
-/// polynomials: no transcendental functions in the tick.
+/// The curve reaches μ_d at a finite speed, so the transition ends (thesis §3.1.1: μ = μ_d once
+/// the GO has caught up) and slip renders exactly μ_d. All shapes are polynomials in `v²`: no
+/// square roots or transcendental functions in the tick.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Stribeck {
     /// `m(s) = s`: the thesis's linear interpolation between μ_s and μ_d.
@@ -43,6 +44,25 @@ impl Stribeck {
     pub fn mu(&self, mu_static: f32, mu_dynamic: f32, s: f32) -> f32 {
         mu_dynamic + (mu_static - mu_dynamic) * self.shape(s)
     }
+
+    /// μ at slip speed `speed_m_per_s` on a curve that reaches μ_d at `stribeck_speed_m_per_s`:
+    /// `s = 1 − (v / v_s)²`.
+    #[inline]
+    pub fn mu_at_speed(
+        &self,
+        mu_static: f32,
+        mu_dynamic: f32,
+        speed_m_per_s: f32,
+        stribeck_speed_m_per_s: f32,
+    ) -> f32 {
+        let vs_sq = stribeck_speed_m_per_s * stribeck_speed_m_per_s;
+        let s = if vs_sq > 0.0 {
+            1.0 - speed_m_per_s * speed_m_per_s / vs_sq
+        } else {
+            0.0
+        };
+        self.mu(mu_static, mu_dynamic, s)
+    }
 }
 
 /// Which friction law renders the material.
@@ -73,13 +93,15 @@ pub struct FrictionMaterial {
     pub mu_dynamic: f32,
     /// The μ_s → μ_d modulation in the stuck → slip transition.
     pub stribeck: Stribeck,
-    /// Time constant of the god-object's convergence to the closest point in the transition
-    /// (s): each tick closes `T / τ` of the gap (normalised law) on top of following the
-    /// HIP's motion (feed-forward), so the transition lasts a few τ whatever the speed.
+    /// Frictional memory (s): the slip speed that sets μ on the Stribeck curve follows the
+    /// god-object's speed with this first-order lag, so μ cannot fall faster than the
+    /// contact's own time constant, however hard the hand jerks (Hess & Soom's lag).
     pub transition_time_s: f32,
-    /// The transition ends when the god-object is this close to the closest point (m).
+    /// The transition ends when the god-object is within this distance of its slip position,
+    /// where the spring carries exactly μ_d F_N (m).
     pub converge_tol_m: f32,
-    /// Slip ends when the closest point moves slower than this (m/s).
+    /// The transition or slip sticks when the god-object's slip speed falls below this, or when
+    /// the closest point moves back towards the god-object faster than this (m/s).
     pub stop_speed_m_per_s: f32,
     /// The friction law.
     pub model: ModelKind,
@@ -91,7 +113,8 @@ pub struct FrictionMaterial {
     pub bristle_stiffness_n_per_m: f32,
     /// Bristle damping σ₁ (N·s/m) of LuGre.
     pub bristle_damping_ns_per_m: f32,
-    /// Stribeck velocity v_s (m/s) of LuGre.
+    /// Stribeck speed v_s (m/s): of the stick–slip transition's curve ([`Stribeck`]), where μ
+    /// reaches μ_d; and of LuGre's `g(v)`.
     pub stribeck_speed_m_per_s: f32,
 }
 

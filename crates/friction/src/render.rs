@@ -3,36 +3,62 @@
 //!
 //! # Algorithm 1, as implemented
 //!
-//! The force is always the spring `K (GO − HIP)` from the HIP to the god-object (GO, the point
-//! of application), split at the GO into the normal force `F_N` and the friction `F_T`.
+//! The closest point (CP) is tracked with feature switching always on, so the penetration depth
+//! is the object's true depth wherever the GO is. The GO is a point on the object's surface that
+//! moves only when friction cannot hold it: the force is
 //!
-//! - **Free → stuck**: on contact the GO is pinned at the closest point (CP).
-//! - **Stuck**: the GO stays pinned; friction `F_T` while `|F_T| ≤ μ_s F_N`. The CP tracker's
-//!   feature switch is inhibited (static friction at a corner, §3.1.2).
-//! - **Breakaway → transition**: the thesis's GO tracker is released from the stuck point and
-//!   converges to the CP under the feedback law (normalised, with feed-forward of the HIP's
-//!   motion, time constant [`FrictionMaterial::transition_time_s`]); its projection error sets
-//!   μ, falling from μ_s to μ_d ([`crate::Stribeck`]).
-//! - **Slip**: μ = μ_d.
-//! - **Dynamic → stuck** when the CP stops or reverses, or when `μ_d F_N[k] > μ_s F_N[k−1]`
-//!   (the normal force jumps): the GO is pinned where it is.
+//! `F = F_N n + F_T`,  `F_N = K·depth − b·v·n_CP` (≥ 0),  `F_T = K·(GO − HIP)` tangential to `n`,
 //!
-//! In the transition and in slip the GO is towed behind the CP at the distance where the
-//! spring carries exactly `μ F_N` (`μ · depth` on a flat surface). This is where the
-//! implementation departs from a literal reading of the thesis, which keeps the GO on the CP
-//! while slipping (friction `μ_d F_N` added as a separate vector) and, on slip → stuck, "resets
-//! the GO to a location that ensures force continuity" (Algorithm 1 writes it as an offset
-//! added to `F_T`). That reset stretches the spring out of nothing: it injects `½ F_f² / K` of
-//! energy each time, and a HIP going back and forth gains energy from friction, which a user
-//! feels as an active, buzzing surface. Keeping the GO where the spring already carries the
-//! friction gives the same forces (μ_d F_N in slip, continuity at every switch) while friction
-//! can only dissipate: the GO only ever moves towards the HIP. The GO is therefore
-//! `μ_d · depth` behind the CP in slip rather than on it.
+//! with `n` the normal at the GO and `|F_T| ≤ μ F_N` (the friction cone).
+//!
+//! - **Free → stuck** on contact ([`SwitchCause::Contact`]): the GO is put at the CP.
+//! - **Stuck**: the GO stays where it is; friction is the tangential spring. Leaving the CP's
+//!   Voronoi region does not move the GO, so static friction holds at a corner (§3.1.2).
+//! - **Stuck → transition** when `|F_T| > μ_s F_N` ([`SwitchCause::Breakaway`]).
+//! - **Transition and slip**: each tick the GO slides towards the HIP just far enough that the
+//!   spring carries `μ F_N` (the cone's surface): friction opposes the slide and only ever
+//!   dissipates. In the transition μ follows the Stribeck curve of the GO's slip speed
+//!   ([`crate::Stribeck`]): `μ_s` at breakaway, `μ_d` at and above the Stribeck speed, so a
+//!   faster hand loses static friction sooner (§3.1.1).
+//! - **Transition → slip** once μ has reached μ_d and the GO sits within `converge_tol_m` of
+//!   its slip position ([`SwitchCause::Converged`]); slip renders `μ_d F_N`.
+//! - **Dynamic → stuck** (transition or slip, Algorithm 1's DYNAMIC state): when the normal
+//!   force jumps, `μ_d F_N[k] > μ_s F_N[k−1]` ([`SwitchCause::NormalForceJump`]); when the
+//!   CP moves back towards the GO faster than the stop speed ([`SwitchCause::Reversed`]); or
+//!   when the GO's slip speed has fallen below the stop speed ([`SwitchCause::Stopped`]). The
+//!   GO stays where it is, so the force carries on unchanged (force continuity).
+//! - **Contact lost → free** ([`SwitchCause::Released`]).
+//!
+//! Where the GO slides onto a neighbouring patch across a crease (a sharp vertex of a chain, an
+//! edge of a shell), it stops on the crease while its normal turns from one patch's normal to
+//! the other's over a slide of `depth × |n₁ − n₀|`: the crease is felt as if rounded to the
+//! depth of penetration, so the force turns by about `K` times the hand's step per tick instead
+//! of jumping by `|F|·|n₁ − n₀|`.
+//!
+//! # Where this departs from a literal reading of the thesis
+//!
+//! - The thesis keeps the GO on the CP while slipping and adds `μ_d F_N` as a separate vector;
+//!   on slip → stuck it "resets the GO to a location that ensures force continuity" (an offset
+//!   added to `F_T`). That reset stretches the spring out of nothing and injects `½ F_f² / K`
+//!   of energy each time. Here the GO stays where the spring already carries the friction, which
+//!   gives the same forces with friction that can only dissipate.
+//! - The stuck self-transition of Fig. 3.1.2 (reset the GO to the CP when the CP stops or
+//!   reverses while stuck) is not implemented. It would drop the friction force to zero in one
+//!   tick, a step of up to `μ_s F_N`, and the thesis's own Fig. 3.2.2 contradicts it: in 4 → 5
+//!   and 10 → 11 the HIP presses along the normal (the CP stands still) while stuck and "the
+//!   friction force is kept still".
+//! - The thesis inhibits the CP's Voronoi switching while stuck (§3.1.2) because its GO is
+//!   derived from the CP; here the GO is pinned on its own, so the CP keeps switching and the
+//!   depth stays the object's true depth (the inhibited CP measured it against the first
+//!   curve's end tangent: 1.6 mm where the truth was 0.5 mm).
+//! - The thesis's Fig. 3.1.2, its text and Algorithm 1 state the normal-force test three ways;
+//!   Algorithm 1's `μ_d F_N[k] > μ_s F_N[k−1]` is used (the text's ratio, read literally, would
+//!   fire on a fall of the normal force, contradicting its own "sudden increase").
 
 use crate::material::{FrictionMaterial, ModelKind};
 use crate::models::{CoulombViscous, Dahl, FrictionLaw, Karnopp, LuGre, TangentialInput};
 use nurbs::Point;
-use tracker::{Contact, Frame, Law, Object, TrackerConfig};
+use tracker::{Contact, Frame, Object};
 
 /// Friction mode.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -41,9 +67,9 @@ pub enum Mode {
     Free,
     /// Static friction, GO pinned.
     Stuck,
-    /// Stuck → slip: GO converging to CP, μ modulated.
+    /// Stuck → slip: the GO slides, μ falls along the Stribeck curve.
     Transition,
-    /// Dynamic friction, GO = CP.
+    /// Dynamic friction: the GO slides at μ_d.
     Slip,
 }
 
@@ -57,6 +83,59 @@ impl Mode {
             Mode::Slip => "slip",
         }
     }
+
+    /// Every mode, in the order of its wire code.
+    pub const ALL: [Mode; 4] = [Mode::Free, Mode::Stuck, Mode::Transition, Mode::Slip];
+}
+
+/// Why the renderer last changed mode (each edge of the state machine of Fig. 3.1.2 has its
+/// own cause).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SwitchCause {
+    /// No switch yet.
+    None,
+    /// Free → stuck: the HIP entered the object.
+    Contact,
+    /// Stuck → transition: `|F_T| > μ_s F_N`.
+    Breakaway,
+    /// Transition → slip: μ reached μ_d and the GO converged to its slip position.
+    Converged,
+    /// Dynamic → stuck: the GO's slip speed fell below the stop speed (the CP stopped).
+    Stopped,
+    /// Dynamic → stuck: the CP reversed, moving back towards the GO.
+    Reversed,
+    /// Dynamic → stuck: the normal force jumped, `μ_d F_N[k] > μ_s F_N[k−1]`.
+    NormalForceJump,
+    /// Contact → free: the HIP left the object.
+    Released,
+}
+
+impl SwitchCause {
+    /// Lower-case name used in run logs.
+    pub fn name(self) -> &'static str {
+        match self {
+            SwitchCause::None => "none",
+            SwitchCause::Contact => "contact",
+            SwitchCause::Breakaway => "breakaway",
+            SwitchCause::Converged => "converged",
+            SwitchCause::Stopped => "stopped",
+            SwitchCause::Reversed => "reversed",
+            SwitchCause::NormalForceJump => "normal_force_jump",
+            SwitchCause::Released => "released",
+        }
+    }
+
+    /// Every cause, in the order of its wire code.
+    pub const ALL: [SwitchCause; 8] = [
+        SwitchCause::None,
+        SwitchCause::Contact,
+        SwitchCause::Breakaway,
+        SwitchCause::Converged,
+        SwitchCause::Stopped,
+        SwitchCause::Reversed,
+        SwitchCause::NormalForceJump,
+        SwitchCause::Released,
+    ];
 }
 
 /// Everything one tick produced.
@@ -64,17 +143,19 @@ impl Mode {
 pub struct FrictionOutput<P> {
     /// Friction mode after this tick.
     pub mode: Mode,
+    /// Why the mode last changed (this tick or earlier).
+    pub cause: SwitchCause,
     /// Contact geometry at the closest point.
     pub contact: Contact<P>,
-    /// The god-object (equal to the CP except while stuck or in transition).
+    /// The god-object (equal to the CP when free).
     pub go: P,
-    /// The GO's patch and parameters.
+    /// The GO's patch.
     pub go_patch: u16,
     /// The GO's parameters.
     pub go_params: [f32; 2],
     /// Where the force acts (the GO).
     pub point_of_application: P,
-    /// Unit normal at the point of application.
+    /// Unit normal at the point of application (turning across a crease).
     pub normal: P,
     /// Unit tangent at the point of application, the sign reference of `friction_force_n`:
     /// the curve's tangent in 2-D; in 3-D whichever parameter direction (u or v) the friction
@@ -90,8 +171,12 @@ pub struct FrictionOutput<P> {
     pub total: P,
     /// The friction coefficient in use.
     pub mu: f32,
-    /// Projection error of the GO in the transition, of the CP otherwise.
+    /// The CP tracker's projection error Ψ (thesis eq. 2.8, `[Ψ_u]` on curves): 0 once the
+    /// closest point has converged.
     pub psi: f32,
+    /// The GO's slip speed that sets μ in the transition (m/s, filtered over
+    /// [`FrictionMaterial::transition_time_s`]).
+    pub slip_speed_m_per_s: f32,
 }
 
 /// Per-model state of the velocity-based laws.
@@ -115,40 +200,50 @@ impl<P: Point> LawState<P> {
     }
 }
 
-/// The whole friction renderer for one object: CP tracker, GO tracker and state machine.
+/// A GO stopped on a crease: the patch across it, the same point's parameters there, that
+/// patch's normal, and how far the GO's normal has turned towards it (0 → 1).
+#[derive(Clone, Copy, Debug)]
+struct Crease<P> {
+    patch: usize,
+    params: [f32; 2],
+    normal: P,
+    turned: f32,
+}
+
+/// Normals closer than this (chord of unit vectors, about 0.06°) meet smoothly: no crease.
+const SMOOTH_CHORD: f32 = 1e-3;
+
+/// The smallest radius a crease is rounded to (m), so that a crease met at zero depth still
+/// turns over a few micrometres of slide rather than in one step.
+const MIN_ROUNDING_M: f32 = 1e-5;
+
+/// The whole friction renderer for one object: CP tracker, GO and state machine.
 #[derive(Clone, Copy, Debug)]
 pub struct FrictionRenderer<O: Object> {
     material: FrictionMaterial,
     cp: O::State,
-    go: O::State,
+    go_patch: usize,
+    go_params: [f32; 2],
+    /// The GO's frame (evaluated where it moved; reused while it stands still).
+    go_frame: Frame<O::P>,
+    crease: Option<Crease<O::P>>,
     mode: Mode,
+    cause: SwitchCause,
     law: LawState<O::P>,
-    /// The transition's projection-error ratio Ψ/Ψ₀ (1 at breakaway).
-    s: f32,
-    /// Correction of the GO's distance for the surface's curvature (1 on a flat surface).
-    lag_gain: f32,
-    /// The GO's target last tick (rate-limited), and the HIP last tick.
-    prev_target: Option<O::P>,
-    prev_hip: Option<O::P>,
+    /// The GO's slip speed (m/s), low-passed over `transition_time_s`.
+    slip_speed: f32,
+    /// The GO's speed over the last tick (m/s).
+    go_speed: f32,
+    /// μ in the transition: follows the Stribeck curve of the GO's speed with the lag
+    /// `transition_time_s`.
+    mu: f32,
     prev_cp: Option<O::P>,
-    prev_velocity: O::P,
     prev_normal_force: f32,
-    prev_friction: O::P,
 }
 
 /// The CP tracker's settings: one Gauss–Newton step per tick.
-pub fn cp_config() -> TrackerConfig {
-    TrackerConfig::default()
-}
-
-/// The GO tracker's settings: it slides towards its target (the point behind the CP where the
-/// spring carries the friction force) half the way each tick; the residual lag of a moving
-/// target is taken up by the curvature correction of the GO's distance.
-fn go_config() -> TrackerConfig {
-    TrackerConfig {
-        law: Law::Normalized { alpha: 0.5 },
-        ..TrackerConfig::default()
-    }
+pub fn cp_config() -> tracker::TrackerConfig {
+    tracker::TrackerConfig::default()
 }
 
 impl<O: Object> FrictionRenderer<O> {
@@ -156,9 +251,8 @@ impl<O: Object> FrictionRenderer<O> {
     /// `period_s`.
     pub fn new(object: &O, material: FrictionMaterial, hip: O::P, period_s: f32) -> Self {
         let cp = object.start(hip, cp_config());
-        let mut go = object.start(hip, go_config());
         let _ = period_s;
-        O::set_sliding(&mut go, true);
+        let (go_patch, go_params) = O::position(&cp);
         let law = match material.model {
             ModelKind::StickSlip => LawState::StickSlip,
             ModelKind::CoulombViscous => LawState::Coulomb(CoulombViscous {
@@ -189,17 +283,18 @@ impl<O: Object> FrictionRenderer<O> {
         FrictionRenderer {
             material,
             cp,
-            go,
+            go_patch,
+            go_params,
+            go_frame: object.frame(go_patch, go_params),
+            crease: None,
             mode: Mode::Free,
+            cause: SwitchCause::None,
             law,
-            s: 0.0,
-            lag_gain: 1.0,
-            prev_target: None,
-            prev_hip: None,
+            slip_speed: 0.0,
+            go_speed: 0.0,
+            mu: material.mu_static,
             prev_cp: None,
-            prev_velocity: O::P::ZERO,
             prev_normal_force: 0.0,
-            prev_friction: O::P::ZERO,
         }
     }
 
@@ -208,9 +303,98 @@ impl<O: Object> FrictionRenderer<O> {
         self.mode
     }
 
+    /// Why the mode last changed.
+    pub fn cause(&self) -> SwitchCause {
+        self.cause
+    }
+
     /// The material.
     pub fn material(&self) -> &FrictionMaterial {
         &self.material
+    }
+
+    fn switch(&mut self, mode: Mode, cause: SwitchCause) {
+        if self.mode != mode {
+            self.mode = mode;
+            self.cause = cause;
+        }
+    }
+
+    /// The GO's unit normal: its patch's, or across a crease turned part of the way towards
+    /// the next patch's.
+    fn go_normal(&self) -> O::P {
+        match self.crease {
+            Some(c) => blend(self.go_frame.normal, c.normal, c.turned),
+            None => self.go_frame.normal,
+        }
+    }
+
+    /// Puts the GO at `(patch, params)`, off any crease.
+    fn place_go(&mut self, object: &O, patch: usize, params: [f32; 2]) {
+        self.go_patch = patch;
+        self.go_params = params;
+        self.go_frame = object.frame(patch, params);
+        self.crease = None;
+    }
+
+    /// Slides the GO by the tangential displacement `d` over the surface: within its patch by
+    /// one Gauss–Newton step, onto the next patch where it leaves through a shared boundary
+    /// (after turning its normal over the rounding of a crease, `radius` = the depth).
+    fn slide_go(&mut self, object: &O, d: O::P, radius: f32) {
+        if let Some(mut c) = self.crease {
+            let n0 = self.go_frame.normal;
+            let n = blend(n0, c.normal, c.turned);
+            let towards = tangential(c.normal - n0, n);
+            let len_sq = towards.length_squared();
+            let chord_sq = (c.normal - n0).length_squared();
+            if len_sq > f32::MIN_POSITIVE && chord_sq > f32::MIN_POSITIVE {
+                let dir = towards * (1.0 / sqrt(len_sq));
+                let along = d.dot(dir);
+                // The rounding's arc: radius × the angle, the chord standing in for the angle.
+                c.turned += along / (radius.max(MIN_ROUNDING_M) * sqrt(chord_sq));
+                let rest = d - dir * along;
+                if c.turned >= 1.0 {
+                    self.place_go(object, c.patch, c.params);
+                } else if c.turned <= 0.0 {
+                    self.crease = None;
+                } else {
+                    self.crease = Some(c);
+                }
+                // Along the crease (an edge of a shell): slide on the patch it belongs to.
+                if rest.length_squared() > square(1e-9) {
+                    self.go_params = object.offset(self.go_patch, self.go_params, rest);
+                    self.go_frame = object.frame(self.go_patch, self.go_params);
+                }
+            } else {
+                self.place_go(object, c.patch, c.params);
+            }
+            return;
+        }
+        let before = self.go_frame.point;
+        let params = object.offset(self.go_patch, self.go_params, d);
+        self.go_params = params;
+        self.go_frame = object.frame(self.go_patch, params);
+        let moved = self.go_frame.point - before;
+        let rest = tangential(d - moved, self.go_frame.normal);
+        if rest.length_squared() <= square(1e-3) * d.length_squared() {
+            return;
+        }
+        if let Some((patch, params)) = object.neighbour(self.go_patch, self.go_params, rest) {
+            let across = object.frame(patch, params);
+            if (across.normal - self.go_frame.normal).length_squared() <= square(SMOOTH_CHORD) {
+                self.place_go(object, patch, params);
+                let p = object.offset(patch, params, rest);
+                self.go_params = p;
+                self.go_frame = object.frame(patch, p);
+            } else {
+                self.crease = Some(Crease {
+                    patch,
+                    params,
+                    normal: across.normal,
+                    turned: 0.0,
+                });
+            }
+        }
     }
 
     /// One tick for a HIP at `hip` moving at `hip_velocity`.
@@ -223,203 +407,142 @@ impl<O: Object> FrictionRenderer<O> {
     ) -> FrictionOutput<O::P> {
         let m = self.material;
         let k = m.stiffness_n_per_m;
-        let allow_switch = self.mode != Mode::Stuck;
-        let contact = object.track(&mut self.cp, hip, period_s, allow_switch);
+        let contact = object.track(&mut self.cp, hip, period_s, true);
         // CP velocity, tangential part.
         let cp_velocity = match self.prev_cp {
             Some(p) if period_s > 0.0 => {
                 let v = (contact.point - p) * (1.0 / period_s);
-                v - contact.normal * v.dot(contact.normal)
+                tangential(v, contact.normal)
             }
             _ => O::P::ZERO,
         };
         self.prev_cp = Some(contact.point);
-        let (cp_patch, cp_params) = O::position(&self.cp);
 
         if !contact.inside {
-            self.mode = Mode::Free;
-            self.prev_target = None;
-            self.prev_hip = Some(hip);
+            self.switch(Mode::Free, SwitchCause::Released);
             self.prev_normal_force = 0.0;
-            self.prev_friction = O::P::ZERO;
-            self.prev_velocity = cp_velocity;
+            self.slip_speed = 0.0;
             self.law.reset();
+            let (cp_patch, cp_params) = O::position(&self.cp);
             let frame = object.frame(cp_patch, cp_params);
-            return at_cp(
-                Mode::Free,
-                contact,
-                (cp_patch, cp_params),
-                &frame,
-                0.0,
-                O::P::ZERO,
-                0.0,
-            );
+            return self.at_cp(contact, (cp_patch, cp_params), &frame, 0.0, O::P::ZERO, 0.0);
         }
-
-        let damping = |n: O::P| -m.damping_ns_per_m * hip_velocity.dot(n);
 
         if !matches!(self.law, LawState::StickSlip) {
-            return self.velocity_law_tick(
-                object,
-                contact,
-                cp_velocity,
-                hip,
-                hip_velocity,
-                period_s,
-            );
+            return self.velocity_law_tick(object, contact, cp_velocity, hip, hip_velocity, period_s);
         }
+
+        // The normal force from the object's true penetration (thesis eq. 2.10, with damping).
+        let normal_force =
+            (k * contact.depth - m.damping_ns_per_m * hip_velocity.dot(contact.normal)).max(0.0);
 
         if self.mode == Mode::Free {
-            self.mode = Mode::Stuck;
-            object.place(&mut self.go, cp_patch, cp_params);
+            let (p, t) = O::position(&self.cp);
+            self.place_go(object, p, t);
+            self.slip_speed = 0.0;
+            self.switch(Mode::Stuck, SwitchCause::Contact);
+        } else if matches!(self.mode, Mode::Transition | Mode::Slip)
+            && m.mu_dynamic * normal_force
+                > m.mu_static * self.prev_normal_force * (1.0 + 1e-4) + 1e-6
+        {
+            // Algorithm 1: μ_d F_N[k] > μ_s F_N[k−1]; a relative margin keeps f32 noise from
+            // firing it when μ_s = μ_d.
+            self.switch(Mode::Stuck, SwitchCause::NormalForceJump);
         }
 
-        // Dynamic → stuck when the CP stops or reverses, or the normal force jumps
-        // (μ_d F_N[k] > μ_s F_N[k−1]). The GO stays where it is, so the spring, and with it the
-        // force, carries on unchanged.
-        if matches!(self.mode, Mode::Transition | Mode::Slip) {
-            let fn_now = (k * contact.depth + damping(contact.normal)).max(0.0);
-            let slow = |v: O::P| v.length_squared() < square(m.stop_speed_m_per_s);
-            let stopped = slow(cp_velocity);
-            // A reversal is a real change of direction, not rounding noise around standstill.
-            let reversed =
-                cp_velocity.dot(self.prev_velocity) < 0.0 && !stopped && !slow(self.prev_velocity);
-            // A relative margin keeps f32 noise from firing it when μ_s = μ_d.
-            let jump =
-                m.mu_dynamic * fn_now > m.mu_static * self.prev_normal_force * (1.0 + 1e-4) + 1e-6;
-            // Sticking needs a spring that static friction can hold; a GO still catching up
-            // (the HIP stopped while it lagged) slides on until it can.
-            let (p, t) = O::position(&self.go);
-            let at = object.frame(p, t);
-            let spring = (at.point - hip) * k;
-            let holds = tangential(spring, at.normal).length_squared()
-                <= square(m.mu_static * spring.dot(at.normal).max(0.0));
-            // A transition runs its course while the CP stands still (the HIP pulled straight
-            // out, or pressed straight in): stopping only ends a slip. Otherwise unloading
-            // would chatter between stuck and transition every few ticks.
-            let stopped = stopped && self.mode == Mode::Slip;
-            if (reversed || stopped || jump) && holds {
-                self.mode = Mode::Stuck;
-            }
-        }
-
+        let mut n = self.go_normal();
+        let mut friction = tangential((self.go_frame.point - hip) * k, n);
         let mut mu = m.mu_static;
-        let mut psi = contact.psi[0];
+        if self.mode == Mode::Stuck
+            && friction.length_squared() > square(m.mu_static * normal_force)
+        {
+            self.slip_speed = 0.0;
+            self.go_speed = 0.0;
+            self.mu = m.mu_static;
+            self.switch(Mode::Transition, SwitchCause::Breakaway);
+        }
+        // Frictional memory: μ and the slip speed follow the GO's motion with the material's
+        // time constant (no clock sets them: a GO that does not slide keeps its μ).
+        let rate = (period_s / m.transition_time_s.max(period_s)).min(1.0);
         if matches!(self.mode, Mode::Transition | Mode::Slip) {
-            let go_now = object
-                .frame(O::position(&self.go).0, O::position(&self.go).1)
-                .point;
-            let offset = tangential(go_now - contact.point, contact.normal);
-            let dist = sqrt(offset.length_squared());
-            let behind = offset
-                .try_normalize()
-                .unwrap_or_else(|| -cp_velocity.try_normalize().unwrap_or(O::P::ZERO));
-            let mut lag = if self.mode == Mode::Transition {
-                // The thesis's transition: the GO's projection error decays under the
-                // normalised law, `Ψ/Ψ₀ = (1 − T/τ)ᵏ`, and sets μ through the Stribeck curve.
-                self.s *= 1.0 - (period_s / m.transition_time_s.max(period_s)).min(1.0);
-                if self.s <= 0.01 {
-                    // The last 1 % of μ's way is snapped: this tick already renders slip.
-                    self.mode = Mode::Slip;
-                    mu = m.mu_dynamic;
-                } else {
-                    mu = m.stribeck.mu(m.mu_static, m.mu_dynamic, self.s);
+            mu = match self.mode {
+                Mode::Transition => {
+                    let target = m.stribeck.mu_at_speed(
+                        m.mu_static,
+                        m.mu_dynamic,
+                        self.go_speed,
+                        m.stribeck_speed_m_per_s,
+                    );
+                    self.mu += rate * (target - self.mu);
+                    self.mu
                 }
-                psi = self.s;
-                mu * contact.depth.max(0.0) * self.lag_gain
-            } else {
+                _ => m.mu_dynamic,
+            };
+            // The friction cone: the GO slides towards the HIP just far enough that the spring
+            // carries μ F_N.
+            let limit = mu * normal_force;
+            let f_t_sq = friction.length_squared();
+            let mut slide = 0.0;
+            if f_t_sq > square(limit) && f_t_sq > f32::MIN_POSITIVE {
+                let f_t = sqrt(f_t_sq);
+                slide = (f_t - limit) / k;
+                let d = friction * (-slide / f_t);
+                self.slide_go(object, d, contact.depth.max(0.0));
+                n = self.go_normal();
+                friction = tangential((self.go_frame.point - hip) * k, n);
+            }
+            self.go_speed = if period_s > 0.0 { slide / period_s } else { 0.0 };
+            self.slip_speed += rate * (self.go_speed - self.slip_speed);
+            if slide < m.stop_speed_m_per_s * period_s {
+                // The GO did not need to move: the hand stopped, reversed, or pressed in.
+                let back = cp_velocity.dot(friction);
+                let reversed = back > 0.0
+                    && square(back)
+                        > square(m.stop_speed_m_per_s) * friction.length_squared();
+                if reversed {
+                    self.switch(Mode::Stuck, SwitchCause::Reversed);
+                } else if self.slip_speed < m.stop_speed_m_per_s {
+                    self.switch(Mode::Stuck, SwitchCause::Stopped);
+                }
+            }
+            // μ has come within 1 % of its way to μ_d (the lag only reaches it asymptotically;
+            // the last 1 % is a step of 0.01 (μ_s − μ_d) F_N).
+            if self.mode == Mode::Transition
+                && mu - m.mu_dynamic <= 0.01 * (m.mu_static - m.mu_dynamic)
+                && friction.length_squared()
+                    <= square(m.mu_dynamic * normal_force + k * m.converge_tol_m)
+            {
+                self.switch(Mode::Slip, SwitchCause::Converged);
                 mu = m.mu_dynamic;
-                mu * contact.depth.max(0.0) * self.lag_gain
-            };
-            // Never pushed away from the CP: a GO closer than its slip distance (the HIP pressed
-            // deeper) waits for the spring to stretch, as when stuck.
-            lag = lag.min(dist);
-            // The GO slides over the surface (changing patch only at a boundary) half the way
-            // each tick towards a target `lag` behind the CP. The target itself moves no faster
-            // than the HIP (plus the Stribeck relaxation): where it would jump, because the CP
-            // crossed a sharp corner and the depth now counts from the other patch, the force
-            // falls steeply but continuously (thesis Fig. 3.2.2, interval 12 → 13).
-            let raw = contact.point + behind * lag;
-            let hip_step = sqrt((hip - self.prev_hip.unwrap_or(hip)).length_squared());
-            let rate = (period_s / m.transition_time_s.max(period_s)).min(1.0);
-            let target = match self.prev_target {
-                Some(prev) => {
-                    let step = raw - prev;
-                    let len = sqrt(step.length_squared());
-                    // With the HIP, plus the rest of the way at the transition's rate (1/τ).
-                    let reach = 1.5 * hip_step + rate * len + 1e-7;
-                    if len > reach {
-                        prev + step * (reach / len)
-                    } else {
-                        raw
-                    }
-                }
-                None => raw,
-            };
-            self.prev_target = Some(target);
-            object.track(&mut self.go, target, period_s, true);
-        }
-
-        // The force is the spring from the HIP to the god-object.
-        let (go_patch, go_params) = O::position(&self.go);
-        let fr = object.frame(go_patch, go_params);
-        let f = (fr.point - hip) * k;
-        let normal_force = (f.dot(fr.normal) + damping(fr.normal)).max(0.0);
-        let mut friction = tangential(f, fr.normal);
-        let f_t = sqrt(friction.length_squared());
-        match self.mode {
-            Mode::Stuck => {
-                let limit = m.mu_static * normal_force;
-                if f_t > limit {
-                    // Breakaway: friction at the static limit this tick, then the transition,
-                    // whose target starts at the GO.
-                    self.mode = Mode::Transition;
-                    self.s = 1.0;
-                    self.prev_target = Some(fr.point);
-                    friction = friction * (limit / f_t);
-                }
             }
-            Mode::Transition | Mode::Slip => {
-                // While the GO catches up with a target that moved away (the HIP let go, or the
-                // depth reference changed at a corner) the spring can exceed μ F_N for a few
-                // ticks: the rendered friction never does.
-                let limit = mu * normal_force;
-                if f_t > limit {
-                    friction = friction * (limit / f_t);
-                }
-                // On a curved surface the tilt of the normal between CP and GO changes the
-                // split of the spring by about κ·depth: adjust the GO's distance over the next
-                // ticks so that |F_T| = μ F_N.
-                if f_t > f32::MIN_POSITIVE && normal_force > 0.0 {
-                    let ratio = (mu * normal_force / f_t).clamp(0.5, 2.0);
-                    self.lag_gain = (self.lag_gain * (1.0 + 0.5 * (ratio - 1.0))).clamp(0.5, 2.0);
-                }
-            }
-            Mode::Free => {}
         }
-        if self.mode == Mode::Stuck {
-            self.prev_target = None;
+        // What the friction renders: the spring, never beyond the cone of the mode's μ (it can
+        // exceed it for a tick where the GO stopped on a boundary it cannot leave).
+        let limit = if self.mode == Mode::Stuck { m.mu_static } else { mu } * normal_force;
+        let f_t_sq = friction.length_squared();
+        if f_t_sq > square(limit) {
+            friction = friction * (limit / sqrt(f_t_sq));
         }
-        self.prev_hip = Some(hip);
-        self.prev_velocity = cp_velocity;
         self.prev_normal_force = normal_force;
-        self.prev_friction = friction;
-        let total = fr.normal * normal_force + friction;
+        let total = n * normal_force + friction;
+        let tangent = reference(&self.go_frame, friction);
         FrictionOutput {
             mode: self.mode,
+            cause: self.cause,
             contact,
-            go: fr.point,
-            go_patch: go_patch as u16,
-            go_params,
-            point_of_application: fr.point,
-            normal: fr.normal,
-            tangent: reference(&fr, friction),
+            go: self.go_frame.point,
+            go_patch: self.go_patch as u16,
+            go_params: self.go_params,
+            point_of_application: self.go_frame.point,
+            normal: n,
+            tangent,
             normal_force_n: normal_force,
-            friction_force_n: signed_along(friction, reference(&fr, friction)),
+            friction_force_n: signed_along(friction, tangent),
             friction,
             total,
-            mu,
-            psi,
+            mu: if self.mode == Mode::Stuck { m.mu_static } else { mu },
+            psi: contact.psi[0],
+            slip_speed_m_per_s: self.slip_speed,
         }
     }
 
@@ -457,57 +580,66 @@ impl<O: Object> FrictionRenderer<O> {
             LawState::LuGre(l) => l.force(&input),
             LawState::StickSlip => O::P::ZERO,
         };
-        self.mode = if cp_velocity.length_squared() < m.stop_speed_m_per_s * m.stop_speed_m_per_s {
-            Mode::Stuck
+        if cp_velocity.length_squared() < square(m.stop_speed_m_per_s) {
+            let cause = if self.mode == Mode::Free {
+                SwitchCause::Contact
+            } else {
+                SwitchCause::Stopped
+            };
+            self.switch(Mode::Stuck, cause);
         } else {
-            Mode::Slip
-        };
-        self.prev_friction = friction;
+            self.switch(Mode::Slip, SwitchCause::Breakaway);
+        }
         self.prev_normal_force = f_n;
-        self.prev_velocity = cp_velocity;
         let mu = if f_n > 0.0 {
             sqrt(friction.length_squared()) / f_n
         } else {
             0.0
         };
-        at_cp(
-            self.mode,
+        self.at_cp(contact, (cp_patch, cp_params), &fr, f_n, friction, mu)
+    }
+
+    /// The output when the force acts at the closest point (free, and the velocity-based laws).
+    fn at_cp(
+        &self,
+        contact: Contact<O::P>,
+        (patch, params): (usize, [f32; 2]),
+        frame: &Frame<O::P>,
+        normal_force_n: f32,
+        friction: O::P,
+        mu: f32,
+    ) -> FrictionOutput<O::P> {
+        let tangent = reference(frame, friction);
+        FrictionOutput {
+            mode: self.mode,
+            cause: self.cause,
             contact,
-            (cp_patch, cp_params),
-            &fr,
-            f_n,
+            go: contact.point,
+            go_patch: patch as u16,
+            go_params: params,
+            point_of_application: contact.point,
+            normal: contact.normal,
+            tangent,
+            normal_force_n,
+            friction_force_n: signed_along(friction, tangent),
             friction,
+            total: contact.normal * normal_force_n + friction,
             mu,
-        )
+            psi: contact.psi[0],
+            slip_speed_m_per_s: 0.0,
+        }
     }
 }
 
-/// The output when the force acts at the closest point (free, and the velocity-based laws).
-fn at_cp<P: Point>(
-    mode: Mode,
-    contact: Contact<P>,
-    (patch, params): (usize, [f32; 2]),
-    frame: &Frame<P>,
-    normal_force_n: f32,
-    friction: P,
-    mu: f32,
-) -> FrictionOutput<P> {
-    let tangent = reference(frame, friction);
-    FrictionOutput {
-        mode,
-        contact,
-        go: contact.point,
-        go_patch: patch as u16,
-        go_params: params,
-        point_of_application: contact.point,
-        normal: contact.normal,
-        tangent,
-        normal_force_n,
-        friction_force_n: signed_along(friction, tangent),
-        friction,
-        total: contact.normal * normal_force_n + friction,
-        mu,
-        psi: contact.psi[0],
+/// `normalize((1 − s) a + s b)`: the unit vector a fraction `s` of the way from `a` to `b`.
+#[inline]
+fn blend<P: Point>(a: P, b: P, s: f32) -> P {
+    let v = a * (1.0 - s) + b * s;
+    let len_sq = v.length_squared();
+    if len_sq > f32::MIN_POSITIVE {
+        v * (1.0 / sqrt(len_sq))
+    } else {
+        a
     }
 }
 

@@ -25,7 +25,7 @@ use device::safety::SafetyConfig;
 pub use device::simulator::SimParams;
 use device::simulator::{SimulatedPantograph, SimulatorError};
 use device::spec::DeviceSpec;
-use friction::{FrictionMaterial, FrictionOutput, FrictionRenderer, Mode};
+use friction::{FrictionMaterial, FrictionOutput, FrictionRenderer, Mode, SwitchCause};
 use nurbs::{Point, Vec2, Vec3};
 use tracker::{Chain, ChainError, Feature, Object as TrackedObject, Shell, ShellError};
 
@@ -59,6 +59,8 @@ pub struct Tick {
     pub feature: Feature,
     /// Friction mode after the tick.
     pub mode: Mode,
+    /// Why the mode last changed (this tick or earlier).
+    pub cause: SwitchCause,
     /// Signed penetration depth at the CP (m): positive inside, negative outside. The CSV's
     /// `depth_m` is this clamped at 0.
     pub depth_m: f32,
@@ -68,7 +70,7 @@ pub struct Tick {
     pub friction_force_n: f32,
     /// Friction coefficient in use (0 when free).
     pub mu: f32,
-    /// Projection error of the GO in the transition, of the CP otherwise.
+    /// The CP tracker's projection error Ψ (thesis eq. 2.8; `[Ψ_u]` on curves).
     pub psi: f32,
     /// Unit normal at the point of application.
     pub normal: Vec3,
@@ -468,6 +470,7 @@ fn device_record(t_s: f64, hip: Vec2, hip_velocity: Vec2, out: &TickOutput) -> T
             patch: None,
             feature: Feature::Patch(0),
             mode: Mode::Free,
+            cause: SwitchCause::None,
             depth_m: 0.0,
             normal_force_n: 0.0,
             friction_force_n: 0.0,
@@ -506,6 +509,7 @@ fn record<P: Point>(t_s: f64, hip: P, hip_velocity: P, out: &FrictionOutput<P>) 
         patch: (out.mode != Mode::Free).then_some(c.patch as usize),
         feature: c.feature,
         mode: out.mode,
+        cause: out.cause,
         depth_m: c.depth,
         normal_force_n: out.normal_force_n,
         friction_force_n: out.friction_force_n,
@@ -542,7 +546,7 @@ fn vec3<P: Point>(p: P) -> Vec3 {
 pub const DEVICE_COLUMNS: &str = "theta1_rad,theta2_rad,tau1_nm,tau2_nm,faults";
 
 /// The run log's header: `t_s,hip_x,hip_y[,hip_z],cp_x,cp_y[,cp_z],go_x,go_y[,go_z],patch,mode,
-/// depth_m,normal_force_n,friction_force_n,mu,psi,force_x,force_y[,force_z]` (the `_z` columns
+/// cause,depth_m,normal_force_n,friction_force_n,mu,psi,force_x,force_y[,force_z]` (the `_z` columns
 /// for spatial runs only).
 pub fn csv_header(space: Space) -> String {
     let axes: &[&str] = match space {
@@ -556,7 +560,7 @@ pub fn csv_header(space: Space) -> String {
             .join(",")
     };
     format!(
-        "t_s,{},{},{},patch,mode,depth_m,normal_force_n,friction_force_n,mu,psi,{}",
+        "t_s,{},{},{},patch,mode,cause,depth_m,normal_force_n,friction_force_n,mu,psi,{}",
         vector("hip"),
         vector("cp"),
         vector("go"),
@@ -566,7 +570,8 @@ pub fn csv_header(space: Space) -> String {
 
 impl Run {
     /// Writes the run log: [`csv_header`], then one row per tick. `patch` is −1 when free,
-    /// `mode` one of `free`, `stuck`, `transition`, `slip`, `depth_m` the penetration depth
+    /// `mode` one of `free`, `stuck`, `transition`, `slip`, `cause` why the mode last changed
+    /// ([`SwitchCause::name`]), `psi` the CP tracker's projection error Ψ, `depth_m` the penetration depth
     /// clamped at 0 (so 0 when free). A device run (its first tick has a [`DeviceSample`])
     /// appends [`DEVICE_COLUMNS`] (0 in a tick without a sample).
     pub fn write_csv(&self, out: impl Write) -> io::Result<()> {
@@ -588,8 +593,9 @@ impl Run {
             let patch = k.patch.map_or(-1, |p| p as i64);
             write!(
                 w,
-                ",{patch},{},{:?},{:?},{:?},{:?},{:?}",
+                ",{patch},{},{},{:?},{:?},{:?},{:?},{:?}",
                 k.mode.name(),
+                k.cause.name(),
                 k.depth_m.max(0.0),
                 k.normal_force_n,
                 k.friction_force_n,
@@ -667,12 +673,12 @@ mod tests {
     fn header_columns() {
         assert_eq!(
             csv_header(Space::Planar),
-            "t_s,hip_x,hip_y,cp_x,cp_y,go_x,go_y,patch,mode,depth_m,normal_force_n,\
+            "t_s,hip_x,hip_y,cp_x,cp_y,go_x,go_y,patch,mode,cause,depth_m,normal_force_n,\
              friction_force_n,mu,psi,force_x,force_y"
         );
         assert_eq!(
             csv_header(Space::Spatial),
-            "t_s,hip_x,hip_y,hip_z,cp_x,cp_y,cp_z,go_x,go_y,go_z,patch,mode,depth_m,\
+            "t_s,hip_x,hip_y,hip_z,cp_x,cp_y,cp_z,go_x,go_y,go_z,patch,mode,cause,depth_m,\
              normal_force_n,friction_force_n,mu,psi,force_x,force_y,force_z"
         );
     }

@@ -81,7 +81,7 @@ fn run_log_and_plot() {
     let lines: Vec<&str> = text.lines().collect();
     assert_eq!(
         lines[0],
-        "t_s,hip_x,hip_y,cp_x,cp_y,go_x,go_y,patch,mode,depth_m,normal_force_n,\
+        "t_s,hip_x,hip_y,cp_x,cp_y,go_x,go_y,patch,mode,cause,depth_m,normal_force_n,\
          friction_force_n,mu,psi,force_x,force_y"
     );
     // 0.3 s at 500 Hz, both ends included.
@@ -137,7 +137,7 @@ fn spatial_run_log_has_z_columns() {
     let lines: Vec<&str> = text.lines().collect();
     assert_eq!(
         lines[0],
-        "t_s,hip_x,hip_y,hip_z,cp_x,cp_y,cp_z,go_x,go_y,go_z,patch,mode,depth_m,\
+        "t_s,hip_x,hip_y,hip_z,cp_x,cp_y,cp_z,go_x,go_y,go_z,patch,mode,cause,depth_m,\
          normal_force_n,friction_force_n,mu,psi,force_x,force_y,force_z"
     );
     assert_eq!(lines.len(), 1 + 101);

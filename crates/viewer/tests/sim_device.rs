@@ -169,7 +169,7 @@ fn device_command() {
     assert_eq!(
         lines.next(),
         Some(
-            "t_s,hip_x,hip_y,cp_x,cp_y,go_x,go_y,patch,mode,depth_m,normal_force_n,\
+            "t_s,hip_x,hip_y,cp_x,cp_y,go_x,go_y,patch,mode,cause,depth_m,normal_force_n,\
              friction_force_n,mu,psi,force_x,force_y,theta1_rad,theta2_rad,tau1_nm,tau2_nm,\
              faults"
         )
