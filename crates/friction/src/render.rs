@@ -238,6 +238,7 @@ pub struct FrictionRenderer<O: Object> {
     /// `transition_time_s`.
     mu: f32,
     prev_cp: Option<O::P>,
+    prev_hip: Option<O::P>,
     prev_normal_force: f32,
 }
 
@@ -294,6 +295,7 @@ impl<O: Object> FrictionRenderer<O> {
             go_speed: 0.0,
             mu: material.mu_static,
             prev_cp: None,
+            prev_hip: None,
             prev_normal_force: 0.0,
         }
     }
@@ -339,8 +341,10 @@ impl<O: Object> FrictionRenderer<O> {
 
     /// Slides the GO by the tangential displacement `d` over the surface: within its patch by
     /// one Gauss–Newton step, onto the next patch where it leaves through a shared boundary
-    /// (after turning its normal over the rounding of a crease, `radius` = the depth).
-    fn slide_go(&mut self, object: &O, d: O::P, radius: f32) {
+    /// (after turning its normal over the rounding of a crease, `radius` = the depth, by at
+    /// most `crease_step` of that rounding's arc per tick: the normal force, `K · radius`,
+    /// then turns by at most `K · crease_step`).
+    fn slide_go(&mut self, object: &O, d: O::P, radius: f32, crease_step: f32) {
         if let Some(mut c) = self.crease {
             let n0 = self.go_frame.normal;
             let n = blend(n0, c.normal, c.turned);
@@ -349,7 +353,7 @@ impl<O: Object> FrictionRenderer<O> {
             let chord_sq = (c.normal - n0).length_squared();
             if len_sq > f32::MIN_POSITIVE && chord_sq > f32::MIN_POSITIVE {
                 let dir = towards * (1.0 / sqrt(len_sq));
-                let along = d.dot(dir);
+                let along = d.dot(dir).clamp(-crease_step, crease_step);
                 // The rounding's arc: radius × the angle, the chord standing in for the angle.
                 c.turned += along / (radius.max(MIN_ROUNDING_M) * sqrt(chord_sq));
                 let rest = d - dir * along;
@@ -421,6 +425,7 @@ impl<O: Object> FrictionRenderer<O> {
         if !contact.inside {
             self.switch(Mode::Free, SwitchCause::Released);
             self.prev_normal_force = 0.0;
+            self.prev_hip = Some(hip);
             self.slip_speed = 0.0;
             self.law.reset();
             let (cp_patch, cp_params) = O::position(&self.cp);
@@ -485,9 +490,17 @@ impl<O: Object> FrictionRenderer<O> {
             let mut slide = 0.0;
             if f_t_sq > square(limit) && f_t_sq > f32::MIN_POSITIVE {
                 let f_t = sqrt(f_t_sq);
-                slide = (f_t - limit) / k;
+                // The GO keeps up with the hand (twice its step covers the CP's faster motion
+                // on a convex curve) and takes the rest of its way at the frictional memory's
+                // rate T/τ: where the cone jumps away (μ fell, the GO is behind on another
+                // patch) the force turns over several ticks instead of in one. Across a crease
+                // it turns the GO's normal by no more than the hand's step allows (below).
+                let excess = (f_t - limit) / k;
+                let hip_step = self.prev_hip.map_or(0.0, |p| sqrt((hip - p).length_squared()));
+                let keep_up = 2.0 * (hip_step + m.stop_speed_m_per_s * period_s);
+                slide = excess.min(keep_up + rate * excess);
                 let d = friction * (-slide / f_t);
-                self.slide_go(object, d, contact.depth.max(0.0));
+                self.slide_go(object, d, contact.depth.max(0.0), keep_up);
                 n = self.go_normal();
                 friction = tangential((self.go_frame.point - hip) * k, n);
             }
@@ -524,6 +537,7 @@ impl<O: Object> FrictionRenderer<O> {
             friction = friction * (limit / sqrt(f_t_sq));
         }
         self.prev_normal_force = normal_force;
+        self.prev_hip = Some(hip);
         let total = n * normal_force + friction;
         let tangent = reference(&self.go_frame, friction);
         FrictionOutput {
