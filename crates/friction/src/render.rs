@@ -213,6 +213,10 @@ struct Crease<P> {
 /// Normals closer than this (chord of unit vectors, about 0.06°) meet smoothly: no crease.
 const SMOOTH_CHORD: f32 = 1e-3;
 
+/// How far the friction force must fall below `μ_d F_N` (as a fraction) with the CP moving back
+/// towards the GO before a dynamic mode counts the motion as reversed.
+const REVERSAL_HYSTERESIS: f32 = 0.1;
+
 /// The smallest radius a crease is rounded to (m), so that a crease met at zero depth still
 /// turns over a few micrometres of slide rather than in one step.
 const MIN_ROUNDING_M: f32 = 1e-5;
@@ -434,7 +438,14 @@ impl<O: Object> FrictionRenderer<O> {
         }
 
         if !matches!(self.law, LawState::StickSlip) {
-            return self.velocity_law_tick(object, contact, cp_velocity, hip, hip_velocity, period_s);
+            return self.velocity_law_tick(
+                object,
+                contact,
+                cp_velocity,
+                hip,
+                hip_velocity,
+                period_s,
+            );
         }
 
         // The normal force from the object's true penetration (thesis eq. 2.10, with damping).
@@ -461,7 +472,10 @@ impl<O: Object> FrictionRenderer<O> {
         if self.mode == Mode::Stuck
             && friction.length_squared() > square(m.mu_static * normal_force)
         {
-            self.slip_speed = 0.0;
+            // At breakaway the contact slides at the CP's speed; at least twice the stop speed,
+            // so that the slip speed's lag keeps the transition going for τ·ln 2 or more before
+            // a stop can end it (no stuck ↔ transition chatter of a creeping hand).
+            self.slip_speed = sqrt(cp_velocity.length_squared()).max(2.0 * m.stop_speed_m_per_s);
             self.go_speed = 0.0;
             self.mu = m.mu_static;
             self.switch(Mode::Transition, SwitchCause::Breakaway);
@@ -496,7 +510,9 @@ impl<O: Object> FrictionRenderer<O> {
                 // patch) the force turns over several ticks instead of in one. Across a crease
                 // it turns the GO's normal by no more than the hand's step allows (below).
                 let excess = (f_t - limit) / k;
-                let hip_step = self.prev_hip.map_or(0.0, |p| sqrt((hip - p).length_squared()));
+                let hip_step = self
+                    .prev_hip
+                    .map_or(0.0, |p| sqrt((hip - p).length_squared()));
                 let keep_up = 2.0 * (hip_step + m.stop_speed_m_per_s * period_s);
                 slide = excess.min(keep_up + rate * excess);
                 let d = friction * (-slide / f_t);
@@ -504,15 +520,26 @@ impl<O: Object> FrictionRenderer<O> {
                 n = self.go_normal();
                 friction = tangential((self.go_frame.point - hip) * k, n);
             }
-            self.go_speed = if period_s > 0.0 { slide / period_s } else { 0.0 };
+            self.go_speed = if period_s > 0.0 {
+                slide / period_s
+            } else {
+                0.0
+            };
             self.slip_speed += rate * (self.go_speed - self.slip_speed);
             if slide < m.stop_speed_m_per_s * period_s {
-                // The GO did not need to move: the hand stopped, reversed, or pressed in.
-                let back = cp_velocity.dot(friction);
-                let reversed = back > 0.0
-                    && square(back)
-                        > square(m.stop_speed_m_per_s) * friction.length_squared();
-                if reversed {
+                // The GO did not need to move: the hand stopped, reversed, or pressed in. A
+                // reversal is the HIP moving back towards the GO (in the GO's tangent plane,
+                // faster than the stop speed) with the spring relaxed a tenth below the dynamic load μ_d F_N (the hand came
+                // back by a tenth of μ_d·depth): the jitter of a handle held by a compliant
+                // hand does not count.
+                let step = self.prev_hip.map_or(O::P::ZERO, |p| hip - p);
+                let back_m = tangential(step, n).dot(friction);
+                let back = back_m > 0.0
+                    && square(back_m)
+                        > square(m.stop_speed_m_per_s * period_s) * friction.length_squared();
+                let relaxed = friction.length_squared()
+                    < square((1.0 - REVERSAL_HYSTERESIS) * m.mu_dynamic * normal_force);
+                if back && relaxed {
                     self.switch(Mode::Stuck, SwitchCause::Reversed);
                 } else if self.slip_speed < m.stop_speed_m_per_s {
                     self.switch(Mode::Stuck, SwitchCause::Stopped);
@@ -531,7 +558,11 @@ impl<O: Object> FrictionRenderer<O> {
         }
         // What the friction renders: the spring, never beyond the cone of the mode's μ (it can
         // exceed it for a tick where the GO stopped on a boundary it cannot leave).
-        let limit = if self.mode == Mode::Stuck { m.mu_static } else { mu } * normal_force;
+        let limit = if self.mode == Mode::Stuck {
+            m.mu_static
+        } else {
+            mu
+        } * normal_force;
         let f_t_sq = friction.length_squared();
         if f_t_sq > square(limit) {
             friction = friction * (limit / sqrt(f_t_sq));
@@ -554,7 +585,11 @@ impl<O: Object> FrictionRenderer<O> {
             friction_force_n: signed_along(friction, tangent),
             friction,
             total,
-            mu: if self.mode == Mode::Stuck { m.mu_static } else { mu },
+            mu: if self.mode == Mode::Stuck {
+                m.mu_static
+            } else {
+                mu
+            },
             psi: contact.psi[0],
             slip_speed_m_per_s: self.slip_speed,
         }

@@ -56,7 +56,12 @@ pub trait Object {
     /// tangential direction) leads out through that boundary; `None` inside a patch, on a free
     /// end or rim, or when `toward` leads back into the patch. This is how a god-object
     /// sliding over the object finds the patch it crosses onto.
-    fn neighbour(&self, patch: usize, params: [f32; 2], toward: Self::P) -> Option<(usize, [f32; 2])>;
+    fn neighbour(
+        &self,
+        patch: usize,
+        params: [f32; 2],
+        toward: Self::P,
+    ) -> Option<(usize, [f32; 2])>;
 }
 
 /// Whether `t` sits on the end `end` of `(a, b)` (within a few f32 ulps of the domain's size).
@@ -121,15 +126,14 @@ impl Object for Chain<'_> {
         let domain = c.domain();
         let tangent = frame_of(c, [params[0]]).tangent;
         for v in self.vertices() {
-            let (this, other, leaving) = if at_end(params[0], domain, true)
-                && v.incoming == Some(patch as u16)
-            {
-                (true, v.outgoing, toward.dot(tangent) > 0.0)
-            } else if at_end(params[0], domain, false) && v.outgoing == Some(patch as u16) {
-                (true, v.incoming, toward.dot(tangent) < 0.0)
-            } else {
-                (false, None, false)
-            };
+            let (this, other, leaving) =
+                if at_end(params[0], domain, true) && v.incoming == Some(patch as u16) {
+                    (true, v.outgoing, toward.dot(tangent) > 0.0)
+                } else if at_end(params[0], domain, false) && v.outgoing == Some(patch as u16) {
+                    (true, v.incoming, toward.dot(tangent) < 0.0)
+                } else {
+                    (false, None, false)
+                };
             if !this || !leaving {
                 continue;
             }
@@ -222,7 +226,11 @@ impl Object for Shell<'_> {
         let o = self.patches().get(other as usize)?;
         let (ou, ov) = o.domain();
         // Where along the side the point is, as a fraction, carried over to the other side.
-        let (run, run_domain) = if side < 2 { (params[1], dv) } else { (params[0], du) };
+        let (run, run_domain) = if side < 2 {
+            (params[1], dv)
+        } else {
+            (params[0], du)
+        };
         let mut f = (run - run_domain.0) / (run_domain.1 - run_domain.0);
         if edge.reversed {
             f = 1.0 - f;

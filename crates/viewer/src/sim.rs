@@ -784,14 +784,19 @@ mod tests {
         assert_eq!(lines.len(), 1 + run.ticks.len());
         assert_eq!(run.ticks.len(), 241);
         for line in &lines[1..] {
-            assert_eq!(line.split(',').count(), 16, "{line}");
+            assert_eq!(line.split(',').count(), 17, "{line}");
         }
         assert!(lines[1].starts_with("0,0.0,0.085,"), "{}", lines[1]);
-        assert!(lines[1].contains(",-1,free,0.0,0.0,0.0,"), "{}", lines[1]);
+        assert!(
+            lines[1].contains(",-1,free,none,0.0,0.0,0.0,"),
+            "{}",
+            lines[1]
+        );
         let last: Vec<&str> = lines[lines.len() - 1].split(',').collect();
         assert_eq!(last[0], "1.2");
         assert_eq!((last[7], last[8]), ("0", "slip"));
-        let depth: f32 = last[9].parse().expect("number");
+        assert_eq!(last[9], "converged");
+        let depth: f32 = last[10].parse().expect("number");
         assert!((depth - 0.002).abs() < 1e-6);
     }
 
@@ -830,7 +835,7 @@ mod tests {
             text.lines().next(),
             Some(csv_header(Space::Spatial).as_str())
         );
-        assert!(text.lines().skip(1).all(|l| l.split(',').count() == 20));
+        assert!(text.lines().skip(1).all(|l| l.split(',').count() == 21));
     }
 
     #[test]

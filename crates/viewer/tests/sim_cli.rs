@@ -87,7 +87,7 @@ fn run_log_and_plot() {
     // 0.3 s at 500 Hz, both ends included.
     assert_eq!(lines.len(), 1 + 151);
     let rows: Vec<Vec<&str>> = lines[1..].iter().map(|l| l.split(',').collect()).collect();
-    assert!(rows.iter().all(|r| r.len() == 16));
+    assert!(rows.iter().all(|r| r.len() == 17));
     assert_eq!(rows[0][0], "0");
     assert_eq!(rows[150][0], "0.3");
     assert_eq!((rows[0][7], rows[0][8]), ("-1", "free"));
@@ -141,7 +141,7 @@ fn spatial_run_log_has_z_columns() {
          normal_force_n,friction_force_n,mu,psi,force_x,force_y,force_z"
     );
     assert_eq!(lines.len(), 1 + 101);
-    assert!(lines[1..].iter().all(|l| l.split(',').count() == 20));
+    assert!(lines[1..].iter().all(|l| l.split(',').count() == 21));
 }
 
 #[test]

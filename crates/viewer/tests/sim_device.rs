@@ -111,7 +111,7 @@ fn thesis_2d_closed_loop() {
         lines[0]
     );
     assert_eq!(lines.len(), 1 + run.ticks.len());
-    assert!(lines[1..].iter().all(|l| l.split(',').count() == 21));
+    assert!(lines[1..].iter().all(|l| l.split(',').count() == 22));
     assert!(lines[1..].iter().all(|l| l.ends_with(",0")));
 }
 
