@@ -201,12 +201,16 @@ impl<P: Point> LawState<P> {
 }
 
 /// A GO stopped on a crease: the patch across it, the same point's parameters there, that
-/// patch's normal, and how far the GO's normal has turned towards it (0 → 1).
+/// patch's normal, the directions of travel over the crease, and how far the GO's normal has
+/// turned towards the next patch's (0 → 1).
 #[derive(Clone, Copy, Debug)]
 struct Crease<P> {
     patch: usize,
     params: [f32; 2],
     normal: P,
+    /// The unit tangent leaving the GO's patch through the crease, and entering the next one.
+    out_of: P,
+    into: P,
     turned: f32,
 }
 
@@ -351,30 +355,41 @@ impl<O: Object> FrictionRenderer<O> {
     fn slide_go(&mut self, object: &O, d: O::P, radius: f32, crease_step: f32) {
         if let Some(mut c) = self.crease {
             let n0 = self.go_frame.normal;
-            let n = blend(n0, c.normal, c.turned);
-            let towards = tangential(c.normal - n0, n);
-            let len_sq = towards.length_squared();
             let chord_sq = (c.normal - n0).length_squared();
-            if len_sq > f32::MIN_POSITIVE && chord_sq > f32::MIN_POSITIVE {
-                let dir = towards * (1.0 / sqrt(len_sq));
-                let along = d.dot(dir).clamp(-crease_step, crease_step);
-                // The rounding's arc: radius × the angle, the chord standing in for the angle.
-                c.turned += along / (radius.max(MIN_ROUNDING_M) * sqrt(chord_sq));
-                let rest = d - dir * along;
-                if c.turned >= 1.0 {
-                    self.place_go(object, c.patch, c.params);
-                } else if c.turned <= 0.0 {
-                    self.crease = None;
-                } else {
-                    self.crease = Some(c);
-                }
-                // Along the crease (an edge of a shell): slide on the patch it belongs to.
-                if rest.length_squared() > square(1e-9) {
-                    self.go_params = object.offset(self.go_patch, self.go_params, rest);
-                    self.go_frame = object.frame(self.go_patch, self.go_params);
-                }
-            } else {
+            // Forward over the rounding: from leaving the first patch to entering the next, for a
+            // ridge and a valley alike.
+            let forward = c.out_of * (1.0 - c.turned) + c.into * c.turned;
+            let len_sq = forward.length_squared();
+            if len_sq <= f32::MIN_POSITIVE || chord_sq <= f32::MIN_POSITIVE {
                 self.place_go(object, c.patch, c.params);
+                return;
+            }
+            let dir = forward * (1.0 / sqrt(len_sq));
+            let along = d.dot(dir);
+            // The rounding's arc: radius × the angle, the chord standing in for the angle.
+            c.turned += along.clamp(-crease_step, crease_step)
+                / (radius.max(MIN_ROUNDING_M) * sqrt(chord_sq));
+            // Along the crease (an edge of a shell): slide on the patch it belongs to, and find
+            // the next patch's point and normal again there.
+            let rest = tangential(d - dir * along, n0);
+            // A step that would leave the crease (f32 rounding of the Gauss–Newton step drifts
+            // off the boundary) is not taken.
+            if rest.length_squared() > square(1e-9) {
+                let params = object.offset(self.go_patch, self.go_params, rest);
+                if let Some((patch, across)) = object.neighbour(self.go_patch, params, c.out_of) {
+                    self.go_params = params;
+                    self.go_frame = object.frame(self.go_patch, params);
+                    c.patch = patch;
+                    c.params = across;
+                    c.normal = object.frame(patch, across).normal;
+                }
+            }
+            if c.turned >= 1.0 {
+                self.place_go(object, c.patch, c.params);
+            } else if c.turned <= 0.0 {
+                self.crease = None;
+            } else {
+                self.crease = Some(c);
             }
             return;
         }
@@ -384,7 +399,8 @@ impl<O: Object> FrictionRenderer<O> {
         self.go_frame = object.frame(self.go_patch, params);
         let moved = self.go_frame.point - before;
         let rest = tangential(d - moved, self.go_frame.normal);
-        if rest.length_squared() <= square(1e-3) * d.length_squared() {
+        let rest_sq = rest.length_squared();
+        if rest_sq <= square(1e-3) * d.length_squared() || rest_sq <= f32::MIN_POSITIVE {
             return;
         }
         if let Some((patch, params)) = object.neighbour(self.go_patch, self.go_params, rest) {
@@ -395,10 +411,20 @@ impl<O: Object> FrictionRenderer<O> {
                 self.go_params = p;
                 self.go_frame = object.frame(patch, p);
             } else {
+                let out_of = rest * (1.0 / sqrt(rest_sq));
+                let into = tangential(out_of, across.normal);
+                let into_sq = into.length_squared();
+                let into = if into_sq > f32::MIN_POSITIVE {
+                    into * (1.0 / sqrt(into_sq))
+                } else {
+                    out_of
+                };
                 self.crease = Some(Crease {
                     patch,
                     params,
                     normal: across.normal,
+                    out_of,
+                    into,
                     turned: 0.0,
                 });
             }

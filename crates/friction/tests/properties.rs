@@ -58,8 +58,20 @@ fn check_run<O: Object>(
     let mut prev_x = path[0];
     let mut prev_f = O::P::ZERO;
     let mut work = 0.0f32;
+    let mut prev_go: Option<O::P> = None;
     for &x in path {
         let o = r.tick(object, x, (x - prev_x) * (1.0 / T), T);
+        // Friction opposes the GO's slide: it never points along the way the GO moved (f32
+        // rounding of a force of a few newtons over steps of micrometres: 1e-9 J).
+        if let Some(g) = prev_go.filter(|_| o.mode != Mode::Free) {
+            let along = o.friction.dot(o.go - g);
+            prop_assert!(
+                along <= 1e-9,
+                "friction along the slide: {along} in {:?}",
+                o.mode
+            );
+        }
+        prev_go = (o.mode != Mode::Free).then_some(o.go);
         prop_assert!(o.total.is_finite() && o.friction.is_finite() && o.normal_force_n.is_finite());
         prop_assert!(o.normal_force_n >= 0.0);
         let limit = material.mu_static * o.normal_force_n;
@@ -132,6 +144,62 @@ proptest! {
         let n = s.view().normal(0.5, 0.5);
         let start = s.view().point(0.5, 0.5);
         let t1 = n.any_orthonormal_vector();
+        let t2 = n.cross(t1);
+        let path = closed_path(start, n, &[t1, t2], depth, &wiggle);
+        let work = check_run(&shell, &path, FrictionMaterial::default())?;
+        prop_assert!(work <= 1e-6, "friction did {work} J of positive work");
+    }
+
+    /// Chains with a sharp vertex, convex (a roof) or concave (a valley) of random angle,
+    /// loops pressed in near the vertex so that the GO crosses it: bounded, finite, and
+    /// friction does no net positive work, corners included.
+    #[test]
+    fn friction_is_dissipative_across_sharp_vertices(
+        h in prop::sample::select(vec![-0.015f32, -0.008, -0.003, 0.003, 0.008, 0.015]),
+        x0 in -0.008f32..0.008,
+        depth in 0.0005f32..0.003,
+        wiggle in prop::collection::vec((-0.006f32..0.006, -0.006f32..0.006), 2..8),
+    ) {
+        // Right to left so the normals point up; the vertex at x = 0 is h above the ends.
+        let a = construct::line(Vec2::new(0.04, 0.08), Vec2::new(0.0, 0.08 + h)).unwrap();
+        let b = construct::line(Vec2::new(0.0, 0.08 + h), Vec2::new(-0.04, 0.08)).unwrap();
+        let views = [a.view(), b.view()];
+        let chain = Chain::new(&views).unwrap();
+        let (c, u) = if x0 >= 0.0 { (&a, 1.0 - x0 / 0.04) } else { (&b, -x0 / 0.04) };
+        let (start, n) = (c.view().point(u), c.view().frame(u).normal);
+        let t = Vec2::new(-n.y, n.x);
+        let path = closed_path(start, n, &[t], depth, &wiggle);
+        let work = check_run(&chain, &path, FrictionMaterial::default())?;
+        prop_assert!(work <= 1e-6, "friction did {work} J of positive work");
+    }
+
+    /// Shells of two bilinear patches meeting at an edge x = 0 of random dihedral angle, a
+    /// ridge or a valley, loops across the edge in both tangent directions.
+    #[test]
+    fn friction_is_dissipative_across_shell_edges(
+        slope in prop::sample::select(vec![-0.4f32, -0.2, 0.2, 0.4]),
+        x0 in -0.008f32..0.008,
+        depth in 0.0005f32..0.003,
+        wiggle in prop::collection::vec((-0.006f32..0.006, -0.006f32..0.006), 2..6),
+    ) {
+        // z = slope·|x|·(−1): a ridge for slope > 0; u along x, v along y, S_u × S_v = +z.
+        let z = |x: f32| -slope * x.abs();
+        let patch = |x0: f32, x1: f32| {
+            construct::bezier_patch(&[
+                vec![Vec3::new(x0, 0.06, z(x0)), Vec3::new(x0, 0.12, z(x0))],
+                vec![Vec3::new(x1, 0.06, z(x1)), Vec3::new(x1, 0.12, z(x1))],
+            ])
+            .unwrap()
+        };
+        let (left, right) = (patch(-0.04, 0.0), patch(0.0, 0.04));
+        let views = [left.view(), right.view()];
+        let shell = Shell::new(&views).unwrap();
+        let s = if x0 < 0.0 { &left } else { &right };
+        let u = if x0 < 0.0 { 1.0 + x0 / 0.04 } else { x0 / 0.04 };
+        let n = s.view().normal(u, 0.5);
+        let start = s.view().point(u, 0.5);
+        let t1 = Vec3::new(1.0, 0.0, 0.0);
+        let t1 = (t1 - n * t1.dot(n)).normalize();
         let t2 = n.cross(t1);
         let path = closed_path(start, n, &[t1, t2], depth, &wiggle);
         let work = check_run(&shell, &path, FrictionMaterial::default())?;

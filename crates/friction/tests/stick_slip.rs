@@ -247,7 +247,10 @@ fn slip_sticks_when_the_hand_stops_for_cause_stopped() {
     // The slip speed, lagged by τ, falls from 30 mm/s below 1 mm/s after
     // ln(1/30)/ln(1 − T/τ) = 66.3 ticks of standing still (the hold starts at tick 400).
     let predicted = 400 + ((V_STOP / 0.03).ln() / (1.0 - T / TAU).ln()).ceil() as usize;
-    assert!((predicted - 1..=predicted + 1).contains(&k), "{k} vs {predicted}");
+    assert!(
+        (predicted - 1..=predicted + 1).contains(&k),
+        "{k} vs {predicted}"
+    );
     // The friction force carries over: μ_d F_N = 1 N against the motion, unchanged.
     assert!((r.out[k].friction - Vec2::new(-1.0, 0.0)).length() < 1e-3);
     assert!((r.out.last().unwrap().friction - Vec2::new(-1.0, 0.0)).length() < 1e-3);
@@ -280,7 +283,10 @@ fn a_sudden_normal_force_jump_sticks_for_cause_normal_force_jump() {
     let r = run(&p);
     let s = switches(&r);
     let &(k, mode, cause) = s.last().unwrap();
-    assert_eq!((k, mode, cause), (400, Mode::Stuck, SwitchCause::NormalForceJump));
+    assert_eq!(
+        (k, mode, cause),
+        (400, Mode::Stuck, SwitchCause::NormalForceJump)
+    );
     // The friction force is continuous across the switch (the GO stays where it was): it
     // changes only by K times the tangential step, 30 µm.
     let df = (r.out[400].friction - r.out[399].friction).length();
@@ -337,7 +343,11 @@ fn stribeck_faster_slides_lose_static_friction_sooner() {
         // Enough ticks for 3 mm of slide plus 300 ms.
         let ticks = (0.003 / (v * T)) as usize + 300;
         let r = run(&press_then_slide(0.002, v, ticks));
-        let b = r.out.iter().position(|o| o.mode == Mode::Transition).unwrap();
+        let b = r
+            .out
+            .iter()
+            .position(|o| o.mode == Mode::Transition)
+            .unwrap();
         mu_30.push(r.out[b + 30].mu);
         let s = switches(&r);
         if v < 0.003 {
@@ -349,14 +359,20 @@ fn stribeck_faster_slides_lose_static_friction_sooner() {
                 assert!(w[1].0 - w[0].0 >= min_dwell, "v = {v}: {s:?}");
             }
         } else if v >= V_S {
-            assert_eq!(s.last().map(|w| (w.1, w.2)), Some((Mode::Slip, SwitchCause::Converged)));
+            assert_eq!(
+                s.last().map(|w| (w.1, w.2)),
+                Some((Mode::Slip, SwitchCause::Converged))
+            );
         }
     }
     // Strictly lower for a faster hand while the slower one is under v_s; above v_s both
     // follow the lag alone and agree.
     for (i, w) in mu_30.windows(2).enumerate() {
         if speeds[i] < V_S {
-            assert!(w[1] < w[0], "μ after 30 ticks by speed {speeds:?}: {mu_30:?}");
+            assert!(
+                w[1] < w[0],
+                "μ after 30 ticks by speed {speeds:?}: {mu_30:?}"
+            );
         } else {
             assert!((w[1] - w[0]).abs() < 1e-6, "{mu_30:?}");
         }
