@@ -142,10 +142,11 @@ fn thesis_2d_events_in_order_with_their_causes() {
         assert_eq!(at(stretch), predicted, "breakaway of stretch {stretch}");
     }
     // 3 and 7: μ lags the Stribeck curve by τ; the hand slides at 20 mm/s, above the Stribeck
-    // speed (10 mm/s), so the transition takes the lag's own time and no longer.
+    // speed (10 mm/s), so the transition takes the lag's own time and no longer (μ takes its
+    // first step on the breakaway tick itself).
     let n = transition_ticks();
     for stretch in [2usize, 5] {
-        let len = at(stretch + 1) - at(stretch);
+        let len = at(stretch + 1) - at(stretch) + 1;
         assert!(
             (n..=n + 2).contains(&len),
             "transition {stretch} lasted {len} ticks, the lag alone takes {n}"

@@ -19,7 +19,10 @@
 //!   spring carries `μ F_N` (the cone's surface): friction opposes the slide and only ever
 //!   dissipates. In the transition μ follows the Stribeck curve of the GO's slip speed
 //!   ([`crate::Stribeck`]): `μ_s` at breakaway, `μ_d` at and above the Stribeck speed, so a
-//!   faster hand loses static friction sooner (§3.1.1).
+//!   faster hand loses static friction sooner (§3.1.1). The slip speed is the GO's speed
+//!   low-passed, and μ lags the curve, both over `transition_time_s` (frictional memory): μ
+//!   falls by at most `(μ_s − μ_d) T/τ` per tick, and the jitter of a handle held by a
+//!   compliant hand does not make μ chatter.
 //! - **Transition → slip** once μ has reached μ_d and the GO sits within `converge_tol_m` of
 //!   its slip position ([`SwitchCause::Converged`]); slip renders `μ_d F_N`.
 //! - **Dynamic → stuck** (transition or slip, Algorithm 1's DYNAMIC state): when the normal
@@ -242,7 +245,7 @@ pub struct FrictionRenderer<O: Object> {
     slip_speed: f32,
     /// The GO's speed over the last tick (m/s).
     go_speed: f32,
-    /// μ in the transition: follows the Stribeck curve of the GO's speed with the lag
+    /// μ in the transition: follows the Stribeck curve of the slip speed with the lag
     /// `transition_time_s`.
     mu: f32,
     prev_cp: Option<O::P>,
@@ -515,7 +518,7 @@ impl<O: Object> FrictionRenderer<O> {
                     let target = m.stribeck.mu_at_speed(
                         m.mu_static,
                         m.mu_dynamic,
-                        self.go_speed,
+                        self.slip_speed,
                         m.stribeck_speed_m_per_s,
                     );
                     self.mu += rate * (target - self.mu);
