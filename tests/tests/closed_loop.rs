@@ -33,8 +33,8 @@ fn thesis_2d_stick_slip_through_the_simulated_pantograph() {
     // K = 1000 N/m at 1 kHz needs b > K T / 2 = 0.5 N·s/m: at the bound of the default
     // device's damping, so the scene is refused without the passivity controller.
     let material = object.material().friction_material();
-    assert!(controller.load_scene(material, false).is_err());
-    controller.load_scene(material, true).unwrap();
+    assert!(controller.load_scene(chain, material, false).is_err());
+    controller.load_scene(chain, material, true).unwrap();
 
     // Calibrate on the end stops: the counts the encoders read there.
     let per_rad = spec.counts_per_joint_rad();
@@ -58,9 +58,9 @@ fn thesis_2d_stick_slip_through_the_simulated_pantograph() {
     let n = traj.tick_count(1000.0) as usize;
     for k in 0..n {
         let now = traj.tick_time_s(k, 1000.0);
-        controller.heartbeat(now as f32);
+        controller.heartbeat();
         let target = traj.at(now);
-        let out = controller.tick(Some(&chain), sim.encoder_counts(), now as f32);
+        let out = controller.tick(sim.encoder_counts(), k as u64 * 1000);
         assert!(out.currents_a.iter().all(|c| c.is_finite()));
         assert_eq!(
             out.telemetry.faults, 0,

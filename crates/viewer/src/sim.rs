@@ -406,11 +406,11 @@ pub fn run_device(
     };
     let mut controller: Controller<Chain<'_>> =
         Controller::new(spec, safety).map_err(SimError::Controller)?;
-    let passivity_control = match controller.load_scene(material, false) {
+    let passivity_control = match controller.load_scene(chain, material, false) {
         Ok(()) => false,
         Err(ControllerError::Passivity(_)) => {
             controller
-                .load_scene(material, true)
+                .load_scene(chain, material, true)
                 .map_err(SimError::Controller)?;
             true
         }
@@ -430,10 +430,11 @@ pub fn run_device(
     let mut ticks = Vec::with_capacity(n);
     for i in 0..n {
         let t_s = trajectory.tick_time_s(i, rate_hz);
-        let now_s = t_s as f32;
+        // The device clock: integer microseconds since the start, as a board's timer.
+        let now_us = (i as f64 * 1e6 / rate_hz).round() as u64;
         let (hip, hip_velocity) = arm.hip().map_err(|error| SimError::Arm { t_s, error })?;
-        controller.heartbeat(now_s);
-        let out = controller.tick(Some(&chain), arm.encoder_counts(), now_s);
+        controller.heartbeat();
+        let out = controller.tick(arm.encoder_counts(), now_us);
         ticks.push(device_record(t_s, hip, hip_velocity, &out));
         arm.step(out.currents_a, vec2(trajectory.at(t_s)), period_s)
             .map_err(|error| SimError::Arm { t_s, error })?;
