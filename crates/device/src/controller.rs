@@ -50,6 +50,9 @@ pub enum ControllerError {
     Passivity(PassivityError),
     /// Calibration failed.
     Calibration(CalibrationError),
+    /// The material is stiffer than the device renders even with the passivity controller
+    /// on (see [`Safety::check_renderable`](crate::safety::Safety::check_renderable)).
+    BeyondDevice(PassivityError),
     /// A material was set with no scene loaded.
     NoScene,
 }
@@ -64,6 +67,17 @@ impl core::fmt::Display for ControllerError {
                 "{e} (enable the passivity controller to render it anyway)"
             ),
             ControllerError::Calibration(e) => write!(f, "calibration: {e}"),
+            ControllerError::BeyondDevice(PassivityError::TooStiff {
+                stiffness_n_per_m,
+                max_stiffness_n_per_m,
+            }) => write!(
+                f,
+                "stiffness {stiffness_n_per_m:.1} N/m is beyond what this device renders, even \
+                 with the passivity controller: the limit is {max_stiffness_n_per_m:.1} N/m \
+                 (b + b_grip > K T / 2 + |B|, the device's and a relaxed grip's damping); \
+                 lower the stiffness or raise the tick rate"
+            ),
+            ControllerError::BeyondDevice(e) => write!(f, "{e}"),
             ControllerError::NoScene => write!(f, "no scene loaded: load an object first"),
         }
     }
@@ -176,7 +190,10 @@ impl<O: Object<P = Vec2>> Controller<O> {
     /// after the scene was received and validated); the renderer starts afresh on it and the
     /// force ramps in. Rejects a stiffness the device cannot render passively unless
     /// `passivity_control` is on, in which case the time-domain passivity controller is
-    /// enabled for this scene. On error the previous scene stays loaded.
+    /// enabled for this scene; even then a stiffness beyond
+    /// [`Safety::check_renderable`](crate::safety::Safety::check_renderable) is refused
+    /// ([`ControllerError::BeyondDevice`], naming the limit). On error the previous scene
+    /// stays loaded.
     pub fn load_scene(
         &mut self,
         object: O,
@@ -215,11 +232,14 @@ impl<O: Object<P = Vec2>> Controller<O> {
         material: &FrictionMaterial,
         passivity_control: bool,
     ) -> Result<(), ControllerError> {
-        let check = self
-            .safety
-            .check_material(material.stiffness_n_per_m, material.damping_ns_per_m);
-        if let (Err(e), false) = (check, passivity_control) {
-            return Err(ControllerError::Passivity(e));
+        let (k, b) = (material.stiffness_n_per_m, material.damping_ns_per_m);
+        if let Err(e) = self.safety.check_material(k, b) {
+            if !passivity_control {
+                return Err(ControllerError::Passivity(e));
+            }
+            self.safety
+                .check_renderable(k, b)
+                .map_err(ControllerError::BeyondDevice)?;
         }
         self.safety.set_passivity_control(passivity_control);
         self.safety.notify_scene_swap();

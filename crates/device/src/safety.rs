@@ -19,15 +19,21 @@
 //!    first-order thermal model per motor derates the force linearly and then latches
 //!    [`Faults::THERMAL`].
 //!
-//! Forces are off while any fault is latched, while forces are disabled, or while the device
-//! is not calibrated. Switching off is immediate (not rate-limited); switching back on starts
+//! Forces are off while any fault is latched, while forces are disabled, while the device
+//! is not calibrated or has no pose. Free space (the renderer asks for exactly zero: its
+//! penalty force is unilateral, zero only out of contact) gets zero force, with no damper
+//! and no rate-limited tail, so that the mechanism's own damping is all a user feels there.
+//! Switching off is immediate (not rate-limited); switching back on starts
 //! the ramp-in, whose first tick outputs zero and which reaches the full force after
 //! `ramp_time_s`. Faults stay latched until [`Safety::clear_faults`], which clears only
 //! the causes whose condition is gone.
 //!
 //! Passivity has two parts: [`check_passivity`], the sampled-data bound a scene loader applies
 //! to each material (thesis eq. 1.1), and a time-domain passivity observer/controller
-//! (Hannaford & Ryu 2002) enabled per scene with [`Safety::set_passivity_control`].
+//! (Hannaford & Ryu 2002) enabled per scene with [`Safety::set_passivity_control`], for
+//! materials between that bound and [`Safety::check_renderable`] (the same bound with a
+//! relaxed grip's damping added); stiffer ones the device does not render at all. The
+//! observer's account is per contact: it restarts at zero in free space.
 //!
 //! Everything here is `f32`, allocation-free and total: no input makes `apply` panic or
 //! return a non-finite force. The tick path has no transcendental functions; a square root
@@ -224,6 +230,14 @@ pub struct PassivityConfig {
     /// Cap on the controller's damping α, N·s/m. A rendered damper is itself subject to
     /// eq. 1.1, so an unbounded α chatters on velocity noise.
     pub max_damping_n_s_per_m: f32,
+    /// The damping a relaxed grip adds at the handle, N·s/m: the most the passivity
+    /// controller may count on. With it on, a wall is rendered only while eq. 1.1 holds for
+    /// the device and the grip together, `b + b_grip > K T / 2 + |B|`
+    /// ([`Safety::check_renderable`]); a stiffer wall is active unless the hand damps more
+    /// than a relaxed grip, and closed through the simulated pantograph it bounces (the
+    /// stiffness sweep in `tests/tests/closed_loop.rs`): the observer's damper, acting on
+    /// velocity quantised by the encoders, does not stop that.
+    pub grip_damping_n_s_per_m: f32,
 }
 
 impl Default for PassivityConfig {
@@ -232,6 +246,9 @@ impl Default for PassivityConfig {
             device_damping_n_s_per_m: 0.5,
             min_speed_m_per_s: 1e-3,
             max_damping_n_s_per_m: 50.0,
+            // The low end of a human grip's damping on a stylus (a few N·s/m), and the
+            // simulated pantograph's default hand.
+            grip_damping_n_s_per_m: 2.0,
         }
     }
 }
@@ -369,6 +386,10 @@ impl SafetyConfig {
             (
                 self.passivity.max_damping_n_s_per_m,
                 "passivity.max_damping_n_s_per_m",
+            ),
+            (
+                self.passivity.grip_damping_n_s_per_m,
+                "passivity.grip_damping_n_s_per_m",
             ),
         ];
         for (value, field) in non_negative {
@@ -644,6 +665,23 @@ impl Safety {
         self.energy_j = 0.0;
     }
 
+    /// Whether the device renders a wall of this stiffness and damping at all, with the
+    /// passivity controller on: [`check_passivity`] with the device's damping plus
+    /// [`PassivityConfig::grip_damping_n_s_per_m`]. The error carries that limit.
+    pub fn check_renderable(
+        &self,
+        stiffness_n_per_m: f32,
+        damping_n_s_per_m: f32,
+    ) -> Result<(), PassivityError> {
+        let p = &self.config.passivity;
+        check_passivity(
+            stiffness_n_per_m,
+            damping_n_s_per_m,
+            self.config.period_s,
+            p.device_damping_n_s_per_m + p.grip_damping_n_s_per_m,
+        )
+    }
+
     /// Turns the passivity controller on or off (per scene: on for scenes whose materials
     /// fail [`check_passivity`]). The observer runs either way.
     pub fn set_passivity_control(&mut self, enabled: bool) {
@@ -763,6 +801,20 @@ impl Safety {
         if ramp < 1.0 {
             flags |= Flags::RAMPING;
             self.ramp_ticks = self.ramp_ticks.saturating_add(1);
+        }
+        // Free space: the renderer asks for nothing, so nothing is applied (no damper, no
+        // rate-limited tail: the mechanism's own damping is all the user feels), and the
+        // rendered environment, a penalty spring at zero depth, stores no energy, so the
+        // observer starts the next contact from zero instead of damping free motion for
+        // energy the last contact delivered.
+        if input.force_n == Vec2::ZERO {
+            self.last_force_n = Vec2::ZERO;
+            self.energy_j = 0.0;
+            return SafetyOutput {
+                force_n: Vec2::ZERO,
+                flags,
+                faults: self.latched,
+            };
         }
         let mut force = input.force_n * ramp;
 

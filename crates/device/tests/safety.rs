@@ -560,9 +560,13 @@ fn sampled_spring_work_per_cycle(passivity_control: bool, cycles: usize) -> (Vec
         // F[k] is held while the HIP moves from x[k] to x[k+1].
         work[k / n] += out.force_n.x as f64 * (x(k + 1) as f64 - x(k) as f64);
     }
-    // One more tick so the observer sees the last interval.
-    let mut last = tick(Vec2::ZERO);
-    last.hip_in_device_m = Vec2::new(x(n * cycles), HOME.y);
+    // One more tick so the observer sees the last interval. The spring still asks for its
+    // force there (x = A sin 2πc is a few 1e-19 m, not 0): a request of exactly zero is free
+    // space, where the observer forgets the contact.
+    let end = x(n * cycles);
+    assert_ne!(end, 0.0);
+    let mut last = tick(Vec2::new(-SPRING_K * end, 0.0));
+    last.hip_in_device_m = Vec2::new(end, HOME.y);
     safety.apply(&last);
     (work, safety)
 }
@@ -635,6 +639,39 @@ fn passivity_controller_removes_the_leak() {
     }
     assert!(controlled[0] > 0.0, "the residual is real, not a sign slip");
     assert!((safety.observed_energy_j() as f64) >= -residual);
+}
+
+#[test]
+fn free_space_gets_no_force_not_even_the_passivity_damper() {
+    // The environment pushes the HIP 1 mm along its 2 N force: it delivered 2 mJ, so the
+    // observer holds a deficit (E < 0) for the damper to dissipate...
+    let mut safety = Safety::new(no_ramp()).unwrap();
+    safety.set_passivity_control(true);
+    safety.apply(&tick(Vec2::new(-2.0, 0.0)));
+    let mut moving = tick(Vec2::new(-2.0, 0.0));
+    moving.hip_in_device_m = HOME - Vec2::new(0.001, 0.0);
+    moving.hip_velocity_m_per_s = Vec2::new(-1.0, 0.0);
+    safety.apply(&moving);
+    assert!(
+        (safety.observed_energy_j() + 2e-3).abs() < 1e-6,
+        "{}",
+        safety.observed_energy_j()
+    );
+    // ... then the HIP leaves the object moving at 0.3 m/s: the renderer asks for nothing.
+    // The damper would apply α v with α up to 50 N·s/m (15 N before saturation); the
+    // device applies nothing, at once (no rate-limited tail from the 2 N before), and the
+    // observer forgets the contact's energy.
+    let mut free = tick(Vec2::ZERO);
+    free.hip_in_device_m = HOME - Vec2::new(0.0013, 0.0);
+    free.hip_velocity_m_per_s = Vec2::new(-0.3, 0.0);
+    let out = safety.apply(&free);
+    assert_eq!(out.force_n, Vec2::ZERO);
+    assert!(!out.flags.contains(Flags::DAMPING));
+    assert_eq!(safety.observed_energy_j(), 0.0);
+    for _ in 0..10 {
+        free.hip_in_device_m.x -= 0.0003;
+        assert_eq!(safety.apply(&free).force_n, Vec2::ZERO);
+    }
 }
 
 fn scalar() -> impl Strategy<Value = f32> {

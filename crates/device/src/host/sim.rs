@@ -330,7 +330,10 @@ impl SimDevice {
             } => {
                 // Without a scene there is nothing to set (the next upload brings its own).
                 let loaded = controller.set_material(material, self.config.passivity_control);
-                if matches!(loaded, Err(ControllerError::Passivity(_))) {
+                if matches!(
+                    loaded,
+                    Err(ControllerError::Passivity(_) | ControllerError::BeyondDevice(_))
+                ) {
                     self.last_error = crate::protocol::ErrorCode::BadMaterial as u8;
                 }
             }
