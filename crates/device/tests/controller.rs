@@ -398,3 +398,122 @@ fn swapping_to_a_shorter_chain_while_touching_its_missing_curve_is_total() {
         previous = out.telemetry.force_n;
     }
 }
+
+/// One scripted step of the adversarial run.
+#[derive(Clone, Debug)]
+enum Step {
+    /// The arm moved by `step` (m, a random walk within 12 mm of a point near both arcs and
+    /// their vertex), the clock advancing `dt_us`, a heartbeat or not.
+    Pose {
+        step: (f32, f32),
+        dt_us: u64,
+        heartbeat: bool,
+    },
+    /// Raw counts from anywhere (a glitch, a lost count, noise).
+    Counts([i32; 2]),
+    /// The clock jumps to an arbitrary reading.
+    Clock(u64),
+    ClearFaults,
+    /// Load the other chain (2 curves ↔ 1 curve) at this tick boundary.
+    Swap,
+    Unload,
+    ToggleForces,
+}
+
+fn step() -> impl proptest::strategy::Strategy<Value = Step> {
+    use proptest::prelude::*;
+    prop_oneof![
+        80 => ((-3e-4f32..3e-4, -3e-4f32..3e-4), prop_oneof![
+            20 => Just(PERIOD_US),
+            1 => Just(0u64),
+            1 => 0u64..1_000_000,
+        ], prop::bool::weighted(0.9))
+            .prop_map(|(step, dt_us, heartbeat)| Step::Pose { step, dt_us, heartbeat }),
+        2 => any::<[i32; 2]>().prop_map(Step::Counts),
+        1 => any::<u64>().prop_map(Step::Clock),
+        4 => Just(Step::ClearFaults),
+        2 => Just(Step::Swap),
+        1 => Just(Step::Unload),
+        1 => Just(Step::ToggleForces),
+    ]
+}
+
+proptest::proptest! {
+    #![proptest_config(proptest::prelude::ProptestConfig::with_cases(64))]
+
+    /// No sequence of poses, encoder glitches, clock jumps, scene swaps and host commands
+    /// gets past the safety layer: currents finite and within the motors' limits, the force
+    /// within the effective limit, and a non-zero force never more than one rate-limit step
+    /// from the previous tick's (a cut to zero is the only larger change). Faults cut the
+    /// force often here; in a run of the 64 cases, 62 had force on, for 41 ticks on average.
+    #[test]
+    fn no_input_pushes_the_tick_past_the_safety_layer(
+        steps in proptest::collection::vec(step(), 1..400),
+    ) {
+        let spec = DeviceSpec::default();
+        let config = safety();
+        let limit = config.max_force_n.min(spec.max_force_n);
+        let step_n = config.max_force_rate_n_per_s * T;
+        let arm = spec.validate().unwrap();
+        let arcs = arcs();
+        let both = [arcs[0].view(), arcs[1].view()];
+        let right = [arcs[0].view()];
+        let chains = [Chain::new(&both).unwrap(), Chain::new(&right).unwrap()];
+        let mut which = 0;
+        let mut c = controller(spec, config);
+        c.load_scene(chains[0], material(), true).unwrap();
+        // Near both arcs and their vertex, inside and outside.
+        let base = Vec2::new(0.0, 0.09);
+        let mut hip = base;
+        let mut now: u64 = 0;
+        let mut previous = Vec2::ZERO;
+        for s in steps {
+            let counts = match s {
+                Step::Pose { step, dt_us, heartbeat } => {
+                    now = now.wrapping_add(dt_us);
+                    if heartbeat {
+                        c.heartbeat();
+                    }
+                    hip = (hip + Vec2::new(step.0, step.1))
+                        .clamp(base - Vec2::splat(0.012), base + Vec2::splat(0.012));
+                    counts_of_joints(spec, arm.inverse(hip).unwrap())
+                }
+                Step::Counts(counts) => counts,
+                Step::Clock(t) => {
+                    now = t;
+                    counts_at(spec, base)
+                }
+                Step::ClearFaults => {
+                    c.clear_faults();
+                    continue;
+                }
+                Step::Swap => {
+                    which = 1 - which;
+                    c.load_scene(chains[which], material(), true).unwrap();
+                    continue;
+                }
+                Step::Unload => {
+                    c.unload_scene();
+                    continue;
+                }
+                Step::ToggleForces => {
+                    c.set_forces_enabled(!c.forces_enabled());
+                    continue;
+                }
+            };
+            let out = c.tick(counts, now);
+            for (i, current) in out.currents_a.iter().enumerate() {
+                proptest::prop_assert!(current.is_finite());
+                proptest::prop_assert!(current.abs() <= spec.current_limit_a[i] * (1.0 + 1e-6));
+            }
+            let f = out.telemetry.force_n;
+            proptest::prop_assert!(f.is_finite());
+            proptest::prop_assert!(f.length() <= limit * (1.0 + 1e-6), "{}", f);
+            proptest::prop_assert!(
+                f == Vec2::ZERO || (f - previous).length() <= step_n * (1.0 + 1e-5),
+                "{} -> {}", previous, f
+            );
+            previous = f;
+        }
+    }
+}
