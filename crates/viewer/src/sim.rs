@@ -413,9 +413,10 @@ fn device_controller<'a>(
 /// [`DEVICE_RAMP_TIME_S`]), gets a heartbeat every tick and renders the object's material,
 /// with the passivity controller on when the material is stiffer than the device renders
 /// passively ([`DeviceRun::passivity_control`]); a material stiffer than the device renders
-/// even with it is refused ([`ControllerError::BeyondDevice`], naming the limit). Each tick the controller reads the
-/// simulated encoders, and the simulated pantograph then moves for one period under the
-/// controller's currents and the hand. The ticks' HIP and HIP velocity are the handle's
+/// even with it is refused ([`ControllerError::BeyondDevice`], naming the limit). Each tick
+/// the controller reads the simulated encoders (on a clock of whole microseconds since the
+/// start), and the simulated pantograph then moves for one period under the controller's
+/// currents and the hand. The ticks' HIP and HIP velocity are the handle's
 /// true ones (not the target's), `force` the force after the safety layer, the other
 /// rendering fields the renderer's. `progress(done, total)` is called after every tick.
 pub fn run_device(

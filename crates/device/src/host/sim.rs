@@ -10,9 +10,9 @@
 //! The thread owns the decoded [`SceneStore`]; the controller holds the chain, a view of it,
 //! for one scene: at every swap the controller is [rebound](Controller::rebind) (dropping the
 //! old view), the stores are swapped and the new chain is loaded. The device clock is the
-//! tick count times the period in integer microseconds, as a board's timer. The first object of the scene is
-//! rendered, when it is a chain of planar curves (the pantograph is planar: surfaces are
-//! accepted but render nothing).
+//! tick count times the period in integer microseconds, as a board's timer. The first object
+//! of the scene is rendered, when it is a chain of planar curves (the pantograph is planar:
+//! surfaces are accepted but render nothing).
 
 use std::sync::mpsc::{self, Receiver, RecvTimeoutError, Sender, SyncSender, TryRecvError};
 use std::thread::JoinHandle;
