@@ -18,8 +18,9 @@ use std::hint::black_box;
 use tracker::Chain;
 
 const T: f32 = 1e-3;
+const PERIOD_US: u64 = 1000;
 
-fn controller<'a>(spec: DeviceSpec) -> Controller<Chain<'a>> {
+fn controller<'a>(spec: DeviceSpec, chain: Chain<'a>) -> Controller<Chain<'a>> {
     let safety = SafetyConfig {
         period_s: T,
         ramp_time_s: 0.02,
@@ -27,7 +28,7 @@ fn controller<'a>(spec: DeviceSpec) -> Controller<Chain<'a>> {
     };
     let mut c = Controller::new(spec, safety).expect("controller");
     // K = 1000 N/m with no damping is beyond the passive bound at 1 kHz.
-    c.load_scene(FrictionMaterial::default(), true)
+    c.load_scene(chain, FrictionMaterial::default(), true)
         .expect("material");
     let per_rad = spec.counts_per_joint_rad();
     let stops = [0, 1].map(|i| {
@@ -46,14 +47,14 @@ fn closed_loop_counts(
     record: std::ops::Range<usize>,
 ) -> Vec<[i32; 2]> {
     let spec = DeviceSpec::default();
-    let mut c = controller(spec);
+    let mut c = controller(spec, *chain);
     let mut arm =
         SimulatedPantograph::new(spec, SimParams::default(), target(0.0)).expect("reachable");
     let mut counts = Vec::with_capacity(record.len());
     for k in 0..record.end {
         let now = k as f32 * T;
-        c.heartbeat(now);
-        let out = c.tick(Some(chain), arm.encoder_counts(), now);
+        c.heartbeat();
+        let out = c.tick(arm.encoder_counts(), k as u64 * PERIOD_US);
         assert_eq!(out.telemetry.faults, 0, "tick {k}");
         if record.contains(&k) {
             counts.push(arm.encoder_counts());
@@ -70,14 +71,13 @@ fn bench_counts<'a>(
     counts: &[[i32; 2]],
     in_contact: bool,
 ) {
-    let mut ctl: Controller<Chain<'a>> = controller(DeviceSpec::default());
+    let mut ctl: Controller<Chain<'a>> = controller(DeviceSpec::default(), *chain);
     let n = counts.len();
     let mut k = 0;
     let tick = |ctl: &mut Controller<Chain<'a>>, k: usize| {
-        // Time cycles with the counts; only the watchdog reads it, against the heartbeat.
-        let now = (k % n) as f32 * T;
-        ctl.heartbeat(now);
-        ctl.tick(Some(chain), black_box(counts[k % n]), now)
+        // The clock runs on while the counts cycle; only the watchdog reads it.
+        ctl.heartbeat();
+        ctl.tick(black_box(counts[k % n]), k as u64 * PERIOD_US)
     };
     // One pass to settle, one to check that the replay is the case it claims to be.
     let mut modes = [0usize; 4];

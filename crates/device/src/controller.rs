@@ -1,10 +1,33 @@
 //! The whole haptic tick: encoder counts → kinematics → tracker → friction → safety → Jᵀ F →
 //! motor currents, and one telemetry frame. No allocation, no panic.
 //!
-//! The controller holds no borrow of the scene: the active object is passed to every
-//! [`Controller::tick`], so the firmware (or the host simulator) owns the scene storage and
-//! can swap it between two ticks; [`Controller::load_scene`] resets the renderer at that
-//! boundary, after the whole scene has been received and validated.
+//! # The scene is the controller's
+//!
+//! [`Controller::load_scene`] takes the object (for borrowed views such as
+//! [`tracker::Chain`], the view, whose lifetime then bounds the controller's) with its
+//! material, and every tick renders that object: a tick cannot be handed another object than
+//! the one the renderer's state belongs to, so that mismatch (which used to index past the
+//! end of a shorter chain) cannot be written. A firmware or host that swaps its scene storage
+//! loads the new object at a tick boundary, after the whole scene was received and validated,
+//! or [rebinds](Controller::rebind) the controller to a new view type first.
+//!
+//! # Time
+//!
+//! The controller runs on the board's monotonic clock in integer microseconds
+//! (`now_us: u64`, e.g. a 32-bit hardware timer extended by counting its wraps). Nothing
+//! compares absolute times: the watchdog measures the heartbeat's age as the wrapping
+//! difference of two clock readings and, independently, as the number of ticks since, times
+//! the period, and trips on the larger, so uptimes of weeks, counter wraps, a clock that
+//! steps back (its wrapping difference is huge) or stalls all keep the timeout meaning
+//! 100 ms. A heartbeat carries no time stamp: [`Controller::heartbeat`] marks it received and
+//! the next tick stamps it, so a heartbeat "from the future" cannot exist. The telemetry's
+//! `time_us` is the clock modulo 2³² (it wraps every 71.6 min).
+//!
+//! # Limits
+//!
+//! The force limit is the smaller of [`DeviceSpec::max_force_n`] and
+//! [`SafetyConfig::max_force_n`], the speed limit the smaller of the two speed limits: the
+//! safety layer is built with those ([`Controller::safety_config`]).
 
 use friction::{FrictionMaterial, FrictionOutput, FrictionRenderer, Mode};
 use nurbs::Vec2;
@@ -27,6 +50,11 @@ pub enum ControllerError {
     Passivity(PassivityError),
     /// Calibration failed.
     Calibration(CalibrationError),
+    /// The material is stiffer than the device renders even with the passivity controller
+    /// on (see [`Safety::check_renderable`](crate::safety::Safety::check_renderable)).
+    BeyondDevice(PassivityError),
+    /// A material was set with no scene loaded.
+    NoScene,
 }
 
 impl core::fmt::Display for ControllerError {
@@ -39,6 +67,18 @@ impl core::fmt::Display for ControllerError {
                 "{e} (enable the passivity controller to render it anyway)"
             ),
             ControllerError::Calibration(e) => write!(f, "calibration: {e}"),
+            ControllerError::BeyondDevice(PassivityError::TooStiff {
+                stiffness_n_per_m,
+                max_stiffness_n_per_m,
+            }) => write!(
+                f,
+                "stiffness {stiffness_n_per_m:.1} N/m is beyond what this device renders, even \
+                 with the passivity controller: the limit is {max_stiffness_n_per_m:.1} N/m \
+                 (b + b_grip > K T / 2 + |B|, the device's and a relaxed grip's damping); \
+                 lower the stiffness or raise the tick rate"
+            ),
+            ControllerError::BeyondDevice(e) => write!(f, "{e}"),
+            ControllerError::NoScene => write!(f, "no scene loaded: load an object first"),
         }
     }
 }
@@ -63,6 +103,15 @@ pub struct TickOutput {
     pub render: Option<FrictionOutput<Vec2>>,
 }
 
+/// The loaded scene: the object, its material and the renderer's state for that object.
+#[derive(Debug)]
+struct Scene<O: Object<P = Vec2>> {
+    object: O,
+    material: FrictionMaterial,
+    /// Built on the first tick with a pose (it needs the HIP to start tracking).
+    renderer: Option<FrictionRenderer<O>>,
+}
+
 /// The controller of one device.
 #[derive(Debug)]
 pub struct Controller<O: Object<P = Vec2>> {
@@ -71,34 +120,56 @@ pub struct Controller<O: Object<P = Vec2>> {
     calibration: Calibration,
     safety: Safety,
     period_s: f32,
-    material: Option<FrictionMaterial>,
-    renderer: Option<FrictionRenderer<O>>,
+    period_us: u64,
+    scene: Option<Scene<O>>,
     forces_enabled: bool,
-    last_heartbeat_s: f32,
+    heartbeat_pending: bool,
+    /// Clock reading of the tick that stamped the last heartbeat (the first tick, before any).
+    last_heartbeat_us: Option<u64>,
+    ticks_since_heartbeat: u64,
     previous: Option<([f32; 2], Vec2)>,
     last_currents_a: [f32; 2],
 }
 
 impl<O: Object<P = Vec2>> Controller<O> {
     /// A controller for `spec` with the safety limits `safety` (whose period is the tick
-    /// period). Starts uncalibrated, with forces disabled and no scene.
+    /// period), the force and speed limits lowered to the device's own where those are
+    /// smaller. Starts uncalibrated, with forces disabled and no scene.
     pub fn new(spec: DeviceSpec, safety: SafetyConfig) -> Result<Self, ControllerError> {
         let arm = spec.validate().map_err(ControllerError::Spec)?;
-        let period_s = safety.period_s;
-        let safety = Safety::new(safety).map_err(ControllerError::Safety)?;
+        safety.validate().map_err(ControllerError::Safety)?;
+        let config = Self::effective_limits(&spec, safety);
+        let safety = Safety::new(config).map_err(ControllerError::Safety)?;
         Ok(Controller {
             spec,
             arm,
             calibration: Calibration::new(),
             safety,
-            period_s,
-            material: None,
-            renderer: None,
+            period_s: config.period_s,
+            period_us: config.period_us(),
+            scene: None,
             forces_enabled: false,
-            last_heartbeat_s: 0.0,
+            heartbeat_pending: false,
+            last_heartbeat_us: None,
+            ticks_since_heartbeat: 0,
             previous: None,
             last_currents_a: [0.0; 2],
         })
+    }
+
+    /// `safety` with its force and speed limits lowered to the device's (both validated).
+    fn effective_limits(spec: &DeviceSpec, safety: SafetyConfig) -> SafetyConfig {
+        SafetyConfig {
+            max_force_n: safety.max_force_n.min(spec.max_force_n),
+            max_velocity_m_per_s: safety.max_velocity_m_per_s.min(spec.max_velocity_m_per_s),
+            ..safety
+        }
+    }
+
+    /// The limits the safety layer enforces: the configuration given to
+    /// [`Controller::new`] with the device's force and speed limits applied.
+    pub fn safety_config(&self) -> &SafetyConfig {
+        self.safety.config()
     }
 
     /// Calibrates against the end stops: `raw_counts` read with both joints resting on them.
@@ -115,32 +186,70 @@ impl<O: Object<P = Vec2>> Controller<O> {
         self.calibration.is_calibrated()
     }
 
-    /// Makes `material` the active object's material from the next tick (call after the
-    /// scene swap, at a tick boundary). Rejects a stiffness the device cannot render
-    /// passively unless `passivity_control` is on, in which case the time-domain passivity
-    /// controller is enabled for this scene.
+    /// Makes `object` with `material` the scene from the next tick (call at a tick boundary,
+    /// after the scene was received and validated); the renderer starts afresh on it and the
+    /// force ramps in. Rejects a stiffness the device cannot render passively unless
+    /// `passivity_control` is on, in which case the time-domain passivity controller is
+    /// enabled for this scene; even then a stiffness beyond
+    /// [`Safety::check_renderable`](crate::safety::Safety::check_renderable) is refused
+    /// ([`ControllerError::BeyondDevice`], naming the limit). On error the previous scene
+    /// stays loaded.
     pub fn load_scene(
+        &mut self,
+        object: O,
+        material: FrictionMaterial,
+        passivity_control: bool,
+    ) -> Result<(), ControllerError> {
+        self.accept_material(&material, passivity_control)?;
+        self.scene = Some(Scene {
+            object,
+            material,
+            renderer: None,
+        });
+        Ok(())
+    }
+
+    /// Replaces the loaded object's material (the renderer restarts with it, the force ramps
+    /// in), with the same check as [`Controller::load_scene`].
+    pub fn set_material(
         &mut self,
         material: FrictionMaterial,
         passivity_control: bool,
     ) -> Result<(), ControllerError> {
-        let check = self
-            .safety
-            .check_material(material.stiffness_n_per_m, material.damping_ns_per_m);
-        if let (Err(e), false) = (check, passivity_control) {
-            return Err(ControllerError::Passivity(e));
+        if self.scene.is_none() {
+            return Err(ControllerError::NoScene);
         }
-        self.safety.set_passivity_control(passivity_control);
-        self.safety.notify_scene_swap();
-        self.material = Some(material);
-        self.renderer = None;
+        self.accept_material(&material, passivity_control)?;
+        if let Some(scene) = self.scene.as_mut() {
+            scene.material = material;
+            scene.renderer = None;
+        }
         Ok(())
     }
 
-    /// The same controller for another object type (calibration, safety state, material,
-    /// forces and heartbeat carried over), with the renderer reset as [`Controller::load_scene`]
-    /// resets it. Lets a host that owns its scene storage rebuild borrowed views after a swap:
-    /// the controller's type names the views' lifetime, so it cannot outlive the storage.
+    fn accept_material(
+        &mut self,
+        material: &FrictionMaterial,
+        passivity_control: bool,
+    ) -> Result<(), ControllerError> {
+        let (k, b) = (material.stiffness_n_per_m, material.damping_ns_per_m);
+        if let Err(e) = self.safety.check_material(k, b) {
+            if !passivity_control {
+                return Err(ControllerError::Passivity(e));
+            }
+            self.safety
+                .check_renderable(k, b)
+                .map_err(ControllerError::BeyondDevice)?;
+        }
+        self.safety.set_passivity_control(passivity_control);
+        self.safety.notify_scene_swap();
+        Ok(())
+    }
+
+    /// The same controller for another object type, without a scene (calibration, safety
+    /// state, forces and heartbeat carried over). Lets a host that owns its scene storage
+    /// drop the views of the old storage and build views of the new one: the controller's
+    /// type names the views' lifetime, so it cannot outlive the storage.
     pub fn rebind<O2: Object<P = Vec2>>(self) -> Controller<O2> {
         Controller {
             spec: self.spec,
@@ -148,13 +257,20 @@ impl<O: Object<P = Vec2>> Controller<O> {
             calibration: self.calibration,
             safety: self.safety,
             period_s: self.period_s,
-            material: self.material,
-            renderer: None,
+            period_us: self.period_us,
+            scene: None,
             forces_enabled: self.forces_enabled,
-            last_heartbeat_s: self.last_heartbeat_s,
+            heartbeat_pending: self.heartbeat_pending,
+            last_heartbeat_us: self.last_heartbeat_us,
+            ticks_since_heartbeat: self.ticks_since_heartbeat,
             previous: self.previous,
             last_currents_a: self.last_currents_a,
         }
+    }
+
+    /// The loaded object, if any.
+    pub fn object(&self) -> Option<&O> {
+        self.scene.as_ref().map(|s| &s.object)
     }
 
     /// The device description.
@@ -169,13 +285,12 @@ impl<O: Object<P = Vec2>> Controller<O> {
 
     /// Drops the scene: no object, no force.
     pub fn unload_scene(&mut self) {
-        self.material = None;
-        self.renderer = None;
+        self.scene = None;
     }
 
-    /// Records a host heartbeat at `now_s`.
-    pub fn heartbeat(&mut self, now_s: f32) {
-        self.last_heartbeat_s = now_s;
+    /// Records a host heartbeat; the next tick stamps it with its own clock reading.
+    pub fn heartbeat(&mut self) {
+        self.heartbeat_pending = true;
     }
 
     /// Enables or disables force output (enabling starts the ramp-in).
@@ -188,7 +303,14 @@ impl<O: Object<P = Vec2>> Controller<O> {
 
     /// Clears the latched faults whose condition is gone; returns those still latched.
     pub fn clear_faults(&mut self) -> Faults {
-        self.safety.clear_faults()
+        // A heartbeat received since the last tick ends the watchdog's condition (the next
+        // tick stamps it).
+        let ended = if self.heartbeat_pending {
+            Faults::WATCHDOG
+        } else {
+            Faults::empty()
+        };
+        self.safety.clear_faults_except_ended(ended)
     }
 
     /// The latched faults.
@@ -196,12 +318,15 @@ impl<O: Object<P = Vec2>> Controller<O> {
         self.safety.faults()
     }
 
-    /// One tick. `object` is the active scene's object (the one `load_scene` set the material
-    /// for), `counts` the raw encoder counts, `now_s` the time.
-    pub fn tick(&mut self, object: Option<&O>, counts: [i32; 2], now_s: f32) -> TickOutput {
+    /// One tick at `now_us` (the board's monotonic clock, µs; see the module docs) on the
+    /// raw encoder `counts`. Total: any counts and any clock reading give finite currents
+    /// within the limits; every path goes through the safety layer.
+    pub fn tick(&mut self, counts: [i32; 2], now_us: u64) -> TickOutput {
         let t = self.period_s;
+        let heartbeat_age_us = self.heartbeat_age_us(now_us);
         let mut telemetry = Telemetry {
-            time_us: (now_s.max(0.0) * 1e6) as u32,
+            // Documented to wrap: the clock modulo 2³².
+            time_us: now_us as u32,
             hip_m: Vec2::ZERO,
             cp_m: Vec2::ZERO,
             go_m: Vec2::ZERO,
@@ -215,40 +340,37 @@ impl<O: Object<P = Vec2>> Controller<O> {
             feature: None,
             mode: Mode::Free,
         };
-        // Kinematics: no calibration or an unassembled pose means no HIP and no force.
-        let state = self
-            .calibration
-            .joint_angles(&self.spec, counts)
-            .ok()
-            .and_then(|theta| self.arm.forward(theta).ok().map(|hip| (theta, hip)));
-        let Some((theta, hip)) = state else {
-            self.previous = None;
-            self.last_currents_a = [0.0; 2];
-            return TickOutput {
-                currents_a: [0.0; 2],
-                telemetry,
-                joint_angles_rad: None,
-                joint_torques_nm: [0.0; 2],
-                render: None,
-            };
-        };
-        let (velocity, joint_step) = match self.previous {
-            Some((prev_theta, prev_hip)) => (
+        // Kinematics. Uncalibrated counts have no pose (forces are off then); calibrated
+        // counts that no pose of the mechanism gives are an encoder fault for the safety
+        // layer, which then latches it and cuts the force, and the last good pose is kept
+        // so that the next sample is checked against it.
+        let theta = self.calibration.joint_angles(&self.spec, counts).ok();
+        let state = theta.and_then(|theta| self.arm.forward(theta).ok().map(|hip| (theta, hip)));
+        let (hip, velocity, joint_step) = match (state, self.previous) {
+            (Some((theta, hip)), Some((prev_theta, prev_hip))) => (
+                hip,
                 (hip - prev_hip) * (1.0 / t),
                 [theta[0] - prev_theta[0], theta[1] - prev_theta[1]],
             ),
-            None => (Vec2::ZERO, [0.0; 2]),
+            (Some((_, hip)), None) => (hip, Vec2::ZERO, [0.0; 2]),
+            (None, _) => (Vec2::ZERO, Vec2::ZERO, [0.0; 2]),
         };
-        self.previous = Some((theta, hip));
+        if let Some(pose) = state {
+            self.previous = Some(pose);
+        }
         telemetry.hip_m = hip;
 
-        // Rendering.
+        // Rendering, on the loaded object only.
         let mut force = Vec2::ZERO;
         let mut render = None;
-        if let (Some(object), Some(material)) = (object, self.material) {
-            let renderer = self
-                .renderer
-                .get_or_insert_with(|| FrictionRenderer::new(object, material, hip, t));
+        if let (Some(scene), Some(_)) = (self.scene.as_mut(), state) {
+            let Scene {
+                object,
+                material,
+                renderer,
+            } = scene;
+            let renderer =
+                renderer.get_or_insert_with(|| FrictionRenderer::new(object, *material, hip, t));
             let out = renderer.tick(object, hip, velocity, t);
             force = out.total;
             telemetry.cp_m = out.contact.point;
@@ -262,36 +384,50 @@ impl<O: Object<P = Vec2>> Controller<O> {
             render = Some(out);
         }
 
-        // Safety, then Jᵀ F → currents.
+        // Safety, every tick, then Jᵀ F → currents.
         let safe = self.safety.apply(&SafetyInput {
             force_n: force,
             hip_in_device_m: hip,
             hip_velocity_m_per_s: velocity,
             joint_step_rad: joint_step,
-            now_s,
-            last_heartbeat_s: self.last_heartbeat_s,
+            heartbeat_age_us,
             motor_current_a: self.last_currents_a,
             forces_enabled: self.forces_enabled,
             calibrated: self.calibration.is_calibrated(),
+            pose_valid: state.is_some(),
         });
         telemetry.faults = safe.faults.bits();
         telemetry.force_n = safe.force_n;
-        let (currents_a, joint_torques_nm) = self
-            .arm
-            .joint_torques(theta, safe.force_n)
-            .ok()
-            .and_then(|tau| {
-                let command = self.spec.motor_command(&self.calibration, tau).ok()?;
-                Some((command.current_a, tau.map(|t| t * command.scale)))
-            })
-            .unwrap_or(([0.0; 2], [0.0; 2]));
+        let command = state.and_then(|(theta, _)| {
+            let tau = self.arm.joint_torques(theta, safe.force_n).ok()?;
+            let command = self.spec.motor_command(&self.calibration, tau).ok()?;
+            Some((command.current_a, tau.map(|t| t * command.scale)))
+        });
+        let (currents_a, joint_torques_nm) = command.unwrap_or(([0.0; 2], [0.0; 2]));
         self.last_currents_a = currents_a;
         TickOutput {
             currents_a,
             telemetry,
-            joint_angles_rad: Some(theta),
+            joint_angles_rad: state.map(|(theta, _)| theta),
             joint_torques_nm,
             render,
         }
+    }
+
+    /// Stamps a pending heartbeat with `now_us` and returns the heartbeat's age, µs: the
+    /// larger of the wrapping clock difference and the ticks counted since times the period.
+    fn heartbeat_age_us(&mut self, now_us: u64) -> u64 {
+        if self.heartbeat_pending || self.last_heartbeat_us.is_none() {
+            // Before the first heartbeat the first tick starts the timeout.
+            self.heartbeat_pending = false;
+            self.last_heartbeat_us = Some(now_us);
+            self.ticks_since_heartbeat = 0;
+        }
+        let by_clock = self
+            .last_heartbeat_us
+            .map_or(0, |stamp| now_us.wrapping_sub(stamp));
+        let by_ticks = self.ticks_since_heartbeat.saturating_mul(self.period_us);
+        self.ticks_since_heartbeat = self.ticks_since_heartbeat.saturating_add(1);
+        by_clock.max(by_ticks)
     }
 }

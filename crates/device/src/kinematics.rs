@@ -59,9 +59,9 @@
 //! the Jacobian needs one division; `τ = Jᵀ F` is four products. Inverse kinematics
 //! (`atan2`, `acos`) is for setup and tests, not the tick.
 
-use crate::spec::SpecError;
+pub use crate::error::{KinematicsError, Singularity};
+use crate::error::{SpecError, positive};
 use core::f32::consts::{PI, TAU};
-use core::fmt;
 use nurbs::Vec2;
 
 /// Default largest condition number of the Jacobian accepted before a configuration counts
@@ -70,147 +70,6 @@ pub const DEFAULT_MAX_CONDITION: f32 = 100.0;
 
 /// Elbows closer than this fraction of the distal link lengths count as coincident.
 const COINCIDENT_REL: f32 = 1e-6;
-
-/// Why a kinematic computation has no answer.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub enum KinematicsError {
-    /// An input is NaN or infinite, or a result overflowed.
-    NonFinite {
-        /// Which quantity (e.g. `"joint angle θ1"`, `"force x"`).
-        quantity: &'static str,
-        /// Its value.
-        value: f32,
-    },
-    /// Forward kinematics: both elbows are at the same point, so the distal links can turn
-    /// freely about it.
-    ElbowsCoincide {
-        /// Distance between the elbows (m).
-        elbow_distance_m: f32,
-    },
-    /// Forward kinematics: the distal links cannot meet (the circles about the elbows do not
-    /// intersect).
-    DistalLinksApart {
-        /// Distance between the elbows (m).
-        elbow_distance_m: f32,
-        /// Smallest elbow distance at which they meet, `|b1 − b2|` (m).
-        min_m: f32,
-        /// Largest elbow distance at which they meet, `b1 + b2` (m).
-        max_m: f32,
-    },
-    /// Inverse kinematics: the target is farther from a motor axis than its arm reaches.
-    TooFar {
-        /// Joint (0: left, 1: right).
-        joint: usize,
-        /// Distance from the motor axis to the target (m).
-        distance_m: f32,
-        /// Reach `li + bi` (m).
-        max_m: f32,
-    },
-    /// Inverse kinematics: the target is closer to a motor axis than its arm can fold.
-    TooClose {
-        /// Joint (0: left, 1: right).
-        joint: usize,
-        /// Distance from the motor axis to the target (m).
-        distance_m: f32,
-        /// Shortest reach `|li − bi|` (m).
-        min_m: f32,
-    },
-    /// Inverse kinematics: in the elbows-out working mode the distal links cross, so the
-    /// device would be in the other assembly mode than forward kinematics assumes.
-    OtherAssemblyMode {
-        /// Target x (m).
-        x_m: f32,
-        /// Target y (m).
-        y_m: f32,
-    },
-    /// The Jacobian is (near) singular: its condition number exceeds the limit.
-    Singular {
-        /// Which links are (nearly) aligned.
-        singularity: Singularity,
-        /// Condition number of the Jacobian (infinite when exactly singular).
-        condition: f32,
-        /// The accepted limit.
-        max_condition: f32,
-    },
-}
-
-/// Which links are aligned in a singular configuration.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Singularity {
-    /// A proximal link is aligned with its distal link (arm stretched or folded): the
-    /// workspace boundary, where the HIP cannot move (or be pushed) along the arm.
-    ArmAligned {
-        /// Joint (0: left, 1: right).
-        joint: usize,
-    },
-    /// The two distal links are aligned: the HIP can move with the motors held.
-    DistalLinksAligned,
-}
-
-impl fmt::Display for Singularity {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        match *self {
-            Singularity::ArmAligned { joint } => {
-                write!(f, "proximal and distal links of arm {} aligned", joint + 1)
-            }
-            Singularity::DistalLinksAligned => write!(f, "distal links aligned"),
-        }
-    }
-}
-
-impl fmt::Display for KinematicsError {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        match *self {
-            KinematicsError::NonFinite { quantity, value } => {
-                write!(f, "{quantity} = {value} is not finite")
-            }
-            KinematicsError::ElbowsCoincide { elbow_distance_m } => write!(
-                f,
-                "elbows coincide ({elbow_distance_m} m apart): the distal links can turn freely"
-            ),
-            KinematicsError::DistalLinksApart {
-                elbow_distance_m,
-                min_m,
-                max_m,
-            } => write!(
-                f,
-                "distal links cannot meet: elbows {elbow_distance_m} m apart, must be within [{min_m}, {max_m}] m"
-            ),
-            KinematicsError::TooFar {
-                joint,
-                distance_m,
-                max_m,
-            } => write!(
-                f,
-                "target out of reach: {distance_m} m from motor axis {} exceeds reach {max_m} m",
-                joint + 1
-            ),
-            KinematicsError::TooClose {
-                joint,
-                distance_m,
-                min_m,
-            } => write!(
-                f,
-                "target too close: {distance_m} m from motor axis {} is under the shortest reach {min_m} m",
-                joint + 1
-            ),
-            KinematicsError::OtherAssemblyMode { x_m, y_m } => write!(
-                f,
-                "target ({x_m}, {y_m}) m needs crossed distal links (other assembly mode)"
-            ),
-            KinematicsError::Singular {
-                singularity,
-                condition,
-                max_condition,
-            } => write!(
-                f,
-                "singular configuration ({singularity}): Jacobian condition number {condition} exceeds {max_condition}"
-            ),
-        }
-    }
-}
-
-impl core::error::Error for KinematicsError {}
 
 /// Link lengths and base separation of a five-bar pantograph, validated at construction.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -309,16 +168,6 @@ fn check_finite(quantity: &'static str, value: f32) -> Result<(), KinematicsErro
     }
 }
 
-fn check_positive(field: &'static str, value: f32) -> Result<(), SpecError> {
-    if !value.is_finite() {
-        Err(SpecError::NonFinite { field, value })
-    } else if value <= 0.0 {
-        Err(SpecError::NonPositive { field, value })
-    } else {
-        Ok(())
-    }
-}
-
 impl Pantograph {
     /// A pantograph with motor axes `base_separation_m` apart, proximal links
     /// `proximal_m = [l1, l2]` and distal links `distal_m = [b1, b2]` (metres), with the
@@ -328,11 +177,11 @@ impl Pantograph {
         proximal_m: [f32; 2],
         distal_m: [f32; 2],
     ) -> Result<Self, SpecError> {
-        check_positive("base_separation_m", base_separation_m)?;
-        check_positive("proximal_m[0]", proximal_m[0])?;
-        check_positive("proximal_m[1]", proximal_m[1])?;
-        check_positive("distal_m[0]", distal_m[0])?;
-        check_positive("distal_m[1]", distal_m[1])?;
+        positive("base_separation_m", base_separation_m)?;
+        positive("proximal_m[0]", proximal_m[0])?;
+        positive("proximal_m[1]", proximal_m[1])?;
+        positive("distal_m[0]", distal_m[0])?;
+        positive("distal_m[1]", distal_m[1])?;
         Ok(Self {
             base_separation_m,
             proximal_m,

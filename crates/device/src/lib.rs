@@ -2,6 +2,7 @@
 #![cfg_attr(not(feature = "std"), no_std)]
 #![warn(missing_docs)]
 pub mod controller;
+pub mod error;
 #[cfg(feature = "std")]
 pub mod host;
 pub mod kinematics;

@@ -10,22 +10,30 @@
 //!    object feels the force grow from zero instead of a kick; saturation to the device's
 //!    force limit; a force rate limit.
 //! 3. **Motion**: HIP speed above the limit latches [`Faults::VELOCITY`]; a joint step larger
-//!    than the device can physically make in one tick latches [`Faults::ENCODER`].
-//! 4. **Host**: no heartbeat for longer than the timeout latches [`Faults::WATCHDOG`] on the
-//!    first tick past it.
+//!    than the device can physically make in one tick, or encoder counts that no pose of the
+//!    mechanism gives ([`SafetyInput::pose_valid`]), latch [`Faults::ENCODER`].
+//! 4. **Host**: a heartbeat age above the timeout latches [`Faults::WATCHDOG`] on the first
+//!    tick past it. The age is an integer interval in microseconds
+//!    ([`SafetyInput::heartbeat_age_us`]), never a difference of absolute float times.
 //! 5. **Device**: the HIP outside the workspace box latches [`Faults::WORKSPACE`]; a
 //!    first-order thermal model per motor derates the force linearly and then latches
 //!    [`Faults::THERMAL`].
 //!
-//! Forces are off while any fault is latched, while forces are disabled, or while the device
-//! is not calibrated. Switching off is immediate (not rate-limited); switching back on starts
+//! Forces are off while any fault is latched, while forces are disabled, while the device
+//! is not calibrated or has no pose. Free space (the renderer asks for exactly zero: its
+//! penalty force is unilateral, zero only out of contact) gets zero force, with no damper
+//! and no rate-limited tail, so that the mechanism's own damping is all a user feels there.
+//! Switching off is immediate (not rate-limited); switching back on starts
 //! the ramp-in, whose first tick outputs zero and which reaches the full force after
 //! `ramp_time_s`. Faults stay latched until [`Safety::clear_faults`], which clears only
 //! the causes whose condition is gone.
 //!
 //! Passivity has two parts: [`check_passivity`], the sampled-data bound a scene loader applies
 //! to each material (thesis eq. 1.1), and a time-domain passivity observer/controller
-//! (Hannaford & Ryu 2002) enabled per scene with [`Safety::set_passivity_control`].
+//! (Hannaford & Ryu 2002) enabled per scene with [`Safety::set_passivity_control`], for
+//! materials between that bound and [`Safety::check_renderable`] (the same bound with a
+//! relaxed grip's damping added); stiffer ones the device does not render at all. The
+//! observer's account is per contact: it restarts at zero in free space.
 //!
 //! Everything here is `f32`, allocation-free and total: no input makes `apply` panic or
 //! return a non-finite force. The tick path has no transcendental functions; a square root
@@ -99,6 +107,14 @@ macro_rules! bitset {
             }
         }
 
+        impl core::ops::Not for $name {
+            type Output = Self;
+            /// The named bits not in `self`.
+            fn not(self) -> Self {
+                Self(!self.0 & Self::ALL.0)
+            }
+        }
+
         impl BitAnd for $name {
             type Output = Self;
             fn bitand(self, rhs: Self) -> Self {
@@ -132,7 +148,8 @@ bitset! {
         NUMERIC = 0, "numeric";
         /// HIP speed above [`SafetyConfig::max_velocity_m_per_s`].
         VELOCITY = 1, "velocity";
-        /// A joint step larger than [`SafetyConfig::max_joint_step_rad`] in one tick.
+        /// A joint step larger than [`SafetyConfig::max_joint_step_rad`] in one tick, or
+        /// encoder counts that no pose of the mechanism gives.
         ENCODER = 2, "encoder";
         /// No host heartbeat for longer than [`SafetyConfig::heartbeat_timeout_s`].
         WATCHDOG = 3, "watchdog";
@@ -213,6 +230,14 @@ pub struct PassivityConfig {
     /// Cap on the controller's damping α, N·s/m. A rendered damper is itself subject to
     /// eq. 1.1, so an unbounded α chatters on velocity noise.
     pub max_damping_n_s_per_m: f32,
+    /// The damping a relaxed grip adds at the handle, N·s/m: the most the passivity
+    /// controller may count on. With it on, a wall is rendered only while eq. 1.1 holds for
+    /// the device and the grip together, `b + b_grip > K T / 2 + |B|`
+    /// ([`Safety::check_renderable`]); a stiffer wall is active unless the hand damps more
+    /// than a relaxed grip, and closed through the simulated pantograph it bounces (the
+    /// stiffness sweep in `tests/tests/closed_loop.rs`): the observer's damper, acting on
+    /// velocity quantised by the encoders, does not stop that.
+    pub grip_damping_n_s_per_m: f32,
 }
 
 impl Default for PassivityConfig {
@@ -221,6 +246,9 @@ impl Default for PassivityConfig {
             device_damping_n_s_per_m: 0.5,
             min_speed_m_per_s: 1e-3,
             max_damping_n_s_per_m: 50.0,
+            // The low end of a human grip's damping on a stylus (a few N·s/m), and the
+            // simulated pantograph's default hand.
+            grip_damping_n_s_per_m: 2.0,
         }
     }
 }
@@ -240,7 +268,9 @@ pub struct SafetyConfig {
     pub max_velocity_m_per_s: f32,
     /// Largest plausible joint-angle change in one tick, rad; more is an encoder glitch.
     pub max_joint_step_rad: f32,
-    /// Host heartbeat timeout, s (default 100 ms).
+    /// Host heartbeat timeout, s (default 100 ms); the watchdog compares it, rounded to
+    /// whole microseconds once ([`SafetyConfig::heartbeat_timeout_us`]), with integer
+    /// intervals.
     pub heartbeat_timeout_s: f32,
     /// Box the HIP must stay inside.
     pub workspace: WorkspaceBox,
@@ -309,6 +339,19 @@ impl fmt::Display for ConfigError {
 impl core::error::Error for ConfigError {}
 
 impl SafetyConfig {
+    /// The heartbeat timeout in whole microseconds, as the watchdog compares it (at least
+    /// 1 µs for a valid config).
+    pub fn heartbeat_timeout_us(&self) -> u64 {
+        // `as` saturates, so no value makes this wrap.
+        (libm::round(f64::from(self.heartbeat_timeout_s) * 1e6) as u64).max(1)
+    }
+
+    /// The tick period in whole microseconds, at least 1 (for counting elapsed ticks as
+    /// time).
+    pub fn period_us(&self) -> u64 {
+        (libm::round(f64::from(self.period_s) * 1e6) as u64).max(1)
+    }
+
     /// Checks every field; the error names the first bad one.
     pub fn validate(&self) -> Result<(), ConfigError> {
         let positive = [
@@ -343,6 +386,10 @@ impl SafetyConfig {
             (
                 self.passivity.max_damping_n_s_per_m,
                 "passivity.max_damping_n_s_per_m",
+            ),
+            (
+                self.passivity.grip_damping_n_s_per_m,
+                "passivity.grip_damping_n_s_per_m",
             ),
         ];
         for (value, field) in non_negative {
@@ -383,11 +430,12 @@ pub struct SafetyInput {
     pub hip_velocity_m_per_s: Vec2,
     /// Change of each joint angle since the previous tick, rad.
     pub joint_step_rad: [f32; 2],
-    /// Current time, s. `f32` seconds resolve 1 ms only up to about 2.3 h, so the caller
-    /// keeps `now_s` and `last_heartbeat_s` relative to a recent epoch (e.g. the connection).
-    pub now_s: f32,
-    /// Time of the last host heartbeat, s, same clock as `now_s`.
-    pub last_heartbeat_s: f32,
+    /// Time since the last host heartbeat, µs: an integer interval on the board's monotonic
+    /// clock, never an absolute time, so uptimes of weeks and counter wraps do not change
+    /// what the timeout means. [`Controller`](crate::controller::Controller) measures it as
+    /// the larger of the wrapping clock difference (a clock that steps back reads as a huge
+    /// age) and the ticks counted since, times the period (a clock that stalls still ages).
+    pub heartbeat_age_us: u64,
     /// Motor current per motor, A (measured, or estimated from the previous tick's torque
     /// command); the sign is ignored.
     pub motor_current_a: [f32; 2],
@@ -395,6 +443,10 @@ pub struct SafetyInput {
     pub forces_enabled: bool,
     /// The device is calibrated (encoders homed), so position and velocity mean something.
     pub calibrated: bool,
+    /// The encoder counts give a pose the mechanism can be in. When `false` (calibrated),
+    /// the position, velocity and joint step are meaningless and [`Faults::ENCODER`]
+    /// latches.
+    pub pose_valid: bool,
 }
 
 impl SafetyInput {
@@ -404,8 +456,6 @@ impl SafetyInput {
             && self.hip_in_device_m.is_finite()
             && self.hip_velocity_m_per_s.is_finite()
             && self.joint_step_rad.iter().all(|x| x.is_finite())
-            && self.now_s.is_finite()
-            && self.last_heartbeat_s.is_finite()
             && self.motor_current_a.iter().all(|x| x.is_finite())
     }
 }
@@ -522,6 +572,7 @@ pub struct Safety {
     inv_derate_span: f32,
     min_speed_sq: f32,
     inv_period_s: f32,
+    heartbeat_timeout_us: u64,
 
     latched: Faults,
     /// Conditions present at the last tick; `clear_faults` keeps these.
@@ -553,6 +604,7 @@ impl Safety {
             inv_derate_span: 1.0 / (th.trip_threshold - th.derate_threshold),
             min_speed_sq,
             inv_period_s: 1.0 / config.period_s,
+            heartbeat_timeout_us: config.heartbeat_timeout_us(),
             config,
             latched: Faults::empty(),
             present: Faults::empty(),
@@ -594,7 +646,15 @@ impl Safety {
     /// below the *derate* threshold, not just below trip (thermal). Forces come back with a
     /// ramp-in.
     pub fn clear_faults(&mut self) -> Faults {
-        self.latched = self.latched & self.present;
+        self.clear_faults_except_ended(Faults::empty())
+    }
+
+    /// [`clear_faults`](Self::clear_faults), also clearing the causes in `ended`: conditions
+    /// the caller knows are gone since the most recent [`apply`](Self::apply) (a heartbeat
+    /// received since clears [`Faults::WATCHDOG`]). A condition still there trips again at
+    /// the next tick.
+    pub fn clear_faults_except_ended(&mut self, ended: Faults) -> Faults {
+        self.latched = self.latched & self.present & !ended;
         self.latched
     }
 
@@ -603,6 +663,23 @@ impl Safety {
     pub fn notify_scene_swap(&mut self) {
         self.ramp_ticks = 0;
         self.energy_j = 0.0;
+    }
+
+    /// Whether the device renders a wall of this stiffness and damping at all, with the
+    /// passivity controller on: [`check_passivity`] with the device's damping plus
+    /// [`PassivityConfig::grip_damping_n_s_per_m`]. The error carries that limit.
+    pub fn check_renderable(
+        &self,
+        stiffness_n_per_m: f32,
+        damping_n_s_per_m: f32,
+    ) -> Result<(), PassivityError> {
+        let p = &self.config.passivity;
+        check_passivity(
+            stiffness_n_per_m,
+            damping_n_s_per_m,
+            self.config.period_s,
+            p.device_damping_n_s_per_m + p.grip_damping_n_s_per_m,
+        )
     }
 
     /// Turns the passivity controller on or off (per scene: on for scenes whose materials
@@ -679,8 +756,14 @@ impl Safety {
         {
             trip |= Faults::ENCODER;
         }
-        // Position and velocity are meaningless before homing; forces are off then anyway.
-        if input.calibrated {
+        // Before homing no pose is known and forces are off anyway; after it, counts that no
+        // pose of the mechanism produces are an encoder fault like a jump.
+        let pose_known = input.calibrated && input.pose_valid;
+        if input.calibrated && !input.pose_valid {
+            trip |= Faults::ENCODER;
+        }
+        // Position and velocity are meaningless without a pose.
+        if pose_known {
             if input.hip_velocity_m_per_s.length_squared() > self.max_speed_sq {
                 trip |= Faults::VELOCITY;
             }
@@ -689,15 +772,14 @@ impl Safety {
                 trip |= Faults::WORKSPACE;
             }
         }
-        // A heartbeat stamped in the future (clock skew) counts as fresh.
-        if input.now_s - input.last_heartbeat_s > cfg.heartbeat_timeout_s {
+        if input.heartbeat_age_us > self.heartbeat_timeout_us {
             trip |= Faults::WATCHDOG;
         }
         present |= trip;
         self.present = present;
         self.latched |= trip;
 
-        if !(finite && self.latched.is_empty() && input.forces_enabled && input.calibrated) {
+        if !(finite && self.latched.is_empty() && input.forces_enabled && pose_known) {
             self.forces_on = false;
             self.last_force_n = Vec2::ZERO;
             return SafetyOutput {
@@ -719,6 +801,20 @@ impl Safety {
         if ramp < 1.0 {
             flags |= Flags::RAMPING;
             self.ramp_ticks = self.ramp_ticks.saturating_add(1);
+        }
+        // Free space: the renderer asks for nothing, so nothing is applied (no damper, no
+        // rate-limited tail: the mechanism's own damping is all the user feels), and the
+        // rendered environment, a penalty spring at zero depth, stores no energy, so the
+        // observer starts the next contact from zero instead of damping free motion for
+        // energy the last contact delivered.
+        if input.force_n == Vec2::ZERO {
+            self.last_force_n = Vec2::ZERO;
+            self.energy_j = 0.0;
+            return SafetyOutput {
+                force_n: Vec2::ZERO,
+                flags,
+                faults: self.latched,
+            };
         }
         let mut force = input.force_n * ramp;
 
@@ -778,7 +874,7 @@ impl Safety {
     /// the sampled-data leak; `F[k] · v[k]` at the same sample would not.
     fn observe_energy(&mut self, input: &SafetyInput) {
         let position = input.hip_in_device_m;
-        if !position.is_finite() {
+        if !(input.pose_valid && position.is_finite()) {
             self.last_position_m = None;
             return;
         }

@@ -33,7 +33,9 @@
 //!    [`Calibration::is_calibrated`] is true and [`Calibration::apply`] writes the offsets into
 //!    the spec.
 
-use crate::kinematics::{KinematicsError, Pantograph};
+pub use crate::error::SpecError;
+use crate::error::{finite, positive};
+use crate::kinematics::Pantograph;
 use core::f32::consts::{PI, TAU};
 use core::fmt;
 use nurbs::Vec2;
@@ -141,107 +143,6 @@ impl Default for DeviceSpec {
             joint_damping_nms_per_rad: [1.0e-4, 1.0e-4],
             end_stop_rad: [1.25 * PI, -0.25 * PI],
         }
-    }
-}
-
-/// Why a [`DeviceSpec`] was rejected.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub enum SpecError {
-    /// A field is NaN or infinite.
-    NonFinite {
-        /// Field name.
-        field: &'static str,
-        /// Its value.
-        value: f32,
-    },
-    /// A field that must be positive is zero or negative.
-    NonPositive {
-        /// Field name.
-        field: &'static str,
-        /// Its value.
-        value: f32,
-    },
-    /// A field is outside its range.
-    OutOfRange {
-        /// Field name.
-        field: &'static str,
-        /// Its value.
-        value: f32,
-        /// What it must be.
-        requirement: &'static str,
-    },
-    /// A point of the workspace box cannot be reached well-conditioned.
-    UnreachableWorkspace {
-        /// The point (m).
-        point_in_device: Vec2,
-        /// Why inverse kinematics failed there.
-        cause: KinematicsError,
-    },
-    /// A point of the workspace box needs a joint beyond its end stop.
-    BeyondEndStop {
-        /// Joint (0: left, 1: right).
-        joint: usize,
-        /// The point (m).
-        point_in_device: Vec2,
-        /// Joint angle it needs (rad).
-        angle_rad: f32,
-        /// The end stop (rad).
-        end_stop_rad: f32,
-    },
-}
-
-impl fmt::Display for SpecError {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        match *self {
-            SpecError::NonFinite { field, value } => write!(f, "{field} = {value}: not finite"),
-            SpecError::NonPositive { field, value } => {
-                write!(f, "{field} = {value}: must be positive")
-            }
-            SpecError::OutOfRange {
-                field,
-                value,
-                requirement,
-            } => write!(f, "{field} = {value}: must be {requirement}"),
-            SpecError::UnreachableWorkspace {
-                point_in_device: p,
-                cause,
-            } => write!(
-                f,
-                "workspace: point ({}, {}) m unreachable: {cause}",
-                p.x, p.y
-            ),
-            SpecError::BeyondEndStop {
-                joint,
-                point_in_device: p,
-                angle_rad,
-                end_stop_rad,
-            } => write!(
-                f,
-                "workspace: point ({}, {}) m needs joint {} at {angle_rad} rad, beyond end_stop_rad[{joint}] = {end_stop_rad} rad",
-                p.x,
-                p.y,
-                joint + 1
-            ),
-        }
-    }
-}
-
-impl core::error::Error for SpecError {}
-
-fn finite(field: &'static str, value: f32) -> Result<(), SpecError> {
-    if value.is_finite() {
-        Ok(())
-    } else {
-        Err(SpecError::NonFinite { field, value })
-    }
-}
-
-fn positive(field: &'static str, value: f32) -> Result<(), SpecError> {
-    finite(field, value)?;
-    if value > 0.0 {
-        Ok(())
-    } else {
-        Err(SpecError::NonPositive { field, value })
     }
 }
 

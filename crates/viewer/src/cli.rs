@@ -249,7 +249,10 @@ hand (a spring-damper, --hand-stiffness) that holds the handle of a simulated pa
 device's controller calibrates on the end stops, enables forces (20 ms ramp-in), gets a
 heartbeat every tick and renders the object's material; a material stiffer than the device
 renders passively at the tick rate is rendered with the passivity controller on (a note on
-standard error says so). The hip_ columns are the handle's actual position, force_ the
+standard error says so), up to what the device renders with a relaxed grip's damping added
+(b + b_grip > K T/2 + |B|: 5000 N/m at 1 kHz for an undamped material); a stiffer one is
+refused (exit 2, naming the limit). The force is the device's: at most 3 N, and none in
+free space. The hip_ columns are the handle's actual position, force_ the
 force after the safety layer. Only objects of planar curves (the pantograph is 2-DoF).
 
 Plot (--plot, PNG): normal, friction and total force magnitude against time over coloured
@@ -263,8 +266,8 @@ Exit status:
   1  the run log or the plot could not be written
   2  bad command line (--rate-hz must be finite and > 0), unreadable or invalid scene or
      trajectory (the message names the file and line), bad --object, or a trajectory whose
-     dimension does not match the object, or --device with an object of surfaces or a
-     trajectory that starts out of the device's reach
+     dimension does not match the object, or --device with an object of surfaces, a
+     trajectory that starts out of the device's reach, or a stiffness beyond the device
 
 Example:
   viewer sim scenes/examples.json --object 1 --trajectory press.csv --out run.csv --plot run.png

@@ -364,7 +364,47 @@ pub fn validate_device(
             name: o.name().to_owned(),
         });
     }
-    validate(scene, object, trajectory, rate_hz)
+    let ticks = validate(scene, object, trajectory, rate_hz)?;
+    // The controller's own checks (a stiffness beyond the device, among others) before the
+    // run, on the same setup `run_device` uses.
+    let o = &scene.objects()[object];
+    let curves = o.curve_views().ok_or_else(|| SimError::Surface {
+        index: object,
+        name: o.name().to_owned(),
+    })?;
+    let chain = Chain::new(&curves).map_err(|error| SimError::Chain {
+        index: object,
+        error,
+    })?;
+    device_controller(chain, o.material().friction_material(), rate_hz)?;
+    Ok(ticks)
+}
+
+/// The default device at `rate_hz` with `chain` and `material` loaded, the passivity
+/// controller on only when the material needs it (returned as the flag).
+fn device_controller<'a>(
+    chain: Chain<'a>,
+    material: FrictionMaterial,
+    rate_hz: f64,
+) -> Result<(Controller<Chain<'a>>, bool), SimError> {
+    let safety = SafetyConfig {
+        period_s: (1.0 / rate_hz) as f32,
+        ramp_time_s: DEVICE_RAMP_TIME_S,
+        ..SafetyConfig::default()
+    };
+    let mut controller: Controller<Chain<'a>> =
+        Controller::new(DeviceSpec::default(), safety).map_err(SimError::Controller)?;
+    let passivity_control = match controller.load_scene(chain, material, false) {
+        Ok(()) => false,
+        Err(ControllerError::Passivity(_)) => {
+            controller
+                .load_scene(chain, material, true)
+                .map_err(SimError::Controller)?;
+            true
+        }
+        Err(e) => return Err(SimError::Controller(e)),
+    };
+    Ok((controller, passivity_control))
 }
 
 /// The closed loop: object `object` of `scene` (planar curves only) on the default
@@ -374,9 +414,11 @@ pub fn validate_device(
 /// The controller calibrates on the end stops, enables forces (ramping in over
 /// [`DEVICE_RAMP_TIME_S`]), gets a heartbeat every tick and renders the object's material,
 /// with the passivity controller on when the material is stiffer than the device renders
-/// passively ([`DeviceRun::passivity_control`]). Each tick the controller reads the
-/// simulated encoders, and the simulated pantograph then moves for one period under the
-/// controller's currents and the hand. The ticks' HIP and HIP velocity are the handle's
+/// passively ([`DeviceRun::passivity_control`]); a material stiffer than the device renders
+/// even with it is refused ([`ControllerError::BeyondDevice`], naming the limit). Each tick
+/// the controller reads the simulated encoders (on a clock of whole microseconds since the
+/// start), and the simulated pantograph then moves for one period under the controller's
+/// currents and the hand. The ticks' HIP and HIP velocity are the handle's
 /// true ones (not the target's), `force` the force after the safety layer, the other
 /// rendering fields the renderer's. `progress(done, total)` is called after every tick.
 pub fn run_device(
@@ -401,23 +443,7 @@ pub fn run_device(
 
     let spec = DeviceSpec::default();
     let period_s = (1.0 / rate_hz) as f32;
-    let safety = SafetyConfig {
-        period_s,
-        ramp_time_s: DEVICE_RAMP_TIME_S,
-        ..SafetyConfig::default()
-    };
-    let mut controller: Controller<Chain<'_>> =
-        Controller::new(spec, safety).map_err(SimError::Controller)?;
-    let passivity_control = match controller.load_scene(material, false) {
-        Ok(()) => false,
-        Err(ControllerError::Passivity(_)) => {
-            controller
-                .load_scene(material, true)
-                .map_err(SimError::Controller)?;
-            true
-        }
-        Err(e) => return Err(SimError::Controller(e)),
-    };
+    let (mut controller, passivity_control) = device_controller(chain, material, rate_hz)?;
     // The counts the encoders read with both joints resting on their end stops.
     let per_rad = spec.counts_per_joint_rad();
     let stops = [0, 1].map(|i| {
@@ -432,10 +458,11 @@ pub fn run_device(
     let mut ticks = Vec::with_capacity(n);
     for i in 0..n {
         let t_s = trajectory.tick_time_s(i, rate_hz);
-        let now_s = t_s as f32;
+        // The device clock: integer microseconds since the start, as a board's timer.
+        let now_us = (i as f64 * 1e6 / rate_hz).round() as u64;
         let (hip, hip_velocity) = arm.hip().map_err(|error| SimError::Arm { t_s, error })?;
-        controller.heartbeat(now_s);
-        let out = controller.tick(Some(&chain), arm.encoder_counts(), now_s);
+        controller.heartbeat();
+        let out = controller.tick(arm.encoder_counts(), now_us);
         ticks.push(device_record(t_s, hip, hip_velocity, &out));
         arm.step(out.currents_a, vec2(trajectory.at(t_s)), period_s)
             .map_err(|error| SimError::Arm { t_s, error })?;

@@ -7,11 +7,12 @@
 //! virtual hand, and sends one telemetry frame. Every accepted frame is acked (rejected ones
 //! nacked); a hello is also answered with the device's hello, a heartbeat with a status.
 //!
-//! The thread owns the decoded [`SceneStore`]; the controller borrows the object each tick,
-//! so the chain views are built once per scene and the controller is
-//! [rebound](Controller::rebind) to them after every swap. The first object of the scene is
-//! rendered, when it is a chain of planar curves (the pantograph is planar: surfaces are
-//! accepted but render nothing).
+//! The thread owns the decoded [`SceneStore`]; the controller holds the chain, a view of it,
+//! for one scene: at every swap the controller is [rebound](Controller::rebind) (dropping the
+//! old view), the stores are swapped and the new chain is loaded. The device clock is the
+//! tick count times the period in integer microseconds, as a board's timer. The first object
+//! of the scene is rendered, when it is a chain of planar curves (the pantograph is planar:
+//! surfaces are accepted but render nothing).
 
 use std::sync::mpsc::{self, Receiver, RecvTimeoutError, Sender, SyncSender, TryRecvError};
 use std::thread::JoinHandle;
@@ -21,7 +22,7 @@ use nurbs::{Curve, Vec2};
 use tracker::Chain;
 
 use super::{Link, LinkError, Sequencer, software_version};
-use crate::controller::Controller;
+use crate::controller::{Controller, ControllerError};
 use crate::protocol::{
     Frame, Hello, MAX_FRAME, MAX_PAYLOAD, Message, SceneReceiver, SceneStore, Status,
 };
@@ -222,36 +223,33 @@ impl SimDevice {
         let mut store = Box::new(SceneStore::new());
         let mut parked = controller;
         loop {
+            // The controller holds the chain, a view of `store`, for one epoch; rebinding it
+            // drops the view before the store is swapped.
             let curves = chain_curves(&store);
-            let chain = Chain::new(&curves).ok();
-            let mut active = parked.rebind();
-            let end = self.epoch(&mut active, chain.as_ref());
+            let mut active: Controller<Chain<'_>> = parked.rebind();
+            if let (Ok(chain), Some(material)) = (Chain::new(&curves), store.material(0))
+                && active
+                    .load_scene(chain, material, self.config.passivity_control)
+                    .is_err()
+            {
+                self.last_error = crate::protocol::ErrorCode::BadMaterial as u8;
+            }
+            let end = self.epoch(&mut active);
             parked = active.rebind();
             match end {
                 EpochEnd::Stop => return,
-                EpochEnd::Swap => {
-                    std::mem::swap(&mut store, &mut self.scratch);
-                    let loaded = store
-                        .material(0)
-                        .map(|m| parked.load_scene(m, self.config.passivity_control));
-                    if !matches!(loaded, Some(Ok(()))) {
-                        parked.unload_scene();
-                    }
-                }
+                EpochEnd::Swap => std::mem::swap(&mut store, &mut self.scratch),
             }
         }
     }
 
-    fn now_s(&self) -> f32 {
-        (self.tick as f64 * f64::from(self.config.safety.period_s)) as f32
+    /// The device clock (µs): ticks times the period, as a board's timer would read.
+    fn now_us(&self) -> u64 {
+        self.tick.saturating_mul(self.config.safety.period_us())
     }
 
     /// Ticks on the current scene until a new one is committed or the host leaves.
-    fn epoch<'a>(
-        &mut self,
-        controller: &mut Controller<Chain<'a>>,
-        chain: Option<&Chain<'a>>,
-    ) -> EpochEnd {
+    fn epoch(&mut self, controller: &mut Controller<Chain<'_>>) -> EpochEnd {
         let period_s = self.config.safety.period_s;
         loop {
             loop {
@@ -267,8 +265,7 @@ impl SimDevice {
                 }
             }
             let begun = Instant::now();
-            let now_s = self.now_s();
-            let mut out = controller.tick(chain, self.arm.encoder_counts(), now_s);
+            let mut out = controller.tick(self.arm.encoder_counts(), self.now_us());
             // An arm driven into a singular pose stays there, as a real one on its stops.
             let _ = self.arm.step(out.currents_a, self.hand_target, period_s);
             out.telemetry.tick_us = u16::try_from(begun.elapsed().as_micros()).unwrap_or(u16::MAX);
@@ -309,7 +306,7 @@ impl SimDevice {
                 max_payload: MAX_PAYLOAD as u8,
             }))?,
             Message::Heartbeat { .. } => {
-                controller.heartbeat(self.now_s());
+                controller.heartbeat();
                 let status = Status {
                     forces_enabled: controller.forces_enabled(),
                     calibrated: controller.is_calibrated(),
@@ -331,8 +328,12 @@ impl SimDevice {
                 object: 0,
                 material,
             } => {
-                let loaded = controller.load_scene(material, self.config.passivity_control);
-                if loaded.is_err() {
+                // Without a scene there is nothing to set (the next upload brings its own).
+                let loaded = controller.set_material(material, self.config.passivity_control);
+                if matches!(
+                    loaded,
+                    Err(ControllerError::Passivity(_) | ControllerError::BeyondDevice(_))
+                ) {
                     self.last_error = crate::protocol::ErrorCode::BadMaterial as u8;
                 }
             }
