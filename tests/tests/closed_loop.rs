@@ -211,11 +211,21 @@ fn stiffness_sweep_renders_or_refuses_and_never_chatters() {
             ..SimParams::default()
         },
     ];
+    // The trajectory's own entries into the object: the prescribed path, without a device.
+    let dir = concat!(env!("CARGO_MANIFEST_DIR"), "/../scenes/");
+    let scene = Scene::load(format!("{dir}thesis-2d.json")).unwrap();
+    let traj = Trajectory::load(format!("{dir}thesis-2d.csv")).unwrap();
+    let prescribed = viewer::sim::run(&scene, 0, &traj, 1000.0, |_, _| {}).unwrap();
+    let entries = prescribed
+        .ticks
+        .windows(2)
+        .filter(|w| w[0].mode == Mode::Free && w[1].mode != Mode::Free)
+        .count();
+    assert_eq!(entries, 2);
     for hand in hands {
-        // The trajectory's own contacts: the softest wall, passive without help.
-        let (reversals, entries, _) = chatter(&stiffness_run(500.0, hand).unwrap());
+        // The softest wall, passive without help, never reverses the force.
+        let (reversals, _, _) = chatter(&stiffness_run(500.0, hand).unwrap());
         assert_eq!(reversals, 0);
-        assert!(entries >= 1);
         for k in [
             500.0, 1e3, 2e3, 3e3, 4e3, 4.9e3, 5e3, 1e4, 3e4, 1e5, 3e5, 1e6,
         ] {
@@ -229,13 +239,14 @@ fn stiffness_sweep_renders_or_refuses_and_never_chatters() {
                     // Free space: the commanded force is exactly zero, the mechanism's own
                     // damping is all the user feels.
                     assert_eq!(free_force, 0.0, "{label}: force in free space");
-                    // No sustained oscillation: at most one bounce per entry of the
-                    // trajectory (a limit cycle over the ~1 s of contact would bounce or
-                    // reverse hundreds of times, as before this limit: 189-251 reversals and
-                    // 140-182 contacts at K >= 1e5 N/m), and the object is felt at every
-                    // entry.
+                    // No sustained oscillation: at most two bounces per entry of the
+                    // trajectory (a soft grip meeting a wall near the limit bounces off it on
+                    // impact and on release; a limit cycle over the ~1 s of contact would
+                    // bounce or reverse hundreds of times, as before this limit: 189-251
+                    // reversals and 140-182 contacts at K >= 1e5 N/m), and the object is felt
+                    // at every entry.
                     assert!(
-                        (entries..=2 * entries).contains(&contacts),
+                        (entries..=3 * entries).contains(&contacts),
                         "{label}: {contacts} contacts for {entries} entries"
                     );
                     assert!(

@@ -8,4 +8,5 @@ pub mod eval;
 pub mod plot;
 pub mod scene;
 pub mod sim;
+pub mod stribeck;
 pub mod trajectory;

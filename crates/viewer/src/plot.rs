@@ -21,7 +21,7 @@ use crate::sim::{Run, Tick};
 pub const DEFAULT_SIZE: (u32, u32) = (1400, 900);
 
 /// The font family name the plots use; registered on first use.
-const FONT: &str = "sans-serif";
+pub(crate) const FONT: &str = "sans-serif";
 
 /// Why a plot could not be written.
 #[derive(Debug, thiserror::Error)]
@@ -57,7 +57,7 @@ pub fn mode_colour(mode: Mode) -> RGBColor {
 
 const MODES: [Mode; 4] = [Mode::Free, Mode::Stuck, Mode::Transition, Mode::Slip];
 
-fn register() -> Result<(), PlotError> {
+pub(crate) fn load_font() -> Result<(), PlotError> {
     static REGISTERED: OnceLock<bool> = OnceLock::new();
     let ok = *REGISTERED.get_or_init(|| {
         register_font(FONT, FontStyle::Normal, epaint_default_fonts::HACK_REGULAR).is_ok()
@@ -68,7 +68,7 @@ fn register() -> Result<(), PlotError> {
 /// Writes the plot of `run` to a PNG file of `size` pixels.
 pub fn write_png(run: &Run, path: impl AsRef<Path>, size: (u32, u32)) -> Result<(), PlotError> {
     let path = path.as_ref();
-    register()?;
+    load_font()?;
     if run.ticks.is_empty() {
         return Err(PlotError::Empty {
             path: path.to_owned(),

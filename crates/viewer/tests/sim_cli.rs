@@ -95,8 +95,8 @@ fn run_log_and_plot() {
     let pressed = &rows[50];
     assert_eq!(pressed[0], "0.1");
     assert_eq!((pressed[7], pressed[8]), ("0", "stuck"));
-    let depth: f64 = pressed[9].parse().expect("depth");
-    let normal: f64 = pressed[10].parse().expect("normal force");
+    let depth: f64 = pressed[10].parse().expect("depth");
+    let normal: f64 = pressed[11].parse().expect("normal force");
     assert!((depth - 0.002).abs() < 1e-6, "{depth}");
     assert!((normal - 2.0).abs() < 1e-3, "{normal}");
     let modes: Vec<&str> = rows.iter().map(|r| r[8]).collect();

@@ -1,0 +1,189 @@
+//! The Stribeck curve the stick–slip renderer actually produces: μ against the god-object's
+//! slip speed, measured by sliding a HIP over a flat floor at a range of hand speeds, and its
+//! plot (`docs/figures/stribeck.png`, written by `cargo run -p viewer --example stribeck`).
+
+use std::path::Path;
+
+use friction::{FrictionMaterial, FrictionRenderer, Mode};
+use nurbs::{Vec2, construct};
+use plotters::prelude::*;
+use tracker::Chain;
+
+use crate::plot::PlotError;
+
+/// One slide: the hand's speed and, for every tick from breakaway on, the time since
+/// breakaway (s), the slip speed (m/s) and μ.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Slide {
+    /// The hand's speed along the floor (m/s).
+    pub hand_speed_m_per_s: f32,
+    /// `(t since breakaway, slip speed, μ)`, one per tick while not stuck.
+    pub samples: Vec<(f32, f32, f32)>,
+}
+
+/// Presses 2 mm into a flat floor and slides along it at each of `speeds` (m/s) for 0.4 s
+/// after breakaway, at 1 kHz, with `material`.
+pub fn sweep(material: FrictionMaterial, speeds: &[f32]) -> Vec<Slide> {
+    let t = 1e-3f32;
+    let Ok(floor) = construct::line(Vec2::new(0.2, 0.08), Vec2::new(-0.2, 0.08)) else {
+        return Vec::new();
+    };
+    let views = [floor.view()];
+    let Ok(chain) = Chain::new(&views) else {
+        return Vec::new();
+    };
+    speeds
+        .iter()
+        .map(|&v| {
+            let press = (0..100).map(|k| Vec2::new(0.0, 0.085 - 0.007 * k as f32 / 100.0));
+            // Breakaway needs μ_s × 2 mm of slide; then 0.4 s more.
+            let slide_ticks = (material.mu_static * 0.002 / (v * t)) as usize + 400;
+            let slide = (0..slide_ticks).map(|k| Vec2::new(v * t * k as f32, 0.078));
+            let mut r = FrictionRenderer::new(&chain, material, Vec2::new(0.0, 0.085), t);
+            let mut prev = Vec2::new(0.0, 0.085);
+            let mut breakaway: Option<usize> = None;
+            let mut samples = Vec::new();
+            for (k, x) in press.chain(slide).enumerate() {
+                let o = r.tick(&chain, x, (x - prev) / t, t);
+                prev = x;
+                if breakaway.is_none() && o.mode == Mode::Transition {
+                    breakaway = Some(k);
+                }
+                if let Some(b) = breakaway.filter(|_| o.mode != Mode::Stuck) {
+                    samples.push(((k - b) as f32 * t, o.slip_speed_m_per_s, o.mu));
+                }
+            }
+            Slide {
+                hand_speed_m_per_s: v,
+                samples,
+            }
+        })
+        .collect()
+}
+
+/// Writes the sweep as a PNG: μ against slip speed (left) over the material's nominal curve,
+/// and μ against time since breakaway (right).
+pub fn write_png(
+    path: impl AsRef<Path>,
+    material: &FrictionMaterial,
+    slides: &[Slide],
+) -> Result<(), PlotError> {
+    let path = path.as_ref();
+    crate::plot::load_font()?;
+    let draw_error = |e: &dyn std::fmt::Display| PlotError::Draw {
+        path: path.to_owned(),
+        message: e.to_string(),
+    };
+    let root = BitMapBackend::new(path, (1400, 600)).into_drawing_area();
+    draw(&root, material, slides).map_err(|e| draw_error(&e))?;
+    root.present().map_err(|e| draw_error(&e))?;
+    Ok(())
+}
+
+type DrawResult<T> = Result<T, Box<dyn std::error::Error>>;
+
+fn draw(
+    root: &DrawingArea<BitMapBackend<'_>, plotters::coord::Shift>,
+    m: &FrictionMaterial,
+    slides: &[Slide],
+) -> DrawResult<()> {
+    let font = crate::plot::FONT;
+    root.fill(&WHITE)?;
+    let title = format!(
+        "stick-slip transition: \u{3bc}s = {}, \u{3bc}d = {}, Stribeck speed {} mm/s, lag \u{3c4} = {} ms, depth 2 mm",
+        m.mu_static,
+        m.mu_dynamic,
+        m.stribeck_speed_m_per_s * 1e3,
+        m.transition_time_s * 1e3
+    );
+    let root = root.titled(&title, (font, 20))?;
+    let (left, right) = root.split_horizontally(700);
+    let v_max = 2.0 * f64::from(m.stribeck_speed_m_per_s) * 1e3;
+    let mu_range = f64::from(m.mu_dynamic) - 0.02..f64::from(m.mu_static) + 0.02;
+    let colour = |i: usize| Palette99::pick(i).to_rgba();
+
+    let mut chart = ChartBuilder::on(&left)
+        .margin(12)
+        .x_label_area_size(40)
+        .y_label_area_size(60)
+        .caption("\u{3bc} against the GO's slip speed", (font, 18))
+        .build_cartesian_2d(0.0..v_max, mu_range.clone())?;
+    chart
+        .configure_mesh()
+        .x_desc("slip speed (mm/s)")
+        .y_desc("\u{3bc}")
+        .label_style((font, 14))
+        .draw()?;
+    let nominal: Vec<(f64, f64)> = (0..=200)
+        .map(|i| {
+            let v = v_max * f64::from(i) / 200.0;
+            let mu = m.stribeck.mu_at_speed(
+                m.mu_static,
+                m.mu_dynamic,
+                (v * 1e-3) as f32,
+                m.stribeck_speed_m_per_s,
+            );
+            (v, f64::from(mu))
+        })
+        .collect();
+    chart
+        .draw_series(LineSeries::new(nominal, BLACK.stroke_width(2)))?
+        .label("the material's curve \u{3bc}(v)")
+        .legend(|(x, y)| PathElement::new([(x, y), (x + 20, y)], BLACK.stroke_width(2)));
+    for (i, s) in slides.iter().enumerate() {
+        let pts: Vec<(f64, f64)> = s
+            .samples
+            .iter()
+            .map(|&(_, v, mu)| (f64::from(v) * 1e3, f64::from(mu)))
+            .filter(|p| p.0 <= v_max)
+            .collect();
+        let c = colour(i);
+        chart
+            .draw_series(pts.iter().map(|&p| Circle::new(p, 2, c.filled())))?
+            .label(format!("hand at {} mm/s", s.hand_speed_m_per_s * 1e3))
+            .legend(move |(x, y)| Circle::new((x + 10, y), 4, c.filled()));
+    }
+    chart
+        .configure_series_labels()
+        .label_font((font, 14))
+        .background_style(WHITE.mix(0.9))
+        .border_style(BLACK)
+        .draw()?;
+
+    let t_max = slides
+        .iter()
+        .flat_map(|s| s.samples.iter().map(|p| f64::from(p.0)))
+        .fold(0.1, f64::max)
+        .min(0.3);
+    let mut chart = ChartBuilder::on(&right)
+        .margin(12)
+        .x_label_area_size(40)
+        .y_label_area_size(60)
+        .caption("\u{3bc} after breakaway", (font, 18))
+        .build_cartesian_2d(0.0..t_max * 1e3, mu_range)?;
+    chart
+        .configure_mesh()
+        .x_desc("time since breakaway (ms)")
+        .y_desc("\u{3bc}")
+        .label_style((font, 14))
+        .draw()?;
+    for (i, s) in slides.iter().enumerate() {
+        let pts: Vec<(f64, f64)> = s
+            .samples
+            .iter()
+            .map(|&(t, _, mu)| (f64::from(t) * 1e3, f64::from(mu)))
+            .filter(|p| p.0 <= t_max * 1e3)
+            .collect();
+        chart
+            .draw_series(LineSeries::new(pts, colour(i).stroke_width(2)))?
+            .label(format!("hand at {} mm/s", s.hand_speed_m_per_s * 1e3))
+            .legend(move |(x, y)| PathElement::new([(x, y), (x + 20, y)], colour(i)));
+    }
+    chart
+        .configure_series_labels()
+        .label_font((font, 14))
+        .background_style(WHITE.mix(0.9))
+        .border_style(BLACK)
+        .draw()?;
+    Ok(())
+}
