@@ -142,17 +142,25 @@ pub trait BezierPiece<P: Point, const N: usize>: Clone + core::fmt::Debug {
 }
 
 /// Patches that split into rational Bézier pieces, one per non-empty knot interval.
-pub trait BezierSplit<const N: usize>: Patch<N> {
+pub trait BezierSplit<const N: usize>: Patch<N> + Copy {
     /// A piece.
     type Piece: BezierPiece<Self::P, N>;
 
     /// Number of knot intervals of the domain per direction, empty ones included
-    /// (`n_points − degree`).
+    /// (`n_points − degree` for a whole knot vector).
     fn interval_counts(&self) -> [usize; N];
 
-    /// The piece over knot interval `k` (interval `k` of a direction is `[U[p+k], U[p+k+1]]`);
-    /// `None` when that interval is empty or out of range.
+    /// The piece over knot interval `k` (interval `k` of a direction is `[U[f+k], U[f+k+1]]`
+    /// with `f` the index of the domain's first knot, `p` for a whole knot vector); `None`
+    /// when that interval is empty or out of range.
     fn bezier_piece(&self, k: [usize; N]) -> Option<Self::Piece>;
+
+    /// The smooth region that holds knot interval `k`: the piece of the patch between its C⁰
+    /// breaks (interior knots of multiplicity ≥ the degree: corners of a curve, creases of a
+    /// surface), as a window onto the patch whose evaluation at its ends is one-sided. The
+    /// polish runs inside it, so that it never steps across a crease, where the derivatives
+    /// jump. The patch itself when it has no such knot.
+    fn region(&self, k: [usize; N]) -> Self;
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -363,7 +371,7 @@ impl<P: Point> BezierSplit<1> for Curve<'_, P> {
     type Piece = CurvePiece<P>;
 
     fn interval_counts(&self) -> [usize; 1] {
-        [self.points().len() - self.degree()]
+        [self.knots().span_indices().len()]
     }
 
     fn bezier_piece(&self, k: [usize; 1]) -> Option<CurvePiece<P>> {
@@ -372,7 +380,7 @@ impl<P: Point> BezierSplit<1> for Curve<'_, P> {
         if k[0] >= self.interval_counts()[0] {
             return None;
         }
-        let s = p + k[0];
+        let s = self.knots().span_indices().start + k[0];
         let (a, b) = (knots[s], knots[s + 1]);
         if a >= b {
             return None;
@@ -384,6 +392,13 @@ impl<P: Point> BezierSplit<1> for Curve<'_, P> {
             degree: p,
             range: (a, b),
         })
+    }
+
+    fn region(&self, k: [usize; 1]) -> Self {
+        let s = self.knots().span_indices().start + k[0];
+        self.c0_pieces()
+            .find(|c| c.knots().span_indices().contains(&s))
+            .unwrap_or(*self)
     }
 }
 
@@ -536,20 +551,22 @@ impl BezierSplit<2> for Surface<'_> {
     type Piece = SurfacePiece;
 
     fn interval_counts(&self) -> [usize; 2] {
-        let (nu, nv) = self.counts();
-        let (p, q) = self.degree();
-        [nu - p, nv - q]
+        let (ku, kv) = self.knots();
+        [ku.span_indices().len(), kv.span_indices().len()]
     }
 
     fn bezier_piece(&self, k: [usize; 2]) -> Option<SurfacePiece> {
         let (p, q) = self.degree();
-        let (ku, kv) = self.knots();
-        let (ku, kv) = (ku.as_slice(), kv.as_slice());
+        let (knots_u, knots_v) = self.knots();
+        let (ku, kv) = (knots_u.as_slice(), knots_v.as_slice());
         let counts = self.interval_counts();
         if k[0] >= counts[0] || k[1] >= counts[1] {
             return None;
         }
-        let (su, sv) = (p + k[0], q + k[1]);
+        let (su, sv) = (
+            knots_u.span_indices().start + k[0],
+            knots_v.span_indices().start + k[1],
+        );
         let (ua, ub, va, vb) = (ku[su], ku[su + 1], kv[sv], kv[sv + 1]);
         if !(ua < ub && va < vb) {
             return None;
@@ -578,20 +595,51 @@ impl BezierSplit<2> for Surface<'_> {
             range: [(ua, ub), (va, vb)],
         })
     }
+
+    fn region(&self, k: [usize; 2]) -> Self {
+        let (ku, kv) = self.knots();
+        let (su, sv) = (
+            ku.span_indices().start + k[0],
+            kv.span_indices().start + k[1],
+        );
+        let pu = ku.c0_pieces().find(|w| w.span_indices().contains(&su));
+        let pv = kv.c0_pieces().find(|w| w.span_indices().contains(&sv));
+        match (pu, pv) {
+            (Some(pu), Some(pv)) => self.window(pu, pv).unwrap_or(*self),
+            _ => *self,
+        }
+    }
 }
 
 // ---------------------------------------------------------------------------------------------
 // The search
 // ---------------------------------------------------------------------------------------------
 
-/// The patch with its periodicity computed once: every polish asks for it, and a
-/// surface answers by sampling its boundary.
-struct Cached<'s, S, const N: usize> {
-    patch: &'s S,
+/// A smooth region of the patch (see [`BezierSplit::region`]) with its periodicity: every
+/// polish asks for it, and a surface answers by sampling its boundary, so it is computed once
+/// for the whole patch and inherited by the regions that span a whole closed direction.
+#[derive(Clone, Copy)]
+struct Cached<S, const N: usize> {
+    patch: S,
     periodic: [bool; N],
 }
 
-impl<S: Patch<N>, const N: usize> Patch<N> for Cached<'_, S, N> {
+impl<S: Patch<N>, const N: usize> Cached<S, N> {
+    /// `region` of a patch whose own periodicity is `whole` over `domain`.
+    fn new(region: S, whole: [bool; N], domain: [(f32, f32); N]) -> Self {
+        let mut periodic = whole;
+        let d = region.domain();
+        for i in 0..N {
+            periodic[i] &= d[i] == domain[i];
+        }
+        Cached {
+            patch: region,
+            periodic,
+        }
+    }
+}
+
+impl<S: Patch<N>, const N: usize> Patch<N> for Cached<S, N> {
     type P = S::P;
 
     fn domain(&self) -> [(f32, f32); N] {
@@ -624,11 +672,18 @@ impl<S: Patch<N>, const N: usize> Patch<N> for Cached<'_, S, N> {
 }
 
 struct Search<'s, S: BezierSplit<N>, const N: usize> {
-    patch: Cached<'s, S, N>,
+    patch: &'s S,
+    /// Periodicity and domain of the whole patch.
+    periodic: [bool; N],
+    domain: [(f32, f32); N],
+    /// The smooth region of the root piece being searched: polishes run inside it.
+    region: Cached<S, N>,
     x: S::P,
     cfg: GlobalConfig,
     max_depth: u32,
     best_t: [f32; N],
+    /// The region `best_t` was found in (its final polish stays there).
+    best_region: Cached<S, N>,
     best_d2: f32,
     /// `√best_d2`, kept for the pruning test.
     best_d: f32,
@@ -637,6 +692,11 @@ struct Search<'s, S: BezierSplit<N>, const N: usize> {
 }
 
 impl<S: BezierSplit<N>, const N: usize> Search<'_, S, N> {
+    /// The region of knot interval `k`, with its periodicity.
+    fn region_of(&self, k: [usize; N]) -> Cached<S, N> {
+        Cached::new(self.patch.region(k), self.periodic, self.domain)
+    }
+
     /// Takes `point` as the best if it is closer, or (`polished`) as close: a polished point
     /// wins a tie against a corner, whose distance can agree to the last bit while its parameter
     /// is off the stationary point.
@@ -646,6 +706,7 @@ impl<S: BezierSplit<N>, const N: usize> Search<'_, S, N> {
             self.best_d2 = d2;
             self.best_d = libm::sqrtf(d2);
             self.best_t = t;
+            self.best_region = self.region;
         }
     }
 
@@ -657,16 +718,17 @@ impl<S: BezierSplit<N>, const N: usize> Search<'_, S, N> {
     }
 
     fn polish(&mut self, t0: [f32; N]) {
-        let (t, point) = self.run_polish(t0);
+        let region = self.region;
+        let (t, point) = self.run_polish(&region, t0);
         self.offer(t, point, true);
     }
 
-    /// [`projected_newton`] from `t0` (out of line: its state must not sit in every frame of
-    /// the recursion).
+    /// [`projected_newton`] from `t0` inside `region` (out of line: its state must not sit in
+    /// every frame of the recursion).
     #[inline(never)]
-    fn run_polish(&mut self, t0: [f32; N]) -> ([f32; N], S::P) {
+    fn run_polish(&mut self, region: &Cached<S, N>, t0: [f32; N]) -> ([f32; N], S::P) {
         self.polishes = self.polishes.saturating_add(1);
-        projected_newton(&self.patch, self.x, t0, &self.cfg.newton)
+        projected_newton(region, self.x, t0, &self.cfg.newton)
     }
 
     /// Pass 1: every piece's corners for a first upper bound; returns the (flat index of the)
@@ -676,7 +738,9 @@ impl<S: BezierSplit<N>, const N: usize> Search<'_, S, N> {
     fn survey(&mut self, counts: &[usize; N], total: usize) -> Option<usize> {
         let mut nearest: Option<(usize, f32)> = None;
         for flat in 0..total {
-            if let Some(piece) = self.patch.patch.bezier_piece(unflatten(flat, counts)) {
+            let k = unflatten(flat, counts);
+            if let Some(piece) = self.patch.bezier_piece(k) {
+                self.region = self.region_of(k);
                 for k in 0..1usize << N {
                     if let Some((t, point)) = piece.corner(k) {
                         self.offer(t, point, false);
@@ -695,8 +759,9 @@ impl<S: BezierSplit<N>, const N: usize> Search<'_, S, N> {
     #[inline(never)]
     fn root(&mut self, k: [usize; N]) {
         // Recursing on the piece inside the option (not a copy of it) keeps one piece here.
-        let mut slot = self.patch.patch.bezier_piece(k);
+        let mut slot = self.patch.bezier_piece(k);
         if let Some(piece) = slot.as_mut() {
+            self.region = self.region_of(k);
             let bb = piece.bounding_box();
             self.descend(piece, bb, 0, false);
         }
@@ -1010,15 +1075,18 @@ pub fn closest_point<S: BezierSplit<N>, const N: usize>(
         };
     }
     let d2 = (patch.jet(start, 0).point - x).length_squared();
+    let periodic = patch.periodic(PERIODIC_TOL);
+    let first = Cached::new(patch.region([0; N]), periodic, domain);
     let mut search = Search {
-        patch: Cached {
-            patch,
-            periodic: patch.periodic(PERIODIC_TOL),
-        },
+        patch,
+        periodic,
+        domain,
+        region: first,
         x,
         cfg: *cfg,
         max_depth: u32::from(cfg.max_depth).min(S::Piece::MAX_DEPTH),
         best_t: start,
+        best_region: first,
         best_d2: d2,
         best_d: libm::sqrtf(d2),
         visited: 0,
@@ -1036,7 +1104,8 @@ pub fn closest_point<S: BezierSplit<N>, const N: usize>(
     // The final polish settles on the stationary point of the best basin. Near a minimum
     // the distance is flat, so a sample can beat the stationary point by rounding noise
     // alone; within the tolerance plus that noise, the polished point wins.
-    let (t_polished, point) = search.run_polish(search.best_t);
+    let best_region = search.best_region;
+    let (t_polished, point) = search.run_polish(&best_region, search.best_t);
     let scale = libm::sqrtf(x.length_squared()) + libm::sqrtf(point.length_squared());
     let slack = cfg.tolerance + 8.0 * f32::EPSILON * scale;
     let t = if libm::sqrtf((point - x).length_squared()) <= search.best_d + slack {
