@@ -223,6 +223,18 @@ impl<'a> Knots<'a> {
         })
     }
 
+    /// The window from the start of `self` to the end of `next`, when both are windows onto
+    /// the same knot vector and `next` starts where `self` ends (consecutive
+    /// [`Self::c0_pieces`]); `None` otherwise.
+    pub fn extend_to(&self, next: Knots<'a>) -> Option<Knots<'a>> {
+        let same = core::ptr::eq(self.knots, next.knots) && self.degree == next.degree;
+        (same && next.first >= self.last && self.knots[self.last] == self.knots[next.first])
+            .then_some(Knots {
+                last: next.last,
+                ..*self
+            })
+    }
+
     /// The window onto the single non-empty span `i` (`knots[i] < knots[i + 1]`, inside the
     /// domain or window), or `None`.
     pub fn span_window(&self, i: usize) -> Option<Knots<'a>> {

@@ -15,6 +15,7 @@ mod patch;
 #[cfg(feature = "alloc")]
 mod polygon;
 mod shell;
+mod split;
 mod track;
 
 pub use chain::{
