@@ -163,3 +163,46 @@ fn hip_resting_above_the_ridge_settles_on_the_edge() {
         assert!(c.normal.angle_between(a).to_degrees() < 1e-3);
     }
 }
+
+/// Full-multiplicity knots where the patch does not turn are not split: the rational circle
+/// has double knots at its quarter points and the sphere of revolution double knot lines along
+/// its quarter meridians and parallels, all tangent continuous (the exact constructions of The
+/// NURBS Book §7.5, §8.5).
+#[test]
+fn tangent_continuous_full_multiplicity_knots_stay_whole() {
+    let circle = nurbs::construct::circle(Vec2::new(0.0, 0.09), 0.03).unwrap();
+    let k = circle.view().knots();
+    // Precondition: the construction really has interior C⁰ knots.
+    assert!(k.c0_pieces().count() > 1);
+    let views = [circle.view()];
+    let chain = Chain::new(&views).unwrap();
+    assert_eq!(chain.curves().len(), 1);
+    assert_eq!(chain.curves()[0], circle.view());
+
+    let sphere = nurbs::construct::sphere(Vec3::new(0.0, 0.09, 0.0), 0.03).unwrap();
+    assert!(sphere.view().c0_pieces().count() > 1);
+    let views = [sphere.view()];
+    let shell = Shell::new(&views).unwrap();
+    assert_eq!(shell.patches().len(), 1);
+}
+
+/// A rational roof: the same legs with the apex control point's neighbours weighted, so the
+/// legs are conic arcs (still meeting at a corner, the double knot). The chain splits there,
+/// and a HIP above the apex settles on the vertex with the exact vertex normal.
+#[test]
+fn rational_roof_apex_is_a_vertex() {
+    let w = [1.0, 3.0, 1.0, 0.4, 1.0];
+    let c = CurveBuf::from_cartesian(2, ROOF_KNOTS.to_vec(), &ROOF, Some(&w)).unwrap();
+    let views = [c.view()];
+    let chain = Chain::new(&views).unwrap();
+    assert_eq!(chain.curves().len(), 2);
+    assert_eq!(chain.vertices()[1].kind, VertexKind::Convex);
+    let hip = APEX + Vec2::new(0.0, 0.0004);
+    let mut tr = ChainTracker::new(&chain, hip, TrackerConfig::default());
+    let contacts: Vec<_> = (0..100).map(|_| tr.update(&chain, hip, T, true)).collect();
+    for c in &contacts[5..] {
+        assert_eq!(c.feature, Feature::Vertex(1));
+        assert!((c.point - APEX).length() <= 1e-8);
+        assert!(angle_deg(c.normal, Vec2::Y).abs() < 1e-3);
+    }
+}
