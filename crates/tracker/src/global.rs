@@ -62,6 +62,9 @@ use nurbs::{Aabb, Curve, MAX_ORDER, Point, Surface, Vec3, Vec4};
 pub struct GlobalConfig {
     /// Distance tolerance (metres). A piece is pruned unless it could hold a point closer than
     /// the best so far by more than this, and a piece smaller than this is not split further.
+    /// The search uses the smaller of this and [`RELATIVE_TOLERANCE`] times the diagonal of the
+    /// patch's control box (and likewise for the polish's `point_tol`), so that the lower bound
+    /// proves the answer to `f32` precision relative to the patch's size, whatever its scale.
     pub tolerance: f32,
     /// The first piece on a branch whose control box diagonal is at most this fraction of the
     /// best distance so far is polished from its middle: at that size the piece usually holds
@@ -73,6 +76,11 @@ pub struct GlobalConfig {
     /// Tolerances (P&T eq. 6.4–6.5) and iteration cap of each polish.
     pub newton: NewtonConfig,
 }
+
+/// The relative part of [`GlobalConfig::tolerance`]: 8 ε₃₂, a few roundings of a coordinate of
+/// the patch's size (de Boor evaluation of a point is accurate to a few ε |P|max, so a finer
+/// proof would only compare rounding noise).
+pub const RELATIVE_TOLERANCE: f32 = 8.0 * f32::EPSILON;
 
 impl Default for GlobalConfig {
     fn default() -> Self {
@@ -1075,6 +1083,13 @@ pub fn closest_point<S: BezierSplit<N>, const N: usize>(
         };
     }
     let d2 = (patch.jet(start, 0).point - x).length_squared();
+    let bb = patch.bounding_box();
+    let size = libm::sqrtf((bb.max - bb.min).length_squared());
+    let mut cfg = *cfg;
+    // `min` keeps the configured value for a NaN size (a patch beyond f32).
+    cfg.tolerance = cfg.tolerance.min(RELATIVE_TOLERANCE * size);
+    cfg.newton.point_tol = cfg.newton.point_tol.min(RELATIVE_TOLERANCE * size);
+    let cfg = &cfg;
     let periodic = patch.periodic(PERIODIC_TOL);
     let first = Cached::new(patch.region([0; N]), periodic, domain);
     let mut search = Search {

@@ -1047,3 +1047,50 @@ fn pieces_visited_on_a_bicubic_8x8_surface() {
         "mean {mean}, max {max_visited}"
     );
 }
+
+/// The search proves its answer to f32 precision relative to the patch's size: scaling a
+/// patch and the query by a power of two (exact in binary floating point) scales every
+/// distance exactly, so the search must do exactly the same work and return the same
+/// parameters. With an absolute tolerance alone, small patches were searched more loosely.
+#[test]
+fn search_is_scale_invariant() {
+    let n = 8;
+    let k: Vec<f32> = [0.0, 0.0, 0.0, 0.0, 0.2, 0.4, 0.6, 0.8, 1.0, 1.0, 1.0, 1.0].to_vec();
+    let net = |scale: f32| -> SurfaceBuf {
+        let rows: Vec<Vec<Vec3>> = (0..n)
+            .map(|i| {
+                (0..n)
+                    .map(|j| {
+                        let (x, y) = (i as f32 / 7.0, j as f32 / 7.0);
+                        let z = 0.02 * ((7.0 * x).sin() * (5.0 * y).cos());
+                        Vec3::new(0.1 * x - 0.05, 0.05 + 0.1 * y, z) * scale
+                    })
+                    .collect()
+            })
+            .collect();
+        SurfaceBuf::from_rows::<_, &[f32]>((3, 3), (k.clone(), k.clone()), &rows, None).unwrap()
+    };
+    // The net's control box has a diagonal of about 0.15 m: from scale ½ down, the relative
+    // tolerance (8 ε₃₂ × diagonal ≤ 7·10⁻⁸ m) is below the absolute default (10⁻⁷ m).
+    let scales = [0.5f32, 0.125, 1.0 / 64.0];
+    let bufs: Vec<_> = scales.iter().map(|&s| net(s)).collect();
+    let mut rng = Rng(11);
+    for _ in 0..200 {
+        let x = f3([
+            rng.range(-0.07, 0.07),
+            rng.range(0.03, 0.17),
+            rng.range(-0.04, 0.04),
+        ]);
+        let base = closest_point(&bufs[0].view(), x * scales[0], &cfg());
+        for (buf, &s) in bufs.iter().zip(&scales).skip(1) {
+            let got = closest_point(&buf.view(), x * s, &cfg());
+            let r = s / scales[0];
+            assert_eq!(got.t, base.t, "scale {s}, query {x:?}");
+            assert_eq!(got.distance_squared, base.distance_squared * r * r);
+            assert_eq!(
+                (got.pieces_visited, got.polishes),
+                (base.pieces_visited, base.polishes)
+            );
+        }
+    }
+}
