@@ -1,17 +1,4 @@
-//! Dev-only test support for the workspace: the one independent `f64` NURBS reference.
-//!
-//! - Evaluation straight from the definition: the Cox–de Boor recursion (The NURBS Book
-//!   eq. 2.5), its derivative (eq. 2.10) and the quotient rule for the rational form, on the
-//!   exact values a crate view stores (`f32` knots and homogeneous points, widened
-//!   losslessly). It shares no code with the `nurbs` crate's triangular algorithms
-//!   (A2.2/A2.3/A3.2/A4.2); `nurbs` is a dependency only for the types it reads data from and
-//!   the owned buffers the strategies build.
-//! - Closest points by brute force: dense sampling polished by an `f64` Newton iteration,
-//!   over the whole patch, or per Bézier piece (with the piece's boundary curves and corners)
-//!   for patches that are only C⁰ at some knots.
-//! - Central differences, knot-vector facts, small linear algebra.
-//! - `proptest` strategies: random valid curves and surfaces (creases included), random convex
-//!   curves and domes inside the pantograph workspace.
+#![doc = include_str!("../README.md")]
 #![allow(clippy::unwrap_used)]
 
 use glam::{DVec3, Vec2, Vec3, Vec4};

@@ -26,10 +26,20 @@
 //!    when that is nearer than the middle: a leaf can straddle two minima). The best point
 //!    found is polished once more at the end, so that it satisfies the first-order condition.
 //!
-//! The polish is Newton's method on the whole patch as in [`newton`](crate::newton()), with
-//! Levenberg–Marquardt damping and bounds handled as an active set (see
-//! `projected_newton`): plain Newton with clamping can jump out of the basin a leaf samples,
-//! or stall on the boundary of the domain short of a minimum there.
+//! The polish is Newton's method as in [`newton`](crate::newton()), with Levenberg–Marquardt
+//! damping and bounds handled as an active set (see `projected_newton`): plain Newton with
+//! clamping can jump out of the basin a leaf samples, or stall on the boundary of the domain
+//! short of a minimum there. It runs inside the *smooth region* of the piece it starts from
+//! ([`BezierSplit::region`]: the part of the patch between interior knots of full
+//! multiplicity, a window whose evaluation at its ends is one-sided), never across a crease:
+//! there the derivatives jump, and a polish that crosses one settles on the wrong side (issue
+//! 11: 3.7 µm too far beside a knot of a bilinear patch). A minimum on a crease is then a
+//! minimum on the region's boundary, which the active set finds from either side, and corners
+//! of pieces are offered as they are. The final polish stays in the region of the best point.
+//! On a patch without such knots the region is the whole patch.
+//!
+//! The tolerance is relative to the patch's size ([`RELATIVE_TOLERANCE`]), capped by
+//! [`GlobalConfig::tolerance`]: the answer is proven to `f32` precision whatever the scale.
 //!
 //! # Cost
 //!
@@ -46,8 +56,9 @@
 //! [`SurfacePiece`]): ten levels of 1.2 KiB. Worst case for a surface, from the release
 //! build's frame sizes on thumbv7em: entry 0.4 KiB + root piece 1.1 KiB + 10 × 1.2 KiB + the
 //! polish at the deepest leaf (surface jet included) 2.0 KiB ≈ 15.5 KiB; measured on x86-64
-//! by stack painting, 15.7 KiB. A curve piece is 96 B (planar) or 128 B (spatial), the depth
-//! cap 16: about 7 KiB.
+//! by stack painting, 15.7 KiB (before the search kept its two region windows, about 0.2 KiB
+//! more in the entry frame; not re-measured). A curve piece is 96 B (planar) or 128 B
+//! (spatial), the depth cap 16: about 7 KiB.
 
 use core::ops::{Add, Mul};
 
