@@ -695,6 +695,8 @@ struct Search<'s, S: BezierSplit<N>, const N: usize> {
     /// Periodicity and domain of the whole patch.
     periodic: [bool; N],
     domain: [(f32, f32); N],
+    /// The patch has no C⁰ knots: every region is the whole patch.
+    smooth: bool,
     /// The smooth region of the root piece being searched: polishes run inside it.
     region: Cached<S, N>,
     x: S::P,
@@ -713,6 +715,12 @@ struct Search<'s, S: BezierSplit<N>, const N: usize> {
 impl<S: BezierSplit<N>, const N: usize> Search<'_, S, N> {
     /// The region of knot interval `k`, with its periodicity.
     fn region_of(&self, k: [usize; N]) -> Cached<S, N> {
+        if self.smooth {
+            return Cached {
+                patch: *self.patch,
+                periodic: self.periodic,
+            };
+        }
         Cached::new(self.patch.region(k), self.periodic, self.domain)
     }
 
@@ -751,11 +759,13 @@ impl<S: BezierSplit<N>, const N: usize> Search<'_, S, N> {
     }
 
     /// Pass 1: every piece's corners for a first upper bound; returns the (flat index of the)
-    /// piece nearest by its lower bound. Out of line, like [`Self::root`], so that the pieces
+    /// piece nearest by its lower bound, and the diagonal of the box of all pieces' control
+    /// points (the patch's size). Out of line, like [`Self::root`], so that the pieces
     /// it extracts do not sit in [`closest_point`]'s frame during the recursion.
     #[inline(never)]
-    fn survey(&mut self, counts: &[usize; N], total: usize) -> Option<usize> {
+    fn survey(&mut self, counts: &[usize; N], total: usize) -> (Option<usize>, f32) {
         let mut nearest: Option<(usize, f32)> = None;
+        let mut all: Option<Aabb<S::P>> = None;
         for flat in 0..total {
             let k = unflatten(flat, counts);
             if let Some(piece) = self.patch.bezier_piece(k) {
@@ -765,13 +775,19 @@ impl<S: BezierSplit<N>, const N: usize> Search<'_, S, N> {
                         self.offer(t, point, false);
                     }
                 }
-                let lb = piece.lower_bound(self.x, &piece.bounding_box());
+                let bb = piece.bounding_box();
+                let lb = piece.lower_bound(self.x, &bb);
                 if nearest.is_none_or(|(_, best)| lb < best) {
                     nearest = Some((flat, lb));
                 }
+                all = Some(match all {
+                    Some(a) => a.include(bb.min).include(bb.max),
+                    None => bb,
+                });
             }
         }
-        nearest.map(|(flat, _)| flat)
+        let size = all.map_or(0.0, |a| libm::sqrtf((a.max - a.min).length_squared()));
+        (nearest.map(|(flat, _)| flat), size)
     }
 
     /// Branch and bound from the piece over knot interval `k`.
@@ -1094,19 +1110,13 @@ pub fn closest_point<S: BezierSplit<N>, const N: usize>(
         };
     }
     let d2 = (patch.jet(start, 0).point - x).length_squared();
-    let bb = patch.bounding_box();
-    let size = libm::sqrtf((bb.max - bb.min).length_squared());
-    let mut cfg = *cfg;
-    // `min` keeps the configured value for a NaN size (a patch beyond f32).
-    cfg.tolerance = cfg.tolerance.min(RELATIVE_TOLERANCE * size);
-    cfg.newton.point_tol = cfg.newton.point_tol.min(RELATIVE_TOLERANCE * size);
-    let cfg = &cfg;
     let periodic = patch.periodic(PERIODIC_TOL);
     let first = Cached::new(patch.region([0; N]), periodic, domain);
     let mut search = Search {
         patch,
         periodic,
         domain,
+        smooth: first.patch.domain() == domain,
         region: first,
         x,
         cfg: *cfg,
@@ -1121,7 +1131,12 @@ pub fn closest_point<S: BezierSplit<N>, const N: usize>(
 
     let counts = patch.interval_counts();
     let total = counts.iter().fold(1usize, |a, &c| a.saturating_mul(c));
-    if let Some(near) = search.survey(&counts, total) {
+    let (near, size) = search.survey(&counts, total);
+    // `min` keeps the configured values for a NaN size (a patch beyond f32).
+    search.cfg.tolerance = cfg.tolerance.min(RELATIVE_TOLERANCE * size);
+    search.cfg.newton.point_tol = cfg.newton.point_tol.min(RELATIVE_TOLERANCE * size);
+    let cfg = search.cfg;
+    if let Some(near) = near {
         // Branch and bound, nearest piece first, then the rest in order.
         for flat in core::iter::once(near).chain((0..total).filter(|&f| f != near)) {
             search.root(unflatten(flat, &counts));
