@@ -48,11 +48,18 @@ pub const JOIN_TOL_M: f32 = 1e-5;
 pub enum ChainError {
     /// No curves.
     Empty,
-    /// More than [`MAX_CHAIN_CURVES`] curves, counting each piece between interior knots of
-    /// full multiplicity (corners) as one.
+    /// More than [`MAX_CHAIN_CURVES`] curves.
     TooManyCurves {
-        /// Count of curves (pieces).
+        /// Given count.
         count: usize,
+    },
+    /// More than [`MAX_CHAIN_CURVES`] pieces once the curves are split at their corners
+    /// (interior knots of full multiplicity where they turn).
+    TooManyPieces {
+        /// Given count of curves.
+        count: usize,
+        /// Count of pieces.
+        pieces: usize,
     },
     /// Curve `curve` does not start where curve `curve − 1` ends.
     Gap {
@@ -71,7 +78,11 @@ impl core::fmt::Display for ChainError {
             ChainError::Empty => write!(f, "patches: an object needs at least one curve"),
             ChainError::TooManyCurves { count } => write!(
                 f,
-                "patches: {count} curves (each piece between interior knots of full multiplicity, which are corners, counts as one), at most {MAX_CHAIN_CURVES} per object"
+                "patches: {count} curves, at most {MAX_CHAIN_CURVES} per object"
+            ),
+            ChainError::TooManyPieces { count, pieces } => write!(
+                f,
+                "patches: split at their corners (interior knots of full multiplicity), the {count} curve(s) make {pieces} curves, at most {MAX_CHAIN_CURVES} per object"
             ),
             ChainError::Gap { curve, gap_m } => write!(
                 f,
@@ -200,6 +211,9 @@ impl<'a> Chain<'a> {
         let Some(&first) = given.first() else {
             return Err(ChainError::Empty);
         };
+        if given.len() > MAX_CHAIN_CURVES {
+            return Err(ChainError::TooManyCurves { count: given.len() });
+        }
         let mut pieces = [first; MAX_CHAIN_CURVES];
         let mut source = [0u16; MAX_CHAIN_CURVES];
         let mut n = 0;
@@ -213,7 +227,10 @@ impl<'a> Chain<'a> {
             });
         }
         if n > MAX_CHAIN_CURVES {
-            return Err(ChainError::TooManyCurves { count: n });
+            return Err(ChainError::TooManyPieces {
+                count: given.len(),
+                pieces: n,
+            });
         }
         let curves = &pieces[..n];
         let start = |c: &Curve<'a, Vec2>| c.point(c.domain().0);

@@ -70,11 +70,18 @@ pub const SHELL_JOIN_TOL_M: f32 = 1e-5;
 pub enum ShellError {
     /// No patches.
     Empty,
-    /// More than [`MAX_SHELL_PATCHES`] patches, counting each piece between crease lines
-    /// (interior knots of full multiplicity) as one.
+    /// More than [`MAX_SHELL_PATCHES`] patches.
     TooManyPatches {
-        /// Count of patches (pieces).
+        /// Given count.
         count: usize,
+    },
+    /// More than [`MAX_SHELL_PATCHES`] pieces once the patches are split at their creases
+    /// (interior knot lines of full multiplicity where they turn).
+    TooManyPieces {
+        /// Given count of patches.
+        count: usize,
+        /// Count of pieces.
+        pieces: usize,
     },
     /// A side matches more than one other side.
     NonManifold {
@@ -98,7 +105,11 @@ impl core::fmt::Display for ShellError {
             ShellError::Empty => write!(f, "patches: an object needs at least one surface"),
             ShellError::TooManyPatches { count } => write!(
                 f,
-                "patches: {count} surfaces (each piece between interior knot lines of full multiplicity, which are creases, counts as one), at most {MAX_SHELL_PATCHES} per object"
+                "patches: {count} surfaces, at most {MAX_SHELL_PATCHES} per object"
+            ),
+            ShellError::TooManyPieces { count, pieces } => write!(
+                f,
+                "patches: split at their creases (interior knot lines of full multiplicity), the {count} surface(s) make {pieces} surfaces, at most {MAX_SHELL_PATCHES} per object"
             ),
             ShellError::NonManifold { patch, side } => write!(
                 f,
@@ -233,6 +244,9 @@ impl<'a> Shell<'a> {
         let Some(&first) = given.first() else {
             return Err(ShellError::Empty);
         };
+        if given.len() > MAX_SHELL_PATCHES {
+            return Err(ShellError::TooManyPatches { count: given.len() });
+        }
         let mut pieces = [first; MAX_SHELL_PATCHES];
         let mut source = [0u16; MAX_SHELL_PATCHES];
         let mut n = 0;
@@ -246,7 +260,10 @@ impl<'a> Shell<'a> {
             });
         }
         if n > MAX_SHELL_PATCHES {
-            return Err(ShellError::TooManyPatches { count: n });
+            return Err(ShellError::TooManyPieces {
+                count: given.len(),
+                pieces: n,
+            });
         }
         let patches = &pieces[..n];
         let src = |i: usize| usize::from(source[i]);

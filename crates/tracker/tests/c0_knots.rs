@@ -206,3 +206,30 @@ fn rational_roof_apex_is_a_vertex() {
         assert!(angle_deg(c.normal, Vec2::Y).abs() < 1e-3);
     }
 }
+
+/// Splitting can push a chain past its fixed storage: the error says so, with both counts.
+#[test]
+fn too_many_pieces_is_a_clear_error() {
+    // A polyline of 40 segments: one degree-1 curve, 39 interior knots, all corners (zigzag).
+    let n = 41;
+    let pts: Vec<Vec2> = (0..n)
+        .map(|i| Vec2::new(0.04 - 0.002 * i as f32, 0.08 + 0.002 * (i % 2) as f32))
+        .collect();
+    let mut knots = vec![0.0f32];
+    knots.extend((0..n).map(|i| i as f32 / (n - 1) as f32));
+    knots.push(1.0);
+    let c = CurveBuf::from_cartesian(1, knots, &pts, None).unwrap();
+    let views = [c.view()];
+    let err = Chain::new(&views).unwrap_err();
+    assert_eq!(
+        err,
+        tracker::ChainError::TooManyPieces {
+            count: 1,
+            pieces: 40
+        }
+    );
+    assert_eq!(
+        err.to_string(),
+        "patches: split at their corners (interior knots of full multiplicity), the 1 curve(s) make 40 curves, at most 32 per object"
+    );
+}
