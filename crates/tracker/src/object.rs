@@ -48,8 +48,13 @@ pub trait Object {
     /// `params` on `patch`: one Gauss–Newton step, clamped into the domain.
     fn offset(&self, patch: usize, params: [f32; 2], displacement: Self::P) -> [f32; 2];
 
-    /// Number of patches.
+    /// Number of patches (pieces: patches are split at load at their corners and creases).
     fn patch_count(&self) -> usize;
+
+    /// Index of the patch given at construction that patch `patch` is a piece of (see
+    /// [`Chain::source_curve`], [`Shell::source_patch`]). Parameters are shared: a piece is a
+    /// window onto its source patch's parameter domain.
+    fn source_patch(&self, patch: usize) -> usize;
 }
 
 impl Object for Chain<'_> {
@@ -101,6 +106,10 @@ impl Object for Chain<'_> {
     fn patch_count(&self) -> usize {
         self.curves().len()
     }
+
+    fn source_patch(&self, patch: usize) -> usize {
+        self.source_curve(patch)
+    }
 }
 
 impl Object for Shell<'_> {
@@ -149,6 +158,10 @@ impl Object for Shell<'_> {
 
     fn patch_count(&self) -> usize {
         self.patches().len()
+    }
+
+    fn source_patch(&self, patch: usize) -> usize {
+        Shell::source_patch(self, patch)
     }
 }
 
