@@ -915,13 +915,27 @@ pub fn knots_strategy(
     max_interior: usize,
     max_mult: usize,
 ) -> impl Strategy<Value = Vec<f32>> {
+    knots_in(p, max_interior, max_mult, -5.0..5.0, 0.5..10.0, 0.2)
+}
+
+/// [`knots_strategy`] with the domain start drawn from `start`, its length from `len`, and
+/// gaps between consecutive distinct knots drawn from `[min_gap, 1]` before normalisation (so
+/// they are at least `min_gap / (k + 1)` of the domain apart for `k` interior knots).
+pub fn knots_in(
+    p: usize,
+    max_interior: usize,
+    max_mult: usize,
+    start: std::ops::Range<f64>,
+    len: std::ops::Range<f64>,
+    min_gap: f64,
+) -> impl Strategy<Value = Vec<f32>> {
     let max_mult = max_mult.clamp(1, p);
-    (-5.0f64..5.0, 0.5f64..10.0, 0..=max_interior)
+    (start, len, 0..=max_interior)
         .prop_flat_map(move |(a, len, k)| {
             (
                 Just(a),
                 Just(len),
-                vec(0.2f64..1.0, k + 1),
+                vec(min_gap..1.0, k + 1),
                 vec(1..=max_mult, k),
             )
         })

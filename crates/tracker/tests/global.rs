@@ -6,9 +6,10 @@
 #![allow(clippy::unwrap_used)]
 
 use nurbs::construct::{arc, bezier_curve, circle, cylinder, sphere, torus};
-use nurbs::{CurveBuf, Point, Surface, SurfaceBuf, Vec2, Vec3};
+use nurbs::{Point, Surface, SurfaceBuf, Vec2, Vec3};
 use proptest::collection::vec;
 use proptest::prelude::*;
+use testkit::{CurveSpec, SurfaceSpec};
 use tracker::{
     BezierPiece, BezierSplit, Closest, GlobalConfig, Patch, SurfacePiece, closest_point,
 };
@@ -497,52 +498,14 @@ fn odd_configurations_are_total() {
 // Random patches: strategies
 // ---------------------------------------------------------------------------------------------
 
-/// Clamped knots of degree `p` on `[a, a + len]` with up to `max_interior` distinct interior
-/// knots of multiplicity `1..=max_mult` (at most `p`), at least 5% of the domain apart.
+/// Clamped knots of degree `p` on `[a, a + len]` (`a ∈ [−3, 3]`, `len ∈ [0.5, 5]`) with up
+/// to `max_interior` distinct interior knots of multiplicity `1..=max_mult` (at most `p`).
 fn knots(p: usize, max_interior: usize, max_mult: usize) -> impl Strategy<Value = Vec<f32>> {
-    let max_mult = max_mult.clamp(1, p);
-    (-3.0f64..3.0, 0.5f64..5.0, 0..=max_interior)
-        .prop_flat_map(move |(a, len, k)| {
-            (
-                Just(a),
-                Just(len),
-                vec(0.25f64..1.0, k + 1),
-                vec(1..=max_mult, k),
-            )
-        })
-        .prop_map(move |(a, len, gaps, mults)| {
-            let total: f64 = gaps.iter().sum();
-            let mut k = vec![a as f32; p + 1];
-            let mut acc = 0.0;
-            for (g, &m) in gaps.iter().zip(&mults) {
-                acc += g;
-                k.extend(std::iter::repeat_n((a + len * acc / total) as f32, m));
-            }
-            k.extend(std::iter::repeat_n((a + len) as f32, p + 1));
-            k
-        })
+    testkit::knots_in(p, max_interior, max_mult, -3.0..3.0, 0.5..5.0, 0.25)
 }
 
-#[derive(Clone, Debug)]
-struct CurveSpec {
-    p: usize,
-    knots: Vec<f32>,
-    pts: Vec<[f32; 3]>,
-    weights: Vec<f32>,
-}
-
-impl CurveSpec {
-    fn build<P: Point>(&self) -> CurveBuf<P> {
-        let pts: Vec<P> = self
-            .pts
-            .iter()
-            .map(|c| P::from_coords(&c[..P::DIM]).unwrap())
-            .collect();
-        CurveBuf::from_cartesian(self.p, self.knots.clone(), &pts, Some(&self.weights)).unwrap()
-    }
-}
-
-/// Random rational curves; interior knots of multiplicity up to `max_mult` (`p` allows kinks).
+/// Random rational curves (points in [−1, 1]³, weights in [0.5, 2]); interior knots of
+/// multiplicity up to `max_mult` (`p` allows kinks).
 fn curve_spec(
     degrees: std::ops::RangeInclusive<usize>,
     max_mult: usize,
@@ -562,34 +525,12 @@ fn curve_spec(
             p,
             knots,
             pts,
-            weights,
+            weights: Some(weights),
         })
 }
 
-#[derive(Clone, Debug)]
-struct SurfaceSpec {
-    p: usize,
-    q: usize,
-    ku: Vec<f32>,
-    kv: Vec<f32>,
-    rows: Vec<Vec<Vec3>>,
-    weights: Vec<Vec<f32>>,
-}
-
-impl SurfaceSpec {
-    fn build(&self) -> SurfaceBuf {
-        SurfaceBuf::from_rows(
-            (self.p, self.q),
-            (self.ku.clone(), self.kv.clone()),
-            &self.rows,
-            Some(&self.weights),
-        )
-        .unwrap()
-    }
-}
-
 /// Control nets are a wavy height field plus noise, so that surfaces fold over the query
-/// points in interesting ways without being pure noise.
+/// points in interesting ways without being pure noise; weights in [0.5, 2].
 fn surface_spec(
     pu: std::ops::RangeInclusive<usize>,
     pv: std::ops::RangeInclusive<usize>,
@@ -640,7 +581,7 @@ fn surface_spec(
                 ku,
                 kv,
                 rows,
-                weights,
+                weights: Some(weights),
             }
         })
 }
