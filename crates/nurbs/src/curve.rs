@@ -113,10 +113,11 @@ impl<'a, P: Point> Curve<'a, P> {
         (self.point(a) - self.point(b)).length_squared() <= tol * tol
     }
 
-    /// Box of the control polygon; contains the whole curve.
+    /// Box of the control polygon (of the points that act on the domain, for a window);
+    /// contains the whole curve.
     pub fn bounding_box(&self) -> Aabb<P> {
         // Validation guarantees at least degree + 1 >= 2 points.
-        Aabb::from_homogeneous(self.points).unwrap_or(Aabb {
+        Aabb::from_homogeneous(&self.points[self.knots.point_indices()]).unwrap_or(Aabb {
             min: P::ZERO,
             max: P::ZERO,
         })
@@ -174,6 +175,28 @@ impl<'a, P: Point> Curve<'a, P> {
             du: c1,
             duu: c2,
         }
+    }
+
+    /// The same curve restricted to a window of its knot vector (from
+    /// [`Knots::c0_pieces`] or [`Knots::span_window`] of [`Self::knots`]); `None` if `knots` is
+    /// not a window onto this curve's knot vector.
+    pub fn window(&self, knots: Knots<'a>) -> Option<Self> {
+        let same = core::ptr::eq(knots.as_slice(), self.knots.as_slice())
+            && knots.degree() == self.degree();
+        same.then_some(Curve {
+            knots,
+            points: self.points,
+        })
+    }
+
+    /// The pieces between the C⁰ breaks of the curve (interior knots of multiplicity ≥ the
+    /// degree, where it generally has a corner), as windows onto it, in order: the curve
+    /// itself when it has none. No copy, no allocation.
+    pub fn c0_pieces(&self) -> impl Iterator<Item = Self> + use<'a, P> {
+        let points = self.points;
+        self.knots
+            .c0_pieces()
+            .map(move |knots| Curve { knots, points })
     }
 
     /// Point, derivatives, unit tangent, unit normal and curvature at `u`.

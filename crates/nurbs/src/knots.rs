@@ -34,10 +34,19 @@ impl Dir {
 /// control points, `len = points + degree + 1`, all knots finite and non-decreasing, the first
 /// and last `degree + 1` knots equal (and no more than that), interior multiplicity at most
 /// `degree`, and a domain of non-zero length. Any domain `[a, b]` is allowed.
+///
+/// A knot vector can also be a *window* onto part of its domain, between two of its knots
+/// ([`Knots::c0_pieces`]): the domain, clamping and span search are then those of the window,
+/// and at the window's ends evaluation is the one-sided limit from inside it. The knot values
+/// and control points stay those of the whole vector.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Knots<'a> {
     knots: &'a [f32],
     degree: usize,
+    /// Index of the last knot equal to the domain start (`degree` for the whole vector).
+    first: usize,
+    /// Index of the first knot equal to the domain end (`n_points` for the whole vector).
+    last: usize,
 }
 
 impl<'a> Knots<'a> {
@@ -126,13 +135,119 @@ impl<'a> Knots<'a> {
             }
             start = end + 1;
         }
-        Ok(Knots { knots, degree })
+        Ok(Self::whole(knots, degree))
+    }
+
+    /// The whole domain of validated knots.
+    fn whole(knots: &'a [f32], degree: usize) -> Self {
+        Knots {
+            knots,
+            degree,
+            first: degree,
+            last: knots.len() - 1 - degree,
+        }
     }
 
     /// A view over a knot vector that was validated before (by an owned type).
     #[cfg(feature = "alloc")]
     pub(crate) fn from_validated(knots: &'a [f32], degree: usize) -> Self {
-        Knots { knots, degree }
+        Self::whole(knots, degree)
+    }
+
+    /// Whether this is the whole domain, not a window onto part of it.
+    #[inline]
+    pub fn is_whole(&self) -> bool {
+        self.first == self.degree && self.last == self.knots.len() - 1 - self.degree
+    }
+
+    /// Indices `i` of the non-empty spans `[knots[i], knots[i + 1]]` of the domain (or window).
+    #[inline]
+    pub fn span_indices(&self) -> core::ops::Range<usize> {
+        self.first..self.last
+    }
+
+    /// Indices of the control points whose basis functions are non-zero somewhere in the
+    /// domain (or window): `first − p ..= last − 1`.
+    #[inline]
+    pub fn point_indices(&self) -> core::ops::RangeInclusive<usize> {
+        self.first - self.degree..=self.last - 1
+    }
+
+    /// Whether the interior knot at index `i` (inside the domain or window) is a C⁰ break: its
+    /// multiplicity is at least the degree, so the curve is only C⁰ there and generally has a
+    /// corner (a crease on a surface). Every interior knot of a degree-1 basis is one.
+    fn is_c0_break(&self, i: usize) -> bool {
+        let k = self.knots;
+        let x = k[i];
+        if !(x > k[self.first] && x < k[self.last]) {
+            return false;
+        }
+        let mut lo = i;
+        while lo > 0 && k[lo - 1] == x {
+            lo -= 1;
+        }
+        let mut hi = i;
+        while hi + 1 < k.len() && k[hi + 1] == x {
+            hi += 1;
+        }
+        hi - lo + 1 >= self.degree
+    }
+
+    /// The pieces of the domain (or window) between consecutive C⁰ breaks
+    /// ([`Self::is_c0_break`]), in order, as windows: one piece, equal to `self`, when there is
+    /// no break. Each piece is smooth (at least C¹) inside.
+    pub fn c0_pieces(&self) -> impl Iterator<Item = Knots<'a>> + use<'a> {
+        let this = *self;
+        let mut start = self.first;
+        core::iter::from_fn(move || {
+            if start >= this.last {
+                return None;
+            }
+            // The next break after `start`: the first index of its run of equal knots.
+            let mut end = start + 1;
+            while end < this.last && !this.is_c0_break(end) {
+                end += 1;
+            }
+            let piece = Knots {
+                first: start,
+                last: end,
+                ..this
+            };
+            // The next piece starts at the last index of the break's run.
+            let mut next = end;
+            while next + 1 < this.last && this.knots[next + 1] == this.knots[end] {
+                next += 1;
+            }
+            start = if end >= this.last { this.last } else { next };
+            Some(piece)
+        })
+    }
+
+    /// The window from the start of `self` to the end of `next`, when both are windows onto
+    /// the same knot vector and `next` starts where `self` ends (consecutive
+    /// [`Self::c0_pieces`]); `None` otherwise.
+    pub fn extend_to(&self, next: Knots<'a>) -> Option<Knots<'a>> {
+        let same = core::ptr::eq(self.knots, next.knots) && self.degree == next.degree;
+        (same && next.first >= self.last && self.knots[self.last] == self.knots[next.first])
+            .then_some(Knots {
+                last: next.last,
+                ..*self
+            })
+    }
+
+    /// The window onto the single non-empty span `i` (`knots[i] < knots[i + 1]`, inside the
+    /// domain or window), or `None`.
+    pub fn span_window(&self, i: usize) -> Option<Knots<'a>> {
+        if !(self.span_indices().contains(&i) && self.knots[i] < self.knots[i + 1]) {
+            return None;
+        }
+        // `i` is the last index of its value and `i + 1` the first of its own, since
+        // knots[i] < knots[i + 1].
+        Some(Knots {
+            first: i,
+            last: i + 1,
+            ..*self
+        })
     }
 
     /// Degree of the basis.
@@ -156,10 +271,7 @@ impl<'a> Knots<'a> {
     /// Parameter domain `[a, b] = [knots[p], knots[n + 1]]`.
     #[inline]
     pub fn domain(&self) -> (f32, f32) {
-        (
-            self.knots[self.degree],
-            self.knots[self.knots.len() - 1 - self.degree],
-        )
+        (self.knots[self.first], self.knots[self.last])
     }
 
     /// Length of the parameter domain.
@@ -186,21 +298,21 @@ impl<'a> Knots<'a> {
 
     /// Knot span index `i` with `knots[i] <= u < knots[i + 1]` (Piegl & Tiller A2.1), for `u`
     /// clamped into the domain. At `u = b` it returns the last non-empty span, so evaluation at
-    /// the end of the domain is the limit from the left.
+    /// the end of the domain is the limit from the left (and, in a window, at its start the
+    /// limit from the right).
     #[inline]
     pub fn find_span(&self, u: f32) -> usize {
         let u = self.clamp(u);
         let k = self.knots;
-        let p = self.degree;
-        let n = self.n_points() - 1;
-        if u >= k[n + 1] {
-            return n;
+        let (first, last) = (self.first, self.last);
+        if u >= k[last] {
+            return last - 1;
         }
-        if u <= k[p] {
-            return p;
+        if u <= k[first] {
+            return first;
         }
         // Invariant: k[low] <= u < k[high].
-        let (mut low, mut high) = (p, n + 1);
+        let (mut low, mut high) = (first, last);
         while high - low > 1 {
             let mid = (low + high) / 2;
             if u < k[mid] {

@@ -118,12 +118,53 @@ impl<'a> Surface<'a> {
         (self.ku.domain(), self.kv.domain())
     }
 
-    /// Box of the control net; contains the whole surface.
+    /// Box of the control net (of the points that act on the domain, for a window); contains
+    /// the whole surface.
     pub fn bounding_box(&self) -> Aabb<Vec3> {
-        Aabb::from_homogeneous(self.points).unwrap_or(Aabb {
+        let empty = Aabb {
             min: Vec3::ZERO,
             max: Vec3::ZERO,
+        };
+        if self.ku.is_whole() && self.kv.is_whole() {
+            return Aabb::from_homogeneous(self.points).unwrap_or(empty);
+        }
+        let nv = self.kv.n_points();
+        let cols = self.kv.point_indices();
+        let mut bb: Option<Aabb<Vec3>> = None;
+        for i in self.ku.point_indices() {
+            if let Some(row) = Aabb::from_homogeneous(&self.points[i * nv..][cols.clone()]) {
+                bb = Some(match bb {
+                    Some(b) => b.include(row.min).include(row.max),
+                    None => row,
+                });
+            }
+        }
+        bb.unwrap_or(empty)
+    }
+
+    /// The same surface restricted to windows of its knot vectors (from [`Knots::c0_pieces`]
+    /// or [`Knots::span_window`] of [`Self::knots`]); `None` if they are not windows onto this
+    /// surface's knot vectors.
+    pub fn window(&self, ku: Knots<'a>, kv: Knots<'a>) -> Option<Self> {
+        let same = |a: Knots<'_>, b: Knots<'_>| {
+            core::ptr::eq(a.as_slice(), b.as_slice()) && a.degree() == b.degree()
+        };
+        (same(ku, self.ku) && same(kv, self.kv)).then_some(Surface {
+            ku,
+            kv,
+            points: self.points,
         })
+    }
+
+    /// The pieces between the C⁰ break lines of the surface (interior knots of multiplicity ≥
+    /// the degree in either direction, where it generally has a crease), as windows onto it:
+    /// `u` pieces outer, `v` pieces inner; the surface itself when it has none. No copy, no
+    /// allocation.
+    pub fn c0_pieces(&self) -> impl Iterator<Item = Self> + use<'a> {
+        let (kv, points) = (self.kv, self.points);
+        self.ku
+            .c0_pieces()
+            .flat_map(move |ku| kv.c0_pieces().map(move |kv| Surface { ku, kv, points }))
     }
 
     /// `S(u, v)` (Piegl & Tiller A4.3).

@@ -2,11 +2,9 @@
 //! 2nd ed.), Bernstein polynomials, and the Cox–de Boor definition in `f64`.
 #![allow(clippy::unwrap_used)]
 
-mod common;
-
-use common::{EPS32, all_basis, cox_de_boor_der, knots_strategy, widen};
 use nurbs::{Knots, MAX_DEGREE, MAX_DERIV, MAX_ORDER, basis_funs, ders_basis_funs};
 use proptest::prelude::*;
+use testkit::{EPS32, all_basis, basis, knots_strategy, widen};
 
 /// Ex2.2 / Ex2.3: U = {0,0,0,1,2,3,4,4,5,5,5}, p = 2, eight basis functions.
 const EX_U: [f32; 11] = [0., 0., 0., 1., 2., 3., 4., 4., 5., 5., 5.];
@@ -263,7 +261,7 @@ fn basis_case() -> impl Strategy<Value = (usize, Vec<f32>, f32)> {
 }
 
 proptest! {
-    #![proptest_config(common::config())]
+    #![proptest_config(testkit::config())]
 
     /// Partition of unity and non-negativity (P&T P2.4, P2.3) for `basis_funs` and row 0 of
     /// `ders_basis_funs`; derivative rows sum to zero (derivative of the constant 1). Every
@@ -292,7 +290,7 @@ proptest! {
 
         // Derivative rows: N^(k) is bounded by (2p / gap)^k, the natural scale of the
         // rounding errors.
-        let gap = common::min_gap(&knots);
+        let gap = testkit::min_gap(&knots);
         let kw = widen(&knots);
         let reference = [
             all_basis(&kw, p, u as f64, 0),
@@ -332,7 +330,7 @@ proptest! {
     ) {
         let n = knots.len() - p - 1;
         let k = Knots::new(&knots, p, n).unwrap();
-        let (u, len) = common::in_span(&knots, pick, t);
+        let (u, len) = testkit::in_span(&knots, pick, t);
         let span = k.find_span(u);
         let mut d = [[0.0; MAX_ORDER]; MAX_DERIV + 1];
         ders_basis_funs(&knots, span, u, p, 2, &mut d);
@@ -341,10 +339,10 @@ proptest! {
         // h = 1e-4 of the span: the stencil stays inside it (u is at least 5% from its ends),
         // truncation h²|N'''|/6 and f64 rounding eps/h² are both < 1e-7 of the scale below.
         let h = 1e-4 * len;
-        let gap = common::min_gap(&knots);
+        let gap = testkit::min_gap(&knots);
         for j in 0..=p {
             let i = span - p + j;
-            let f = |x: f64| cox_de_boor_der(&kw, p, i, x, 0);
+            let f = |x: f64| basis(&kw, p, i, x, 0);
             let d1 = (f(uf + h) - f(uf - h)) / (2.0 * h);
             let d2 = (f(uf + h) - 2.0 * f(uf) + f(uf - h)) / (h * h);
             let s1 = 2.0 * p as f64 / gap;

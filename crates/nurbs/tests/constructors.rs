@@ -2,14 +2,12 @@
 //! normals and curvatures, de Casteljau, and rotations computed in `f64`.
 #![allow(clippy::unwrap_used)]
 
-mod common;
-
-use common::{EPS32, RefCurve, curve_spec};
 use glam::{DQuat, DVec2, DVec3, Vec2, Vec3};
 use nurbs::construct;
 use nurbs::{NurbsError, SurfaceBuf};
 use proptest::prelude::*;
 use std::f64::consts::{PI, TAU};
+use testkit::{EPS32, RefCurve, curve_spec};
 
 /// Parameters to sample: both ends, every quarter and eighth (knots and arc midpoints of the
 /// constructions), and irregular points in between.
@@ -84,7 +82,7 @@ fn unit_circle_known_points() {
 }
 
 proptest! {
-    #![proptest_config(common::config())]
+    #![proptest_config(testkit::config())]
 
     /// Every point of `circle` is at distance r from the centre, it runs counter-clockwise,
     /// curvature is +1/r, the tangent is ⟂ to the radius and the normal is (p − c)/r.
@@ -272,7 +270,7 @@ fn de_casteljau(p: &[DVec3], t: f64) -> DVec3 {
 }
 
 proptest! {
-    #![proptest_config(common::config())]
+    #![proptest_config(testkit::config())]
 
     #[test]
     fn line_is_exact(a in vec2(), b in vec2(), u in 0.0f32..=1.0) {
@@ -335,7 +333,7 @@ fn bezier_curve_degree_limits() {
 // -------------------------------------------------------------------------------------------
 
 proptest! {
-    #![proptest_config(common::config())]
+    #![proptest_config(testkit::config())]
 
     /// S = (1−u)(1−v)P00 + u(1−v)P10 + (1−u)v P01 + uv P11 and its exact partials.
     #[test]
@@ -406,7 +404,7 @@ fn grid() -> Vec<(f32, f32)> {
 }
 
 proptest! {
-    #![proptest_config(common::config())]
+    #![proptest_config(testkit::config())]
 
     /// Sphere: |p − c| = r everywhere, outward normal (p − c)/r everywhere, and at the poles
     /// (v = 0 south, v = 1 north) exactly the limit normals −z and +z for every u.
@@ -495,7 +493,7 @@ fn rotate(p: DVec3, o: DVec3, axis: DVec3, angle: f64) -> DVec3 {
 }
 
 proptest! {
-    #![proptest_config(common::config())]
+    #![proptest_config(testkit::config())]
 
     /// A surface of revolution is S(u, v) = Rot(θ(u)) profile(v), with θ(0) = 0, θ(1) = sweep
     /// and θ(u) the same for every v (the weights separate, P&T §8.5). Checked against the f64

@@ -3,14 +3,12 @@
 //! evaluation of the definition.
 #![allow(clippy::unwrap_used)]
 
-mod common;
-
-use common::{
-    EPS32, RefCurve, central1, central2, curve_spec, from3, in_span, min_gap, rel_err, to_d3,
-};
 use glam::{DVec3, Vec2, Vec3};
 use nurbs::{Curve, CurveBuf, Point};
 use proptest::prelude::*;
+use testkit::{
+    EPS32, RefCurve, central1, central2, curve_spec, from3, in_span, min_gap, rel_err, wide,
+};
 
 /// Ex4.1: P0 = (1,0), P1 = (1,1), P2 = (0,1), w = {1, 1, 2}, U = {0,0,0,1,1,1} is the quarter
 /// unit circle C(u) = ((1−u²)/(1+u²), 2u/(1+u²)), counter-clockwise.
@@ -49,9 +47,9 @@ fn ex4_1_rational_quarter_circle_planar() {
         let d = f.derivs;
         // Magnitudes here are at most 4; the f32 pipeline stays within a few ulps of that.
         let tol = 32.0 * EPS32;
-        assert!(rel_err(to_d3(d.point), p, 1.0) <= tol, "C({u})");
-        assert!(rel_err(to_d3(d.du), d1, 2.0) <= tol, "C'({u})");
-        assert!(rel_err(to_d3(d.duu), d2, 4.0) <= tol, "C''({u})");
+        assert!(rel_err(wide(d.point), p, 1.0) <= tol, "C({u})");
+        assert!(rel_err(wide(d.du), d1, 2.0) <= tol, "C'({u})");
+        assert!(rel_err(wide(d.duu), d2, 4.0) <= tol, "C''({u})");
         assert!(
             ((d.point.length() as f64) - 1.0).abs() <= tol,
             "|C({u})| = 1"
@@ -63,8 +61,8 @@ fn ex4_1_rational_quarter_circle_planar() {
             f.curvature
         );
         let t = DVec3::new(-p.y, p.x, 0.0);
-        assert!(rel_err(to_d3(f.tangent), t, 1.0) <= 1e-6, "T({u})");
-        assert!(rel_err(to_d3(f.normal), p, 1.0) <= 1e-6, "N({u})");
+        assert!(rel_err(wide(f.tangent), t, 1.0) <= 1e-6, "T({u})");
+        assert!(rel_err(wide(f.normal), p, 1.0) <= 1e-6, "N({u})");
     }
     // C'(0) = (0, 2), C'(1) = (−1, 0): the tangents of Ex4.1 at the ends.
     assert_eq!(c.derivs(0.0, 1).du, Vec2::new(0.0, 2.0));
@@ -83,15 +81,15 @@ fn ex4_1_in_space_has_principal_normal_towards_centre() {
         let u = s as f32 / 50.0;
         let [p, _, _] = ex41(u as f64);
         let f = c.frame(u);
-        assert!(rel_err(to_d3(f.derivs.point), p + DVec3::Z * 0.5, 1.0) <= 32.0 * EPS32);
+        assert!(rel_err(wide(f.derivs.point), p + DVec3::Z * 0.5, 1.0) <= 32.0 * EPS32);
         // Spatial curvature is unsigned, and the principal normal points to the centre.
         assert!((f.curvature as f64 - 1.0).abs() <= 1e-5);
         assert!(
-            rel_err(to_d3(f.normal), -p, 1.0) <= 1e-5,
+            rel_err(wide(f.normal), -p, 1.0) <= 1e-5,
             "N({u}) = {:?}",
             f.normal
         );
-        assert!(rel_err(to_d3(f.tangent), DVec3::new(-p.y, p.x, 0.0), 1.0) <= 1e-6);
+        assert!(rel_err(wide(f.tangent), DVec3::new(-p.y, p.x, 0.0), 1.0) <= 1e-6);
     }
 }
 
@@ -276,7 +274,7 @@ fn arbitrary_domain_matches_definition() {
         let u = -3.0 + s as f32 * 0.1;
         let u = u.min(7.0);
         assert!(
-            rel_err(to_d3(c.point(u)), r.point(u as f64), 7.0) <= 16.0 * EPS32,
+            rel_err(wide(c.point(u)), r.point(u as f64), 7.0) <= 16.0 * EPS32,
             "u={u}"
         );
     }
@@ -286,7 +284,7 @@ fn arbitrary_domain_matches_definition() {
 
 /// Derivative and frame checks of one random curve at one parameter.
 fn check_derivs<P: Point>(
-    spec: &common::CurveSpec,
+    spec: &testkit::CurveSpec,
     pick: f64,
     t: f64,
 ) -> Result<(), TestCaseError> {
@@ -314,17 +312,17 @@ fn check_derivs<P: Point>(
     let ref1 = central1(f, uf, 1e-5 * len);
     let ref2 = central2(f, uf, 1e-4 * len);
     prop_assert!(
-        rel_err(to_d3(d.point), ref0, s[0]) <= tol,
+        rel_err(wide(d.point), ref0, s[0]) <= tol,
         "C: {:?} vs {ref0}",
         d.point
     );
     prop_assert!(
-        rel_err(to_d3(d.du), ref1, s[1]) <= tol,
+        rel_err(wide(d.du), ref1, s[1]) <= tol,
         "C': {:?} vs {ref1}",
         d.du
     );
     prop_assert!(
-        rel_err(to_d3(d.duu), ref2, s[2]) <= tol,
+        rel_err(wide(d.duu), ref2, s[2]) <= tol,
         "C'': {:?} vs {ref2}",
         d.duu
     );
@@ -336,19 +334,19 @@ fn check_derivs<P: Point>(
     prop_assert_eq!(d1.duu, P::ZERO);
     prop_assert_eq!(d0.point, d.point);
     prop_assert_eq!(d1.du, d.du);
-    prop_assert!(rel_err(to_d3(c.point(u)), ref0, s[0]) <= tol);
+    prop_assert!(rel_err(wide(c.point(u)), ref0, s[0]) <= tol);
 
     // Frame against the f64 derivatives, where the tangent is well defined (|C'| not small
     // against its scale). First-order perturbation bounds with δ1 = tol·s1, δ2 = tol·s2.
     let fr = c.frame(u);
     let l1 = ref1.length();
-    prop_assert!(((to_d3(fr.tangent).length()) - 1.0).abs() <= 1e-6);
-    prop_assert!(((to_d3(fr.normal).length()) - 1.0).abs() <= 1e-6);
-    prop_assert!(to_d3(fr.tangent).dot(to_d3(fr.normal)).abs() <= 1e-6);
+    prop_assert!(((wide(fr.tangent).length()) - 1.0).abs() <= 1e-6);
+    prop_assert!(((wide(fr.normal).length()) - 1.0).abs() <= 1e-6);
+    prop_assert!(wide(fr.tangent).dot(wide(fr.normal)).abs() <= 1e-6);
     if l1 >= 0.05 * s[1] {
         let (d1e, d2e) = (tol * s[1], tol * s[2]);
         let t_ref = ref1 / l1;
-        prop_assert!((to_d3(fr.tangent) - t_ref).length() <= 2.0 * d1e / l1 + 1e-6);
+        prop_assert!((wide(fr.tangent) - t_ref).length() <= 2.0 * d1e / l1 + 1e-6);
         let num = if P::DIM == 2 {
             ref1.x * ref2.y - ref1.y * ref2.x
         } else {
@@ -366,14 +364,14 @@ fn check_derivs<P: Point>(
         if P::DIM == 2 {
             // n = t × k̂ = (t.y, −t.x).
             let n_ref = DVec3::new(t_ref.y, -t_ref.x, 0.0);
-            prop_assert!((to_d3(fr.normal) - n_ref).length() <= 2.0 * d1e / l1 + 1e-6);
+            prop_assert!((wide(fr.normal) - n_ref).length() <= 2.0 * d1e / l1 + 1e-6);
         } else {
             // Principal normal: the part of C'' orthogonal to the tangent, where it is not small.
             let perp = ref2 - t_ref * ref2.dot(t_ref);
             if perp.length() >= 0.05 * s[2] {
                 let n_ref = perp.normalize();
                 let bound = 4.0 * (d2e + ref2.length() * 2.0 * d1e / l1) / perp.length() + 1e-6;
-                prop_assert!((to_d3(fr.normal) - n_ref).length() <= bound);
+                prop_assert!((wide(fr.normal) - n_ref).length() <= bound);
             }
         }
     }
@@ -381,7 +379,7 @@ fn check_derivs<P: Point>(
 }
 
 proptest! {
-    #![proptest_config(common::config())]
+    #![proptest_config(testkit::config())]
 
     /// C, C', C'' of random planar curves (degree 1–5, interior multiplicities up to the
     /// degree, rational or not, arbitrary domains) against the f64 definition and its central
@@ -421,7 +419,7 @@ proptest! {
         let d = c.derivs(u as f32, 2);
         // Relative to |B − A| times the largest possible |s''| (≤ 2·25·5), 64 ulps.
         let scale = 4.0 * 250.0;
-        prop_assert!(rel_err(to_d3(d.du), ba * s1, scale) <= 64.0 * EPS32);
-        prop_assert!(rel_err(to_d3(d.duu), ba * s2, scale) <= 64.0 * EPS32);
+        prop_assert!(rel_err(wide(d.du), ba * s1, scale) <= 64.0 * EPS32);
+        prop_assert!(rel_err(wide(d.duu), ba * s2, scale) <= 64.0 * EPS32);
     }
 }

@@ -3,15 +3,13 @@
 //! knots, convex hull (bounding box), totality of evaluation.
 #![allow(clippy::unwrap_used)]
 
-mod common;
-
-use common::{
-    CurveSpec, EPS32, curve_spec, from3, interior_knots, min_gap, next_down, rel_err, surface_spec,
-    to_d3,
-};
 use glam::{Mat2, Mat3, Vec2, Vec3, Vec4};
 use nurbs::{Aabb, Curve, CurveBuf, NurbsError, Point, SurfaceBuf};
 use proptest::prelude::*;
+use testkit::{
+    CurveSpec, EPS32, curve_spec, from3, interior_knots, min_gap, next_down, rel_err, surface_spec,
+    wide,
+};
 
 fn mat3() -> impl Strategy<Value = Mat3> {
     proptest::array::uniform9(-2.0f32..2.0).prop_map(|m| Mat3::from_cols_array(&m))
@@ -63,8 +61,8 @@ fn check_affine<P: Point>(
     let g = c.map_points(&f).unwrap();
     let (a, b) = c.view().domain();
     for u in [a, b, ((a as f64 + t * (b as f64 - a as f64)) as f32).min(b)] {
-        let lhs = to_d3(g.view().point(u));
-        let rhs = to_d3(f(c.view().point(u)));
+        let lhs = wide(g.view().point(u));
+        let rhs = wide(f(c.view().point(u)));
         // Both sides round a few ulps of the largest term, |A| |P|max + |t| (bounded by
         // `scale`); the f32 affine map itself adds a few more.
         prop_assert!(
@@ -97,7 +95,7 @@ fn check_continuity<P: Point>(spec: &CurveSpec) -> Result<(), TestCaseError> {
         let smooth = (p - m).min(2);
         for (order, (l, r)) in pairs.iter().enumerate().take(smooth + 1) {
             let tol = 32.0 * EPS32 * s[order] + 2.0 * s[order + 1] * step;
-            let e = (to_d3(*l) - to_d3(*r)).abs().max_element();
+            let e = (wide(*l) - wide(*r)).abs().max_element();
             prop_assert!(
                 e <= tol,
                 "knot {k} (multiplicity {m}, degree {p}): order {order} jumps by {e} > {tol}"
@@ -108,7 +106,7 @@ fn check_continuity<P: Point>(spec: &CurveSpec) -> Result<(), TestCaseError> {
 }
 
 proptest! {
-    #![proptest_config(common::config())]
+    #![proptest_config(testkit::config())]
 
     /// Affine invariance: mapping the control points by x ↦ A x + t maps every
     /// curve point the same way, for rational curves too.
@@ -147,10 +145,10 @@ proptest! {
         let (p0, _) = c.control_point(0).unwrap();
         let (pn, _) = c.control_point(n).unwrap();
         let pmax = pmax_of(&spec, 3).max(1e-3);
-        prop_assert!(rel_err(to_d3(c.point(a)), to_d3(p0), pmax) <= 4.0 * EPS32);
-        prop_assert!(rel_err(to_d3(c.point(b)), to_d3(pn), pmax) <= 4.0 * EPS32);
+        prop_assert!(rel_err(wide(c.point(a)), wide(p0), pmax) <= 4.0 * EPS32);
+        prop_assert!(rel_err(wide(c.point(b)), wide(pn), pmax) <= 4.0 * EPS32);
         // And the input data round-trip through the homogeneous form.
-        prop_assert!(rel_err(to_d3(p0), to_d3(from3::<Vec3>(spec.pts[0])), pmax) <= 2.0 * EPS32);
+        prop_assert!(rel_err(wide(p0), wide(from3::<Vec3>(spec.pts[0])), pmax) <= 2.0 * EPS32);
     }
 
     /// The four corners of a surface are its corner control points, and each boundary is the
@@ -274,8 +272,8 @@ fn total_curve<P: Point>(spec: &CurveSpec, t: f64) -> Result<(), TestCaseError> 
             prop_assert!(x.is_finite(), "u = {u}: {f:?}");
         }
         prop_assert!(f.curvature.is_finite());
-        prop_assert!((to_d3(f.tangent).length() - 1.0).abs() <= 1e-6);
-        prop_assert!((to_d3(f.normal).length() - 1.0).abs() <= 1e-6);
+        prop_assert!((wide(f.tangent).length() - 1.0).abs() <= 1e-6);
+        prop_assert!((wide(f.normal).length() - 1.0).abs() <= 1e-6);
         let uc = if u.is_nan() { a } else { u.clamp(a, b) };
         prop_assert_eq!(c.point(u), c.point(uc));
         prop_assert_eq!(c.derivs(u, 2), c.derivs(uc, 2));

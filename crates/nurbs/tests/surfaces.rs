@@ -2,15 +2,13 @@
 //! evaluation of the definition and its central differences.
 #![allow(clippy::unwrap_used)]
 
-mod common;
-
-use common::{
-    EPS32, RefSurface, SurfaceSpec, central_mixed, central1, central2, hom3, in_span, min_gap,
-    rel_err, surface_spec,
-};
 use glam::{DVec3, Vec3, Vec4};
 use nurbs::{Surface, SurfaceDerivs};
 use proptest::prelude::*;
+use testkit::{
+    EPS32, RefSurface, SurfaceSpec, central_mixed, central1, central2, hom3, in_span, min_gap,
+    rel_err, surface_spec,
+};
 
 /// Rounding scale of ∂^(k+l)S/∂u^k∂v^l: |P|max R^(k+l) Du^k Dv^l with R = wmax/wmin and
 /// D = degree / smallest knot gap (as for curves, A4.4 divides by w once per order).
@@ -123,7 +121,7 @@ struct SurfaceDerivsD {
 }
 
 proptest! {
-    #![proptest_config(common::config())]
+    #![proptest_config(testkit::config())]
 
     /// S and all partials up to second order of random surfaces (degrees 1–5 in each
     /// direction, interior multiplicities up to the degree, rational or not, arbitrary domains)

@@ -2,8 +2,6 @@
 //! and the message names the offending field.
 #![allow(clippy::unwrap_used)]
 
-mod common;
-
 use glam::{Vec2, Vec3, Vec4};
 use nurbs::{At, Curve, CurveBuf, Field, Knots, MAX_DEGREE, NurbsError, Surface, SurfaceBuf};
 use proptest::prelude::*;
@@ -635,7 +633,7 @@ fn garbage_params() -> impl Strategy<Value = Vec<f32>> {
 }
 
 proptest! {
-    #![proptest_config(common::config())]
+    #![proptest_config(testkit::config())]
 
     #[test]
     fn knots_new_never_panics(

@@ -20,6 +20,16 @@
 //!
 //! The state machine only moves between neighbours (curve ↔ its end vertices ↔ next curve),
 //! so a HIP pushed deep into a thin object never pops through to the far side.
+//!
+//! # Corners inside a curve
+//!
+//! A curve with an interior knot of full multiplicity (at least its degree; every interior
+//! knot of a polyline) is only C⁰ there, and generally has a corner. The chain splits such a
+//! curve at load where its one-sided tangents differ (windows onto the same data, no copy,
+//! see `nurbs::Curve::c0_pieces`), so the corner is a vertex like any other, with its regions
+//! and its place in the state machine; tangent-continuous joins such as the quarter points of
+//! a rational circle stay inside one curve. Curve indices of the chain (features, contacts) count
+//! these pieces; [`Chain::source_curve`] maps them back to the curves given.
 
 use crate::contact::{Contact, Feature};
 use crate::global::{GlobalConfig, closest_point};
@@ -43,6 +53,14 @@ pub enum ChainError {
         /// Given count.
         count: usize,
     },
+    /// More than [`MAX_CHAIN_CURVES`] pieces once the curves are split at their corners
+    /// (interior knots of full multiplicity where they turn).
+    TooManyPieces {
+        /// Given count of curves.
+        count: usize,
+        /// Count of pieces.
+        pieces: usize,
+    },
     /// Curve `curve` does not start where curve `curve − 1` ends.
     Gap {
         /// Index of the curve whose start is off.
@@ -61,6 +79,10 @@ impl core::fmt::Display for ChainError {
             ChainError::TooManyCurves { count } => write!(
                 f,
                 "patches: {count} curves, at most {MAX_CHAIN_CURVES} per object"
+            ),
+            ChainError::TooManyPieces { count, pieces } => write!(
+                f,
+                "patches: split at their corners (interior knots of full multiplicity), the {count} curve(s) make {pieces} curves, at most {MAX_CHAIN_CURVES} per object"
             ),
             ChainError::Gap { curve, gap_m } => write!(
                 f,
@@ -169,7 +191,11 @@ impl Vertex {
 /// (counter-clockwise when closed), with its vertex regions.
 #[derive(Clone, Copy, Debug)]
 pub struct Chain<'a> {
-    curves: &'a [Curve<'a, Vec2>],
+    /// The curves split at their corners (full-multiplicity interior knots).
+    curves: [Curve<'a, Vec2>; MAX_CHAIN_CURVES],
+    n_curves: usize,
+    /// Index of the given curve each piece comes from.
+    source: [u16; MAX_CHAIN_CURVES],
     /// Whether each curve closes on itself (a tracker wraps there), found once at load.
     periodic: [bool; MAX_CHAIN_CURVES],
     closed: bool,
@@ -178,23 +204,42 @@ pub struct Chain<'a> {
 }
 
 impl<'a> Chain<'a> {
-    /// Checks that consecutive curves join, detects whether the chain closes, checks the
-    /// orientation of closed chains and computes the vertex regions.
-    pub fn new(curves: &'a [Curve<'a, Vec2>]) -> Result<Self, ChainError> {
-        let n = curves.len();
-        if n == 0 {
+    /// Splits the curves at their corners (interior knots of full multiplicity), checks that
+    /// consecutive curves join, detects whether the chain closes, checks the orientation of
+    /// closed chains and computes the vertex regions.
+    pub fn new(given: &[Curve<'a, Vec2>]) -> Result<Self, ChainError> {
+        let Some(&first) = given.first() else {
             return Err(ChainError::Empty);
+        };
+        if given.len() > MAX_CHAIN_CURVES {
+            return Err(ChainError::TooManyCurves { count: given.len() });
+        }
+        let mut pieces = [first; MAX_CHAIN_CURVES];
+        let mut source = [0u16; MAX_CHAIN_CURVES];
+        let mut n = 0;
+        for (i, c) in given.iter().enumerate() {
+            crate::split::curve_pieces(c, |piece| {
+                if n < MAX_CHAIN_CURVES {
+                    pieces[n] = piece;
+                    source[n] = i as u16;
+                }
+                n += 1;
+            });
         }
         if n > MAX_CHAIN_CURVES {
-            return Err(ChainError::TooManyCurves { count: n });
+            return Err(ChainError::TooManyPieces {
+                count: given.len(),
+                pieces: n,
+            });
         }
+        let curves = &pieces[..n];
         let start = |c: &Curve<'a, Vec2>| c.point(c.domain().0);
         let end = |c: &Curve<'a, Vec2>| c.point(c.domain().1);
         for i in 1..n {
             let gap = (start(&curves[i]) - end(&curves[i - 1])).length();
             if gap > JOIN_TOL_M {
                 return Err(ChainError::Gap {
-                    curve: i,
+                    curve: usize::from(source[i]),
                     gap_m: gap,
                 });
             }
@@ -261,7 +306,9 @@ impl<'a> Chain<'a> {
             *p = c.is_closed(PERIODIC_TOL);
         }
         Ok(Chain {
-            curves,
+            curves: pieces,
+            n_curves: n,
+            source,
             periodic,
             closed,
             vertices,
@@ -269,9 +316,15 @@ impl<'a> Chain<'a> {
         })
     }
 
-    /// The curves.
-    pub fn curves(&self) -> &'a [Curve<'a, Vec2>] {
-        self.curves
+    /// The curves, split at their corners (see the module docs): windows onto the curves
+    /// given to [`Chain::new`].
+    pub fn curves(&self) -> &[Curve<'a, Vec2>] {
+        &self.curves[..self.n_curves]
+    }
+
+    /// Index of the curve given to [`Chain::new`] that curve `i` of the chain is a piece of.
+    pub fn source_curve(&self, i: usize) -> usize {
+        usize::from(self.source[i.min(MAX_CHAIN_CURVES - 1)])
     }
 
     /// A tracker on curve `i` at `u`, with the curve's closedness known from load.
@@ -307,7 +360,7 @@ impl<'a> Chain<'a> {
     pub fn nearest(&self, x: Vec2) -> (usize, f32) {
         let cfg = GlobalConfig::default();
         let mut best = (0, 0.0, f32::INFINITY);
-        for (i, c) in self.curves.iter().enumerate() {
+        for (i, c) in self.curves().iter().enumerate() {
             let r = closest_point(c, x, &cfg);
             if r.distance_squared < best.2 {
                 best = (i, r.t[0], r.distance_squared);
@@ -377,7 +430,7 @@ impl ChainTracker {
 
     /// Puts the tracker on curve `i` at parameter `u` (e.g. to pin a god-object).
     pub fn reset(&mut self, chain: &Chain<'_>, i: usize, u: f32) {
-        let i = i.min(chain.curves.len() - 1);
+        let i = i.min(chain.n_curves - 1);
         self.curve = i;
         self.feature = Feature::Patch(i as u16);
         self.tracker = chain.tracker_on(i, u, *self.tracker.config());
@@ -393,7 +446,7 @@ impl ChainTracker {
         period_s: f32,
         allow_switch: bool,
     ) -> Contact<Vec2> {
-        let curves = chain.curves;
+        let curves = chain.curves();
         for _ in 0..MAX_SWITCHES {
             match self.feature {
                 Feature::Vertex(k) => {

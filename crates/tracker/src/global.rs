@@ -26,10 +26,20 @@
 //!    when that is nearer than the middle: a leaf can straddle two minima). The best point
 //!    found is polished once more at the end, so that it satisfies the first-order condition.
 //!
-//! The polish is Newton's method on the whole patch as in [`newton`](crate::newton()), with
-//! Levenberg–Marquardt damping and bounds handled as an active set (see
-//! `projected_newton`): plain Newton with clamping can jump out of the basin a leaf samples,
-//! or stall on the boundary of the domain short of a minimum there.
+//! The polish is Newton's method as in [`newton`](crate::newton()), with Levenberg–Marquardt
+//! damping and bounds handled as an active set (see `projected_newton`): plain Newton with
+//! clamping can jump out of the basin a leaf samples, or stall on the boundary of the domain
+//! short of a minimum there. It runs inside the *smooth region* of the piece it starts from
+//! ([`BezierSplit::region`]: the part of the patch between interior knots of full
+//! multiplicity, a window whose evaluation at its ends is one-sided), never across a crease:
+//! there the derivatives jump, and a polish that crosses one settles on the wrong side (issue
+//! 11: 3.7 µm too far beside a knot of a bilinear patch). A minimum on a crease is then a
+//! minimum on the region's boundary, which the active set finds from either side, and corners
+//! of pieces are offered as they are. The final polish stays in the region of the best point.
+//! On a patch without such knots the region is the whole patch.
+//!
+//! The tolerance is relative to the patch's size ([`RELATIVE_TOLERANCE`]), capped by
+//! [`GlobalConfig::tolerance`]: the answer is proven to `f32` precision whatever the scale.
 //!
 //! # Cost
 //!
@@ -46,8 +56,9 @@
 //! [`SurfacePiece`]): ten levels of 1.2 KiB. Worst case for a surface, from the release
 //! build's frame sizes on thumbv7em: entry 0.4 KiB + root piece 1.1 KiB + 10 × 1.2 KiB + the
 //! polish at the deepest leaf (surface jet included) 2.0 KiB ≈ 15.5 KiB; measured on x86-64
-//! by stack painting, 15.7 KiB. A curve piece is 96 B (planar) or 128 B (spatial), the depth
-//! cap 16: about 7 KiB.
+//! by stack painting, 15.7 KiB (before the search kept its two region windows, about 0.2 KiB
+//! more in the entry frame; not re-measured). A curve piece is 96 B (planar) or 128 B
+//! (spatial), the depth cap 16: about 7 KiB.
 
 use core::ops::{Add, Mul};
 
@@ -62,6 +73,9 @@ use nurbs::{Aabb, Curve, MAX_ORDER, Point, Surface, Vec3, Vec4};
 pub struct GlobalConfig {
     /// Distance tolerance (metres). A piece is pruned unless it could hold a point closer than
     /// the best so far by more than this, and a piece smaller than this is not split further.
+    /// The search uses the smaller of this and [`RELATIVE_TOLERANCE`] times the diagonal of the
+    /// patch's control box (and likewise for the polish's `point_tol`), so that the lower bound
+    /// proves the answer to `f32` precision relative to the patch's size, whatever its scale.
     pub tolerance: f32,
     /// The first piece on a branch whose control box diagonal is at most this fraction of the
     /// best distance so far is polished from its middle: at that size the piece usually holds
@@ -73,6 +87,11 @@ pub struct GlobalConfig {
     /// Tolerances (P&T eq. 6.4–6.5) and iteration cap of each polish.
     pub newton: NewtonConfig,
 }
+
+/// The relative part of [`GlobalConfig::tolerance`]: 8 ε₃₂, a few roundings of a coordinate of
+/// the patch's size (de Boor evaluation of a point is accurate to a few ε |P|max, so a finer
+/// proof would only compare rounding noise).
+pub const RELATIVE_TOLERANCE: f32 = 8.0 * f32::EPSILON;
 
 impl Default for GlobalConfig {
     fn default() -> Self {
@@ -142,17 +161,25 @@ pub trait BezierPiece<P: Point, const N: usize>: Clone + core::fmt::Debug {
 }
 
 /// Patches that split into rational Bézier pieces, one per non-empty knot interval.
-pub trait BezierSplit<const N: usize>: Patch<N> {
+pub trait BezierSplit<const N: usize>: Patch<N> + Copy {
     /// A piece.
     type Piece: BezierPiece<Self::P, N>;
 
     /// Number of knot intervals of the domain per direction, empty ones included
-    /// (`n_points − degree`).
+    /// (`n_points − degree` for a whole knot vector).
     fn interval_counts(&self) -> [usize; N];
 
-    /// The piece over knot interval `k` (interval `k` of a direction is `[U[p+k], U[p+k+1]]`);
-    /// `None` when that interval is empty or out of range.
+    /// The piece over knot interval `k` (interval `k` of a direction is `[U[f+k], U[f+k+1]]`
+    /// with `f` the index of the domain's first knot, `p` for a whole knot vector); `None`
+    /// when that interval is empty or out of range.
     fn bezier_piece(&self, k: [usize; N]) -> Option<Self::Piece>;
+
+    /// The smooth region that holds knot interval `k`: the piece of the patch between its C⁰
+    /// breaks (interior knots of multiplicity ≥ the degree: corners of a curve, creases of a
+    /// surface), as a window onto the patch whose evaluation at its ends is one-sided. The
+    /// polish runs inside it, so that it never steps across a crease, where the derivatives
+    /// jump. The patch itself when it has no such knot.
+    fn region(&self, k: [usize; N]) -> Self;
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -363,7 +390,7 @@ impl<P: Point> BezierSplit<1> for Curve<'_, P> {
     type Piece = CurvePiece<P>;
 
     fn interval_counts(&self) -> [usize; 1] {
-        [self.points().len() - self.degree()]
+        [self.knots().span_indices().len()]
     }
 
     fn bezier_piece(&self, k: [usize; 1]) -> Option<CurvePiece<P>> {
@@ -372,7 +399,7 @@ impl<P: Point> BezierSplit<1> for Curve<'_, P> {
         if k[0] >= self.interval_counts()[0] {
             return None;
         }
-        let s = p + k[0];
+        let s = self.knots().span_indices().start + k[0];
         let (a, b) = (knots[s], knots[s + 1]);
         if a >= b {
             return None;
@@ -384,6 +411,13 @@ impl<P: Point> BezierSplit<1> for Curve<'_, P> {
             degree: p,
             range: (a, b),
         })
+    }
+
+    fn region(&self, k: [usize; 1]) -> Self {
+        let s = self.knots().span_indices().start + k[0];
+        self.c0_pieces()
+            .find(|c| c.knots().span_indices().contains(&s))
+            .unwrap_or(*self)
     }
 }
 
@@ -536,20 +570,22 @@ impl BezierSplit<2> for Surface<'_> {
     type Piece = SurfacePiece;
 
     fn interval_counts(&self) -> [usize; 2] {
-        let (nu, nv) = self.counts();
-        let (p, q) = self.degree();
-        [nu - p, nv - q]
+        let (ku, kv) = self.knots();
+        [ku.span_indices().len(), kv.span_indices().len()]
     }
 
     fn bezier_piece(&self, k: [usize; 2]) -> Option<SurfacePiece> {
         let (p, q) = self.degree();
-        let (ku, kv) = self.knots();
-        let (ku, kv) = (ku.as_slice(), kv.as_slice());
+        let (knots_u, knots_v) = self.knots();
+        let (ku, kv) = (knots_u.as_slice(), knots_v.as_slice());
         let counts = self.interval_counts();
         if k[0] >= counts[0] || k[1] >= counts[1] {
             return None;
         }
-        let (su, sv) = (p + k[0], q + k[1]);
+        let (su, sv) = (
+            knots_u.span_indices().start + k[0],
+            knots_v.span_indices().start + k[1],
+        );
         let (ua, ub, va, vb) = (ku[su], ku[su + 1], kv[sv], kv[sv + 1]);
         if !(ua < ub && va < vb) {
             return None;
@@ -578,20 +614,51 @@ impl BezierSplit<2> for Surface<'_> {
             range: [(ua, ub), (va, vb)],
         })
     }
+
+    fn region(&self, k: [usize; 2]) -> Self {
+        let (ku, kv) = self.knots();
+        let (su, sv) = (
+            ku.span_indices().start + k[0],
+            kv.span_indices().start + k[1],
+        );
+        let pu = ku.c0_pieces().find(|w| w.span_indices().contains(&su));
+        let pv = kv.c0_pieces().find(|w| w.span_indices().contains(&sv));
+        match (pu, pv) {
+            (Some(pu), Some(pv)) => self.window(pu, pv).unwrap_or(*self),
+            _ => *self,
+        }
+    }
 }
 
 // ---------------------------------------------------------------------------------------------
 // The search
 // ---------------------------------------------------------------------------------------------
 
-/// The patch with its periodicity computed once: every polish asks for it, and a
-/// surface answers by sampling its boundary.
-struct Cached<'s, S, const N: usize> {
-    patch: &'s S,
+/// A smooth region of the patch (see [`BezierSplit::region`]) with its periodicity: every
+/// polish asks for it, and a surface answers by sampling its boundary, so it is computed once
+/// for the whole patch and inherited by the regions that span a whole closed direction.
+#[derive(Clone, Copy)]
+struct Cached<S, const N: usize> {
+    patch: S,
     periodic: [bool; N],
 }
 
-impl<S: Patch<N>, const N: usize> Patch<N> for Cached<'_, S, N> {
+impl<S: Patch<N>, const N: usize> Cached<S, N> {
+    /// `region` of a patch whose own periodicity is `whole` over `domain`.
+    fn new(region: S, whole: [bool; N], domain: [(f32, f32); N]) -> Self {
+        let mut periodic = whole;
+        let d = region.domain();
+        for i in 0..N {
+            periodic[i] &= d[i] == domain[i];
+        }
+        Cached {
+            patch: region,
+            periodic,
+        }
+    }
+}
+
+impl<S: Patch<N>, const N: usize> Patch<N> for Cached<S, N> {
     type P = S::P;
 
     fn domain(&self) -> [(f32, f32); N] {
@@ -624,11 +691,20 @@ impl<S: Patch<N>, const N: usize> Patch<N> for Cached<'_, S, N> {
 }
 
 struct Search<'s, S: BezierSplit<N>, const N: usize> {
-    patch: Cached<'s, S, N>,
+    patch: &'s S,
+    /// Periodicity and domain of the whole patch.
+    periodic: [bool; N],
+    domain: [(f32, f32); N],
+    /// The patch has no C⁰ knots: every region is the whole patch.
+    smooth: bool,
+    /// The smooth region of the root piece being searched: polishes run inside it.
+    region: Cached<S, N>,
     x: S::P,
     cfg: GlobalConfig,
     max_depth: u32,
     best_t: [f32; N],
+    /// The region `best_t` was found in (its final polish stays there).
+    best_region: Cached<S, N>,
     best_d2: f32,
     /// `√best_d2`, kept for the pruning test.
     best_d: f32,
@@ -637,6 +713,17 @@ struct Search<'s, S: BezierSplit<N>, const N: usize> {
 }
 
 impl<S: BezierSplit<N>, const N: usize> Search<'_, S, N> {
+    /// The region of knot interval `k`, with its periodicity.
+    fn region_of(&self, k: [usize; N]) -> Cached<S, N> {
+        if self.smooth {
+            return Cached {
+                patch: *self.patch,
+                periodic: self.periodic,
+            };
+        }
+        Cached::new(self.patch.region(k), self.periodic, self.domain)
+    }
+
     /// Takes `point` as the best if it is closer, or (`polished`) as close: a polished point
     /// wins a tie against a corner, whose distance can agree to the last bit while its parameter
     /// is off the stationary point.
@@ -646,6 +733,7 @@ impl<S: BezierSplit<N>, const N: usize> Search<'_, S, N> {
             self.best_d2 = d2;
             self.best_d = libm::sqrtf(d2);
             self.best_t = t;
+            self.best_region = self.region;
         }
     }
 
@@ -657,46 +745,58 @@ impl<S: BezierSplit<N>, const N: usize> Search<'_, S, N> {
     }
 
     fn polish(&mut self, t0: [f32; N]) {
-        let (t, point) = self.run_polish(t0);
+        let region = self.region;
+        let (t, point) = self.run_polish(&region, t0);
         self.offer(t, point, true);
     }
 
-    /// [`projected_newton`] from `t0` (out of line: its state must not sit in every frame of
-    /// the recursion).
+    /// [`projected_newton`] from `t0` inside `region` (out of line: its state must not sit in
+    /// every frame of the recursion).
     #[inline(never)]
-    fn run_polish(&mut self, t0: [f32; N]) -> ([f32; N], S::P) {
+    fn run_polish(&mut self, region: &Cached<S, N>, t0: [f32; N]) -> ([f32; N], S::P) {
         self.polishes = self.polishes.saturating_add(1);
-        projected_newton(&self.patch, self.x, t0, &self.cfg.newton)
+        projected_newton(region, self.x, t0, &self.cfg.newton)
     }
 
     /// Pass 1: every piece's corners for a first upper bound; returns the (flat index of the)
-    /// piece nearest by its lower bound. Out of line, like [`Self::root`], so that the pieces
+    /// piece nearest by its lower bound, and the diagonal of the box of all pieces' control
+    /// points (the patch's size). Out of line, like [`Self::root`], so that the pieces
     /// it extracts do not sit in [`closest_point`]'s frame during the recursion.
     #[inline(never)]
-    fn survey(&mut self, counts: &[usize; N], total: usize) -> Option<usize> {
+    fn survey(&mut self, counts: &[usize; N], total: usize) -> (Option<usize>, f32) {
         let mut nearest: Option<(usize, f32)> = None;
+        let mut all: Option<Aabb<S::P>> = None;
         for flat in 0..total {
-            if let Some(piece) = self.patch.patch.bezier_piece(unflatten(flat, counts)) {
+            let k = unflatten(flat, counts);
+            if let Some(piece) = self.patch.bezier_piece(k) {
+                self.region = self.region_of(k);
                 for k in 0..1usize << N {
                     if let Some((t, point)) = piece.corner(k) {
                         self.offer(t, point, false);
                     }
                 }
-                let lb = piece.lower_bound(self.x, &piece.bounding_box());
+                let bb = piece.bounding_box();
+                let lb = piece.lower_bound(self.x, &bb);
                 if nearest.is_none_or(|(_, best)| lb < best) {
                     nearest = Some((flat, lb));
                 }
+                all = Some(match all {
+                    Some(a) => a.include(bb.min).include(bb.max),
+                    None => bb,
+                });
             }
         }
-        nearest.map(|(flat, _)| flat)
+        let size = all.map_or(0.0, |a| libm::sqrtf((a.max - a.min).length_squared()));
+        (nearest.map(|(flat, _)| flat), size)
     }
 
     /// Branch and bound from the piece over knot interval `k`.
     #[inline(never)]
     fn root(&mut self, k: [usize; N]) {
         // Recursing on the piece inside the option (not a copy of it) keeps one piece here.
-        let mut slot = self.patch.patch.bezier_piece(k);
+        let mut slot = self.patch.bezier_piece(k);
         if let Some(piece) = slot.as_mut() {
+            self.region = self.region_of(k);
             let bb = piece.bounding_box();
             self.descend(piece, bb, 0, false);
         }
@@ -1010,15 +1110,19 @@ pub fn closest_point<S: BezierSplit<N>, const N: usize>(
         };
     }
     let d2 = (patch.jet(start, 0).point - x).length_squared();
+    let periodic = patch.periodic(PERIODIC_TOL);
+    let first = Cached::new(patch.region([0; N]), periodic, domain);
     let mut search = Search {
-        patch: Cached {
-            patch,
-            periodic: patch.periodic(PERIODIC_TOL),
-        },
+        patch,
+        periodic,
+        domain,
+        smooth: first.patch.domain() == domain,
+        region: first,
         x,
         cfg: *cfg,
         max_depth: u32::from(cfg.max_depth).min(S::Piece::MAX_DEPTH),
         best_t: start,
+        best_region: first,
         best_d2: d2,
         best_d: libm::sqrtf(d2),
         visited: 0,
@@ -1027,7 +1131,12 @@ pub fn closest_point<S: BezierSplit<N>, const N: usize>(
 
     let counts = patch.interval_counts();
     let total = counts.iter().fold(1usize, |a, &c| a.saturating_mul(c));
-    if let Some(near) = search.survey(&counts, total) {
+    let (near, size) = search.survey(&counts, total);
+    // `min` keeps the configured values for a NaN size (a patch beyond f32).
+    search.cfg.tolerance = cfg.tolerance.min(RELATIVE_TOLERANCE * size);
+    search.cfg.newton.point_tol = cfg.newton.point_tol.min(RELATIVE_TOLERANCE * size);
+    let cfg = search.cfg;
+    if let Some(near) = near {
         // Branch and bound, nearest piece first, then the rest in order.
         for flat in core::iter::once(near).chain((0..total).filter(|&f| f != near)) {
             search.root(unflatten(flat, &counts));
@@ -1036,7 +1145,8 @@ pub fn closest_point<S: BezierSplit<N>, const N: usize>(
     // The final polish settles on the stationary point of the best basin. Near a minimum
     // the distance is flat, so a sample can beat the stationary point by rounding noise
     // alone; within the tolerance plus that noise, the polished point wins.
-    let (t_polished, point) = search.run_polish(search.best_t);
+    let best_region = search.best_region;
+    let (t_polished, point) = search.run_polish(&best_region, search.best_t);
     let scale = libm::sqrtf(x.length_squared()) + libm::sqrtf(point.length_squared());
     let slack = cfg.tolerance + 8.0 * f32::EPSILON * scale;
     let t = if libm::sqrtf((point - x).length_squared()) <= search.best_d + slack {

@@ -15,6 +15,7 @@ mod patch;
 #[cfg(feature = "alloc")]
 mod polygon;
 mod shell;
+mod split;
 mod track;
 
 pub use chain::{
@@ -22,7 +23,8 @@ pub use chain::{
 };
 pub use contact::{Contact, Feature, Penalty};
 pub use global::{
-    BezierPiece, BezierSplit, Closest, CurvePiece, GlobalConfig, SurfacePiece, closest_point,
+    BezierPiece, BezierSplit, Closest, CurvePiece, GlobalConfig, RELATIVE_TOLERANCE, SurfacePiece,
+    closest_point,
 };
 pub use newton::{NewtonConfig, NewtonResult, newton};
 pub use object::{Frame, Object};

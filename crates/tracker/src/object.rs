@@ -48,7 +48,7 @@ pub trait Object {
     /// `params` on `patch`: one Gauss–Newton step, clamped into the domain.
     fn offset(&self, patch: usize, params: [f32; 2], displacement: Self::P) -> [f32; 2];
 
-    /// Number of patches.
+    /// Number of patches (pieces: patches are split at load at their corners and creases).
     fn patch_count(&self) -> usize;
 
     /// The same point on the neighbouring patch, where `params` lies on a boundary of `patch`
@@ -62,6 +62,11 @@ pub trait Object {
         params: [f32; 2],
         toward: Self::P,
     ) -> Option<(usize, [f32; 2])>;
+
+    /// Index of the patch given at construction that patch `patch` is a piece of (see
+    /// [`Chain::source_curve`], [`Shell::source_patch`]). Parameters are shared: a piece is a
+    /// window onto its source patch's parameter domain.
+    fn source_patch(&self, patch: usize) -> usize;
 }
 
 /// Whether `t` sits on the end `end` of `(a, b)`, within 1e-4 of the domain's size: a point
@@ -147,6 +152,10 @@ impl Object for Chain<'_> {
             return Some((j, [u, 0.0]));
         }
         None
+    }
+
+    fn source_patch(&self, patch: usize) -> usize {
+        self.source_curve(patch)
     }
 }
 
@@ -248,6 +257,10 @@ impl Object for Shell<'_> {
 
     fn patch_count(&self) -> usize {
         self.patches().len()
+    }
+
+    fn source_patch(&self, patch: usize) -> usize {
+        Shell::source_patch(self, patch)
     }
 }
 

@@ -36,6 +36,17 @@
 //! Edge parameters are carried from one patch to the other by their relative position along
 //! the side; for sides parametrised differently the tracker corrects the remaining offset in
 //! its next updates.
+//!
+//! # Creases inside a patch
+//!
+//! A patch with an interior knot of full multiplicity (at least the degree in that direction;
+//! every interior knot of a bilinear patch) is only C⁰ along that knot line, and generally has
+//! a crease there. The shell splits such a patch at load along the lines where its one-sided
+//! normals differ (windows onto the same data, no copy, see `nurbs::Surface::c0_pieces`;
+//! tangent-continuous lines such as the quarter meridians of a surface of revolution stay
+//! inside one patch), so each crease is an edge like any other, found by the side matching above, with its regions and its place
+//! in the state machine. Patch indices of the shell (features, contacts) count these pieces;
+//! [`Shell::source_patch`] maps them back to the patches given.
 
 use crate::contact::{Contact, Feature};
 use crate::global::{GlobalConfig, closest_point};
@@ -64,6 +75,14 @@ pub enum ShellError {
         /// Given count.
         count: usize,
     },
+    /// More than [`MAX_SHELL_PATCHES`] pieces once the patches are split at their creases
+    /// (interior knot lines of full multiplicity where they turn).
+    TooManyPieces {
+        /// Given count of patches.
+        count: usize,
+        /// Count of pieces.
+        pieces: usize,
+    },
     /// A side matches more than one other side.
     NonManifold {
         /// Patch index.
@@ -87,6 +106,10 @@ impl core::fmt::Display for ShellError {
             ShellError::TooManyPatches { count } => write!(
                 f,
                 "patches: {count} surfaces, at most {MAX_SHELL_PATCHES} per object"
+            ),
+            ShellError::TooManyPieces { count, pieces } => write!(
+                f,
+                "patches: split at their creases (interior knot lines of full multiplicity), the {count} surface(s) make {pieces} surfaces, at most {MAX_SHELL_PATCHES} per object"
             ),
             ShellError::NonManifold { patch, side } => write!(
                 f,
@@ -153,7 +176,11 @@ impl Corner {
 /// A validated shell of surface patches with its topology.
 #[derive(Clone, Copy, Debug)]
 pub struct Shell<'a> {
-    patches: &'a [Surface<'a>],
+    /// The patches split at their creases (full-multiplicity interior knot lines).
+    patches: [Surface<'a>; MAX_SHELL_PATCHES],
+    n_patches: usize,
+    /// Index of the given patch each piece comes from.
+    source: [u16; MAX_SHELL_PATCHES],
     sides: [[Side; 4]; MAX_SHELL_PATCHES],
     edges: [Edge; MAX_SHELL_EDGES],
     n_edges: usize,
@@ -210,16 +237,36 @@ fn within(a: Vec3, b: Vec3) -> bool {
 }
 
 impl<'a> Shell<'a> {
-    /// Classifies every side, finds edges and corners, and checks the orientation of a closed
-    /// shell.
-    pub fn new(patches: &'a [Surface<'a>]) -> Result<Self, ShellError> {
-        let n = patches.len();
-        if n == 0 {
+    /// Splits the patches at their creases (interior knot lines of full multiplicity),
+    /// classifies every side, finds edges and corners, and checks the orientation of a closed
+    /// shell. Errors name patches by their index in `given`.
+    pub fn new(given: &[Surface<'a>]) -> Result<Self, ShellError> {
+        let Some(&first) = given.first() else {
             return Err(ShellError::Empty);
+        };
+        if given.len() > MAX_SHELL_PATCHES {
+            return Err(ShellError::TooManyPatches { count: given.len() });
+        }
+        let mut pieces = [first; MAX_SHELL_PATCHES];
+        let mut source = [0u16; MAX_SHELL_PATCHES];
+        let mut n = 0;
+        for (i, s) in given.iter().enumerate() {
+            crate::split::surface_pieces(s, |piece| {
+                if n < MAX_SHELL_PATCHES {
+                    pieces[n] = piece;
+                    source[n] = i as u16;
+                }
+                n += 1;
+            });
         }
         if n > MAX_SHELL_PATCHES {
-            return Err(ShellError::TooManyPatches { count: n });
+            return Err(ShellError::TooManyPieces {
+                count: given.len(),
+                pieces: n,
+            });
         }
+        let patches = &pieces[..n];
+        let src = |i: usize| usize::from(source[i]);
         let mut sides = [[Side::Collapsed; 4]; MAX_SHELL_PATCHES];
         let blank_edge = Edge {
             a: (0, 0),
@@ -257,7 +304,10 @@ impl<'a> Shell<'a> {
                         let rev = pts.iter().zip(q.iter().rev()).all(|(&p, &q)| within(p, q));
                         if fwd || rev {
                             if found.is_some() || assigned[j][s2] {
-                                return Err(ShellError::NonManifold { patch: i, side: s });
+                                return Err(ShellError::NonManifold {
+                                    patch: src(i),
+                                    side: s,
+                                });
                             }
                             found = Some((j, s2, !fwd));
                         }
@@ -307,7 +357,7 @@ impl<'a> Shell<'a> {
                 };
                 let c = &mut corners[idx];
                 if c.n_incident as usize >= MAX_CORNER_VALENCE {
-                    return Err(ShellError::CornerValence { patch: i });
+                    return Err(ShellError::CornerValence { patch: src(i) });
                 }
                 c.incident[c.n_incident as usize] = (i as u16, k as u8);
                 c.n_incident += 1;
@@ -318,7 +368,9 @@ impl<'a> Shell<'a> {
             .iter()
             .all(|s| s.iter().all(|x| !matches!(x, Side::Open(_))));
         let shell = Shell {
-            patches,
+            patches: pieces,
+            n_patches: n,
+            source,
             sides,
             edges,
             n_edges,
@@ -333,9 +385,15 @@ impl<'a> Shell<'a> {
         Ok(shell)
     }
 
-    /// The patches.
-    pub fn patches(&self) -> &'a [Surface<'a>] {
-        self.patches
+    /// The patches, split at their creases (see the module docs): windows onto the patches
+    /// given to [`Shell::new`].
+    pub fn patches(&self) -> &[Surface<'a>] {
+        &self.patches[..self.n_patches]
+    }
+
+    /// Index of the patch given to [`Shell::new`] that patch `i` of the shell is a piece of.
+    pub fn source_patch(&self, i: usize) -> usize {
+        usize::from(self.source[i.min(MAX_SHELL_PATCHES - 1)])
     }
 
     /// A tracker on patch `i` at `t`, with the patch's periodic and collapsed sides known from
@@ -375,7 +433,7 @@ impl<'a> Shell<'a> {
     fn enclosed_volume(&self) -> f32 {
         const G: usize = 24;
         let mut vol = 0.0;
-        for s in self.patches {
+        for s in self.patches() {
             let [(u0, u1), (v0, v1)] = Patch::domain(s);
             let (du, dv) = ((u1 - u0) / G as f32, (v1 - v0) / G as f32);
             for i in 0..G {
@@ -393,7 +451,7 @@ impl<'a> Shell<'a> {
     pub fn nearest(&self, x: Vec3) -> (usize, [f32; 2]) {
         let cfg = GlobalConfig::default();
         let mut best = (0, [0.0; 2], f32::INFINITY);
-        for (i, s) in self.patches.iter().enumerate() {
+        for (i, s) in self.patches().iter().enumerate() {
             let r = closest_point(s, x, &cfg);
             if r.distance_squared < best.2 {
                 best = (i, r.t, r.distance_squared);
@@ -475,7 +533,7 @@ impl ShellTracker {
 
     /// Puts the tracker on patch `i` at `t`.
     pub fn reset(&mut self, shell: &Shell<'_>, i: usize, t: [f32; 2]) {
-        let i = i.min(shell.patches.len() - 1);
+        let i = i.min(shell.n_patches - 1);
         self.patch = i;
         self.feature = Feature::Patch(i as u16);
         self.tracker = shell.tracker_on(i, t, *self.tracker.config());

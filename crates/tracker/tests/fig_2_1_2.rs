@@ -16,10 +16,9 @@
 //! The tracker's angle matches `asin(|Ψ|/(|S_u||Γ|))` from its reported Ψ to `f32` rounding.
 #![allow(clippy::unwrap_used)]
 
-mod oracle;
-
+use glam::DVec3;
 use nurbs::{Vec2, construct};
-use oracle::{D3, RefCurve, T, angle_deg, closest_on_curve, v2, wide};
+use testkit::{RefCurve, T, angle_deg, closest_on_curve, v2, wide};
 use tracker::{Polyline, Tracker, TrackerConfig};
 
 const CENTER: Vec2 = Vec2::new(0.0, 0.09);
@@ -29,14 +28,14 @@ const SPEED: f64 = 0.1;
 
 /// Exact outward normal of the ellipse at a point on it: the gradient of
 /// `(x/a)² + (y/b)²`, `∝ (x/a², y/b²)` relative to the centre.
-fn ellipse_normal(p: D3) -> D3 {
+fn ellipse_normal(p: DVec3) -> DVec3 {
     let q = p - wide(CENTER);
-    D3::new(q.x() / (A * A), q.y() / (B * B), 0.0).unit()
+    DVec3::new(q.x / (A * A), q.y / (B * B), 0.0).normalize()
 }
 
 /// Straight HIP paths at `SPEED`, one point per tick.
-fn path(from: D3, to: D3) -> Vec<D3> {
-    let len = (to - from).norm();
+fn path(from: DVec3, to: DVec3) -> Vec<DVec3> {
+    let len = (to - from).length();
     let ticks = (len / (SPEED * T as f64)).round() as usize;
     (0..=ticks)
         .map(|k| from + (to - from) * (k as f64 / ticks as f64))
@@ -65,7 +64,7 @@ struct Worst {
     polygon_distance: f64,
 }
 
-fn measure(hips: &[D3], tol_m: f32) -> Worst {
+fn measure(hips: &[DVec3], tol_m: f32) -> Worst {
     let ellipse = construct::ellipse(CENTER, A as f32, B as f32).unwrap();
     let view = ellipse.view();
     let rc = RefCurve::new(&view);
@@ -83,12 +82,12 @@ fn measure(hips: &[D3], tol_m: f32) -> Worst {
         // The exact normal where the tracker's parameter puts the TP on the exact ellipse.
         let contact = angle_deg(x - tp, ellipse_normal(rc.point(t.t[0] as f64)));
         w.tracker_contact = w.tracker_contact.max(contact);
-        let speed = rc.jet(t.t[0] as f64).d1.norm();
-        let predicted = ((t.psi[0] as f64).abs() / (speed * gamma.norm()))
+        let speed = rc.jet(t.t[0] as f64).d1.length();
+        let predicted = ((t.psi[0] as f64).abs() / (speed * gamma.length()))
             .asin()
             .to_degrees();
         w.tracker_bound = w.tracker_bound.max(predicted);
-        let allowance = (1e-7 / gamma.norm()).to_degrees() + 1e-3 * predicted;
+        let allowance = (1e-7 / gamma.length()).to_degrees() + 1e-3 * predicted;
         w.tracker_mismatch = w
             .tracker_mismatch
             .max((contact - predicted).abs() / allowance);
@@ -124,11 +123,14 @@ fn fig_2_1_2_contact_normal_angles() {
     let paths = [
         (
             "sloped approach to the tip",
-            path(D3::new(0.049, 0.128, 0.0), D3::new(0.0412, 0.0905, 0.0)),
+            path(
+                DVec3::new(0.049, 0.128, 0.0),
+                DVec3::new(0.0412, 0.0905, 0.0),
+            ),
         ),
         (
             "passing the tip 5 mm out",
-            path(D3::new(0.045, 0.11, 0.0), D3::new(0.045, 0.07, 0.0)),
+            path(DVec3::new(0.045, 0.11, 0.0), DVec3::new(0.045, 0.07, 0.0)),
         ),
     ];
     for (name, hips) in &paths {

@@ -1,13 +1,15 @@
 //! Global closest-point search against references it did not produce: closed-form closest
 //! points on exact constructions (circle, spatial circle, straight segment, sphere, torus,
-//! cylinder), dense sampling of random cubic curves and bicubic surfaces, the first-order
-//! optimality condition, and the Bézier extraction against NURBS evaluation.
+//! cylinder), testkit's independent f64 brute force (dense sampling polished per Bézier piece)
+//! on random cubic curves and bicubic surfaces, the first-order optimality condition, and the
+//! Bézier extraction against NURBS evaluation.
 #![allow(clippy::unwrap_used)]
 
 use nurbs::construct::{arc, bezier_curve, circle, cylinder, sphere, torus};
-use nurbs::{Curve, CurveBuf, Point, Surface, SurfaceBuf, Vec2, Vec3};
+use nurbs::{Point, Surface, SurfaceBuf, Vec2, Vec3};
 use proptest::collection::vec;
 use proptest::prelude::*;
+use testkit::{CurveSpec, SurfaceSpec};
 use tracker::{
     BezierPiece, BezierSplit, Closest, GlobalConfig, Patch, SurfacePiece, closest_point,
 };
@@ -496,52 +498,14 @@ fn odd_configurations_are_total() {
 // Random patches: strategies
 // ---------------------------------------------------------------------------------------------
 
-/// Clamped knots of degree `p` on `[a, a + len]` with up to `max_interior` distinct interior
-/// knots of multiplicity `1..=max_mult` (at most `p`), at least 5% of the domain apart.
+/// Clamped knots of degree `p` on `[a, a + len]` (`a ∈ [−3, 3]`, `len ∈ [0.5, 5]`) with up
+/// to `max_interior` distinct interior knots of multiplicity `1..=max_mult` (at most `p`).
 fn knots(p: usize, max_interior: usize, max_mult: usize) -> impl Strategy<Value = Vec<f32>> {
-    let max_mult = max_mult.clamp(1, p);
-    (-3.0f64..3.0, 0.5f64..5.0, 0..=max_interior)
-        .prop_flat_map(move |(a, len, k)| {
-            (
-                Just(a),
-                Just(len),
-                vec(0.25f64..1.0, k + 1),
-                vec(1..=max_mult, k),
-            )
-        })
-        .prop_map(move |(a, len, gaps, mults)| {
-            let total: f64 = gaps.iter().sum();
-            let mut k = vec![a as f32; p + 1];
-            let mut acc = 0.0;
-            for (g, &m) in gaps.iter().zip(&mults) {
-                acc += g;
-                k.extend(std::iter::repeat_n((a + len * acc / total) as f32, m));
-            }
-            k.extend(std::iter::repeat_n((a + len) as f32, p + 1));
-            k
-        })
+    testkit::knots_in(p, max_interior, max_mult, -3.0..3.0, 0.5..5.0, 0.25)
 }
 
-#[derive(Clone, Debug)]
-struct CurveSpec {
-    p: usize,
-    knots: Vec<f32>,
-    pts: Vec<[f32; 3]>,
-    weights: Vec<f32>,
-}
-
-impl CurveSpec {
-    fn build<P: Point>(&self) -> CurveBuf<P> {
-        let pts: Vec<P> = self
-            .pts
-            .iter()
-            .map(|c| P::from_coords(&c[..P::DIM]).unwrap())
-            .collect();
-        CurveBuf::from_cartesian(self.p, self.knots.clone(), &pts, Some(&self.weights)).unwrap()
-    }
-}
-
-/// Random rational curves; interior knots of multiplicity up to `max_mult` (`p` allows kinks).
+/// Random rational curves (points in [−1, 1]³, weights in [0.5, 2]); interior knots of
+/// multiplicity up to `max_mult` (`p` allows kinks).
 fn curve_spec(
     degrees: std::ops::RangeInclusive<usize>,
     max_mult: usize,
@@ -561,34 +525,12 @@ fn curve_spec(
             p,
             knots,
             pts,
-            weights,
+            weights: Some(weights),
         })
 }
 
-#[derive(Clone, Debug)]
-struct SurfaceSpec {
-    p: usize,
-    q: usize,
-    ku: Vec<f32>,
-    kv: Vec<f32>,
-    rows: Vec<Vec<Vec3>>,
-    weights: Vec<Vec<f32>>,
-}
-
-impl SurfaceSpec {
-    fn build(&self) -> SurfaceBuf {
-        SurfaceBuf::from_rows(
-            (self.p, self.q),
-            (self.ku.clone(), self.kv.clone()),
-            &self.rows,
-            Some(&self.weights),
-        )
-        .unwrap()
-    }
-}
-
 /// Control nets are a wavy height field plus noise, so that surfaces fold over the query
-/// points in interesting ways without being pure noise.
+/// points in interesting ways without being pure noise; weights in [0.5, 2].
 fn surface_spec(
     pu: std::ops::RangeInclusive<usize>,
     pv: std::ops::RangeInclusive<usize>,
@@ -639,7 +581,7 @@ fn surface_spec(
                 ku,
                 kv,
                 rows,
-                weights,
+                weights: Some(weights),
             }
         })
 }
@@ -710,26 +652,22 @@ fn locally_minimal<P: Point, const N: usize, S: Patch<N, P = P>>(
     })
 }
 
-fn sampled_min_curve<P: Point>(c: &Curve<'_, P>, x: P, samples: usize) -> f32 {
-    let (a, b) = c.domain();
-    (0..=samples)
-        .map(|k| {
-            let u = a + (b - a) * (k as f32 / samples as f32);
-            (c.point(u) - x).length_squared().sqrt()
-        })
-        .fold(f32::INFINITY, f32::min)
-}
-
 fn check_curve<P: Point>(spec: &CurveSpec, x: P) -> Result<(), TestCaseError> {
     let buf = spec.build::<P>();
     let c = buf.view();
     let got = closest_point(&c, x, &cfg());
     let d = got.distance_squared.sqrt();
-    let sampled = sampled_min_curve(&c, x, 2000);
+    // The independent f64 brute force (dense sampling polished per Bézier piece). 2·10⁻⁶ is
+    // a few f32 roundings of coordinates and distances of order 1 with weights in [0.5, 2].
+    let reference =
+        testkit::closest_on_curve_pieces(&testkit::RefCurve::new(&c), testkit::wide(x), 400);
+    let d64 = f64::from(d);
     prop_assert!(
-        d <= sampled + 2e-6,
-        "global {d} > sampled {sampled} (t = {:?})",
-        got.t
+        d64 <= reference.distance + 2e-6 && d64 >= reference.distance - 2e-6,
+        "global {d} vs reference {} (t = {:?}, reference at {:?})",
+        reference.distance,
+        got.t,
+        reference.t
     );
     // The reported point is the curve's point at the reported parameter.
     prop_assert!((c.point(got.t[0]) - got.point).length_squared().sqrt() <= 1e-6);
@@ -754,12 +692,12 @@ proptest! {
     #![proptest_config(ProptestConfig::with_cases(128))]
 
     #[test]
-    fn planar_cubic_curves_beat_dense_sampling(spec in curve_spec(3..=3, 2), x in query3()) {
+    fn planar_cubic_curves_match_the_reference(spec in curve_spec(3..=3, 2), x in query3()) {
         check_curve::<Vec2>(&spec, Vec2::new(x[0], x[1]))?;
     }
 
     #[test]
-    fn spatial_cubic_curves_beat_dense_sampling(spec in curve_spec(3..=3, 2), x in query3()) {
+    fn spatial_cubic_curves_match_the_reference(spec in curve_spec(3..=3, 2), x in query3()) {
         check_curve::<Vec3>(&spec, Vec3::from(x))?;
     }
 }
@@ -770,18 +708,16 @@ fn check_surface(spec: &SurfaceSpec, x: Vec3) -> Result<(), TestCaseError> {
     let got = closest_point(&s, x, &cfg());
     let d = got.distance_squared.sqrt();
     let ((u0, u1), (v0, v1)) = s.domain();
-    let mut sampled = f32::INFINITY;
-    for i in 0..100 {
-        for j in 0..100 {
-            let u = u0 + (u1 - u0) * (i as f32 / 99.0);
-            let v = v0 + (v1 - v0) * (j as f32 / 99.0);
-            sampled = sampled.min((s.point(u, v) - x).length());
-        }
-    }
+    // The independent f64 brute force, per Bézier piece; tolerance as for curves.
+    let reference =
+        testkit::closest_on_surface_pieces(&testkit::RefSurface::new(&s), testkit::wide(x), 16);
+    let d64 = f64::from(d);
     prop_assert!(
-        d <= sampled + 2e-6,
-        "global {d} > sampled {sampled} (t = {:?})",
-        got.t
+        d64 <= reference.distance + 2e-6 && d64 >= reference.distance - 2e-6,
+        "global {d} vs reference {} (t = {:?}, reference at {:?})",
+        reference.distance,
+        got.t,
+        reference.t
     );
     prop_assert!((s.point(got.t[0], got.t[1]) - got.point).length() <= 1e-6);
     first_order_ok(&s, x, &got).map_err(TestCaseError::fail)?;
@@ -802,7 +738,7 @@ proptest! {
     #![proptest_config(ProptestConfig::with_cases(128))]
 
     #[test]
-    fn bicubic_surfaces_beat_dense_sampling(spec in surface_spec(3..=3, 3..=3, 3, 2), x in query3()) {
+    fn bicubic_surfaces_match_the_reference(spec in surface_spec(3..=3, 3..=3, 3, 2), x in query3()) {
         check_surface(&spec, Vec3::from(x))?;
     }
 
@@ -1046,4 +982,51 @@ fn pieces_visited_on_a_bicubic_8x8_surface() {
         mean <= 200.0 && max_visited <= 2000,
         "mean {mean}, max {max_visited}"
     );
+}
+
+/// The search proves its answer to f32 precision relative to the patch's size: scaling a
+/// patch and the query by a power of two (exact in binary floating point) scales every
+/// distance exactly, so the search must do exactly the same work and return the same
+/// parameters. With an absolute tolerance alone, small patches were searched more loosely.
+#[test]
+fn search_is_scale_invariant() {
+    let n = 8;
+    let k: Vec<f32> = [0.0, 0.0, 0.0, 0.0, 0.2, 0.4, 0.6, 0.8, 1.0, 1.0, 1.0, 1.0].to_vec();
+    let net = |scale: f32| -> SurfaceBuf {
+        let rows: Vec<Vec<Vec3>> = (0..n)
+            .map(|i| {
+                (0..n)
+                    .map(|j| {
+                        let (x, y) = (i as f32 / 7.0, j as f32 / 7.0);
+                        let z = 0.02 * ((7.0 * x).sin() * (5.0 * y).cos());
+                        Vec3::new(0.1 * x - 0.05, 0.05 + 0.1 * y, z) * scale
+                    })
+                    .collect()
+            })
+            .collect();
+        SurfaceBuf::from_rows::<_, &[f32]>((3, 3), (k.clone(), k.clone()), &rows, None).unwrap()
+    };
+    // The net's control box has a diagonal of about 0.15 m: from scale ½ down, the relative
+    // tolerance (8 ε₃₂ × diagonal ≤ 7·10⁻⁸ m) is below the absolute default (10⁻⁷ m).
+    let scales = [0.5f32, 0.125, 1.0 / 64.0];
+    let bufs: Vec<_> = scales.iter().map(|&s| net(s)).collect();
+    let mut rng = Rng(11);
+    for _ in 0..200 {
+        let x = f3([
+            rng.range(-0.07, 0.07),
+            rng.range(0.03, 0.17),
+            rng.range(-0.04, 0.04),
+        ]);
+        let base = closest_point(&bufs[0].view(), x * scales[0], &cfg());
+        for (buf, &s) in bufs.iter().zip(&scales).skip(1) {
+            let got = closest_point(&buf.view(), x * s, &cfg());
+            let r = s / scales[0];
+            assert_eq!(got.t, base.t, "scale {s}, query {x:?}");
+            assert_eq!(got.distance_squared, base.distance_squared * r * r);
+            assert_eq!(
+                (got.pieces_visited, got.polishes),
+                (base.pieces_visited, base.polishes)
+            );
+        }
+    }
 }

@@ -4,12 +4,11 @@
 //! the best of the three edges) that shares nothing with Ericson's Voronoi-region walk.
 #![allow(clippy::unwrap_used)]
 
-mod oracle;
-
+use glam::DVec3;
 use nurbs::{Vec2, Vec3, construct};
-use oracle::{D3, RefCurve, angle_deg, convex_curve, v2, wide};
 use proptest::prelude::*;
 use std::sync::OnceLock;
+use testkit::{RefCurve, angle_deg, convex_curve, v2, wide};
 use tracker::{
     MAX_MESH_CELLS, MAX_POLYLINE_VERTICES, Polyline, TriMesh, closest_point_on_triangle,
 };
@@ -41,7 +40,7 @@ fn circle_polyline_sagitta_and_segment_count() {
         let poly = Polyline::tessellate(&c.view(), tol);
         let pts = poly.points();
         for p in pts {
-            let radial = (wide(*p) - wide(CENTER)).norm();
+            let radial = (wide(*p) - wide(CENTER)).length();
             assert!(
                 (radial - r as f64).abs() < 1e-7,
                 "vertex off the circle by {radial}"
@@ -49,7 +48,7 @@ fn circle_polyline_sagitta_and_segment_count() {
         }
         let mut worst = 0.0f64;
         for w in pts.windows(2) {
-            let chord = (wide(w[1]) - wide(w[0])).norm();
+            let chord = (wide(w[1]) - wide(w[0])).length();
             let half = chord / 2.0;
             let sagitta = r as f64 - (r as f64 * r as f64 - half * half).sqrt();
             worst = worst.max(sagitta);
@@ -85,9 +84,9 @@ fn circle_polyline_distance_error_within_tolerance() {
     for k in 0..2000 {
         let a = k as f64 * 0.0137;
         let rad = 0.005 + 0.05 * ((k * 7919) % 1000) as f64 / 1000.0;
-        let x = wide(CENTER) + D3::new(a.cos(), a.sin(), 0.0) * rad;
+        let x = wide(CENTER) + DVec3::new(a.cos(), a.sin(), 0.0) * rad;
         let hit = poly.closest(v2(x));
-        let exact = ((x - wide(CENTER)).norm() - r as f64).abs();
+        let exact = ((x - wide(CENTER)).length() - r as f64).abs();
         let err = (hit.distance_squared as f64).sqrt() - exact;
         worst = worst.max(err.abs());
     }
@@ -114,7 +113,7 @@ fn circle_polyline_normal_error_reaches_half_segment_angle() {
     let mut worst = 0.0f64;
     for k in 0..20000 {
         let a = std::f64::consts::TAU * k as f64 / 20000.0;
-        let x = wide(CENTER) + D3::new(a.cos(), a.sin(), 0.0) * 0.04;
+        let x = wide(CENTER) + DVec3::new(a.cos(), a.sin(), 0.0) * 0.04;
         let hit = poly.closest(v2(x));
         let radial = wide(hit.point) - wide(CENTER);
         let err = angle_deg(wide(hit.normal), radial);
@@ -132,30 +131,30 @@ fn circle_polyline_normal_error_reaches_half_segment_angle() {
 }
 
 /// The closest point on a segment by dense sampling, `f64`.
-fn sampled_segment_distance(a: D3, b: D3, x: D3) -> f64 {
+fn sampled_segment_distance(a: DVec3, b: DVec3, x: DVec3) -> f64 {
     (0..=2000)
-        .map(|k| (a + (b - a) * (k as f64 / 2000.0) - x).norm())
+        .map(|k| (a + (b - a) * (k as f64 / 2000.0) - x).length())
         .fold(f64::INFINITY, f64::min)
 }
 
 /// Closest point on a triangle by the KKT case split: the projection on the plane if its
 /// barycentric coordinates are all non-negative, else the closest point on one of the edges.
-fn kkt_triangle(p: D3, a: D3, b: D3, c: D3) -> D3 {
+fn kkt_triangle(p: DVec3, a: DVec3, b: DVec3, c: DVec3) -> DVec3 {
     let n = (b - a).cross(c - a);
     let q = p - n * ((p - a).dot(n) / n.dot(n));
-    let area = |u: D3, v: D3, w: D3| (v - u).cross(w - u).dot(n);
+    let area = |u: DVec3, v: DVec3, w: DVec3| (v - u).cross(w - u).dot(n);
     let total = area(a, b, c);
     let w = [area(q, b, c), area(a, q, c), area(a, b, q)].map(|x| x / total);
     if w.iter().all(|&x| x >= 0.0) {
         return q;
     }
-    let on_edge = |u: D3, v: D3| {
+    let on_edge = |u: DVec3, v: DVec3| {
         let s = ((p - u).dot(v - u) / (v - u).dot(v - u)).clamp(0.0, 1.0);
         u + (v - u) * s
     };
     [on_edge(a, b), on_edge(b, c), on_edge(c, a)]
         .into_iter()
-        .min_by(|x, y| (*x - p).norm().total_cmp(&(*y - p).norm()))
+        .min_by(|x, y| (*x - p).length().total_cmp(&(*y - p).length()))
         .unwrap()
 }
 
@@ -178,7 +177,7 @@ proptest! {
         prop_assume!(n.length() > 1e-2 * (b - a).length().max((c - a).length()).powi(2));
         let (q, w) = closest_point_on_triangle(p, a, b, c);
         let reference = kkt_triangle(wide(p), wide(a), wide(b), wide(c));
-        prop_assert!((wide(q) - reference).norm() < 1e-6, "{q} vs {reference:?}");
+        prop_assert!((wide(q) - reference).length() < 1e-6, "{q} vs {reference:?}");
         prop_assert!(w.iter().all(|&x| (-1e-6..=1.0 + 1e-6).contains(&x)));
         prop_assert!((w[0] + w[1] + w[2] - 1.0).abs() < 1e-5);
         let recon = a * w[0] + b * w[1] + c * w[2];
@@ -199,7 +198,7 @@ proptest! {
         let reference = RefCurve::new(&view);
         let poly = Polyline::tessellate(&view, tol);
         for (p, &t) in poly.points().iter().zip(poly.params()) {
-            prop_assert!((wide(*p) - reference.point(t as f64)).norm() < 1e-6);
+            prop_assert!((wide(*p) - reference.point(t as f64)).length() < 1e-6);
         }
         let hit = poly.closest(x);
         let sampled = poly
@@ -226,7 +225,7 @@ proptest! {
         let mesh = sphere_mesh();
         let x = center + dir.normalize() * rad;
         let hit = mesh.closest(x).unwrap();
-        let exact = ((wide(x) - wide(center)).norm() - r as f64).abs();
+        let exact = ((wide(x) - wide(center)).length() - r as f64).abs();
         let err = ((hit.distance_squared as f64).sqrt() - exact).abs();
         prop_assert!(err <= MESH_SLACK * tol as f64 + 1e-7, "error {err}");
     }
@@ -238,8 +237,8 @@ proptest! {
         let mesh = torus_mesh();
         let hit = mesh.closest(x).unwrap();
         let q = wide(x) - wide(center);
-        let rho = (q.x() * q.x() + q.y() * q.y()).sqrt();
-        let exact = (((rho - major as f64).powi(2) + q.z().powi(2)).sqrt() - minor as f64).abs();
+        let rho = (q.x * q.x + q.y * q.y).sqrt();
+        let exact = (((rho - major as f64).powi(2) + q.z.powi(2)).sqrt() - minor as f64).abs();
         let err = ((hit.distance_squared as f64).sqrt() - exact).abs();
         prop_assert!(err <= MESH_SLACK * tol as f64 + 1e-7, "error {err}");
     }
@@ -284,14 +283,14 @@ fn sphere_mesh_chord_height() {
     let mesh = sphere_mesh();
     let c = wide(center);
     for v in mesh.vertices() {
-        assert!(((wide(*v) - c).norm() - r as f64).abs() < 1e-7);
+        assert!(((wide(*v) - c).length() - r as f64).abs() < 1e-7);
     }
     let mut worst = 0.0f64;
     for (tri, n) in mesh.triangles().iter().zip(mesh.normals()) {
         let [a, b, d] = tri.map(|i| wide(mesh.vertices()[i as usize]));
         let centroid = (a + b + d) * (1.0 / 3.0);
         assert!(wide(*n).dot(centroid - c) > 0.0, "inward triangle normal");
-        let gap = r as f64 - (kkt_triangle(c, a, b, d) - c).norm();
+        let gap = r as f64 - (kkt_triangle(c, a, b, d) - c).length();
         worst = worst.max(gap);
     }
     assert!(

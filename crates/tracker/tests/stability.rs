@@ -8,11 +8,10 @@
 //! evaluation of the curve, never from the crate's `hessian`.
 #![allow(clippy::unwrap_used)]
 
-mod oracle;
-
+use glam::DVec3;
 use nurbs::{Vec2, construct};
-use oracle::{D3, RefCurve, T, closest_on_curve, v2, wide};
 use proptest::prelude::*;
+use testkit::{RefCurve, T, closest_on_curve, v2, wide};
 use tracker::{Law, Patch, Tracker, TrackerConfig, stable_gain_limit, theorem_gain};
 
 const CENTER: Vec2 = Vec2::new(0.0, 0.09);
@@ -97,7 +96,7 @@ fn line_stability_limit_is_two() {
 }
 
 /// `f(u) = ½|C(u) − x|²` and its second derivative by central differences, in `f64`.
-fn fd_hessian(rc: &RefCurve, x: D3, u: f64, h: f64) -> f64 {
+fn fd_hessian(rc: &RefCurve, x: DVec3, u: f64, h: f64) -> f64 {
     let f = |u: f64| {
         let g = rc.point(u) - x;
         0.5 * g.dot(g)
@@ -107,7 +106,7 @@ fn fd_hessian(rc: &RefCurve, x: D3, u: f64, h: f64) -> f64 {
 
 /// `|C'(u)|` by central differences, `f64`.
 fn fd_speed(rc: &RefCurve, u: f64, h: f64) -> f64 {
-    (rc.point(u + h) - rc.point(u - h)).norm() / (2.0 * h)
+    (rc.point(u + h) - rc.point(u - h)).length() / (2.0 * h)
 }
 
 /// On the exact rational circle (non-uniform speed), `stable_gain_limit = 2 / (T H)` with `H`
@@ -131,7 +130,7 @@ fn stable_gain_limit_matches_finite_differences_on_circle() {
             (5.5, 0.09),
             (1.1, 0.02),
         ] {
-            let x = wide(CENTER) + D3::new(f64::cos(angle), f64::sin(angle), 0.0) * dist;
+            let x = wide(CENTER) + DVec3::new(f64::cos(angle), f64::sin(angle), 0.0) * dist;
             let hess = fd_hessian(&rc, x, u, h);
             let g = fd_speed(&rc, u, h).powi(2);
             let limit = stable_gain_limit(&view.jet([u as f32], 2), v2(x), T) as f64;
@@ -152,7 +151,7 @@ fn stable_gain_limit_matches_finite_differences_on_circle() {
     assert!(finite >= 40 && infinite >= 10);
     // Closed form at the closest point.
     for (angle, dist) in [(0.3, 0.05), (2.0, 0.012), (4.0, 0.045), (5.5, 0.09)] {
-        let x = wide(CENTER) + D3::new(f64::cos(angle), f64::sin(angle), 0.0) * dist;
+        let x = wide(CENTER) + DVec3::new(f64::cos(angle), f64::sin(angle), 0.0) * dist;
         let u_star = closest_on_curve(&rc, x, 2000).u;
         let hess = fd_hessian(&rc, x, u_star, h);
         let closed = fd_speed(&rc, u_star, h).powi(2) * (1.0 + (dist - r) / r);
@@ -169,7 +168,7 @@ fn circle_stability_limit() {
     let c = construct::circle(CENTER, r as f32).unwrap();
     let view = c.view();
     let rc = RefCurve::new(&view);
-    let x = wide(CENTER) + D3::new(0.6f64.cos(), 0.6f64.sin(), 0.0) * 0.045;
+    let x = wide(CENTER) + DVec3::new(0.6f64.cos(), 0.6f64.sin(), 0.0) * 0.045;
     let star = closest_on_curve(&rc, x, 2000);
     let hess = fd_hessian(&rc, x, star.u, 1e-4);
     for (kth, expected) in [(1.95, -0.95), (2.05, -1.05)] {
@@ -201,10 +200,10 @@ const V_BAR: f64 = 0.2;
 const R_CIRCLE: f64 = 0.03;
 
 impl Orbit {
-    fn at(&self, t: f64) -> D3 {
+    fn at(&self, t: f64) -> DVec3 {
         let rad = self.r0 + self.amp * (self.omega_r * t + self.phase).sin();
         let az = self.az0 + self.omega * t;
-        wide(CENTER) + D3::new(az.cos(), az.sin(), 0.0) * rad
+        wide(CENTER) + DVec3::new(az.cos(), az.sin(), 0.0) * rad
     }
     fn r_max(&self) -> f64 {
         self.r0 + self.amp

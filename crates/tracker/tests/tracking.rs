@@ -15,16 +15,15 @@
 //! No case exceeded its derived budget.
 #![allow(clippy::unwrap_used)]
 
-mod oracle;
-
+use glam::DVec3;
 use nurbs::{CurveBuf, Point, SurfaceBuf, Vec2, Vec3, construct};
-use oracle::{
-    D3, RefClosest, RefCurve, RefSurface, T, closest_on_curve, closest_on_surface, convex_curve,
-    convex_dome, sym_eigen, v2, v3, wide,
-};
 use proptest::prelude::*;
 use proptest::strategy::ValueTree;
 use proptest::test_runner::{TestCaseError, TestRunner};
+use testkit::{
+    RefClosest, RefCurve, RefSurface, T, closest_on_curve, closest_on_surface, convex_curve,
+    convex_dome, sym_eigen, v2, v3, wide,
+};
 use tracker::{Law, Patch, Track, Tracker, TrackerConfig};
 
 /// Trust region of the default configuration: at most this fraction of the domain per tick.
@@ -63,7 +62,7 @@ enum LawUnderTest {
 /// Returns `None` when `q̄ ≥ 0.98` (the bound says nothing useful).
 fn curve_tick_budget(
     rc: &RefCurve,
-    x: D3,
+    x: DVec3,
     r: &RefClosest,
     u0: f64,
     law: LawUnderTest,
@@ -198,7 +197,7 @@ fn curve_case(
         r.u
     );
     let last = last.unwrap();
-    prop_assert!((wide(last.point) - r.point).norm() <= 1.5 * POINT_TOL);
+    prop_assert!((wide(last.point) - r.point).length() <= 1.5 * POINT_TOL);
     Ok(Some(Ticks {
         measured,
         predicted,
@@ -226,7 +225,7 @@ fn dome_case(
     let view = dome.view();
     let rs = RefSurface::new(&view);
     let j = rs.jet(foot.0, foot.1);
-    let n = j.su.cross(j.sv).unit();
+    let n = j.su.cross(j.sv).normalize();
     let d = if side > 0.0 {
         0.002 + 0.03 * side
     } else {
@@ -244,14 +243,14 @@ fn dome_case(
     let (tracker_law, q, e0, e_tol, err_of): (Law, f64, f64, f64, ErrorOf) = match law {
         LawUnderTest::Normalized => {
             let q = if l2 >= 1.0 { 1.0 - l1 / l2 } else { 1.0 - l1 };
-            let e0 = (rs.point(t0[0], t0[1]) - r.point).norm();
+            let e0 = (rs.point(t0[0], t0[1]) - r.point).length();
             let cp = r.point;
             (
                 Law::Normalized { alpha: 1.0 },
                 q,
                 e0,
                 POINT_TOL,
-                Box::new(move |t: &Track<Vec3, 2>| (wide(t.point) - cp).norm()),
+                Box::new(move |t: &Track<Vec3, 2>| (wide(t.point) - cp).length()),
             )
         }
         LawUnderTest::Plain { kt } => {
@@ -450,12 +449,12 @@ fn run<S: Patch<N>, const N: usize>(
 
 /// A start near the closest point `cp` of a closed surface: the nearest 16×16 grid parameter,
 /// plus `jitter` (wrapped in u, clamped in v).
-fn near_start(view: &nurbs::Surface<'_>, cp: D3, jitter: (f32, f32)) -> [f32; 2] {
+fn near_start(view: &nurbs::Surface<'_>, cp: DVec3, jitter: (f32, f32)) -> [f32; 2] {
     let mut best = (f64::INFINITY, [0.0f32; 2]);
     for i in 0..16 {
         for j in 0..=16 {
             let t = [i as f32 / 16.0, j as f32 / 16.0];
-            let dd = (wide(view.point(t[0], t[1])) - cp).norm();
+            let dd = (wide(view.point(t[0], t[1])) - cp).length();
             if dd < best.0 {
                 best = (dd, t);
             }
@@ -482,13 +481,13 @@ proptest! {
         let r = 0.03;
         let c = construct::circle(CENTER2, r as f32).unwrap();
         let view = c.view();
-        let dir = D3::new(angle.cos(), angle.sin(), 0.0);
+        let dir = DVec3::new(angle.cos(), angle.sin(), 0.0);
         let x = wide(CENTER2) + dir * rad;
         let mut tracker = Tracker::new(&view, [u0], TrackerConfig::default());
         let t = run(&view, &mut tracker, v2(x), 200);
         let cp = wide(CENTER2) + dir * r;
-        prop_assert!((wide(t.point) - cp).norm() < POINT_TOL, "{:?} vs {cp:?}", t.point);
-        prop_assert!((wide(t.normal) - dir).norm() < 1e-4);
+        prop_assert!((wide(t.point) - cp).length() < POINT_TOL, "{:?} vs {cp:?}", t.point);
+        prop_assert!((wide(t.normal) - dir).length() < 1e-4);
         prop_assert!((t.signed_distance as f64 - (rad - r)).abs() < 1e-6);
     }
 
@@ -501,7 +500,7 @@ proptest! {
         azimuth in 0.0f64..std::f64::consts::TAU, nz in -0.7f64..0.7, rad in 0.01f64..0.08,
         jitter in (-0.1f32..0.1, -0.1f32..0.1),
     ) {
-        let dir = D3::new(azimuth.cos() * (1.0 - nz * nz).sqrt(), azimuth.sin() * (1.0 - nz * nz).sqrt(), nz);
+        let dir = DVec3::new(azimuth.cos() * (1.0 - nz * nz).sqrt(), azimuth.sin() * (1.0 - nz * nz).sqrt(), nz);
         let r = 0.03;
         let s = construct::sphere(CENTER3, r as f32).unwrap();
         let view = s.view();
@@ -510,8 +509,8 @@ proptest! {
         let start = near_start(&view, cp, jitter);
         let mut tracker = Tracker::new(&view, start, TrackerConfig::default());
         let t = run(&view, &mut tracker, v3(x), 60);
-        prop_assert!((wide(t.point) - cp).norm() < POINT_TOL, "{:?} vs {cp:?}", t.point);
-        prop_assert!((wide(t.normal) - dir).norm() < 1e-4, "normal {:?}", t.normal);
+        prop_assert!((wide(t.point) - cp).length() < POINT_TOL, "{:?} vs {cp:?}", t.point);
+        prop_assert!((wide(t.normal) - dir).length() < 1e-4, "normal {:?}", t.normal);
     }
 
     /// Torus (major R, minor r, axis z): the closest point is `q + r (x − q)/|x − q|` with `q` the
@@ -526,16 +525,16 @@ proptest! {
         let (major, minor) = (0.03, 0.01);
         let s = construct::torus(Vec3::ZERO, major as f32, minor as f32).unwrap();
         let view = s.view();
-        let radial = D3::new(azimuth.cos(), azimuth.sin(), 0.0);
+        let radial = DVec3::new(azimuth.cos(), azimuth.sin(), 0.0);
         let q = radial * major;
-        let tube_dir = radial * tube_angle.cos() + D3::new(0.0, 0.0, tube_angle.sin());
+        let tube_dir = radial * tube_angle.cos() + DVec3::new(0.0, 0.0, tube_angle.sin());
         let x = q + tube_dir * off;
         let cp = q + tube_dir * minor;
         let start = near_start(&view, cp, (jitter.0, jitter.1));
         let mut tracker = Tracker::new(&view, start, TrackerConfig::default());
         let t = run(&view, &mut tracker, v3(x), 60);
-        prop_assert!((wide(t.point) - cp).norm() < POINT_TOL, "{:?} vs {cp:?}", t.point);
-        prop_assert!((wide(t.normal) - tube_dir).norm() < 1e-4);
+        prop_assert!((wide(t.point) - cp).length() < POINT_TOL, "{:?} vs {cp:?}", t.point);
+        prop_assert!((wide(t.normal) - tube_dir).length() < 1e-4);
     }
 }
 
@@ -544,12 +543,12 @@ proptest! {
 // ---------------------------------------------------------------------------------------------
 
 /// A HIP path: straight line from `a` to `b`, `ticks` ticks.
-fn line_path(a: D3, b: D3, ticks: usize) -> impl Iterator<Item = D3> {
+fn line_path(a: DVec3, b: DVec3, ticks: usize) -> impl Iterator<Item = DVec3> {
     (0..ticks).map(move |k| a + (b - a) * (k as f64 / (ticks - 1) as f64))
 }
 
-fn workspace_point() -> impl Strategy<Value = D3> {
-    (-0.06f64..0.06, 0.03f64..0.15).prop_map(|(x, y)| D3::new(x, y, 0.0))
+fn workspace_point() -> impl Strategy<Value = DVec3> {
+    (-0.06f64..0.06, 0.03f64..0.15).prop_map(|(x, y)| DVec3::new(x, y, 0.0))
 }
 
 proptest! {
@@ -577,8 +576,8 @@ proptest! {
         for (k, x) in line_path(a, b, 300).enumerate() {
             let t = tracker.update(&view, v2(x), T);
             let p = wide(t.point);
-            prop_assert!((p - rc.point(t.t[0] as f64)).norm() < 1e-7, "TP off the curve");
-            let tracked = (p - x).norm();
+            prop_assert!((p - rc.point(t.t[0] as f64)).length() < 1e-7, "TP off the curve");
+            let tracked = (p - x).length();
             prop_assert!((t.signed_distance as f64).abs() <= tracked + 1e-7);
             if k % 10 == 0 {
                 let min = closest_on_curve(&rc, x, 400).distance;
@@ -727,9 +726,9 @@ fn follows_hip_over_sphere_pole() {
     let omega = speed / rad;
     let hip = |k: usize| {
         let th = 0.8 + omega * k as f64 * T as f64;
-        wide(CENTER3) + D3::new(th.cos(), 0.0, th.sin()) * rad
+        wide(CENTER3) + DVec3::new(th.cos(), 0.0, th.sin()) * rad
     };
-    let cp_of = |x: D3| wide(CENTER3) + (x - wide(CENTER3)).unit() * r;
+    let cp_of = |x: DVec3| wide(CENTER3) + (x - wide(CENTER3)).normalize() * r;
     let cp_step = speed * T as f64 * r / rad;
     // Start on the closest point of the first HIP (parameters from a fine grid + the tracker).
     let mut failures = Vec::new();
@@ -741,7 +740,7 @@ fn follows_hip_over_sphere_pole() {
         for k in 0..800 {
             let x = hip(k);
             let t = tracker.update(&view, v3(x), T);
-            let err = (wide(t.point) - cp_of(x)).norm();
+            let err = (wide(t.point) - cp_of(x)).length();
             if err > worst.0 {
                 worst = (err, k);
             }
@@ -799,7 +798,7 @@ fn does_not_stick_at_sphere_poles() {
         let cp = wide(CENTER3) + wide(dir) * r;
         let mut tracker = Tracker::new(&view, start, TrackerConfig::default());
         let t = run(&view, &mut tracker, x, 500);
-        if (wide(t.point) - cp).norm() > POINT_TOL {
+        if (wide(t.point) - cp).length() > POINT_TOL {
             stuck.push(format!(
                 "start {start:?}: stuck at t {:?}, Ψ {:?}",
                 t.t, t.psi
@@ -827,7 +826,7 @@ fn wraps_across_the_seam_continuously() {
     for sense in [1.0f64, -1.0] {
         let hip_at = |k: usize| {
             let a = 0.3 + sense * omega * k as f64 * T as f64;
-            wide(CENTER2) + D3::new(a.cos(), a.sin(), 0.0) * orbit
+            wide(CENTER2) + DVec3::new(a.cos(), a.sin(), 0.0) * orbit
         };
         let start = (0.3f64 / std::f64::consts::TAU) as f32;
         let mut tracker = Tracker::new(&view, [start], TrackerConfig::default());
@@ -838,10 +837,10 @@ fn wraps_across_the_seam_continuously() {
             let x = hip_at(k);
             let t = tracker.update(&view, v2(x), T);
             assert!((0.0..=1.0).contains(&t.t[0]));
-            let cp = wide(CENTER2) + (x - wide(CENTER2)).unit() * r;
+            let cp = wide(CENTER2) + (x - wide(CENTER2)).normalize() * r;
             if k > 3 {
                 assert!(
-                    (wide(t.point) - cp).norm() < POINT_TOL,
+                    (wide(t.point) - cp).length() < POINT_TOL,
                     "tick {k}: off the closest point"
                 );
             }
@@ -850,7 +849,7 @@ fn wraps_across_the_seam_continuously() {
                     wraps += 1;
                 }
                 if k > 3 {
-                    let moved = (wide(t.point) - wide(p.point)).norm();
+                    let moved = (wide(t.point) - wide(p.point)).length();
                     assert!(
                         moved <= cp_step * 1.001 + 2e-7,
                         "tick {k}: jumped {moved} m"
@@ -887,13 +886,13 @@ fn feedforward_cuts_the_steady_state_lag() {
             convergence_radius: 1e-2,
             ..TrackerConfig::default()
         };
-        let hip = |k: usize| wide(a) + D3::new(0.01 + speed * k as f64 * T as f64, 0.005, 0.0);
+        let hip = |k: usize| wide(a) + DVec3::new(0.01 + speed * k as f64 * T as f64, 0.005, 0.0);
         let mut tracker = Tracker::new(&view, [0.1], cfg);
         let mut r = 0.0;
         for k in 0..1200 {
             let x = hip(k);
             let t = tracker.update(&view, v2(x), T);
-            r = t.t[0] as f64 - (x.x() - a.x as f64) / len;
+            r = t.t[0] as f64 - (x.x - a.x as f64) / len;
         }
         r.abs()
     };
@@ -939,9 +938,9 @@ fn feedforward_tracks_constant_speed_without_error() {
         let mut tracker = Tracker::new(&view, [0.1], cfg);
         let mut r = 0.0;
         for k in 0..1200 {
-            let x = wide(a) + D3::new(0.01 + speed * k as f64 * T as f64, 0.005, 0.0);
+            let x = wide(a) + DVec3::new(0.01 + speed * k as f64 * T as f64, 0.005, 0.0);
             let t = tracker.update(&view, v2(x), T);
-            r = t.t[0] as f64 - (x.x() - a.x as f64) / len;
+            r = t.t[0] as f64 - (x.x - a.x as f64) / len;
         }
         assert!(
             r.abs() < 0.1 * delta,
