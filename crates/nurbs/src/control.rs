@@ -1,0 +1,58 @@
+//! Validation of control points and weights, shared by curves and surfaces and so by every
+//! loader (the viewer's JSON scenes, the device's wire scenes): one set of rules.
+
+use crate::error::{At, NurbsError};
+use crate::point::Point;
+
+/// The largest of the weights that are finite and positive (0 when there is none): the
+/// reference for [`crate::MIN_WEIGHT_RATIO`]. Weights that are themselves invalid are reported
+/// by [`check_control_point`] and take no part here, so they cannot mask each other.
+pub(crate) fn largest_weight(weights: impl Iterator<Item = f32>) -> f32 {
+    weights
+        .filter(|w| w.is_finite() && *w > 0.0)
+        .fold(0.0, f32::max)
+}
+
+/// Checks one Cartesian control point and its weight against the rules in the crate docs:
+/// weight finite and > 0, a normal `f32`, at least [`crate::MIN_WEIGHT_RATIO`] × `largest`
+/// (the patch's largest weight); every coordinate finite and within
+/// ±[`crate::MAX_COORDINATE`].
+pub(crate) fn check_control_point<P: Point>(
+    at: At,
+    point: P,
+    w: f32,
+    largest: f32,
+) -> Result<(), NurbsError> {
+    if !(w.is_finite() && w > 0.0) {
+        return Err(NurbsError::Weight { at, value: w });
+    }
+    if !w.is_normal() || w < crate::MIN_WEIGHT_RATIO * largest {
+        return Err(NurbsError::WeightTooSmall {
+            at,
+            value: w,
+            largest,
+        });
+    }
+    if !point.is_finite() {
+        return Err(NurbsError::PointNotFinite { at });
+    }
+    let value = point.as_slice().iter().fold(0.0f32, |m, c| m.max(c.abs()));
+    if value > crate::MAX_COORDINATE {
+        return Err(NurbsError::PointOutOfRange { at, value });
+    }
+    Ok(())
+}
+
+/// [`check_control_point`] for a homogeneous point `(w·P, w)`: also rejects a weighted
+/// point that is finite while its Cartesian point is not.
+pub(crate) fn check_homogeneous<P: Point>(
+    at: At,
+    h: P::Hom,
+    largest: f32,
+) -> Result<(), NurbsError> {
+    let (xw, w) = P::split(h);
+    if w.is_finite() && w > 0.0 && !xw.is_finite() {
+        return Err(NurbsError::PointNotFinite { at });
+    }
+    check_control_point(at, xw * (1.0 / w), w, largest)
+}
