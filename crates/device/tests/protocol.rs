@@ -630,6 +630,55 @@ fn each_invalid_scene_has_its_code_and_location() {
     }
 }
 
+/// The wire scene goes through the same weight rule as the JSON loader (`nurbs`'s one
+/// control-point validation): a weight of 9.2e-41 (subnormal; the surface path used to divide
+/// it out to a finite point and evaluate NaN) or 1e-20 beside weights of 1 is a patch error
+/// naming object, patch and weight, with the reason.
+#[test]
+fn weights_too_small_for_f32_are_patch_errors() {
+    let mut rows = [[Vec3::ZERO; 3]; 2];
+    for (i, row) in rows.iter_mut().enumerate() {
+        for (j, p) in row.iter_mut().enumerate() {
+            *p = Vec3::new(0.01 * i as f32, 0.01 * j as f32, 0.0);
+        }
+    }
+    // A marker coordinate, to find the point's bytes.
+    rows[0][1].z = 0.012_345;
+    let surface = bezier_patch(&rows).unwrap();
+    let patches = [WirePatch::Surface(surface.view())];
+    let bytes = encode_scene(&[WireObject {
+        material: material_a(),
+        patches: &patches,
+    }])
+    .unwrap();
+    let hom = |p: Vec3, w: f32| -> Vec<u8> {
+        [p.x * w, p.y * w, p.z * w, w]
+            .iter()
+            .flat_map(|v| v.to_le_bytes())
+            .collect()
+    };
+    let original = hom(rows[0][1], 1.0);
+    let at = bytes
+        .windows(16)
+        .position(|w| w == original.as_slice())
+        .unwrap();
+    let mut store = Box::new(SceneStore::new());
+    for (w, why) in [(9.2e-41f32, "subnormal"), (1e-20, "significant digits")] {
+        let mut b = bytes.clone();
+        b[at..at + 16].copy_from_slice(&hom(rows[0][1], w));
+        let e = decode_scene(&b, &mut store).unwrap_err();
+        assert_eq!(
+            (e.code(), e.object, e.patch),
+            (ErrorCode::ScenePatch, Some(0), Some(0))
+        );
+        let msg = e.to_string();
+        assert!(msg.contains("weights[0][1]") && msg.contains(why), "{msg}");
+        assert_eq!(store.object_count(), 0);
+    }
+    // The unmodified scene is accepted (the search found the right bytes).
+    decode_scene(&bytes, &mut store).unwrap();
+}
+
 #[test]
 fn store_capacity_is_enforced() {
     let line = bezier_curve(&[Vec2::new(0.0, 0.0), Vec2::new(0.01, 0.0)]).unwrap();

@@ -23,6 +23,26 @@ pub(crate) fn check_control_point<P: Point>(
     w: f32,
     largest: f32,
 ) -> Result<(), NurbsError> {
+    check_weight(at, w, largest)?;
+    check_point(at, point)
+}
+
+/// [`check_control_point`] for a homogeneous point `(w·P, w)`. The weight is checked first,
+/// so a weight too small to divide by is reported as such, not as the overflow of `P`.
+pub(crate) fn check_homogeneous<P: Point>(
+    at: At,
+    h: P::Hom,
+    largest: f32,
+) -> Result<(), NurbsError> {
+    let (xw, w) = P::split(h);
+    check_weight(at, w, largest)?;
+    if !xw.is_finite() {
+        return Err(NurbsError::PointNotFinite { at });
+    }
+    check_point(at, xw * (1.0 / w))
+}
+
+fn check_weight(at: At, w: f32, largest: f32) -> Result<(), NurbsError> {
     if !(w.is_finite() && w > 0.0) {
         return Err(NurbsError::Weight { at, value: w });
     }
@@ -33,6 +53,10 @@ pub(crate) fn check_control_point<P: Point>(
             largest,
         });
     }
+    Ok(())
+}
+
+fn check_point<P: Point>(at: At, point: P) -> Result<(), NurbsError> {
     if !point.is_finite() {
         return Err(NurbsError::PointNotFinite { at });
     }
@@ -41,18 +65,4 @@ pub(crate) fn check_control_point<P: Point>(
         return Err(NurbsError::PointOutOfRange { at, value });
     }
     Ok(())
-}
-
-/// [`check_control_point`] for a homogeneous point `(w·P, w)`: also rejects a weighted
-/// point that is finite while its Cartesian point is not.
-pub(crate) fn check_homogeneous<P: Point>(
-    at: At,
-    h: P::Hom,
-    largest: f32,
-) -> Result<(), NurbsError> {
-    let (xw, w) = P::split(h);
-    if w.is_finite() && w > 0.0 && !xw.is_finite() {
-        return Err(NurbsError::PointNotFinite { at });
-    }
-    check_control_point(at, xw * (1.0 / w), w, largest)
 }
