@@ -60,6 +60,63 @@ pub struct SurfaceSample {
     pub normal: [f32; 3],
 }
 
+/// An answer whose numbers can be checked before it is written.
+pub(crate) trait Finite {
+    /// `(field, values)` of every number of the answer.
+    fn fields(&self) -> Vec<(&'static str, &[f32])>;
+
+    /// The first field with a NaN or infinite value, as a line problem.
+    fn check_finite(&self) -> Result<(), LineProblem> {
+        match self
+            .fields()
+            .into_iter()
+            .find(|(_, v)| !v.iter().all(|x| x.is_finite()))
+        {
+            Some((field, _)) => Err(LineProblem::Overflow { field }),
+            None => Ok(()),
+        }
+    }
+}
+
+impl Finite for CurveSample {
+    fn fields(&self) -> Vec<(&'static str, &[f32])> {
+        vec![
+            ("u", core::slice::from_ref(&self.u)),
+            ("p", &self.p),
+            ("du", &self.du),
+            ("duu", &self.duu),
+            ("tangent", &self.tangent),
+            ("normal", &self.normal),
+            ("curvature", core::slice::from_ref(&self.curvature)),
+        ]
+    }
+}
+
+impl Finite for SurfaceSample {
+    fn fields(&self) -> Vec<(&'static str, &[f32])> {
+        vec![
+            ("u", core::slice::from_ref(&self.u)),
+            ("v", core::slice::from_ref(&self.v)),
+            ("p", &self.p),
+            ("du", &self.du),
+            ("dv", &self.dv),
+            ("duu", &self.duu),
+            ("duv", &self.duv),
+            ("dvv", &self.dvv),
+            ("normal", &self.normal),
+        ]
+    }
+}
+
+/// Writes `answer` as one JSON line after checking that every number in it is finite.
+pub(crate) fn write_answer<W: Write, T: Serialize + Finite>(
+    output: &mut W,
+    answer: &T,
+) -> Result<(), Answer> {
+    answer.check_finite()?;
+    Ok(write_json(output, answer)?)
+}
+
 /// Evaluates a curve at `u` (clamped into the domain).
 pub fn sample_curve<P: Point>(curve: &Curve<'_, P>, u: f32) -> CurveSample {
     let f = curve.frame(u);
@@ -155,6 +212,15 @@ pub enum LineProblem {
         /// End of the domain.
         max: f32,
     },
+    /// The answer has a value that is not finite in `f32` (validated scenes keep this from
+    /// happening; the check makes sure no `null` is ever printed as an answer).
+    #[error(
+        "the answer's {field} is not a finite f32 here (the patch overflows f32 at this query); nothing was written"
+    )]
+    Overflow {
+        /// The output field.
+        field: &'static str,
+    },
     /// The line is not UTF-8.
     #[error("not valid UTF-8")]
     NotUtf8,
@@ -171,18 +237,18 @@ pub fn run<R: BufRead, W: Write>(
         Patch::Curve2(c) => {
             let c = c.view();
             let [u] = parse_query(text, ["u"], "u", [c.domain()])?;
-            Ok(write_json(&mut output, &sample_curve(&c, u))?)
+            write_answer(&mut output, &sample_curve(&c, u))
         }
         Patch::Curve3(c) => {
             let c = c.view();
             let [u] = parse_query(text, ["u"], "u", [c.domain()])?;
-            Ok(write_json(&mut output, &sample_curve(&c, u))?)
+            write_answer(&mut output, &sample_curve(&c, u))
         }
         Patch::Surface(s) => {
             let s = s.view();
             let (du, dv) = s.domain();
             let [u, v] = parse_query(text, ["u", "v"], "u v", [du, dv])?;
-            Ok(write_json(&mut output, &sample_surface(&s, u, v))?)
+            write_answer(&mut output, &sample_surface(&s, u, v))
         }
     })
 }
@@ -438,6 +504,24 @@ mod tests {
             r.expect_err("v outside").to_string(),
             "line 1 (\"0.5 2\"): v = 2 is outside the domain [0, 1]"
         );
+    }
+
+    /// No answer with a non-finite number is ever written: it is a line error instead.
+    #[test]
+    fn non_finite_answers_are_refused() {
+        let mut sample = sample_curve(
+            &construct::line(Vec2::ZERO, Vec2::X).expect("line").view(),
+            0.5,
+        );
+        assert_eq!(sample.check_finite(), Ok(()));
+        sample.duu[1] = f32::INFINITY;
+        assert_eq!(
+            sample.check_finite(),
+            Err(LineProblem::Overflow { field: "duu" })
+        );
+        let mut out = Vec::new();
+        assert!(write_answer(&mut out, &sample).is_err());
+        assert!(out.is_empty());
     }
 
     #[test]

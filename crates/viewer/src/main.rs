@@ -247,7 +247,7 @@ fn device_monitor(args: &viewer::cli::MonitorArgs) -> ExitCode {
         Some(hand) => hand.set_target(devices::sim_hand_target(elapsed)),
         None => Ok(()),
     };
-    let duration = args.seconds.map(Duration::from_secs_f64);
+    let duration = args.seconds;
     let mut out = io::stdout().lock();
     match devices::monitor(
         opened.link.as_mut(),

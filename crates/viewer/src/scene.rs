@@ -48,7 +48,10 @@
 //! | `bristle_damping_ns_per_m` | 0 | ≥ 0 |
 //! | `stribeck_speed_m_per_s` | 0.01 | > 0 |
 //!
-//! Every number must be finite.
+//! Every number must be finite and representable in `f32` (the loop's type). Control point
+//! coordinates lie within ±[`nurbs::MAX_COORDINATE`] (10⁶ m); weights are positive normal
+//! `f32`s, each at least [`nurbs::MIN_WEIGHT_RATIO`] (10⁻⁶) of its patch's largest weight:
+//! the same rules the device applies to an uploaded scene.
 
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -188,7 +191,7 @@ pub enum ObjectError {
     /// A patch whose kind differs from the first patch's.
     #[error(
         "patch {index}: {}; an object is all planar curves (a 2-D chain), all surfaces (a 3-D \
-         shell) or all spatial curves (a wire, for eval only)",
+         shell) or all spatial curves (a wire, for eval and closest)",
         match first { Some(first) => format!("a {found}, but patch 0 is a {first}"),
                       None => format!("a {found}") }
     )]
@@ -391,6 +394,17 @@ impl Object {
             .iter()
             .map(|p| match p {
                 Patch::Curve2(c) => Some(c.view()),
+                _ => None,
+            })
+            .collect()
+    }
+
+    /// Views of the spatial curves, when the object is a wire.
+    pub fn wire_views(&self) -> Option<Vec<Curve<'_, Vec3>>> {
+        self.patches
+            .iter()
+            .map(|p| match p {
+                Patch::Curve3(c) => Some(c.view()),
                 _ => None,
             })
             .collect()
@@ -1093,6 +1107,7 @@ mod tests {
         let wire = &scene.objects()[0];
         assert!(matches!(wire.patches()[0], Patch::Curve3(_)));
         assert!(wire.curve_views().is_none() && wire.surface_views().is_none());
+        assert_eq!(wire.wire_views().map(|w| w.len()), Some(1));
     }
 
     #[test]
@@ -1671,7 +1686,7 @@ mod tests {
             error(&text),
             "object 0 (\"wedge\"), patch 1: a surface, but patch 0 is a planar curve; an \
              object is all planar curves (a 2-D chain), all surfaces (a 3-D shell) or all \
-             spatial curves (a wire, for eval only)"
+             spatial curves (a wire, for eval and closest)"
         );
     }
 

@@ -138,10 +138,29 @@ pub enum SimError {
         /// Objects in the scene (at least one).
         count: usize,
     },
-    /// The tick rate is not a positive finite number.
-    #[error("--rate-hz {rate_hz}: the tick rate must be finite and > 0")]
+    /// The tick rate is not a positive finite number whose value and period are normal
+    /// `f32`s (the loop's type; see [`check_rate`]).
+    #[error(
+        "--rate-hz {rate_hz:e}: the tick rate must be finite and > 0, and it and its period \
+         1/rate must fit the f32 the loop computes in (about {:e} to {:e})",
+        f32::MIN_POSITIVE,
+        f32::MAX
+    )]
     Rate {
         /// The rate given.
+        rate_hz: f64,
+    },
+    /// The trajectory lasts less than one period: one tick, no motion to simulate.
+    #[error(
+        "{duration_s} s at {rate_hz:e} Hz is a single tick; a run needs at least 2 (the HIP \
+         velocity is a backward difference): raise --rate-hz to at least {:e} Hz or lengthen \
+         the trajectory",
+        1.0 / duration_s
+    )]
+    TooFewTicks {
+        /// Trajectory duration (s).
+        duration_s: f64,
+        /// Rate (Hz).
         rate_hz: f64,
     },
     /// The trajectory's dimension does not match the object's.
@@ -232,9 +251,7 @@ pub fn validate(
         index: object,
         count,
     })?;
-    if !(rate_hz.is_finite() && rate_hz > 0.0) {
-        return Err(SimError::Rate { rate_hz });
-    }
+    check_rate(rate_hz)?;
     if o.space() != trajectory.space() {
         return Err(SimError::Space {
             trajectory: trajectory.space(),
@@ -252,7 +269,25 @@ pub fn validate(
             rate_hz,
         });
     }
+    if ticks < 2.0 {
+        return Err(SimError::TooFewTicks {
+            duration_s: trajectory.end_s() - trajectory.start_s(),
+            rate_hz,
+        });
+    }
     Ok(ticks as usize)
+}
+
+/// A tick rate the loop can run at: finite and > 0, and both the rate and its period
+/// `1 / rate` positive normal `f32`s, since the loop computes in `f32` (`--rate-hz 1e-300`
+/// would have a period of 1e300 s, infinite in `f32`).
+pub fn check_rate(rate_hz: f64) -> Result<(), SimError> {
+    let fits = |v: f64| (v as f32).is_normal();
+    if rate_hz.is_finite() && rate_hz > 0.0 && fits(rate_hz) && fits(1.0 / rate_hz) {
+        Ok(())
+    } else {
+        Err(SimError::Rate { rate_hz })
+    }
 }
 
 /// Runs object `object` of `scene` with its material along `trajectory` at `rate_hz`.
@@ -836,7 +871,7 @@ mod tests {
             e.to_string(),
             "--object 2: the scene has 2 object(s), indices 0..=1"
         );
-        for rate in [0.0, -1.0, f64::NAN, f64::INFINITY] {
+        for rate in [0.0, -1.0, f64::NAN, f64::INFINITY, 1e-300, 1e300, 1e39] {
             let e = run(&scene, 0, &planar, rate, |_, _| {}).expect_err("bad rate");
             assert!(matches!(e, SimError::Rate { .. }), "{e}");
         }
@@ -859,5 +894,10 @@ mod tests {
         let e = validate(&scene, 0, &long, 1000.0).expect_err("too long");
         assert!(matches!(e, SimError::TooManyTicks { .. }), "{e}");
         assert_eq!(validate(&scene, 0, &planar, 1000.0), Ok(1201));
+        // 1.2 s at 1 Hz is two ticks; at 0.5 Hz one, which is refused with the rate it needs.
+        assert_eq!(validate(&scene, 0, &planar, 1.0), Ok(2));
+        let e = validate(&scene, 0, &planar, 0.5).expect_err("one tick");
+        assert!(matches!(e, SimError::TooFewTicks { .. }), "{e}");
+        assert!(e.to_string().contains("at least 8.33"), "{e}");
     }
 }
