@@ -226,8 +226,8 @@ const SIM_AFTER: &str = "\
 Trajectory (--trajectory, CSV):
   a header line `t,x,y` (planar) or `t,x,y,z` (spatial), then one line per sample of as many
   comma-separated numbers: time in seconds, position in metres (device frame). Times strictly
-  increase, all values are finite (times within f32, positions within ±1e6 m), at least two samples. Blank lines and lines starting
-  with `#` are skipped. Example:
+  increase, all values are finite (times within f32, positions within ±1e6 m), at least two
+  samples. Blank lines and lines starting with `#` are skipped. Example:
     t,x,y
     0.0, 0.0, 0.09
     0.5, 0.0, 0.078
