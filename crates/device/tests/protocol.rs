@@ -371,6 +371,79 @@ fn each_malformed_frame_has_its_code() {
     assert_eq!(code(&raw_frame(1, 0x30, 0, &payload)), ErrorCode::BadField);
 }
 
+/// The telemetry frame with payload bytes `at..at + bytes.len()` replaced, CRC recomputed.
+fn telemetry_with(at: usize, bytes: &[u8]) -> Vec<u8> {
+    let mut t = encode(0, Message::Telemetry(telemetry_example()));
+    t[HEADER_LEN + at..HEADER_LEN + at + bytes.len()].copy_from_slice(bytes);
+    let n = t.len() - 2;
+    let crc = crc16_ccitt_false(&t[..n]);
+    t[n..].copy_from_slice(&crc.to_le_bytes());
+    t
+}
+
+/// Telemetry the encoder cannot produce is malformed: NaN or an infinity in any of its nine
+/// float fields (offsets 4 to 44 of the layout), or a feature code whose index is 0x3FFF
+/// (indices saturate at MAX_FEATURE_INDEX = 0x3FFE, and 0xFFFF means none). Before, the
+/// host decoded all of these as telemetry.
+#[test]
+fn telemetry_the_encoder_cannot_produce_is_malformed() {
+    let code = |bytes: &[u8]| Frame::decode(bytes).map_err(|e| e.code);
+    assert!(code(&telemetry_with(0, &[0; 0])).is_ok());
+    for offset in (4..=44).step_by(4) {
+        for bad in [f32::NAN, f32::INFINITY, f32::NEG_INFINITY] {
+            assert_eq!(
+                code(&telemetry_with(offset, &bad.to_le_bytes())),
+                Err(ErrorCode::BadField),
+                "{bad} at {offset}"
+            );
+        }
+        // The largest finite values still decode (a bound, not a range check).
+        assert!(code(&telemetry_with(offset, &f32::MAX.to_le_bytes())).is_ok());
+    }
+    for bad in [0x3FFFu16, 0x7FFF, 0xBFFF] {
+        assert_eq!(
+            code(&telemetry_with(54, &bad.to_le_bytes())),
+            Err(ErrorCode::BadField),
+            "{bad:#x}"
+        );
+    }
+    // What the encoder does produce: every kind at the saturated index, and none.
+    for (kind, feature) in [
+        (0u16, Feature::Patch(MAX_FEATURE_INDEX)),
+        (1, Feature::Vertex(MAX_FEATURE_INDEX)),
+        (2, Feature::Edge(MAX_FEATURE_INDEX)),
+        (3, Feature::Corner(MAX_FEATURE_INDEX)),
+    ] {
+        let v = (kind << 14) | MAX_FEATURE_INDEX;
+        let Ok(Frame {
+            message: Message::Telemetry(t),
+            ..
+        }) = Frame::decode(&telemetry_with(54, &v.to_le_bytes()))
+        else {
+            panic!("{v:#x} decodes")
+        };
+        assert_eq!(t.feature, Some(feature));
+        let saturated = Telemetry {
+            feature: Some(match feature {
+                Feature::Patch(_) => Feature::Patch(u16::MAX),
+                Feature::Vertex(_) => Feature::Vertex(u16::MAX),
+                Feature::Edge(_) => Feature::Edge(u16::MAX),
+                Feature::Corner(_) => Feature::Corner(u16::MAX),
+            }),
+            ..telemetry_example()
+        };
+        assert_eq!(
+            encode(0, Message::Telemetry(saturated)),
+            telemetry_with(54, &v.to_le_bytes())
+        );
+    }
+    let none = Frame::decode(&telemetry_with(54, &0xFFFFu16.to_le_bytes())).unwrap();
+    assert!(matches!(
+        none.message,
+        Message::Telemetry(Telemetry { feature: None, .. })
+    ));
+}
+
 fn telemetry_example() -> Telemetry {
     Telemetry {
         time_us: 1_000_000,
