@@ -604,7 +604,19 @@ impl Run {
     /// `mode` one of `free`, `stuck`, `transition`, `slip`, `depth_m` the penetration depth
     /// clamped at 0 (so 0 when free). A device run (its first tick has a [`DeviceSample`])
     /// appends [`DEVICE_COLUMNS`] (0 in a tick without a sample).
+    ///
+    /// A run with a non-finite value in any column is not written (an `InvalidData` error
+    /// naming the tick and column): a run log never holds `NaN` or `inf`.
     pub fn write_csv(&self, out: impl Write) -> io::Result<()> {
+        if let Some((i, column)) = self.first_non_finite() {
+            return Err(io::Error::new(
+                io::ErrorKind::InvalidData,
+                format!(
+                    "tick {i} (t = {} s): {column} is not finite; nothing written",
+                    self.ticks[i].t_s
+                ),
+            ));
+        }
         let mut w = io::BufWriter::new(out);
         let device = self.is_device_run();
         if device {
@@ -649,6 +661,37 @@ impl Run {
             writeln!(w)?;
         }
         w.flush()
+    }
+
+    /// The first tick and run-log column with a NaN or an infinity.
+    fn first_non_finite(&self) -> Option<(usize, &'static str)> {
+        self.ticks.iter().enumerate().find_map(|(i, k)| {
+            let d = k.device.unwrap_or(DeviceSample {
+                theta_rad: [0.0; 2],
+                tau_nm: [0.0; 2],
+                faults: 0,
+            });
+            let columns: [(&'static str, &[f32]); 11] = [
+                ("hip", &k.hip.to_array()),
+                ("cp", &k.cp.to_array()),
+                ("go", &k.go.to_array()),
+                ("depth_m", &[k.depth_m]),
+                ("normal_force_n", &[k.normal_force_n]),
+                ("friction_force_n", &[k.friction_force_n]),
+                ("mu", &[k.mu]),
+                ("psi", &[k.psi]),
+                ("force", &k.force.to_array()),
+                ("theta_rad", &d.theta_rad),
+                ("tau_nm", &d.tau_nm),
+            ];
+            if !k.t_s.is_finite() {
+                return Some((i, "t_s"));
+            }
+            columns
+                .into_iter()
+                .find(|(_, v)| !v.iter().all(|x| x.is_finite()))
+                .map(|(name, _)| (i, name))
+        })
     }
 
     /// Whether this is a closed-loop run of the device ([`run_device`]): its ticks carry a
@@ -822,6 +865,16 @@ mod tests {
         assert_eq!((last[7], last[8]), ("0", "slip"));
         let depth: f32 = last[9].parse().expect("number");
         assert!((depth - 0.002).abs() < 1e-6);
+        // A value that is not finite is never written: the whole log is refused.
+        let mut bad = run.clone();
+        bad.ticks[7].psi = f32::NAN;
+        let mut out = Vec::new();
+        let e = bad.write_csv(&mut out).expect_err("NaN");
+        assert!(
+            e.to_string().starts_with("tick 7 (t = 0.035 s): psi"),
+            "{e}"
+        );
+        assert!(out.is_empty());
     }
 
     #[test]
