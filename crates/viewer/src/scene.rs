@@ -578,24 +578,28 @@ impl Material {
             Some(RawModel::LuGre) => ModelKind::LuGre,
         };
         Material::from_friction(FrictionMaterial {
-            stiffness_n_per_m: m.stiffness_n_per_m,
-            damping_ns_per_m: m.damping_ns_per_m,
-            mu_static: m.mu_static,
-            mu_dynamic: m.mu_dynamic,
+            stiffness_n_per_m: m.stiffness_n_per_m.0,
+            damping_ns_per_m: m.damping_ns_per_m.0,
+            mu_static: m.mu_static.0,
+            mu_dynamic: m.mu_dynamic.0,
             stribeck,
-            transition_time_s: m.transition_time_s.unwrap_or(d.transition_time_s),
-            converge_tol_m: m.converge_tol_m.unwrap_or(d.converge_tol_m),
-            stop_speed_m_per_s: m.stop_speed_m_per_s.unwrap_or(d.stop_speed_m_per_s),
+            transition_time_s: m.transition_time_s.map_or(d.transition_time_s, |v| v.0),
+            converge_tol_m: m.converge_tol_m.map_or(d.converge_tol_m, |v| v.0),
+            stop_speed_m_per_s: m.stop_speed_m_per_s.map_or(d.stop_speed_m_per_s, |v| v.0),
             model,
-            viscous_ns_per_m: m.viscous_ns_per_m.unwrap_or(d.viscous_ns_per_m),
-            karnopp_band_m_per_s: m.karnopp_band_m_per_s.unwrap_or(d.karnopp_band_m_per_s),
+            viscous_ns_per_m: m.viscous_ns_per_m.map_or(d.viscous_ns_per_m, |v| v.0),
+            karnopp_band_m_per_s: m
+                .karnopp_band_m_per_s
+                .map_or(d.karnopp_band_m_per_s, |v| v.0),
             bristle_stiffness_n_per_m: m
                 .bristle_stiffness_n_per_m
-                .unwrap_or(d.bristle_stiffness_n_per_m),
+                .map_or(d.bristle_stiffness_n_per_m, |v| v.0),
             bristle_damping_ns_per_m: m
                 .bristle_damping_ns_per_m
-                .unwrap_or(d.bristle_damping_ns_per_m),
-            stribeck_speed_m_per_s: m.stribeck_speed_m_per_s.unwrap_or(d.stribeck_speed_m_per_s),
+                .map_or(d.bristle_damping_ns_per_m, |v| v.0),
+            stribeck_speed_m_per_s: m
+                .stribeck_speed_m_per_s
+                .map_or(d.stribeck_speed_m_per_s, |v| v.0),
         })
     }
 }
@@ -784,28 +788,42 @@ fn numbers(n: &Nested, field: &str) -> Result<Vec<f32>, PatchError> {
             // Rounded once to the f32 of the loop. A value that f32 cannot hold (it overflows
             // to ∞ or a non-zero value underflows to 0) is reported as written, not as the ∞
             // or 0 that nurbs would see.
-            Nested::Num(v) => {
-                let r = v as f32;
-                if r.is_finite() && (r != 0.0 || v == 0.0) {
-                    Ok(r)
-                } else {
-                    Err(shape(
-                        format!("{field}[{i}]"),
-                        format!(
-                            "{v:.3e} is outside the range of f32 (magnitudes {:e} to {:e}), the \
-                             type the haptic loop computes in",
-                            f32::from_bits(1),
-                            f32::MAX
-                        ),
-                    ))
-                }
-            }
+            Nested::Num(v) => to_f32(v).map_err(|problem| shape(format!("{field}[{i}]"), problem)),
             Nested::List(_) => Err(shape(
                 format!("{field}[{i}]"),
                 "expected a number, found an array",
             )),
         })
         .collect()
+}
+
+/// `v` rounded once to the f32 of the loop, or why it cannot be: it overflows to ∞, or a
+/// non-zero value underflows to 0 (the message gives the value as written, not the ∞ or 0
+/// later checks would see).
+fn to_f32(v: f64) -> Result<f32, String> {
+    let r = v as f32;
+    if r.is_finite() && (r != 0.0 || v == 0.0) {
+        Ok(r)
+    } else {
+        Err(format!(
+            "{v:.3e} is outside the range of f32 (magnitudes {:e} to {:e}), the type the \
+             haptic loop computes in",
+            f32::from_bits(1),
+            f32::MAX
+        ))
+    }
+}
+
+/// A number of the file read as the loop's `f32` through [`to_f32`]: out of range is a
+/// JSON error, with the line, column and field.
+#[derive(Clone, Copy)]
+struct F32(f32);
+
+impl<'de> Deserialize<'de> for F32 {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        let v = f64::deserialize(d)?;
+        to_f32(v).map(F32).map_err(de::Error::custom)
+    }
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -831,30 +849,30 @@ struct RawObject {
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields, rename = "Material")]
 struct RawMaterial {
-    stiffness_n_per_m: f32,
-    damping_ns_per_m: f32,
-    mu_static: f32,
-    mu_dynamic: f32,
+    stiffness_n_per_m: F32,
+    damping_ns_per_m: F32,
+    mu_static: F32,
+    mu_dynamic: F32,
     #[serde(default)]
     stribeck: Option<RawStribeck>,
     #[serde(default)]
-    transition_time_s: Option<f32>,
+    transition_time_s: Option<F32>,
     #[serde(default)]
-    converge_tol_m: Option<f32>,
+    converge_tol_m: Option<F32>,
     #[serde(default)]
-    stop_speed_m_per_s: Option<f32>,
+    stop_speed_m_per_s: Option<F32>,
     #[serde(default)]
     model: Option<RawModel>,
     #[serde(default)]
-    viscous_ns_per_m: Option<f32>,
+    viscous_ns_per_m: Option<F32>,
     #[serde(default)]
-    karnopp_band_m_per_s: Option<f32>,
+    karnopp_band_m_per_s: Option<F32>,
     #[serde(default)]
-    bristle_stiffness_n_per_m: Option<f32>,
+    bristle_stiffness_n_per_m: Option<F32>,
     #[serde(default)]
-    bristle_damping_ns_per_m: Option<f32>,
+    bristle_damping_ns_per_m: Option<F32>,
     #[serde(default)]
-    stribeck_speed_m_per_s: Option<f32>,
+    stribeck_speed_m_per_s: Option<F32>,
 }
 
 /// `"linear"`, `{"power": n}` or `"smoothstep"`.
@@ -1256,7 +1274,12 @@ mod tests {
         ));
         assert_mentions(
             &msg,
-            &["object 0 (\"wedge\")", "material.damping_ns_per_m", "inf"],
+            &[
+                "object 0 (\"wedge\")",
+                "material.damping_ns_per_m",
+                "1.000e39 is outside the range of f32",
+                "line 6 column 73",
+            ],
         );
         let msg = error(&edited("\"mu_dynamic\": 0.5", "\"mu_dynamic\": 0.8"));
         assert_mentions(
@@ -1585,7 +1608,8 @@ mod tests {
             ),
             (
                 "\"viscous_ns_per_m\": 1e39",
-                "viscous_ns_per_m: inf must be finite and >= 0",
+                "viscous_ns_per_m: 1.000e39 is outside the range of f32 (magnitudes 1e-45 to \
+                 3.4028235e38), the type the haptic loop computes in at line 6 column 137",
             ),
             (
                 "\"karnopp_band_m_per_s\": -0.5",
