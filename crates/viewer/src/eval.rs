@@ -200,6 +200,17 @@ pub enum LineProblem {
         /// The value given.
         value: f32,
     },
+    /// A finite number too large for `f32`, the type the evaluation uses.
+    #[error(
+        "{name}: {text} is outside the range of f32 (magnitudes up to {:e})",
+        f32::MAX
+    )]
+    OutOfF32 {
+        /// `u`, `v`, `x`, …
+        name: &'static str,
+        /// The text given.
+        text: String,
+    },
     /// A value lies outside the patch's domain.
     #[error("{name} = {value} is outside the domain [{min}, {max}]")]
     OutOfDomain {
@@ -335,6 +346,13 @@ pub(crate) fn parse_query<const N: usize>(
             text: (*word).to_owned(),
         })?;
         if !value.is_finite() {
+            // "1e39" parses to an f32 infinity; it is a number, only not one f32 can hold.
+            if word.parse::<f64>().is_ok_and(f64::is_finite) {
+                return Err(LineProblem::OutOfF32 {
+                    name,
+                    text: (*word).to_owned(),
+                });
+            }
             return Err(LineProblem::NotFinite { name, value });
         }
         let (min, max) = domains[k];
@@ -458,7 +476,11 @@ mod tests {
 
     #[test]
     fn bad_lines_stop_with_the_line_number() {
-        let cases: [(&str, &str); 6] = [
+        let cases: [(&str, &str); 7] = [
+            (
+                "0.5\n1e39\n",
+                "line 2 (\"1e39\"): u: 1e39 is outside the range of f32 (magnitudes up to 3.4028235e38)",
+            ),
             (
                 "0.5\n1.5\n0.2\n",
                 "line 2 (\"1.5\"): u = 1.5 is outside the domain [0, 1]",

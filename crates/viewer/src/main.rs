@@ -162,15 +162,8 @@ fn sim_command(args: &SimArgs) -> ExitCode {
     }
     if let (Some(file), Some(path)) = (&plot_file, &args.plot) {
         // Drawn into the temporary file; errors name the file the user asked for.
-        if let Err(e) = plot::write_png(&run, file.temp_path(), plot::DEFAULT_SIZE) {
-            let e = anyhow!(
-                "{}",
-                e.to_string().replace(
-                    &file.temp_path().display().to_string(),
-                    &path.display().to_string()
-                )
-            );
-            return fail(&e, EXIT_BAD_INPUT);
+        if let Err(e) = plot::write_png_as(&run, file.temp_path(), path, plot::DEFAULT_SIZE) {
+            return fail(&anyhow::Error::new(e), EXIT_BAD_INPUT);
         }
     }
     let committed = out
