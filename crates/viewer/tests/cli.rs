@@ -333,4 +333,14 @@ fn eval_refuses_scenes_f32_cannot_evaluate() {
         assert!(err.contains("object 0 (\"arc\")"), "{err}");
         assert!(err.contains(says), "{err}");
     }
+    // A domain of 1e-30 is valid (spans are relative to it) but its second derivatives,
+    // 0.01 m / (1e-30)², overflow f32: the answer is refused (exit 1), never printed as null.
+    let tiny = TempScene::new(
+        "tiny-domain",
+        &scene("[1, 1, 1]", "0.01").replace("[0, 0, 0, 1, 1, 1]", "[0, 0, 0, 1e-30, 1e-30, 1e-30]"),
+    );
+    let out = viewer(&["eval", tiny.path()], "0\n");
+    assert_eq!(out.status.code(), Some(1), "{}", stderr(&out));
+    assert!(out.stdout.is_empty());
+    assert!(stderr(&out).contains("line 1 (\"0\"): the answer's duu is not a finite f32"));
 }
