@@ -17,6 +17,7 @@ pub(crate) fn largest_weight(weights: impl Iterator<Item = f32>) -> f32 {
 /// weight finite and > 0, a normal `f32`, at least [`crate::MIN_WEIGHT_RATIO`] × `largest`
 /// (the patch's largest weight); every coordinate finite and within
 /// ±[`crate::MAX_COORDINATE`].
+#[cfg(feature = "alloc")]
 pub(crate) fn check_control_point<P: Point>(
     at: At,
     point: P,
