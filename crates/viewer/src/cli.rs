@@ -268,6 +268,9 @@ Plot (--plot, PNG): normal, friction and total force magnitude against time over
 bands of the mode (top), the CP and GO parameters against time (bottom); with --device also
 the joint torques against time (a third panel).
 
+The run log and the plot are written to temporary files beside them and renamed into place
+only when both are complete: a run that fails leaves existing files as they were.
+
 Progress goes to standard error, every 10%.
 
 Exit status:

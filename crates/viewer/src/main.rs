@@ -98,6 +98,13 @@ fn sim_command(args: &SimArgs) -> ExitCode {
     if let Err(e) = checked {
         return fail(&anyhow::Error::new(e), EXIT_BAD_SETUP);
     }
+    if args.plot.as_ref() == Some(&args.out) {
+        let e = anyhow!(
+            "--plot and --out both name {}; the run log and the plot need two files",
+            args.out.display()
+        );
+        return fail(&e, EXIT_BAD_SETUP);
+    }
     // Before the run, so that a bad output path does not wait for it. Both outputs are
     // written to temporary files and renamed over their targets only when both are complete:
     // a failure anywhere leaves an existing run log and plot as they were.

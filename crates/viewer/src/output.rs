@@ -7,6 +7,7 @@
 use std::fs::{self, File, OpenOptions};
 use std::io;
 use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicUsize, Ordering};
 
 /// A file that appears at its path only on [`AtomicFile::commit`].
 #[derive(Debug)]
@@ -39,10 +40,13 @@ impl AtomicFile {
             .extension()
             .map(|e| format!(".{}", e.to_string_lossy()))
             .unwrap_or_default();
+        // Unique per process and per file, so two outputs never share a temporary file.
+        static COUNT: AtomicUsize = AtomicUsize::new(0);
         let temp = dir.join(format!(
-            ".{}.{}.tmp{ext}",
+            ".{}.{}-{}.tmp{ext}",
             name.to_string_lossy(),
-            std::process::id()
+            std::process::id(),
+            COUNT.fetch_add(1, Ordering::Relaxed)
         ));
         OpenOptions::new()
             .write(true)

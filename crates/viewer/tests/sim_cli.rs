@@ -399,6 +399,16 @@ fn outputs_are_written_atomically() {
     }
     only_files(&dir, &["press.csv", "run.csv", "far.csv"]);
 
+    // One file for both outputs is a bad command line.
+    let result = args(&["--plot", &out]);
+    assert_eq!(result.status.code(), Some(2));
+    assert!(
+        stderr(&result).contains("need two files"),
+        "{}",
+        stderr(&result)
+    );
+    assert_eq!(previous(), "previous run log\n");
+
     // A fresh name is not created by a failing run either.
     let fresh = dir.path("fresh.csv");
     let mut a = vec![
