@@ -345,13 +345,9 @@ fn hand_stiffness(text: &str) -> Result<f64, String> {
 
 fn tick_rate(text: &str) -> Result<f64, String> {
     match text.trim().parse::<f64>() {
-        Ok(r) => match crate::sim::check_rate(r) {
-            Ok(()) => Ok(r),
-            Err(e) => Err(e
-                .to_string()
-                .trim_start_matches(&format!("--rate-hz {r:e}: "))
-                .to_owned()),
-        },
+        Ok(r) => crate::sim::check_rate(r)
+            .map(|()| r)
+            .map_err(|_| crate::sim::rate_rule()),
         Err(e) => Err(format!("{e}")),
     }
 }

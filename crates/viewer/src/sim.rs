@@ -140,12 +140,7 @@ pub enum SimError {
     },
     /// The tick rate is not a positive finite number whose value and period are normal
     /// `f32`s (the loop's type; see [`check_rate`]).
-    #[error(
-        "--rate-hz {rate_hz:e}: the tick rate must be finite and > 0, and it and its period \
-         1/rate must fit the f32 the loop computes in (about {:e} to {:e})",
-        f32::MIN_POSITIVE,
-        f32::MAX
-    )]
+    #[error("--rate-hz {rate_hz:e}: {}", rate_rule())]
     Rate {
         /// The rate given.
         rate_hz: f64,
@@ -276,6 +271,16 @@ pub fn validate(
         });
     }
     Ok(ticks as usize)
+}
+
+/// What [`check_rate`] asks of a tick rate, in words.
+pub fn rate_rule() -> String {
+    format!(
+        "the tick rate must be finite and > 0, and it and its period 1/rate must fit the f32 \
+         the loop computes in (about {:e} to {:e})",
+        f32::MIN_POSITIVE,
+        f32::MAX
+    )
 }
 
 /// A tick rate the loop can run at: finite and > 0, and both the rate and its period
