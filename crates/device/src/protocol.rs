@@ -65,6 +65,10 @@
 //! | 54 | 2 | feature: kind in bits 15–14 (0 patch, 1 vertex, 2 edge, 3 corner), index in bits 13–0; 0xFFFF none |
 //! | 56 | 1 | friction mode (0 free, 1 stuck, 2 transition, 3 slip) |
 //!
+//! Every float of telemetry is finite and the feature index at most [`MAX_FEATURE_INDEX`]
+//! (0x3FFE; larger indices saturate there), so a frame with NaN or an infinity, or a feature
+//! code 0x3FFF / 0x7FFF / 0xBFFF, is malformed: [`ErrorCode::BadField`].
+//!
 //! The frame's sequence number counts ticks, so the host sees dropped telemetry as gaps.
 //!
 //! # Scene upload

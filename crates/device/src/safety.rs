@@ -40,51 +40,56 @@
 //! is taken only on the rare paths that actually saturate or rate-limit the force.
 
 use core::fmt;
-use core::ops::{BitAnd, BitOr, BitOrAssign};
 
 use nurbs::Vec2;
 
-macro_rules! bitset {
-    (
-        $(#[$meta:meta])*
-        $name:ident($repr:ty) {
-            $($(#[$fmeta:meta])* $flag:ident = $bit:expr, $text:literal;)*
-        }
-    ) => {
-        $(#[$meta])*
-        #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
-        pub struct $name($repr);
+bitflags::bitflags! {
+    /// Latched force-off causes. Each bit stays set until [`Safety::clear_faults`] finds its
+    /// condition gone.
+    #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+    pub struct Faults: u16 {
+        /// A non-finite value in the input (or, defensively, in the computed force).
+        const NUMERIC = 1 << 0;
+        /// HIP speed above [`SafetyConfig::max_velocity_m_per_s`].
+        const VELOCITY = 1 << 1;
+        /// A joint step larger than [`SafetyConfig::max_joint_step_rad`] in one tick, or
+        /// encoder counts that no pose of the mechanism gives.
+        const ENCODER = 1 << 2;
+        /// No host heartbeat for longer than [`SafetyConfig::heartbeat_timeout_s`].
+        const WATCHDOG = 1 << 3;
+        /// HIP outside [`SafetyConfig::workspace`].
+        const WORKSPACE = 1 << 4;
+        /// A motor's thermal state reached [`ThermalConfig::trip_threshold`].
+        const THERMAL = 1 << 5;
+    }
+}
 
+bitflags::bitflags! {
+    /// What the shaping stages did to this tick's force. Information, not faults.
+    #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+    pub struct Flags: u8 {
+        /// The force was clamped to [`SafetyConfig::max_force_n`].
+        const SATURATED = 1 << 0;
+        /// The change from the previous tick was clamped to `max_force_rate · period`.
+        const RATE_LIMITED = 1 << 1;
+        /// The ramp-in after enable or scene swap is still scaling the force.
+        const RAMPING = 1 << 2;
+        /// The thermal model is derating the force.
+        const DERATING = 1 << 3;
+        /// The passivity controller added damping.
+        const DAMPING = 1 << 4;
+    }
+}
+
+/// The names the telemetry, the monitor and the run logs show, lowest bit first, and a
+/// `Display` of the set bits joined with `|` (`none` when empty).
+macro_rules! bit_names {
+    ($name:ident { $($flag:ident => $text:literal,)* }) => {
         impl $name {
-            $($(#[$fmeta])* pub const $flag: Self = Self(1 << $bit);)*
             /// Every named bit.
-            pub const ALL: Self = Self(0 $(| (1 << $bit))*);
+            pub const ALL: Self = Self::all();
             const NAMED: &'static [(Self, &'static str)] = &[$((Self::$flag, $text)),*];
 
-            /// No bit set.
-            pub const fn empty() -> Self {
-                Self(0)
-            }
-            /// The raw bits (for telemetry).
-            pub const fn bits(self) -> $repr {
-                self.0
-            }
-            /// From raw bits; unnamed bits are dropped.
-            pub const fn from_bits_truncate(bits: $repr) -> Self {
-                Self(bits & Self::ALL.0)
-            }
-            /// Whether no bit is set.
-            pub const fn is_empty(self) -> bool {
-                self.0 == 0
-            }
-            /// Whether every bit of `other` is set in `self`.
-            pub const fn contains(self, other: Self) -> bool {
-                self.0 & other.0 == other.0
-            }
-            /// Whether `self` and `other` share a bit.
-            pub const fn intersects(self, other: Self) -> bool {
-                self.0 & other.0 != 0
-            }
             /// The names of the set bits, lowest bit first.
             pub fn names(self) -> impl Iterator<Item = &'static str> {
                 Self::NAMED
@@ -94,35 +99,6 @@ macro_rules! bitset {
             }
         }
 
-        impl BitOr for $name {
-            type Output = Self;
-            fn bitor(self, rhs: Self) -> Self {
-                Self(self.0 | rhs.0)
-            }
-        }
-
-        impl BitOrAssign for $name {
-            fn bitor_assign(&mut self, rhs: Self) {
-                self.0 |= rhs.0;
-            }
-        }
-
-        impl core::ops::Not for $name {
-            type Output = Self;
-            /// The named bits not in `self`.
-            fn not(self) -> Self {
-                Self(!self.0 & Self::ALL.0)
-            }
-        }
-
-        impl BitAnd for $name {
-            type Output = Self;
-            fn bitand(self, rhs: Self) -> Self {
-                Self(self.0 & rhs.0)
-            }
-        }
-
-        /// The set bits' names joined with `|`, or `none`.
         impl fmt::Display for $name {
             fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
                 if self.is_empty() {
@@ -140,41 +116,22 @@ macro_rules! bitset {
     };
 }
 
-bitset! {
-    /// Latched force-off causes. Each bit stays set until [`Safety::clear_faults`] finds its
-    /// condition gone.
-    Faults(u16) {
-        /// A non-finite value in the input (or, defensively, in the computed force).
-        NUMERIC = 0, "numeric";
-        /// HIP speed above [`SafetyConfig::max_velocity_m_per_s`].
-        VELOCITY = 1, "velocity";
-        /// A joint step larger than [`SafetyConfig::max_joint_step_rad`] in one tick, or
-        /// encoder counts that no pose of the mechanism gives.
-        ENCODER = 2, "encoder";
-        /// No host heartbeat for longer than [`SafetyConfig::heartbeat_timeout_s`].
-        WATCHDOG = 3, "watchdog";
-        /// HIP outside [`SafetyConfig::workspace`].
-        WORKSPACE = 4, "workspace";
-        /// A motor's thermal state reached [`ThermalConfig::trip_threshold`].
-        THERMAL = 5, "thermal";
-    }
-}
+bit_names!(Faults {
+    NUMERIC => "numeric",
+    VELOCITY => "velocity",
+    ENCODER => "encoder",
+    WATCHDOG => "watchdog",
+    WORKSPACE => "workspace",
+    THERMAL => "thermal",
+});
 
-bitset! {
-    /// What the shaping stages did to this tick's force. Information, not faults.
-    Flags(u8) {
-        /// The force was clamped to [`SafetyConfig::max_force_n`].
-        SATURATED = 0, "saturated";
-        /// The change from the previous tick was clamped to `max_force_rate · period`.
-        RATE_LIMITED = 1, "rate-limited";
-        /// The ramp-in after enable or scene swap is still scaling the force.
-        RAMPING = 2, "ramping";
-        /// The thermal model is derating the force.
-        DERATING = 3, "derating";
-        /// The passivity controller added damping.
-        DAMPING = 4, "damping";
-    }
-}
+bit_names!(Flags {
+    SATURATED => "saturated",
+    RATE_LIMITED => "rate-limited",
+    RAMPING => "ramping",
+    DERATING => "derating",
+    DAMPING => "damping",
+});
 
 pub use crate::spec::WorkspaceBox;
 

@@ -20,6 +20,10 @@ fn crc_check_values() {
     assert_eq!(crc32(b"123456789"), 0xCBF4_3926);
     assert_eq!(crc16_ccitt_false(b""), 0xFFFF);
     assert_eq!(crc32(b""), 0);
+    assert_eq!(
+        (crc16_bitwise(b"123456789"), crc32_bitwise(b"123456789")),
+        (0x29B1, 0xCBF4_3926)
+    );
     // zlib's crc32 of the pangram.
     assert_eq!(
         crc32(b"The quick brown fox jumps over the lazy dog"),
@@ -27,7 +31,46 @@ fn crc_check_values() {
     );
 }
 
+/// Bit-at-a-time CRCs straight from the catalogue's parameters (width, poly, init, refin,
+/// refout, xorout): independent of any table, so agreement on every input shows the wire's
+/// checksums are those of the protocol docs, whatever implements them.
+fn crc16_bitwise(data: &[u8]) -> u16 {
+    let mut reg = 0xFFFFu16;
+    for &b in data {
+        reg ^= u16::from(b) << 8;
+        for _ in 0..8 {
+            reg = if reg & 0x8000 != 0 {
+                (reg << 1) ^ 0x1021
+            } else {
+                reg << 1
+            };
+        }
+    }
+    reg
+}
+
+fn crc32_bitwise(data: &[u8]) -> u32 {
+    let mut reg = 0xFFFF_FFFFu32;
+    for &b in data {
+        reg ^= u32::from(b);
+        for _ in 0..8 {
+            reg = if reg & 1 != 0 {
+                (reg >> 1) ^ 0xEDB8_8320
+            } else {
+                reg >> 1
+            };
+        }
+    }
+    reg ^ 0xFFFF_FFFF
+}
+
 proptest! {
+    #[test]
+    fn crcs_equal_the_bitwise_definition(data in prop::collection::vec(any::<u8>(), 0..300)) {
+        prop_assert_eq!(crc16_ccitt_false(&data), crc16_bitwise(&data));
+        prop_assert_eq!(crc32(&data), crc32_bitwise(&data));
+    }
+
     #[test]
     fn crc32_incremental_equals_one_shot(data in prop::collection::vec(any::<u8>(), 0..300), cut in 0usize..300) {
         let cut = cut.min(data.len());
@@ -35,6 +78,13 @@ proptest! {
         c.update(&data[..cut]);
         c.update(&data[cut..]);
         prop_assert_eq!(c.finish(), crc32(&data));
+        // Pieces of every size, the empty one included, change nothing.
+        let mut pieces = Crc32::new();
+        for chunk in data.chunks(cut.max(1)) {
+            pieces.update(chunk);
+            pieces.update(&[]);
+        }
+        prop_assert_eq!(pieces.finish(), crc32_bitwise(&data));
     }
 }
 
@@ -371,6 +421,79 @@ fn each_malformed_frame_has_its_code() {
     assert_eq!(code(&raw_frame(1, 0x30, 0, &payload)), ErrorCode::BadField);
 }
 
+/// The telemetry frame with payload bytes `at..at + bytes.len()` replaced, CRC recomputed.
+fn telemetry_with(at: usize, bytes: &[u8]) -> Vec<u8> {
+    let mut t = encode(0, Message::Telemetry(telemetry_example()));
+    t[HEADER_LEN + at..HEADER_LEN + at + bytes.len()].copy_from_slice(bytes);
+    let n = t.len() - 2;
+    let crc = crc16_ccitt_false(&t[..n]);
+    t[n..].copy_from_slice(&crc.to_le_bytes());
+    t
+}
+
+/// Telemetry the encoder cannot produce is malformed: NaN or an infinity in any of its nine
+/// float fields (offsets 4 to 44 of the layout), or a feature code whose index is 0x3FFF
+/// (indices saturate at MAX_FEATURE_INDEX = 0x3FFE, and 0xFFFF means none). Before, the
+/// host decoded all of these as telemetry.
+#[test]
+fn telemetry_the_encoder_cannot_produce_is_malformed() {
+    let code = |bytes: &[u8]| Frame::decode(bytes).map_err(|e| e.code);
+    assert!(code(&telemetry_with(0, &[0; 0])).is_ok());
+    for offset in (4..=44).step_by(4) {
+        for bad in [f32::NAN, f32::INFINITY, f32::NEG_INFINITY] {
+            assert_eq!(
+                code(&telemetry_with(offset, &bad.to_le_bytes())),
+                Err(ErrorCode::BadField),
+                "{bad} at {offset}"
+            );
+        }
+        // The largest finite values still decode (a bound, not a range check).
+        assert!(code(&telemetry_with(offset, &f32::MAX.to_le_bytes())).is_ok());
+    }
+    for bad in [0x3FFFu16, 0x7FFF, 0xBFFF] {
+        assert_eq!(
+            code(&telemetry_with(54, &bad.to_le_bytes())),
+            Err(ErrorCode::BadField),
+            "{bad:#x}"
+        );
+    }
+    // What the encoder does produce: every kind at the saturated index, and none.
+    for (kind, feature) in [
+        (0u16, Feature::Patch(MAX_FEATURE_INDEX)),
+        (1, Feature::Vertex(MAX_FEATURE_INDEX)),
+        (2, Feature::Edge(MAX_FEATURE_INDEX)),
+        (3, Feature::Corner(MAX_FEATURE_INDEX)),
+    ] {
+        let v = (kind << 14) | MAX_FEATURE_INDEX;
+        let Ok(Frame {
+            message: Message::Telemetry(t),
+            ..
+        }) = Frame::decode(&telemetry_with(54, &v.to_le_bytes()))
+        else {
+            panic!("{v:#x} decodes")
+        };
+        assert_eq!(t.feature, Some(feature));
+        let saturated = Telemetry {
+            feature: Some(match feature {
+                Feature::Patch(_) => Feature::Patch(u16::MAX),
+                Feature::Vertex(_) => Feature::Vertex(u16::MAX),
+                Feature::Edge(_) => Feature::Edge(u16::MAX),
+                Feature::Corner(_) => Feature::Corner(u16::MAX),
+            }),
+            ..telemetry_example()
+        };
+        assert_eq!(
+            encode(0, Message::Telemetry(saturated)),
+            telemetry_with(54, &v.to_le_bytes())
+        );
+    }
+    let none = Frame::decode(&telemetry_with(54, &0xFFFFu16.to_le_bytes())).unwrap();
+    assert!(matches!(
+        none.message,
+        Message::Telemetry(Telemetry { feature: None, .. })
+    ));
+}
+
 fn telemetry_example() -> Telemetry {
     Telemetry {
         time_us: 1_000_000,
@@ -628,6 +751,55 @@ fn each_invalid_scene_has_its_code_and_location() {
             "{e}"
         );
     }
+}
+
+/// The wire scene goes through the same weight rule as the JSON loader (`nurbs`'s one
+/// control-point validation): a weight of 9.2e-41 (subnormal; the surface path used to divide
+/// it out to a finite point and evaluate NaN) or 1e-20 beside weights of 1 is a patch error
+/// naming object, patch and weight, with the reason.
+#[test]
+fn weights_too_small_for_f32_are_patch_errors() {
+    let mut rows = [[Vec3::ZERO; 3]; 2];
+    for (i, row) in rows.iter_mut().enumerate() {
+        for (j, p) in row.iter_mut().enumerate() {
+            *p = Vec3::new(0.01 * i as f32, 0.01 * j as f32, 0.0);
+        }
+    }
+    // A marker coordinate, to find the point's bytes.
+    rows[0][1].z = 0.012_345;
+    let surface = bezier_patch(&rows).unwrap();
+    let patches = [WirePatch::Surface(surface.view())];
+    let bytes = encode_scene(&[WireObject {
+        material: material_a(),
+        patches: &patches,
+    }])
+    .unwrap();
+    let hom = |p: Vec3, w: f32| -> Vec<u8> {
+        [p.x * w, p.y * w, p.z * w, w]
+            .iter()
+            .flat_map(|v| v.to_le_bytes())
+            .collect()
+    };
+    let original = hom(rows[0][1], 1.0);
+    let at = bytes
+        .windows(16)
+        .position(|w| w == original.as_slice())
+        .unwrap();
+    let mut store = Box::new(SceneStore::new());
+    for (w, why) in [(9.2e-41f32, "subnormal"), (1e-20, "significant digits")] {
+        let mut b = bytes.clone();
+        b[at..at + 16].copy_from_slice(&hom(rows[0][1], w));
+        let e = decode_scene(&b, &mut store).unwrap_err();
+        assert_eq!(
+            (e.code(), e.object, e.patch),
+            (ErrorCode::ScenePatch, Some(0), Some(0))
+        );
+        let msg = e.to_string();
+        assert!(msg.contains("weights[0][1]") && msg.contains(why), "{msg}");
+        assert_eq!(store.object_count(), 0);
+    }
+    // The unmodified scene is accepted (the search found the right bytes).
+    decode_scene(&bytes, &mut store).unwrap();
 }
 
 #[test]

@@ -2,6 +2,7 @@
 
 use crate::basis::ders_basis_funs;
 use crate::bbox::Aabb;
+use crate::control::{check_homogeneous, largest_weight};
 use crate::error::{At, NurbsError};
 use crate::knots::{Dir, Knots};
 use crate::point::Point;
@@ -52,17 +53,9 @@ impl<'a, P: Point> Curve<'a, P> {
     /// `points[i] = (w_i·P_i, w_i)`.
     pub fn new(degree: usize, knots: &'a [f32], points: &'a [P::Hom]) -> Result<Self, NurbsError> {
         let knots = Knots::validate(knots, degree, points.len(), Dir::Curve)?;
+        let largest = largest_weight(points.iter().map(|&h| P::split(h).1));
         for (i, &h) in points.iter().enumerate() {
-            let (xw, w) = P::split(h);
-            if !(w.is_finite() && w > 0.0) {
-                return Err(NurbsError::Weight {
-                    at: At::I(i),
-                    value: w,
-                });
-            }
-            if !xw.is_finite() || !(xw * (1.0 / w)).is_finite() {
-                return Err(NurbsError::PointNotFinite { at: At::I(i) });
-            }
+            check_homogeneous::<P>(At::I(i), h, largest)?;
         }
         Ok(Curve { knots, points })
     }

@@ -147,6 +147,23 @@ pub enum NurbsError {
         /// The offending value.
         value: f32,
     },
+    /// A weight that is valid on its own but too small for `f32` evaluation: subnormal, or
+    /// below [`crate::MIN_WEIGHT_RATIO`] × the patch's largest weight.
+    WeightTooSmall {
+        /// Position of the weight.
+        at: At,
+        /// The offending value.
+        value: f32,
+        /// The patch's largest (finite, positive) weight.
+        largest: f32,
+    },
+    /// A control point coordinate larger in magnitude than [`crate::MAX_COORDINATE`].
+    PointOutOfRange {
+        /// Position of the point.
+        at: At,
+        /// Its largest coordinate magnitude.
+        value: f32,
+    },
     /// The number of weights differs from the number of control points.
     WeightCount {
         /// Required count.
@@ -241,6 +258,31 @@ impl fmt::Display for NurbsError {
             Weight { at, value } => {
                 write!(f, "weights{at}: weight {value} must be finite and > 0")
             }
+            WeightTooSmall {
+                at,
+                value,
+                largest: _,
+            } if !value.is_normal() => write!(
+                f,
+                "weights{at}: weight {value:e} is subnormal in f32 (below {:e}): its reciprocal \
+                 overflows and rational evaluation gives NaN; weights are scale-free, scale \
+                 them all up",
+                f32::MIN_POSITIVE
+            ),
+            WeightTooSmall { at, value, largest } => write!(
+                f,
+                "weights{at}: weight {value:e} is less than {:e} of the patch's largest weight \
+                 {largest:e}: f32 keeps about 7 significant digits, so its point would vanish \
+                 in rounding beside the others and the rational derivatives overflow; bring \
+                 the weights closer together",
+                crate::MIN_WEIGHT_RATIO
+            ),
+            PointOutOfRange { at, value } => write!(
+                f,
+                "points{at}: coordinate magnitude {value:e} exceeds {:e} (the model's unit, \
+                 metres in a scene): too coarse in f32 and its derivatives overflow",
+                crate::MAX_COORDINATE
+            ),
             WeightCount { expected, found } => write!(
                 f,
                 "weights: {found} weights given for {expected} control points"

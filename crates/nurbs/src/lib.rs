@@ -9,6 +9,7 @@ mod basis;
 mod bbox;
 #[cfg(feature = "alloc")]
 pub mod construct;
+mod control;
 mod curve;
 mod error;
 mod knots;
@@ -36,5 +37,18 @@ pub const MAX_ORDER: usize = MAX_DEGREE + 1;
 /// basis derivatives overflow `f32` (they scale with 1 / span^order), so validation rejects
 /// them.
 pub const MIN_SPAN_REL: f32 = 1e-5;
+/// Smallest weight of a patch relative to its largest weight. f32 keeps about seven
+/// significant digits, so a weight a million times smaller than another of the same patch
+/// contributes to the rational denominator at the level of the others' rounding, and the
+/// rational derivatives, which divide by the denominator once per order, overflow near its
+/// control point (a weight of 1e-20 beside weights of 1 gives infinite second derivatives).
+/// Validation rejects such weights; weights are scale-free, so scale them closer together.
+pub const MIN_WEIGHT_RATIO: f32 = 1e-6;
+/// Largest magnitude of a control point coordinate (in the model's unit: metres in a scene).
+/// f32 resolves 10⁶ only to about 0.06, far coarser than any haptic contact, and the
+/// trackers' squared distances and the derivatives over the shortest allowed knot spans
+/// ([`MIN_SPAN_REL`]) of larger coordinates come near `f32::MAX` (a coordinate of 3e38
+/// evaluates to infinite derivatives). Validation rejects larger coordinates.
+pub const MAX_COORDINATE: f32 = 1e6;
 /// Highest derivative order evaluated.
 pub const MAX_DERIV: usize = 2;

@@ -4,6 +4,7 @@
 use alloc::vec::Vec;
 use glam::{Vec3, Vec4};
 
+use crate::control::{check_control_point, largest_weight};
 use crate::error::{At, Field, NurbsError};
 use crate::knots::Knots;
 use crate::point::Point;
@@ -43,19 +44,14 @@ impl<P: Point> CurveBuf<P> {
                 found: w.len(),
             });
         }
+        let weight = |i: usize| weights.map_or(1.0, |w| w[i]);
+        // Checked in Cartesian form, as given, with the rules `Curve::new` applies again to
+        // the homogeneous points.
+        let largest = largest_weight((0..points.len()).map(weight));
         let mut hom = Vec::with_capacity(points.len());
         for (i, &p) in points.iter().enumerate() {
-            let w = weights.map_or(1.0, |w| w[i]);
-            if !(w.is_finite() && w > 0.0) {
-                return Err(NurbsError::Weight {
-                    at: At::I(i),
-                    value: w,
-                });
-            }
-            if !p.is_finite() {
-                return Err(NurbsError::PointNotFinite { at: At::I(i) });
-            }
-            hom.push(p.weighted(w));
+            check_control_point(At::I(i), p, weight(i), largest)?;
+            hom.push(p.weighted(weight(i)));
         }
         Self::new(degree, knots, hom)
     }
@@ -165,19 +161,17 @@ impl SurfaceBuf {
                 }
             }
         }
+        let weight = |i: usize, j: usize| weights.map_or(1.0, |w| w[i].as_ref()[j]);
+        let largest = largest_weight(
+            (0..rows.len())
+                .flat_map(|i| (0..count_v).map(move |j| (i, j)))
+                .map(|(i, j)| weight(i, j)),
+        );
         let mut hom = Vec::with_capacity(rows.len() * count_v);
         for (i, r) in rows.iter().enumerate() {
             for (j, &p) in r.as_ref().iter().enumerate() {
-                let w = weights.map_or(1.0, |w| w[i].as_ref()[j]);
-                if !(w.is_finite() && w > 0.0) {
-                    return Err(NurbsError::Weight {
-                        at: At::Ij(i, j),
-                        value: w,
-                    });
-                }
-                if !p.is_finite() {
-                    return Err(NurbsError::PointNotFinite { at: At::Ij(i, j) });
-                }
+                let w = weight(i, j);
+                check_control_point(At::Ij(i, j), p, w, largest)?;
                 hom.push((p * w).extend(w));
             }
         }

@@ -2,6 +2,7 @@
 
 use crate::basis::ders_basis_funs;
 use crate::bbox::Aabb;
+use crate::control::{check_homogeneous, largest_weight};
 use crate::error::{At, NurbsError};
 use crate::knots::{Dir, Knots};
 use crate::{MAX_DERIV, MAX_ORDER};
@@ -59,15 +60,9 @@ impl<'a> Surface<'a> {
                 found: points.len() - count_u * count_v,
             });
         }
+        let largest = largest_weight(points.iter().map(|h| h.w));
         for (k, &h) in points.iter().enumerate() {
-            let at = At::Ij(k / count_v, k % count_v);
-            let w = h.w;
-            if !(w.is_finite() && w > 0.0) {
-                return Err(NurbsError::Weight { at, value: w });
-            }
-            if !h.truncate().is_finite() || !(h.truncate() / w).is_finite() {
-                return Err(NurbsError::PointNotFinite { at });
-            }
+            check_homogeneous::<Vec3>(At::Ij(k / count_v, k % count_v), h, largest)?;
         }
         Ok(Surface { ku, kv, points })
     }

@@ -743,3 +743,123 @@ fn too_few_points_names_the_direction() {
         .unwrap_err();
     assert!(err.to_string().contains("along u"), "{err}");
 }
+
+/// Weights too small for f32 are refused by the one check every loader goes through
+/// (`Curve::new` for the wire scene, `CurveBuf::from_cartesian` for JSON), with a message that
+/// says why. Before, 1e-20 beside weights of 1 was accepted and its second derivative
+/// overflowed; the wire's 9.2e-41 (subnormal) was accepted and evaluated to NaN.
+#[test]
+fn weights_too_small_for_f32_are_refused_with_the_reason() {
+    use nurbs::MIN_WEIGHT_RATIO;
+    for w in [1e-20f32, 9.2e-41, 0.9e-6] {
+        let mut p = pts4();
+        p[2] = hom2(2.0, 0.0, w);
+        let e = curve_err(2, &K, &p);
+        assert_eq!(
+            e,
+            NurbsError::WeightTooSmall {
+                at: At::I(2),
+                value: w,
+                largest: 1.0
+            },
+            "w = {w:e}"
+        );
+        let why = if w.is_normal() {
+            "significant digits"
+        } else {
+            "subnormal"
+        };
+        says(e, &["weights[2]", why]);
+        let e = CurveBuf::<Vec2>::from_cartesian(
+            2,
+            K.to_vec(),
+            &[Vec2::ZERO, Vec2::ONE, Vec2::X, Vec2::Y],
+            Some(&[1.0, 1.0, w, 1.0]),
+        )
+        .unwrap_err();
+        assert!(matches!(e, NurbsError::WeightTooSmall { at: At::I(2), .. }));
+    }
+    // The bound is relative: a weight of 1e-20 is fine when it is the patch's largest, and
+    // scaling all weights by one factor gives the same curve (projective invariance, Piegl &
+    // Tiller §4.2), down to the rounding of one f32 product per coordinate.
+    let unit = CurveBuf::<Vec2>::from_cartesian(
+        2,
+        K.to_vec(),
+        &[Vec2::ZERO, Vec2::ONE, Vec2::X, Vec2::Y],
+        Some(&[1.0, 0.5, 2.0, 1.0]),
+    )
+    .unwrap();
+    let scaled = CurveBuf::<Vec2>::from_cartesian(
+        2,
+        K.to_vec(),
+        &[Vec2::ZERO, Vec2::ONE, Vec2::X, Vec2::Y],
+        Some(&[1e-20, 0.5e-20, 2e-20, 1e-20]),
+    )
+    .unwrap();
+    for k in 0..=20 {
+        let u = k as f32 / 20.0;
+        let (a, b) = (unit.view().derivs(u, 2), scaled.view().derivs(u, 2));
+        // Coordinates are O(1) and derivatives O(10) here; a few ulps of that.
+        assert!((a.point - b.point).length() < 1e-5, "u = {u}");
+        assert!((a.duu - b.duu).length() < 1e-3, "u = {u}");
+    }
+    // At the bound itself (ratio exactly MIN_WEIGHT_RATIO) everything evaluates finite, at
+    // the knots and between them.
+    let mut p = pts4();
+    p[2] = hom2(2.0, 0.0, MIN_WEIGHT_RATIO);
+    let c = Curve::<Vec2>::new(2, &K, &p).unwrap();
+    for k in 0..=1000 {
+        let d = c.derivs(k as f32 / 1000.0, 2);
+        assert!(d.point.is_finite() && d.du.is_finite() && d.duu.is_finite());
+    }
+    // Surfaces follow the same rule.
+    let mut net = net();
+    net[4] = Vec4::new(0.0, 0.0, 0.0, 1e-20);
+    assert!(matches!(
+        surf_err((1, 2), &KU, &KV, 3, &net),
+        NurbsError::WeightTooSmall {
+            at: At::Ij(1, 1),
+            ..
+        }
+    ));
+}
+
+/// Coordinates beyond `MAX_COORDINATE` are refused (3e38 used to evaluate to infinite
+/// derivatives); up to it they evaluate finite.
+#[test]
+fn coordinates_beyond_the_bound_are_refused() {
+    use nurbs::MAX_COORDINATE;
+    let mut p = pts4();
+    p[1] = hom2(3e38, 0.0, 1.0);
+    let e = curve_err(2, &K, &p);
+    assert_eq!(
+        e,
+        NurbsError::PointOutOfRange {
+            at: At::I(1),
+            value: 3e38
+        }
+    );
+    says(e, &["points[1]", "3e38"]);
+    let mut p = pts4();
+    p[1] = hom2(-MAX_COORDINATE, MAX_COORDINATE, 1.0);
+    p[3] = hom2(MAX_COORDINATE, -MAX_COORDINATE, 1.0);
+    let c = Curve::<Vec2>::new(2, &K, &p).unwrap();
+    for k in 0..=100 {
+        let d = c.derivs(k as f32 / 100.0, 2);
+        assert!(d.point.is_finite() && d.du.is_finite() && d.duu.is_finite());
+    }
+    let e = SurfaceBuf::from_rows::<_, &[f32]>(
+        (1, 1),
+        (vec![0.0, 0.0, 1.0, 1.0], vec![0.0, 0.0, 1.0, 1.0]),
+        &[[Vec3::ZERO, Vec3::X], [Vec3::Y, Vec3::new(0.0, 0.0, -2e6)]],
+        None,
+    )
+    .unwrap_err();
+    assert_eq!(
+        e,
+        NurbsError::PointOutOfRange {
+            at: At::Ij(1, 1),
+            value: 2e6
+        }
+    );
+}

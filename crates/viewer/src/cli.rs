@@ -2,6 +2,7 @@
 //! GUI when no subcommand is given.
 
 use std::path::PathBuf;
+use std::time::Duration;
 
 use clap::{Args, Parser, Subcommand};
 
@@ -100,17 +101,24 @@ pub struct MonitorArgs {
     /// The simulated pantograph in this process (no hardware needed).
     #[arg(long)]
     pub sim: bool,
-    /// Stop after this many seconds (finite, >= 0); without it, run until interrupted.
+    /// Stop after this many seconds (finite, >= 0, at most u64::MAX s); without it, run
+    /// until interrupted.
     #[arg(long, value_name = "S", value_parser = seconds, allow_negative_numbers = true)]
-    pub seconds: Option<f64>,
+    pub seconds: Option<Duration>,
     /// Print every N-th telemetry frame (N >= 1).
     #[arg(long, value_name = "N", default_value_t = 100, value_parser = clap::value_parser!(u64).range(1..))]
     pub every: u64,
 }
 
-fn seconds(text: &str) -> Result<f64, String> {
+fn seconds(text: &str) -> Result<Duration, String> {
     match text.trim().parse::<f64>() {
-        Ok(s) if s.is_finite() && s >= 0.0 => Ok(s),
+        // `Duration::from_secs_f64` panics past u64::MAX seconds; the checked form does not.
+        Ok(s) if s.is_finite() && s >= 0.0 => Duration::try_from_secs_f64(s).map_err(|_| {
+            format!(
+                "{s} s is longer than a duration can be (at most {} s)",
+                u64::MAX
+            )
+        }),
         Ok(s) => Err(format!("{s} is not a duration; it must be finite and >= 0")),
         Err(e) => Err(format!("{e}")),
     }
@@ -120,7 +128,7 @@ const CLOSEST_ABOUT: &str = "\
 Closest points of one object to query points read from standard input.
 
 Reads one point per line: `x y` for an object of planar curves, `x y z` for an object of \
-surfaces (metres, whitespace-separated). Blank lines and lines starting with `#` are \
+surfaces or of spatial curves (a wire) (metres, whitespace-separated, each within ±1e6). Blank lines and lines starting with `#` are \
 skipped. For each point runs the global search (branch and bound over the patches' Bézier \
 pieces, then Newton) on every patch and writes the nearest result as one JSON object on its \
 own line, flushed at once.";
@@ -133,10 +141,13 @@ Output fields:
   distance         distance from the query to it (m)
   signed_distance  the distance, negative when the query is inside the object
   normal           unit outward normal of the patch at the closest point
+A wire has no inside: its signed_distance is the distance, and its normal the unit vector
+from the closest point towards the query.
 
-Errors: a wrong number of values, a value that is not a finite number or a malformed line
-stops the run with a message on standard error naming the line number and its content; the
-lines before it have been answered.
+Errors: a wrong number of values, a value that is not a finite number or lies outside ±1e6
+(the coordinate range of scenes), or a malformed line stops the run with a message on
+standard error naming the line number and its content; the lines before it have been
+answered. No answer with a non-finite number is ever written.
 
 Exit status:
   0  every line answered
@@ -178,7 +189,8 @@ Output fields (vectors are arrays of 2 or 3 numbers; metres, derivatives per par
 Errors: a parameter outside the patch's domain (the message gives the domain), a value that
 is not a finite number, a wrong number of values or a malformed line stops the run with a
 message on standard error naming the line number and its content; the lines before it have
-been answered.
+been answered. No answer with a non-finite number is ever written (the scene's weights and
+coordinates are held to ranges f32 evaluates finitely; see the scene errors).
 
 Exit status:
   0  every line answered
@@ -214,8 +226,8 @@ const SIM_AFTER: &str = "\
 Trajectory (--trajectory, CSV):
   a header line `t,x,y` (planar) or `t,x,y,z` (spatial), then one line per sample of as many
   comma-separated numbers: time in seconds, position in metres (device frame). Times strictly
-  increase, all values are finite, at least two samples. Blank lines and lines starting
-  with `#` are skipped. Example:
+  increase, all values are finite (times within f32, positions within ±1e6 m), at least two
+  samples. Blank lines and lines starting with `#` are skipped. Example:
     t,x,y
     0.0, 0.0, 0.09
     0.5, 0.0, 0.078
@@ -259,12 +271,16 @@ Plot (--plot, PNG): normal, friction and total force magnitude against time over
 bands of the mode (top), the CP and GO parameters against time (bottom); with --device also
 the joint torques against time (a third panel).
 
+The run log and the plot are written to temporary files beside them and renamed into place
+only when both are complete: a run that fails leaves existing files as they were.
+
 Progress goes to standard error, every 10%.
 
 Exit status:
   0  run log (and plot) written
   1  the run log or the plot could not be written
-  2  bad command line (--rate-hz must be finite and > 0), unreadable or invalid scene or
+  2  bad command line (--rate-hz must be finite and > 0, with it and its period within f32,
+     and give at least 2 ticks), unreadable or invalid scene or
      trajectory (the message names the file and line), bad --object, or a trajectory whose
      dimension does not match the object, or --device with an object of surfaces, a
      trajectory that starts out of the device's reach, or a stiffness beyond the device
@@ -318,7 +334,13 @@ pub struct SimArgs {
 
 fn hand_stiffness(text: &str) -> Result<f64, String> {
     match text.trim().parse::<f64>() {
-        Ok(k) if k.is_finite() && k > 0.0 => Ok(k),
+        // The simulated hand computes in f32: the value must be a positive normal f32.
+        Ok(k) if k.is_finite() && k > 0.0 && (k as f32).is_normal() => Ok(k),
+        Ok(k) if k.is_finite() && k > 0.0 => Err(format!(
+            "{k:e} N/m does not fit the f32 the simulation computes in (about {:e} to {:e})",
+            f32::MIN_POSITIVE,
+            f32::MAX
+        )),
         Ok(k) => Err(format!("{k} is not a stiffness; it must be finite and > 0")),
         Err(e) => Err(format!("{e}")),
     }
@@ -326,8 +348,9 @@ fn hand_stiffness(text: &str) -> Result<f64, String> {
 
 fn tick_rate(text: &str) -> Result<f64, String> {
     match text.trim().parse::<f64>() {
-        Ok(r) if r.is_finite() && r > 0.0 => Ok(r),
-        Ok(r) => Err(format!("{r} is not a tick rate; it must be finite and > 0")),
+        Ok(r) => crate::sim::check_rate(r)
+            .map(|()| r)
+            .map_err(|_| crate::sim::rate_rule()),
         Err(e) => Err(format!("{e}")),
     }
 }

@@ -60,6 +60,63 @@ pub struct SurfaceSample {
     pub normal: [f32; 3],
 }
 
+/// An answer whose numbers can be checked before it is written.
+pub(crate) trait Finite {
+    /// `(field, values)` of every number of the answer.
+    fn fields(&self) -> Vec<(&'static str, &[f32])>;
+
+    /// The first field with a NaN or infinite value, as a line problem.
+    fn check_finite(&self) -> Result<(), LineProblem> {
+        match self
+            .fields()
+            .into_iter()
+            .find(|(_, v)| !v.iter().all(|x| x.is_finite()))
+        {
+            Some((field, _)) => Err(LineProblem::Overflow { field }),
+            None => Ok(()),
+        }
+    }
+}
+
+impl Finite for CurveSample {
+    fn fields(&self) -> Vec<(&'static str, &[f32])> {
+        vec![
+            ("u", core::slice::from_ref(&self.u)),
+            ("p", &self.p),
+            ("du", &self.du),
+            ("duu", &self.duu),
+            ("tangent", &self.tangent),
+            ("normal", &self.normal),
+            ("curvature", core::slice::from_ref(&self.curvature)),
+        ]
+    }
+}
+
+impl Finite for SurfaceSample {
+    fn fields(&self) -> Vec<(&'static str, &[f32])> {
+        vec![
+            ("u", core::slice::from_ref(&self.u)),
+            ("v", core::slice::from_ref(&self.v)),
+            ("p", &self.p),
+            ("du", &self.du),
+            ("dv", &self.dv),
+            ("duu", &self.duu),
+            ("duv", &self.duv),
+            ("dvv", &self.dvv),
+            ("normal", &self.normal),
+        ]
+    }
+}
+
+/// Writes `answer` as one JSON line after checking that every number in it is finite.
+pub(crate) fn write_answer<W: Write, T: Serialize + Finite>(
+    output: &mut W,
+    answer: &T,
+) -> Result<(), Answer> {
+    answer.check_finite()?;
+    Ok(write_json(output, answer)?)
+}
+
 /// Evaluates a curve at `u` (clamped into the domain).
 pub fn sample_curve<P: Point>(curve: &Curve<'_, P>, u: f32) -> CurveSample {
     let f = curve.frame(u);
@@ -143,6 +200,17 @@ pub enum LineProblem {
         /// The value given.
         value: f32,
     },
+    /// A finite number too large for `f32`, the type the evaluation uses.
+    #[error(
+        "{name}: {text} is outside the range of f32 (magnitudes up to {:e})",
+        f32::MAX
+    )]
+    OutOfF32 {
+        /// `u`, `v`, `x`, …
+        name: &'static str,
+        /// The text given.
+        text: String,
+    },
     /// A value lies outside the patch's domain.
     #[error("{name} = {value} is outside the domain [{min}, {max}]")]
     OutOfDomain {
@@ -154,6 +222,15 @@ pub enum LineProblem {
         min: f32,
         /// End of the domain.
         max: f32,
+    },
+    /// The answer has a value that is not finite in `f32` (validated scenes keep this from
+    /// happening; the check makes sure no `null` is ever printed as an answer).
+    #[error(
+        "the answer's {field} is not a finite f32 here (the patch overflows f32 at this query); nothing was written"
+    )]
+    Overflow {
+        /// The output field.
+        field: &'static str,
     },
     /// The line is not UTF-8.
     #[error("not valid UTF-8")]
@@ -171,18 +248,18 @@ pub fn run<R: BufRead, W: Write>(
         Patch::Curve2(c) => {
             let c = c.view();
             let [u] = parse_query(text, ["u"], "u", [c.domain()])?;
-            Ok(write_json(&mut output, &sample_curve(&c, u))?)
+            write_answer(&mut output, &sample_curve(&c, u))
         }
         Patch::Curve3(c) => {
             let c = c.view();
             let [u] = parse_query(text, ["u"], "u", [c.domain()])?;
-            Ok(write_json(&mut output, &sample_curve(&c, u))?)
+            write_answer(&mut output, &sample_curve(&c, u))
         }
         Patch::Surface(s) => {
             let s = s.view();
             let (du, dv) = s.domain();
             let [u, v] = parse_query(text, ["u", "v"], "u v", [du, dv])?;
-            Ok(write_json(&mut output, &sample_surface(&s, u, v))?)
+            write_answer(&mut output, &sample_surface(&s, u, v))
         }
     })
 }
@@ -269,6 +346,13 @@ pub(crate) fn parse_query<const N: usize>(
             text: (*word).to_owned(),
         })?;
         if !value.is_finite() {
+            // "1e39" parses to an f32 infinity; it is a number, only not one f32 can hold.
+            if word.parse::<f64>().is_ok_and(f64::is_finite) {
+                return Err(LineProblem::OutOfF32 {
+                    name,
+                    text: (*word).to_owned(),
+                });
+            }
             return Err(LineProblem::NotFinite { name, value });
         }
         let (min, max) = domains[k];
@@ -392,7 +476,11 @@ mod tests {
 
     #[test]
     fn bad_lines_stop_with_the_line_number() {
-        let cases: [(&str, &str); 6] = [
+        let cases: [(&str, &str); 7] = [
+            (
+                "0.5\n1e39\n",
+                "line 2 (\"1e39\"): u: 1e39 is outside the range of f32 (magnitudes up to 3.4028235e38)",
+            ),
             (
                 "0.5\n1.5\n0.2\n",
                 "line 2 (\"1.5\"): u = 1.5 is outside the domain [0, 1]",
@@ -438,6 +526,24 @@ mod tests {
             r.expect_err("v outside").to_string(),
             "line 1 (\"0.5 2\"): v = 2 is outside the domain [0, 1]"
         );
+    }
+
+    /// No answer with a non-finite number is ever written: it is a line error instead.
+    #[test]
+    fn non_finite_answers_are_refused() {
+        let mut sample = sample_curve(
+            &construct::line(Vec2::ZERO, Vec2::X).expect("line").view(),
+            0.5,
+        );
+        assert_eq!(sample.check_finite(), Ok(()));
+        sample.duu[1] = f32::INFINITY;
+        assert_eq!(
+            sample.check_finite(),
+            Err(LineProblem::Overflow { field: "duu" })
+        );
+        let mut out = Vec::new();
+        assert!(write_answer(&mut out, &sample).is_err());
+        assert!(out.is_empty());
     }
 
     #[test]

@@ -5,6 +5,7 @@ pub mod cli;
 pub mod closest;
 pub mod devices;
 pub mod eval;
+pub mod output;
 pub mod plot;
 pub mod scene;
 pub mod sim;

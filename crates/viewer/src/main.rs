@@ -1,6 +1,5 @@
 //! `viewer`: see `viewer --help`.
 
-use std::fs::File;
 use std::io::{self, Write};
 use std::path::Path;
 use std::process::ExitCode;
@@ -12,6 +11,7 @@ use viewer::cli::{
 };
 use viewer::closest;
 use viewer::eval::{self, EvalError};
+use viewer::output::AtomicFile;
 use viewer::plot;
 use viewer::scene::{Patch, Scene};
 use viewer::sim::{self, Trajectory};
@@ -98,19 +98,29 @@ fn sim_command(args: &SimArgs) -> ExitCode {
     if let Err(e) = checked {
         return fail(&anyhow::Error::new(e), EXIT_BAD_SETUP);
     }
-    // Before the run, so that a bad output path does not wait for it.
-    let out = match File::create(&args.out)
+    if args.plot.as_ref() == Some(&args.out) {
+        let e = anyhow!(
+            "--plot and --out both name {}; the run log and the plot need two files",
+            args.out.display()
+        );
+        return fail(&e, EXIT_BAD_SETUP);
+    }
+    // Before the run, so that a bad output path does not wait for it. Both outputs are
+    // written to temporary files and renamed over their targets only when both are complete:
+    // a failure anywhere leaves an existing run log and plot as they were.
+    let out = match AtomicFile::create(&args.out)
         .with_context(|| format!("cannot create {}", args.out.display()))
     {
         Ok(f) => f,
         Err(e) => return fail(&e, EXIT_BAD_INPUT),
     };
-    let plot_file = args.plot.as_ref().map(|path| {
-        File::create(path).with_context(|| format!("cannot create plot {}", path.display()))
-    });
-    if let Some(Err(e)) = plot_file {
-        return fail(&e, EXIT_BAD_INPUT);
-    }
+    let plot_file = match args.plot.as_ref().map(|path| {
+        AtomicFile::create(path).with_context(|| format!("cannot create plot {}", path.display()))
+    }) {
+        None => None,
+        Some(Ok(f)) => Some(f),
+        Some(Err(e)) => return fail(&e, EXIT_BAD_INPUT),
+    };
     let mut shown = 0;
     let progress = |done: usize, total: usize| {
         let tenths = done * 10 / total.max(1);
@@ -150,19 +160,32 @@ fn sim_command(args: &SimArgs) -> ExitCode {
         Ok(run) => run,
         Err(e) => return fail(&anyhow::Error::new(e), EXIT_BAD_SETUP),
     };
-    if let Err(e) = run
-        .write_csv(out)
+    if let Err(e) = out
+        .file()
+        .and_then(|f| run.write_csv(f))
         .with_context(|| format!("cannot write {}", args.out.display()))
     {
         return fail(&e, EXIT_BAD_INPUT);
     }
-    let plotted = args.plot.as_ref().map_or(Ok(()), |path| {
-        plot::write_png(&run, path, plot::DEFAULT_SIZE)
-    });
-    if let Err(e) = plotted {
-        return fail(&anyhow::Error::new(e), EXIT_BAD_INPUT);
+    if let (Some(file), Some(path)) = (&plot_file, &args.plot) {
+        // Drawn into the temporary file; errors name the file the user asked for.
+        if let Err(e) = plot::write_png_as(&run, file.temp_path(), path, plot::DEFAULT_SIZE) {
+            return fail(&anyhow::Error::new(e), EXIT_BAD_INPUT);
+        }
     }
-    ExitCode::SUCCESS
+    let committed = out
+        .commit()
+        .with_context(|| format!("cannot write {}", args.out.display()))
+        .and_then(|()| match (plot_file, &args.plot) {
+            (Some(file), Some(path)) => file
+                .commit()
+                .with_context(|| format!("cannot write plot {}", path.display())),
+            _ => Ok(()),
+        });
+    match committed {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => fail(&e, EXIT_BAD_INPUT),
+    }
 }
 
 /// The selected patch and a label naming it: `object 1 ("circle"), patch 0 (planar curve)`.
@@ -247,7 +270,7 @@ fn device_monitor(args: &viewer::cli::MonitorArgs) -> ExitCode {
         Some(hand) => hand.set_target(devices::sim_hand_target(elapsed)),
         None => Ok(()),
     };
-    let duration = args.seconds.map(Duration::from_secs_f64);
+    let duration = args.seconds;
     let mut out = io::stdout().lock();
     match devices::monitor(
         opened.link.as_mut(),

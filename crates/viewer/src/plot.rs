@@ -67,7 +67,17 @@ pub(crate) fn load_font() -> Result<(), PlotError> {
 
 /// Writes the plot of `run` to a PNG file of `size` pixels.
 pub fn write_png(run: &Run, path: impl AsRef<Path>, size: (u32, u32)) -> Result<(), PlotError> {
-    let path = path.as_ref();
+    write_png_as(run, path.as_ref(), path.as_ref(), size)
+}
+
+/// [`write_png`] into the file `file` (a temporary file, say), with errors naming `path`, the
+/// file the user asked for.
+pub fn write_png_as(
+    run: &Run,
+    file: &Path,
+    path: &Path,
+    size: (u32, u32),
+) -> Result<(), PlotError> {
     load_font()?;
     if run.ticks.is_empty() {
         return Err(PlotError::Empty {
@@ -78,7 +88,7 @@ pub fn write_png(run: &Run, path: impl AsRef<Path>, size: (u32, u32)) -> Result<
         path: path.to_owned(),
         message: e.to_string(),
     };
-    let root = BitMapBackend::new(path, size).into_drawing_area();
+    let root = BitMapBackend::new(file, size).into_drawing_area();
     draw(run, &root).map_err(|e| draw_error(&e))?;
     root.present().map_err(|e| draw_error(&e))?;
     Ok(())

@@ -48,7 +48,10 @@
 //! | `bristle_damping_ns_per_m` | 0 | ≥ 0 |
 //! | `stribeck_speed_m_per_s` | 0.01 | > 0 |
 //!
-//! Every number must be finite.
+//! Every number must be finite and representable in `f32` (the loop's type). Control point
+//! coordinates lie within ±[`nurbs::MAX_COORDINATE`] (10⁶ m); weights are positive normal
+//! `f32`s, each at least [`nurbs::MIN_WEIGHT_RATIO`] (10⁻⁶) of its patch's largest weight:
+//! the same rules the device applies to an uploaded scene.
 
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -188,7 +191,7 @@ pub enum ObjectError {
     /// A patch whose kind differs from the first patch's.
     #[error(
         "patch {index}: {}; an object is all planar curves (a 2-D chain), all surfaces (a 3-D \
-         shell) or all spatial curves (a wire, for eval only)",
+         shell) or all spatial curves (a wire, for eval and closest)",
         match first { Some(first) => format!("a {found}, but patch 0 is a {first}"),
                       None => format!("a {found}") }
     )]
@@ -396,6 +399,17 @@ impl Object {
             .collect()
     }
 
+    /// Views of the spatial curves, when the object is a wire.
+    pub fn wire_views(&self) -> Option<Vec<Curve<'_, Vec3>>> {
+        self.patches
+            .iter()
+            .map(|p| match p {
+                Patch::Curve3(c) => Some(c.view()),
+                _ => None,
+            })
+            .collect()
+    }
+
     /// Views of the surfaces, for [`tracker::Shell::new`], when the object is spatial.
     pub fn surface_views(&self) -> Option<Vec<Surface<'_>>> {
         self.patches
@@ -564,24 +578,28 @@ impl Material {
             Some(RawModel::LuGre) => ModelKind::LuGre,
         };
         Material::from_friction(FrictionMaterial {
-            stiffness_n_per_m: m.stiffness_n_per_m,
-            damping_ns_per_m: m.damping_ns_per_m,
-            mu_static: m.mu_static,
-            mu_dynamic: m.mu_dynamic,
+            stiffness_n_per_m: m.stiffness_n_per_m.0,
+            damping_ns_per_m: m.damping_ns_per_m.0,
+            mu_static: m.mu_static.0,
+            mu_dynamic: m.mu_dynamic.0,
             stribeck,
-            transition_time_s: m.transition_time_s.unwrap_or(d.transition_time_s),
-            converge_tol_m: m.converge_tol_m.unwrap_or(d.converge_tol_m),
-            stop_speed_m_per_s: m.stop_speed_m_per_s.unwrap_or(d.stop_speed_m_per_s),
+            transition_time_s: m.transition_time_s.map_or(d.transition_time_s, |v| v.0),
+            converge_tol_m: m.converge_tol_m.map_or(d.converge_tol_m, |v| v.0),
+            stop_speed_m_per_s: m.stop_speed_m_per_s.map_or(d.stop_speed_m_per_s, |v| v.0),
             model,
-            viscous_ns_per_m: m.viscous_ns_per_m.unwrap_or(d.viscous_ns_per_m),
-            karnopp_band_m_per_s: m.karnopp_band_m_per_s.unwrap_or(d.karnopp_band_m_per_s),
+            viscous_ns_per_m: m.viscous_ns_per_m.map_or(d.viscous_ns_per_m, |v| v.0),
+            karnopp_band_m_per_s: m
+                .karnopp_band_m_per_s
+                .map_or(d.karnopp_band_m_per_s, |v| v.0),
             bristle_stiffness_n_per_m: m
                 .bristle_stiffness_n_per_m
-                .unwrap_or(d.bristle_stiffness_n_per_m),
+                .map_or(d.bristle_stiffness_n_per_m, |v| v.0),
             bristle_damping_ns_per_m: m
                 .bristle_damping_ns_per_m
-                .unwrap_or(d.bristle_damping_ns_per_m),
-            stribeck_speed_m_per_s: m.stribeck_speed_m_per_s.unwrap_or(d.stribeck_speed_m_per_s),
+                .map_or(d.bristle_damping_ns_per_m, |v| v.0),
+            stribeck_speed_m_per_s: m
+                .stribeck_speed_m_per_s
+                .map_or(d.stribeck_speed_m_per_s, |v| v.0),
         })
     }
 }
@@ -767,14 +785,45 @@ fn numbers(n: &Nested, field: &str) -> Result<Vec<f32>, PatchError> {
         .iter()
         .enumerate()
         .map(|(i, x)| match *x {
-            // Rounded once to the f32 of the loop; an overflow becomes ∞, which nurbs rejects.
-            Nested::Num(v) => Ok(v as f32),
+            // Rounded once to the f32 of the loop. A value that f32 cannot hold (it overflows
+            // to ∞ or a non-zero value underflows to 0) is reported as written, not as the ∞
+            // or 0 that nurbs would see.
+            Nested::Num(v) => to_f32(v).map_err(|problem| shape(format!("{field}[{i}]"), problem)),
             Nested::List(_) => Err(shape(
                 format!("{field}[{i}]"),
                 "expected a number, found an array",
             )),
         })
         .collect()
+}
+
+/// `v` rounded once to the f32 of the loop, or why it cannot be: it overflows to ∞, or a
+/// non-zero value underflows to 0 (the message gives the value as written, not the ∞ or 0
+/// later checks would see).
+fn to_f32(v: f64) -> Result<f32, String> {
+    let r = v as f32;
+    if r.is_finite() && (r != 0.0 || v == 0.0) {
+        Ok(r)
+    } else {
+        Err(format!(
+            "{v:.3e} is outside the range of f32 (magnitudes {:e} to {:e}), the type the \
+             haptic loop computes in",
+            f32::from_bits(1),
+            f32::MAX
+        ))
+    }
+}
+
+/// A number of the file read as the loop's `f32` through [`to_f32`]: out of range is a
+/// JSON error, with the line, column and field.
+#[derive(Clone, Copy)]
+struct F32(f32);
+
+impl<'de> Deserialize<'de> for F32 {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        let v = f64::deserialize(d)?;
+        to_f32(v).map(F32).map_err(de::Error::custom)
+    }
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -800,30 +849,30 @@ struct RawObject {
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields, rename = "Material")]
 struct RawMaterial {
-    stiffness_n_per_m: f32,
-    damping_ns_per_m: f32,
-    mu_static: f32,
-    mu_dynamic: f32,
+    stiffness_n_per_m: F32,
+    damping_ns_per_m: F32,
+    mu_static: F32,
+    mu_dynamic: F32,
     #[serde(default)]
     stribeck: Option<RawStribeck>,
     #[serde(default)]
-    transition_time_s: Option<f32>,
+    transition_time_s: Option<F32>,
     #[serde(default)]
-    converge_tol_m: Option<f32>,
+    converge_tol_m: Option<F32>,
     #[serde(default)]
-    stop_speed_m_per_s: Option<f32>,
+    stop_speed_m_per_s: Option<F32>,
     #[serde(default)]
     model: Option<RawModel>,
     #[serde(default)]
-    viscous_ns_per_m: Option<f32>,
+    viscous_ns_per_m: Option<F32>,
     #[serde(default)]
-    karnopp_band_m_per_s: Option<f32>,
+    karnopp_band_m_per_s: Option<F32>,
     #[serde(default)]
-    bristle_stiffness_n_per_m: Option<f32>,
+    bristle_stiffness_n_per_m: Option<F32>,
     #[serde(default)]
-    bristle_damping_ns_per_m: Option<f32>,
+    bristle_damping_ns_per_m: Option<F32>,
     #[serde(default)]
-    stribeck_speed_m_per_s: Option<f32>,
+    stribeck_speed_m_per_s: Option<F32>,
 }
 
 /// `"linear"`, `{"power": n}` or `"smoothstep"`.
@@ -1076,6 +1125,7 @@ mod tests {
         let wire = &scene.objects()[0];
         assert!(matches!(wire.patches()[0], Patch::Curve3(_)));
         assert!(wire.curve_views().is_none() && wire.surface_views().is_none());
+        assert_eq!(wire.wire_views().map(|w| w.len()), Some(1));
     }
 
     #[test]
@@ -1224,7 +1274,12 @@ mod tests {
         ));
         assert_mentions(
             &msg,
-            &["object 0 (\"wedge\")", "material.damping_ns_per_m", "inf"],
+            &[
+                "object 0 (\"wedge\")",
+                "material.damping_ns_per_m",
+                "1.000e39 is outside the range of f32",
+                "line 6 column 73",
+            ],
         );
         let msg = error(&edited("\"mu_dynamic\": 0.5", "\"mu_dynamic\": 0.8"));
         assert_mentions(
@@ -1332,6 +1387,55 @@ mod tests {
             "[0, 0, 0, 0, 1, 1, 0.5, 1],",
         ));
         assert_mentions(&msg, &["patch 0: knots[6]: knots must be non-decreasing"]);
+    }
+
+    /// The weight and coordinate rules are nurbs's, the same the wire scene applies, and say
+    /// why. Before, 1e-40 was reported as "points[2]: coordinate is not a finite number" and
+    /// 1e-20 or a coordinate of 3e38 loaded and evaluated to infinite derivatives.
+    #[test]
+    fn weights_and_coordinates_too_small_or_large_for_f32() {
+        let msg = error(&edited(
+            "\"weights\": [1, 1, 1, 1]",
+            "\"weights\": [1, 1, 1e-40, 1]",
+        ));
+        assert_mentions(
+            &msg,
+            &[
+                "object 0 (\"wedge\"), patch 0: weights[2]: weight",
+                "subnormal",
+            ],
+        );
+        let msg = error(&edited(
+            "\"weights\": [1, 1, 1, 1]",
+            "\"weights\": [1, 1, 1e-20, 1]",
+        ));
+        assert_mentions(
+            &msg,
+            &[
+                "patch 0: weights[2]: weight 1e-20",
+                "largest weight 1e0",
+                "significant digits",
+            ],
+        );
+        let msg = error(&edited("[0.03, 0.01]", "[3e38, 0.01]"));
+        assert_mentions(
+            &msg,
+            &["patch 0: points[2]: coordinate magnitude 3e38 exceeds 1e6"],
+        );
+        // Values f32 cannot hold at all are reported as written.
+        let msg = error(&edited("[0.03, 0.01]", "[1e39, 0.01]"));
+        assert_mentions(
+            &msg,
+            &["patch 0: points[2][0]: 1.000e39 is outside the range of f32"],
+        );
+        let msg = error(&edited(
+            "\"weights\": [1, 1, 1, 1]",
+            "\"weights\": [1, 1, 1e-50, 1]",
+        ));
+        assert_mentions(
+            &msg,
+            &["patch 0: weights[2]: 1.000e-50 is outside the range of f32"],
+        );
     }
 
     #[test]
@@ -1504,7 +1608,8 @@ mod tests {
             ),
             (
                 "\"viscous_ns_per_m\": 1e39",
-                "viscous_ns_per_m: inf must be finite and >= 0",
+                "viscous_ns_per_m: 1.000e39 is outside the range of f32 (magnitudes 1e-45 to \
+                 3.4028235e38), the type the haptic loop computes in at line 6 column 137",
             ),
             (
                 "\"karnopp_band_m_per_s\": -0.5",
@@ -1605,7 +1710,7 @@ mod tests {
             error(&text),
             "object 0 (\"wedge\"), patch 1: a surface, but patch 0 is a planar curve; an \
              object is all planar curves (a 2-D chain), all surfaces (a 3-D shell) or all \
-             spatial curves (a wire, for eval only)"
+             spatial curves (a wire, for eval and closest)"
         );
     }
 

@@ -140,10 +140,24 @@ pub enum SimError {
         /// Objects in the scene (at least one).
         count: usize,
     },
-    /// The tick rate is not a positive finite number.
-    #[error("--rate-hz {rate_hz}: the tick rate must be finite and > 0")]
+    /// The tick rate is not a positive finite number whose value and period are normal
+    /// `f32`s (the loop's type; see [`check_rate`]).
+    #[error("--rate-hz {rate_hz:e}: {}", rate_rule())]
     Rate {
         /// The rate given.
+        rate_hz: f64,
+    },
+    /// The trajectory lasts less than one period: one tick, no motion to simulate.
+    #[error(
+        "{duration_s} s at {rate_hz:e} Hz is a single tick; a run needs at least 2 (the HIP \
+         velocity is a backward difference): raise --rate-hz to at least {:e} Hz or lengthen \
+         the trajectory",
+        1.0 / duration_s
+    )]
+    TooFewTicks {
+        /// Trajectory duration (s).
+        duration_s: f64,
+        /// Rate (Hz).
         rate_hz: f64,
     },
     /// The trajectory's dimension does not match the object's.
@@ -234,9 +248,7 @@ pub fn validate(
         index: object,
         count,
     })?;
-    if !(rate_hz.is_finite() && rate_hz > 0.0) {
-        return Err(SimError::Rate { rate_hz });
-    }
+    check_rate(rate_hz)?;
     if o.space() != trajectory.space() {
         return Err(SimError::Space {
             trajectory: trajectory.space(),
@@ -254,7 +266,35 @@ pub fn validate(
             rate_hz,
         });
     }
+    if ticks < 2.0 {
+        return Err(SimError::TooFewTicks {
+            duration_s: trajectory.end_s() - trajectory.start_s(),
+            rate_hz,
+        });
+    }
     Ok(ticks as usize)
+}
+
+/// What [`check_rate`] asks of a tick rate, in words.
+pub fn rate_rule() -> String {
+    format!(
+        "the tick rate must be finite and > 0, and it and its period 1/rate must fit the f32 \
+         the loop computes in (about {:e} to {:e})",
+        f32::MIN_POSITIVE,
+        f32::MAX
+    )
+}
+
+/// A tick rate the loop can run at: finite and > 0, and both the rate and its period
+/// `1 / rate` positive normal `f32`s, since the loop computes in `f32` (`--rate-hz 1e-300`
+/// would have a period of 1e300 s, infinite in `f32`).
+pub fn check_rate(rate_hz: f64) -> Result<(), SimError> {
+    let fits = |v: f64| (v as f32).is_normal();
+    if rate_hz.is_finite() && rate_hz > 0.0 && fits(rate_hz) && fits(1.0 / rate_hz) {
+        Ok(())
+    } else {
+        Err(SimError::Rate { rate_hz })
+    }
 }
 
 /// Runs object `object` of `scene` with its material along `trajectory` at `rate_hz`.
@@ -601,7 +641,19 @@ impl Run {
     /// ([`SwitchCause::name`]), `psi` the CP tracker's projection error Ψ, `depth_m` the penetration depth
     /// clamped at 0 (so 0 when free). A device run (its first tick has a [`DeviceSample`])
     /// appends [`DEVICE_COLUMNS`] (0 in a tick without a sample).
+    ///
+    /// A run with a non-finite value in any column is not written (an `InvalidData` error
+    /// naming the tick and column): a run log never holds `NaN` or `inf`.
     pub fn write_csv(&self, out: impl Write) -> io::Result<()> {
+        if let Some((i, column)) = self.first_non_finite() {
+            return Err(io::Error::new(
+                io::ErrorKind::InvalidData,
+                format!(
+                    "tick {i} (t = {} s): {column} is not finite; nothing written",
+                    self.ticks[i].t_s
+                ),
+            ));
+        }
         let mut w = io::BufWriter::new(out);
         let device = self.is_device_run();
         if device {
@@ -647,6 +699,37 @@ impl Run {
             writeln!(w)?;
         }
         w.flush()
+    }
+
+    /// The first tick and run-log column with a NaN or an infinity.
+    fn first_non_finite(&self) -> Option<(usize, &'static str)> {
+        self.ticks.iter().enumerate().find_map(|(i, k)| {
+            let d = k.device.unwrap_or(DeviceSample {
+                theta_rad: [0.0; 2],
+                tau_nm: [0.0; 2],
+                faults: 0,
+            });
+            let columns: [(&'static str, &[f32]); 11] = [
+                ("hip", &k.hip.to_array()),
+                ("cp", &k.cp.to_array()),
+                ("go", &k.go.to_array()),
+                ("depth_m", &[k.depth_m]),
+                ("normal_force_n", &[k.normal_force_n]),
+                ("friction_force_n", &[k.friction_force_n]),
+                ("mu", &[k.mu]),
+                ("psi", &[k.psi]),
+                ("force", &k.force.to_array()),
+                ("theta_rad", &d.theta_rad),
+                ("tau_nm", &d.tau_nm),
+            ];
+            if !k.t_s.is_finite() {
+                return Some((i, "t_s"));
+            }
+            columns
+                .into_iter()
+                .find(|(_, v)| !v.iter().all(|x| x.is_finite()))
+                .map(|(name, _)| (i, name))
+        })
     }
 
     /// Whether this is a closed-loop run of the device ([`run_device`]): its ticks carry a
@@ -825,6 +908,16 @@ mod tests {
         assert_eq!(last[9], "converged");
         let depth: f32 = last[10].parse().expect("number");
         assert!((depth - 0.002).abs() < 1e-6);
+        // A value that is not finite is never written: the whole log is refused.
+        let mut bad = run.clone();
+        bad.ticks[7].psi = f32::NAN;
+        let mut out = Vec::new();
+        let e = bad.write_csv(&mut out).expect_err("NaN");
+        assert!(
+            e.to_string().starts_with("tick 7 (t = 0.035 s): psi"),
+            "{e}"
+        );
+        assert!(out.is_empty());
     }
 
     #[test]
@@ -874,7 +967,7 @@ mod tests {
             e.to_string(),
             "--object 2: the scene has 2 object(s), indices 0..=1"
         );
-        for rate in [0.0, -1.0, f64::NAN, f64::INFINITY] {
+        for rate in [0.0, -1.0, f64::NAN, f64::INFINITY, 1e-300, 1e300, 1e39] {
             let e = run(&scene, 0, &planar, rate, |_, _| {}).expect_err("bad rate");
             assert!(matches!(e, SimError::Rate { .. }), "{e}");
         }
@@ -897,5 +990,10 @@ mod tests {
         let e = validate(&scene, 0, &long, 1000.0).expect_err("too long");
         assert!(matches!(e, SimError::TooManyTicks { .. }), "{e}");
         assert_eq!(validate(&scene, 0, &planar, 1000.0), Ok(1201));
+        // 1.2 s at 1 Hz is two ticks; at 0.5 Hz one, which is refused with the rate it needs.
+        assert_eq!(validate(&scene, 0, &planar, 1.0), Ok(2));
+        let e = validate(&scene, 0, &planar, 0.5).expect_err("one tick");
+        assert!(matches!(e, SimError::TooFewTicks { .. }), "{e}");
+        assert!(e.to_string().contains("at least 8.33"), "{e}");
     }
 }

@@ -10,7 +10,8 @@
 //!
 //! The header is `t,x,y` (a planar path) or `t,x,y,z` (a spatial one); every following line
 //! has that many comma-separated numbers: time in seconds, position in metres in the device
-//! frame. Times strictly increase, every value is finite, and there are at least two rows.
+//! frame. Times strictly increase, every value is finite (times within the range of `f32`,
+//! positions within ±[`nurbs::MAX_COORDINATE`] m), and there are at least two rows.
 //! Spaces around values and Windows line ends are accepted.
 
 use std::path::{Path, PathBuf};
@@ -113,6 +114,19 @@ pub enum TrajectoryProblem {
         /// The text found.
         value: String,
     },
+    /// A finite number the loop cannot use: a time that overflows its `f32`, or a position
+    /// beyond [`nurbs::MAX_COORDINATE`] metres, the range scene coordinates are held to.
+    #[error("{column}: {value} is outside [-{max:e}, {max:e}], {why}")]
+    OutOfRange {
+        /// Its column.
+        column: &'static str,
+        /// The text found.
+        value: String,
+        /// The bound.
+        max: f64,
+        /// What the bound is.
+        why: &'static str,
+    },
     /// A time not after the previous one.
     #[error("t = {t} is not after the previous time {previous}; times must strictly increase")]
     NotIncreasing {
@@ -194,14 +208,9 @@ impl Trajectory {
             if space == Space::Planar {
                 values[3] = 0.0;
             }
-            for (column, v) in COLUMNS.iter().zip(values) {
-                if !v.is_finite() {
-                    let problem = TrajectoryProblem::NotFinite {
-                        column,
-                        value: v.to_string(),
-                    };
-                    return Err(TrajectoryError::Sample { index, problem });
-                }
+            for (column, v) in COLUMNS.into_iter().zip(values) {
+                check_value(column, v, &v.to_string())
+                    .map_err(|problem| TrajectoryError::Sample { index, problem })?;
             }
             builder
                 .push(values)
@@ -327,14 +336,41 @@ fn parse_row(row: &str, space: Space) -> Result<[f64; 4], TrajectoryProblem> {
                 column,
                 value: text.to_owned(),
             })?;
-        if !v.is_finite() {
-            return Err(TrajectoryProblem::NotFinite {
-                column,
-                value: text.to_owned(),
-            });
-        }
+        check_value(column, *v, text)?;
     }
     Ok(values)
+}
+
+/// A value of column `column` (`text` as written, for the message) that the loop can use: finite,
+/// a time within `f32`'s range (the loop's type), a position within ±[`nurbs::MAX_COORDINATE`]
+/// metres (which also keeps it finite in `f32`).
+fn check_value(column: &'static str, v: f64, text: &str) -> Result<(), TrajectoryProblem> {
+    if !v.is_finite() {
+        return Err(TrajectoryProblem::NotFinite {
+            column,
+            value: text.to_owned(),
+        });
+    }
+    let (max, why) = if column == "t" {
+        (
+            f64::from(f32::MAX),
+            "the range of the f32 the loop computes in",
+        )
+    } else {
+        (
+            f64::from(nurbs::MAX_COORDINATE),
+            "the coordinate range of scenes (metres, nurbs::MAX_COORDINATE)",
+        )
+    };
+    if v.abs() > max {
+        return Err(TrajectoryProblem::OutOfRange {
+            column,
+            value: text.to_owned(),
+            max,
+            why,
+        });
+    }
+    Ok(())
 }
 
 #[cfg(test)]
@@ -411,6 +447,35 @@ mod tests {
             assert!(msg.starts_with(&prefix), "{text:?}: {msg}");
             assert!(msg.contains(message), "{text:?}: {msg} lacks {message:?}");
         }
+        // Finite in f64 but not usable by the f32 loop (1e39 used to give hip_x = inf in the
+        // run log, with exit 0).
+        for (text, line, message) in [
+            (
+                "t,x,y\n0,0,0\n1,1e39,0\n",
+                3,
+                "x: 1e39 is outside [-1e6, 1e6]",
+            ),
+            (
+                "t,x,y,z\n0,0,0,0\n1,0,0,-3e7\n",
+                3,
+                "z: -3e7 is outside [-1e6, 1e6]",
+            ),
+            (
+                "t,x,y\n0,0,0\n1e39,0,0\n",
+                3,
+                "t: 1e39 is outside [-3.4028234663852886e38",
+            ),
+        ] {
+            let (msg, at) = error(text);
+            assert_eq!(at, Some(line), "{text:?}: {msg}");
+            assert!(
+                msg.starts_with(&format!("path/traj.csv: line {line}: ")),
+                "{msg}"
+            );
+            assert!(msg.contains(message), "{text:?}: {msg} lacks {message:?}");
+        }
+        // The bound itself is usable.
+        assert!(parse("t,x,y\n0,0,0\n1,1e6,-1e6\n").is_ok());
         // Equal times are not increasing either.
         let (msg, at) = error("t,x,y\n0,0,0\n0,1,1\n");
         assert_eq!(at, Some(3));
@@ -476,6 +541,13 @@ mod tests {
         )
         .expect_err("NaN");
         assert_eq!(e.to_string(), "sample 1: y: NaN is not a finite number");
+        let e = Trajectory::from_samples(Space::Planar, [(0.0, [0.0; 3]), (1.0, [0.0, 2e6, 0.0])])
+            .expect_err("beyond the coordinate range");
+        assert!(
+            e.to_string()
+                .starts_with("sample 1: y: 2000000 is outside [-1e6, 1e6]"),
+            "{e}"
+        );
         let e = Trajectory::from_samples(Space::Spatial, [(0.0, [0.0; 3])]).expect_err("one");
         assert!(e.to_string().contains("at least 2"), "{e}");
     }

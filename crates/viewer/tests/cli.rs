@@ -292,3 +292,55 @@ fn no_subcommand_prints_help_and_exits_2() {
     assert!(err.contains("GUI"), "{err}");
     assert!(err.contains("eval"), "{err}");
 }
+
+/// Scene numbers that f32 evaluation cannot carry: a weight of 1e-20 beside weights of 1 and
+/// a coordinate of 3e38 used to load and print `null` derivatives with exit 0; now the scene
+/// is refused (exit 2) naming file, object, patch and field, and nothing is printed.
+#[test]
+fn eval_refuses_scenes_f32_cannot_evaluate() {
+    let scene = |weights: &str, x: &str| {
+        format!(
+            r#"{{ "format": "scene/1", "objects": [ {{ "name": "arc",
+            "material": {{ "stiffness_n_per_m": 1, "damping_ns_per_m": 0, "mu_static": 0.5, "mu_dynamic": 0.5 }},
+            "patches": [ {{ "degree": 2, "knots": [0, 0, 0, 1, 1, 1],
+              "points": [[0, 0.1], [{x}, 0.12], [0.02, 0.1]], "weights": {weights} }} ] }} ] }}"#
+        )
+    };
+    let ok = TempScene::new("arc-ok", &scene("[1, 0.5, 1]", "0.01"));
+    let out = viewer(&["eval", ok.path()], "0\n0.5\n1\n");
+    assert_eq!(out.status.code(), Some(0), "{}", stderr(&out));
+    assert_eq!(stdout_lines(&out).len(), 3);
+    for (name, weights, x, says) in [
+        (
+            "tiny-weight",
+            "[1, 1e-20, 1]",
+            "0.01",
+            "patch 0: weights[1]: weight 1e-20 is less than 1e-6",
+        ),
+        (
+            "huge-point",
+            "[1, 1, 1]",
+            "3e38",
+            "patch 0: points[1]: coordinate magnitude 3e38 exceeds 1e6",
+        ),
+    ] {
+        let bad = TempScene::new(name, &scene(weights, x));
+        let out = viewer(&["eval", bad.path()], "0\n0.5\n1\n");
+        assert_eq!(out.status.code(), Some(2), "{name}");
+        assert!(out.stdout.is_empty(), "{name}");
+        let err = stderr(&out);
+        assert!(err.contains(&format!("{name}.json")), "{err}");
+        assert!(err.contains("object 0 (\"arc\")"), "{err}");
+        assert!(err.contains(says), "{err}");
+    }
+    // A domain of 1e-30 is valid (spans are relative to it) but its second derivatives,
+    // 0.01 m / (1e-30)², overflow f32: the answer is refused (exit 1), never printed as null.
+    let tiny = TempScene::new(
+        "tiny-domain",
+        &scene("[1, 1, 1]", "0.01").replace("[0, 0, 0, 1, 1, 1]", "[0, 0, 0, 1e-30, 1e-30, 1e-30]"),
+    );
+    let out = viewer(&["eval", tiny.path()], "0\n");
+    assert_eq!(out.status.code(), Some(1), "{}", stderr(&out));
+    assert!(out.stdout.is_empty());
+    assert!(stderr(&out).contains("line 1 (\"0\"): the answer's duu is not a finite f32"));
+}

@@ -61,9 +61,15 @@ fn monitor_needs_a_device_and_a_valid_duration() {
         &["--sim", "--seconds", "-1"][..],
         &["--sim", "--hid"],
         &["--sim", "--every", "0"],
+        // Past u64::MAX seconds: used to panic (exit 101) in Duration::from_secs_f64.
+        &["--sim", "--seconds", "1e20"],
+        &["--sim", "--seconds", "1e300"],
     ] {
         let mut args = vec!["device", "monitor"];
         args.extend_from_slice(bad);
-        assert_eq!(viewer(&args).status.code(), Some(2), "{bad:?}");
+        let out = viewer(&args);
+        assert_eq!(out.status.code(), Some(2), "{bad:?}");
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(!err.contains("panicked"), "{err}");
     }
 }

@@ -326,3 +326,160 @@ fn help_documents_the_formats() {
         assert!(help.contains(needle), "help lacks {needle:?}:\n{help}");
     }
 }
+
+/// No file in `dir` but `keep`: no temporary file is left behind.
+fn only_files(dir: &TempDir, keep: &[&str]) {
+    let mut names: Vec<String> = std::fs::read_dir(&dir.0)
+        .expect("dir")
+        .map(|e| e.expect("entry").file_name().to_string_lossy().into_owned())
+        .collect();
+    names.sort();
+    let mut keep: Vec<String> = keep.iter().map(|s| (*s).to_owned()).collect();
+    keep.sort();
+    assert_eq!(names, keep);
+}
+
+/// The run log and plot are written to temporary files and renamed over the targets only
+/// when both are complete. An unwritable --plot, a --device run that fails after the files
+/// were opened (a trajectory out of the device's reach) and an absurd option each leave an
+/// existing run log as it was, and create no file where there was none; a good run replaces
+/// it. Before, each of the first two left an empty run log.
+#[test]
+fn outputs_are_written_atomically() {
+    let dir = TempDir::new("atomic");
+    let traj = dir.file("press.csv", PRESS);
+    let out = dir.file("run.csv", "previous run log\n");
+    let args = |extra: &[&str]| -> Output {
+        let mut a = vec![
+            "sim",
+            "--object",
+            "1",
+            "--trajectory",
+            &traj,
+            "--out",
+            &out,
+            "--rate-hz",
+            "500",
+        ];
+        let scene = examples();
+        a.insert(1, &scene);
+        a.extend_from_slice(extra);
+        viewer(&a)
+    };
+    let previous = || std::fs::read_to_string(&out).expect("run log");
+
+    let result = args(&["--plot", &dir.path("missing/run.png")]);
+    assert_eq!(result.status.code(), Some(1), "{}", stderr(&result));
+    assert_eq!(previous(), "previous run log\n");
+    only_files(&dir, &["press.csv", "run.csv"]);
+
+    // 0.5 m from the motors: out of the pantograph's reach, found when the run starts.
+    let far = dir.file("far.csv", "t,x,y\n0,0,0.5\n0.1,0,0.5\n");
+    let mut a = vec![
+        "sim",
+        "--object",
+        "1",
+        "--device",
+        "--trajectory",
+        &far,
+        "--out",
+        &out,
+    ];
+    let scene = examples();
+    a.insert(1, &scene);
+    let result = viewer(&a);
+    assert_eq!(result.status.code(), Some(2), "{}", stderr(&result));
+    assert_eq!(previous(), "previous run log\n");
+    only_files(&dir, &["press.csv", "run.csv", "far.csv"]);
+
+    for absurd in [&["--rate-hz", "1e-300"][..], &["--object", "99"]] {
+        let result = args(absurd);
+        assert_eq!(result.status.code(), Some(2), "{absurd:?}");
+        assert_eq!(previous(), "previous run log\n");
+    }
+    only_files(&dir, &["press.csv", "run.csv", "far.csv"]);
+
+    // One file for both outputs is a bad command line.
+    let result = args(&["--plot", &out]);
+    assert_eq!(result.status.code(), Some(2));
+    assert!(
+        stderr(&result).contains("need two files"),
+        "{}",
+        stderr(&result)
+    );
+    assert_eq!(previous(), "previous run log\n");
+
+    // A fresh name is not created by a failing run either.
+    let fresh = dir.path("fresh.csv");
+    let mut a = vec![
+        "sim",
+        "--object",
+        "1",
+        "--trajectory",
+        &traj,
+        "--out",
+        &fresh,
+        "--plot",
+    ];
+    let (scene, png) = (examples(), dir.path("missing/run.png"));
+    a.insert(1, &scene);
+    a.push(&png);
+    assert_eq!(viewer(&a).status.code(), Some(1));
+    assert!(!Path::new(&fresh).exists());
+
+    // A good run replaces the log and writes the plot, leaving no temporary file.
+    let png = dir.path("run.png");
+    let result = args(&["--plot", &png]);
+    assert_eq!(result.status.code(), Some(0), "{}", stderr(&result));
+    assert!(previous().starts_with("t_s,hip_x,hip_y,"), "{}", previous());
+    assert!(std::fs::read(&png).expect("plot").starts_with(b"\x89PNG"));
+    only_files(&dir, &["press.csv", "run.csv", "far.csv", "run.png"]);
+}
+
+/// Numbers finite in f64 but not in the loop's f32 are refused with the file, line and
+/// field (a trajectory cell of 1e39 used to give hip_x = inf in the run log with exit 0;
+/// --rate-hz 1e-300 ran one tick), and no run log is written.
+#[test]
+fn numbers_the_f32_loop_cannot_use_exit_2() {
+    let dir = TempDir::new("numbers");
+    let out = dir.path("run.csv");
+    let bad = dir.file("bad.csv", "t,x,y\n0,0,0.125\n0.1,1e39,0.118\n");
+    let traj = dir.file("press.csv", PRESS);
+    let cases: [(&[&str], &str); 4] = [
+        (
+            &["--trajectory", &bad],
+            "bad.csv: line 3: x: 1e39 is outside [-1e6, 1e6]",
+        ),
+        (&["--trajectory", &traj, "--rate-hz", "1e-300"], "--rate-hz"),
+        (
+            &["--trajectory", &traj, "--rate-hz", "1"],
+            "is a single tick",
+        ),
+        (
+            &[
+                "--trajectory",
+                &traj,
+                "--device",
+                "--hand-stiffness",
+                "1e300",
+            ],
+            "--hand-stiffness",
+        ),
+    ];
+    for (extra, says) in cases {
+        let scene = examples();
+        let mut a = vec!["sim", &scene, "--object", "1", "--out", &out];
+        a.extend_from_slice(extra);
+        let result = viewer(&a);
+        assert_eq!(
+            result.status.code(),
+            Some(2),
+            "{extra:?}: {}",
+            stderr(&result)
+        );
+        let err = stderr(&result);
+        assert!(err.contains(says), "{extra:?}: {err}");
+        assert!(!err.contains("panicked"), "{err}");
+        assert!(!Path::new(&out).exists(), "{extra:?}");
+    }
+}

@@ -1,14 +1,17 @@
-//! Consistent Overhead Byte Stuffing (Cheshire & Baker, IEEE/ACM ToN 7(2), 1999): removes
-//! every `0x00` from a packet at a cost of at most one byte per 254, so `0x00` can delimit
-//! packets on a byte stream.
+//! Consistent Overhead Byte Stuffing (Cheshire & Baker, IEEE/ACM ToN 7(2), 1999) through the
+//! `cobs` crate: removes every `0x00` from a packet at a cost of at most one byte per 254, so
+//! `0x00` can delimit packets on a byte stream.
 //!
 //! The encoded packet is a sequence of blocks, each a code byte `c` (1 ..= 255) followed by
 //! `c − 1` non-zero data bytes; a block with `c < 255` stands for its data followed by a zero,
-//! except the last block, whose zero is implied by the end of the packet.
+//! except the last block, whose zero is implied by the end of the packet (a packet ending in
+//! a full 254-byte block has no extra block). This module fixes the framing the serial link
+//! relies on around the crate: the empty packet is one code byte, and a zero inside a packet
+//! is an error rather than the end of it.
 
 /// Largest encoded size of an `n`-byte packet (without the delimiter).
 pub const fn max_encoded_len(n: usize) -> usize {
-    n + n / 254 + 1
+    cobs::max_encoding_length(n)
 }
 
 /// Why bytes are not a COBS packet.
@@ -17,62 +20,24 @@ pub enum CobsError {
     /// A `0x00` inside the packet (the delimiter belongs between packets).
     #[error("zero byte at offset {0} inside a COBS packet")]
     Zero(usize),
-    /// A block's code byte announces more bytes than follow.
-    #[error("COBS block at offset {0} runs past the end of the packet")]
-    Truncated(usize),
+    /// The blocks do not add up: a code byte announces more bytes than follow.
+    #[error("COBS packet truncated: its blocks run past its end")]
+    Truncated,
 }
 
 /// Encodes `data` (without the trailing `0x00` delimiter).
 pub fn encode(data: &[u8]) -> Vec<u8> {
-    let mut out = Vec::with_capacity(max_encoded_len(data.len()));
-    let mut code_at = 0;
-    let mut code: u8 = 1;
-    out.push(0);
-    for (i, &b) in data.iter().enumerate() {
-        if b == 0 {
-            out[code_at] = code;
-            code_at = out.len();
-            out.push(0);
-            code = 1;
-        } else {
-            out.push(b);
-            code += 1;
-            // A full block (254 data bytes) has no implied zero; start another only if more
-            // data follows.
-            if code == 0xFF && i + 1 < data.len() {
-                out[code_at] = code;
-                code_at = out.len();
-                out.push(0);
-                code = 1;
-            }
-        }
-    }
-    out[code_at] = code;
-    out
+    cobs::encode_vec(data)
 }
 
 /// Decodes one packet (without its delimiter). The empty packet decodes to nothing.
 pub fn decode(packet: &[u8]) -> Result<Vec<u8>, CobsError> {
-    let mut out = Vec::with_capacity(packet.len());
-    let mut i = 0;
-    while i < packet.len() {
-        let code = packet[i];
-        if code == 0 {
-            return Err(CobsError::Zero(i));
-        }
-        let start = i + 1;
-        let end = start + usize::from(code) - 1;
-        let Some(block) = packet.get(start..end) else {
-            return Err(CobsError::Truncated(i));
-        };
-        if let Some(z) = block.iter().position(|&b| b == 0) {
-            return Err(CobsError::Zero(start + z));
-        }
-        out.extend_from_slice(block);
-        i = end;
-        if code != 0xFF && i < packet.len() {
-            out.push(0);
-        }
+    if packet.is_empty() {
+        return Ok(Vec::new());
     }
-    Ok(out)
+    // The crate would take a zero as the end of the packet and ignore the rest.
+    if let Some(at) = packet.iter().position(|&b| b == 0) {
+        return Err(CobsError::Zero(at));
+    }
+    cobs::decode_vec(packet).map_err(|_| CobsError::Truncated)
 }

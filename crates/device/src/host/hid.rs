@@ -92,7 +92,7 @@ impl Link for HidLink {
     }
 
     fn recv(&mut self, timeout: Duration) -> Result<Option<Frame>, LinkError> {
-        let deadline = Instant::now() + timeout;
+        let deadline = super::deadline(timeout);
         loop {
             let left = deadline.saturating_duration_since(Instant::now());
             let ms = i32::try_from(left.as_millis()).unwrap_or(i32::MAX);

@@ -13,6 +13,16 @@
 //!
 //! [`Controller`]: crate::controller::Controller
 
+/// `timeout` from now; a timeout too long for the clock (`Duration::MAX`: wait for ever)
+/// becomes a century instead of the panic of `Instant + Duration`.
+pub(crate) fn deadline(timeout: Duration) -> Instant {
+    const CENTURY: Duration = Duration::from_secs(100 * 365 * 24 * 3600);
+    let now = Instant::now();
+    now.checked_add(timeout)
+        .or_else(|| now.checked_add(CENTURY))
+        .unwrap_or(now)
+}
+
 pub mod cobs;
 mod hid;
 mod serial;
@@ -114,7 +124,7 @@ pub trait Link: core::fmt::Debug {
     /// are dropped. A nack is [`LinkError::Nack`].
     fn request(&mut self, message: &Message, timeout: Duration) -> Result<(), LinkError> {
         let seq = self.send(message)?;
-        let deadline = Instant::now() + timeout;
+        let deadline = deadline(timeout);
         loop {
             let left = deadline.saturating_duration_since(Instant::now());
             match self.recv(left)? {
@@ -140,7 +150,7 @@ pub trait Link: core::fmt::Debug {
     /// Opens the session: sends the host's [`Hello`] and waits for the device's.
     fn hello(&mut self, timeout: Duration) -> Result<Hello, LinkError> {
         self.send(&Message::Hello(host_hello()))?;
-        let deadline = Instant::now() + timeout;
+        let deadline = deadline(timeout);
         loop {
             let left = deadline.saturating_duration_since(Instant::now());
             match self.recv(left)? {

@@ -90,7 +90,7 @@ impl Link for SerialLink {
     }
 
     fn recv(&mut self, timeout: Duration) -> Result<Option<Frame>, LinkError> {
-        let deadline = Instant::now() + timeout;
+        let deadline = super::deadline(timeout);
         loop {
             while let Some(packet) = self.take_packet() {
                 // Empty packets are delimiters sent back to back (line idle, resync).

@@ -1,63 +1,28 @@
-//! The two checksums of the protocol, table-driven with tables built at compile time.
+//! The two checksums of the protocol, from the `crc` crate's catalogue (its tables are built
+//! at compile time, 256 entries each, as the hand-written ones were):
 //!
-//! - CRC-16/CCITT-FALSE (poly 0x1021, init 0xFFFF, not reflected, no final xor) guards each
-//!   frame.
+//! - CRC-16/CCITT-FALSE (poly 0x1021, init 0xFFFF, not reflected, no final xor; the
+//!   catalogue's CRC-16/IBM-3740) guards each frame.
 //! - CRC-32/ISO-HDLC (the zlib / Ethernet CRC: reflected poly 0xEDB88320, init and final xor
 //!   0xFFFFFFFF) guards a whole uploaded scene.
 
-const CRC16_TABLE: [u16; 256] = {
-    let mut table = [0u16; 256];
-    let mut i = 0;
-    while i < 256 {
-        let mut c = (i as u16) << 8;
-        let mut bit = 0;
-        while bit < 8 {
-            c = if c & 0x8000 != 0 {
-                (c << 1) ^ 0x1021
-            } else {
-                c << 1
-            };
-            bit += 1;
-        }
-        table[i] = c;
-        i += 1;
-    }
-    table
-};
+use crc::{CRC_16_IBM_3740, CRC_32_ISO_HDLC, Crc};
 
-const CRC32_TABLE: [u32; 256] = {
-    let mut table = [0u32; 256];
-    let mut i = 0;
-    while i < 256 {
-        let mut c = i as u32;
-        let mut bit = 0;
-        while bit < 8 {
-            c = if c & 1 != 0 {
-                (c >> 1) ^ 0xEDB8_8320
-            } else {
-                c >> 1
-            };
-            bit += 1;
-        }
-        table[i] = c;
-        i += 1;
-    }
-    table
-};
+const CRC16: Crc<u16> = Crc::<u16>::new(&CRC_16_IBM_3740);
+const CRC32: Crc<u32> = Crc::<u32>::new(&CRC_32_ISO_HDLC);
 
 /// CRC-16/CCITT-FALSE of `data` (check value of `b"123456789"`: 0x29B1).
 pub fn crc16_ccitt_false(data: &[u8]) -> u16 {
-    let mut crc = 0xFFFFu16;
-    for &b in data {
-        crc = (crc << 8) ^ CRC16_TABLE[usize::from((crc >> 8) as u8 ^ b)];
-    }
-    crc
+    CRC16.checksum(data)
 }
 
-/// Incremental CRC-32/ISO-HDLC, for data that arrives in pieces.
+/// Incremental CRC-32/ISO-HDLC, for data that arrives in pieces. A plain value (`Copy`,
+/// comparable), so a receiver holding one can be compared and restored whole; the crate's
+/// `Digest` borrows its table and is neither.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Crc32 {
-    state: u32,
+    /// The CRC of the data so far (what [`Crc32::finish`] returns).
+    crc: u32,
 }
 
 impl Default for Crc32 {
@@ -69,27 +34,27 @@ impl Default for Crc32 {
 impl Crc32 {
     /// A CRC over no data yet.
     pub const fn new() -> Self {
-        Crc32 { state: 0xFFFF_FFFF }
+        Crc32 { crc: 0 }
     }
 
     /// Adds `data`.
     pub fn update(&mut self, data: &[u8]) {
-        let mut c = self.state;
-        for &b in data {
-            c = (c >> 8) ^ CRC32_TABLE[usize::from(c as u8 ^ b)];
-        }
-        self.state = c;
+        // Resume from the register the finished CRC came from: undo the final xor, and give
+        // it as an initial value in the catalogue's convention, which for a reflected
+        // algorithm is bit-reversed (`crc` reflects the initial value of refin algorithms).
+        let register = self.crc ^ CRC_32_ISO_HDLC.xorout;
+        let mut digest = CRC32.digest_with_initial(register.reverse_bits());
+        digest.update(data);
+        self.crc = digest.finalize();
     }
 
     /// The CRC of everything added so far.
     pub fn finish(&self) -> u32 {
-        self.state ^ 0xFFFF_FFFF
+        self.crc
     }
 }
 
 /// CRC-32/ISO-HDLC of `data` (check value of `b"123456789"`: 0xCBF43926).
 pub fn crc32(data: &[u8]) -> u32 {
-    let mut crc = Crc32::new();
-    crc.update(data);
-    crc.finish()
+    CRC32.checksum(data)
 }

@@ -248,17 +248,32 @@ fn feature_to_u16(f: Option<Feature>) -> u16 {
     (kind << 14) | i.min(MAX_FEATURE_INDEX)
 }
 
-fn feature_from_u16(v: u16) -> Option<Feature> {
+/// The inverse of [`feature_to_u16`]; `Err` for the codes it never produces (index 0x3FFF
+/// of a patch, vertex or edge: indices saturate at [`MAX_FEATURE_INDEX`]).
+fn feature_from_u16(v: u16) -> Result<Option<Feature>, ErrorCode> {
     if v == NO_FEATURE {
-        return None;
+        return Ok(None);
     }
     let i = v & 0x3FFF;
-    Some(match v >> 14 {
+    if i > MAX_FEATURE_INDEX {
+        return Err(ErrorCode::BadField);
+    }
+    Ok(Some(match v >> 14 {
         0 => Feature::Patch(i),
         1 => Feature::Vertex(i),
         2 => Feature::Edge(i),
         _ => Feature::Corner(i),
-    })
+    }))
+}
+
+/// A float field of telemetry: the device's safety layer and renderer only ever produce
+/// finite values, so NaN or an infinity is a malformed frame.
+fn finite(r: &mut Reader<'_>) -> Result<f32, ErrorCode> {
+    match r.f32() {
+        Some(v) if v.is_finite() => Ok(v),
+        Some(_) => Err(ErrorCode::BadField),
+        None => Err(ErrorCode::BadPayloadLength),
+    }
 }
 
 fn mode_to_u8(m: Mode) -> u8 {
@@ -487,11 +502,11 @@ impl Message {
                 let time_us = r.u32().ok_or(short)?;
                 let mut v = [Vec2::ZERO; 4];
                 for p in &mut v[..3] {
-                    *p = Vec2::new(r.f32().ok_or(short)?, r.f32().ok_or(short)?);
+                    *p = Vec2::new(finite(r)?, finite(r)?);
                 }
-                let force_normal_n = r.f32().ok_or(short)?;
-                let force_friction_n = r.f32().ok_or(short)?;
-                v[3] = Vec2::new(r.f32().ok_or(short)?, r.f32().ok_or(short)?);
+                let force_normal_n = finite(r)?;
+                let force_friction_n = finite(r)?;
+                v[3] = Vec2::new(finite(r)?, finite(r)?);
                 Message::Telemetry(Telemetry {
                     time_us,
                     hip_m: v[0],
@@ -500,11 +515,11 @@ impl Message {
                     force_normal_n,
                     force_friction_n,
                     force_n: v[3],
-                    psi: r.f32().ok_or(short)?,
+                    psi: finite(r)?,
                     mu_e4: r.u16().ok_or(short)?,
                     tick_us: r.u16().ok_or(short)?,
                     faults: r.u16().ok_or(short)?,
-                    feature: feature_from_u16(r.u16().ok_or(short)?),
+                    feature: feature_from_u16(r.u16().ok_or(short)?)?,
                     mode: mode_from_u8(r.u8().ok_or(short)?).ok_or(ErrorCode::BadField)?,
                 })
             }
