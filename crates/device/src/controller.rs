@@ -29,7 +29,7 @@
 //! [`SafetyConfig::max_force_n`], the speed limit the smaller of the two speed limits: the
 //! safety layer is built with those ([`Controller::safety_config`]).
 
-use friction::{FrictionMaterial, FrictionOutput, FrictionRenderer, Mode};
+use friction::{FrictionMaterial, FrictionOutput, FrictionRenderer, Mode, SwitchCause};
 use nurbs::Vec2;
 use tracker::Object;
 
@@ -339,6 +339,7 @@ impl<O: Object<P = Vec2>> Controller<O> {
             faults: self.safety.faults().bits(),
             feature: None,
             mode: Mode::Free,
+            cause: SwitchCause::None,
         };
         // Kinematics. Uncalibrated counts have no pose (forces are off then); calibrated
         // counts that no pose of the mechanism gives are an encoder fault for the safety
@@ -381,6 +382,7 @@ impl<O: Object<P = Vec2>> Controller<O> {
             telemetry.mu_e4 = Telemetry::quantize_mu(out.mu);
             telemetry.feature = (out.mode != Mode::Free).then_some(out.contact.feature);
             telemetry.mode = out.mode;
+            telemetry.cause = out.cause;
             render = Some(out);
         }
 

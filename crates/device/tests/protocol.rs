@@ -4,7 +4,7 @@
 #![allow(clippy::unwrap_used)]
 
 use device::protocol::*;
-use friction::{FrictionMaterial, Mode, ModelKind, Stribeck};
+use friction::{FrictionMaterial, Mode, ModelKind, Stribeck, SwitchCause};
 use nurbs::construct::{bezier_curve, bezier_patch, circle, sphere};
 use nurbs::{CurveBuf, SurfaceBuf, Vec2, Vec3};
 use proptest::prelude::*;
@@ -159,12 +159,14 @@ fn telemetry() -> impl Strategy<Value = Telemetry> {
             feature(),
             0usize..4,
         ),
+        0usize..SwitchCause::ALL.len(),
     )
         .prop_map(
             |(
                 (time_us, hip_m, cp_m, go_m),
                 (fnorm, ffric, force_n, psi),
                 (mu_e4, tick_us, faults, feature, mode),
+                cause,
             )| {
                 Telemetry {
                     time_us,
@@ -180,6 +182,7 @@ fn telemetry() -> impl Strategy<Value = Telemetry> {
                     faults,
                     feature,
                     mode: [Mode::Free, Mode::Stuck, Mode::Transition, Mode::Slip][mode],
+                    cause: SwitchCause::ALL[cause],
                 }
             },
         )
@@ -368,13 +371,16 @@ fn each_malformed_frame_has_its_code() {
         code(&raw_frame(1, 0x11, 0, &[0; 4])),
         ErrorCode::BadPayloadLength
     );
-    // A mode byte out of range, a status flag byte with unknown bits, an unknown nack code.
-    let mut t = encode(0, Message::Telemetry(telemetry_example()));
-    t[HEADER_LEN + 56] = 9;
-    let n = t.len() - 2;
-    let crc = crc16_ccitt_false(&t[..n]);
-    t[n..].copy_from_slice(&crc.to_le_bytes());
-    assert_eq!(code(&t), ErrorCode::BadField);
+    // A mode byte out of range (mode 9; cause 8, the first code past the last cause), a status
+    // flag byte with unknown bits, an unknown nack code.
+    for byte in [9u8, 0x81] {
+        let mut t = encode(0, Message::Telemetry(telemetry_example()));
+        t[HEADER_LEN + 56] = byte;
+        let n = t.len() - 2;
+        let crc = crc16_ccitt_false(&t[..n]);
+        t[n..].copy_from_slice(&crc.to_le_bytes());
+        assert_eq!(code(&t), ErrorCode::BadField, "mode byte {byte:#x}");
+    }
     assert_eq!(code(&raw_frame(1, 0x40, 0, &[4; 18])), ErrorCode::BadField);
     assert_eq!(
         code(&raw_frame(1, 0x21, 0, &[0, 0, 200, 0, 0, 0, 0])),
@@ -509,6 +515,7 @@ fn telemetry_example() -> Telemetry {
         faults: 0,
         feature: Some(Feature::Vertex(2)),
         mode: Mode::Stuck,
+        cause: SwitchCause::Reversed,
     }
 }
 

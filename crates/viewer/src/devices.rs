@@ -169,7 +169,7 @@ fn faults_text(bits: u16) -> String {
 
 fn telemetry_line(seq: u16, t: &Telemetry) -> String {
     format!(
-        "t={:.6}s seq={seq} hip=({:+.5},{:+.5}) force=({:+.3},{:+.3}) normal={:.3} mode={} feature={} faults={}",
+        "t={:.6}s seq={seq} hip=({:+.5},{:+.5}) force=({:+.3},{:+.3}) normal={:.3} mode={} cause={} feature={} faults={}",
         f64::from(t.time_us) * 1e-6,
         t.hip_m.x,
         t.hip_m.y,
@@ -177,6 +177,7 @@ fn telemetry_line(seq: u16, t: &Telemetry) -> String {
         t.force_n.y,
         t.force_normal_n,
         mode_name(t.mode),
+        t.cause.name(),
         t.feature.map_or("-".to_owned(), |f| format!("{f:?}")),
         faults_text(t.faults),
     )

@@ -1,6 +1,6 @@
 //! Messages and frames.
 
-use friction::{FrictionMaterial, Mode};
+use friction::{FrictionMaterial, Mode, SwitchCause};
 use nurbs::Vec2;
 use tracker::Feature;
 
@@ -212,6 +212,8 @@ pub struct Telemetry {
     pub feature: Option<Feature>,
     /// Friction mode.
     pub mode: Mode,
+    /// Why the friction mode last changed (carried in the mode byte's high nibble).
+    pub cause: SwitchCause,
 }
 
 impl Telemetry {
@@ -276,23 +278,18 @@ fn finite(r: &mut Reader<'_>) -> Result<f32, ErrorCode> {
     }
 }
 
-fn mode_to_u8(m: Mode) -> u8 {
-    match m {
-        Mode::Free => 0,
-        Mode::Stuck => 1,
-        Mode::Transition => 2,
-        Mode::Slip => 3,
-    }
+/// The mode byte: the mode's code (its index in [`Mode::ALL`]) in the low nibble, the switch
+/// cause's (its index in [`SwitchCause::ALL`]) in the high one.
+fn mode_to_u8(m: Mode, c: SwitchCause) -> u8 {
+    let code = |i: Option<usize>| i.unwrap_or(0) as u8;
+    code(Mode::ALL.iter().position(|&x| x == m))
+        | code(SwitchCause::ALL.iter().position(|&x| x == c)) << 4
 }
 
-fn mode_from_u8(v: u8) -> Option<Mode> {
-    Some(match v {
-        0 => Mode::Free,
-        1 => Mode::Stuck,
-        2 => Mode::Transition,
-        3 => Mode::Slip,
-        _ => return None,
-    })
+fn mode_from_u8(v: u8) -> Option<(Mode, SwitchCause)> {
+    let mode = *Mode::ALL.get(usize::from(v & 0x0F))?;
+    let cause = *SwitchCause::ALL.get(usize::from(v >> 4))?;
+    Some((mode, cause))
 }
 
 /// Every message of the protocol. `→ dev` / `→ host` give the direction.
@@ -425,7 +422,7 @@ impl Message {
                 w.u16(t.tick_us);
                 w.u16(t.faults);
                 w.u16(feature_to_u16(t.feature));
-                w.u8(mode_to_u8(t.mode));
+                w.u8(mode_to_u8(t.mode, t.cause));
             }
         }
     }
@@ -507,6 +504,13 @@ impl Message {
                 let force_normal_n = finite(r)?;
                 let force_friction_n = finite(r)?;
                 v[3] = Vec2::new(finite(r)?, finite(r)?);
+                let psi = finite(r)?;
+                let mu_e4 = r.u16().ok_or(short)?;
+                let tick_us = r.u16().ok_or(short)?;
+                let faults = r.u16().ok_or(short)?;
+                let feature = feature_from_u16(r.u16().ok_or(short)?)?;
+                let (mode, cause) =
+                    mode_from_u8(r.u8().ok_or(short)?).ok_or(ErrorCode::BadField)?;
                 Message::Telemetry(Telemetry {
                     time_us,
                     hip_m: v[0],
@@ -515,12 +519,13 @@ impl Message {
                     force_normal_n,
                     force_friction_n,
                     force_n: v[3],
-                    psi: finite(r)?,
-                    mu_e4: r.u16().ok_or(short)?,
-                    tick_us: r.u16().ok_or(short)?,
-                    faults: r.u16().ok_or(short)?,
-                    feature: feature_from_u16(r.u16().ok_or(short)?)?,
-                    mode: mode_from_u8(r.u8().ok_or(short)?).ok_or(ErrorCode::BadField)?,
+                    psi,
+                    mu_e4,
+                    tick_us,
+                    faults,
+                    feature,
+                    mode,
+                    cause,
                 })
             }
         };
