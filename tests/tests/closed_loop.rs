@@ -15,70 +15,40 @@ use viewer::trajectory::Trajectory;
 
 #[test]
 fn thesis_2d_stick_slip_through_the_simulated_pantograph() {
+    // K = 1000 N/m at 1 kHz needs b > K T / 2 = 0.5 N·s/m: at the bound of the default
+    // device's damping, so the scene is refused without the passivity controller.
     let dir = concat!(env!("CARGO_MANIFEST_DIR"), "/../scenes/");
     let scene = Scene::load(format!("{dir}thesis-2d.json")).unwrap();
-    let traj = Trajectory::load(format!("{dir}thesis-2d.csv")).unwrap();
     let object = &scene.objects()[0];
     let curves = object.curve_views().unwrap();
     let chain = Chain::new(&curves).unwrap();
-
     let spec = DeviceSpec::default();
-    let t = 1e-3f32;
     let safety = SafetyConfig {
-        period_s: t,
-        ramp_time_s: 0.02,
+        period_s: 1e-3,
         ..SafetyConfig::default()
     };
     let mut controller: Controller<Chain<'_>> = Controller::new(spec, safety).unwrap();
-    // K = 1000 N/m at 1 kHz needs b > K T / 2 = 0.5 N·s/m: at the bound of the default
-    // device's damping, so the scene is refused without the passivity controller.
     let material = object.material().friction_material();
     assert!(controller.load_scene(chain, material, false).is_err());
-    controller.load_scene(chain, material, true).unwrap();
 
-    // Calibrate on the end stops: the counts the encoders read there.
-    let per_rad = spec.counts_per_joint_rad();
-    let stops = [0, 1].map(|i| {
-        spec.encoder_offset_counts[i]
-            + (spec.encoder_direction[i].sign() * spec.end_stop_rad[i] * per_rad[i]).floor() as i32
-    });
-    controller.calibrate(stops).unwrap();
-    controller.set_forces_enabled(true);
-
-    let start = traj.at(traj.start_s());
     let hand = SimParams {
         hand_stiffness_n_per_m: 2000.0,
         hand_damping_ns_per_m: 5.0,
         ..SimParams::default()
     };
-    let mut sim =
-        SimulatedPantograph::new(spec, hand, Vec2::new(start[0] as f32, start[1] as f32)).unwrap();
+    let samples = stiffness_run(material.stiffness_n_per_m, hand).unwrap();
     let mut modes: Vec<Mode> = Vec::new();
-    let mut max_force: f32 = 0.0;
-    let n = traj.tick_count(1000.0) as usize;
-    for k in 0..n {
-        let now = traj.tick_time_s(k, 1000.0);
-        controller.heartbeat();
-        let target = traj.at(now);
-        let out = controller.tick(sim.encoder_counts(), k as u64 * 1000);
-        assert!(out.currents_a.iter().all(|c| c.is_finite()));
-        assert_eq!(
-            out.telemetry.faults, 0,
-            "tick {k}: faults {:#x}",
-            out.telemetry.faults
-        );
-        max_force = max_force.max(out.telemetry.force_n.length());
-        if modes.last() != Some(&out.telemetry.mode) {
-            modes.push(out.telemetry.mode);
+    for (k, s) in samples.iter().enumerate() {
+        assert!(s.currents_finite, "tick {k}");
+        assert_eq!(s.faults, 0, "tick {k}: faults {:#x}", s.faults);
+        if modes.last() != Some(&s.mode) {
+            modes.push(s.mode);
         }
-        sim.step(
-            out.currents_a,
-            Vec2::new(target[0] as f32, target[1] as f32),
-            t,
-        )
-        .unwrap();
     }
-    eprintln!("modes {modes:?} max force {max_force}");
+    let max_force = samples
+        .iter()
+        .map(|s| s.force_n.length())
+        .fold(0.0, f32::max);
     // Through the hand’s compliance the HIP presses less deeply than the target, but the
     // friction sequence of §3.2.1 survives: contact sticks, breaks away through the
     // transition into slip, and sticks again, more than once.
@@ -90,10 +60,9 @@ fn thesis_2d_stick_slip_through_the_simulated_pantograph() {
     assert!(modes.contains(&Mode::Free));
     // The device's 3 N (below the safety layer's 5 N) bounds every force, to the rounding of
     // one saturation.
-    let limit = controller.safety_config().max_force_n;
-    assert_eq!(limit, spec.max_force_n);
+    assert_eq!(controller.safety_config().max_force_n, spec.max_force_n);
     assert!(
-        max_force > 0.5 && max_force <= limit * (1.0 + 1e-6),
+        max_force > 0.5 && max_force <= spec.max_force_n * (1.0 + 1e-6),
         "max force {max_force}"
     );
 }
@@ -104,6 +73,7 @@ struct Sample {
     mode: Mode,
     force_n: Vec2,
     faults: u16,
+    currents_finite: bool,
 }
 
 /// Thesis-2d's trajectory through the hand `hand` and the simulated pantograph, with the
@@ -151,6 +121,7 @@ fn stiffness_run(k_n_per_m: f32, hand: SimParams) -> Result<Vec<Sample>, Control
             mode: out.telemetry.mode,
             force_n: out.telemetry.force_n,
             faults: out.telemetry.faults,
+            currents_finite: out.currents_a.iter().all(|c| c.is_finite()),
         });
         let target = traj.at(now);
         sim.step(

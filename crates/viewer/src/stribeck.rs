@@ -82,6 +82,22 @@ pub fn write_png(
 
 type DrawResult<T> = Result<T, Box<dyn std::error::Error>>;
 
+type Chart<'a, 'b> = ChartContext<
+    'a,
+    BitMapBackend<'b>,
+    Cartesian2d<plotters::coord::types::RangedCoordf64, plotters::coord::types::RangedCoordf64>,
+>;
+
+fn legend<'a>(chart: &mut Chart<'a, 'a>) -> DrawResult<()> {
+    chart
+        .configure_series_labels()
+        .label_font((crate::plot::FONT, 14))
+        .background_style(WHITE.mix(0.9))
+        .border_style(BLACK)
+        .draw()?;
+    Ok(())
+}
+
 fn draw(
     root: &DrawingArea<BitMapBackend<'_>, plotters::coord::Shift>,
     m: &FrictionMaterial,
@@ -143,12 +159,7 @@ fn draw(
             .label(format!("hand at {} mm/s", s.hand_speed_m_per_s * 1e3))
             .legend(move |(x, y)| Circle::new((x + 10, y), 4, c.filled()));
     }
-    chart
-        .configure_series_labels()
-        .label_font((font, 14))
-        .background_style(WHITE.mix(0.9))
-        .border_style(BLACK)
-        .draw()?;
+    legend(&mut chart)?;
 
     let t_max = slides
         .iter()
@@ -179,11 +190,6 @@ fn draw(
             .label(format!("hand at {} mm/s", s.hand_speed_m_per_s * 1e3))
             .legend(move |(x, y)| PathElement::new([(x, y), (x + 20, y)], colour(i)));
     }
-    chart
-        .configure_series_labels()
-        .label_font((font, 14))
-        .background_style(WHITE.mix(0.9))
-        .border_style(BLACK)
-        .draw()?;
+    legend(&mut chart)?;
     Ok(())
 }
