@@ -243,8 +243,6 @@ pub struct FrictionRenderer<O: Object> {
     law: LawState<O::P>,
     /// The GO's slip speed (m/s), low-passed over `transition_time_s`.
     slip_speed: f32,
-    /// The GO's speed over the last tick (m/s).
-    go_speed: f32,
     /// μ in the transition: follows the Stribeck curve of the slip speed with the lag
     /// `transition_time_s`.
     mu: f32,
@@ -303,7 +301,6 @@ impl<O: Object> FrictionRenderer<O> {
             cause: SwitchCause::None,
             law,
             slip_speed: 0.0,
-            go_speed: 0.0,
             mu: material.mu_static,
             prev_cp: None,
             prev_hip: None,
@@ -505,7 +502,6 @@ impl<O: Object> FrictionRenderer<O> {
             // so that the slip speed's lag keeps the transition going for τ·ln 2 or more before
             // a stop can end it (no stuck ↔ transition chatter of a creeping hand).
             self.slip_speed = sqrt(cp_velocity.length_squared()).max(2.0 * m.stop_speed_m_per_s);
-            self.go_speed = 0.0;
             self.mu = m.mu_static;
             self.switch(Mode::Transition, SwitchCause::Breakaway);
         }
@@ -549,18 +545,18 @@ impl<O: Object> FrictionRenderer<O> {
                 n = self.go_normal();
                 friction = tangential((self.go_frame.point - hip) * k, n);
             }
-            self.go_speed = if period_s > 0.0 {
+            let go_speed = if period_s > 0.0 {
                 slide / period_s
             } else {
                 0.0
             };
-            self.slip_speed += rate * (self.go_speed - self.slip_speed);
+            self.slip_speed += rate * (go_speed - self.slip_speed);
             if slide < m.stop_speed_m_per_s * period_s {
                 // The GO did not need to move: the hand stopped, reversed, or pressed in. A
                 // reversal is the HIP moving back towards the GO (in the GO's tangent plane,
-                // faster than the stop speed) with the spring relaxed a tenth below the dynamic load μ_d F_N (the hand came
-                // back by a tenth of μ_d·depth): the jitter of a handle held by a compliant
-                // hand does not count.
+                // faster than the stop speed) with the spring relaxed a tenth below the
+                // dynamic load μ_d F_N (the hand came back by a tenth of μ_d·depth): the jitter
+                // of a handle held by a compliant hand does not count.
                 let step = self.prev_hip.map_or(O::P::ZERO, |p| hip - p);
                 let back_m = tangential(step, n).dot(friction);
                 let back = back_m > 0.0

@@ -368,7 +368,10 @@ fn simulate<O: TrackedObject>(
         previous = xyz;
         let (hip, hip_velocity) = (point::<O::P>(xyz), point::<O::P>(velocity));
         let out = renderer.tick(object, hip, hip_velocity, period_s);
-        ticks.push(record(t_s, hip, hip_velocity, &out));
+        ticks.push(in_source_patches(
+            record(t_s, hip, hip_velocity, &out),
+            object,
+        ));
         progress(i + 1, n);
     }
     ticks
@@ -503,7 +506,11 @@ pub fn run_device(
         let (hip, hip_velocity) = arm.hip().map_err(|error| SimError::Arm { t_s, error })?;
         controller.heartbeat();
         let out = controller.tick(arm.encoder_counts(), now_us);
-        ticks.push(device_record(t_s, hip, hip_velocity, &out));
+        let tick = device_record(t_s, hip, hip_velocity, &out);
+        ticks.push(match controller.object() {
+            Some(object) => in_source_patches(tick, object),
+            None => tick,
+        });
         arm.step(out.currents_a, vec2(trajectory.at(t_s)), period_s)
             .map_err(|error| SimError::Arm { t_s, error })?;
         progress(i + 1, n);
@@ -519,6 +526,15 @@ pub fn run_device(
         },
         passivity_control,
     })
+}
+
+/// The tick with its patch indices naming the scene's patches: the tracker splits patches at
+/// interior corners and creases into pieces that share their source's parameters.
+fn in_source_patches<O: TrackedObject>(mut tick: Tick, object: &O) -> Tick {
+    tick.patch = tick.patch.map(|p| object.source_patch(p));
+    tick.cp_patch = object.source_patch(tick.cp_patch);
+    tick.go_patch = object.source_patch(tick.go_patch);
+    tick
 }
 
 fn vec2(xyz: [f64; 3]) -> Vec2 {
@@ -995,5 +1011,42 @@ mod tests {
         let e = validate(&scene, 0, &planar, 0.5).expect_err("one tick");
         assert!(matches!(e, SimError::TooFewTicks { .. }), "{e}");
         assert!(e.to_string().contains("at least 8.33"), "{e}");
+    }
+
+    /// A one-patch roof (degree 1, apex at the interior knot 0.5) is split into two pieces at
+    /// load; the run log still names the scene's patch 0, at the GO and the CP alike, and the
+    /// parameters stay the patch's own (right leg u < 0.5, left leg u > 0.5).
+    #[test]
+    fn run_log_names_the_scenes_patches_not_the_pieces() {
+        let scene = Scene::from_json_str(
+            r#"{ "format": "scene/1", "objects": [
+              { "name": "roof",
+                "material": { "stiffness_n_per_m": 1000, "damping_ns_per_m": 0,
+                              "mu_static": 0.7, "mu_dynamic": 0.5 },
+                "patches": [ { "degree": 1, "knots": [0, 0, 0.5, 1, 1],
+                               "points": [[0.02, 0.06], [0.0, 0.08], [-0.02, 0.06]] } ] } ] }"#,
+        )
+        .unwrap_or_else(|e| panic!("{e}"));
+        // Press into the left leg, then slide over to it from the right one.
+        let trajectory = Trajectory::from_samples(
+            Space::Planar,
+            [
+                (0.0, [-0.01, 0.075, 0.0]),
+                (0.1, [-0.01, 0.068, 0.0]),
+                (0.2, [-0.01, 0.068, 0.0]),
+            ],
+        )
+        .unwrap_or_else(|e| panic!("{e}"));
+        let r = run(&scene, 0, &trajectory, 1000.0, |_, _| {}).unwrap_or_else(|e| panic!("{e}"));
+        let touching: Vec<&Tick> = r.ticks.iter().filter(|t| t.mode != Mode::Free).collect();
+        assert!(touching.len() > 100);
+        for t in touching {
+            assert_eq!((t.patch, t.cp_patch, t.go_patch), (Some(0), 0, 0));
+            assert!(
+                t.cp_params[0] > 0.5 && t.go_params[0] > 0.5,
+                "{:?}",
+                t.cp_params
+            );
+        }
     }
 }
