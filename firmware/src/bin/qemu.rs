@@ -229,6 +229,13 @@ fn fail(what: core::fmt::Arguments<'_>) -> ! {
     loop {}
 }
 
+/// The instructions of `spin(n)` with the bracket. Not inlined, so that every `n` runs the
+/// same machine code and two lengths differ by exactly 2 Δn instructions.
+#[inline(never)]
+fn measure_spin(meter: &mut Meter, n: u32) -> Result<u32, Overflow> {
+    meter.instructions(|| spin(n)).1
+}
+
 /// Checks SysTick counts instructions (5.376 counts each) and measures the bracket: an empty
 /// bracket, then two loops whose lengths differ by a known number of instructions.
 fn calibrate(meter: &mut Meter) -> u32 {
@@ -241,8 +248,8 @@ fn calibrate(meter: &mut Meter) -> u32 {
     };
     const SHORT: u32 = 1_000;
     const LONG: u32 = 11_000;
-    let ((), short) = meter.instructions(|| spin(SHORT));
-    let ((), long) = meter.instructions(|| spin(LONG));
+    let short = measure_spin(meter, core::hint::black_box(SHORT));
+    let long = measure_spin(meter, core::hint::black_box(LONG));
     let (short, long) = match (short, long) {
         (Ok(s), Ok(l)) => (s, l),
         (s, l) => fail(format_args!(
