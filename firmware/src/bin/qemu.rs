@@ -334,12 +334,14 @@ fn main() -> ! {
     let mut by_mode = [Stats::default(); 4];
     let mut first = 0;
     let mut fault_ticks = 0u32;
+    // The handle's true HIP at the last tick (the host's run log's `hip_x,hip_y`).
     let mut last_hip = Vec2::ZERO;
     for i in 0..scenario.ticks() {
         // The device clock: integer microseconds since the start, as the host's run.
         board.now_us = libm::round(i as f64 * 1e6 / scenario.rate_hz) as u64;
-        if let Err(e) = board.arm.hip() {
-            fail(format_args!("tick {i}: simulated arm: {e}"));
+        match board.arm.hip() {
+            Ok((hip, _)) => last_hip = hip,
+            Err(e) => fail(format_args!("tick {i}: simulated arm: {e}")),
         }
         app.controller_mut().heartbeat();
         let out = app.tick(&mut board);
@@ -357,7 +359,6 @@ fn main() -> ! {
         if out.telemetry.faults != 0 {
             fault_ticks += 1;
         }
-        last_hip = out.telemetry.hip_m;
         let target = match scenario.target(i) {
             Ok(t) => t,
             Err(e) => fail(format_args!("{e}")),
@@ -391,7 +392,7 @@ fn main() -> ! {
         }
     }
     hprintln!(
-        "run scene={} ticks={} fault_ticks={} frames_sent={} last_hip_m=({:.6},{:.6})",
+        "run scene={} ticks={} fault_ticks={} frames_sent={} last_hip_m={},{}",
         name,
         all.n,
         fault_ticks,
