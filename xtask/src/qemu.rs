@@ -43,6 +43,7 @@ const RESULT_KEYS: &[&str] = &[
     "instructions_per_tick_after_first",
     "instructions_by_mode",
     "run",
+    "stack",
 ];
 
 /// Options of `cargo xtask qemu`.
@@ -400,6 +401,16 @@ fn parse_elf_sizes(bytes: &[u8]) -> Result<Sizes, String> {
     let shnum = usize::from(u16_at(0x30)?);
     if shentsize < 40 {
         return Err(format!("section header size {shentsize} < 40"));
+    }
+    let table_end = shnum
+        .checked_mul(shentsize)
+        .and_then(|n| n.checked_add(shoff));
+    if table_end.is_none_or(|end| end > bytes.len()) {
+        return Err(format!(
+            "{shnum} section headers of {shentsize} bytes at byte {shoff} run past the file's \
+             end ({} bytes)",
+            bytes.len()
+        ));
     }
     let mut sizes = Sizes::default();
     for i in 0..shnum {

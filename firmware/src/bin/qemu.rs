@@ -130,6 +130,59 @@ fn spin(n: u32) {
     }
 }
 
+/// The paint of the free stack: a word a program is unlikely to leave behind.
+const PAINT: u32 = 0x5AFE_C0DE;
+
+// cortex-m-rt's linker script: the end of the statics (`.bss`, `.uninit`) and the top of RAM,
+// where the stack starts and grows down towards them.
+#[allow(unsafe_code)]
+unsafe extern "C" {
+    static __sheap: u32;
+    static _stack_start: u32;
+}
+
+/// The bottom (end of the statics) and top of the stack region (only the symbols' addresses
+/// are taken, which is safe).
+fn stack_region() -> (usize, usize) {
+    (
+        &raw const __sheap as usize,
+        &raw const _stack_start as usize,
+    )
+}
+
+/// Paints the free stack, from the end of the statics to 64 bytes below this function's own
+/// stack pointer, with [`PAINT`]; returns the painted bytes.
+#[inline(never)]
+fn paint_stack() -> usize {
+    let (bottom, _) = stack_region();
+    let sp = cortex_m::register::msp::read() as usize;
+    let end = sp.saturating_sub(64);
+    let mut p = bottom;
+    while p < end {
+        #[allow(unsafe_code)]
+        // SAFETY: [bottom, sp − 64) is RAM between the statics and the live stack: nothing
+        // owns it (no heap), and the writes are aligned words.
+        unsafe {
+            core::ptr::write_volatile(p as *mut u32, PAINT)
+        };
+        p += 4;
+    }
+    end.saturating_sub(bottom)
+}
+
+/// The deepest the stack has been since [`paint_stack`]: the top minus the lowest word that
+/// no longer holds the paint.
+fn stack_peak() -> usize {
+    let (bottom, top) = stack_region();
+    let mut p = bottom;
+    #[allow(unsafe_code)]
+    // SAFETY: aligned reads of RAM inside the stack region.
+    while p < top && unsafe { core::ptr::read_volatile(p as *const u32) } == PAINT {
+        p += 4;
+    }
+    top - p
+}
+
 /// The emulated board: the simulated pantograph as the plant, the scenario's clock.
 struct QemuBoard {
     arm: SimulatedPantograph,
@@ -279,6 +332,7 @@ fn calibrate(meter: &mut Meter) -> u32 {
 
 #[entry]
 fn main() -> ! {
+    let painted = paint_stack();
     let Some(peripherals) = cortex_m::Peripherals::take() else {
         fail(format_args!("core peripherals already taken"));
     };
@@ -399,6 +453,13 @@ fn main() -> ! {
         board.frames_sent,
         last_hip.x,
         last_hip.y
+    );
+    let (bottom, top) = stack_region();
+    hprintln!(
+        "stack peak_bytes={} region_bytes={} painted_bytes={}",
+        stack_peak(),
+        top - bottom,
+        painted
     );
     debug::exit(debug::EXIT_SUCCESS);
     #[allow(clippy::empty_loop)]
