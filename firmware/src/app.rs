@@ -101,6 +101,11 @@ impl<'s> App<'s> {
         self.passivity_control
     }
 
+    /// The controller.
+    pub fn controller(&self) -> &Controller<Chain<'s>> {
+        &self.controller
+    }
+
     /// The controller (for commands the link delivers: calibration, forces, faults).
     pub fn controller_mut(&mut self) -> &mut Controller<Chain<'s>> {
         &mut self.controller

@@ -42,6 +42,7 @@ const RESULT_KEYS: &[&str] = &[
     "instructions_first_tick",
     "instructions_per_tick_after_first",
     "instructions_by_mode",
+    "instructions_by_stage",
     "run",
     "stack",
 ];
@@ -93,24 +94,48 @@ pub fn qemu(options: &Options) -> Result<(), String> {
     for level in &options.opt_levels {
         let data = data_dir.to_string_lossy().into_owned();
         let target = target_dir.to_string_lossy().into_owned();
-        run_in(
-            &root.join("firmware"),
-            &cargo,
-            &["build", "--release", "--bin", "qemu"],
-            &[
-                ("CARGO_TARGET_DIR", &target),
-                ("FIRMWARE_QEMU_DATA", &data),
-                ("CARGO_PROFILE_RELEASE_OPT_LEVEL", level),
-            ],
-        )?;
+        let env = [
+            ("CARGO_TARGET_DIR", target.as_str()),
+            ("FIRMWARE_QEMU_DATA", data.as_str()),
+            ("CARGO_PROFILE_RELEASE_OPT_LEVEL", level.as_str()),
+        ];
         let elf = target_dir
             .join(EMBEDDED_TARGET)
             .join("release")
             .join("qemu");
+        let firmware = root.join("firmware");
+        // The stage split first (its build has extra code beside the tick), then the plain
+        // build, whose counts and sizes are the headline and whose ELF stays in place.
+        run_in(
+            &firmware,
+            &cargo,
+            &[
+                "build",
+                "--release",
+                "--bin",
+                "qemu",
+                "--features",
+                "stages",
+            ],
+            &env,
+        )?;
+        let stage_lines = run_qemu(&elf)?;
+        run_in(
+            &firmware,
+            &cargo,
+            &["build", "--release", "--bin", "qemu"],
+            &env,
+        )?;
         let lines = run_qemu(&elf)?;
         println!("\nxtask qemu: opt-level={level}, lto=fat, codegen-units=1");
         for line in &lines {
             println!("  {line}");
+        }
+        println!("  (the stage split, from the build with --features stages, whose own tick is:)");
+        for key in ["instructions_per_tick ", "instructions_by_stage "] {
+            for line in stage_lines.iter().filter(|l| l.starts_with(key)) {
+                println!("  {line}");
+            }
         }
         let sizes = elf_sizes(&elf)?;
         println!(

@@ -23,11 +23,22 @@ use cortex_m_semihosting::{debug, hprintln};
 use device::protocol::SceneStore;
 use device::simulator::{SimParams, SimulatedPantograph};
 use device::spec::DeviceSpec;
+#[cfg(feature = "stages")]
+use device::{
+    controller::TickOutput,
+    kinematics::Pantograph,
+    protocol::{Frame, MAX_FRAME, Message},
+    spec::Calibration,
+};
 use firmware::app::App;
 use firmware::board::Board;
 use firmware::scenario::Scenario;
 use friction::Mode;
+#[cfg(feature = "stages")]
+use friction::{FrictionMaterial, FrictionRenderer};
 use nurbs::Vec2;
+#[cfg(feature = "stages")]
+use tracker::Chain;
 
 /// The scene as the device's wire format (`device::protocol::scene`), written by
 /// `cargo xtask qemu` from the scene JSON with the host crates; validated here as an upload.
@@ -229,6 +240,133 @@ impl Board for QemuBoard {
     }
 }
 
+/// The tick's stages run again, each bracketed alone, on the tick's own inputs: the same
+/// functions `Controller::tick` calls (kinematics, the renderer — tracker and friction —, Jᵀ F
+/// and currents) plus the app's telemetry frame, so their counts are the stages' without any
+/// hook inside the device crate. The renderer is a second one fed the same poses; it stays in
+/// lockstep with the controller's (same code, same inputs), which every tick checks: its
+/// output and the currents must equal the tick's, or the split is not reported.
+///
+/// Only in the `stages` build: its extra code changes what LTO inlines into the tick, which
+/// moves the tick's own count (by about 2 %), so the headline counts come from the build
+/// without it.
+#[cfg(feature = "stages")]
+struct Shadow<'s> {
+    spec: DeviceSpec,
+    arm: Pantograph,
+    calibration: Calibration,
+    object: Chain<'s>,
+    material: FrictionMaterial,
+    period_s: f32,
+    renderer: Option<FrictionRenderer<Chain<'s>>>,
+    previous_hip: Option<Vec2>,
+    /// Kinematics, tracker + friction, Jᵀ F + currents, telemetry frame, the rest of the tick.
+    stats: [Stats; 5],
+    mismatches: u32,
+}
+
+#[cfg(feature = "stages")]
+const STAGE_NAMES: [&str; 5] = [
+    "kinematics",
+    "tracker+friction",
+    "jt_f+currents",
+    "telemetry_frame",
+    "safety+rest",
+];
+
+#[cfg(feature = "stages")]
+impl<'s> Shadow<'s> {
+    /// One tick's stages; `tick` is the tick's own count (bracket subtracted).
+    fn stages(&mut self, meter: &mut Meter, counts: [i32; 2], out: &TickOutput, tick: u32) {
+        let overhead = meter.overhead;
+        let count = |r: Result<u32, Overflow>| r.map_or(u32::MAX, |n| n.saturating_sub(overhead));
+        let (spec, arm, calibration) = (&self.spec, &self.arm, &self.calibration);
+        let (state, kinematics) = meter.instructions(|| {
+            let theta = calibration.joint_angles(spec, counts).ok()?;
+            arm.forward(theta).ok().map(|hip| (theta, hip))
+        });
+        let kinematics = count(kinematics);
+        let mut render = 0;
+        let mut currents = 0;
+        if let Some((theta, hip)) = state {
+            let t = self.period_s;
+            let velocity = self
+                .previous_hip
+                .map_or(Vec2::ZERO, |prev| (hip - prev) * (1.0 / t));
+            self.previous_hip = Some(hip);
+            let (object, material, renderer) = (&self.object, self.material, &mut self.renderer);
+            let (output, n) = meter.instructions(|| {
+                renderer
+                    .get_or_insert_with(|| FrictionRenderer::new(object, material, hip, t))
+                    .tick(object, hip, velocity, t)
+            });
+            render = count(n);
+            if Some(output) != out.render {
+                self.mismatches += 1;
+            }
+            let force = out.telemetry.force_n;
+            let (command, n) = meter.instructions(|| {
+                let tau = arm.joint_torques(theta, force).ok()?;
+                spec.motor_command(calibration, tau).ok()
+            });
+            currents = count(n);
+            if command.map(|c| c.current_a) != Some(out.currents_a) {
+                self.mismatches += 1;
+            }
+        }
+        let frame = Frame {
+            seq: 0,
+            message: Message::Telemetry(out.telemetry),
+        };
+        let mut bytes = [0u8; MAX_FRAME];
+        let (_, telemetry) = meter.instructions(|| frame.encode(&mut bytes));
+        let telemetry = count(telemetry);
+        let rest = tick.saturating_sub(kinematics.saturating_add(render).saturating_add(currents));
+        for (stats, n) in self
+            .stats
+            .iter_mut()
+            .zip([kinematics, render, currents, telemetry, rest])
+        {
+            stats.add(n);
+        }
+    }
+}
+
+/// The shadow of the tick's stages on the app's object.
+#[cfg(feature = "stages")]
+fn shadow<'s>(
+    app: &App<'s>,
+    store: &SceneStore,
+    scenario: &Scenario<'_>,
+    period_s: f32,
+) -> Shadow<'s> {
+    let Some(object) = app.controller().object().copied() else {
+        fail(format_args!("scene {}: no object loaded", scenario.name));
+    };
+    let Some(material) = store.material(0) else {
+        fail(format_args!("scene {}: no material", scenario.name));
+    };
+    let mut calibration = Calibration::new();
+    if let Err(e) = calibration.record_home(&DeviceSpec::default(), scenario.end_stop_counts) {
+        fail(format_args!("calibration: {e}"));
+    }
+    match DeviceSpec::default().validate() {
+        Ok(arm) => Shadow {
+            spec: DeviceSpec::default(),
+            arm,
+            calibration,
+            object,
+            material,
+            period_s,
+            renderer: None,
+            previous_hip: None,
+            stats: [Stats::default(); 5],
+            mismatches: 0,
+        },
+        Err(e) => fail(format_args!("device description: {e}")),
+    }
+}
+
 /// Mean and maximum of instruction counts.
 #[derive(Clone, Copy, Default)]
 struct Stats {
@@ -374,6 +512,8 @@ fn main() -> ! {
         app.passivity_control()
     );
 
+    #[cfg(feature = "stages")]
+    let mut shadow = shadow(&app, &store, &scenario, period_s);
     let mut board = QemuBoard {
         arm,
         now_us: 0,
@@ -398,11 +538,15 @@ fn main() -> ! {
             Err(e) => fail(format_args!("tick {i}: simulated arm: {e}")),
         }
         app.controller_mut().heartbeat();
+        #[cfg(feature = "stages")]
+        let counts = board.arm.encoder_counts();
         let out = app.tick(&mut board);
         let n = match board.last {
             Ok(n) => n,
             Err(ref e) => fail(format_args!("tick {i}: instruction count: {e:?}")),
         };
+        #[cfg(feature = "stages")]
+        shadow.stages(&mut board.meter, counts, &out, n);
         all.add(n);
         if i == 0 {
             first = n;
@@ -444,6 +588,24 @@ fn main() -> ! {
                 stats
             );
         }
+    }
+    #[cfg(feature = "stages")]
+    if shadow.mismatches == 0 {
+        for (stage, stats) in STAGE_NAMES.iter().zip(shadow.stats) {
+            hprintln!(
+                "instructions_by_stage scene={} stage={} {}",
+                name,
+                stage,
+                stats
+            );
+        }
+    } else {
+        hprintln!(
+            "instructions_by_stage scene={} not reported: the shadow left lockstep on {} \
+             ticks",
+            name,
+            shadow.mismatches
+        );
     }
     hprintln!(
         "run scene={} ticks={} fault_ticks={} frames_sent={} last_hip_m={},{}",
