@@ -1,11 +1,15 @@
 //! `cargo xtask ci`: installs what the checks need when it is missing, then runs every check
-//! CI runs, in order, stopping at the first failure.
+//! CI runs, in order, stopping at the first failure. `cargo xtask qemu`: the firmware under
+//! QEMU, its instructions per tick and its size (see `qemu.rs`).
+
+mod qemu;
 
 use std::env;
+use std::path::Path;
 use std::process::{Command, ExitCode};
 
 /// The embedded target the no_std crates and the firmware are built for.
-const EMBEDDED_TARGET: &str = "thumbv7em-none-eabihf";
+pub(crate) const EMBEDDED_TARGET: &str = "thumbv7em-none-eabihf";
 
 /// no_std crates cross-built for the board (their default `std` feature off).
 const NO_STD_CRATES: &[&str] = &["nurbs", "tracker", "friction", "device"];
@@ -23,12 +27,26 @@ fn main() -> ExitCode {
                 ExitCode::FAILURE
             }
         },
+        Some("qemu") => match qemu::Options::parse(&args[1..]).and_then(|o| qemu::qemu(&o)) {
+            Ok(()) => {
+                println!("xtask qemu: done");
+                ExitCode::SUCCESS
+            }
+            Err(e) => {
+                eprintln!("xtask qemu: FAILED: {e}");
+                ExitCode::FAILURE
+            }
+        },
         _ => {
             eprintln!(
-                "usage: cargo xtask ci\n\n\
+                "usage: cargo xtask ci | qemu [--opt-level 3|s|3,s]\n\n\
                  ci    install what is missing (rustup target {EMBEDDED_TARGET}, clippy, rustfmt),\n\
                  \x20     then: cargo fmt --check, clippy -D warnings, cargo test --workspace,\n\
-                 \x20     and cross-build every no_std crate for {EMBEDDED_TARGET}"
+                 \x20     and cross-build every no_std crate for {EMBEDDED_TARGET}\n\
+                 qemu  install qemu-system-arm when missing, build firmware/ (release, LTO) at\n\
+                 \x20     each opt-level (default 3), run the thesis-2d scenario on QEMU's\n\
+                 \x20     netduinoplus2 with -icount shift=5, print instructions per tick\n\
+                 \x20     and the ELF's text/data/bss"
             );
             ExitCode::from(2)
         }
@@ -90,7 +108,7 @@ fn ci() -> Result<(), String> {
 }
 
 /// Adds the embedded target and the clippy/rustfmt components when rustup lacks them.
-fn ensure_toolchain() -> Result<(), String> {
+pub(crate) fn ensure_toolchain() -> Result<(), String> {
     let targets = output("rustup", &["target", "list", "--installed"])
         .map_err(|e| format!("cannot ask rustup for installed targets ({e}); install rustup"))?;
     if !targets.lines().any(|l| l.trim() == EMBEDDED_TARGET) {
@@ -109,7 +127,7 @@ fn ensure_toolchain() -> Result<(), String> {
     Ok(())
 }
 
-fn output(cmd: &str, args: &[&str]) -> Result<String, String> {
+pub(crate) fn output(cmd: &str, args: &[&str]) -> Result<String, String> {
     let out = Command::new(cmd)
         .args(args)
         .output()
@@ -125,9 +143,25 @@ fn run(cmd: &str, args: &[&str]) -> Result<(), String> {
 }
 
 fn run_with_env(cmd: &str, args: &[&str], vars: &[(&str, &str)]) -> Result<(), String> {
+    run_in(Path::new("."), cmd, args, vars)
+}
+
+/// Runs `cmd` in `dir` with the extra environment `vars`, echoing it first.
+pub(crate) fn run_in(
+    dir: &Path,
+    cmd: &str,
+    args: &[&str],
+    vars: &[(&str, &str)],
+) -> Result<(), String> {
     let shown: Vec<String> = vars.iter().map(|(k, v)| format!("{k}={v} ")).collect();
-    println!("\n==> {}{cmd} {}", shown.concat(), args.join(" "));
+    let place = if dir == Path::new(".") {
+        String::new()
+    } else {
+        format!("(in {}) ", dir.display())
+    };
+    println!("\n==> {place}{}{cmd} {}", shown.concat(), args.join(" "));
     let status = Command::new(cmd)
+        .current_dir(dir)
         .args(args)
         .envs(vars.iter().copied())
         .status()

@@ -487,13 +487,9 @@ pub fn run_device(
     let spec = DeviceSpec::default();
     let period_s = (1.0 / rate_hz) as f32;
     let (mut controller, passivity_control) = device_controller(chain, material, rate_hz)?;
-    // The counts the encoders read with both joints resting on their end stops.
-    let per_rad = spec.counts_per_joint_rad();
-    let stops = [0, 1].map(|i| {
-        let counts = (spec.encoder_direction[i].sign() * spec.end_stop_rad[i] * per_rad[i]).floor();
-        spec.encoder_offset_counts[i].wrapping_add(counts as i32)
-    });
-    controller.calibrate(stops).map_err(SimError::Controller)?;
+    controller
+        .calibrate(end_stop_counts(&spec))
+        .map_err(SimError::Controller)?;
     controller.set_forces_enabled(true);
 
     let start = trajectory.at(trajectory.start_s());
@@ -525,6 +521,16 @@ pub fn run_device(
             ticks,
         },
         passivity_control,
+    })
+}
+
+/// The raw counts the encoders of `spec` read with both joints resting on their end stops:
+/// what [`run_device`] calibrates on (and the firmware's QEMU run, through `cargo xtask qemu`).
+pub fn end_stop_counts(spec: &DeviceSpec) -> [i32; 2] {
+    let per_rad = spec.counts_per_joint_rad();
+    [0, 1].map(|i| {
+        let counts = (spec.encoder_direction[i].sign() * spec.end_stop_rad[i] * per_rad[i]).floor();
+        spec.encoder_offset_counts[i].wrapping_add(counts as i32)
     })
 }
 

@@ -1,0 +1,134 @@
+//! The board-independent app: builds the controller on a validated scene exactly as the
+//! host's `viewer sim --device` does (`viewer::sim::run_device`), and runs one tick against a
+//! [`Board`]. The board binary and the QEMU binary share it, so the emulated run exercises the
+//! code the board runs.
+
+use device::controller::{Controller, ControllerError, TickOutput};
+use device::protocol::{Frame, MAX_FRAME, Message, SceneStore};
+use device::safety::SafetyConfig;
+use device::spec::DeviceSpec;
+use tracker::{Chain, ChainError, MAX_CHAIN_CURVES};
+
+use crate::board::Board;
+
+/// Why the app could not start.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum AppError {
+    /// The scene has no such object.
+    NoObject(usize),
+    /// The object is made of surfaces; the planar pantograph renders chains of curves.
+    NotPlanar(usize),
+    /// The object's curves do not form a chain (the store validated it, so unexpected).
+    Chain(ChainError),
+    /// The controller refused its setup (device, limits, material or calibration).
+    Controller(ControllerError),
+}
+
+impl core::fmt::Display for AppError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        match self {
+            AppError::NoObject(o) => write!(f, "the scene has no object {o}"),
+            AppError::NotPlanar(o) => {
+                write!(
+                    f,
+                    "object {o} is a surface; the pantograph renders planar curves"
+                )
+            }
+            AppError::Chain(e) => write!(f, "chain: {e}"),
+            AppError::Controller(e) => write!(f, "controller: {e}"),
+        }
+    }
+}
+
+/// The app: the controller of the default pantograph with one object of a validated scene.
+#[derive(Debug)]
+pub struct App<'s> {
+    controller: Controller<Chain<'s>>,
+    passivity_control: bool,
+    seq: u16,
+}
+
+impl<'s> App<'s> {
+    /// The default [`DeviceSpec`] at `period_s` with object `object` of `store` loaded, the
+    /// safety layer's ramp-in over `ramp_time_s` and its other limits the defaults. As the
+    /// host's simulator does, a material stiffer than the device renders passively is loaded
+    /// with the passivity controller on ([`App::passivity_control`]).
+    pub fn new(
+        store: &'s SceneStore,
+        object: usize,
+        period_s: f32,
+        ramp_time_s: f32,
+    ) -> Result<Self, AppError> {
+        let n = store
+            .patch_count(object)
+            .ok_or(AppError::NoObject(object))?;
+        let material = store.material(object).ok_or(AppError::NoObject(object))?;
+        let first = store.curve(object, 0).ok_or(AppError::NotPlanar(object))?;
+        let mut curves = [first; MAX_CHAIN_CURVES];
+        for (p, c) in curves.iter_mut().enumerate().take(n).skip(1) {
+            *c = store.curve(object, p).ok_or(AppError::NotPlanar(object))?;
+        }
+        let given = curves
+            .get(..n)
+            .ok_or(AppError::Chain(ChainError::TooManyCurves { count: n }))?;
+        let chain = Chain::new(given).map_err(AppError::Chain)?;
+        let safety = SafetyConfig {
+            period_s,
+            ramp_time_s,
+            ..SafetyConfig::default()
+        };
+        let mut controller =
+            Controller::new(DeviceSpec::default(), safety).map_err(AppError::Controller)?;
+        let passivity_control = match controller.load_scene(chain, material, false) {
+            Ok(()) => false,
+            Err(ControllerError::Passivity(_)) => {
+                controller
+                    .load_scene(chain, material, true)
+                    .map_err(AppError::Controller)?;
+                true
+            }
+            Err(e) => return Err(AppError::Controller(e)),
+        };
+        Ok(App {
+            controller,
+            passivity_control,
+            seq: 0,
+        })
+    }
+
+    /// Whether the scene runs with the passivity controller on.
+    pub fn passivity_control(&self) -> bool {
+        self.passivity_control
+    }
+
+    /// The controller.
+    pub fn controller(&self) -> &Controller<Chain<'s>> {
+        &self.controller
+    }
+
+    /// The controller (for commands the link delivers: calibration, forces, faults).
+    pub fn controller_mut(&mut self) -> &mut Controller<Chain<'s>> {
+        &mut self.controller
+    }
+
+    /// One haptic tick: encoders and clock from the board, [`Controller::tick`] (bracketed by
+    /// [`Board::around_tick`]), currents and driver enable to the board, the telemetry frame
+    /// to the link.
+    pub fn tick<B: Board>(&mut self, board: &mut B) -> TickOutput {
+        let counts = board.encoder_counts();
+        let now_us = board.now_us();
+        let controller = &mut self.controller;
+        let out = board.around_tick(|| controller.tick(counts, now_us));
+        board.set_driver_enabled(self.controller.forces_enabled());
+        board.set_motor_currents(out.currents_a);
+        let frame = Frame {
+            seq: self.seq,
+            message: Message::Telemetry(out.telemetry),
+        };
+        self.seq = self.seq.wrapping_add(1);
+        let mut bytes = [0u8; MAX_FRAME];
+        let n = frame.encode(&mut bytes);
+        board.link_send(bytes.get(..n).unwrap_or(&bytes));
+        out
+    }
+}

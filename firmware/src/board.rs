@@ -1,0 +1,34 @@
+//! What the app needs from a board. The pantograph's board implements it with timers in
+//! encoder mode, PWM, a driver-enable pin and USB; the QEMU binary with the simulated
+//! pantograph ([`device::simulator`]) and an emulated clock. Both run the same [`App`].
+//!
+//! [`App`]: crate::app::App
+
+/// The board's side of the haptic loop. Every method is called from the tick and must be
+/// bounded and non-blocking: no waiting on a peripheral, no allocation, no panic.
+pub trait Board {
+    /// Raw counts of the two joint encoders (wrapping, as the hardware counters give them).
+    fn encoder_counts(&mut self) -> [i32; 2];
+
+    /// Commands the two motor currents (A), already within the device's limits.
+    fn set_motor_currents(&mut self, currents_a: [f32; 2]);
+
+    /// Drives the motor drivers' enable line: low (`false`) unless forces are on.
+    fn set_driver_enabled(&mut self, enabled: bool);
+
+    /// The monotonic clock, integer microseconds (see `device::controller`, "Time").
+    fn now_us(&mut self) -> u64;
+
+    /// Queues link bytes (one protocol frame) for the host; drops them when the queue is full
+    /// (the tick never waits for the link).
+    fn link_send(&mut self, frame: &[u8]);
+
+    /// Takes received link bytes into `buf`, returns how many (0 when none are waiting).
+    fn link_receive(&mut self, buf: &mut [u8]) -> usize;
+
+    /// Runs `tick` (one `Controller::tick`, nothing else). A board that measures the tick's
+    /// cost brackets it here; the default just runs it.
+    fn around_tick<R>(&mut self, tick: impl FnOnce() -> R) -> R {
+        tick()
+    }
+}

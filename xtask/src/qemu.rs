@@ -1,0 +1,523 @@
+//! `cargo xtask qemu`: the firmware's QEMU binary on the thesis-2d scenario, its instruction
+//! counts per tick and the ELF's flash and RAM.
+//!
+//! 1. converts `scenes/thesis-2d.json` into the device's wire scene (`device::protocol`) and
+//!    the trajectory plus the run's setup into the firmware's scenario table
+//!    (`firmware/src/scenario.rs`), with the same host code `viewer sim --device` runs;
+//! 2. builds `firmware/` (release, LTO) at each requested opt-level;
+//! 3. runs it on QEMU's `netduinoplus2` with `-icount shift=5` and a timeout, checks its exit
+//!    status and prints its result lines;
+//! 4. prints text / data / bss of the ELF, read from its section headers.
+
+use std::fs;
+use std::io::Read;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Stdio};
+use std::thread;
+use std::time::{Duration, Instant};
+
+use device::protocol::{WireObject, WirePatch, encode_scene};
+use device::spec::DeviceSpec;
+use viewer::scene::Scene;
+use viewer::sim::{DEVICE_RAMP_TIME_S, end_stop_counts, validate_device};
+use viewer::trajectory::Trajectory;
+
+use crate::{EMBEDDED_TARGET, ensure_toolchain, output, run_in};
+
+/// The scenario: its name, scene and trajectory under `scenes/`, object 0 at 1 kHz (the
+/// defaults of `viewer sim --device`).
+const SCENE_NAME: &str = "thesis-2d";
+const RATE_HZ: f64 = 1000.0;
+const OBJECT: usize = 0;
+
+/// Generous for the whole scenario (about half a minute on a loaded 2-core machine); a run
+/// that takes longer is stuck (e.g. waiting on an unemulated peripheral).
+const QEMU_TIMEOUT: Duration = Duration::from_secs(600);
+
+/// Lines of the firmware's output that are results (printed, and some required).
+const RESULT_KEYS: &[&str] = &[
+    "bracket_check",
+    "scene",
+    "instructions_per_tick",
+    "instructions_first_tick",
+    "instructions_per_tick_after_first",
+    "instructions_by_mode",
+    "instructions_by_stage",
+    "run",
+    "stack",
+];
+
+/// Options of `cargo xtask qemu`.
+#[derive(Debug)]
+pub struct Options {
+    /// Release opt-levels to build and run (`3`, `s`, …).
+    pub opt_levels: Vec<String>,
+}
+
+impl Options {
+    /// Parses the arguments after `qemu`.
+    pub fn parse(args: &[String]) -> Result<Self, String> {
+        let mut opt_levels = vec!["3".to_owned()];
+        let mut it = args.iter();
+        while let Some(a) = it.next() {
+            match a.as_str() {
+                "--opt-level" => {
+                    let v = it
+                        .next()
+                        .ok_or("--opt-level needs a value: 3, s, z, 2 or a list like 3,s")?;
+                    opt_levels = v.split(',').map(str::to_owned).collect();
+                    if let Some(bad) = opt_levels
+                        .iter()
+                        .find(|l| !["0", "1", "2", "3", "s", "z"].contains(&l.as_str()))
+                    {
+                        return Err(format!(
+                            "--opt-level {bad}: not an opt-level (0, 1, 2, 3, s or z)"
+                        ));
+                    }
+                }
+                other => return Err(format!("qemu: unknown argument {other}")),
+            }
+        }
+        Ok(Options { opt_levels })
+    }
+}
+
+/// Runs `cargo xtask qemu`.
+pub fn qemu(options: &Options) -> Result<(), String> {
+    ensure_toolchain()?;
+    ensure_qemu()?;
+    let root = workspace_root()?;
+    let target_dir = firmware_target_dir(&root);
+    let data_dir = target_dir.join("qemu-data");
+    write_inputs(&root, &data_dir)?;
+    let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
+    for level in &options.opt_levels {
+        let data = data_dir.to_string_lossy().into_owned();
+        let target = target_dir.to_string_lossy().into_owned();
+        let env = [
+            ("CARGO_TARGET_DIR", target.as_str()),
+            ("FIRMWARE_QEMU_DATA", data.as_str()),
+            ("CARGO_PROFILE_RELEASE_OPT_LEVEL", level.as_str()),
+        ];
+        let elf = target_dir
+            .join(EMBEDDED_TARGET)
+            .join("release")
+            .join("qemu");
+        let firmware = root.join("firmware");
+        // The stage split first (its build has extra code beside the tick), then the plain
+        // build, whose counts and sizes are the headline and whose ELF stays in place.
+        run_in(
+            &firmware,
+            &cargo,
+            &[
+                "build",
+                "--release",
+                "--bin",
+                "qemu",
+                "--features",
+                "stages",
+            ],
+            &env,
+        )?;
+        let stage_lines = run_qemu(&elf)?;
+        run_in(
+            &firmware,
+            &cargo,
+            &["build", "--release", "--bin", "qemu"],
+            &env,
+        )?;
+        let lines = run_qemu(&elf)?;
+        println!("\nxtask qemu: opt-level={level}, lto=fat, codegen-units=1");
+        for line in &lines {
+            println!("  {line}");
+        }
+        println!("  (the stage split, from the build with --features stages, whose own tick is:)");
+        for key in ["instructions_per_tick ", "instructions_by_stage "] {
+            for line in stage_lines.iter().filter(|l| l.starts_with(key)) {
+                println!("  {line}");
+            }
+        }
+        let sizes = elf_sizes(&elf)?;
+        println!(
+            "  size elf=qemu opt-level={level} text={} data={} bss={} flash={} ram_static={}",
+            sizes.text,
+            sizes.data,
+            sizes.bss,
+            sizes.text + sizes.data,
+            sizes.data + sizes.bss
+        );
+    }
+    Ok(())
+}
+
+/// Installs `qemu-system-arm` with apt-get when it is missing.
+fn ensure_qemu() -> Result<(), String> {
+    if output("qemu-system-arm", &["--version"]).is_ok() {
+        return Ok(());
+    }
+    println!(
+        "xtask: qemu-system-arm is missing; installing it: apt-get install -y qemu-system-arm"
+    );
+    let install = || {
+        run_in(
+            Path::new("."),
+            "apt-get",
+            &["install", "-y", "qemu-system-arm"],
+            &[],
+        )
+    };
+    if install().is_err() {
+        println!("xtask: apt-get install failed; updating the package lists and trying again");
+        run_in(Path::new("."), "apt-get", &["update"], &[])
+            .and_then(|()| install())
+            .map_err(|e| {
+                format!(
+                    "could not install qemu-system-arm ({e}); install it by hand \
+                     (Debian/Ubuntu: apt-get install qemu-system-arm)"
+                )
+            })?;
+    }
+    output("qemu-system-arm", &["--version"])
+        .map(|_| ())
+        .map_err(|e| format!("qemu-system-arm was installed but does not run: {e}"))
+}
+
+fn workspace_root() -> Result<PathBuf, String> {
+    // xtask's manifest is <root>/xtask/Cargo.toml.
+    let manifest = PathBuf::from(env!("CARGO_MANIFEST_DIR"));
+    manifest
+        .parent()
+        .map(Path::to_path_buf)
+        .ok_or_else(|| format!("xtask's folder {} has no parent", manifest.display()))
+}
+
+/// The firmware's own target folder: `$CARGO_TARGET_DIR/fw` when that is set, else
+/// `firmware/target`.
+fn firmware_target_dir(root: &Path) -> PathBuf {
+    match std::env::var_os("CARGO_TARGET_DIR") {
+        Some(dir) if !dir.is_empty() => {
+            let dir = PathBuf::from(dir);
+            let dir = if dir.is_absolute() {
+                dir
+            } else {
+                root.join(dir)
+            };
+            dir.join("fw")
+        }
+        _ => root.join("firmware").join("target"),
+    }
+}
+
+/// Writes `scene.bin` (the wire scene of the scenario's object) and `scenario.bin` (the
+/// firmware's scenario table) into `dir`.
+fn write_inputs(root: &Path, dir: &Path) -> Result<(), String> {
+    let scene_path = root.join("scenes").join(format!("{SCENE_NAME}.json"));
+    let trajectory_path = root.join("scenes").join(format!("{SCENE_NAME}.csv"));
+    let scene = Scene::load(&scene_path).map_err(|e| format!("{}: {e}", scene_path.display()))?;
+    let trajectory = Trajectory::load(&trajectory_path)
+        .map_err(|e| format!("{}: {e}", trajectory_path.display()))?;
+    // The host run's own checks (object, space, rate, tick count, the controller's setup).
+    let ticks = validate_device(&scene, OBJECT, &trajectory, RATE_HZ)
+        .map_err(|e| format!("{}: {e}", scene_path.display()))?;
+
+    let object = &scene.objects()[OBJECT];
+    let curves = object.curve_views().ok_or_else(|| {
+        format!(
+            "{}: object {OBJECT} is not made of planar curves",
+            scene_path.display()
+        )
+    })?;
+    let patches: Vec<WirePatch<'_>> = curves.iter().copied().map(WirePatch::Curve).collect();
+    let wire = encode_scene(&[WireObject {
+        material: object.material().friction_material(),
+        patches: &patches,
+    }])
+    .map_err(|e| format!("{}: as a wire scene: {e}", scene_path.display()))?;
+
+    let table = scenario_table(&trajectory, ticks)?;
+    fs::create_dir_all(dir).map_err(|e| format!("cannot create {}: {e}", dir.display()))?;
+    for (name, bytes) in [("scene.bin", &wire), ("scenario.bin", &table)] {
+        let path = dir.join(name);
+        fs::write(&path, bytes).map_err(|e| format!("cannot write {}: {e}", path.display()))?;
+    }
+    println!(
+        "xtask qemu: {SCENE_NAME}: wire scene {} bytes, scenario table {} bytes ({ticks} ticks) \
+         in {}",
+        wire.len(),
+        table.len(),
+        dir.display()
+    );
+    Ok(())
+}
+
+/// The firmware's scenario table (layout in `firmware/src/scenario.rs`): the setup and the
+/// per-tick hand targets `viewer::sim::run_device` uses, as the f32 values its loop takes.
+fn scenario_table(trajectory: &Trajectory, ticks: usize) -> Result<Vec<u8>, String> {
+    let xy = |p: [f64; 3]| [p[0] as f32, p[1] as f32];
+    let mut out = Vec::with_capacity(64 + 8 * ticks);
+    out.extend_from_slice(b"HSCN");
+    out.push(1);
+    out.push(SCENE_NAME.len() as u8);
+    out.extend_from_slice(SCENE_NAME.as_bytes());
+    out.extend_from_slice(&RATE_HZ.to_le_bytes());
+    out.extend_from_slice(&DEVICE_RAMP_TIME_S.to_le_bytes());
+    for c in end_stop_counts(&DeviceSpec::default()) {
+        out.extend_from_slice(&c.to_le_bytes());
+    }
+    for v in xy(trajectory.at(trajectory.start_s())) {
+        out.extend_from_slice(&v.to_le_bytes());
+    }
+    let n = u32::try_from(ticks).map_err(|_| format!("{ticks} ticks do not fit the table"))?;
+    out.extend_from_slice(&n.to_le_bytes());
+    for i in 0..ticks {
+        for v in xy(trajectory.at(trajectory.tick_time_s(i, RATE_HZ))) {
+            out.extend_from_slice(&v.to_le_bytes());
+        }
+    }
+    Ok(out)
+}
+
+/// Boots `elf` on QEMU, waits at most [`QEMU_TIMEOUT`], and returns its result lines; an
+/// error names what went wrong (exit status, timeout, missing lines) with the output.
+fn run_qemu(elf: &Path) -> Result<Vec<String>, String> {
+    let args = [
+        "-machine",
+        "netduinoplus2",
+        "-nographic",
+        "-monitor",
+        "none",
+        "-semihosting-config",
+        "enable=on,target=native",
+        "-icount",
+        "shift=5",
+        "-kernel",
+    ];
+    println!(
+        "\n==> qemu-system-arm {} {} (timeout {} s)",
+        args.join(" "),
+        elf.display(),
+        QEMU_TIMEOUT.as_secs()
+    );
+    let started = Instant::now();
+    let mut child = Command::new("qemu-system-arm")
+        .args(args)
+        .arg(elf)
+        .stdin(Stdio::null())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .map_err(|e| format!("cannot start qemu-system-arm: {e}"))?;
+    let collect = |pipe: Option<Box<dyn Read + Send>>| {
+        thread::spawn(move || {
+            let mut text = String::new();
+            if let Some(mut p) = pipe {
+                let _ = p.read_to_string(&mut text);
+            }
+            text
+        })
+    };
+    let stdout = collect(
+        child
+            .stdout
+            .take()
+            .map(|p| Box::new(p) as Box<dyn Read + Send>),
+    );
+    let stderr = collect(
+        child
+            .stderr
+            .take()
+            .map(|p| Box::new(p) as Box<dyn Read + Send>),
+    );
+    let status = loop {
+        match child.try_wait() {
+            Ok(Some(status)) => break Some(status),
+            Ok(None) if started.elapsed() > QEMU_TIMEOUT => {
+                let _ = child.kill();
+                let _ = child.wait();
+                break None;
+            }
+            Ok(None) => thread::sleep(Duration::from_millis(50)),
+            Err(e) => return Err(format!("waiting for qemu-system-arm: {e}")),
+        }
+    };
+    let out = stdout.join().unwrap_or_default();
+    let err = stderr.join().unwrap_or_default();
+    let shown = || format!("\n--- qemu stdout ---\n{out}--- qemu stderr ---\n{err}");
+    let Some(status) = status else {
+        return Err(format!(
+            "qemu-system-arm did not finish within {} s{}",
+            QEMU_TIMEOUT.as_secs(),
+            shown()
+        ));
+    };
+    if !status.success() {
+        return Err(format!(
+            "the firmware under QEMU exited with {status} (semihosting exit failure or a QEMU \
+             error){}",
+            shown()
+        ));
+    }
+    let lines: Vec<String> = out
+        .lines()
+        .filter(|l| {
+            RESULT_KEYS
+                .iter()
+                .any(|k| l.strip_prefix(k).is_some_and(|r| r.starts_with(' ')))
+        })
+        .map(str::to_owned)
+        .collect();
+    for required in ["instructions_per_tick", "instructions_first_tick"] {
+        let prefix = format!("{required} scene={SCENE_NAME} ");
+        if !lines.iter().any(|l| l.starts_with(&prefix)) {
+            return Err(format!(
+                "the firmware's output has no `{prefix}…` line{}",
+                shown()
+            ));
+        }
+    }
+    println!(
+        "qemu: finished in {:.1} s (host time)",
+        started.elapsed().as_secs_f64()
+    );
+    Ok(lines)
+}
+
+/// Berkeley-style sizes of an ELF: `text` the allocated read-only sections (code, vector
+/// table, constants), `data` the allocated writable sections with an image in flash, `bss`
+/// the allocated writable sections without one.
+#[derive(Debug, Default, PartialEq)]
+struct Sizes {
+    text: u64,
+    data: u64,
+    bss: u64,
+}
+
+const SHF_WRITE: u32 = 0x1;
+const SHF_ALLOC: u32 = 0x2;
+const SHT_NOBITS: u32 = 8;
+
+fn elf_sizes(path: &Path) -> Result<Sizes, String> {
+    let bytes = fs::read(path).map_err(|e| format!("cannot read {}: {e}", path.display()))?;
+    parse_elf_sizes(&bytes).map_err(|e| format!("{}: {e}", path.display()))
+}
+
+/// Reads the section headers of a 32-bit little-endian ELF (what thumbv7em links to).
+fn parse_elf_sizes(bytes: &[u8]) -> Result<Sizes, String> {
+    let u16_at = |at: usize| -> Result<u16, String> {
+        bytes
+            .get(at..at + 2)
+            .map(|b| u16::from_le_bytes([b[0], b[1]]))
+            .ok_or_else(|| format!("truncated ELF at byte {at}"))
+    };
+    let u32_at = |at: usize| -> Result<u32, String> {
+        bytes
+            .get(at..at + 4)
+            .map(|b| u32::from_le_bytes([b[0], b[1], b[2], b[3]]))
+            .ok_or_else(|| format!("truncated ELF at byte {at}"))
+    };
+    if bytes.get(..4) != Some(b"\x7fELF".as_slice()) {
+        return Err("not an ELF file".into());
+    }
+    if bytes.get(4) != Some(&1) || bytes.get(5) != Some(&1) {
+        return Err("not a 32-bit little-endian ELF".into());
+    }
+    let shoff = u32_at(0x20)? as usize;
+    let shentsize = usize::from(u16_at(0x2E)?);
+    let shnum = usize::from(u16_at(0x30)?);
+    if shentsize < 40 {
+        return Err(format!("section header size {shentsize} < 40"));
+    }
+    let table_end = shnum
+        .checked_mul(shentsize)
+        .and_then(|n| n.checked_add(shoff));
+    if table_end.is_none_or(|end| end > bytes.len()) {
+        return Err(format!(
+            "{shnum} section headers of {shentsize} bytes at byte {shoff} run past the file's \
+             end ({} bytes)",
+            bytes.len()
+        ));
+    }
+    let mut sizes = Sizes::default();
+    for i in 0..shnum {
+        let h = shoff + i * shentsize;
+        let (kind, flags, size) = (u32_at(h + 4)?, u32_at(h + 8)?, u64::from(u32_at(h + 20)?));
+        if flags & SHF_ALLOC == 0 {
+            continue;
+        }
+        if flags & SHF_WRITE == 0 {
+            sizes.text += size;
+        } else if kind == SHT_NOBITS {
+            sizes.bss += size;
+        } else {
+            sizes.data += size;
+        }
+    }
+    Ok(sizes)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// One section header (40 bytes) of an ELF32.
+    fn header(kind: u32, flags: u32, size: u32) -> Vec<u8> {
+        let mut h = vec![0u8; 40];
+        h[4..8].copy_from_slice(&kind.to_le_bytes());
+        h[8..12].copy_from_slice(&flags.to_le_bytes());
+        h[20..24].copy_from_slice(&size.to_le_bytes());
+        h
+    }
+
+    /// A hand-built ELF32 with a null section, code, constants, initialised data, zeroed data
+    /// and a non-allocated debug section: the sums are those of `size`'s Berkeley format.
+    #[test]
+    fn sizes_sum_sections_by_their_flags() {
+        const PROGBITS: u32 = 1;
+        const EXEC: u32 = 0x4;
+        let sections = [
+            header(0, 0, 0),
+            header(PROGBITS, SHF_ALLOC | EXEC, 1000),
+            header(PROGBITS, SHF_ALLOC, 200),
+            header(PROGBITS, SHF_ALLOC | SHF_WRITE, 30),
+            header(SHT_NOBITS, SHF_ALLOC | SHF_WRITE, 4000),
+            header(PROGBITS, 0, 123_456),
+        ];
+        let mut elf = vec![0u8; 52];
+        elf[..4].copy_from_slice(b"\x7fELF");
+        elf[4] = 1;
+        elf[5] = 1;
+        elf[0x20..0x24].copy_from_slice(&52u32.to_le_bytes());
+        elf[0x2E..0x30].copy_from_slice(&40u16.to_le_bytes());
+        elf[0x30..0x32].copy_from_slice(&(sections.len() as u16).to_le_bytes());
+        for s in &sections {
+            elf.extend_from_slice(s);
+        }
+        assert_eq!(
+            parse_elf_sizes(&elf),
+            Ok(Sizes {
+                text: 1200,
+                data: 30,
+                bss: 4000
+            })
+        );
+        // Cut inside the last header: an error, not a panic.
+        assert!(parse_elf_sizes(&elf[..elf.len() - 1]).is_err());
+        assert!(parse_elf_sizes(b"MZ").is_err());
+    }
+
+    #[test]
+    fn options() {
+        let args = |a: &[&str]| a.iter().map(|s| s.to_string()).collect::<Vec<_>>();
+        assert_eq!(
+            Options::parse(&[]).map(|o| o.opt_levels),
+            Ok(vec!["3".into()])
+        );
+        assert_eq!(
+            Options::parse(&args(&["--opt-level", "3,s"])).map(|o| o.opt_levels),
+            Ok(vec!["3".into(), "s".into()])
+        );
+        assert!(Options::parse(&args(&["--opt-level", "fast"])).is_err());
+        assert!(Options::parse(&args(&["--opt-level"])).is_err());
+        assert!(Options::parse(&args(&["--serve"])).is_err());
+    }
+}
