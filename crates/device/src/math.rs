@@ -1,0 +1,95 @@
+//! The few elementary functions the tick needs, in plain `f32` arithmetic: no `libm` call,
+//! no double precision, no table.
+//!
+//! On the Cortex-M4F `libm`'s `sincosf` runs in software double precision (about 2,000
+//! instructions a call) and its `sqrtf` is a software routine; these take a few dozen
+//! single-precision instructions, branch-free on the common path.
+//!
+//! # Error bounds (checked in `tests/math.rs` against `f64`)
+//!
+//! - [`sin_cos`]: absolute error at most [`SIN_COS_MAX_ERROR`] `= 4 ε32` (ε32 = 2⁻²³) for
+//!   `|x| ≤` [`SIN_COS_MAX_ANGLE_RAD`]. Range reduction `r = x − k π/2` is Cody–Waite with
+//!   π/2 split in three: the first two parts have 8 and 11 significant bits, so `k C1` and
+//!   `k C2` are exact for `|k| < 2¹³` (which `|x| ≤ 8192` guarantees), and the third part's
+//!   product and the two subtractions each round once (≤ 3 u, u = 2⁻²⁴, of `|r| ≤ π/4`). The
+//!   polynomials are Cephes' `sinf`/`cosf` minimax fits on `[−π/4, π/4]` (approximation error
+//!   below 1 u) evaluated by Horner in at most 5 roundings of a result at most 1 (≤ 5 u
+//!   before the largest terms cancel nothing: every term after the leading one is below a
+//!   sixth of it). Sum: ≤ 8 u = 4 ε32 = 4.8e-7.
+//!   For the pantograph this is far below the physical resolution: one encoder count is
+//!   `1 / counts_per_joint_rad` = 1.5e-4 rad on the default device, 320 times the error.
+//! - [`sqrt`]: relative error at most [`SQRT_MAX_REL_ERROR`] `= 4 ε32` for every
+//!   non-negative finite `x`. The exponent-halving bit trick (Lomont's constant `0x5f375a86`:
+//!   relative error of `1/√x` at most 3.5e-2) and three Newton steps `y ← y (3 − x y²)/2`
+//!   (error e → 3e²/2: 1.8e-3, 4.8e-6, 3.5e-11) leave the roundings of the last step and of
+//!   the final product: `x y²` and `1.5 − ½x y²` (3 u, halved by the step's factor ½ on the
+//!   correction), the product with `y` (1 u) and `x y` (1 u), at most 6 u = 3 ε32.
+
+use core::f32::consts::FRAC_2_PI;
+
+/// Largest `|x|` (rad) for which [`sin_cos`] keeps its error bound (`|k| < 2¹³` in the range
+/// reduction). Every pose of the pantograph is within a revolution of zero.
+pub const SIN_COS_MAX_ANGLE_RAD: f32 = 8192.0;
+
+/// Bound on the absolute error of [`sin_cos`] for `|x| ≤` [`SIN_COS_MAX_ANGLE_RAD`]:
+/// `4 ε32` (see the module docs).
+pub const SIN_COS_MAX_ERROR: f32 = 4.0 * f32::EPSILON;
+
+/// Bound on the relative error of [`sqrt`]: `4 ε32` (see the module docs).
+pub const SQRT_MAX_REL_ERROR: f32 = 4.0 * f32::EPSILON;
+
+/// π/2 = C1 + C2 + C3: C1 = 201 · 2⁻⁷ and C2 = 2029 · 2⁻²² (8 and 11 significant bits),
+/// C3 the rest rounded to f32 (the remainder, 1.8e-15, is below 2⁻⁴⁸).
+const PIO2_C1: f32 = 1.570_312_5;
+const PIO2_C2: f32 = 4.837_512_969_970_703e-4;
+const PIO2_C3: f32 = 7.549_790_126_404_332e-8;
+
+/// `(sin x, cos x)` for `|x| ≤` [`SIN_COS_MAX_ANGLE_RAD`], within [`SIN_COS_MAX_ERROR`];
+/// `None` for larger or non-finite `x`. No `libm` call.
+pub fn sin_cos(x: f32) -> Option<(f32, f32)> {
+    // `!(a <= b)` is also true for NaN.
+    if !(x.abs() <= SIN_COS_MAX_ANGLE_RAD) {
+        return None;
+    }
+    let t = x * FRAC_2_PI;
+    // Round to nearest (half away from zero); the cast cannot saturate within the range.
+    let k = (t + if t < 0.0 { -0.5 } else { 0.5 }) as i32;
+    let kf = k as f32;
+    let r = ((x - kf * PIO2_C1) - kf * PIO2_C2) - kf * PIO2_C3;
+    let z = r * r;
+    // Cephes sinf.c / cosf.c minimax polynomials on [−π/4, π/4].
+    let s = ((-1.951_529_6e-4 * z + 8.332_161e-3) * z - 1.666_665_5e-1) * z * r + r;
+    let c = ((2.443_315_7e-5 * z - 1.388_731_6e-3) * z + 4.166_664_6e-2) * z * z - 0.5 * z + 1.0;
+    // sin(r + k π/2), cos(r + k π/2) by quadrant.
+    Some(match k & 3 {
+        0 => (s, c),
+        1 => (c, -s),
+        2 => (-s, -c),
+        _ => (-c, s),
+    })
+}
+
+/// `√x` within [`SQRT_MAX_REL_ERROR`] for finite `x ≥ 0` (subnormals included); `+∞` for
+/// `+∞`, NaN for negative or NaN `x`. No `libm` call.
+pub fn sqrt(x: f32) -> f32 {
+    if x >= f32::MIN_POSITIVE && x < f32::INFINITY {
+        sqrt_normal(x)
+    } else if x == 0.0 || x == f32::INFINITY {
+        x
+    } else if x > 0.0 {
+        // Subnormal: √(x 2⁴⁸) 2⁻²⁴, both powers of two exact.
+        sqrt_normal(x * 281_474_976_710_656.0) * (1.0 / 16_777_216.0)
+    } else {
+        f32::NAN
+    }
+}
+
+fn sqrt_normal(x: f32) -> f32 {
+    // Lomont's constant: 1/√x to 3.4e-2 from halving the biased exponent.
+    let mut y = f32::from_bits(0x5f37_5a86 - (x.to_bits() >> 1));
+    let half_x = 0.5 * x;
+    for _ in 0..3 {
+        y *= 1.5 - half_x * y * y;
+    }
+    x * y
+}
