@@ -40,15 +40,14 @@ pub const SQRT_MAX_REL_ERROR: f32 = 4.0 * f32::EPSILON;
 
 /// π/2 = C1 + C2 + C3: C1 = 201 · 2⁻⁷ and C2 = 2029 · 2⁻²² (8 and 11 significant bits),
 /// C3 the rest rounded to f32 (the remainder, 1.8e-15, is below 2⁻⁴⁸).
-const PIO2_C1: f32 = 1.570_312_5;
-const PIO2_C2: f32 = 4.837_512_969_970_703e-4;
-const PIO2_C3: f32 = 7.549_790_126_404_332e-8;
+const PIO2_C1: f32 = 201.0 / 128.0;
+const PIO2_C2: f32 = 2029.0 / 4_194_304.0;
+const PIO2_C3: f32 = 7.549_79e-8;
 
 /// `(sin x, cos x)` for `|x| ≤` [`SIN_COS_MAX_ANGLE_RAD`], within [`SIN_COS_MAX_ERROR`];
 /// `None` for larger or non-finite `x`. No `libm` call.
 pub fn sin_cos(x: f32) -> Option<(f32, f32)> {
-    // `!(a <= b)` is also true for NaN.
-    if !(x.abs() <= SIN_COS_MAX_ANGLE_RAD) {
+    if x.is_nan() || x.abs() > SIN_COS_MAX_ANGLE_RAD {
         return None;
     }
     let t = x * FRAC_2_PI;
@@ -72,7 +71,7 @@ pub fn sin_cos(x: f32) -> Option<(f32, f32)> {
 /// `√x` within [`SQRT_MAX_REL_ERROR`] for finite `x ≥ 0` (subnormals included); `+∞` for
 /// `+∞`, NaN for negative or NaN `x`. No `libm` call.
 pub fn sqrt(x: f32) -> f32 {
-    if x >= f32::MIN_POSITIVE && x < f32::INFINITY {
+    if (f32::MIN_POSITIVE..f32::INFINITY).contains(&x) {
         sqrt_normal(x)
     } else if x == 0.0 || x == f32::INFINITY {
         x
