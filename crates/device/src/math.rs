@@ -3,7 +3,9 @@
 //!
 //! On the Cortex-M4F `libm`'s `sincosf` runs in software double precision (about 2,000
 //! instructions a call) and its `sqrtf` is a software routine; these take a few dozen
-//! single-precision instructions, branch-free on the common path.
+//! single-precision instructions, branch-free on the common path. [`min`] and [`max`] are a
+//! compare and a select where `f32::min`/`f32::max` compile to calls of `fminf`/`fmaxf`
+//! (ARMv7-M has no `VMINNM`), with `f32::min`'s answer whenever the first operand is not NaN.
 //!
 //! # Error bounds (checked in `tests/math.rs` against `f64`)
 //!
@@ -91,4 +93,20 @@ fn sqrt_normal(x: f32) -> f32 {
         y *= 1.5 - half_x * y * y;
     }
     x * y
+}
+
+/// The smaller of `a` and `b`: one comparison, no `fminf` call. Equal to `a.min(b)` when `a`
+/// is not NaN (a NaN `b` gives `a`, as `f32::min` does), so pass first the operand that
+/// cannot be NaN (a limit, a constant); a NaN `a` gives NaN.
+#[inline]
+pub fn min(a: f32, b: f32) -> f32 {
+    if b < a { b } else { a }
+}
+
+/// The larger of `a` and `b`: one comparison, no `fmaxf` call. Equal to `a.max(b)` when `a`
+/// is not NaN (a NaN `b` gives `a`, as `f32::max` does), so pass first the operand that
+/// cannot be NaN (a limit, a constant); a NaN `a` gives NaN.
+#[inline]
+pub fn max(a: f32, b: f32) -> f32 {
+    if b > a { b } else { a }
 }

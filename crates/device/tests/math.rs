@@ -140,3 +140,31 @@ proptest! {
         }
     }
 }
+
+/// `min`/`max` give `f32::min`/`f32::max`'s answer whenever the first operand is not NaN,
+/// signed zeros and infinities included (the sign of a zero result may differ only when
+/// both are zeros, which no caller distinguishes: compared as values).
+#[test]
+fn min_max_agree_with_core_when_the_first_operand_is_a_number() {
+    let values = [
+        f32::NEG_INFINITY,
+        -f32::MAX,
+        -1.5,
+        -f32::MIN_POSITIVE,
+        -0.0,
+        0.0,
+        f32::from_bits(1),
+        0.25,
+        3.0,
+        f32::MAX,
+        f32::INFINITY,
+        f32::NAN,
+    ];
+    for a in values.into_iter().filter(|a| !a.is_nan()) {
+        for b in values {
+            assert_eq!(math::min(a, b), a.min(b), "min({a}, {b})");
+            assert_eq!(math::max(a, b), a.max(b), "max({a}, {b})");
+        }
+    }
+    assert!(math::min(f32::NAN, 1.0).is_nan() && math::max(f32::NAN, 1.0).is_nan());
+}
