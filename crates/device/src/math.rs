@@ -9,23 +9,30 @@
 //!
 //! # Error bounds (checked in `tests/math.rs` against `f64`)
 //!
-//! - [`sin_cos`]: absolute error at most [`SIN_COS_MAX_ERROR`] `= 4 ε32` (ε32 = 2⁻²³) for
-//!   `|x| ≤` [`SIN_COS_MAX_ANGLE_RAD`]. Range reduction `r = x − k π/2` is Cody–Waite with
-//!   π/2 split in three: the first two parts have 8 and 11 significant bits, so `k C1` and
-//!   `k C2` are exact for `|k| < 2¹³` (which `|x| ≤ 8192` guarantees), and the third part's
-//!   product and the two subtractions each round once (≤ 3 u, u = 2⁻²⁴, of `|r| ≤ π/4`). The
-//!   polynomials are Cephes' `sinf`/`cosf` minimax fits on `[−π/4, π/4]` (approximation error
-//!   below 1 u) evaluated by Horner in at most 5 roundings of a result at most 1 (≤ 5 u
-//!   before the largest terms cancel nothing: every term after the leading one is below a
-//!   sixth of it). Sum: ≤ 8 u = 4 ε32 = 4.8e-7.
-//!   For the pantograph this is far below the physical resolution: one encoder count is
-//!   `1 / counts_per_joint_rad` = 1.5e-4 rad on the default device, 320 times the error.
-//! - [`sqrt`]: relative error at most [`SQRT_MAX_REL_ERROR`] `= 4 ε32` for every
+//! - [`sin_cos`]: absolute error at most [`SIN_COS_MAX_ERROR`] `= 4 ε32 = 8 u` (ε32 = 2⁻²³,
+//!   u = 2⁻²⁴, half an ulp of 1) for `|x| ≤` [`SIN_COS_MAX_ANGLE_RAD`]. The budget:
+//!   - reduction `r = x − k π/2`, Cody–Waite with π/2 = C1 + C2 + C3: C1 and C2 have 8 and 11
+//!     significant bits, so `k C1` and `k C2` are exact for `|k| < 2¹³` (which `|x| ≤ 8192`
+//!     guarantees), and `x − k C1` is exact (below 3.3, on the grid of the coarser of
+//!     `ulp(x)` and 2⁻⁷, so it fits 24 bits);
+//!     the subtractions of `k C2` and `k C3` round once each (u/2 each, `|r| < 1`), `k C3`
+//!     (below 4e-4) and the part of π/2 beyond C3 (1.8e-15 k) add less than 1e-11: ≤ u;
+//!   - Cephes' `sinf`/`cosf` minimax polynomials on `[−π/4, π/4]`: approximation error
+//!     below u/2;
+//!   - Horner evaluation: the correction terms are below 0.09 (sin) and 0.32 (cos) of the
+//!     result, so their roundings cost under u/4; the last additions round once (sin) or
+//!     twice (cos) at magnitude ≤ 1: ≤ 1.25 u;
+//!   - total ≤ 2.75 u, which the bound covers three times over (measured: 1.3 u).
+//!
+//!   Since `sin`/`cos` have slope at most 1 this is also an angle error, far below the
+//!   physical resolution: one encoder count is `1 / counts_per_joint_rad` = 1.5e-4 rad on the
+//!   default device, 320 times the bound.
+//! - [`sqrt`]: relative error at most [`SQRT_MAX_REL_ERROR`] `= 4 ε32 = 8 u` for every
 //!   non-negative finite `x`. The exponent-halving bit trick (Lomont's constant `0x5f375a86`:
 //!   relative error of `1/√x` at most 3.5e-2) and three Newton steps `y ← y (3 − x y²)/2`
-//!   (error e → 3e²/2: 1.8e-3, 4.8e-6, 3.5e-11) leave the roundings of the last step and of
-//!   the final product: `x y²` and `1.5 − ½x y²` (3 u, halved by the step's factor ½ on the
-//!   correction), the product with `y` (1 u) and `x y` (1 u), at most 6 u = 3 ε32.
+//!   (error e → 3e²/2: 1.8e-3, 4.8e-6, 3.5e-11) leave the roundings of the last step (`y²`,
+//!   `x y²`, `1.5 − ½ x y²`, the product with `y`: ≤ 4 u) and of `x y` (u): ≤ 5 u
+//!   (measured: 3.1 u).
 
 use core::f32::consts::FRAC_2_PI;
 
