@@ -346,18 +346,22 @@ impl<O: Object<P = Vec2>> Controller<O> {
         // layer, which then latches it and cuts the force, and the last good pose is kept
         // so that the next sample is checked against it.
         let theta = self.calibration.joint_angles(&self.spec, counts).ok();
-        let state = theta.and_then(|theta| self.arm.forward(theta).ok().map(|hip| (theta, hip)));
-        let (hip, velocity, joint_step) = match (state, self.previous) {
-            (Some((theta, hip)), Some((prev_theta, prev_hip))) => (
-                hip,
-                (hip - prev_hip) * (1.0 / t),
-                [theta[0] - prev_theta[0], theta[1] - prev_theta[1]],
+        // Solved once: the pose, the velocity and Jᵀ F below all use this configuration.
+        let state = theta.and_then(|theta| self.arm.configuration(theta).ok());
+        let (hip, velocity, joint_step) = match (&state, self.previous) {
+            (Some(config), Some((prev_theta, prev_hip))) => (
+                config.hip_in_device,
+                (config.hip_in_device - prev_hip) * (1.0 / t),
+                [
+                    config.joints_rad[0] - prev_theta[0],
+                    config.joints_rad[1] - prev_theta[1],
+                ],
             ),
-            (Some((_, hip)), None) => (hip, Vec2::ZERO, [0.0; 2]),
+            (Some(config), None) => (config.hip_in_device, Vec2::ZERO, [0.0; 2]),
             (None, _) => (Vec2::ZERO, Vec2::ZERO, [0.0; 2]),
         };
-        if let Some(pose) = state {
-            self.previous = Some(pose);
+        if let Some(config) = &state {
+            self.previous = Some((config.joints_rad, config.hip_in_device));
         }
         telemetry.hip_m = hip;
 
@@ -400,8 +404,8 @@ impl<O: Object<P = Vec2>> Controller<O> {
         });
         telemetry.faults = safe.faults.bits();
         telemetry.force_n = safe.force_n;
-        let command = state.and_then(|(theta, _)| {
-            let tau = self.arm.joint_torques(theta, safe.force_n).ok()?;
+        let command = state.as_ref().and_then(|config| {
+            let tau = self.arm.joint_torques_at(config, safe.force_n).ok()?;
             let command = self.spec.motor_command(&self.calibration, tau).ok()?;
             Some((command.current_a, tau.map(|t| t * command.scale)))
         });
@@ -410,7 +414,7 @@ impl<O: Object<P = Vec2>> Controller<O> {
         TickOutput {
             currents_a,
             telemetry,
-            joint_angles_rad: state.map(|(theta, _)| theta),
+            joint_angles_rad: state.map(|config| config.joints_rad),
             joint_torques_nm,
             render,
         }

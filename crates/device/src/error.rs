@@ -16,6 +16,18 @@ pub enum KinematicsError {
         /// Its value.
         value: f32,
     },
+    /// Forward kinematics: a joint angle is finite but farther from zero than
+    /// [`crate::math::SIN_COS_MAX_ANGLE_RAD`] (thousands of revolutions: no pose of the
+    /// mechanism, an encoder or calibration fault), where the tick's `sin`/`cos` lose their
+    /// error bound.
+    AngleOutOfRange {
+        /// Which quantity (e.g. `"joint angle θ1"`).
+        quantity: &'static str,
+        /// Its value (rad).
+        value_rad: f32,
+        /// The largest magnitude accepted (rad).
+        max_rad: f32,
+    },
     /// Forward kinematics: both elbows are at the same point, so the distal links can turn
     /// freely about it.
     ElbowsCoincide {
@@ -99,6 +111,14 @@ impl fmt::Display for KinematicsError {
             KinematicsError::NonFinite { quantity, value } => {
                 write!(f, "{quantity} = {value} is not finite")
             }
+            KinematicsError::AngleOutOfRange {
+                quantity,
+                value_rad,
+                max_rad,
+            } => write!(
+                f,
+                "{quantity} = {value_rad} rad is beyond ±{max_rad} rad: no pose of the mechanism"
+            ),
             KinematicsError::ElbowsCoincide { elbow_distance_m } => write!(
                 f,
                 "elbows coincide ({elbow_distance_m} m apart): the distal links can turn freely"

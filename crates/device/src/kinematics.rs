@@ -55,12 +55,16 @@
 //!
 //! # Cost per tick
 //!
-//! [`Pantograph::configuration`] needs `cos`/`sin` of each joint angle and one square root;
-//! the Jacobian needs one division; `τ = Jᵀ F` is four products. Inverse kinematics
-//! (`atan2`, `acos`) is for setup and tests, not the tick.
+//! [`Pantograph::configuration`] needs `cos`/`sin` of each joint angle and one square root,
+//! both from [`crate::math`] (single-precision polynomials and Newton steps, no `libm`
+//! call; joint angles beyond [`crate::math::SIN_COS_MAX_ANGLE_RAD`] are refused as no pose);
+//! the Jacobian needs one division; `τ = Jᵀ F` is four products. The tick solves the
+//! configuration once and reuses it for `Jᵀ F` ([`Pantograph::joint_torques_at`]). Inverse
+//! kinematics (`atan2`, `acos`) is for setup and tests, not the tick.
 
 pub use crate::error::{KinematicsError, Singularity};
 use crate::error::{SpecError, positive};
+use crate::math;
 use core::f32::consts::{PI, TAU};
 use nurbs::Vec2;
 
@@ -146,7 +150,8 @@ impl Jacobian {
 
 fn condition_from_isotropy(q: f32) -> f32 {
     if q > 0.0 {
-        (1.0 + libm::sqrtf((1.0 - q * q).max(0.0))) / q
+        let s2 = 1.0 - q * q;
+        (1.0 + math::sqrt(if s2 > 0.0 { s2 } else { 0.0 })) / q
     } else {
         f32::INFINITY
     }
@@ -158,6 +163,15 @@ fn perp(v: Vec2) -> Vec2 {
 
 fn cross(a: Vec2, b: Vec2) -> f32 {
     a.x * b.y - a.y * b.x
+}
+
+/// `(sin θ, cos θ)` of a finite joint angle, without `libm` ([`math::sin_cos`]).
+fn joint_sin_cos(quantity: &'static str, theta_rad: f32) -> Result<(f32, f32), KinematicsError> {
+    math::sin_cos(theta_rad).ok_or(KinematicsError::AngleOutOfRange {
+        quantity,
+        value_rad: theta_rad,
+        max_rad: math::SIN_COS_MAX_ANGLE_RAD,
+    })
 }
 
 fn check_finite(quantity: &'static str, value: f32) -> Result<(), KinematicsError> {
@@ -251,8 +265,8 @@ impl Pantograph {
         check_finite("joint angle θ2", joints_rad[1])?;
         let [l1, l2] = self.proximal_m;
         let [b1, b2] = self.distal_m;
-        let (s1, c1) = libm::sincosf(joints_rad[0]);
-        let (s2, c2) = libm::sincosf(joints_rad[1]);
+        let (s1, c1) = joint_sin_cos("joint angle θ1", joints_rad[0])?;
+        let (s2, c2) = joint_sin_cos("joint angle θ2", joints_rad[1])?;
         let p1 = self.motor_axis_in_device(0) + l1 * Vec2::new(c1, s1);
         let p2 = self.motor_axis_in_device(1) + l2 * Vec2::new(c2, s2);
         let u = p2 - p1;
@@ -260,7 +274,7 @@ impl Pantograph {
         let tiny = COINCIDENT_REL * (b1 + b2);
         if d2 <= tiny * tiny {
             return Err(KinematicsError::ElbowsCoincide {
-                elbow_distance_m: libm::sqrtf(d2),
+                elbow_distance_m: math::sqrt(d2),
             });
         }
         // Circle–circle intersection, in units of the elbow distance D:
@@ -269,12 +283,12 @@ impl Pantograph {
         let h_rel2 = b1 * b1 / d2 - a_rel * a_rel;
         if h_rel2.is_nan() || h_rel2 < 0.0 {
             return Err(KinematicsError::DistalLinksApart {
-                elbow_distance_m: libm::sqrtf(d2),
+                elbow_distance_m: math::sqrt(d2),
                 min_m: (b1 - b2).abs(),
                 max_m: b1 + b2,
             });
         }
-        let hip = p1 + a_rel * u + libm::sqrtf(h_rel2) * perp(u);
+        let hip = p1 + a_rel * u + math::sqrt(h_rel2) * perp(u);
         Ok(Configuration {
             joints_rad,
             elbows_in_device: [p1, p2],
@@ -353,7 +367,19 @@ impl Pantograph {
     ) -> Result<[f32; 2], KinematicsError> {
         check_finite("force x", force_n.x)?;
         check_finite("force y", force_n.y)?;
-        let tau = self.jacobian(joints_rad)?.torques(force_n);
+        self.joint_torques_at(&self.configuration(joints_rad)?, force_n)
+    }
+
+    /// Joint torques `τ = Jᵀ F` (N·m) for the force `F` (N) at the HIP of a configuration
+    /// already solved (the tick's own forward kinematics, not solved again).
+    pub fn joint_torques_at(
+        &self,
+        config: &Configuration,
+        force_n: Vec2,
+    ) -> Result<[f32; 2], KinematicsError> {
+        check_finite("force x", force_n.x)?;
+        check_finite("force y", force_n.y)?;
+        let tau = self.jacobian_at(config)?.torques(force_n);
         check_finite("torque τ1", tau[0])?;
         check_finite("torque τ2", tau[1])?;
         Ok(tau)
@@ -380,7 +406,7 @@ impl Pantograph {
             if rho2.is_nan() || rho2 > max_m * max_m {
                 return Err(KinematicsError::TooFar {
                     joint,
-                    distance_m: libm::sqrtf(rho2),
+                    distance_m: math::sqrt(rho2),
                     max_m,
                 });
             }
@@ -388,11 +414,11 @@ impl Pantograph {
             if rho2 < min_m * min_m || rho2 <= tiny * tiny {
                 return Err(KinematicsError::TooClose {
                     joint,
-                    distance_m: libm::sqrtf(rho2),
+                    distance_m: math::sqrt(rho2),
                     min_m,
                 });
             }
-            let rho = libm::sqrtf(rho2);
+            let rho = math::sqrt(rho2);
             // Law of cosines in the triangle Ai Pi E.
             let cos_alpha = ((l * l + rho2 - b * b) / (2.0 * l * rho)).clamp(-1.0, 1.0);
             let alpha = libm::acosf(cos_alpha);
@@ -410,7 +436,7 @@ impl Pantograph {
                 let t = phi - alpha;
                 if t <= -PI { t + TAU } else { t }
             };
-            let (s, c) = libm::sincosf(theta);
+            let (s, c) = joint_sin_cos(["joint angle θ1", "joint angle θ2"][joint], theta)?;
             joints[joint] = theta;
             elbows[joint] = axis + l * Vec2::new(c, s);
         }

@@ -6,6 +6,7 @@ pub mod error;
 #[cfg(feature = "std")]
 pub mod host;
 pub mod kinematics;
+pub mod math;
 pub mod protocol;
 pub mod safety;
 pub mod simulator;

@@ -41,6 +41,7 @@
 
 use core::fmt;
 
+use crate::math;
 use nurbs::Vec2;
 
 bitflags::bitflags! {
@@ -693,12 +694,12 @@ impl Safety {
         if input.motor_current_a.iter().all(|i| i.is_finite()) {
             let peak = cfg.thermal.peak_current_a;
             for (theta, current) in self.thermal.iter_mut().zip(input.motor_current_a) {
-                let i = libm::fabsf(current).min(peak);
+                let i = math::min(peak, libm::fabsf(current));
                 let steady = i * i * self.inv_continuous_sq;
-                *theta = (*theta + (steady - *theta) * self.thermal_gain).max(0.0);
+                *theta = math::max(0.0, *theta + (steady - *theta) * self.thermal_gain);
             }
         }
-        let theta = self.thermal[0].max(self.thermal[1]);
+        let theta = math::max(self.thermal[0], self.thermal[1]);
         if theta >= cfg.thermal.trip_threshold {
             trip |= Faults::THERMAL;
         }
@@ -752,7 +753,7 @@ impl Safety {
 
         let mut flags = Flags::empty();
         let ramp = match self.ramp_step {
-            Some(step) => (self.ramp_ticks as f32 * step).min(1.0),
+            Some(step) => math::min(1.0, self.ramp_ticks as f32 * step),
             None => 1.0,
         };
         if ramp < 1.0 {
@@ -779,9 +780,11 @@ impl Safety {
         // the environment to have generated, α = −E / (T |v|²), with a floor on |v|².
         if self.passivity_control && self.energy_j < 0.0 {
             let v = input.hip_velocity_m_per_s;
-            let speed_sq = v.length_squared().max(self.min_speed_sq);
-            let alpha = (-self.energy_j * self.inv_period_s / speed_sq)
-                .min(cfg.passivity.max_damping_n_s_per_m);
+            let speed_sq = math::max(self.min_speed_sq, v.length_squared());
+            let alpha = math::min(
+                cfg.passivity.max_damping_n_s_per_m,
+                -self.energy_j * self.inv_period_s / speed_sq,
+            );
             force -= v * alpha;
             flags |= Flags::DAMPING;
         }
@@ -853,7 +856,7 @@ fn clamp_length(v: Vec2, max: f32) -> Vec2 {
         return Vec2::ZERO;
     }
     // Scale into [−1, 1] first so |v|² cannot overflow.
-    let largest = libm::fabsf(v.x).max(libm::fabsf(v.y));
+    let largest = math::max(libm::fabsf(v.x), libm::fabsf(v.y));
     if largest == 0.0 {
         return Vec2::ZERO;
     }
@@ -865,7 +868,7 @@ fn clamp_length(v: Vec2, max: f32) -> Vec2 {
             if v.y.is_infinite() { v.y.signum() } else { 0.0 },
         )
     };
-    let length = libm::sqrtf(unit.length_squared());
+    let length = math::sqrt(unit.length_squared());
     if length * largest <= max {
         return v;
     }

@@ -313,7 +313,11 @@ impl DeviceSpec {
             let limit = self.current_limit_a[i];
             if current.abs() > limit {
                 saturated[i] = true;
-                scale = scale.min(limit / current.abs());
+                // A comparison, not `f32::min` (a `fminf` call on the M4F): both are finite.
+                let cut = limit / current.abs();
+                if cut < scale {
+                    scale = cut;
+                }
             }
             current_a[i] = current;
         }

@@ -281,6 +281,47 @@ fn unreachable_targets_give_their_error() {
     ));
 }
 
+/// Forward kinematics takes sin/cos from `device::math`, whose error bound holds up to
+/// ±8192 rad (1300 revolutions; a real joint turns less than one): beyond, the angle is
+/// refused by name instead of evaluated with a reduction that lost its accuracy.
+#[test]
+fn forward_kinematics_refuses_angles_beyond_the_reduction_range() {
+    let pantograph = default_pantograph();
+    let max = device::math::SIN_COS_MAX_ANGLE_RAD;
+    for (theta, quantity) in [
+        ([2.0 * max, 0.5], "joint angle θ1"),
+        ([2.5, -1e6], "joint angle θ2"),
+        ([f32::MAX, 0.5], "joint angle θ1"),
+    ] {
+        match pantograph.forward(theta) {
+            Err(KinematicsError::AngleOutOfRange {
+                quantity: q,
+                value_rad,
+                max_rad,
+            }) => {
+                assert_eq!(q, quantity);
+                assert!(value_rad.abs() > max_rad && max_rad == max, "{theta:?}");
+            }
+            other => panic!("{theta:?}: {other:?}"),
+        }
+        let message = pantograph.forward(theta).unwrap_err().to_string();
+        assert!(
+            message.contains(quantity) && message.contains("no pose"),
+            "{message}"
+        );
+    }
+    // Up to the edge of the range the angle is evaluated as accurately as near zero: the
+    // f64 reference of the same f32 angles (a pose 1273 revolutions away), within the 2e-5 m
+    // of the random-pantograph property.
+    let turns = 1273.0 * core::f32::consts::TAU;
+    let far = [2.0 + turns, 1.0 - turns];
+    assert!(far[0].abs() <= max && far[1].abs() <= max);
+    let hip = pantograph.forward(far).unwrap();
+    let r = default_ref(far.map(f64::from));
+    let err = (f64::from(hip.x) - r[0]).hypot(f64::from(hip.y) - r[1]);
+    assert!(err < 2e-5, "{err:e} m ({hip} vs {r:?})");
+}
+
 #[test]
 fn forward_kinematics_without_intersection() {
     let pantograph = default_pantograph();
