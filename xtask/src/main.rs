@@ -42,7 +42,8 @@ fn main() -> ExitCode {
                 "usage: cargo xtask ci | qemu [--opt-level 3|s|3,s]\n\n\
                  ci    install what is missing (rustup target {EMBEDDED_TARGET}, clippy, rustfmt),\n\
                  \x20     then: cargo fmt --check, clippy -D warnings, cargo test --workspace,\n\
-                 \x20     and cross-build every no_std crate for {EMBEDDED_TARGET}\n\
+                 \x20     cross-build every no_std crate for {EMBEDDED_TARGET}, and check\n\
+                 \x20     firmware/ (fmt, clippy of its library for {EMBEDDED_TARGET})\n\
                  qemu  install qemu-system-arm when missing, build firmware/ (release, LTO) at\n\
                  \x20     each opt-level (default 3), run the thesis-2d scenario on QEMU's\n\
                  \x20     netduinoplus2 with -icount shift=5, print instructions per tick\n\
@@ -104,6 +105,7 @@ fn ci() -> Result<(), String> {
             ],
         )?;
     }
+    qemu::check_firmware(&cargo)?;
     Ok(())
 }
 

@@ -151,6 +151,23 @@ pub fn qemu(options: &Options) -> Result<(), String> {
 }
 
 /// Installs `qemu-system-arm` with apt-get when it is missing.
+/// The firmware workspace's checks in `cargo xtask ci`: formatted, and its library (the
+/// board-independent app and `Board` trait) clean under clippy for the board's target. The
+/// QEMU binary needs the host's inputs and QEMU itself, so `cargo xtask qemu` builds and runs
+/// it.
+pub fn check_firmware(cargo: &str) -> Result<(), String> {
+    let root = workspace_root()?;
+    let firmware = root.join("firmware");
+    let target = firmware_target_dir(&root).to_string_lossy().into_owned();
+    run_in(&firmware, cargo, &["fmt", "--all", "--check"], &[])?;
+    run_in(
+        &firmware,
+        cargo,
+        &["clippy", "--lib", "--", "-D", "warnings"],
+        &[("CARGO_TARGET_DIR", target.as_str())],
+    )
+}
+
 fn ensure_qemu() -> Result<(), String> {
     if output("qemu-system-arm", &["--version"]).is_ok() {
         return Ok(());
