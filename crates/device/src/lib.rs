@@ -6,7 +6,8 @@ pub mod error;
 #[cfg(feature = "std")]
 pub mod host;
 pub mod kinematics;
-pub mod math;
+/// The tick's elementary functions, from `nurbs` (the lowest crate on the tick path).
+pub use nurbs::math;
 pub mod protocol;
 pub mod safety;
 pub mod simulator;

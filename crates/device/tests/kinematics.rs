@@ -794,3 +794,18 @@ proptest! {
         prop_assert!(a.iter().all(|v| v.is_finite() && v.abs() <= 2.0 * core::f32::consts::PI * 52_429.0));
     }
 }
+
+/// The error is far below the physical resolution: an angle error δ moves (sin, cos) by δ,
+/// so the bound is an angle error, and it must be under a hundredth of one encoder count.
+#[test]
+fn sin_cos_bound_is_far_below_one_encoder_count() {
+    let bound = device::math::SIN_COS_MAX_ERROR;
+    let spec = DeviceSpec::default();
+    for per_rad in spec.counts_per_joint_rad() {
+        let count_rad = 1.0 / per_rad;
+        assert!(
+            bound <= 0.01 * count_rad,
+            "{bound:e} vs one count {count_rad:e} rad"
+        );
+    }
+}

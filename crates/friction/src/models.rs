@@ -3,6 +3,7 @@
 //! friction force on the HIP (opposing the motion), generic over planar and spatial contact.
 
 use nurbs::Point;
+use nurbs::math::{self, sqrt};
 
 /// What a velocity-based friction law sees each tick.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -109,7 +110,7 @@ impl<P: Point> FrictionLaw<P> for Dahl<P> {
         let next = if next.is_finite() { next } else { P::ZERO };
         // |F| ≤ F_c holds for a constant normal force; when F_N falls the bristles slip to
         // the new limit.
-        self.state = clamp_length(next, fc.max(0.0));
+        self.state = clamp_length(next, math::max(0.0, fc));
         -self.state
     }
     fn reset(&mut self) {
@@ -144,7 +145,7 @@ impl<P: Point> LuGre<P> {
     pub fn g(&self, speed: f32, normal_force_n: f32) -> f32 {
         let fs = self.mu_static * normal_force_n;
         let fc = self.mu_dynamic * normal_force_n;
-        let r = speed / self.stribeck_speed_m_per_s.max(f32::MIN_POSITIVE);
+        let r = speed / math::max(f32::MIN_POSITIVE, self.stribeck_speed_m_per_s);
         fc + (fs - fc) / (1.0 + r * r)
     }
 }
@@ -165,9 +166,9 @@ impl<P: Point> FrictionLaw<P> for LuGre<P> {
         // The steady deflection is g(v)/σ₀ ≤ F_s/σ₀; when F_N falls the bristles slip to it.
         let z_next = clamp_length(
             z_next,
-            g.max(0.0) / self.sigma0_n_per_m.max(f32::MIN_POSITIVE),
+            math::max(0.0, g) / math::max(f32::MIN_POSITIVE, self.sigma0_n_per_m),
         );
-        let zdot = (z_next - self.z) * (1.0 / i.period_s.max(f32::MIN_POSITIVE));
+        let zdot = (z_next - self.z) * (1.0 / math::max(f32::MIN_POSITIVE, i.period_s));
         self.z = z_next;
         -(self.z * self.sigma0_n_per_m
             + zdot * self.sigma1_ns_per_m
@@ -187,9 +188,4 @@ fn clamp_length<P: Point>(v: P, max: f32) -> P {
     } else {
         v
     }
-}
-
-#[inline]
-pub(crate) fn sqrt(x: f32) -> f32 {
-    libm::sqrtf(x)
 }

@@ -61,6 +61,7 @@
 use crate::material::{FrictionMaterial, ModelKind};
 use crate::models::{CoulombViscous, Dahl, FrictionLaw, Karnopp, LuGre, TangentialInput};
 use nurbs::Point;
+use nurbs::math::{self, sqrt};
 use tracker::{Contact, Frame, Object};
 
 /// Friction mode.
@@ -368,7 +369,7 @@ impl<O: Object> FrictionRenderer<O> {
             let along = d.dot(dir);
             // The rounding's arc: radius × the angle, the chord standing in for the angle.
             c.turned += along.clamp(-crease_step, crease_step)
-                / (radius.max(MIN_ROUNDING_M) * sqrt(chord_sq));
+                / (math::max(MIN_ROUNDING_M, radius) * sqrt(chord_sq));
             // Along the crease (an edge of a shell): slide on the patch it belongs to, and find
             // the next patch's point and normal again there.
             let rest = tangential(d - dir * along, n0);
@@ -475,8 +476,10 @@ impl<O: Object> FrictionRenderer<O> {
         }
 
         // The normal force from the object's true penetration (thesis eq. 2.10, with damping).
-        let normal_force =
-            (k * contact.depth - m.damping_ns_per_m * hip_velocity.dot(contact.normal)).max(0.0);
+        let normal_force = math::max(
+            0.0,
+            k * contact.depth - m.damping_ns_per_m * hip_velocity.dot(contact.normal),
+        );
 
         if self.mode == Mode::Free {
             let (p, t) = O::position(&self.cp);
@@ -501,13 +504,16 @@ impl<O: Object> FrictionRenderer<O> {
             // At breakaway the contact slides at the CP's speed; at least twice the stop speed,
             // so that the slip speed's lag keeps the transition going for τ·ln 2 or more before
             // a stop can end it (no stuck ↔ transition chatter of a creeping hand).
-            self.slip_speed = sqrt(cp_velocity.length_squared()).max(2.0 * m.stop_speed_m_per_s);
+            self.slip_speed = math::max(
+                2.0 * m.stop_speed_m_per_s,
+                sqrt(cp_velocity.length_squared()),
+            );
             self.mu = m.mu_static;
             self.switch(Mode::Transition, SwitchCause::Breakaway);
         }
         // Frictional memory: μ and the slip speed follow the GO's motion with the material's
         // time constant (no clock sets them: a GO that does not slide keeps its μ).
-        let rate = (period_s / m.transition_time_s.max(period_s)).min(1.0);
+        let rate = math::min(1.0, period_s / math::max(period_s, m.transition_time_s));
         if matches!(self.mode, Mode::Transition | Mode::Slip) {
             mu = match self.mode {
                 Mode::Transition => {
@@ -539,9 +545,9 @@ impl<O: Object> FrictionRenderer<O> {
                     .prev_hip
                     .map_or(0.0, |p| sqrt((hip - p).length_squared()));
                 let keep_up = 2.0 * (hip_step + m.stop_speed_m_per_s * period_s);
-                slide = excess.min(keep_up + rate * excess);
+                slide = math::min(excess, keep_up + rate * excess);
                 let d = friction * (-slide / f_t);
-                self.slide_go(object, d, contact.depth.max(0.0), keep_up);
+                self.slide_go(object, d, math::max(0.0, contact.depth), keep_up);
                 n = self.go_normal();
                 friction = tangential((self.go_frame.point - hip) * k, n);
             }
@@ -633,9 +639,11 @@ impl<O: Object> FrictionRenderer<O> {
         let m = self.material;
         let (cp_patch, cp_params) = O::position(&self.cp);
         let fr = object.frame(cp_patch, cp_params);
-        let f_n = (m.stiffness_n_per_m * contact.depth
-            - m.damping_ns_per_m * hip_velocity.dot(contact.normal))
-        .max(0.0);
+        let f_n = math::max(
+            0.0,
+            m.stiffness_n_per_m * contact.depth
+                - m.damping_ns_per_m * hip_velocity.dot(contact.normal),
+        );
         // The user's tangential push, for Karnopp: the tangential part of the hand's motion
         // against the surface stiffness is not observable in a position-input device, so
         // the HIP's tangential offset from the CP stands in for it.
@@ -744,9 +752,4 @@ fn tangential<P: Point>(v: P, n: P) -> P {
 fn signed_along<P: Point>(f: P, t: P) -> f32 {
     let mag = sqrt(f.length_squared());
     if f.dot(t) < 0.0 { -mag } else { mag }
-}
-
-#[inline]
-fn sqrt(x: f32) -> f32 {
-    libm::sqrtf(x)
 }

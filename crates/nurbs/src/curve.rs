@@ -218,7 +218,7 @@ impl<'a, P: Point> Curve<'a, P> {
         let curvature = if degenerate {
             0.0
         } else {
-            let len = libm::sqrtf(l1);
+            let len = crate::math::sqrt(l1);
             P::curvature_numerator(d.du, d.duu) / (l1 * len)
         };
         CurveFrame {

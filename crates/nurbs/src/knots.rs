@@ -292,8 +292,8 @@ impl<'a> Knots<'a> {
     #[inline]
     pub fn clamp(&self, u: f32) -> f32 {
         let (a, b) = self.domain();
-        // `max` returns the non-NaN operand, so NaN becomes `a`.
-        u.max(a).min(b)
+        // `math::max(a, u)` is `a` for a NaN `u`.
+        crate::math::min(b, crate::math::max(a, u))
     }
 
     /// Knot span index `i` with `knots[i] <= u < knots[i + 1]` (Piegl & Tiller A2.1), for `u`

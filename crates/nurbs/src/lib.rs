@@ -13,6 +13,7 @@ mod control;
 mod curve;
 mod error;
 mod knots;
+pub mod math;
 #[cfg(feature = "alloc")]
 mod owned;
 mod point;

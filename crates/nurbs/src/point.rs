@@ -79,7 +79,7 @@ pub trait Point:
     fn try_normalize(self) -> Option<Self> {
         let l2 = self.length_squared();
         if l2 > f32::MIN_POSITIVE && l2.is_finite() {
-            let n = self * (1.0 / libm::sqrtf(l2));
+            let n = self * (1.0 / crate::math::sqrt(l2));
             Some(n)
         } else {
             None
@@ -188,20 +188,20 @@ impl Point for Vec3 {
     }
     #[inline]
     fn curvature_numerator(d1: Self, d2: Self) -> f32 {
-        d1.cross(d2).length()
+        crate::math::sqrt(d1.cross(d2).length_squared())
     }
     #[inline]
     fn curve_normal(t: Self, d2: Self) -> Self {
         let perp = d2 - t * d2.dot(t);
         // Relative test: |perp| small against |d2| means a straight piece.
-        if perp.length_squared() > 1e-12 * d2.length_squared().max(f32::MIN_POSITIVE)
+        if perp.length_squared() > 1e-12 * crate::math::max(f32::MIN_POSITIVE, d2.length_squared())
             && perp.length_squared() > f32::MIN_POSITIVE
         {
             // Second Gram–Schmidt pass: on a nearly straight piece the first one cancels most of
             // `d2` and leaves a rounding error of order eps·|d2| along `t`, which would tilt the
             // normal by eps·|d2|/|perp| (up to ~0.1 rad at the threshold above).
             let perp = perp - t * perp.dot(t);
-            perp.normalize()
+            perp * (1.0 / crate::math::sqrt(perp.length_squared()))
         } else {
             t.any_orthonormal_vector()
         }

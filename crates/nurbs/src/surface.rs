@@ -5,6 +5,7 @@ use crate::bbox::Aabb;
 use crate::control::{check_homogeneous, largest_weight};
 use crate::error::{At, NurbsError};
 use crate::knots::{Dir, Knots};
+use crate::point::Point;
 use crate::{MAX_DERIV, MAX_ORDER};
 use glam::{Vec3, Vec4};
 
@@ -232,7 +233,7 @@ impl<'a> Surface<'a> {
         let v_vanishes = lv <= rel * lu;
         if !u_vanishes
             && !v_vanishes
-            && let Some(n) = n.try_normalize()
+            && let Some(n) = Point::try_normalize(n)
         {
             return n;
         }
@@ -241,14 +242,14 @@ impl<'a> Surface<'a> {
             // Into the domain from the nearer end.
             let (v0, v1) = self.kv.domain();
             let h = if v - v0 > v1 - v { -1.0 } else { 1.0 };
-            if let Some(n) = (d2.duv.cross(d2.dv) * h).try_normalize() {
+            if let Some(n) = Point::try_normalize(d2.duv.cross(d2.dv) * h) {
                 return n;
             }
         }
         if v_vanishes && !u_vanishes {
             let (u0, u1) = self.ku.domain();
             let h = if u - u0 > u1 - u { -1.0 } else { 1.0 };
-            if let Some(n) = (d2.du.cross(d2.duv) * h).try_normalize() {
+            if let Some(n) = Point::try_normalize(d2.du.cross(d2.duv) * h) {
                 return n;
             }
         }
@@ -258,7 +259,7 @@ impl<'a> Surface<'a> {
         let un = u + (0.5 * (u0 + u1) - u) * nudge;
         let vn = v + (0.5 * (v0 + v1) - v) * nudge;
         let dn = self.derivs(un, vn, 1);
-        dn.du.cross(dn.dv).try_normalize().unwrap_or(Vec3::Z)
+        Point::try_normalize(dn.du.cross(dn.dv)).unwrap_or(Vec3::Z)
     }
 }
 

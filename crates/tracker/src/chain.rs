@@ -35,7 +35,7 @@ use crate::contact::{Contact, Feature};
 use crate::global::{GlobalConfig, closest_point};
 use crate::patch::Patch;
 use crate::track::{PERIODIC_TOL, Tracker, TrackerConfig};
-use nurbs::{Curve, Vec2};
+use nurbs::{Curve, Point, Vec2};
 
 /// Largest number of curves in a chain (fixed storage, no allocation).
 pub const MAX_CHAIN_CURVES: usize = 32;
@@ -554,10 +554,8 @@ impl ChainTracker {
 fn vertex_contact(v: &Vertex, feature: Feature, curve: usize, u: f32, hip: Vec2) -> Contact<Vec2> {
     let r = hip - v.position;
     let inside = v.kind == VertexKind::Reflex;
-    let dist = r.length();
-    let dir = r
-        .try_normalize()
-        .unwrap_or((v.n_in() + v.n_out()).normalize_or(Vec2::Y));
+    let dist = nurbs::math::sqrt(r.length_squared());
+    let dir = Point::try_normalize(r).unwrap_or((v.n_in() + v.n_out()).normalize_or(Vec2::Y));
     let (normal, depth) = if inside { (-dir, dist) } else { (dir, -dist) };
     Contact {
         feature,

@@ -69,7 +69,7 @@ impl<P: Point> Contact<P> {
         }
         let f = penalty.stiffness_n_per_m * self.depth
             - penalty.damping_ns_per_m * hip_velocity.dot(self.normal);
-        f.max(0.0)
+        nurbs::math::max(0.0, f)
     }
 
     /// The penalty force vector `normal_force · n`.

@@ -286,10 +286,12 @@ fn hull_lower_bound<P: Point>(points: impl Iterator<Item = P>, x: P, bb: &Aabb<P
     if !(v2 > 0.0 && v2.is_finite()) {
         return box_lb;
     }
-    let m = points.map(|p| (p - x).dot(v)).fold(f32::INFINITY, f32::min);
+    let m = points
+        .map(|p| (p - x).dot(v))
+        .fold(f32::INFINITY, nurbs::math::min);
     if m > 0.0 {
         // `max` drops a NaN from an overflowing m².
-        box_lb.max(m * m / v2)
+        nurbs::math::max(box_lb, m * m / v2)
     } else {
         box_lb
     }
@@ -731,7 +733,7 @@ impl<S: BezierSplit<N>, const N: usize> Search<'_, S, N> {
         let d2 = (point - self.x).length_squared();
         if d2 < self.best_d2 || (polished && d2 == self.best_d2) {
             self.best_d2 = d2;
-            self.best_d = libm::sqrtf(d2);
+            self.best_d = nurbs::math::sqrt(d2);
             self.best_t = t;
             self.best_region = self.region;
         }
@@ -786,7 +788,7 @@ impl<S: BezierSplit<N>, const N: usize> Search<'_, S, N> {
                 });
             }
         }
-        let size = all.map_or(0.0, |a| libm::sqrtf((a.max - a.min).length_squared()));
+        let size = all.map_or(0.0, |a| nurbs::math::sqrt((a.max - a.min).length_squared()));
         (nearest.map(|(flat, _)| flat), size)
     }
 
@@ -941,12 +943,13 @@ fn projected_newton<S: Patch<N>, const N: usize>(
         let metric = jet.metric();
         // Near the minimum the distance is flat to within the rounding of the evaluation
         // (coordinates carry errors of a few ε |S|), so a step may raise it by that much.
-        let scale = libm::sqrtf(jet.point.length_squared()) + libm::sqrtf(x.length_squared());
-        let noise = 8.0 * f32::EPSILON * libm::sqrtf(g2) * scale;
+        let scale =
+            nurbs::math::sqrt(jet.point.length_squared()) + nurbs::math::sqrt(x.length_squared());
+        let noise = 8.0 * f32::EPSILON * nurbs::math::sqrt(g2) * scale;
         let mut moved = None;
         for _ in 0..ATTEMPTS {
             let Some(mut delta) = damped_step(&hessian, &metric, &psi, &held, lambda) else {
-                lambda = (4.0 * lambda).max(LAMBDA_MIN);
+                lambda = nurbs::math::max(LAMBDA_MIN, 4.0 * lambda);
                 continue;
             };
             // Also hold the directions on a bound that this step pushes outwards: a clamped
@@ -983,7 +986,7 @@ fn projected_newton<S: Patch<N>, const N: usize>(
                     f32::INFINITY
                 };
                 if room < alpha {
-                    alpha = room.max(0.0);
+                    alpha = nurbs::math::max(0.0, room);
                     limit = Some((i, if delta[i] < 0.0 { a } else { b }));
                 }
             }
@@ -1006,7 +1009,7 @@ fn projected_newton<S: Patch<N>, const N: usize>(
                 };
                 break;
             }
-            lambda = (4.0 * lambda).max(LAMBDA_MIN);
+            lambda = nurbs::math::max(LAMBDA_MIN, 4.0 * lambda);
         }
         let Some((tn, jn)) = moved else {
             break;
@@ -1124,7 +1127,7 @@ pub fn closest_point<S: BezierSplit<N>, const N: usize>(
         best_t: start,
         best_region: first,
         best_d2: d2,
-        best_d: libm::sqrtf(d2),
+        best_d: nurbs::math::sqrt(d2),
         visited: 0,
         polishes: 0,
     };
@@ -1147,9 +1150,9 @@ pub fn closest_point<S: BezierSplit<N>, const N: usize>(
     // alone; within the tolerance plus that noise, the polished point wins.
     let best_region = search.best_region;
     let (t_polished, point) = search.run_polish(&best_region, search.best_t);
-    let scale = libm::sqrtf(x.length_squared()) + libm::sqrtf(point.length_squared());
+    let scale = nurbs::math::sqrt(x.length_squared()) + nurbs::math::sqrt(point.length_squared());
     let slack = cfg.tolerance + 8.0 * f32::EPSILON * scale;
-    let t = if libm::sqrtf((point - x).length_squared()) <= search.best_d + slack {
+    let t = if nurbs::math::sqrt((point - x).length_squared()) <= search.best_d + slack {
         t_polished
     } else {
         search.best_t

@@ -101,7 +101,7 @@ pub(crate) fn regularized_inverse<const N: usize>(g: &[[f32; N]; N]) -> [[f32; N
     if let Some(inv) = inverse_spd(g, 1e-6) {
         return inv;
     }
-    let lambda = 1e-3 * trace(g).max(f32::MIN_POSITIVE);
+    let lambda = 1e-3 * nurbs::math::max(f32::MIN_POSITIVE, trace(g));
     let mut gr = *g;
     for (i, row) in gr.iter_mut().enumerate() {
         row[i] += lambda;
@@ -145,8 +145,8 @@ pub(crate) fn max_eigenvalue_product<const N: usize>(m: &[[f32; N]; N], h: &[[f3
         2 => {
             let tr = mh[0][0] + mh[1][1];
             let det = mh[0][0] * mh[1][1] - mh[0][1] * mh[1][0];
-            let disc = (0.25 * tr * tr - det).max(0.0);
-            0.5 * tr + libm::sqrtf(disc)
+            let disc = nurbs::math::max(0.0, 0.25 * tr * tr - det);
+            0.5 * tr + nurbs::math::sqrt(disc)
         }
         _ => 0.0,
     }

@@ -72,7 +72,7 @@ pub trait Object {
 /// Whether `t` sits on the end `end` of `(a, b)`, within 1e-4 of the domain's size: a point
 /// that slid along a boundary by Gauss–Newton steps drifts off it by f32 rounding of the steps.
 fn at_end(t: f32, (a, b): (f32, f32), end: bool) -> bool {
-    let tol = 1e-4 * (b - a).abs().max(f32::MIN_POSITIVE);
+    let tol = 1e-4 * nurbs::math::max(f32::MIN_POSITIVE, (b - a).abs());
     if end { t >= b - tol } else { t <= a + tol }
 }
 

@@ -52,7 +52,7 @@ use crate::contact::{Contact, Feature};
 use crate::global::{GlobalConfig, closest_point};
 use crate::patch::Patch;
 use crate::track::{Track, Tracker, TrackerConfig};
-use nurbs::{Surface, Vec3};
+use nurbs::{Point, Surface, Vec3};
 
 /// Largest number of patches in a shell (fixed storage, no allocation).
 pub const MAX_SHELL_PATCHES: usize = 16;
@@ -472,12 +472,9 @@ fn side_frame(s: &Surface<'_>, side: usize, t: [f32; 2]) -> (Vec3, Vec3, Vec3, V
         2 => (jet.d[0], jet.d[1], 1.0),
         _ => (jet.d[0], jet.d[1], -1.0),
     };
-    let tangent = along
-        .try_normalize()
-        .unwrap_or_else(|| n.any_orthonormal_vector());
+    let tangent = Point::try_normalize(along).unwrap_or_else(|| n.any_orthonormal_vector());
     // Inward conormal: in the tangent plane, orthogonal to the edge.
-    let m = (n.cross(tangent) * sign)
-        .try_normalize()
+    let m = Point::try_normalize(n.cross(tangent) * sign)
         .map(|m| if m.dot(across * sign) < 0.0 { -m } else { m })
         .unwrap_or(across * sign);
     (jet.point, n, m, tangent)
@@ -768,8 +765,8 @@ impl ShellTracker {
                 let r = hip - point;
                 // Inside a reflex edge the HIP is behind the patch normal.
                 let inside = r.dot(tr.normal) < 0.0;
-                let dist = r.length();
-                let dir = r.try_normalize().unwrap_or(tr.normal);
+                let dist = nurbs::math::sqrt(r.length_squared());
+                let dir = Point::try_normalize(r).unwrap_or(tr.normal);
                 let (normal, depth) = if inside { (-dir, dist) } else { (dir, -dist) };
                 let _ = shell;
                 Contact {

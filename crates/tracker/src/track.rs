@@ -104,7 +104,7 @@ pub(crate) fn max_eigenvalue<const N: usize>(a: &[[f32; N]; N]) -> f32 {
             let (p, q, r) = (a[0][0], a[0][1], a[1][1]);
             let m = 0.5 * (p + r);
             let d = 0.5 * (p - r);
-            m + libm::sqrtf(d * d + q * q)
+            m + nurbs::math::sqrt(d * d + q * q)
         }
         _ => f32::NAN,
     }
@@ -356,5 +356,5 @@ pub(crate) fn gauss_newton_step<const N: usize>(g: &[[f32; N]; N], psi: &[f32; N
 #[inline]
 pub(crate) fn clamp(t: f32, (a, b): (f32, f32)) -> f32 {
     // NaN → a.
-    t.max(a).min(b)
+    nurbs::math::min(b, nurbs::math::max(a, t))
 }

@@ -1,8 +1,7 @@
 //! The tick's elementary functions against `f64` (`std`'s correctly rounded-enough `sin`,
 //! `cos`, `sqrt` of the same f32 input), to the bounds the module derives.
 
-use device::math::{self, SIN_COS_MAX_ANGLE_RAD, SIN_COS_MAX_ERROR, SQRT_MAX_REL_ERROR};
-use device::spec::DeviceSpec;
+use nurbs::math::{self, SIN_COS_MAX_ANGLE_RAD, SIN_COS_MAX_ERROR, SQRT_MAX_REL_ERROR};
 use proptest::prelude::*;
 
 fn sin_cos_error(x: f32) -> f64 {
@@ -57,20 +56,6 @@ fn sin_cos_is_within_its_bound_over_the_joint_range() {
     // The reference is independent: the polynomial is not libm's, so it differs somewhere
     // by at least one rounding of a value near 1 (u = 2⁻²⁴).
     assert!(worst >= f64::from(f32::EPSILON) / 2.0, "{worst:e}");
-}
-
-/// The error is far below the physical resolution: an angle error δ moves (sin, cos) by δ,
-/// so the bound is an angle error, and it must be under a hundredth of one encoder count.
-#[test]
-fn sin_cos_bound_is_far_below_one_encoder_count() {
-    let spec = DeviceSpec::default();
-    for per_rad in spec.counts_per_joint_rad() {
-        let count_rad = 1.0 / per_rad;
-        assert!(
-            SIN_COS_MAX_ERROR <= 0.01 * count_rad,
-            "{SIN_COS_MAX_ERROR:e} vs one count {count_rad:e} rad"
-        );
-    }
 }
 
 #[test]
