@@ -1,5 +1,6 @@
 //! The few elementary functions the tick needs, in plain `f32` arithmetic: no `libm` call,
-//! no double precision, no table.
+//! no double precision, no table. They live in `nurbs`, the lowest crate on the tick path,
+//! so `tracker`, `friction` and `device` (which re-exports this module) share them.
 //!
 //! On the Cortex-M4F `libm`'s `sincosf` runs in software double precision (about 2,000
 //! instructions a call) and its `sqrtf` is a software routine; these take a few dozen
