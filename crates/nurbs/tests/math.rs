@@ -153,3 +153,47 @@ fn min_max_agree_with_core_when_the_first_operand_is_a_number() {
     }
     assert!(math::min(f32::NAN, 1.0).is_nan() && math::max(f32::NAN, 1.0).is_nan());
 }
+
+/// Length of `v` in `f64`, independent of the crate's arithmetic.
+fn length64(v: &[f32]) -> f64 {
+    v.iter()
+        .map(|&c| f64::from(c) * f64::from(c))
+        .sum::<f64>()
+        .sqrt()
+}
+
+/// Normalisation through [`math::sqrt`] keeps its derived bound: `|v|²` is `n` rounded
+/// squares and `n − 1` rounded additions of non-negative terms (at most `(2n − 1) u` relative,
+/// half that after the root), the root errs by at most `SQRT_MAX_REL_ERROR`, the reciprocal
+/// and each component's product round once more (`2 u`); the f64 check is exact to far below
+/// u. So `| |v / |v|| − 1 | ≤ 4 ε + ((2n − 1)/2 + 2) u`.
+fn unit_length_bound(n: usize) -> f64 {
+    let u = f64::from(f32::EPSILON) / 2.0;
+    f64::from(SQRT_MAX_REL_ERROR) + ((2 * n - 1) as f64 / 2.0 + 2.0) * u
+}
+
+proptest! {
+    #[test]
+    fn try_normalize_gives_unit_vectors(
+        x in -1e3f32..1e3, y in -1e3f32..1e3, z in -1e3f32..1e3, e in -40i32..40,
+    ) {
+        use nurbs::{Point, Vec2, Vec3};
+        let s = 2.0f32.powi(e);
+        let v3 = Vec3::new(x, y, z) * s;
+        let v2 = Vec2::new(x, y) * s;
+        if let Some(n) = Point::try_normalize(v3) {
+            let err = (length64(&n.to_array()) - 1.0).abs();
+            prop_assert!(err <= unit_length_bound(3), "{v3:?}: {err:e}");
+            // Same direction: the normalised vector is a positive multiple of v.
+            prop_assert!(n.dot(v3) > 0.0);
+        } else {
+            prop_assert!(v3.length_squared() <= f32::MIN_POSITIVE);
+        }
+        if let Some(n) = Point::try_normalize(v2) {
+            let err = (length64(&n.to_array()) - 1.0).abs();
+            prop_assert!(err <= unit_length_bound(2), "{v2:?}: {err:e}");
+        } else {
+            prop_assert!(v2.length_squared() <= f32::MIN_POSITIVE);
+        }
+    }
+}
