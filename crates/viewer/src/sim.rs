@@ -410,6 +410,19 @@ pub fn validate_device(
     let ticks = validate(scene, object, trajectory, rate_hz)?;
     // The controller's own checks (a stiffness beyond the device, among others) before the
     // run, on the same setup `run_device` uses.
+    let material = scene.objects()[object].material().friction_material();
+    with_chain(scene, object, |chain| {
+        device_controller(chain, material, rate_hz).map(|_| ())
+    })?;
+    Ok(ticks)
+}
+
+/// Object `object`'s curves as a chain, handed to `f` (the chain borrows the curves).
+fn with_chain<R>(
+    scene: &Scene,
+    object: usize,
+    f: impl FnOnce(Chain<'_>) -> Result<R, SimError>,
+) -> Result<R, SimError> {
     let o = &scene.objects()[object];
     let curves = o.curve_views().ok_or_else(|| SimError::Surface {
         index: object,
@@ -419,8 +432,7 @@ pub fn validate_device(
         index: object,
         error,
     })?;
-    device_controller(chain, o.material().friction_material(), rate_hz)?;
-    Ok(ticks)
+    f(chain)
 }
 
 /// The default device at `rate_hz` with `chain` and `material` loaded, the passivity
@@ -475,52 +487,46 @@ pub fn run_device(
     let n = validate_device(scene, object, trajectory, rate_hz)?;
     let o = &scene.objects()[object];
     let material = o.material().friction_material();
-    let curves = o.curve_views().ok_or_else(|| SimError::Surface {
-        index: object,
-        name: o.name().to_owned(),
-    })?;
-    let chain = Chain::new(&curves).map_err(|error| SimError::Chain {
-        index: object,
-        error,
-    })?;
+    with_chain(scene, object, |chain| {
+        let spec = DeviceSpec::default();
+        let period_s = (1.0 / rate_hz) as f32;
+        let (mut controller, passivity_control) = device_controller(chain, material, rate_hz)?;
+        controller
+            .calibrate(end_stop_counts(&spec))
+            .map_err(SimError::Controller)?;
+        controller.set_forces_enabled(true);
 
-    let spec = DeviceSpec::default();
-    let period_s = (1.0 / rate_hz) as f32;
-    let (mut controller, passivity_control) = device_controller(chain, material, rate_hz)?;
-    controller
-        .calibrate(end_stop_counts(&spec))
-        .map_err(SimError::Controller)?;
-    controller.set_forces_enabled(true);
-
-    let start = trajectory.at(trajectory.start_s());
-    let mut arm = SimulatedPantograph::new(spec, hand, vec2(start)).map_err(SimError::Simulator)?;
-    let mut ticks = Vec::with_capacity(n);
-    for i in 0..n {
-        let t_s = trajectory.tick_time_s(i, rate_hz);
-        // The device clock: integer microseconds since the start, as a board's timer.
-        let now_us = (i as f64 * 1e6 / rate_hz).round() as u64;
-        let (hip, hip_velocity) = arm.hip().map_err(|error| SimError::Arm { t_s, error })?;
-        controller.heartbeat();
-        let out = controller.tick(arm.encoder_counts(), now_us);
-        let tick = device_record(t_s, hip, hip_velocity, &out);
-        ticks.push(match controller.object() {
-            Some(object) => in_source_patches(tick, object),
-            None => tick,
-        });
-        arm.step(out.currents_a, vec2(trajectory.at(t_s)), period_s)
-            .map_err(|error| SimError::Arm { t_s, error })?;
-        progress(i + 1, n);
-    }
-    Ok(DeviceRun {
-        run: Run {
-            space: Space::Planar,
-            object,
-            object_name: o.name().to_owned(),
-            material,
-            rate_hz,
-            ticks,
-        },
-        passivity_control,
+        let start = trajectory.at(trajectory.start_s());
+        let mut arm =
+            SimulatedPantograph::new(spec, hand, vec2(start)).map_err(SimError::Simulator)?;
+        let mut ticks = Vec::with_capacity(n);
+        for i in 0..n {
+            let t_s = trajectory.tick_time_s(i, rate_hz);
+            // The device clock: integer microseconds since the start, as a board's timer.
+            let now_us = (i as f64 * 1e6 / rate_hz).round() as u64;
+            let (hip, hip_velocity) = arm.hip().map_err(|error| SimError::Arm { t_s, error })?;
+            controller.heartbeat();
+            let out = controller.tick(arm.encoder_counts(), now_us);
+            let tick = device_record(t_s, hip, hip_velocity, &out);
+            ticks.push(match controller.object() {
+                Some(object) => in_source_patches(tick, object),
+                None => tick,
+            });
+            arm.step(out.currents_a, vec2(trajectory.at(t_s)), period_s)
+                .map_err(|error| SimError::Arm { t_s, error })?;
+            progress(i + 1, n);
+        }
+        Ok(DeviceRun {
+            run: Run {
+                space: Space::Planar,
+                object,
+                object_name: o.name().to_owned(),
+                material,
+                rate_hz,
+                ticks,
+            },
+            passivity_control,
+        })
     })
 }
 
