@@ -841,6 +841,59 @@ fn store_capacity_is_enforced() {
     );
 }
 
+/// A store with smaller capacities (a board's) takes every scene that fits exactly as the
+/// default one does, and refuses, as a capacity error at the patch that overflows, one knot or
+/// one control point more than it holds, leaving itself empty.
+#[test]
+fn a_small_store_holds_what_fits_and_refuses_one_more() {
+    // The ring (a closed rational quadratic circle) alone: its knot and point counts.
+    let ring = ring();
+    let (n_knots, n_points) = (
+        ring.view().knots().as_slice().len(),
+        ring.view().points().len(),
+    );
+    let bytes = encode_scene(&[WireObject {
+        material: material_b(),
+        patches: &[WirePatch::Curve(ring.view())],
+    }])
+    .unwrap();
+    assert_eq!(SceneStore::<9, 7, 1>::KNOT_CAPACITY, 9);
+    assert_eq!(
+        (n_knots, n_points),
+        (12, 9),
+        "the ring's counts changed: update the test"
+    );
+
+    let mut exact = SceneStore::<12, 9, 1>::empty();
+    decode_scene(&bytes, &mut exact).unwrap();
+    let mut default = Box::new(SceneStore::new());
+    decode_scene(&bytes, &mut default).unwrap();
+    assert_eq!(exact.material(0), Some(material_b()));
+    assert_eq!(exact.material(0), default.material(0));
+    assert_eq!(exact.curve(0, 0), default.curve(0, 0));
+    assert_eq!(exact.curve(0, 0).unwrap(), ring.view());
+
+    let mut short_of_knots = SceneStore::<11, 9, 1>::empty();
+    let e = decode_scene(&bytes, &mut short_of_knots).unwrap_err();
+    assert_eq!(
+        (e.code(), e.object, e.patch),
+        (ErrorCode::SceneCapacity, Some(0), Some(0))
+    );
+    assert_eq!(short_of_knots.object_count(), 0);
+    assert_eq!(short_of_knots.material(0), None);
+
+    let mut short_of_points = SceneStore::<12, 8, 1>::empty();
+    let e = decode_scene(&bytes, &mut short_of_points).unwrap_err();
+    assert_eq!(
+        (e.code(), e.object, e.patch),
+        (ErrorCode::SceneCapacity, Some(0), Some(0))
+    );
+    assert_eq!(short_of_points.curve(0, 0), None);
+    // The failed store still takes a scene that fits afterwards.
+    decode_scene(&bytes, &mut exact).unwrap();
+    assert_eq!(exact.object_count(), 1);
+}
+
 proptest! {
     #![proptest_config(ProptestConfig::with_cases(512))]
 

@@ -19,7 +19,7 @@ impl<F: FnMut(&[u8]) -> Result<(), SceneError>> SceneValidator for F {
 /// receiver activates; on failure the store is empty. So validate into a scratch store (or,
 /// after a failed commit, decode [`SceneReceiver::active_scene`] again), not into the store
 /// the tick is running on.
-impl SceneValidator for SceneStore {
+impl<const K: usize, const C: usize, const S: usize> SceneValidator for SceneStore<K, C, S> {
     fn validate(&mut self, scene: &[u8]) -> Result<(), SceneError> {
         self.decode(scene)
     }

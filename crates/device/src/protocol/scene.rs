@@ -5,7 +5,7 @@ use nurbs::{Curve, NurbsError, Surface, Vec2, Vec3, Vec4};
 use tracker::{Chain, ChainError, MAX_CHAIN_CURVES, MAX_SHELL_PATCHES, Shell, ShellError};
 
 use super::ErrorCode;
-use super::wire::{Reader, get_material};
+use super::wire::{MATERIAL_LEN, Reader, get_material};
 
 /// First bytes of a wire scene.
 pub const SCENE_MAGIC: [u8; 4] = *b"NRBS";
@@ -15,11 +15,11 @@ pub const SCENE_VERSION: u8 = 1;
 pub const MAX_OBJECTS: usize = 8;
 /// Most patches in a scene (all objects together).
 pub const MAX_PATCHES: usize = 32;
-/// Most knots in a scene (all knot vectors together).
+/// Most knots in a scene (all knot vectors together) in the default [`SceneStore`].
 pub const MAX_KNOTS: usize = 512;
-/// Most control points of planar curves in a scene.
+/// Most control points of planar curves in a scene in the default [`SceneStore`].
 pub const MAX_CURVE_POINTS: usize = 512;
-/// Most control points of surfaces in a scene.
+/// Most control points of surfaces in a scene in the default [`SceneStore`].
 pub const MAX_SURFACE_POINTS: usize = 512;
 
 /// Patch kind byte: a planar curve.
@@ -41,8 +41,9 @@ pub enum PatchKind {
 pub enum SceneFault {
     /// Not the wire scene format: see [`ErrorCode::SceneFormat`].
     Format,
-    /// Larger than the fixed storage ([`MAX_OBJECTS`], [`MAX_PATCHES`], [`MAX_KNOTS`],
-    /// [`MAX_CURVE_POINTS`], [`MAX_SURFACE_POINTS`], u8/u16 counts on the wire).
+    /// Larger than the fixed storage ([`MAX_OBJECTS`], [`MAX_PATCHES`], and the store's
+    /// knot, curve point and surface point capacities, by default [`MAX_KNOTS`],
+    /// [`MAX_CURVE_POINTS`], [`MAX_SURFACE_POINTS`]; u8/u16 counts on the wire).
     Capacity,
     /// A material out of range or with an unknown tag.
     Material(ErrorCode),
@@ -119,12 +120,40 @@ impl core::fmt::Display for SceneError {
 
 impl core::error::Error for SceneError {}
 
+/// One object. Integers only, so that the empty record (and with it the empty store) is all
+/// zero bits: a `static` store then lives in `.bss`, not in a `.data` image in flash.
 #[derive(Clone, Copy, Debug)]
 struct ObjectRecord {
-    material: FrictionMaterial,
+    /// The material as on the wire (validated when the scene was decoded).
+    material: [u8; MATERIAL_LEN],
     first_patch: usize,
     n_patches: usize,
-    kind: PatchKind,
+    /// [`KIND_CURVE2`] or [`KIND_SURFACE`]; 0 for no object.
+    kind: u8,
+}
+
+impl ObjectRecord {
+    const EMPTY: ObjectRecord = ObjectRecord {
+        material: [0; MATERIAL_LEN],
+        first_patch: 0,
+        n_patches: 0,
+        kind: 0,
+    };
+
+    fn kind(&self) -> Option<PatchKind> {
+        match self.kind {
+            KIND_CURVE2 => Some(PatchKind::Curve2),
+            KIND_SURFACE => Some(PatchKind::Surface),
+            _ => None,
+        }
+    }
+}
+
+fn kind_byte(kind: PatchKind) -> u8 {
+    match kind {
+        PatchKind::Curve2 => KIND_CURVE2,
+        PatchKind::Surface => KIND_SURFACE,
+    }
 }
 
 #[derive(Clone, Copy, Debug, Default)]
@@ -139,32 +168,54 @@ struct PatchRecord {
 /// A decoded, validated scene in fixed-capacity storage (no allocation): knots and
 /// homogeneous control points in flat arrays, views built on demand.
 ///
-/// About 16 KiB; on the device it lives in a `static`, on the host in a `Box`.
+/// The capacities are const parameters: `KNOTS` knots (all knot vectors together),
+/// `CURVE_POINTS` control points of planar curves and `SURFACE_POINTS` of surfaces. The
+/// defaults ([`MAX_KNOTS`], [`MAX_CURVE_POINTS`], [`MAX_SURFACE_POINTS`]) make about 17.5 KiB,
+/// what the host uses (in a `Box`); a board picks smaller ones. The empty store
+/// ([`SceneStore::empty`]) is all zero bits, so a `static` one is zero-initialised (`.bss`).
 #[derive(Clone, Debug)]
-pub struct SceneStore {
-    objects: [Option<ObjectRecord>; MAX_OBJECTS],
+pub struct SceneStore<
+    const KNOTS: usize = MAX_KNOTS,
+    const CURVE_POINTS: usize = MAX_CURVE_POINTS,
+    const SURFACE_POINTS: usize = MAX_SURFACE_POINTS,
+> {
+    objects: [ObjectRecord; MAX_OBJECTS],
     n_objects: usize,
     patches: [PatchRecord; MAX_PATCHES],
     n_patches: usize,
-    knots: [f32; MAX_KNOTS],
+    knots: [f32; KNOTS],
     n_knots: usize,
-    curve_points: [Vec3; MAX_CURVE_POINTS],
+    curve_points: [Vec3; CURVE_POINTS],
     n_curve_points: usize,
-    surface_points: [Vec4; MAX_SURFACE_POINTS],
+    surface_points: [Vec4; SURFACE_POINTS],
     n_surface_points: usize,
 }
 
-impl Default for SceneStore {
+impl<const K: usize, const C: usize, const S: usize> Default for SceneStore<K, C, S> {
     fn default() -> Self {
-        Self::new()
+        Self::empty()
     }
 }
 
 impl SceneStore {
-    /// An empty store (no objects).
+    /// An empty store of the default capacity (no objects).
     pub const fn new() -> Self {
+        Self::empty()
+    }
+}
+
+impl<const K: usize, const C: usize, const S: usize> SceneStore<K, C, S> {
+    /// Knots the store holds (all knot vectors together).
+    pub const KNOT_CAPACITY: usize = K;
+    /// Control points of planar curves the store holds.
+    pub const CURVE_POINT_CAPACITY: usize = C;
+    /// Control points of surfaces the store holds.
+    pub const SURFACE_POINT_CAPACITY: usize = S;
+
+    /// An empty store (no objects), all zero bits.
+    pub const fn empty() -> Self {
         SceneStore {
-            objects: [None; MAX_OBJECTS],
+            objects: [ObjectRecord::EMPTY; MAX_OBJECTS],
             n_objects: 0,
             patches: [PatchRecord {
                 degree: (0, 0),
@@ -174,11 +225,11 @@ impl SceneStore {
                 counts: (0, 0),
             }; MAX_PATCHES],
             n_patches: 0,
-            knots: [0.0; MAX_KNOTS],
+            knots: [0.0; K],
             n_knots: 0,
-            curve_points: [Vec3::ZERO; MAX_CURVE_POINTS],
+            curve_points: [Vec3::ZERO; C],
             n_curve_points: 0,
-            surface_points: [Vec4::ZERO; MAX_SURFACE_POINTS],
+            surface_points: [Vec4::ZERO; S],
             n_surface_points: 0,
         }
     }
@@ -189,7 +240,7 @@ impl SceneStore {
         self.n_knots = 0;
         self.n_curve_points = 0;
         self.n_surface_points = 0;
-        self.objects = [None; MAX_OBJECTS];
+        self.objects = [ObjectRecord::EMPTY; MAX_OBJECTS];
     }
 
     /// Number of objects (0 when empty or after a failed decode).
@@ -198,17 +249,19 @@ impl SceneStore {
     }
 
     fn object(&self, object: usize) -> Option<&ObjectRecord> {
-        self.objects.get(object)?.as_ref()
+        self.objects.get(object).filter(|o| o.kind().is_some())
     }
 
     /// Material of `object`.
     pub fn material(&self, object: usize) -> Option<FrictionMaterial> {
-        self.object(object).map(|o| o.material)
+        // Validated when the scene was decoded, so this decodes.
+        self.object(object)
+            .and_then(|o| get_material(&mut Reader::new(&o.material)).ok())
     }
 
     /// Kind of `object`'s patches.
     pub fn kind(&self, object: usize) -> Option<PatchKind> {
-        self.object(object).map(|o| o.kind)
+        self.object(object).and_then(ObjectRecord::kind)
     }
 
     /// Number of patches of `object`.
@@ -218,7 +271,7 @@ impl SceneStore {
 
     fn patch_record(&self, object: usize, patch: usize, kind: PatchKind) -> Option<&PatchRecord> {
         let o = self.object(object)?;
-        if o.kind != kind || patch >= o.n_patches {
+        if o.kind() != Some(kind) || patch >= o.n_patches {
             return None;
         }
         self.patches.get(o.first_patch + patch)
@@ -282,8 +335,10 @@ impl SceneStore {
         }
         for o in 0..n_objects {
             let format = || SceneError::at(o, None, SceneFault::Format);
-            let material =
-                get_material(r).map_err(|code| SceneError::at(o, None, material_fault(code)))?;
+            let mut at_material = *r;
+            get_material(r).map_err(|code| SceneError::at(o, None, material_fault(code)))?;
+            let mut material = [0; MATERIAL_LEN];
+            material.copy_from_slice(at_material.take(MATERIAL_LEN).ok_or_else(format)?);
             let n_patches = usize::from(r.u8().ok_or_else(format)?);
             if n_patches == 0 {
                 return Err(format());
@@ -299,11 +354,11 @@ impl SceneStore {
                 }
                 kind = Some(k);
             }
-            self.objects[o] = kind.map(|kind| ObjectRecord {
+            self.objects[o] = kind.map_or(ObjectRecord::EMPTY, |kind| ObjectRecord {
                 material,
                 first_patch,
                 n_patches,
-                kind,
+                kind: kind_byte(kind),
             });
             self.n_objects = o + 1;
         }
@@ -351,14 +406,8 @@ impl SceneStore {
             return Err(f);
         }
         let (knot_room, point_room) = match kind {
-            PatchKind::Curve2 => (
-                MAX_KNOTS - self.n_knots,
-                MAX_CURVE_POINTS - self.n_curve_points,
-            ),
-            PatchKind::Surface => (
-                MAX_KNOTS - self.n_knots,
-                MAX_SURFACE_POINTS - self.n_surface_points,
-            ),
+            PatchKind::Curve2 => (K - self.n_knots, C - self.n_curve_points),
+            PatchKind::Surface => (K - self.n_knots, S - self.n_surface_points),
         };
         if n_knots > knot_room || n_points > point_room {
             return Err(SceneFault::Capacity);
@@ -429,8 +478,9 @@ impl SceneStore {
                 // Unreachable: every patch was validated while parsing.
                 SceneError::at(o, Some(p), SceneFault::Format)
             };
-            match rec.kind {
-                PatchKind::Curve2 => {
+            match rec.kind() {
+                None => return Err(SceneError::at(o, None, SceneFault::Format)),
+                Some(PatchKind::Curve2) => {
                     if rec.n_patches > MAX_CHAIN_CURVES {
                         let count = rec.n_patches;
                         let fault = SceneFault::Chain(ChainError::TooManyCurves { count });
@@ -444,7 +494,7 @@ impl SceneStore {
                     Chain::new(&curves[..rec.n_patches])
                         .map_err(|e| SceneError::at(o, None, SceneFault::Chain(e)))?;
                 }
-                PatchKind::Surface => {
+                Some(PatchKind::Surface) => {
                     if rec.n_patches > MAX_SHELL_PATCHES {
                         let count = rec.n_patches;
                         let fault = SceneFault::Shell(ShellError::TooManyPatches { count });
@@ -473,7 +523,10 @@ fn material_fault(code: ErrorCode) -> SceneFault {
 }
 
 /// Parses and validates a wire scene into `store` (see [`SceneStore::decode`]).
-pub fn decode_scene(bytes: &[u8], store: &mut SceneStore) -> Result<(), SceneError> {
+pub fn decode_scene<const K: usize, const C: usize, const S: usize>(
+    bytes: &[u8],
+    store: &mut SceneStore<K, C, S>,
+) -> Result<(), SceneError> {
     store.decode(bytes)
 }
 
