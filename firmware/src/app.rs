@@ -7,6 +7,7 @@ use device::controller::{Controller, ControllerError, TickOutput};
 use device::protocol::{Frame, MAX_FRAME, Message, SceneStore};
 use device::safety::SafetyConfig;
 use device::spec::DeviceSpec;
+use friction::FrictionMaterial;
 use tracker::{Chain, ChainError, MAX_CHAIN_CURVES};
 
 use crate::board::Board;
@@ -53,32 +54,78 @@ impl<'s> App<'s> {
     /// safety layer's ramp-in over `ramp_time_s` and its other limits the defaults. As the
     /// host's simulator does, a material stiffer than the device renders passively is loaded
     /// with the passivity controller on ([`App::passivity_control`]).
-    pub fn new(
-        store: &'s SceneStore,
+    pub fn new<const K: usize, const C: usize, const S: usize>(
+        store: &'s SceneStore<K, C, S>,
         object: usize,
         period_s: f32,
         ramp_time_s: f32,
     ) -> Result<Self, AppError> {
-        let n = store
-            .patch_count(object)
-            .ok_or(AppError::NoObject(object))?;
+        let chain = Self::chain(store, object)?;
         let material = store.material(object).ok_or(AppError::NoObject(object))?;
-        let first = store.curve(object, 0).ok_or(AppError::NotPlanar(object))?;
-        let mut curves = [first; MAX_CHAIN_CURVES];
-        for (p, c) in curves.iter_mut().enumerate().take(n).skip(1) {
-            *c = store.curve(object, p).ok_or(AppError::NotPlanar(object))?;
-        }
-        let given = curves
-            .get(..n)
-            .ok_or(AppError::Chain(ChainError::TooManyCurves { count: n }))?;
-        let chain = Chain::new(given).map_err(AppError::Chain)?;
+        let mut app = Self::without_scene(period_s, ramp_time_s)?;
+        app.load_chain(chain, material)?;
+        Ok(app)
+    }
+
+    /// The controller of [`App::new`] with no scene loaded (no force until one is, see
+    /// [`App::load`]).
+    pub fn without_scene(period_s: f32, ramp_time_s: f32) -> Result<Self, AppError> {
         let safety = SafetyConfig {
             period_s,
             ramp_time_s,
             ..SafetyConfig::default()
         };
-        let mut controller =
+        let controller =
             Controller::new(DeviceSpec::default(), safety).map_err(AppError::Controller)?;
+        Ok(App {
+            controller,
+            passivity_control: false,
+            seq: 0,
+        })
+    }
+
+    /// Loads object `object` of `store` in place of the current scene (at a tick boundary:
+    /// the renderer restarts on it and the force ramps in), as [`App::new`] does. On error
+    /// the current scene stays loaded.
+    pub fn load<const K: usize, const C: usize, const S: usize>(
+        &mut self,
+        store: &'s SceneStore<K, C, S>,
+        object: usize,
+    ) -> Result<(), AppError> {
+        let chain = Self::chain(store, object)?;
+        let material = store.material(object).ok_or(AppError::NoObject(object))?;
+        self.load_chain(chain, material)
+    }
+
+    /// Replaces the loaded object's material, with the passivity controller on when the
+    /// material needs it (as [`App::load`]). On error the material stays.
+    pub fn set_material(&mut self, material: FrictionMaterial) -> Result<(), AppError> {
+        let passivity_control = match self.controller.set_material(material, false) {
+            Ok(()) => false,
+            Err(ControllerError::Passivity(_)) => {
+                self.controller
+                    .set_material(material, true)
+                    .map_err(AppError::Controller)?;
+                true
+            }
+            Err(e) => return Err(AppError::Controller(e)),
+        };
+        self.passivity_control = passivity_control;
+        Ok(())
+    }
+
+    /// The same app for views of another lifetime, without a scene (calibration, safety
+    /// state, forces and heartbeat carried over; see `Controller::rebind`).
+    pub fn rebind<'t>(self) -> App<'t> {
+        App {
+            controller: self.controller.rebind(),
+            passivity_control: false,
+            seq: self.seq,
+        }
+    }
+
+    fn load_chain(&mut self, chain: Chain<'s>, material: FrictionMaterial) -> Result<(), AppError> {
+        let controller = &mut self.controller;
         let passivity_control = match controller.load_scene(chain, material, false) {
             Ok(()) => false,
             Err(ControllerError::Passivity(_)) => {
@@ -89,11 +136,27 @@ impl<'s> App<'s> {
             }
             Err(e) => return Err(AppError::Controller(e)),
         };
-        Ok(App {
-            controller,
-            passivity_control,
-            seq: 0,
-        })
+        self.passivity_control = passivity_control;
+        Ok(())
+    }
+
+    /// Object `object` of `store` as a chain of planar curves.
+    fn chain<const K: usize, const C: usize, const S: usize>(
+        store: &'s SceneStore<K, C, S>,
+        object: usize,
+    ) -> Result<Chain<'s>, AppError> {
+        let n = store
+            .patch_count(object)
+            .ok_or(AppError::NoObject(object))?;
+        let first = store.curve(object, 0).ok_or(AppError::NotPlanar(object))?;
+        let mut curves = [first; MAX_CHAIN_CURVES];
+        for (p, c) in curves.iter_mut().enumerate().take(n).skip(1) {
+            *c = store.curve(object, p).ok_or(AppError::NotPlanar(object))?;
+        }
+        let given = curves
+            .get(..n)
+            .ok_or(AppError::Chain(ChainError::TooManyCurves { count: n }))?;
+        Chain::new(given).map_err(AppError::Chain)
     }
 
     /// Whether the scene runs with the passivity controller on.
@@ -112,15 +175,23 @@ impl<'s> App<'s> {
     }
 
     /// One haptic tick: encoders and clock from the board, [`Controller::tick`] (bracketed by
-    /// [`Board::around_tick`]), currents and driver enable to the board, the telemetry frame
-    /// to the link.
+    /// [`Board::around_tick`]), the latched faults, currents and driver enable to the board,
+    /// the telemetry frame to the link when the board wants one ([`Board::wants_frame`]; the
+    /// frame's sequence number counts the frames built).
     pub fn tick<B: Board>(&mut self, board: &mut B) -> TickOutput {
         let counts = board.encoder_counts();
         let now_us = board.now_us();
         let controller = &mut self.controller;
-        let out = board.around_tick(|| controller.tick(counts, now_us));
+        let mut out = board.around_tick(|| controller.tick(counts, now_us));
+        board.set_faults(out.telemetry.faults);
         board.set_driver_enabled(self.controller.forces_enabled());
         board.set_motor_currents(out.currents_a);
+        if let Some(us) = board.last_tick_us() {
+            out.telemetry.tick_us = us;
+        }
+        if !board.wants_frame() {
+            return out;
+        }
         let frame = Frame {
             seq: self.seq,
             message: Message::Telemetry(out.telemetry),

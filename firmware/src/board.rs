@@ -13,8 +13,16 @@ pub trait Board {
     /// Commands the two motor currents (A), already within the device's limits.
     fn set_motor_currents(&mut self, currents_a: [f32; 2]);
 
-    /// Drives the motor drivers' enable line: low (`false`) unless forces are on.
+    /// Drives the motor drivers' enable line: low (`false`) unless forces are on. A board
+    /// also keeps it low while faults are latched ([`Board::set_faults`]).
     fn set_driver_enabled(&mut self, enabled: bool);
+
+    /// The tick's latched fault flags (`device::safety::Faults` bits), given before
+    /// [`Board::set_driver_enabled`] on every tick. The default ignores them (the safety layer
+    /// already cuts the currents; the board's own enable line adds a second cut).
+    fn set_faults(&mut self, faults: u16) {
+        let _ = faults;
+    }
 
     /// The monotonic clock, integer microseconds (see `device::controller`, "Time").
     fn now_us(&mut self) -> u64;
@@ -25,6 +33,20 @@ pub trait Board {
 
     /// Takes received link bytes into `buf`, returns how many (0 when none are waiting).
     fn link_receive(&mut self, buf: &mut [u8]) -> usize;
+
+    /// Whether this tick's telemetry frame is wanted (asked once per tick, after the currents
+    /// were set): a board whose link carries fewer frames than it runs ticks (USB HID: one per
+    /// millisecond) says no on the other ticks, and the frame is not even built. The default
+    /// wants every one.
+    fn wants_frame(&mut self) -> bool {
+        true
+    }
+
+    /// The duration of the last [`Board::around_tick`] in µs, for the telemetry's
+    /// `tick_us`, when the board measures it; the default `None` leaves the field 0.
+    fn last_tick_us(&mut self) -> Option<u16> {
+        None
+    }
 
     /// Runs `tick` (one `Controller::tick`, nothing else). A board that measures the tick's
     /// cost brackets it here; the default just runs it.

@@ -1,6 +1,6 @@
 //! Board glue around [`device::Controller`]: the board-independent app ([`app`]), the trait a
-//! board implements for it ([`board`]), and the compact scenario table the QEMU binary runs
-//! ([`scenario`]). No rendering logic lives here: it is all in the root crates.
+//! board implements for it ([`board`]), the scene double buffer the board's link task and
+//! tick share ([`swap`]), and the compact scenario table the QEMU binary runs ([`scenario`]). No rendering logic lives here: it is all in the root crates.
 //!
 //! See `README.md` for what runs where and how to run it (`cargo xtask qemu`).
 #![no_std]
@@ -9,3 +9,4 @@
 pub mod app;
 pub mod board;
 pub mod scenario;
+pub mod swap;

@@ -1,7 +1,9 @@
 //! `cargo xtask ci`: installs what the checks need when it is missing, then runs every check
 //! CI runs, in order, stopping at the first failure. `cargo xtask qemu`: the firmware under
-//! QEMU, its instructions per tick and its size (see `qemu.rs`).
+//! QEMU, its instructions per tick and its size (see `qemu.rs`). `cargo xtask ci` also builds
+//! the board binary and checks its budget (see `board.rs`).
 
+mod board;
 mod qemu;
 
 use std::env;
@@ -43,7 +45,9 @@ fn main() -> ExitCode {
                  ci    install what is missing (rustup target {EMBEDDED_TARGET}, clippy, rustfmt),\n\
                  \x20     then: cargo fmt --check, clippy -D warnings, cargo test --workspace,\n\
                  \x20     cross-build every no_std crate for {EMBEDDED_TARGET}, and check\n\
-                 \x20     firmware/ (fmt, clippy of its library for {EMBEDDED_TARGET})\n\
+                 \x20     firmware/ (fmt, clippy of its library and board binary for\n\
+                 \x20     {EMBEDDED_TARGET}), build the board binary (release) and check its\n\
+                 \x20     size (flash <= 128 KiB, RAM <= 32 KiB with a stack reserve)\n\
                  qemu  install qemu-system-arm when missing, build firmware/ (release, LTO) at\n\
                  \x20     each opt-level (default 3), run the thesis-2d scenario on QEMU's\n\
                  \x20     netduinoplus2 with -icount shift=5, print instructions per tick\n\
@@ -106,6 +110,7 @@ fn ci() -> Result<(), String> {
         )?;
     }
     qemu::check_firmware(&cargo)?;
+    board::check_board(&cargo)?;
     Ok(())
 }
 

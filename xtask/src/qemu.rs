@@ -114,6 +114,7 @@ pub fn qemu(options: &Options) -> Result<(), String> {
                 "--release",
                 "--bin",
                 "qemu",
+                "--no-default-features",
                 "--features",
                 "stages",
             ],
@@ -123,7 +124,15 @@ pub fn qemu(options: &Options) -> Result<(), String> {
         run_in(
             &firmware,
             &cargo,
-            &["build", "--release", "--bin", "qemu"],
+            &[
+                "build",
+                "--release",
+                "--bin",
+                "qemu",
+                "--no-default-features",
+                "--features",
+                "qemu",
+            ],
             &env,
         )?;
         let lines = run_qemu(&elf)?;
@@ -152,9 +161,9 @@ pub fn qemu(options: &Options) -> Result<(), String> {
 
 /// Installs `qemu-system-arm` with apt-get when it is missing.
 /// The firmware workspace's checks in `cargo xtask ci`: formatted, and its library (the
-/// board-independent app and `Board` trait) clean under clippy for the board's target. The
-/// QEMU binary needs the host's inputs and QEMU itself, so `cargo xtask qemu` builds and runs
-/// it.
+/// board-independent app and `Board` trait) and the board binary clean under clippy for the
+/// board's target. The QEMU binary needs the host's inputs and QEMU itself, so
+/// `cargo xtask qemu` builds and runs it.
 pub fn check_firmware(cargo: &str) -> Result<(), String> {
     let root = workspace_root()?;
     let firmware = root.join("firmware");
@@ -163,7 +172,7 @@ pub fn check_firmware(cargo: &str) -> Result<(), String> {
     run_in(
         &firmware,
         cargo,
-        &["clippy", "--lib", "--", "-D", "warnings"],
+        &["clippy", "--bins", "--lib", "--", "-D", "warnings"],
         &[("CARGO_TARGET_DIR", target.as_str())],
     )
 }
@@ -199,7 +208,7 @@ fn ensure_qemu() -> Result<(), String> {
         .map_err(|e| format!("qemu-system-arm was installed but does not run: {e}"))
 }
 
-fn workspace_root() -> Result<PathBuf, String> {
+pub(crate) fn workspace_root() -> Result<PathBuf, String> {
     // xtask's manifest is <root>/xtask/Cargo.toml.
     let manifest = PathBuf::from(env!("CARGO_MANIFEST_DIR"));
     manifest
@@ -210,7 +219,7 @@ fn workspace_root() -> Result<PathBuf, String> {
 
 /// The firmware's own target folder: `$CARGO_TARGET_DIR/fw` when that is set, else
 /// `firmware/target`.
-fn firmware_target_dir(root: &Path) -> PathBuf {
+pub(crate) fn firmware_target_dir(root: &Path) -> PathBuf {
     match std::env::var_os("CARGO_TARGET_DIR") {
         Some(dir) if !dir.is_empty() => {
             let dir = PathBuf::from(dir);
@@ -403,17 +412,17 @@ fn run_qemu(elf: &Path) -> Result<Vec<String>, String> {
 /// table, constants), `data` the allocated writable sections with an image in flash, `bss`
 /// the allocated writable sections without one.
 #[derive(Debug, Default, PartialEq)]
-struct Sizes {
-    text: u64,
-    data: u64,
-    bss: u64,
+pub(crate) struct Sizes {
+    pub(crate) text: u64,
+    pub(crate) data: u64,
+    pub(crate) bss: u64,
 }
 
 const SHF_WRITE: u32 = 0x1;
 const SHF_ALLOC: u32 = 0x2;
 const SHT_NOBITS: u32 = 8;
 
-fn elf_sizes(path: &Path) -> Result<Sizes, String> {
+pub(crate) fn elf_sizes(path: &Path) -> Result<Sizes, String> {
     let bytes = fs::read(path).map_err(|e| format!("cannot read {}: {e}", path.display()))?;
     parse_elf_sizes(&bytes).map_err(|e| format!("{}: {e}", path.display()))
 }

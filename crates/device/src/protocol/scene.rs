@@ -171,7 +171,8 @@ struct PatchRecord {
 /// The capacities are const parameters: `KNOTS` knots (all knot vectors together),
 /// `CURVE_POINTS` control points of planar curves and `SURFACE_POINTS` of surfaces. The
 /// defaults ([`MAX_KNOTS`], [`MAX_CURVE_POINTS`], [`MAX_SURFACE_POINTS`]) make about 17.5 KiB,
-/// what the host uses (in a `Box`); a board picks smaller ones. The empty store
+/// what the host uses (in a `Box`); a board picks smaller ones (`SURFACE_POINTS = 0` refuses
+/// every surface as [`SceneFault::Capacity`] and leaves the shell's validation out). The empty store
 /// ([`SceneStore::empty`]) is all zero bits, so a `static` one is zero-initialised (`.bss`).
 #[derive(Clone, Debug)]
 pub struct SceneStore<
@@ -493,6 +494,12 @@ impl<const K: usize, const C: usize, const S: usize> SceneStore<K, C, S> {
                     }
                     Chain::new(&curves[..rec.n_patches])
                         .map_err(|e| SceneError::at(o, None, SceneFault::Chain(e)))?;
+                }
+                // A store without room for surface points never holds a surface object (its
+                // patches were refused while parsing); said here too, so that such a store
+                // does not link the shell's validation at all.
+                Some(PatchKind::Surface) if S == 0 => {
+                    return Err(SceneError::at(o, None, SceneFault::Capacity));
                 }
                 Some(PatchKind::Surface) => {
                     if rec.n_patches > MAX_SHELL_PATCHES {
