@@ -40,6 +40,8 @@ const RESULT_KEYS: &[&str] = &[
     "scene",
     "instructions_per_tick",
     "instructions_first_tick",
+    "instructions_first_rendered_tick",
+    "instructions_acquisition",
     "instructions_per_tick_after_first",
     "instructions_by_mode",
     "instructions_by_stage",

@@ -507,6 +507,9 @@ pub fn run_device(
             let (hip, hip_velocity) = arm.hip().map_err(|error| SimError::Arm { t_s, error })?;
             controller.heartbeat();
             let out = controller.tick(arm.encoder_counts(), now_us);
+            // The global search that starts the renderer runs between ticks, as a board's
+            // lower-priority task (device::controller, "Acquisition is not the tick's").
+            controller.acquire_now();
             let tick = device_record(t_s, hip, hip_velocity, &out);
             ticks.push(match controller.object() {
                 Some(object) => in_source_patches(tick, object),

@@ -293,15 +293,21 @@ impl<'s> Shadow<'s> {
             let velocity = self
                 .previous_hip
                 .map_or(Vec2::ZERO, |prev| (hip - prev) * (1.0 / t));
+            // The controller's renderer starts on the tick after the one whose HIP its
+            // acquisition searched from (`App::acquire` between ticks): the same here.
+            if self.renderer.is_none() && out.render.is_some() {
+                let from = self.previous_hip.unwrap_or(hip);
+                self.renderer = Some(FrictionRenderer::new(&self.object, self.material, from, t));
+            }
             self.previous_hip = Some(hip);
-            let (object, material, renderer) = (&self.object, self.material, &mut self.renderer);
-            let (output, n) = meter.instructions(|| {
-                renderer
-                    .get_or_insert_with(|| FrictionRenderer::new(object, material, hip, t))
-                    .tick(object, hip, velocity, t)
-            });
-            render = count(n);
-            if Some(output) != out.render {
+            let (object, renderer) = (&self.object, &mut self.renderer);
+            if let Some(renderer) = renderer.as_mut() {
+                let (output, n) = meter.instructions(|| renderer.tick(object, hip, velocity, t));
+                render = count(n);
+                if Some(output) != out.render {
+                    self.mismatches += 1;
+                }
+            } else if out.render.is_some() {
                 self.mismatches += 1;
             }
             let force = out.telemetry.force_n;
@@ -527,6 +533,8 @@ fn main() -> ! {
     let mut after_first = Stats::default();
     let mut by_mode = [Stats::default(); 4];
     let mut first = 0;
+    let mut first_rendered = None;
+    let mut acquisition = Stats::default();
     let mut fault_ticks = 0u32;
     // The handle's true HIP at the last tick (the host's run log's `hip_x,hip_y`).
     let mut last_hip = Vec2::ZERO;
@@ -553,6 +561,18 @@ fn main() -> ! {
         } else {
             after_first.add(n);
         }
+        if out.render.is_some() && first_rendered.is_none() {
+            first_rendered = Some(n);
+        }
+        // The global search that starts the renderer, between ticks (the board runs it in its
+        // lowest-priority task): counted alone, never in a tick.
+        let (started, searched) = board.meter.instructions(|| app.acquire());
+        if started {
+            match searched {
+                Ok(c) => acquisition.add(c.saturating_sub(board.meter.overhead)),
+                Err(e) => fail(format_args!("tick {i}: acquisition count: {e:?}")),
+            }
+        }
         by_mode[mode_index(out.telemetry.mode)].add(n);
         if out.telemetry.faults != 0 {
             fault_ticks += 1;
@@ -574,6 +594,12 @@ fn main() -> ! {
     let name = scenario.name;
     hprintln!("instructions_per_tick scene={} {}", name, all);
     hprintln!("instructions_first_tick scene={} count={}", name, first);
+    hprintln!(
+        "instructions_first_rendered_tick scene={} count={}",
+        name,
+        first_rendered.unwrap_or(0)
+    );
+    hprintln!("instructions_acquisition scene={} {}", name, acquisition);
     hprintln!(
         "instructions_per_tick_after_first scene={} {}",
         name,

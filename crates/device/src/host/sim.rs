@@ -269,6 +269,8 @@ impl SimDevice {
             // An arm driven into a singular pose stays there, as a real one on its stops.
             let _ = self.arm.step(out.currents_a, self.hand_target, period_s);
             out.telemetry.tick_us = u16::try_from(begun.elapsed().as_micros()).unwrap_or(u16::MAX);
+            // The global search after a swap, outside the tick as on the board.
+            controller.acquire_now();
             if self.emit(&Message::Telemetry(out.telemetry)).is_err() {
                 return EpochEnd::Stop;
             }
