@@ -398,8 +398,10 @@ fn compare_with_host(root: &Path, serial: &Path) -> Result<Vec<String>, String> 
             identical += 1;
         }
         for ((_, get), worst) in FIELDS.iter().zip(largest.iter_mut()) {
+            // NaN on either side counts as the largest difference.
             let d = (get(m) - get(h)).abs();
-            if !(d <= worst.0) {
+            let d = if d.is_nan() { f32::INFINITY } else { d };
+            if d > worst.0 {
                 *worst = (d, k);
             }
         }
