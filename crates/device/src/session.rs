@@ -136,10 +136,8 @@ impl<const N: usize> Session<N> {
             }
             Message::EnableForces => controller.set_forces_enabled(true),
             Message::DisableForces => controller.set_forces_enabled(false),
-            Message::Calibrate => {
-                if controller.calibrate(home_counts).is_err() {
-                    self.last_error = ErrorCode::BadField as u8;
-                }
+            Message::Calibrate if controller.calibrate(home_counts).is_err() => {
+                self.last_error = ErrorCode::BadField as u8;
             }
             Message::ClearFaults { .. } => {
                 controller.clear_faults();
