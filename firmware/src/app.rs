@@ -174,6 +174,13 @@ impl<'s> App<'s> {
         &mut self.controller
     }
 
+    /// Runs the acquisition the controller waits for, if any (the global closest-point search
+    /// after a scene load; see `device::controller`, "Acquisition is not the tick's"): call it
+    /// between ticks, never inside one. `true` when it started the renderer.
+    pub fn acquire(&mut self) -> bool {
+        self.controller.acquire_now()
+    }
+
     /// One haptic tick: encoders and clock from the board, [`Controller::tick`] (bracketed by
     /// [`Board::around_tick`]), the latched faults, currents and driver enable to the board,
     /// the telemetry frame to the link when the board wants one ([`Board::wants_frame`]; the

@@ -117,6 +117,7 @@ fn stiffness_run(k_n_per_m: f32, hand: SimParams) -> Result<Vec<Sample>, Control
         let now = traj.tick_time_s(k, 1000.0);
         controller.heartbeat();
         let out = controller.tick(sim.encoder_counts(), k as u64 * 1000);
+        controller.acquire_now();
         samples.push(Sample {
             mode: out.telemetry.mode,
             force_n: out.telemetry.force_n,

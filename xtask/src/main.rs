@@ -47,11 +47,13 @@ fn main() -> ExitCode {
                  \x20     cross-build every no_std crate for {EMBEDDED_TARGET}, and check\n\
                  \x20     firmware/ (fmt, clippy of its library and board binary for\n\
                  \x20     {EMBEDDED_TARGET}), build the board binary (release) and check its\n\
-                 \x20     size (flash <= 128 KiB, RAM <= 32 KiB with a stack reserve)\n\
+                 \x20     size (flash <= 128 KiB, RAM <= 32 KiB with a stack reserve), then\n\
+                 \x20     `qemu` below\n\
                  qemu  install qemu-system-arm when missing, build firmware/ (release, LTO) at\n\
                  \x20     each opt-level (default 3), run the thesis-2d scenario on QEMU's\n\
-                 \x20     netduinoplus2 with -icount shift=5, print instructions per tick\n\
-                 \x20     and the ELF's text/data/bss"
+                 \x20     netduinoplus2 with -icount shift=5, compare its telemetry frames\n\
+                 \x20     (its UART) tick by tick with the host's run, print instructions\n\
+                 \x20     per tick and the ELF's text/data/bss"
             );
             ExitCode::from(2)
         }
@@ -111,6 +113,9 @@ fn ci() -> Result<(), String> {
     }
     qemu::check_firmware(&cargo)?;
     board::check_board(&cargo)?;
+    // The firmware under QEMU: the thesis-2d scenario in the emulated MCU compared frame by
+    // frame with the host's run, its instructions per tick and its sizes.
+    qemu::qemu(&qemu::Options::default())?;
     Ok(())
 }
 

@@ -16,10 +16,12 @@ use std::process::{Command, Stdio};
 use std::thread;
 use std::time::{Duration, Instant};
 
-use device::protocol::{WireObject, WirePatch, encode_scene};
+use device::host::cobs;
+use device::protocol::{Frame, Message, Telemetry, WireObject, WirePatch, encode_scene};
+use device::simulator::SimParams;
 use device::spec::DeviceSpec;
 use viewer::scene::Scene;
-use viewer::sim::{DEVICE_RAMP_TIME_S, end_stop_counts, validate_device};
+use viewer::sim::{DEVICE_RAMP_TIME_S, end_stop_counts, run_device, validate_device};
 use viewer::trajectory::Trajectory;
 
 use crate::{EMBEDDED_TARGET, ensure_toolchain, output, run_in};
@@ -40,6 +42,8 @@ const RESULT_KEYS: &[&str] = &[
     "scene",
     "instructions_per_tick",
     "instructions_first_tick",
+    "instructions_first_rendered_tick",
+    "instructions_acquisition",
     "instructions_per_tick_after_first",
     "instructions_by_mode",
     "instructions_by_stage",
@@ -52,6 +56,15 @@ const RESULT_KEYS: &[&str] = &[
 pub struct Options {
     /// Release opt-levels to build and run (`3`, `s`, …).
     pub opt_levels: Vec<String>,
+}
+
+impl Default for Options {
+    /// Opt-level 3 (the release profile).
+    fn default() -> Self {
+        Options {
+            opt_levels: vec!["3".to_owned()],
+        }
+    }
 }
 
 impl Options {
@@ -120,7 +133,8 @@ pub fn qemu(options: &Options) -> Result<(), String> {
             ],
             &env,
         )?;
-        let stage_lines = run_qemu(&elf)?;
+        let serial = target_dir.join("qemu-uart.bin");
+        let stage_lines = run_qemu(&elf, &serial)?;
         run_in(
             &firmware,
             &cargo,
@@ -135,9 +149,10 @@ pub fn qemu(options: &Options) -> Result<(), String> {
             ],
             &env,
         )?;
-        let lines = run_qemu(&elf)?;
+        let lines = run_qemu(&elf, &serial)?;
+        let comparison = compare_with_host(&root, &serial)?;
         println!("\nxtask qemu: opt-level={level}, lto=fat, codegen-units=1");
-        for line in &lines {
+        for line in lines.iter().chain(&comparison) {
             println!("  {line}");
         }
         println!("  (the stage split, from the build with --features stages, whose own tick is:)");
@@ -188,8 +203,13 @@ fn ensure_qemu() -> Result<(), String> {
         run_in(
             Path::new("."),
             "apt-get",
-            &["install", "-y", "qemu-system-arm"],
-            &[],
+            &[
+                "install",
+                "-y",
+                "--no-install-recommends",
+                "qemu-system-arm",
+            ],
+            &[("DEBIAN_FRONTEND", "noninteractive")],
         )
     };
     if install().is_err() {
@@ -303,9 +323,140 @@ fn scenario_table(trajectory: &Trajectory, ticks: usize) -> Result<Vec<u8>, Stri
     Ok(out)
 }
 
-/// Boots `elf` on QEMU, waits at most [`QEMU_TIMEOUT`], and returns its result lines; an
-/// error names what went wrong (exit status, timeout, missing lines) with the output.
-fn run_qemu(elf: &Path) -> Result<Vec<String>, String> {
+/// The telemetry frames of a COBS byte stream (each frame encoded, then `0x00`), in order; an
+/// error names the first packet that is not a telemetry frame.
+fn telemetry_frames(stream: &[u8]) -> Result<Vec<Telemetry>, String> {
+    let mut out = Vec::new();
+    let mut packets = stream.split(|&b| b == 0).peekable();
+    let mut k = 0;
+    while let Some(packet) = packets.next() {
+        if packets.peek().is_none() {
+            // What follows the last delimiter: empty unless the stream was cut.
+            if !packet.is_empty() {
+                return Err(format!("the UART stream ends inside frame {k}"));
+            }
+            break;
+        }
+        let bytes = cobs::decode(packet).map_err(|e| format!("UART frame {k}: {e}"))?;
+        let frame = Frame::decode(&bytes).map_err(|e| format!("UART frame {k}: {}", e.code))?;
+        match frame.message {
+            Message::Telemetry(t) => out.push(t),
+            other => {
+                return Err(format!(
+                    "UART frame {k}: {:?}, not telemetry",
+                    other.message_type()
+                ));
+            }
+        }
+        k += 1;
+    }
+    Ok(out)
+}
+
+/// Compares the firmware's telemetry (the frames its UART sent, in `serial`) tick by tick with
+/// the host's run of the same scenario (`viewer::sim::run_device`, the code behind
+/// `viewer sim --device`): the same code on the same f32 inputs, so the goal is identical
+/// frames. Returns the result lines: the number of identical frames and, per field, the
+/// largest difference; fails when a frame is missing or a discrete field (mode, cause,
+/// feature, faults, clock) differs on any tick.
+fn compare_with_host(root: &Path, serial: &Path) -> Result<Vec<String>, String> {
+    let stream = fs::read(serial).map_err(|e| format!("cannot read {}: {e}", serial.display()))?;
+    let mcu = telemetry_frames(&stream)?;
+    let scene_path = root.join("scenes").join(format!("{SCENE_NAME}.json"));
+    let trajectory_path = root.join("scenes").join(format!("{SCENE_NAME}.csv"));
+    let scene = Scene::load(&scene_path).map_err(|e| format!("{}: {e}", scene_path.display()))?;
+    let trajectory = Trajectory::load(&trajectory_path)
+        .map_err(|e| format!("{}: {e}", trajectory_path.display()))?;
+    let host = run_device(
+        &scene,
+        OBJECT,
+        &trajectory,
+        RATE_HZ,
+        SimParams::default(),
+        |_, _| {},
+    )
+    .map_err(|e| format!("the host run of {SCENE_NAME}: {e}"))?
+    .telemetry;
+    if mcu.len() != host.len() {
+        return Err(format!(
+            "the firmware sent {} telemetry frames, the host run has {} ticks",
+            mcu.len(),
+            host.len()
+        ));
+    }
+    type Field = (&'static str, fn(&Telemetry) -> f32);
+    const FIELDS: [Field; 11] = [
+        ("hip_x", |t| t.hip_m.x),
+        ("hip_y", |t| t.hip_m.y),
+        ("cp_x", |t| t.cp_m.x),
+        ("cp_y", |t| t.cp_m.y),
+        ("go_x", |t| t.go_m.x),
+        ("go_y", |t| t.go_m.y),
+        ("force_normal", |t| t.force_normal_n),
+        ("force_friction", |t| t.force_friction_n),
+        ("force_x", |t| t.force_n.x),
+        ("force_y", |t| t.force_n.y),
+        ("psi", |t| t.psi),
+    ];
+    let mut largest = [(0.0f32, 0usize); FIELDS.len()];
+    let mut mu_largest = (0u16, 0usize);
+    let mut identical = 0;
+    let mut discrete = Vec::new();
+    for (k, (m, h)) in mcu.iter().zip(&host).enumerate() {
+        if m == h {
+            identical += 1;
+        }
+        for ((_, get), worst) in FIELDS.iter().zip(largest.iter_mut()) {
+            // NaN on either side counts as the largest difference.
+            let d = (get(m) - get(h)).abs();
+            let d = if d.is_nan() { f32::INFINITY } else { d };
+            if d > worst.0 {
+                *worst = (d, k);
+            }
+        }
+        let dmu = m.mu_e4.abs_diff(h.mu_e4);
+        if dmu > mu_largest.0 {
+            mu_largest = (dmu, k);
+        }
+        if (m.mode, m.cause, m.feature, m.faults, m.time_us)
+            != (h.mode, h.cause, h.feature, h.faults, h.time_us)
+            && discrete.len() < 5
+        {
+            discrete.push(format!(
+                "tick {k}: firmware {:?}/{:?}/{:?}/faults {:#x}/{} µs, host {:?}/{:?}/{:?}/faults                  {:#x}/{} µs",
+                m.mode, m.cause, m.feature, m.faults, m.time_us, h.mode, h.cause, h.feature,
+                h.faults, h.time_us
+            ));
+        }
+    }
+    let mut lines = vec![format!(
+        "telemetry_vs_host scene={SCENE_NAME} ticks={} identical_frames={identical}",
+        mcu.len()
+    )];
+    for ((name, _), (d, k)) in FIELDS.iter().zip(largest) {
+        lines.push(format!(
+            "telemetry_vs_host scene={SCENE_NAME} field={name} largest_difference={d:e} tick={k}"
+        ));
+    }
+    lines.push(format!(
+        "telemetry_vs_host scene={SCENE_NAME} field=mu_e4 largest_difference={} tick={}",
+        mu_largest.0, mu_largest.1
+    ));
+    if !discrete.is_empty() {
+        return Err(format!(
+            "the firmware's mode, cause, feature, faults or clock differ from the host run's              (first {}):\n{}\n{}",
+            discrete.len(),
+            discrete.join("\n"),
+            lines.join("\n")
+        ));
+    }
+    Ok(lines)
+}
+
+/// Boots `elf` on QEMU with its UART (USART1) written to `serial`, waits at most
+/// [`QEMU_TIMEOUT`], and returns its result lines; an error names what went wrong (exit
+/// status, timeout, missing lines) with the output.
+fn run_qemu(elf: &Path, serial: &Path) -> Result<Vec<String>, String> {
     let args = [
         "-machine",
         "netduinoplus2",
@@ -316,10 +467,11 @@ fn run_qemu(elf: &Path) -> Result<Vec<String>, String> {
         "enable=on,target=native",
         "-icount",
         "shift=5",
-        "-kernel",
+        "-serial",
     ];
+    let serial_arg = format!("file:{}", serial.display());
     println!(
-        "\n==> qemu-system-arm {} {} (timeout {} s)",
+        "\n==> qemu-system-arm {} {serial_arg} -kernel {} (timeout {} s)",
         args.join(" "),
         elf.display(),
         QEMU_TIMEOUT.as_secs()
@@ -327,6 +479,8 @@ fn run_qemu(elf: &Path) -> Result<Vec<String>, String> {
     let started = Instant::now();
     let mut child = Command::new("qemu-system-arm")
         .args(args)
+        .arg(&serial_arg)
+        .arg("-kernel")
         .arg(elf)
         .stdin(Stdio::null())
         .stdout(Stdio::piped())

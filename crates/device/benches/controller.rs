@@ -55,6 +55,7 @@ fn closed_loop_counts(
         let now = k as f32 * T;
         c.heartbeat();
         let out = c.tick(arm.encoder_counts(), k as u64 * PERIOD_US);
+        c.acquire_now();
         assert_eq!(out.telemetry.faults, 0, "tick {k}");
         if record.contains(&k) {
             counts.push(arm.encoder_counts());
@@ -77,7 +78,9 @@ fn bench_counts<'a>(
     let tick = |ctl: &mut Controller<Chain<'a>>, k: usize| {
         // The clock runs on while the counts cycle; only the watchdog reads it.
         ctl.heartbeat();
-        ctl.tick(black_box(counts[k % n]), k as u64 * PERIOD_US)
+        let out = ctl.tick(black_box(counts[k % n]), k as u64 * PERIOD_US);
+        ctl.acquire_now();
+        out
     };
     // One pass to settle, one to check that the replay is the case it claims to be.
     let mut modes = [0usize; 4];

@@ -11,6 +11,19 @@
 //! loads the new object at a tick boundary, after the whole scene was received and validated,
 //! or [rebinds](Controller::rebind) the controller to a new view type first.
 //!
+//! # Acquisition is not the tick's
+//!
+//! A renderer starts from the object's global closest-point search ([`tracker::Object::start`]),
+//! which costs tens of ticks' worth of work (about 50,000 instructions on thesis-2d on a
+//! Cortex-M4F, against about 2,500 for a tick). So a tick never runs it. After a scene is
+//! loaded or its material set, each tick with a pose publishes an [`AcquisitionRequest`]
+//! (the HIP and the scene's generation) and renders no force; whoever has the time runs
+//! [`acquire`] on it (the board's lowest-priority task; a host loop or a test right after the
+//! tick, through [`Controller::acquire_now`]) and hands the result back with
+//! [`Controller::complete_acquisition`]. The renderer then starts tracking from that closest
+//! point (the tracker's feedback catches up with a HIP that moved meanwhile) and the force
+//! ramps in from zero. A result for an older scene (its generation) is refused.
+//!
 //! # Time
 //!
 //! The controller runs on the board's monotonic clock in integer microseconds
@@ -108,8 +121,43 @@ pub struct TickOutput {
 struct Scene<O: Object<P = Vec2>> {
     object: O,
     material: FrictionMaterial,
-    /// Built on the first tick with a pose (it needs the HIP to start tracking).
+    /// Built from an [`Acquisition`] (it needs the closest point to start tracking).
     renderer: Option<FrictionRenderer<O>>,
+    /// Which load or material this scene is (see [`AcquisitionRequest::generation`]).
+    generation: u32,
+    /// The HIP of the last tick with a pose while the renderer waits for its acquisition.
+    request_hip: Option<Vec2>,
+}
+
+/// What an acquisition searches from: the HIP of the last tick and the scene it is for.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct AcquisitionRequest {
+    /// The HIP (device frame, m) the global closest-point search starts from.
+    pub hip_m: Vec2,
+    /// The scene's generation: it changes with every [`Controller::load_scene`],
+    /// [`Controller::set_material`] and [`Controller::unload_scene`], so a search finished
+    /// after a swap is refused.
+    pub generation: u32,
+}
+
+/// The result of [`acquire`], for [`Controller::complete_acquisition`].
+#[derive(Clone, Copy, Debug)]
+pub struct Acquisition<S> {
+    state: S,
+    generation: u32,
+}
+
+/// The global closest-point search that starts a renderer on `object` at the request's HIP
+/// ([`tracker::Object::start`]): the slow part of a scene swap, run outside the tick (see the
+/// module docs). Bounded, no allocation, no panic.
+pub fn acquire<O: Object<P = Vec2>>(
+    object: &O,
+    request: AcquisitionRequest,
+) -> Acquisition<O::State> {
+    Acquisition {
+        state: object.start(request.hip_m, friction::cp_config()),
+        generation: request.generation,
+    }
 }
 
 /// The controller of one device.
@@ -129,6 +177,8 @@ pub struct Controller<O: Object<P = Vec2>> {
     ticks_since_heartbeat: u64,
     previous: Option<([f32; 2], Vec2)>,
     last_currents_a: [f32; 2],
+    /// The generation the next scene or material gets.
+    next_generation: u32,
 }
 
 impl<O: Object<P = Vec2>> Controller<O> {
@@ -154,6 +204,7 @@ impl<O: Object<P = Vec2>> Controller<O> {
             ticks_since_heartbeat: 0,
             previous: None,
             last_currents_a: [0.0; 2],
+            next_generation: 0,
         })
     }
 
@@ -205,6 +256,8 @@ impl<O: Object<P = Vec2>> Controller<O> {
             object,
             material,
             renderer: None,
+            generation: self.bump_generation(),
+            request_hip: None,
         });
         Ok(())
     }
@@ -220,11 +273,70 @@ impl<O: Object<P = Vec2>> Controller<O> {
             return Err(ControllerError::NoScene);
         }
         self.accept_material(&material, passivity_control)?;
+        let generation = self.bump_generation();
         if let Some(scene) = self.scene.as_mut() {
             scene.material = material;
             scene.renderer = None;
+            scene.generation = generation;
+            scene.request_hip = None;
         }
         Ok(())
+    }
+
+    fn bump_generation(&mut self) -> u32 {
+        let g = self.next_generation;
+        self.next_generation = g.wrapping_add(1);
+        g
+    }
+
+    /// What the renderer waits for: `Some` after a tick with a pose, from a scene load or a
+    /// material change until [`Controller::complete_acquisition`] accepts a result; the tick
+    /// renders no force meanwhile. See the module docs.
+    pub fn acquisition_request(&self) -> Option<AcquisitionRequest> {
+        let scene = self.scene.as_ref()?;
+        if scene.renderer.is_some() {
+            return None;
+        }
+        Some(AcquisitionRequest {
+            hip_m: scene.request_hip?,
+            generation: scene.generation,
+        })
+    }
+
+    /// Starts the renderer from `acquisition` (one frame evaluation, no search), the force
+    /// ramping in from zero. Refused (`false`, nothing changes) when the acquisition is for
+    /// another scene or material than the loaded one, or the renderer already runs.
+    pub fn complete_acquisition(&mut self, acquisition: Acquisition<O::State>) -> bool {
+        let period_s = self.period_s;
+        let Some(scene) = self.scene.as_mut() else {
+            return false;
+        };
+        if scene.renderer.is_some() || scene.generation != acquisition.generation {
+            return false;
+        }
+        scene.renderer = Some(FrictionRenderer::from_tracking(
+            &scene.object,
+            scene.material,
+            acquisition.state,
+            period_s,
+        ));
+        scene.request_hip = None;
+        self.safety.notify_scene_swap();
+        true
+    }
+
+    /// [`acquire`] on the pending request and [`Controller::complete_acquisition`] at once,
+    /// for a loop that has the time between ticks (the host's simulator, tests); `true` when
+    /// the renderer started. The board runs the two halves in different tasks.
+    pub fn acquire_now(&mut self) -> bool {
+        let Some(request) = self.acquisition_request() else {
+            return false;
+        };
+        let Some(scene) = self.scene.as_ref() else {
+            return false;
+        };
+        let acquisition = acquire(&scene.object, request);
+        self.complete_acquisition(acquisition)
     }
 
     fn accept_material(
@@ -265,6 +377,7 @@ impl<O: Object<P = Vec2>> Controller<O> {
             ticks_since_heartbeat: self.ticks_since_heartbeat,
             previous: self.previous,
             last_currents_a: self.last_currents_a,
+            next_generation: self.next_generation,
         }
     }
 
@@ -286,6 +399,7 @@ impl<O: Object<P = Vec2>> Controller<O> {
     /// Drops the scene: no object, no force.
     pub fn unload_scene(&mut self) {
         self.scene = None;
+        self.bump_generation();
     }
 
     /// Records a host heartbeat; the next tick stamps it with its own clock reading.
@@ -368,14 +482,21 @@ impl<O: Object<P = Vec2>> Controller<O> {
         // Rendering, on the loaded object only.
         let mut force = Vec2::ZERO;
         let mut render = None;
-        if let (Some(scene), Some(_)) = (self.scene.as_mut(), state) {
-            let Scene {
-                object,
-                material,
-                renderer,
-            } = scene;
-            let renderer =
-                renderer.get_or_insert_with(|| FrictionRenderer::new(object, *material, hip, t));
+        let scene = self.scene.as_mut().filter(|_| state.is_some());
+        if let Some(Scene {
+            renderer: None,
+            request_hip,
+            ..
+        }) = scene
+        {
+            // Until an acquisition starts the renderer: no force, a request (module docs).
+            *request_hip = Some(hip);
+        } else if let Some(Scene {
+            object,
+            renderer: Some(renderer),
+            ..
+        }) = scene
+        {
             let out = renderer.tick(object, hip, velocity, t);
             force = out.total;
             telemetry.cp_m = out.contact.point;

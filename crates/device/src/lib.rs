@@ -10,5 +10,6 @@ pub mod kinematics;
 pub use nurbs::math;
 pub mod protocol;
 pub mod safety;
+pub mod session;
 pub mod simulator;
 pub mod spec;

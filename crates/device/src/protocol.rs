@@ -37,6 +37,7 @@
 //! | 0x32 | [`Message::DisableForces`] | → dev | 0 | |
 //! | 0x33 | [`Message::Calibrate`] | → dev | 0 | |
 //! | 0x34 | [`Message::ClearFaults`] | → dev | 2 | fault mask u16 |
+//! | 0x35 | [`Message::HandTarget`] | → dev | 8 | virtual hand target x, y (f32, m); simulated plants only, a board nacks it with [`ErrorCode::NotSimulated`] |
 //! | 0x40 | [`Message::Status`] | → host | 18 | flags u8 (bit 0 forces enabled, bit 1 calibrated), faults u16, scene length u32, scene CRC-32 u32, upload bytes received u32, expected seq u16, last error u8 |
 //! | 0x50 | [`Message::Telemetry`] | → host | 57 | below |
 //!

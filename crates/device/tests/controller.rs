@@ -9,7 +9,7 @@
 
 use core::f32::consts::PI;
 
-use device::controller::Controller;
+use device::controller::{Controller, TickOutput, acquire};
 use device::safety::{Faults, SafetyConfig};
 use device::simulator::{SimParams, SimulatedPantograph};
 use device::spec::DeviceSpec;
@@ -50,6 +50,14 @@ fn arcs() -> [CurveBuf<Vec2>; 2] {
 /// centre.
 fn right_arc_depth(p: Vec2) -> f32 {
     0.04 - (p - Vec2::new(-0.02, 0.06)).length()
+}
+
+/// One tick, then the acquisition a board runs outside it ([`Controller::acquire_now`]), as
+/// the host's loops do.
+fn tick<O: Object<P = Vec2>>(c: &mut Controller<O>, counts: [i32; 2], now_us: u64) -> TickOutput {
+    let out = c.tick(counts, now_us);
+    c.acquire_now();
+    out
 }
 
 fn safety() -> SafetyConfig {
@@ -118,15 +126,15 @@ fn an_unreachable_encoder_sample_latches_and_the_force_comes_back_ramped() {
     let bad = counts_of_joints(spec, [PI, 0.0]);
 
     let mut now_us = 0;
-    let mut tick = |c: &mut Controller<Chain<'_>>, counts| {
+    let mut step = |c: &mut Controller<Chain<'_>>, counts| {
         c.heartbeat();
-        let out = c.tick(counts, now_us);
+        let out = tick(c, counts, now_us);
         now_us += PERIOD_US;
         out
     };
     let mut forces = Vec::new();
     for _ in 0..100 {
-        forces.push(tick(&mut c, good).telemetry.force_n);
+        forces.push(step(&mut c, good).telemetry.force_n);
     }
     let pressed = *forces.last().unwrap();
     assert!(
@@ -134,14 +142,14 @@ fn an_unreachable_encoder_sample_latches_and_the_force_comes_back_ramped() {
         "held at the limit: {pressed}"
     );
 
-    let out = tick(&mut c, bad);
+    let out = step(&mut c, bad);
     assert!(Faults::from_bits_truncate(out.telemetry.faults).contains(Faults::ENCODER));
     assert_eq!(out.currents_a, [0.0; 2]);
     assert_eq!(out.joint_angles_rad, None);
     forces.push(out.telemetry.force_n);
     // Good samples again: the fault stays latched, no force, until the host clears it.
     for _ in 0..50 {
-        let out = tick(&mut c, good);
+        let out = step(&mut c, good);
         assert_eq!(out.telemetry.faults, Faults::ENCODER.bits());
         assert_eq!(out.currents_a, [0.0; 2]);
         forces.push(out.telemetry.force_n);
@@ -151,7 +159,7 @@ fn an_unreachable_encoder_sample_latches_and_the_force_comes_back_ramped() {
     let ramp_ticks = (RAMP_S / T).round() as usize;
     let mut asked = Vec::new();
     for _ in 0..ramp_ticks + 20 {
-        let out = tick(&mut c, good);
+        let out = step(&mut c, good);
         assert_eq!(out.telemetry.faults, 0);
         forces.push(out.telemetry.force_n);
         asked.push(out.render.unwrap().total.length());
@@ -207,7 +215,7 @@ fn the_force_limit_is_the_smaller_of_device_and_safety_limits() {
         let mut largest: f32 = 0.0;
         for k in 0..200u64 {
             c.heartbeat();
-            let out = c.tick(counts, k * PERIOD_US);
+            let out = tick(&mut c, counts, k * PERIOD_US);
             assert_eq!(out.telemetry.faults, 0);
             largest = largest.max(out.telemetry.force_n.length());
         }
@@ -232,7 +240,7 @@ fn pressing<'a>(chain: Chain<'a>, start_us: u64) -> (Controller<Chain<'a>>, [i32
     let mut now = start_us;
     for _ in 0..100 {
         c.heartbeat();
-        let out = c.tick(counts, now);
+        let out = tick(&mut c, counts, now);
         assert_eq!(out.telemetry.faults, 0);
         now = now.wrapping_add(PERIOD_US);
     }
@@ -249,7 +257,7 @@ fn ticks_until_watchdog(
     step_us: u64,
 ) -> usize {
     for k in 0..1000 {
-        let out = c.tick(counts, now);
+        let out = tick(c, counts, now);
         now = now.wrapping_add(step_us);
         if Faults::from_bits_truncate(out.telemetry.faults).contains(Faults::WATCHDOG) {
             assert_eq!(out.telemetry.force_n, Vec2::ZERO);
@@ -301,18 +309,18 @@ fn a_clock_that_steps_back_trips_the_watchdog_at_once() {
     let (mut c, counts, now) = pressing(Chain::new(&views).unwrap(), 5_000_000);
     // A heartbeat, then the clock reads one second earlier (a reset of the timer).
     c.heartbeat();
-    c.tick(counts, now);
-    let out = c.tick(counts, now - 1_000_000);
+    tick(&mut c, counts, now);
+    let out = tick(&mut c, counts, now - 1_000_000);
     assert!(Faults::from_bits_truncate(out.telemetry.faults).contains(Faults::WATCHDOG));
     assert_eq!(out.telemetry.force_n, Vec2::ZERO);
     // Heartbeats from then on, on the new clock: the fault clears and the force ramps in.
     for k in 1..=5 {
         c.heartbeat();
-        c.tick(counts, now - 1_000_000 + k * PERIOD_US);
+        tick(&mut c, counts, now - 1_000_000 + k * PERIOD_US);
     }
     assert_eq!(c.clear_faults(), Faults::empty());
     c.heartbeat();
-    let out = c.tick(counts, now - 1_000_000 + 6 * PERIOD_US);
+    let out = tick(&mut c, counts, now - 1_000_000 + 6 * PERIOD_US);
     assert_eq!(out.telemetry.faults, 0);
     assert_eq!(out.telemetry.force_n, Vec2::ZERO, "the ramp starts at zero");
 }
@@ -334,7 +342,7 @@ fn a_heartbeat_is_stamped_by_the_next_tick() {
     let (mut c, counts, now) = pressing(Chain::new(&views).unwrap(), 0);
     c.heartbeat();
     // The heartbeat-stamping tick is tick 0 of the silence: the fault comes 101 ticks later.
-    c.tick(counts, now);
+    tick(&mut c, counts, now);
     assert_eq!(
         ticks_until_watchdog(&mut c, counts, now + PERIOD_US, PERIOD_US),
         WATCHDOG_TICKS
@@ -353,7 +361,7 @@ fn telemetry_time_wraps_modulo_two_to_the_32_microseconds() {
         ((3 << 32) + 7, 7),
     ] {
         c.heartbeat();
-        assert_eq!(c.tick(counts, now_us).telemetry.time_us, time_us);
+        assert_eq!(tick(&mut c, counts, now_us).telemetry.time_us, time_us);
     }
 }
 
@@ -374,7 +382,7 @@ fn swapping_to_a_shorter_chain_while_touching_its_missing_curve_is_total() {
     let mut last = None;
     for _ in 0..100 {
         c.heartbeat();
-        last = Some(c.tick(on_left, now));
+        last = Some(tick(&mut c, on_left, now));
         now += PERIOD_US;
     }
     let touching = last.unwrap().render.unwrap();
@@ -385,11 +393,11 @@ fn swapping_to_a_shorter_chain_while_touching_its_missing_curve_is_total() {
         .unwrap();
     assert_eq!(c.object().map(|o| o.patch_count()), Some(1));
     let config = safety();
-    let mut previous = c.tick(on_left, now).telemetry.force_n;
+    let mut previous = tick(&mut c, on_left, now).telemetry.force_n;
     for _ in 0..200 {
         c.heartbeat();
         now += PERIOD_US;
-        let out = c.tick(on_left, now);
+        let out = tick(&mut c, on_left, now);
         assert!(out.currents_a.iter().all(|i| i.is_finite()));
         let render = out.render.unwrap();
         assert_eq!(render.contact.patch, 0, "the new chain has one curve");
@@ -501,7 +509,7 @@ proptest::proptest! {
                     continue;
                 }
             };
-            let out = c.tick(counts, now);
+            let out = tick(&mut c, counts, now);
             for (i, current) in out.currents_a.iter().enumerate() {
                 proptest::prop_assert!(current.is_finite());
                 proptest::prop_assert!(current.abs() <= spec.current_limit_a[i] * (1.0 + 1e-6));
@@ -514,6 +522,91 @@ proptest::proptest! {
                 "{} -> {}", previous, f
             );
             previous = f;
+        }
+    }
+}
+
+#[test]
+fn the_tick_renders_nothing_until_an_acquisition_starts_it_and_a_stale_one_is_refused() {
+    // The global closest-point search is not the tick's (device::controller, "Acquisition is
+    // not the tick's"): after a load the tick only publishes a request; a result for an
+    // earlier scene is refused; the accepted one starts the renderer, whose force then
+    // ramps in from zero to the penalty force K · depth.
+    let arcs = arcs();
+    let views = [arcs[0].view(), arcs[1].view()];
+    let chain = Chain::new(&views).unwrap();
+    let spec = DeviceSpec::default();
+    let config = safety();
+    let mut c = controller(spec, config);
+    c.load_scene(chain, material(), true).unwrap();
+    // 2 mm inside the right arc, 30° along it (3.8 cm from its centre): K · depth = 2 N,
+    // under every limit.
+    let counts = counts_at(
+        spec,
+        Vec2::new(-0.02 + 0.038 * 0.866_025_4, 0.06 + 0.038 * 0.5),
+    );
+    let mut now = 0;
+    let mut first_request = None;
+    for _ in 0..3 {
+        c.heartbeat();
+        let out = c.tick(counts, now);
+        now += PERIOD_US;
+        assert_eq!(
+            out.telemetry.force_n,
+            Vec2::ZERO,
+            "no force before acquisition"
+        );
+        assert!(out.render.is_none());
+        let request = c.acquisition_request().expect("a tick with a pose asks");
+        assert_eq!(
+            request.hip_m, out.telemetry.hip_m,
+            "searches from the tick's HIP"
+        );
+        assert_eq!(*first_request.get_or_insert(request), request);
+    }
+    let request = first_request.unwrap();
+    let hip = request.hip_m;
+    let depth = right_arc_depth(hip);
+    assert!((depth - 0.002).abs() < 1e-4, "depth {depth}");
+
+    // Searched for this scene, handed in after its material changed: refused.
+    let stale = acquire(&chain, request);
+    c.set_material(material(), true).unwrap();
+    assert!(!c.complete_acquisition(stale));
+    c.heartbeat();
+    let out = c.tick(counts, now);
+    now += PERIOD_US;
+    assert_eq!(out.telemetry.force_n, Vec2::ZERO);
+    let fresh = c.acquisition_request().unwrap();
+    assert_ne!(fresh.generation, request.generation);
+
+    assert!(c.complete_acquisition(acquire(&chain, fresh)));
+    assert_eq!(c.acquisition_request(), None);
+    assert!(
+        !c.complete_acquisition(acquire(&chain, fresh)),
+        "the renderer already runs"
+    );
+
+    // The ramp: zero on the first tick after the hand-over, K · depth after ramp_time_s, and
+    // never above the linear ramp (k T / ramp) · K · depth on the way (the rate limit may
+    // only slow it).
+    let full = material().stiffness_n_per_m * depth;
+    let ramp_ticks = (RAMP_S / T).round() as usize;
+    for k in 0..ramp_ticks + 20 {
+        c.heartbeat();
+        let out = c.tick(counts, now);
+        now += PERIOD_US;
+        let f = out.telemetry.force_n.length();
+        let linear = full * (k as f32 / ramp_ticks as f32).min(1.0);
+        // f32 rounding of K · depth and the ramp factor: a few ulps of 2 N.
+        assert!(
+            f <= linear + 1e-5,
+            "tick {k}: {f} N over the ramp's {linear} N"
+        );
+        if k >= ramp_ticks + 10 {
+            // The tracker converged on the circle's closest point: K times the exact depth,
+            // to the encoder's resolution (counts quantise the HIP by ~10 µm: 1e-2 N).
+            assert!((f - full).abs() < 1e-2, "tick {k}: {f} N, K depth {full} N");
         }
     }
 }

@@ -215,6 +215,7 @@ fn message() -> impl Strategy<Value = Message> {
                 SceneChunk::new(offset, &data).unwrap()
             )),
         Just(Message::SceneCommit),
+        vec2().prop_map(|target_m| Message::HandTarget { target_m }),
         any::<u16>().prop_map(|seq| Message::Ack { seq }),
         (
             any::<u16>(),
@@ -1336,5 +1337,41 @@ fn hello_abandons_an_upload_but_keeps_the_scene() {
     assert_eq!(
         rx.receive(&f, &mut never).unwrap_err().code,
         ErrorCode::NoUpload
+    );
+}
+
+#[test]
+fn a_board_refuses_a_hand_target_and_a_simulated_plant_takes_it() {
+    // A board's receiver (`SceneReceiver::new`): refused with its own code, nothing changed
+    // (sequence number, upload, active scene).
+    let (mut rx, host) = loaded();
+    let before = (*rx).clone();
+    let target = Message::HandTarget {
+        target_m: nurbs::Vec2::new(0.01, 0.09),
+    };
+    let f = encode(host.seq, target);
+    let nack = rx.receive(&f, &mut never).unwrap_err();
+    assert_eq!(nack.code, ErrorCode::NotSimulated);
+    assert_eq!(nack.seq, host.seq);
+    assert_eq!(*rx, before);
+
+    // A simulated plant's receiver hands the message on, with its target, and moves on.
+    let mut sim: SceneReceiver<8192> = SceneReceiver::for_simulated_plant();
+    let frame = sim.receive(&f, &mut never).unwrap();
+    assert_eq!(frame.message, target);
+    assert_eq!(sim.expected_seq(), Some(host.seq.wrapping_add(1)));
+
+    // A non-finite target is not a message (decoding checks it).
+    let mut bytes = [0u8; MAX_FRAME];
+    let n = Frame {
+        seq: 0,
+        message: Message::HandTarget {
+            target_m: nurbs::Vec2::new(f32::NAN, 0.0),
+        },
+    }
+    .encode(&mut bytes);
+    assert_eq!(
+        sim.receive(&bytes[..n], &mut never).unwrap_err().code,
+        ErrorCode::BadField
     );
 }

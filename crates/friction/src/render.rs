@@ -260,8 +260,24 @@ pub fn cp_config() -> tracker::TrackerConfig {
 impl<O: Object> FrictionRenderer<O> {
     /// A renderer for `object` with `material`, starting from a HIP at `hip`, ticking every
     /// `period_s`.
+    ///
+    /// This runs the object's global closest-point search ([`Object::start`]), far dearer than
+    /// a tick; a loop with a deadline runs the search elsewhere and hands its result to
+    /// [`FrictionRenderer::from_tracking`].
     pub fn new(object: &O, material: FrictionMaterial, hip: O::P, period_s: f32) -> Self {
-        let cp = object.start(hip, cp_config());
+        Self::from_tracking(object, material, object.start(hip, cp_config()), period_s)
+    }
+
+    /// A renderer for `object` with `material` whose CP tracker starts from `cp` (a state of
+    /// [`Object::start`] with [`cp_config`], possibly found for an earlier HIP: the tracker's
+    /// feedback follows the HIP from there), ticking every `period_s`. Costs one frame
+    /// evaluation, no search.
+    pub fn from_tracking(
+        object: &O,
+        material: FrictionMaterial,
+        cp: O::State,
+        period_s: f32,
+    ) -> Self {
         let _ = period_s;
         let (go_patch, go_params) = O::position(&cp);
         let law = match material.model {

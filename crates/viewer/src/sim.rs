@@ -21,6 +21,7 @@ use std::io::{self, Write};
 
 use device::controller::{Controller, ControllerError, TickOutput};
 use device::kinematics::KinematicsError;
+use device::protocol::Telemetry;
 use device::safety::SafetyConfig;
 pub use device::simulator::SimParams;
 use device::simulator::{SimulatedPantograph, SimulatorError};
@@ -385,6 +386,9 @@ pub struct DeviceRun {
     /// Whether the material is stiffer than the device renders passively at this rate, so
     /// that the controller renders it with the time-domain passivity controller on.
     pub passivity_control: bool,
+    /// Every tick's telemetry frame, as the controller made it (what a board sends; the
+    /// firmware under QEMU is compared with it frame by frame by `cargo xtask qemu`).
+    pub telemetry: Vec<Telemetry>,
 }
 
 /// Ramp-in of the force after it is enabled (s): short, so that a trajectory that starts
@@ -500,6 +504,7 @@ pub fn run_device(
         let mut arm =
             SimulatedPantograph::new(spec, hand, vec2(start)).map_err(SimError::Simulator)?;
         let mut ticks = Vec::with_capacity(n);
+        let mut telemetry = Vec::with_capacity(n);
         for i in 0..n {
             let t_s = trajectory.tick_time_s(i, rate_hz);
             // The device clock: integer microseconds since the start, as a board's timer.
@@ -507,6 +512,10 @@ pub fn run_device(
             let (hip, hip_velocity) = arm.hip().map_err(|error| SimError::Arm { t_s, error })?;
             controller.heartbeat();
             let out = controller.tick(arm.encoder_counts(), now_us);
+            // The global search that starts the renderer runs between ticks, as a board's
+            // lower-priority task (device::controller, "Acquisition is not the tick's").
+            controller.acquire_now();
+            telemetry.push(out.telemetry);
             let tick = device_record(t_s, hip, hip_velocity, &out);
             ticks.push(match controller.object() {
                 Some(object) => in_source_patches(tick, object),
@@ -526,6 +535,7 @@ pub fn run_device(
                 ticks,
             },
             passivity_control,
+            telemetry,
         })
     })
 }

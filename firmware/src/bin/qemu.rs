@@ -194,6 +194,67 @@ fn stack_peak() -> usize {
     top - p
 }
 
+/// USART1 of the STM32F405 (QEMU's `stm32f2xx_usart`, the first `-serial`): the link, each
+/// frame COBS-encoded and followed by a `0x00` delimiter, exactly as the host's serial and TCP
+/// links read it. QEMU sends a byte written to DR at once (TXE is never observed clear) and
+/// holds received bytes until DR is read, so neither direction needs waiting or a buffer.
+struct Uart;
+
+impl Uart {
+    const BASE: usize = 0x4001_1000;
+    const SR: usize = Self::BASE;
+    const DR: usize = Self::BASE + 0x04;
+    const CR1: usize = Self::BASE + 0x0C;
+    /// SR: a received byte waits in DR.
+    const RXNE: u32 = 1 << 5;
+    /// CR1: USART enable, transmitter enable, receiver enable.
+    const UE_TE_RE: u32 = (1 << 13) | (1 << 3) | (1 << 2);
+
+    fn write(addr: usize, value: u32) {
+        #[allow(unsafe_code)]
+        // SAFETY: an aligned word write to a USART1 register (SR/DR/CR1) of the emulated
+        // STM32F405; nothing else in the program owns USART1.
+        unsafe {
+            core::ptr::write_volatile(addr as *mut u32, value)
+        }
+    }
+
+    fn read(addr: usize) -> u32 {
+        #[allow(unsafe_code)]
+        // SAFETY: an aligned word read of a USART1 register of the emulated STM32F405.
+        unsafe {
+            core::ptr::read_volatile(addr as *const u32)
+        }
+    }
+
+    /// Enables the transmitter and the receiver (no clock setup: QEMU has no RCC model, and
+    /// its USART ignores the baud rate).
+    fn init() -> Self {
+        Self::write(Self::CR1, Self::UE_TE_RE);
+        Uart
+    }
+
+    /// Sends one frame: COBS, then the delimiter.
+    fn send_frame(&mut self, frame: &[u8]) {
+        let mut encoded = [0u8; cobs::max_encoding_length(MAX_FRAME_BYTES)];
+        let Some(frame) = frame.get(..MAX_FRAME_BYTES) else {
+            return;
+        };
+        let n = cobs::encode(frame, &mut encoded);
+        for &b in encoded.get(..n).unwrap_or(&[]).iter().chain(&[0u8]) {
+            Self::write(Self::DR, u32::from(b));
+        }
+    }
+
+    /// The next received byte, if one waits.
+    fn receive(&mut self) -> Option<u8> {
+        (Self::read(Self::SR) & Self::RXNE != 0).then(|| Self::read(Self::DR) as u8)
+    }
+}
+
+/// The protocol's frame size.
+const MAX_FRAME_BYTES: usize = device::protocol::MAX_FRAME;
+
 /// The emulated board: the simulated pantograph as the plant, the scenario's clock.
 struct QemuBoard {
     arm: SimulatedPantograph,
@@ -201,6 +262,7 @@ struct QemuBoard {
     currents_a: [f32; 2],
     driver_enabled: bool,
     frames_sent: u32,
+    uart: Uart,
     meter: Meter,
     /// Instructions of the last `Controller::tick`, bracket subtracted.
     last: Result<u32, Overflow>,
@@ -223,13 +285,21 @@ impl Board for QemuBoard {
         self.now_us
     }
 
-    fn link_send(&mut self, _frame: &[u8]) {
-        // No UART link yet: the frame is built (its cost is the app's) and counted.
+    fn link_send(&mut self, frame: &[u8]) {
+        self.uart.send_frame(frame);
         self.frames_sent = self.frames_sent.wrapping_add(1);
     }
 
-    fn link_receive(&mut self, _buf: &mut [u8]) -> usize {
-        0
+    fn link_receive(&mut self, buf: &mut [u8]) -> usize {
+        let mut n = 0;
+        for slot in buf.iter_mut() {
+            match self.uart.receive() {
+                Some(b) => *slot = b,
+                None => break,
+            }
+            n += 1;
+        }
+        n
     }
 
     fn around_tick<R>(&mut self, tick: impl FnOnce() -> R) -> R {
@@ -293,15 +363,21 @@ impl<'s> Shadow<'s> {
             let velocity = self
                 .previous_hip
                 .map_or(Vec2::ZERO, |prev| (hip - prev) * (1.0 / t));
+            // The controller's renderer starts on the tick after the one whose HIP its
+            // acquisition searched from (`App::acquire` between ticks): the same here.
+            if self.renderer.is_none() && out.render.is_some() {
+                let from = self.previous_hip.unwrap_or(hip);
+                self.renderer = Some(FrictionRenderer::new(&self.object, self.material, from, t));
+            }
             self.previous_hip = Some(hip);
-            let (object, material, renderer) = (&self.object, self.material, &mut self.renderer);
-            let (output, n) = meter.instructions(|| {
-                renderer
-                    .get_or_insert_with(|| FrictionRenderer::new(object, material, hip, t))
-                    .tick(object, hip, velocity, t)
-            });
-            render = count(n);
-            if Some(output) != out.render {
+            let (object, renderer) = (&self.object, &mut self.renderer);
+            if let Some(renderer) = renderer.as_mut() {
+                let (output, n) = meter.instructions(|| renderer.tick(object, hip, velocity, t));
+                render = count(n);
+                if Some(output) != out.render {
+                    self.mismatches += 1;
+                }
+            } else if out.render.is_some() {
                 self.mismatches += 1;
             }
             let force = out.telemetry.force_n;
@@ -520,6 +596,7 @@ fn main() -> ! {
         currents_a: [0.0; 2],
         driver_enabled: false,
         frames_sent: 0,
+        uart: Uart::init(),
         meter,
         last: Ok(0),
     };
@@ -527,6 +604,8 @@ fn main() -> ! {
     let mut after_first = Stats::default();
     let mut by_mode = [Stats::default(); 4];
     let mut first = 0;
+    let mut first_rendered = None;
+    let mut acquisition = Stats::default();
     let mut fault_ticks = 0u32;
     // The handle's true HIP at the last tick (the host's run log's `hip_x,hip_y`).
     let mut last_hip = Vec2::ZERO;
@@ -553,6 +632,18 @@ fn main() -> ! {
         } else {
             after_first.add(n);
         }
+        if out.render.is_some() && first_rendered.is_none() {
+            first_rendered = Some(n);
+        }
+        // The global search that starts the renderer, between ticks (the board runs it in its
+        // lowest-priority task): counted alone, never in a tick.
+        let (started, searched) = board.meter.instructions(|| app.acquire());
+        if started {
+            match searched {
+                Ok(c) => acquisition.add(c.saturating_sub(board.meter.overhead)),
+                Err(e) => fail(format_args!("tick {i}: acquisition count: {e:?}")),
+            }
+        }
         by_mode[mode_index(out.telemetry.mode)].add(n);
         if out.telemetry.faults != 0 {
             fault_ticks += 1;
@@ -574,6 +665,12 @@ fn main() -> ! {
     let name = scenario.name;
     hprintln!("instructions_per_tick scene={} {}", name, all);
     hprintln!("instructions_first_tick scene={} count={}", name, first);
+    hprintln!(
+        "instructions_first_rendered_tick scene={} count={}",
+        name,
+        first_rendered.unwrap_or(0)
+    );
+    hprintln!("instructions_acquisition scene={} {}", name, acquisition);
     hprintln!(
         "instructions_per_tick_after_first scene={} {}",
         name,

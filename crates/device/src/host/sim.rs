@@ -22,11 +22,10 @@ use nurbs::{Curve, Vec2};
 use tracker::Chain;
 
 use super::{Link, LinkError, Sequencer, software_version};
-use crate::controller::{Controller, ControllerError};
-use crate::protocol::{
-    Frame, Hello, MAX_FRAME, MAX_PAYLOAD, Message, SceneReceiver, SceneStore, Status,
-};
+use crate::controller::Controller;
+use crate::protocol::{Frame, MAX_FRAME, Message, SceneStore};
 use crate::safety::SafetyConfig;
+use crate::session::{Event, Session};
 use crate::simulator::{SimParams, SimulatedPantograph};
 use crate::spec::DeviceSpec;
 
@@ -105,11 +104,14 @@ impl SimLink {
                     frames,
                     arm,
                     hand_target: config.start_hip,
-                    receiver: Box::new(SceneReceiver::new()),
+                    session: Box::new(Session::new(
+                        software_version(),
+                        true,
+                        config.passivity_control,
+                    )),
                     scratch: Box::new(SceneStore::new()),
                     seq: Sequencer::default(),
                     tick: 0,
-                    last_error: 0,
                     started: Instant::now(),
                 };
                 device.run(controller);
@@ -203,12 +205,11 @@ struct SimDevice {
     frames: SyncSender<[u8; MAX_FRAME]>,
     arm: SimulatedPantograph,
     hand_target: Vec2,
-    receiver: Box<SceneReceiver<SCENE_CAPACITY>>,
+    session: Box<Session<SCENE_CAPACITY>>,
     /// Where commits are validated (decoded); swapped with the active store on success.
     scratch: Box<SceneStore>,
     seq: Sequencer,
     tick: u64,
-    last_error: u8,
     started: Instant,
 }
 
@@ -232,7 +233,8 @@ impl SimDevice {
                     .load_scene(chain, material, self.config.passivity_control)
                     .is_err()
             {
-                self.last_error = crate::protocol::ErrorCode::BadMaterial as u8;
+                self.session
+                    .note_error(crate::protocol::ErrorCode::BadMaterial);
             }
             let end = self.epoch(&mut active);
             parked = active.rebind();
@@ -269,6 +271,8 @@ impl SimDevice {
             // An arm driven into a singular pose stays there, as a real one on its stops.
             let _ = self.arm.step(out.currents_a, self.hand_target, period_s);
             out.telemetry.tick_us = u16::try_from(begun.elapsed().as_micros()).unwrap_or(u16::MAX);
+            // The global search after a swap, outside the tick as on the board.
+            controller.acquire_now();
             if self.emit(&Message::Telemetry(out.telemetry)).is_err() {
                 return EpochEnd::Stop;
             }
@@ -290,86 +294,56 @@ impl SimDevice {
 
     /// Handles one host frame; `Ok(true)` when it committed a scene.
     fn handle(&mut self, controller: &mut Controller<Chain<'_>>, bytes: &[u8]) -> Result<bool, ()> {
-        let outcome = self.receiver.receive(bytes, &mut *self.scratch);
-        self.emit(&SceneReceiver::<SCENE_CAPACITY>::reply(&outcome))?;
-        let frame = match outcome {
-            Ok(frame) => frame,
-            Err(nack) => {
-                self.last_error = nack.code as u8;
-                return Ok(false);
-            }
-        };
-        match frame.message {
-            Message::Hello(_) => self.emit(&Message::Hello(Hello {
-                software: software_version(),
-                scene_capacity: SCENE_CAPACITY as u32,
-                max_payload: MAX_PAYLOAD as u8,
-            }))?,
-            Message::Heartbeat { .. } => {
-                controller.heartbeat();
-                let status = Status {
-                    forces_enabled: controller.forces_enabled(),
-                    calibrated: controller.is_calibrated(),
-                    faults: controller.faults().bits(),
-                    scene_len: u32::try_from(self.receiver.active_scene().len()).unwrap_or(0),
-                    scene_crc32: self.receiver.active_crc32(),
-                    upload_received: self
-                        .receiver
-                        .upload_received()
-                        .and_then(|n| u32::try_from(n).ok())
-                        .unwrap_or(0),
-                    expected_seq: self.receiver.expected_seq().unwrap_or(0),
-                    last_error: self.last_error,
-                };
-                self.emit(&Message::Status(status))?;
-            }
-            Message::SceneCommit => return Ok(true),
-            Message::SetMaterial {
-                object: 0,
-                material,
-            } => {
-                // Without a scene there is nothing to set (the next upload brings its own).
-                let loaded = controller.set_material(material, self.config.passivity_control);
-                if matches!(
-                    loaded,
-                    Err(ControllerError::Passivity(_) | ControllerError::BeyondDevice(_))
-                ) {
-                    self.last_error = crate::protocol::ErrorCode::BadMaterial as u8;
-                }
-            }
-            Message::EnableForces => controller.set_forces_enabled(true),
-            Message::DisableForces => controller.set_forces_enabled(false),
-            Message::Calibrate => {
-                // The simulated joints "rest on their end stops": the counts read there.
-                let spec = &self.config.spec;
-                let per_rad = spec.counts_per_joint_rad();
-                let home = [0, 1].map(|i| {
-                    let stop = spec.encoder_direction[i].sign() * spec.end_stop_rad[i] * per_rad[i];
-                    spec.encoder_offset_counts[i].wrapping_add(libm::floorf(stop) as i32)
-                });
-                if controller.calibrate(home).is_err() {
-                    self.last_error = crate::protocol::ErrorCode::BadField as u8;
-                }
-            }
-            Message::ClearFaults { .. } => {
-                controller.clear_faults();
-            }
-            _ => {}
+        // The simulated joints "rest on their end stops": the counts read there.
+        let spec = &self.config.spec;
+        let per_rad = spec.counts_per_joint_rad();
+        let home = [0, 1].map(|i| {
+            let stop = spec.encoder_direction[i].sign() * spec.end_stop_rad[i] * per_rad[i];
+            spec.encoder_offset_counts[i].wrapping_add(libm::floorf(stop) as i32)
+        });
+        let (paced, frames, seq) = (self.config.paced, &self.frames, &mut self.seq);
+        let mut gone = false;
+        let event = self.session.handle(
+            bytes,
+            &mut *self.scratch,
+            controller,
+            home,
+            &mut |m: &Message| gone |= emit(paced, frames, seq, m).is_err(),
+        );
+        if gone {
+            return Err(());
         }
-        Ok(false)
+        Ok(match event {
+            Event::SceneCommitted => true,
+            Event::HandTarget(target) => {
+                self.hand_target = target;
+                false
+            }
+            Event::None => false,
+        })
     }
 
-    /// Sends one frame to the host. Paced, a full queue drops the frame (its sequence number
-    /// is spent, so the host sees the gap); unpaced, it waits for the host.
+    /// Sends one frame to the host (see [`emit`]).
     fn emit(&mut self, message: &Message) -> Result<(), ()> {
-        let (report, _, _) = self.seq.encode(message);
-        if self.config.paced {
-            match self.frames.try_send(report) {
-                Ok(()) | Err(mpsc::TrySendError::Full(_)) => Ok(()),
-                Err(mpsc::TrySendError::Disconnected(_)) => Err(()),
-            }
-        } else {
-            self.frames.send(report).map_err(|_| ())
+        emit(self.config.paced, &self.frames, &mut self.seq, message)
+    }
+}
+
+/// Sends one frame to the host. Paced, a full queue drops the frame (its sequence number is
+/// spent, so the host sees the gap); unpaced, it waits for the host.
+fn emit(
+    paced: bool,
+    frames: &SyncSender<[u8; MAX_FRAME]>,
+    seq: &mut Sequencer,
+    message: &Message,
+) -> Result<(), ()> {
+    let (report, _, _) = seq.encode(message);
+    if paced {
+        match frames.try_send(report) {
+            Ok(()) | Err(mpsc::TrySendError::Full(_)) => Ok(()),
+            Err(mpsc::TrySendError::Disconnected(_)) => Err(()),
         }
+    } else {
+        frames.send(report).map_err(|_| ())
     }
 }

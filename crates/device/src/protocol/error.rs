@@ -51,11 +51,14 @@ pub enum ErrorCode {
     ScenePatch = 19,
     /// An object's patches do not form a valid chain / shell, or mix kinds.
     SceneTopology = 20,
+    /// A message only a simulated plant accepts ([`Message::HandTarget`](super::Message)),
+    /// sent to a board that drives real motors.
+    NotSimulated = 21,
 }
 
 impl ErrorCode {
     /// Every code, in wire order.
-    pub const ALL: [ErrorCode; 20] = [
+    pub const ALL: [ErrorCode; 21] = [
         ErrorCode::BadLength,
         ErrorCode::BadCrc,
         ErrorCode::BadVersion,
@@ -76,6 +79,7 @@ impl ErrorCode {
         ErrorCode::SceneCapacity,
         ErrorCode::ScenePatch,
         ErrorCode::SceneTopology,
+        ErrorCode::NotSimulated,
     ];
 
     /// The code with wire value `value`, if any.
@@ -106,6 +110,7 @@ impl ErrorCode {
             ErrorCode::SceneCapacity => "scene exceeds device storage",
             ErrorCode::ScenePatch => "invalid NURBS patch",
             ErrorCode::SceneTopology => "invalid object topology",
+            ErrorCode::NotSimulated => "only a simulated plant takes a hand target",
         }
     }
 }

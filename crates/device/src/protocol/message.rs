@@ -53,6 +53,8 @@ pub enum MessageType {
     Calibrate = 0x33,
     /// [`Message::ClearFaults`].
     ClearFaults = 0x34,
+    /// [`Message::HandTarget`].
+    HandTarget = 0x35,
     /// [`Message::Status`].
     Status = 0x40,
     /// [`Message::Telemetry`].
@@ -61,7 +63,7 @@ pub enum MessageType {
 
 impl MessageType {
     /// Every type.
-    pub const ALL: [MessageType; 14] = [
+    pub const ALL: [MessageType; 15] = [
         MessageType::Hello,
         MessageType::Heartbeat,
         MessageType::SceneBegin,
@@ -74,6 +76,7 @@ impl MessageType {
         MessageType::DisableForces,
         MessageType::Calibrate,
         MessageType::ClearFaults,
+        MessageType::HandTarget,
         MessageType::Status,
         MessageType::Telemetry,
     ];
@@ -96,6 +99,7 @@ impl MessageType {
             MessageType::SetMaterial => 1 + MATERIAL_LEN,
             MessageType::EnableForces | MessageType::DisableForces | MessageType::Calibrate => 0,
             MessageType::ClearFaults => 2,
+            MessageType::HandTarget => 8,
             MessageType::Status => 18,
             MessageType::Telemetry => TELEMETRY_LEN,
         };
@@ -338,6 +342,13 @@ pub enum Message {
         /// Fault bits to clear.
         mask: u16,
     },
+    /// → dev: where the virtual hand pulls the handle (m, device frame). Only a simulated plant
+    /// (the host's simulator, the firmware under QEMU) has a virtual hand; a board refuses it
+    /// with [`ErrorCode::NotSimulated`].
+    HandTarget {
+        /// The hand's target (finite, checked on decode).
+        target_m: Vec2,
+    },
     /// → host: device state.
     Status(Status),
     /// → host: one haptic tick.
@@ -360,6 +371,7 @@ impl Message {
             Message::DisableForces => MessageType::DisableForces,
             Message::Calibrate => MessageType::Calibrate,
             Message::ClearFaults { .. } => MessageType::ClearFaults,
+            Message::HandTarget { .. } => MessageType::HandTarget,
             Message::Status(_) => MessageType::Status,
             Message::Telemetry(_) => MessageType::Telemetry,
         }
@@ -398,6 +410,10 @@ impl Message {
                 put_material(w, material);
             }
             Message::ClearFaults { mask } => w.u16(*mask),
+            Message::HandTarget { target_m } => {
+                w.f32(target_m.x);
+                w.f32(target_m.y);
+            }
             Message::Status(s) => {
                 w.u8(u8::from(s.forces_enabled) | (u8::from(s.calibrated) << 1));
                 w.u16(s.faults);
@@ -478,6 +494,9 @@ impl Message {
             MessageType::Calibrate => Message::Calibrate,
             MessageType::ClearFaults => Message::ClearFaults {
                 mask: r.u16().ok_or(short)?,
+            },
+            MessageType::HandTarget => Message::HandTarget {
+                target_m: Vec2::new(finite(r)?, finite(r)?),
             },
             MessageType::Status => {
                 let flags = r.u8().ok_or(short)?;

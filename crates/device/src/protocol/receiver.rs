@@ -55,6 +55,7 @@ pub struct SceneReceiver<const N: usize = 8192> {
     active_crc: u32,
     upload: Option<Upload>,
     expected_seq: Option<u16>,
+    simulated_plant: bool,
 }
 
 impl<const N: usize> Default for SceneReceiver<N> {
@@ -73,7 +74,17 @@ impl<const N: usize> SceneReceiver<N> {
             active_crc: 0,
             upload: None,
             expected_seq: None,
+            simulated_plant: false,
         }
+    }
+
+    /// A receiver for a device whose plant is simulated (the host's simulator, the firmware
+    /// under QEMU): it accepts [`Message::HandTarget`], which a board's receiver refuses
+    /// with [`ErrorCode::NotSimulated`].
+    pub const fn for_simulated_plant() -> Self {
+        let mut r = Self::new();
+        r.simulated_plant = true;
+        r
     }
 
     /// The active scene's bytes (empty before the first commit).
@@ -118,6 +129,10 @@ impl<const N: usize> SceneReceiver<N> {
             Message::Ack { .. } | Message::Nack(_) | Message::Status(_) | Message::Telemetry(_) => {
                 return Err(self.nack(Some(seq), ErrorCode::UnexpectedMessage, None));
             }
+            Message::HandTarget { .. } if !self.simulated_plant => {
+                return Err(self.nack(Some(seq), ErrorCode::NotSimulated, None));
+            }
+            Message::HandTarget { .. } => {}
             Message::Heartbeat { .. }
             | Message::SetMaterial { .. }
             | Message::EnableForces
