@@ -60,7 +60,7 @@ impl<'s> App<'s> {
         period_s: f32,
         ramp_time_s: f32,
     ) -> Result<Self, AppError> {
-        let chain = Self::chain(store, object)?;
+        let chain = chain(store, object)?;
         let material = store.material(object).ok_or(AppError::NoObject(object))?;
         let mut app = Self::without_scene(period_s, ramp_time_s)?;
         app.load_chain(chain, material)?;
@@ -92,7 +92,7 @@ impl<'s> App<'s> {
         store: &'s SceneStore<K, C, S>,
         object: usize,
     ) -> Result<(), AppError> {
-        let chain = Self::chain(store, object)?;
+        let chain = chain(store, object)?;
         let material = store.material(object).ok_or(AppError::NoObject(object))?;
         self.load_chain(chain, material)
     }
@@ -138,25 +138,6 @@ impl<'s> App<'s> {
         };
         self.passivity_control = passivity_control;
         Ok(())
-    }
-
-    /// Object `object` of `store` as a chain of planar curves.
-    fn chain<const K: usize, const C: usize, const S: usize>(
-        store: &'s SceneStore<K, C, S>,
-        object: usize,
-    ) -> Result<Chain<'s>, AppError> {
-        let n = store
-            .patch_count(object)
-            .ok_or(AppError::NoObject(object))?;
-        let first = store.curve(object, 0).ok_or(AppError::NotPlanar(object))?;
-        let mut curves = [first; MAX_CHAIN_CURVES];
-        for (p, c) in curves.iter_mut().enumerate().take(n).skip(1) {
-            *c = store.curve(object, p).ok_or(AppError::NotPlanar(object))?;
-        }
-        let given = curves
-            .get(..n)
-            .ok_or(AppError::Chain(ChainError::TooManyCurves { count: n }))?;
-        Chain::new(given).map_err(AppError::Chain)
     }
 
     /// Whether the scene runs with the passivity controller on.
@@ -209,4 +190,25 @@ impl<'s> App<'s> {
         board.link_send(bytes.get(..n).unwrap_or(&bytes));
         out
     }
+}
+
+/// Object `object` of `store` as a chain of planar curves: the object [`App::new`] and
+/// [`App::load`] give the controller (the same views for the same store, so a task that runs
+/// the acquisition on its own copy searches the controller's object).
+pub fn chain<'s, const K: usize, const C: usize, const S: usize>(
+    store: &'s SceneStore<K, C, S>,
+    object: usize,
+) -> Result<Chain<'s>, AppError> {
+    let n = store
+        .patch_count(object)
+        .ok_or(AppError::NoObject(object))?;
+    let first = store.curve(object, 0).ok_or(AppError::NotPlanar(object))?;
+    let mut curves = [first; MAX_CHAIN_CURVES];
+    for (p, c) in curves.iter_mut().enumerate().take(n).skip(1) {
+        *c = store.curve(object, p).ok_or(AppError::NotPlanar(object))?;
+    }
+    let given = curves
+        .get(..n)
+        .ok_or(AppError::Chain(ChainError::TooManyCurves { count: n }))?;
+    Chain::new(given).map_err(AppError::Chain)
 }

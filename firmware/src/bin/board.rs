@@ -9,12 +9,14 @@
 //!    allocates, logs or panics; it shares nothing with lower priorities but lock-free
 //!    single-producer single-consumer queues and atomics.
 //! 2. `usb` — the OTG_FS interrupt (and pended by the tick every millisecond): USB HID
-//!    (usb-device + usbd-hid), one 64-byte protocol frame per report; host frames go through
-//!    [`SceneReceiver`], which validates an upload into the link's staging store; replies
-//!    and telemetry go out as IN reports, one device sequence number over all of them.
-//! 0. `idle` — the lowest priority: sleeps until an interrupt. The acquisition (the global
-//!    closest-point search that starts the trackers) moves here when the controller offers
-//!    it outside its tick (see `README.md`, "Acquisition").
+//!    (usb-device + usbd-hid), one 64-byte protocol frame per report; host reports go to the
+//!    protocol task, its replies and the tick's telemetry go out as IN reports, one device
+//!    sequence number over all of them.
+//! 0. `idle` — the lowest priority, the protocol task: host frames through
+//!    [`SceneReceiver`] (which validates an upload into the staging store), commands to the
+//!    tick, replies to USB; and the acquisition (the global closest-point search that starts
+//!    the renderer after a swap, `device::controller::acquire`), handed back to the tick.
+//!    Sleeps (WFI) when there is nothing to do.
 //!
 //! Pins (see the firmware README's table): encoders TIM3 PA6/PA7 and TIM4 PB6/PB7, PWM TIM1
 //! CH1 PA8 and CH2 PA9 at 20 kHz, directions PB12/PB13, driver enable PB14 (high = enabled),
@@ -26,7 +28,7 @@
 
 use core::sync::atomic::{AtomicBool, AtomicU32, Ordering};
 
-use device::controller::TickOutput;
+use device::controller::{Acquisition, AcquisitionRequest, TickOutput, acquire};
 use device::protocol::{
     ErrorCode, Frame, Hello, MAX_FRAME, MAX_PAYLOAD, Message, SceneError, SceneFault,
     SceneReceiver, SceneStore, Status,
@@ -41,6 +43,7 @@ use stm32f4xx_hal::prelude::*;
 use stm32f4xx_hal::qei::Qei;
 use stm32f4xx_hal::timer::{CounterHz, Event, Flag, PwmChannel};
 use stm32f4xx_hal::watchdog::IndependentWatchdog;
+use tracker::{Chain, Object};
 
 #[cfg(any(
     all(feature = "tick-2khz", feature = "tick-5khz"),
@@ -105,6 +108,9 @@ enum Command {
 /// Queue lengths (heapless' spsc holds one less than its size).
 const COMMANDS: usize = 8;
 const FRAMES: usize = 4;
+/// Host reports waiting for the protocol task, and its replies waiting for USB.
+const REPORTS: usize = 6;
+const REPLIES: usize = 6;
 /// Both stores can be in flight at once, so neither hand-over queue can overflow.
 const STORES: usize = 3;
 
@@ -352,24 +358,65 @@ const REPORT_DESCRIPTOR: &[u8] = &[
     0xC0,             // End collection
 ];
 
-/// The link side: frames in through the receiver, replies and telemetry out.
-struct Link {
+/// What the tick asks the acquisition for: the global closest-point search on object 0 of
+/// the store it renders, from the request's HIP.
+#[derive(Clone, Copy, Debug)]
+struct AcquisitionJob {
+    store: &'static BoardStore,
+    request: AcquisitionRequest,
+}
+
+/// The acquisition's answer: the search's result, or `None` when the store's object could not
+/// be built (not expected: the tick loaded it); either way the job is over.
+type ChainAcquisition = Acquisition<<Chain<'static> as Object>::State>;
+
+/// The acquisition of one job: the job's object rebuilt from its store (the same chain as
+/// the controller's) and the global search on it.
+#[inline(never)]
+fn run_job(job: AcquisitionJob) -> Option<ChainAcquisition> {
+    firmware::app::chain(job.store, 0)
+        .ok()
+        .map(|chain| acquire(&chain, job.request))
+}
+
+/// The protocol side, in the lowest-priority task: host frames through the receiver (which
+/// validates an upload into the staging store), commands to the tick, replies to USB; and the
+/// acquisition. Both build chains (the validation, the search's object), so they run in one
+/// task, one after the other, and their stack frames never add up.
+struct Protocol {
     receiver: &'static mut Receiver,
     /// The store the next commit is validated into; `None` while both are with the tick.
     staging: Option<Staging<BoardStore>>,
-    /// Device sequence number, over every frame sent (the host counts gaps in it).
-    seq: u16,
     last_error: u8,
-    /// Replies waiting for the IN endpoint, oldest first.
-    replies: heapless::Deque<Message, 4>,
+    reports: heapless::spsc::Consumer<'static, Report, REPORTS>,
+    replies: heapless::spsc::Producer<'static, Message, REPLIES>,
     commands: heapless::spsc::Producer<'static, Command, COMMANDS>,
     commits: heapless::spsc::Producer<'static, Published<BoardStore>, STORES>,
     freed: heapless::spsc::Consumer<'static, Staging<BoardStore>, STORES>,
-    frames: heapless::spsc::Consumer<'static, Report, FRAMES>,
+    jobs: heapless::spsc::Consumer<'static, AcquisitionJob, 2>,
+    results: heapless::spsc::Producer<'static, Option<ChainAcquisition>, 2>,
 }
 
-impl Link {
-    /// Handles one host report.
+impl Protocol {
+    /// Handles what is waiting; `false` when nothing was.
+    fn step(&mut self) -> bool {
+        if let Some(job) = self.jobs.dequeue() {
+            // Room is certain: one job at a time.
+            let _ = self.results.enqueue(run_job(job));
+            return true;
+        }
+        if let Some(report) = self.reports.dequeue() {
+            self.receive(&report);
+            rtic::pend(pac::Interrupt::OTG_FS);
+            return true;
+        }
+        false
+    }
+
+    /// Handles one host report. Not inlined (nor is [`run_job`]), so that the task's own
+    /// frame stays small and the big frames (the validation's, the search's) exist only while
+    /// they run: the tick's swap never stacks on them (see `COMMIT_PENDING`, `in_flight`).
+    #[inline(never)]
     fn receive(&mut self, bytes: &[u8]) {
         if self.staging.is_none() {
             self.staging = self.freed.dequeue();
@@ -457,15 +504,26 @@ impl Link {
     }
 
     fn reply(&mut self, message: Message) {
-        // Dropped when four replies are already waiting (the host sends faster than it
-        // reads): it sees the missing acks.
-        let _ = self.replies.push_back(message);
+        // Dropped when the replies queue is full (the host sends faster than it reads): it
+        // sees the missing acks.
+        let _ = self.replies.enqueue(message);
     }
+}
 
+/// The USB side: reports in to the protocol, replies and telemetry out as IN reports.
+struct Usb {
+    reports: heapless::spsc::Producer<'static, Report, REPORTS>,
+    replies: heapless::spsc::Consumer<'static, Message, REPLIES>,
+    frames: heapless::spsc::Consumer<'static, Report, FRAMES>,
+    /// Device sequence number, over every frame sent (the host counts gaps in it).
+    seq: u16,
+}
+
+impl Usb {
     /// The next report to send: a reply first, else the oldest telemetry frame; numbered
     /// with the device's sequence. `None` when nothing is waiting.
     fn next_report(&mut self) -> Option<Report> {
-        let message = match self.replies.front() {
+        let message = match self.replies.peek() {
             Some(m) => *m,
             None => match self.frames.peek().map(|r| Frame::decode(r)) {
                 Some(Ok(frame)) => frame.message,
@@ -487,9 +545,9 @@ impl Link {
         )
     }
 
-    /// The report of [`Link::next_report`] was sent.
+    /// The report of [`Usb::next_report`] was sent.
     fn sent(&mut self) {
-        if self.replies.pop_front().is_none() {
+        if self.replies.dequeue().is_none() {
             let _ = self.frames.dequeue();
         }
         self.seq = self.seq.wrapping_add(1);
@@ -518,12 +576,17 @@ mod app {
         /// it can be handed back.
         active: Option<Published<BoardStore>>,
         retired: Option<Published<BoardStore>>,
+        /// An acquisition job is with the protocol task (its result not back yet).
+        in_flight: bool,
         commands: heapless::spsc::Consumer<'static, Command, COMMANDS>,
         commits: heapless::spsc::Consumer<'static, Published<BoardStore>, STORES>,
         freed: heapless::spsc::Producer<'static, Staging<BoardStore>, STORES>,
+        jobs: heapless::spsc::Producer<'static, AcquisitionJob, 2>,
+        results: heapless::spsc::Consumer<'static, Option<ChainAcquisition>, 2>,
         usb_device: UsbDevice<'static, UsbBusType>,
         hid: HIDClass<'static, UsbBusType>,
-        link: Link,
+        usb: Usb,
+        protocol: Protocol,
     }
 
     #[init(local = [
@@ -532,12 +595,15 @@ mod app {
         receiver: Receiver = Receiver::new(),
         command_queue: heapless::spsc::Queue<Command, COMMANDS> = heapless::spsc::Queue::new(),
         frame_queue: heapless::spsc::Queue<Report, FRAMES> = heapless::spsc::Queue::new(),
+        report_queue: heapless::spsc::Queue<Report, REPORTS> = heapless::spsc::Queue::new(),
+        reply_queue: heapless::spsc::Queue<Message, REPLIES> = heapless::spsc::Queue::new(),
         commit_queue: heapless::spsc::Queue<Published<BoardStore>, STORES> = heapless::spsc::Queue::new(),
         free_queue: heapless::spsc::Queue<Staging<BoardStore>, STORES> = heapless::spsc::Queue::new(),
+        job_queue: heapless::spsc::Queue<AcquisitionJob, 2> = heapless::spsc::Queue::new(),
+        result_queue: heapless::spsc::Queue<Option<ChainAcquisition>, 2> = heapless::spsc::Queue::new(),
     ])]
     fn init(cx: init::Context) -> (Shared, Local) {
         let dp = cx.device;
-        // Motors off before anything else: the driver enable pin low.
         let mut rcc = dp.RCC.freeze(
             stm32f4xx_hal::rcc::Config::hse(25.MHz())
                 .sysclk(96.MHz())
@@ -546,6 +612,7 @@ mod app {
         let gpioa = dp.GPIOA.split(&mut rcc);
         let gpiob = dp.GPIOB.split(&mut rcc);
         let gpioc = dp.GPIOC.split(&mut rcc);
+        // Motors off before anything else: the driver enable pin driven low.
         let enable = gpiob.pb14.into_push_pull_output_in_state(false.into());
         let dir_left = gpiob.pb12.into_push_pull_output_in_state(false.into());
         let dir_right = gpiob.pb13.into_push_pull_output_in_state(false.into());
@@ -578,8 +645,12 @@ mod app {
         // Queues and the scene stores.
         let (command_tx, command_rx) = cx.local.command_queue.split();
         let (frame_tx, frame_rx) = cx.local.frame_queue.split();
+        let (report_tx, report_rx) = cx.local.report_queue.split();
+        let (reply_tx, reply_rx) = cx.local.reply_queue.split();
         let (commit_tx, commit_rx) = cx.local.commit_queue.split();
         let (mut free_tx, free_rx) = cx.local.free_queue.split();
+        let (job_tx, job_rx) = cx.local.job_queue.split();
+        let (result_tx, result_rx) = cx.local.result_queue.split();
         let Some([first, second]) = SCENES.split() else {
             panic!("the scene stores are split once, here");
         };
@@ -645,16 +716,23 @@ mod app {
             frames: frame_tx,
             frames_dropped: 0,
         };
-        let link = Link {
+        let protocol = Protocol {
             receiver: cx.local.receiver,
             staging: Some(first),
-            seq: 0,
             last_error: 0,
-            replies: heapless::Deque::new(),
+            reports: report_rx,
+            replies: reply_tx,
             commands: command_tx,
             commits: commit_tx,
             freed: free_rx,
+            jobs: job_rx,
+            results: result_tx,
+        };
+        let usb = Usb {
+            reports: report_tx,
+            replies: reply_rx,
             frames: frame_rx,
+            seq: 0,
         };
         (
             Shared {},
@@ -666,34 +744,53 @@ mod app {
                 app,
                 active: None,
                 retired: None,
+                in_flight: false,
                 commands: command_rx,
                 commits: commit_rx,
                 freed: free_tx,
+                jobs: job_tx,
+                results: result_rx,
                 usb_device,
                 hid,
-                link,
+                usb,
+                protocol,
             },
         )
     }
 
-    #[idle]
-    fn idle(_: idle::Context) -> ! {
+    /// The lowest priority: host frames and acquisitions, sleeping when there are none (any
+    /// interrupt wakes it; the tick does every period at the latest).
+    #[idle(local = [protocol])]
+    fn idle(cx: idle::Context) -> ! {
         loop {
-            cortex_m::asm::wfi();
+            if !cx.local.protocol.step() {
+                cortex_m::asm::wfi();
+            }
         }
     }
 
     /// The haptic tick.
     #[task(binds = TIM5, priority = 3, local = [
-        tick_timer, watchdog, hw, led, app, active, retired, commands, commits, freed,
+        tick_timer, watchdog, hw, led, app, active, retired, in_flight, commands, commits,
+        freed, jobs, results,
     ])]
     fn tick(cx: tick::Context) {
         let l = cx.local;
         l.tick_timer.clear_flags(Flag::Update);
         l.watchdog.feed();
 
-        // A committed scene, swapped in at this tick boundary.
-        if let Some(new) = l.commits.dequeue() {
+        // The acquisition's result: the renderer starts (refused if it is for an older scene).
+        if let Some(result) = l.results.dequeue() {
+            *l.in_flight = false;
+            if let Some(acquisition) = result {
+                let _ = l.app.controller_mut().complete_acquisition(acquisition);
+            }
+        }
+        // A committed scene, swapped in at this tick boundary, once no acquisition reads a
+        // store (so the swap's frame never stacks on the acquisition's either).
+        if !*l.in_flight
+            && let Some(new) = l.commits.dequeue()
+        {
             match load(l.app, &new) {
                 Ok(()) => {
                     // The controller dropped its views of the old store.
@@ -702,22 +799,25 @@ mod app {
                     }
                 }
                 Err(_) => {
-                    // Not renderable here (a surface object, or beyond the device): the
-                    // current scene stays; the new store goes back to the link.
+                    // Not renderable here (beyond the device, not a chain): the current scene
+                    // stays; the new store goes back to the protocol task.
                     #[allow(unsafe_code)]
                     // SAFETY: the failed load dropped every view it built of `new`'s store
-                    // and nothing else read it.
+                    // and no other task was given it.
                     let staging = unsafe { new.reclaim() };
                     let _ = l.freed.enqueue(staging);
                 }
             }
             COMMIT_PENDING.store(false, Ordering::Release);
         }
-        // The old store goes back to the link once nothing reads it.
-        if let Some(old) = l.retired.take() {
+        // The old store goes back to the protocol task once nothing reads it.
+        if !*l.in_flight
+            && let Some(old) = l.retired.take()
+        {
             #[allow(unsafe_code)]
-            // SAFETY: the controller holds views of the active store only (it loaded that
-            // one in place of this one), and no other task was given this store.
+            // SAFETY: the controller holds views of the active store only (it loaded that one
+            // in place of this one), and no acquisition job is out, so the protocol task
+            // holds no chain of it either.
             let staging = unsafe { old.reclaim() };
             let _ = l.freed.enqueue(staging);
         }
@@ -742,6 +842,19 @@ mod app {
 
         let out = run_tick(l.app, l.hw);
         let controller = l.app.controller();
+        // The renderer waits for its acquisition: one job at a time to the protocol task.
+        if !*l.in_flight
+            && let (Some(request), Some(active)) =
+                (controller.acquisition_request(), l.active.as_ref())
+            && l.jobs
+                .enqueue(AcquisitionJob {
+                    store: active.get(),
+                    request,
+                })
+                .is_ok()
+        {
+            *l.in_flight = true;
+        }
         let faults = out.telemetry.faults;
         let driving = controller.forces_enabled() && faults == 0;
         let calibrated = controller.is_calibrated();
@@ -754,8 +867,8 @@ mod app {
         l.led.update(faults, calibrated, driving);
     }
 
-    /// USB: enumeration, host frames in, replies and telemetry out.
-    #[task(binds = OTG_FS, priority = 2, local = [usb_device, hid, link])]
+    /// USB: enumeration, host reports in (to the protocol task), replies and telemetry out.
+    #[task(binds = OTG_FS, priority = 2, local = [usb_device, hid, usb])]
     fn usb(cx: usb::Context) {
         let l = cx.local;
         if l.usb_device.poll(&mut [l.hid]) {
@@ -764,18 +877,23 @@ mod app {
                 if n == 0 {
                     break;
                 }
-                l.link.receive(buf.get(..n).unwrap_or(&buf));
+                let mut report = [0u8; MAX_FRAME];
+                if let (Some(dst), Some(src)) = (report.get_mut(..n), buf.get(..n)) {
+                    dst.copy_from_slice(src);
+                }
+                // A full queue drops the report: the host sees no ack and resends.
+                let _ = l.usb.reports.enqueue(report);
             }
         }
         if l.usb_device.state() != UsbDeviceState::Configured {
             // Nothing to send to: telemetry is dropped, not queued.
-            while l.link.frames.dequeue().is_some() {}
+            while l.usb.frames.dequeue().is_some() {}
             return;
         }
-        if let Some(report) = l.link.next_report()
+        if let Some(report) = l.usb.next_report()
             && l.hid.push_raw_input(&report).is_ok()
         {
-            l.link.sent();
+            l.usb.sent();
         }
     }
 }
