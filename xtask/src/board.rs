@@ -87,9 +87,9 @@ mod tests {
     #[test]
     fn the_budget_takes_its_edges_and_refuses_one_byte_more() {
         assert!(within_budget(FLASH_BUDGET, RAM_BUDGET).is_ok());
-        let flash = within_budget(FLASH_BUDGET + 1, RAM_BUDGET).unwrap_err();
+        let flash = within_budget(FLASH_BUDGET + 1, RAM_BUDGET).expect_err("one byte over");
         assert!(flash.contains("flash") && !flash.contains("RAM"), "{flash}");
-        let ram = within_budget(0, RAM_BUDGET + 1).unwrap_err();
+        let ram = within_budget(0, RAM_BUDGET + 1).expect_err("one byte over");
         assert!(ram.contains("RAM") && ram.contains("by 1"), "{ram}");
     }
 }

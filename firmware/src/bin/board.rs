@@ -695,6 +695,8 @@ mod app {
         tick_timer.listen(Event::Update);
         let mut watchdog = IndependentWatchdog::new(dp.IWDG);
         watchdog.stop_on_debug(&dp.DBGMCU, true);
+        // Keep the debug port clocked in `wfi`, so that a probe (probe-rs RTT) stays attached.
+        dp.DBGMCU.cr().modify(|_, w| w.dbg_sleep().set_bit());
         watchdog.start(WATCHDOG_MS.millis());
 
         let hw = Hw {
