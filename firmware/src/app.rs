@@ -48,17 +48,59 @@ pub struct App<'s> {
     seq: u16,
 }
 
+/// The app between two scenes: the controller without a scene (calibration, faults, forces and
+/// heartbeat kept) and the link's sequence counter. A firmware that swaps its scene storage
+/// parks the app (dropping its view of the old store), swaps, and loads the new store.
+#[derive(Debug)]
+pub struct Parked {
+    controller: Controller<Chain<'static>>,
+    seq: u16,
+}
+
+impl Parked {
+    /// The default [`DeviceSpec`] at `period_s`, the safety layer's ramp-in over `ramp_time_s`
+    /// and its other limits the defaults; no scene.
+    pub fn new(period_s: f32, ramp_time_s: f32) -> Result<Self, AppError> {
+        let safety = SafetyConfig {
+            period_s,
+            ramp_time_s,
+            ..SafetyConfig::default()
+        };
+        let controller =
+            Controller::new(DeviceSpec::default(), safety).map_err(AppError::Controller)?;
+        Ok(Parked { controller, seq: 0 })
+    }
+
+    /// The app with object `object` of `store` loaded. As the host's simulator does, a
+    /// material stiffer than the device renders passively is loaded with the passivity
+    /// controller on ([`App::passivity_control`]). On error the app runs without a scene (no
+    /// force) and the error says why.
+    pub fn load(self, store: &SceneStore, object: usize) -> (App<'_>, Result<(), AppError>) {
+        let mut app = App {
+            controller: self.controller.rebind(),
+            passivity_control: false,
+            seq: self.seq,
+        };
+        let loaded = app.load(store, object);
+        (app, loaded)
+    }
+}
+
 impl<'s> App<'s> {
     /// The default [`DeviceSpec`] at `period_s` with object `object` of `store` loaded, the
-    /// safety layer's ramp-in over `ramp_time_s` and its other limits the defaults. As the
-    /// host's simulator does, a material stiffer than the device renders passively is loaded
-    /// with the passivity controller on ([`App::passivity_control`]).
+    /// safety layer's ramp-in over `ramp_time_s` and its other limits the defaults (see
+    /// [`Parked::load`]).
     pub fn new(
         store: &'s SceneStore,
         object: usize,
         period_s: f32,
         ramp_time_s: f32,
     ) -> Result<Self, AppError> {
+        let (app, loaded) = Parked::new(period_s, ramp_time_s)?.load(store, object);
+        loaded.map(|()| app)
+    }
+
+    fn load(&mut self, store: &'s SceneStore, object: usize) -> Result<(), AppError> {
         let n = store
             .patch_count(object)
             .ok_or(AppError::NoObject(object))?;
@@ -72,14 +114,8 @@ impl<'s> App<'s> {
             .get(..n)
             .ok_or(AppError::Chain(ChainError::TooManyCurves { count: n }))?;
         let chain = Chain::new(given).map_err(AppError::Chain)?;
-        let safety = SafetyConfig {
-            period_s,
-            ramp_time_s,
-            ..SafetyConfig::default()
-        };
-        let mut controller =
-            Controller::new(DeviceSpec::default(), safety).map_err(AppError::Controller)?;
-        let passivity_control = match controller.load_scene(chain, material, false) {
+        let controller = &mut self.controller;
+        self.passivity_control = match controller.load_scene(chain, material, false) {
             Ok(()) => false,
             Err(ControllerError::Passivity(_)) => {
                 controller
@@ -89,11 +125,27 @@ impl<'s> App<'s> {
             }
             Err(e) => return Err(AppError::Controller(e)),
         };
-        Ok(App {
-            controller,
-            passivity_control,
-            seq: 0,
-        })
+        Ok(())
+    }
+
+    /// The app without its scene, to swap the scene storage.
+    pub fn park(self) -> Parked {
+        Parked {
+            controller: self.controller.rebind(),
+            seq: self.seq,
+        }
+    }
+
+    /// Sends `message` to the host as the app's next frame.
+    pub fn send<B: Board>(&mut self, board: &mut B, message: &Message) {
+        let frame = Frame {
+            seq: self.seq,
+            message: *message,
+        };
+        self.seq = self.seq.wrapping_add(1);
+        let mut bytes = [0u8; MAX_FRAME];
+        let n = frame.encode(&mut bytes);
+        board.link_send(bytes.get(..n).unwrap_or(&bytes));
     }
 
     /// Whether the scene runs with the passivity controller on.
@@ -128,14 +180,7 @@ impl<'s> App<'s> {
         let out = board.around_tick(|| controller.tick(counts, now_us));
         board.set_driver_enabled(self.controller.forces_enabled());
         board.set_motor_currents(out.currents_a);
-        let frame = Frame {
-            seq: self.seq,
-            message: Message::Telemetry(out.telemetry),
-        };
-        self.seq = self.seq.wrapping_add(1);
-        let mut bytes = [0u8; MAX_FRAME];
-        let n = frame.encode(&mut bytes);
-        board.link_send(bytes.get(..n).unwrap_or(&bytes));
+        self.send(board, &Message::Telemetry(out.telemetry));
         out
     }
 }

@@ -8,4 +8,5 @@
 
 pub mod app;
 pub mod board;
+pub mod netduino;
 pub mod scenario;

@@ -3,6 +3,7 @@
 //! QEMU, its instructions per tick and its size (see `qemu.rs`).
 
 mod qemu;
+mod session;
 
 use std::env;
 use std::path::Path;

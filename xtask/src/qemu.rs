@@ -56,6 +56,12 @@ const RESULT_KEYS: &[&str] = &[
 pub struct Options {
     /// Release opt-levels to build and run (`3`, `s`, …).
     pub opt_levels: Vec<String>,
+    /// `--serve HOST:PORT`: boot `qemu-serve` with its UART on that TCP port and keep it
+    /// running, instead of the measurements.
+    pub serve: Option<String>,
+    /// `--session`: also run the host ↔ firmware session over the emulated UART (work in
+    /// progress: its heartbeat's status reply is not seen yet, so CI does not run it).
+    pub session: bool,
 }
 
 impl Default for Options {
@@ -63,6 +69,8 @@ impl Default for Options {
     fn default() -> Self {
         Options {
             opt_levels: vec!["3".to_owned()],
+            serve: None,
+            session: false,
         }
     }
 }
@@ -71,6 +79,8 @@ impl Options {
     /// Parses the arguments after `qemu`.
     pub fn parse(args: &[String]) -> Result<Self, String> {
         let mut opt_levels = vec!["3".to_owned()];
+        let mut serve = None;
+        let mut session = false;
         let mut it = args.iter();
         while let Some(a) = it.next() {
             match a.as_str() {
@@ -88,10 +98,28 @@ impl Options {
                         ));
                     }
                 }
+                "--serve" => {
+                    let v = it
+                        .next()
+                        .ok_or("--serve needs HOST:PORT, e.g. 127.0.0.1:4444")?;
+                    match v.rsplit_once(':').map(|(_, p)| p.parse::<u16>()) {
+                        Some(Ok(p)) if p > 0 => serve = Some(v.clone()),
+                        _ => {
+                            return Err(format!(
+                                "--serve {v}: not HOST:PORT with a port 1..=65535"
+                            ));
+                        }
+                    }
+                }
+                "--session" => session = true,
                 other => return Err(format!("qemu: unknown argument {other}")),
             }
         }
-        Ok(Options { opt_levels })
+        Ok(Options {
+            opt_levels,
+            serve,
+            session,
+        })
     }
 }
 
@@ -104,6 +132,45 @@ pub fn qemu(options: &Options) -> Result<(), String> {
     let data_dir = target_dir.join("qemu-data");
     write_inputs(&root, &data_dir)?;
     let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
+    let serve_elf = target_dir
+        .join(EMBEDDED_TARGET)
+        .join("release")
+        .join("qemu-serve");
+    {
+        let data = data_dir.to_string_lossy().into_owned();
+        let target = target_dir.to_string_lossy().into_owned();
+        let env = [
+            ("CARGO_TARGET_DIR", target.as_str()),
+            ("FIRMWARE_QEMU_DATA", data.as_str()),
+        ];
+        run_in(
+            &root.join("firmware"),
+            &cargo,
+            &["build", "--release", "--bin", "qemu-serve"],
+            &env,
+        )?;
+    }
+    if let Some(address) = &options.serve {
+        let args = crate::session::serve_args(address, false);
+        println!(
+            "xtask qemu: serving the emulated board's UART on tcp:{address} (talk to it with              `cargo run --release -p viewer -- device monitor --tcp {address}`); Ctrl-C stops"
+        );
+        return run_in(
+            Path::new("."),
+            "qemu-system-arm",
+            &args
+                .iter()
+                .map(String::as_str)
+                .chain(["-kernel", &serve_elf.to_string_lossy()])
+                .collect::<Vec<_>>(),
+            &[],
+        );
+    }
+    let session = if options.session {
+        crate::session::run(&serve_elf, &root)?
+    } else {
+        Vec::new()
+    };
     for level in &options.opt_levels {
         let data = data_dir.to_string_lossy().into_owned();
         let target = target_dir.to_string_lossy().into_owned();
@@ -143,7 +210,7 @@ pub fn qemu(options: &Options) -> Result<(), String> {
         let lines = run_qemu(&elf, &serial)?;
         let comparison = compare_with_host(&root, &serial)?;
         println!("\nxtask qemu: opt-level={level}, lto=fat, codegen-units=1");
-        for line in lines.iter().chain(&comparison) {
+        for line in lines.iter().chain(&comparison).chain(&session) {
             println!("  {line}");
         }
         println!("  (the stage split, from the build with --features stages, whose own tick is:)");

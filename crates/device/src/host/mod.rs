@@ -31,7 +31,7 @@ mod sim;
 use std::time::{Duration, Instant};
 
 pub use hid::{HidDeviceInfo, HidLink, USB_PID, USB_VID, list_hid};
-pub use serial::{BAUD, SerialLink, SerialPortInfo, list_serial};
+pub use serial::{BAUD, SerialLink, SerialPortInfo, Stream, StreamLink, TcpLink, list_serial};
 pub use sim::{SimConfig, SimHand, SimLink};
 
 use crate::controller::ControllerError;
