@@ -61,11 +61,16 @@ impl Parked {
     /// The default [`DeviceSpec`] at `period_s`, the safety layer's ramp-in over `ramp_time_s`
     /// and its other limits the defaults; no scene.
     pub fn new(period_s: f32, ramp_time_s: f32) -> Result<Self, AppError> {
-        let safety = SafetyConfig {
+        Self::with_safety(SafetyConfig {
             period_s,
             ramp_time_s,
             ..SafetyConfig::default()
-        };
+        })
+    }
+
+    /// The default [`DeviceSpec`] with the safety limits `safety` (its period is the tick's);
+    /// no scene.
+    pub fn with_safety(safety: SafetyConfig) -> Result<Self, AppError> {
         let controller =
             Controller::new(DeviceSpec::default(), safety).map_err(AppError::Controller)?;
         Ok(Parked { controller, seq: 0 })

@@ -61,3 +61,60 @@ impl Uart {
         (Self::read(Self::SR) & Self::RXNE != 0).then(|| Self::read(Self::DR) as u8)
     }
 }
+
+/// TIM2 of the STM32F405 (QEMU's `stm32f2xx_timer`), free running as the monotonic clock in
+/// microseconds: 32 bits, extended to 64 by counting its wraps (read it at least once every
+/// 71 minutes). QEMU clocks the SoC's timers at 1 GHz (its `clock-frequency`), so the
+/// prescaler divides by 1000; on the chip the prescaler would divide the APB1 timer clock.
+#[derive(Debug)]
+pub struct Clock {
+    last: u32,
+    high: u64,
+}
+
+impl Clock {
+    const BASE: usize = 0x4000_0000;
+    const CR1: usize = Self::BASE;
+    const CNT: usize = Self::BASE + 0x24;
+    const PSC: usize = Self::BASE + 0x28;
+    const ARR: usize = Self::BASE + 0x2C;
+    /// The timer's input clock in QEMU (Hz).
+    const INPUT_HZ: u32 = 1_000_000_000;
+
+    fn write(addr: usize, value: u32) {
+        #[allow(unsafe_code)]
+        // SAFETY: an aligned word write to a TIM2 register of the emulated STM32F405; nothing
+        // else in the program owns TIM2.
+        unsafe {
+            core::ptr::write_volatile(addr as *mut u32, value)
+        }
+    }
+
+    fn read(addr: usize) -> u32 {
+        #[allow(unsafe_code)]
+        // SAFETY: an aligned word read of a TIM2 register of the emulated STM32F405.
+        unsafe {
+            core::ptr::read_volatile(addr as *const u32)
+        }
+    }
+
+    /// Starts TIM2 counting microseconds from zero.
+    pub fn start() -> Self {
+        Self::write(Self::ARR, u32::MAX);
+        Self::write(Self::PSC, Self::INPUT_HZ / 1_000_000 - 1);
+        // QEMU restarts the count from 0 on a prescaler or counter write.
+        Self::write(Self::CNT, 0);
+        Self::write(Self::CR1, 1);
+        Clock { last: 0, high: 0 }
+    }
+
+    /// Microseconds since [`Clock::start`].
+    pub fn now_us(&mut self) -> u64 {
+        let now = Self::read(Self::CNT);
+        if now < self.last {
+            self.high += 1 << 32;
+        }
+        self.last = now;
+        self.high | u64::from(now)
+    }
+}

@@ -57,11 +57,8 @@ pub struct Options {
     /// Release opt-levels to build and run (`3`, `s`, …).
     pub opt_levels: Vec<String>,
     /// `--serve HOST:PORT`: boot `qemu-serve` with its UART on that TCP port and keep it
-    /// running, instead of the measurements.
+    /// running, instead of the session and the measurements.
     pub serve: Option<String>,
-    /// `--session`: also run the host ↔ firmware session over the emulated UART (work in
-    /// progress: its heartbeat's status reply is not seen yet, so CI does not run it).
-    pub session: bool,
 }
 
 impl Default for Options {
@@ -70,7 +67,6 @@ impl Default for Options {
         Options {
             opt_levels: vec!["3".to_owned()],
             serve: None,
-            session: false,
         }
     }
 }
@@ -80,7 +76,6 @@ impl Options {
     pub fn parse(args: &[String]) -> Result<Self, String> {
         let mut opt_levels = vec!["3".to_owned()];
         let mut serve = None;
-        let mut session = false;
         let mut it = args.iter();
         while let Some(a) = it.next() {
             match a.as_str() {
@@ -111,15 +106,10 @@ impl Options {
                         }
                     }
                 }
-                "--session" => session = true,
                 other => return Err(format!("qemu: unknown argument {other}")),
             }
         }
-        Ok(Options {
-            opt_levels,
-            serve,
-            session,
-        })
+        Ok(Options { opt_levels, serve })
     }
 }
 
@@ -166,11 +156,7 @@ pub fn qemu(options: &Options) -> Result<(), String> {
             &[],
         );
     }
-    let session = if options.session {
-        crate::session::run(&serve_elf, &root)?
-    } else {
-        Vec::new()
-    };
+    let session = crate::session::run(&serve_elf, &root)?;
     for level in &options.opt_levels {
         let data = data_dir.to_string_lossy().into_owned();
         let target = target_dir.to_string_lossy().into_owned();
@@ -757,5 +743,12 @@ mod tests {
         assert!(Options::parse(&args(&["--opt-level", "fast"])).is_err());
         assert!(Options::parse(&args(&["--opt-level"])).is_err());
         assert!(Options::parse(&args(&["--serve"])).is_err());
+        assert_eq!(
+            Options::parse(&args(&["--serve", "127.0.0.1:4444"])).map(|o| o.serve),
+            Ok(Some("127.0.0.1:4444".into()))
+        );
+        for bad in ["127.0.0.1", "127.0.0.1:0", "127.0.0.1:70000", "host:port"] {
+            assert!(Options::parse(&args(&["--serve", bad])).is_err(), "{bad}");
+        }
     }
 }

@@ -22,20 +22,30 @@ use cortex_m::peripheral::syst::SystClkSource;
 use cortex_m_rt::{ExceptionFrame, entry, exception};
 use cortex_m_semihosting::{debug, hprintln};
 use device::protocol::{MAX_FRAME, Message, SceneStore};
+use device::safety::SafetyConfig;
 use device::session::{Event, Session};
 use device::simulator::{SimParams, SimulatedPantograph};
 use device::spec::DeviceSpec;
 use firmware::app::Parked;
 use firmware::board::Board;
-use firmware::netduino::Uart;
+use firmware::netduino::{Clock, Uart};
 use nurbs::Vec2;
 
 /// The tick period.
 const PERIOD_US: u64 = 1000;
-/// SysTick's reload for one period: 168,000 counts of the emulated 168 MHz core.
-const SYSTICK_RELOAD: u32 = 168_000 - 1;
+/// SysTick's reload: 0.1 ms of the emulated 168 MHz core. Its interrupt only wakes the loop
+/// from `wfi`; the ticks follow the clock (TIM2). The loop sleeps rather than polls because
+/// every peripheral access of the emulated core takes QEMU's global lock, which its main loop
+/// (the one that moves the host's bytes into the USART, one per turn) then rarely gets: a
+/// polling loop left the link towards the device at a few hundred bytes a second.
+const SYSTICK_RELOAD: u32 = 16_800 - 1;
 /// The ramp-in of forces (s), as the host's simulator.
 const RAMP_TIME_S: f32 = 0.02;
+/// The watchdog's heartbeat timeout (s): 250 ms rather than a board's 100 ms, because QEMU on a
+/// shared, loaded host is not real time: its process may stall for tens of milliseconds, and
+/// the bytes of a heartbeat wait for it (measured: a 75 ms stall now and then on a 2-core
+/// machine running builds beside it).
+const HEARTBEAT_TIMEOUT_S: f32 = 0.25;
 /// The scene receiver's capacity (bytes).
 const SCENE_CAPACITY: usize = 4096;
 /// Where the handle starts (m): as the host's simulator, `device::host::SimConfig`.
@@ -145,6 +155,7 @@ fn main() -> ! {
     syst.set_clock_source(SystClkSource::Core);
     syst.set_reload(SYSTICK_RELOAD);
     syst.clear_current();
+    syst.enable_interrupt();
     syst.enable_counter();
 
     let spec = DeviceSpec::default();
@@ -166,7 +177,12 @@ fn main() -> ! {
         uart: Uart::init(),
     };
     let period_s = PERIOD_US as f32 * 1e-6;
-    let mut parked = match Parked::new(period_s, RAMP_TIME_S) {
+    let mut parked = match Parked::with_safety(SafetyConfig {
+        period_s,
+        ramp_time_s: RAMP_TIME_S,
+        heartbeat_timeout_s: HEARTBEAT_TIMEOUT_S,
+        ..SafetyConfig::default()
+    }) {
         Ok(p) => p,
         Err(e) => fail(format_args!("{e}")),
     };
@@ -180,7 +196,8 @@ fn main() -> ! {
         len: 0,
         overflow: false,
     };
-    let mut tick: u64 = 0;
+    let mut clock = Clock::start();
+    let mut due_us = 0u64;
     hprintln!("qemu-serve: ready");
     loop {
         // An empty store (before the first upload) loads nothing: the app runs without force.
@@ -215,8 +232,16 @@ fn main() -> ! {
                     Event::None => {}
                 }
             }
-            if syst.has_wrapped() {
-                board.now_us = tick.saturating_mul(PERIOD_US);
+            let now_us = clock.now_us();
+            if now_us >= due_us {
+                // Ticks on the period's grid; after a stall (the host stopped QEMU) the grid
+                // restarts rather than racing through the missed ticks.
+                due_us = if now_us - due_us > 100 * PERIOD_US {
+                    now_us + PERIOD_US
+                } else {
+                    due_us + PERIOD_US
+                };
+                board.now_us = now_us;
                 app.tick(&mut board);
                 let currents = if board.driver_enabled {
                     board.currents_a
@@ -226,13 +251,17 @@ fn main() -> ! {
                 // An arm driven into a singular pose stays there, as a real one on its stops.
                 let _ = board.arm.step(currents, hand_target, period_s);
                 app.acquire();
-                tick += 1;
             }
+            cortex_m::asm::wfi();
         }
         parked = app.park();
         core::mem::swap(&mut active, &mut scratch);
     }
 }
+
+/// Only wakes the loop from `wfi`.
+#[exception]
+fn SysTick() {}
 
 #[exception]
 #[allow(unsafe_code)]

@@ -178,7 +178,7 @@ impl<S: Stream> Link for StreamLink<S> {
                 }
                 let bad = |code| LinkError::Frame(FrameError { code, seq: None });
                 let frame = cobs::decode(&packet).map_err(|_| bad(ErrorCode::BadLength))?;
-                return Frame::decode(&frame).map(Some).map_err(LinkError::Frame);
+                return self.seq.decode_reply(&frame).map(Some);
             }
             // Without a delimiter for longer than any frame, the bytes are noise.
             if self.pending.len() > cobs::max_encoded_len(MAX_FRAME) {

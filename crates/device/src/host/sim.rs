@@ -184,7 +184,7 @@ impl Link for SimLink {
     fn recv(&mut self, timeout: Duration) -> Result<Option<Frame>, LinkError> {
         let from_device = self.from_device.as_ref().ok_or(LinkError::Closed)?;
         match from_device.recv_timeout(timeout) {
-            Ok(bytes) => Frame::decode(&bytes).map(Some).map_err(LinkError::Frame),
+            Ok(bytes) => self.seq.decode_reply(&bytes).map(Some),
             Err(RecvTimeoutError::Timeout) => Ok(None),
             Err(RecvTimeoutError::Disconnected) => Err(LinkError::Closed),
         }
