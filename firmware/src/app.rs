@@ -49,44 +49,76 @@ pub struct App<'s> {
     seq: u16,
 }
 
+/// The app between two scenes: the controller without a scene (calibration, faults, forces and
+/// heartbeat kept) and the link's sequence counter. A firmware that swaps its scene storage
+/// parks the app (dropping its view of the old store), swaps, and loads the new store.
+#[derive(Debug)]
+pub struct Parked {
+    controller: Controller<Chain<'static>>,
+    seq: u16,
+}
+
+impl Parked {
+    /// The default [`DeviceSpec`] at `period_s`, the safety layer's ramp-in over `ramp_time_s`
+    /// and its other limits the defaults; no scene.
+    pub fn new(period_s: f32, ramp_time_s: f32) -> Result<Self, AppError> {
+        Self::with_safety(SafetyConfig {
+            period_s,
+            ramp_time_s,
+            ..SafetyConfig::default()
+        })
+    }
+
+    /// The default [`DeviceSpec`] with the safety limits `safety` (its period is the tick's);
+    /// no scene.
+    pub fn with_safety(safety: SafetyConfig) -> Result<Self, AppError> {
+        let controller =
+            Controller::new(DeviceSpec::default(), safety).map_err(AppError::Controller)?;
+        Ok(Parked { controller, seq: 0 })
+    }
+
+    /// The app with object `object` of `store` loaded. As the host's simulator does, a
+    /// material stiffer than the device renders passively is loaded with the passivity
+    /// controller on ([`App::passivity_control`]). On error the app runs without a scene (no
+    /// force) and the error says why.
+    pub fn load<const K: usize, const C: usize, const S: usize>(
+        self,
+        store: &SceneStore<K, C, S>,
+        object: usize,
+    ) -> (App<'_>, Result<(), AppError>) {
+        let mut app = self.unloaded();
+        let loaded = app.load(store, object);
+        (app, loaded)
+    }
+
+    /// The app with no scene loaded (no force until one is, see [`App::load`]), for views of
+    /// any lifetime (a board's `'static` stores).
+    pub fn unloaded<'s>(self) -> App<'s> {
+        App {
+            controller: self.controller.rebind(),
+            passivity_control: false,
+            seq: self.seq,
+        }
+    }
+}
+
 impl<'s> App<'s> {
     /// The default [`DeviceSpec`] at `period_s` with object `object` of `store` loaded, the
-    /// safety layer's ramp-in over `ramp_time_s` and its other limits the defaults. As the
-    /// host's simulator does, a material stiffer than the device renders passively is loaded
-    /// with the passivity controller on ([`App::passivity_control`]).
+    /// safety layer's ramp-in over `ramp_time_s` and its other limits the defaults (see
+    /// [`Parked::load`]).
     pub fn new<const K: usize, const C: usize, const S: usize>(
         store: &'s SceneStore<K, C, S>,
         object: usize,
         period_s: f32,
         ramp_time_s: f32,
     ) -> Result<Self, AppError> {
-        let chain = chain(store, object)?;
-        let material = store.material(object).ok_or(AppError::NoObject(object))?;
-        let mut app = Self::without_scene(period_s, ramp_time_s)?;
-        app.load_chain(chain, material)?;
-        Ok(app)
-    }
-
-    /// The controller of [`App::new`] with no scene loaded (no force until one is, see
-    /// [`App::load`]).
-    pub fn without_scene(period_s: f32, ramp_time_s: f32) -> Result<Self, AppError> {
-        let safety = SafetyConfig {
-            period_s,
-            ramp_time_s,
-            ..SafetyConfig::default()
-        };
-        let controller =
-            Controller::new(DeviceSpec::default(), safety).map_err(AppError::Controller)?;
-        Ok(App {
-            controller,
-            passivity_control: false,
-            seq: 0,
-        })
+        let (app, loaded) = Parked::new(period_s, ramp_time_s)?.load(store, object);
+        loaded.map(|()| app)
     }
 
     /// Loads object `object` of `store` in place of the current scene (at a tick boundary:
-    /// the renderer restarts on it and the force ramps in), as [`App::new`] does. On error
-    /// the current scene stays loaded.
+    /// the renderer waits for its acquisition, then the force ramps in), the passivity
+    /// controller on when the material needs it. On error the current scene stays loaded.
     pub fn load<const K: usize, const C: usize, const S: usize>(
         &mut self,
         store: &'s SceneStore<K, C, S>,
@@ -94,39 +126,8 @@ impl<'s> App<'s> {
     ) -> Result<(), AppError> {
         let chain = chain(store, object)?;
         let material = store.material(object).ok_or(AppError::NoObject(object))?;
-        self.load_chain(chain, material)
-    }
-
-    /// Replaces the loaded object's material, with the passivity controller on when the
-    /// material needs it (as [`App::load`]). On error the material stays.
-    pub fn set_material(&mut self, material: FrictionMaterial) -> Result<(), AppError> {
-        let passivity_control = match self.controller.set_material(material, false) {
-            Ok(()) => false,
-            Err(ControllerError::Passivity(_)) => {
-                self.controller
-                    .set_material(material, true)
-                    .map_err(AppError::Controller)?;
-                true
-            }
-            Err(e) => return Err(AppError::Controller(e)),
-        };
-        self.passivity_control = passivity_control;
-        Ok(())
-    }
-
-    /// The same app for views of another lifetime, without a scene (calibration, safety
-    /// state, forces and heartbeat carried over; see `Controller::rebind`).
-    pub fn rebind<'t>(self) -> App<'t> {
-        App {
-            controller: self.controller.rebind(),
-            passivity_control: false,
-            seq: self.seq,
-        }
-    }
-
-    fn load_chain(&mut self, chain: Chain<'s>, material: FrictionMaterial) -> Result<(), AppError> {
         let controller = &mut self.controller;
-        let passivity_control = match controller.load_scene(chain, material, false) {
+        self.passivity_control = match controller.load_scene(chain, material, false) {
             Ok(()) => false,
             Err(ControllerError::Passivity(_)) => {
                 controller
@@ -136,8 +137,43 @@ impl<'s> App<'s> {
             }
             Err(e) => return Err(AppError::Controller(e)),
         };
-        self.passivity_control = passivity_control;
         Ok(())
+    }
+
+    /// Replaces the loaded object's material, with the passivity controller on when the
+    /// material needs it (as [`App::load`]). On error the material stays.
+    pub fn set_material(&mut self, material: FrictionMaterial) -> Result<(), AppError> {
+        self.passivity_control = match self.controller.set_material(material, false) {
+            Ok(()) => false,
+            Err(ControllerError::Passivity(_)) => {
+                self.controller
+                    .set_material(material, true)
+                    .map_err(AppError::Controller)?;
+                true
+            }
+            Err(e) => return Err(AppError::Controller(e)),
+        };
+        Ok(())
+    }
+
+    /// The app without its scene, to swap the scene storage.
+    pub fn park(self) -> Parked {
+        Parked {
+            controller: self.controller.rebind(),
+            seq: self.seq,
+        }
+    }
+
+    /// Sends `message` to the host as the app's next frame.
+    pub fn send<B: Board>(&mut self, board: &mut B, message: &Message) {
+        let frame = Frame {
+            seq: self.seq,
+            message: *message,
+        };
+        self.seq = self.seq.wrapping_add(1);
+        let mut bytes = [0u8; MAX_FRAME];
+        let n = frame.encode(&mut bytes);
+        board.link_send(bytes.get(..n).unwrap_or(&bytes));
     }
 
     /// Whether the scene runs with the passivity controller on.
@@ -164,8 +200,7 @@ impl<'s> App<'s> {
 
     /// One haptic tick: encoders and clock from the board, [`Controller::tick`] (bracketed by
     /// [`Board::around_tick`]), the latched faults, currents and driver enable to the board,
-    /// the telemetry frame to the link when the board wants one ([`Board::wants_frame`]; the
-    /// frame's sequence number counts the frames built).
+    /// the telemetry frame to the link when the board wants one ([`Board::wants_frame`]).
     pub fn tick<B: Board>(&mut self, board: &mut B) -> TickOutput {
         let counts = board.encoder_counts();
         let now_us = board.now_us();
@@ -177,17 +212,9 @@ impl<'s> App<'s> {
         if let Some(us) = board.last_tick_us() {
             out.telemetry.tick_us = us;
         }
-        if !board.wants_frame() {
-            return out;
+        if board.wants_frame() {
+            self.send(board, &Message::Telemetry(out.telemetry));
         }
-        let frame = Frame {
-            seq: self.seq,
-            message: Message::Telemetry(out.telemetry),
-        };
-        self.seq = self.seq.wrapping_add(1);
-        let mut bytes = [0u8; MAX_FRAME];
-        let n = frame.encode(&mut bytes);
-        board.link_send(bytes.get(..n).unwrap_or(&bytes));
         out
     }
 }

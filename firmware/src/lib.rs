@@ -8,5 +8,6 @@
 
 pub mod app;
 pub mod board;
+pub mod netduino;
 pub mod scenario;
 pub mod swap;

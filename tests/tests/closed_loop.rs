@@ -101,11 +101,7 @@ fn stiffness_run(k_n_per_m: f32, hand: SimParams) -> Result<Vec<Sample>, Control
     if let Err(ControllerError::Passivity(_)) = controller.load_scene(chain, material, false) {
         controller.load_scene(chain, material, true)?;
     }
-    let per_rad = spec.counts_per_joint_rad();
-    let stops = [0, 1].map(|i| {
-        spec.encoder_offset_counts[i]
-            + (spec.encoder_direction[i].sign() * spec.end_stop_rad[i] * per_rad[i]).floor() as i32
-    });
+    let stops = spec.end_stop_counts();
     controller.calibrate(stops).unwrap();
     controller.set_forces_enabled(true);
     let start = traj.at(traj.start_s());

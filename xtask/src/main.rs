@@ -5,6 +5,7 @@
 
 mod board;
 mod qemu;
+mod session;
 
 use std::env;
 use std::path::Path;

@@ -56,6 +56,9 @@ const RESULT_KEYS: &[&str] = &[
 pub struct Options {
     /// Release opt-levels to build and run (`3`, `s`, …).
     pub opt_levels: Vec<String>,
+    /// `--serve HOST:PORT`: boot `qemu-serve` with its UART on that TCP port and keep it
+    /// running, instead of the session and the measurements.
+    pub serve: Option<String>,
 }
 
 impl Default for Options {
@@ -63,6 +66,7 @@ impl Default for Options {
     fn default() -> Self {
         Options {
             opt_levels: vec!["3".to_owned()],
+            serve: None,
         }
     }
 }
@@ -71,6 +75,7 @@ impl Options {
     /// Parses the arguments after `qemu`.
     pub fn parse(args: &[String]) -> Result<Self, String> {
         let mut opt_levels = vec!["3".to_owned()];
+        let mut serve = None;
         let mut it = args.iter();
         while let Some(a) = it.next() {
             match a.as_str() {
@@ -88,10 +93,23 @@ impl Options {
                         ));
                     }
                 }
+                "--serve" => {
+                    let v = it
+                        .next()
+                        .ok_or("--serve needs HOST:PORT, e.g. 127.0.0.1:4444")?;
+                    match v.rsplit_once(':').map(|(_, p)| p.parse::<u16>()) {
+                        Some(Ok(p)) if p > 0 => serve = Some(v.clone()),
+                        _ => {
+                            return Err(format!(
+                                "--serve {v}: not HOST:PORT with a port 1..=65535"
+                            ));
+                        }
+                    }
+                }
                 other => return Err(format!("qemu: unknown argument {other}")),
             }
         }
-        Ok(Options { opt_levels })
+        Ok(Options { opt_levels, serve })
     }
 }
 
@@ -104,6 +122,49 @@ pub fn qemu(options: &Options) -> Result<(), String> {
     let data_dir = target_dir.join("qemu-data");
     write_inputs(&root, &data_dir)?;
     let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
+    let serve_elf = target_dir
+        .join(EMBEDDED_TARGET)
+        .join("release")
+        .join("qemu-serve");
+    {
+        let data = data_dir.to_string_lossy().into_owned();
+        let target = target_dir.to_string_lossy().into_owned();
+        let env = [
+            ("CARGO_TARGET_DIR", target.as_str()),
+            ("FIRMWARE_QEMU_DATA", data.as_str()),
+        ];
+        run_in(
+            &root.join("firmware"),
+            &cargo,
+            &[
+                "build",
+                "--release",
+                "--bin",
+                "qemu-serve",
+                "--no-default-features",
+                "--features",
+                "qemu",
+            ],
+            &env,
+        )?;
+    }
+    if let Some(address) = &options.serve {
+        let args = crate::session::serve_args(address, false);
+        println!(
+            "xtask qemu: serving the emulated board's UART on tcp:{address} (talk to it with              `cargo run --release -p viewer -- device monitor --tcp {address}`); Ctrl-C stops"
+        );
+        return run_in(
+            Path::new("."),
+            "qemu-system-arm",
+            &args
+                .iter()
+                .map(String::as_str)
+                .chain(["-kernel", &serve_elf.to_string_lossy()])
+                .collect::<Vec<_>>(),
+            &[],
+        );
+    }
+    let session = crate::session::run(&serve_elf, &root)?;
     for level in &options.opt_levels {
         let data = data_dir.to_string_lossy().into_owned();
         let target = target_dir.to_string_lossy().into_owned();
@@ -152,7 +213,7 @@ pub fn qemu(options: &Options) -> Result<(), String> {
         let lines = run_qemu(&elf, &serial)?;
         let comparison = compare_with_host(&root, &serial)?;
         println!("\nxtask qemu: opt-level={level}, lto=fat, codegen-units=1");
-        for line in lines.iter().chain(&comparison) {
+        for line in lines.iter().chain(&comparison).chain(&session) {
             println!("  {line}");
         }
         println!("  (the stage split, from the build with --features stages, whose own tick is:)");
@@ -699,5 +760,12 @@ mod tests {
         assert!(Options::parse(&args(&["--opt-level", "fast"])).is_err());
         assert!(Options::parse(&args(&["--opt-level"])).is_err());
         assert!(Options::parse(&args(&["--serve"])).is_err());
+        assert_eq!(
+            Options::parse(&args(&["--serve", "127.0.0.1:4444"])).map(|o| o.serve),
+            Ok(Some("127.0.0.1:4444".into()))
+        );
+        for bad in ["127.0.0.1", "127.0.0.1:0", "127.0.0.1:70000", "host:port"] {
+            assert!(Options::parse(&args(&["--serve", bad])).is_err(), "{bad}");
+        }
     }
 }

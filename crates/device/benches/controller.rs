@@ -30,11 +30,7 @@ fn controller<'a>(spec: DeviceSpec, chain: Chain<'a>) -> Controller<Chain<'a>> {
     // K = 1000 N/m with no damping is beyond the passive bound at 1 kHz.
     c.load_scene(chain, FrictionMaterial::default(), true)
         .expect("material");
-    let per_rad = spec.counts_per_joint_rad();
-    let stops = [0, 1].map(|i| {
-        spec.encoder_offset_counts[i]
-            + (spec.encoder_direction[i].sign() * spec.end_stop_rad[i] * per_rad[i]).floor() as i32
-    });
+    let stops = spec.end_stop_counts();
     c.calibrate(stops).expect("calibration");
     c.set_forces_enabled(true);
     c

@@ -263,6 +263,17 @@ impl DeviceSpec {
         [0, 1].map(|i| self.encoder_counts_per_rev[i] as f32 * self.transmission_ratio[i] / TAU)
     }
 
+    /// The raw counts the encoders read with both joints resting on their end stops
+    /// ([`DeviceSpec::end_stop_rad`]): what a calibration of an arm on its stops records, and
+    /// what the simulated pantograph's calibration uses.
+    pub fn end_stop_counts(&self) -> [i32; 2] {
+        let per_rad = self.counts_per_joint_rad();
+        [0, 1].map(|i| {
+            let counts = self.encoder_direction[i].sign() * self.end_stop_rad[i] * per_rad[i];
+            self.encoder_offset_counts[i].wrapping_add(libm::floorf(counts) as i32)
+        })
+    }
+
     /// Joint angles (rad) from raw encoder counts with the spec's offsets. The count
     /// difference wraps like the 32-bit hardware counter.
     pub fn joint_angles(&self, counts: [i32; 2]) -> [f32; 2] {

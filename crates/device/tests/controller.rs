@@ -71,11 +71,7 @@ fn safety() -> SafetyConfig {
 /// A calibrated controller with forces enabled (no scene).
 fn controller<'a>(spec: DeviceSpec, safety: SafetyConfig) -> Controller<Chain<'a>> {
     let mut c = Controller::new(spec, safety).unwrap();
-    let per_rad = spec.counts_per_joint_rad();
-    let stops = [0, 1].map(|i| {
-        spec.encoder_offset_counts[i]
-            + (spec.encoder_direction[i].sign() * spec.end_stop_rad[i] * per_rad[i]).floor() as i32
-    });
+    let stops = spec.end_stop_counts();
     c.calibrate(stops).unwrap();
     c.set_forces_enabled(true);
     c

@@ -934,6 +934,16 @@ struct Host {
     seq: u16,
 }
 
+/// After a refusal of an in-sequence frame with a good CRC: the active scene, its CRC and the
+/// upload's progress are those of `before`, and the frame used up its number (`next` is
+/// expected), so the host's next frame, already on its way, goes through.
+fn refused_in_sequence(rx: &Receiver, before: &Receiver, next: u16) {
+    assert_eq!(rx.active_scene(), before.active_scene());
+    assert_eq!(rx.active_crc32(), before.active_crc32());
+    assert_eq!(rx.upload_received(), before.upload_received());
+    assert_eq!(rx.expected_seq(), Some(next));
+}
+
 impl Host {
     fn frame(&mut self, message: Message) -> Vec<u8> {
         let f = encode(self.seq, message);
@@ -1042,18 +1052,17 @@ fn sequence_gap_is_nacked_and_changes_nothing() {
 
 #[test]
 fn device_bound_messages_only() {
-    let (mut rx, host) = loaded();
+    let (mut rx, mut host) = loaded();
     let before = (*rx).clone();
     for m in [
         Message::Ack { seq: 1 },
         Message::Telemetry(telemetry_example()),
     ] {
-        let f = encode(host.seq, m);
-        assert_eq!(
-            rx.receive(&f, &mut never).unwrap_err().code,
-            ErrorCode::UnexpectedMessage
-        );
-        assert_eq!(*rx, before);
+        let f = host.frame(m);
+        let nack = rx.receive(&f, &mut never).unwrap_err();
+        assert_eq!(nack.code, ErrorCode::UnexpectedMessage);
+        assert_eq!(nack.expected_seq, host.seq);
+        refused_in_sequence(&rx, &before, host.seq);
     }
 }
 
@@ -1067,11 +1076,12 @@ fn each_upload_error_has_its_code_and_changes_nothing() {
 
     let expect = |rx: &mut Receiver, host: &mut Host, m: Message, code: ErrorCode| {
         let before = (*rx).clone();
-        let f = encode(host.seq, m);
+        let seq = host.seq;
+        let f = host.frame(m);
         let nack = rx.receive(&f, &mut accept_all).unwrap_err();
         assert_eq!(nack.code, code, "{m:?}");
-        assert_eq!(nack.seq, host.seq);
-        assert_eq!(*rx, before);
+        assert_eq!(nack.seq, seq);
+        refused_in_sequence(rx, &before, host.seq);
         assert_eq!(rx.active_scene(), &old[..]);
     };
     let accept = |rx: &mut Receiver, host: &mut Host, m: Message| {
@@ -1128,15 +1138,12 @@ fn a_chunk_overrunning_the_total_is_rejected() {
     });
     rx.receive(&f, &mut never).unwrap();
     let before = (*rx).clone();
-    let f = encode(
-        host.seq,
-        Message::SceneChunk(SceneChunk::new(0, &[0; 11]).unwrap()),
-    );
+    let f = host.frame(Message::SceneChunk(SceneChunk::new(0, &[0; 11]).unwrap()));
     assert_eq!(
         rx.receive(&f, &mut never).unwrap_err().code,
         ErrorCode::ChunkPastEnd
     );
-    assert_eq!(*rx, before);
+    refused_in_sequence(&rx, &before, host.seq);
 }
 
 #[test]
@@ -1158,12 +1165,12 @@ fn commit_checks_crc_and_validation_and_keeps_the_old_scene() {
         rx.receive(&f, &mut *store).unwrap();
     }
     let before = (*rx).clone();
-    let f = encode(host.seq, last);
+    let f = host.frame(last);
     assert_eq!(
         rx.receive(&f, &mut *store).unwrap_err().code,
         ErrorCode::SceneCrc
     );
-    assert_eq!(*rx, before);
+    refused_in_sequence(&rx, &before, host.seq);
     assert_eq!(rx.active_scene(), &old[..]);
 
     // Correct CRC of bytes that fail validation: a zero weight in object 0, patch 0.
@@ -1176,13 +1183,13 @@ fn commit_checks_crc_and_validation_and_keeps_the_old_scene() {
         rx.receive(&f, &mut *store).unwrap();
     }
     let before = (*rx).clone();
-    let f = encode(host.seq, last);
+    let f = host.frame(last);
     let nack = rx.receive(&f, &mut *store).unwrap_err();
     assert_eq!(
         (nack.code, nack.object, nack.patch),
         (ErrorCode::ScenePatch, 0, 0)
     );
-    assert_eq!(*rx, before);
+    refused_in_sequence(&rx, &before, host.seq);
     assert_eq!(rx.active_scene(), &old[..]);
 
     // A topology failure reported by a custom validator names no patch.
@@ -1276,7 +1283,9 @@ proptest! {
                 Err(nack) => {
                     let code = if i < next { ErrorCode::DuplicateChunk } else { ErrorCode::MissingChunk };
                     prop_assert_eq!(nack.code, code);
-                    prop_assert_eq!(&*rx, &before);
+                    // Refused in sequence: the number is used up, nothing else changes.
+                    host.seq = host.seq.wrapping_add(1);
+                    refused_in_sequence(&rx, &before, host.seq);
                 }
             }
         }
@@ -1344,22 +1353,23 @@ fn hello_abandons_an_upload_but_keeps_the_scene() {
 fn a_board_refuses_a_hand_target_and_a_simulated_plant_takes_it() {
     // A board's receiver (`SceneReceiver::new`): refused with its own code, nothing changed
     // (sequence number, upload, active scene).
-    let (mut rx, host) = loaded();
+    let (mut rx, mut host) = loaded();
     let before = (*rx).clone();
     let target = Message::HandTarget {
         target_m: nurbs::Vec2::new(0.01, 0.09),
     };
-    let f = encode(host.seq, target);
+    let seq = host.seq;
+    let f = host.frame(target);
     let nack = rx.receive(&f, &mut never).unwrap_err();
     assert_eq!(nack.code, ErrorCode::NotSimulated);
-    assert_eq!(nack.seq, host.seq);
-    assert_eq!(*rx, before);
+    assert_eq!(nack.seq, seq);
+    refused_in_sequence(&rx, &before, host.seq);
 
     // A simulated plant's receiver hands the message on, with its target, and moves on.
     let mut sim: SceneReceiver<8192> = SceneReceiver::for_simulated_plant();
     let frame = sim.receive(&f, &mut never).unwrap();
     assert_eq!(frame.message, target);
-    assert_eq!(sim.expected_seq(), Some(host.seq.wrapping_add(1)));
+    assert_eq!(sim.expected_seq(), Some(seq.wrapping_add(1)));
 
     // A non-finite target is not a message (decoding checks it).
     let mut bytes = [0u8; MAX_FRAME];
@@ -1374,4 +1384,28 @@ fn a_board_refuses_a_hand_target_and_a_simulated_plant_takes_it() {
         sim.receive(&bytes[..n], &mut never).unwrap_err().code,
         ErrorCode::BadField
     );
+}
+
+#[test]
+fn a_frame_sent_behind_a_refused_one_goes_through() {
+    // A host that does not wait for each ack (heartbeats and hand targets stream while it
+    // uploads): a chunk without a begin is refused, and the heartbeat already sent behind it
+    // is accepted, not refused as a sequence gap. A lost frame is still a gap.
+    let (mut rx, mut host) = loaded();
+    let chunk = host.frame(Message::SceneChunk(SceneChunk::new(0, &[1, 2, 3]).unwrap()));
+    let heartbeat_seq = host.seq;
+    let heartbeat = host.frame(Message::Heartbeat { uptime_ms: 1 });
+    assert_eq!(
+        rx.receive(&chunk, &mut never).unwrap_err().code,
+        ErrorCode::NoUpload
+    );
+    assert_eq!(
+        rx.receive(&heartbeat, &mut never).map(|f| f.seq),
+        Ok(heartbeat_seq)
+    );
+    let _lost = host.frame(Message::EnableForces);
+    let after_loss = host.frame(Message::DisableForces);
+    let nack = rx.receive(&after_loss, &mut never).unwrap_err();
+    assert_eq!(nack.code, ErrorCode::SequenceGap);
+    assert_eq!(nack.expected_seq, heartbeat_seq.wrapping_add(1));
 }

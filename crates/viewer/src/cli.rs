@@ -86,15 +86,20 @@ Exit status:
   1  the link failed during the run, or the output could not be written
   2  bad command line, or the device could not be opened or did not answer the hello
 
-Example:
-  viewer device monitor --sim --seconds 2 --every 100";
+Examples:
+  viewer device monitor --sim --seconds 2 --every 100
+  viewer device monitor --tcp 127.0.0.1:4444 --seconds 2   (after `cargo xtask qemu --serve 127.0.0.1:4444`)";
 
 /// Arguments of `device monitor`.
 #[derive(Debug, Args)]
 pub struct MonitorArgs {
     /// Serial port of the board (`/dev/ttyACM0`, `COM3`).
-    #[arg(long, value_name = "PATH", conflicts_with_all = ["hid", "sim"])]
+    #[arg(long, value_name = "PATH", conflicts_with_all = ["hid", "sim", "tcp"])]
     pub port: Option<PathBuf>,
+    /// A board over TCP, `HOST:PORT`: the firmware under QEMU (`cargo xtask qemu --serve
+    /// 127.0.0.1:PORT`), whose UART speaks the serial link's COBS framing.
+    #[arg(long, value_name = "HOST:PORT", conflicts_with_all = ["hid", "sim"])]
+    pub tcp: Option<String>,
     /// The first USB HID board.
     #[arg(long, conflicts_with = "sim")]
     pub hid: bool,

@@ -4,8 +4,8 @@ use std::io::Write;
 use std::time::{Duration, Instant};
 
 use device::host::{
-    GapCounter, HidLink, Link, LinkError, SerialLink, SimConfig, SimHand, SimLink, list_hid,
-    list_serial,
+    GapCounter, HidLink, Link, LinkError, SerialLink, SimConfig, SimHand, SimLink, TcpLink,
+    list_hid, list_serial,
 };
 use device::protocol::{Frame, Hello, Message, Telemetry};
 use device::safety::Faults;
@@ -104,6 +104,8 @@ pub fn write_table(found: &[Found], mut out: impl Write) -> std::io::Result<()> 
 pub enum Target {
     /// A serial port.
     Serial(String),
+    /// A board over TCP (`HOST:PORT`), the firmware under QEMU.
+    Tcp(String),
     /// The first HID board.
     Hid,
     /// The simulated pantograph in this process.
@@ -125,6 +127,10 @@ pub struct Opened {
 pub fn open(target: &Target) -> Result<Opened, LinkError> {
     let (mut link, hand): (Box<dyn Link>, _) = match target {
         Target::Serial(path) => (Box::new(SerialLink::open(path)?), None),
+        Target::Tcp(address) => (
+            Box::new(TcpLink::connect(address, Duration::from_secs(2))?),
+            None,
+        ),
         Target::Hid => (Box::new(HidLink::open_first()?), None),
         Target::Sim => {
             let sim = SimLink::spawn(SimConfig::default())?;

@@ -246,12 +246,15 @@ fn device_command(command: &viewer::cli::DeviceCommand) -> ExitCode {
 fn device_monitor(args: &viewer::cli::MonitorArgs) -> ExitCode {
     use std::time::Duration;
     use viewer::devices::{self, Target};
-    let target = match (&args.port, args.hid, args.sim) {
-        (Some(path), _, _) => Target::Serial(path.to_string_lossy().into_owned()),
-        (None, true, _) => Target::Hid,
-        (None, false, true) => Target::Sim,
-        (None, false, false) => {
-            let e = anyhow!("device monitor: choose a device with --port PATH, --hid or --sim");
+    let target = match (&args.port, &args.tcp, args.hid, args.sim) {
+        (Some(path), _, _, _) => Target::Serial(path.to_string_lossy().into_owned()),
+        (None, Some(address), _, _) => Target::Tcp(address.clone()),
+        (None, None, true, _) => Target::Hid,
+        (None, None, false, true) => Target::Sim,
+        (None, None, false, false) => {
+            let e = anyhow!(
+                "device monitor: choose a device with --port PATH, --tcp HOST:PORT, --hid or --sim"
+            );
             return fail(&e, EXIT_BAD_SETUP);
         }
     };

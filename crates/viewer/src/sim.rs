@@ -541,13 +541,10 @@ pub fn run_device(
 }
 
 /// The raw counts the encoders of `spec` read with both joints resting on their end stops:
-/// what [`run_device`] calibrates on (and the firmware's QEMU run, through `cargo xtask qemu`).
+/// what [`run_device`] calibrates on (and the firmware's QEMU run, through `cargo xtask qemu`);
+/// [`DeviceSpec::end_stop_counts`].
 pub fn end_stop_counts(spec: &DeviceSpec) -> [i32; 2] {
-    let per_rad = spec.counts_per_joint_rad();
-    [0, 1].map(|i| {
-        let counts = (spec.encoder_direction[i].sign() * spec.end_stop_rad[i] * per_rad[i]).floor();
-        spec.encoder_offset_counts[i].wrapping_add(counts as i32)
-    })
+    spec.end_stop_counts()
 }
 
 /// The tick with its patch indices naming the scene's patches: the tracker splits patches at

@@ -33,7 +33,7 @@ use device::protocol::{
     ErrorCode, Frame, Hello, MAX_FRAME, MAX_PAYLOAD, Message, SceneError, SceneFault,
     SceneReceiver, SceneStore, Status,
 };
-use firmware::app::{App, AppError};
+use firmware::app::{App, AppError, Parked};
 use firmware::board::Board;
 use firmware::swap::{Published, SceneBuffers, Staging};
 use friction::FrictionMaterial;
@@ -656,8 +656,8 @@ mod app {
         };
         let _ = free_tx.enqueue(second);
 
-        let app = match App::without_scene(1.0 / TICK_HZ as f32, RAMP_TIME_S) {
-            Ok(app) => app,
+        let app = match Parked::new(1.0 / TICK_HZ as f32, RAMP_TIME_S) {
+            Ok(parked) => parked.unloaded(),
             Err(e) => panic!("controller: {e}"),
         };
         let full_scale_a = app.controller().spec().current_limit_a;

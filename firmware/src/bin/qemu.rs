@@ -32,6 +32,7 @@ use device::{
 };
 use firmware::app::App;
 use firmware::board::Board;
+use firmware::netduino::Uart;
 use firmware::scenario::Scenario;
 use friction::Mode;
 #[cfg(feature = "stages")]
@@ -193,67 +194,6 @@ fn stack_peak() -> usize {
     }
     top - p
 }
-
-/// USART1 of the STM32F405 (QEMU's `stm32f2xx_usart`, the first `-serial`): the link, each
-/// frame COBS-encoded and followed by a `0x00` delimiter, exactly as the host's serial and TCP
-/// links read it. QEMU sends a byte written to DR at once (TXE is never observed clear) and
-/// holds received bytes until DR is read, so neither direction needs waiting or a buffer.
-struct Uart;
-
-impl Uart {
-    const BASE: usize = 0x4001_1000;
-    const SR: usize = Self::BASE;
-    const DR: usize = Self::BASE + 0x04;
-    const CR1: usize = Self::BASE + 0x0C;
-    /// SR: a received byte waits in DR.
-    const RXNE: u32 = 1 << 5;
-    /// CR1: USART enable, transmitter enable, receiver enable.
-    const UE_TE_RE: u32 = (1 << 13) | (1 << 3) | (1 << 2);
-
-    fn write(addr: usize, value: u32) {
-        #[allow(unsafe_code)]
-        // SAFETY: an aligned word write to a USART1 register (SR/DR/CR1) of the emulated
-        // STM32F405; nothing else in the program owns USART1.
-        unsafe {
-            core::ptr::write_volatile(addr as *mut u32, value)
-        }
-    }
-
-    fn read(addr: usize) -> u32 {
-        #[allow(unsafe_code)]
-        // SAFETY: an aligned word read of a USART1 register of the emulated STM32F405.
-        unsafe {
-            core::ptr::read_volatile(addr as *const u32)
-        }
-    }
-
-    /// Enables the transmitter and the receiver (no clock setup: QEMU has no RCC model, and
-    /// its USART ignores the baud rate).
-    fn init() -> Self {
-        Self::write(Self::CR1, Self::UE_TE_RE);
-        Uart
-    }
-
-    /// Sends one frame: COBS, then the delimiter.
-    fn send_frame(&mut self, frame: &[u8]) {
-        let mut encoded = [0u8; cobs::max_encoding_length(MAX_FRAME_BYTES)];
-        let Some(frame) = frame.get(..MAX_FRAME_BYTES) else {
-            return;
-        };
-        let n = cobs::encode(frame, &mut encoded);
-        for &b in encoded.get(..n).unwrap_or(&[]).iter().chain(&[0u8]) {
-            Self::write(Self::DR, u32::from(b));
-        }
-    }
-
-    /// The next received byte, if one waits.
-    fn receive(&mut self) -> Option<u8> {
-        (Self::read(Self::SR) & Self::RXNE != 0).then(|| Self::read(Self::DR) as u8)
-    }
-}
-
-/// The protocol's frame size.
-const MAX_FRAME_BYTES: usize = device::protocol::MAX_FRAME;
 
 /// The emulated board: the simulated pantograph as the plant, the scenario's clock.
 struct QemuBoard {

@@ -99,7 +99,7 @@ impl Link for HidLink {
             let mut buf = [0u8; MAX_FRAME];
             let n = self.device.read_timeout(&mut buf, ms)?;
             if n > 0 {
-                return Frame::decode(&buf[..n]).map(Some).map_err(LinkError::Frame);
+                return self.seq.decode_reply(&buf[..n]).map(Some);
             }
             if Instant::now() >= deadline {
                 return Ok(None);

@@ -31,7 +31,7 @@ mod sim;
 use std::time::{Duration, Instant};
 
 pub use hid::{HidDeviceInfo, HidLink, USB_PID, USB_VID, list_hid};
-pub use serial::{BAUD, SerialLink, SerialPortInfo, list_serial};
+pub use serial::{BAUD, SerialLink, SerialPortInfo, Stream, StreamLink, TcpLink, list_serial};
 pub use sim::{SimConfig, SimHand, SimLink};
 
 use crate::controller::ControllerError;
@@ -109,6 +109,22 @@ impl Sequencer {
         }
         .to_report();
         (report, n, seq)
+    }
+
+    /// Decodes a frame from the device and follows its sequence-gap nacks: a frame was lost
+    /// on the way, the device waits for the number the nack names, so the next frame is
+    /// numbered with it (otherwise every later frame would be refused as a gap too). Other
+    /// refusals use up their number on the device as here (see
+    /// [`SceneReceiver`](crate::protocol::SceneReceiver)), so they change nothing.
+    pub fn decode_reply(&mut self, bytes: &[u8]) -> Result<Frame, LinkError> {
+        let frame = Frame::decode(bytes).map_err(LinkError::Frame)?;
+        if let Message::Nack(n) = frame.message
+            && n.code == crate::protocol::ErrorCode::SequenceGap
+            && n.expected_seq != crate::protocol::UNKNOWN_SEQ
+        {
+            self.next = n.expected_seq;
+        }
+        Ok(frame)
     }
 }
 

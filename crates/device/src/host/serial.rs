@@ -1,6 +1,8 @@
-//! Serial transport: each frame COBS-encoded and followed by a `0x00` delimiter.
+//! Stream transports, serial and TCP: each frame COBS-encoded and followed by a `0x00`
+//! delimiter.
 
 use std::io::{Read, Write};
+use std::net::{TcpStream, ToSocketAddrs};
 use std::time::{Duration, Instant};
 
 use serialport::{SerialPort, SerialPortType};
@@ -41,33 +43,110 @@ pub fn list_serial() -> Result<Vec<SerialPortInfo>, LinkError> {
         .collect())
 }
 
-/// A board over a serial port.
-pub struct SerialLink {
-    port: Box<dyn SerialPort>,
+/// A byte stream the COBS framing runs over: a serial port, a TCP connection.
+pub trait Stream: Read + Write {
+    /// Bounds the next read's wait.
+    fn set_read_timeout(&mut self, timeout: Duration) -> std::io::Result<()>;
+    /// A name for messages.
+    fn name(&self) -> String;
+}
+
+impl Stream for Box<dyn SerialPort> {
+    fn set_read_timeout(&mut self, timeout: Duration) -> std::io::Result<()> {
+        self.set_timeout(timeout).map_err(std::io::Error::from)
+    }
+
+    fn name(&self) -> String {
+        SerialPort::name(self.as_ref()).unwrap_or_else(|| "serial port".into())
+    }
+}
+
+impl Stream for TcpStream {
+    fn set_read_timeout(&mut self, timeout: Duration) -> std::io::Result<()> {
+        // A zero timeout means "block" to the OS; the shortest wait stands in for it.
+        TcpStream::set_read_timeout(self, Some(timeout.max(Duration::from_micros(1))))
+    }
+
+    fn name(&self) -> String {
+        self.peer_addr()
+            .map_or_else(|_| "tcp".into(), |a| format!("tcp:{a}"))
+    }
+}
+
+/// A board over a byte stream: each frame COBS-encoded and followed by a `0x00` delimiter.
+/// [`SerialLink`] over a serial port, [`TcpLink`] over TCP (the firmware under QEMU, whose
+/// UART QEMU serves on a TCP port).
+pub struct StreamLink<S: Stream> {
+    stream: S,
     seq: Sequencer,
     pending: Vec<u8>,
 }
 
-impl core::fmt::Debug for SerialLink {
+/// A board over a serial port.
+pub type SerialLink = StreamLink<Box<dyn SerialPort>>;
+
+/// A board (the emulated one) over TCP.
+pub type TcpLink = StreamLink<TcpStream>;
+
+impl<S: Stream> core::fmt::Debug for StreamLink<S> {
     fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
-        f.debug_struct("SerialLink")
-            .field("port", &self.port.name())
+        f.debug_struct("StreamLink")
+            .field("stream", &self.stream.name())
             .field("seq", &self.seq)
             .finish()
     }
 }
 
-impl SerialLink {
+impl StreamLink<Box<dyn SerialPort>> {
     /// Opens the port at `path` at [`BAUD`].
     pub fn open(path: &str) -> Result<Self, LinkError> {
         let port = serialport::new(path, BAUD)
             .timeout(Duration::from_millis(10))
             .open()?;
-        Ok(SerialLink {
-            port,
+        Ok(Self::over(port))
+    }
+}
+
+impl StreamLink<TcpStream> {
+    /// Connects to `address` (`HOST:PORT`), waiting at most `timeout`.
+    pub fn connect(address: &str, timeout: Duration) -> Result<Self, LinkError> {
+        let mut last = None;
+        for addr in address.to_socket_addrs()? {
+            match TcpStream::connect_timeout(&addr, timeout) {
+                Ok(stream) => {
+                    stream.set_nodelay(true)?;
+                    return Ok(Self::over(stream));
+                }
+                Err(e) => last = Some(e),
+            }
+        }
+        Err(last
+            .unwrap_or_else(|| {
+                std::io::Error::new(
+                    std::io::ErrorKind::NotFound,
+                    format!("{address} names no address"),
+                )
+            })
+            .into())
+    }
+}
+
+impl<S: Stream> StreamLink<S> {
+    /// The link over `stream`.
+    pub fn over(stream: S) -> Self {
+        StreamLink {
+            stream,
             seq: Sequencer::default(),
             pending: Vec::new(),
-        })
+        }
+    }
+
+    /// Sends raw bytes as they are (no framing): for tests of a device's handling of
+    /// malformed input.
+    pub fn send_raw(&mut self, bytes: &[u8]) -> Result<(), LinkError> {
+        self.stream.write_all(bytes)?;
+        self.stream.flush()?;
+        Ok(())
     }
 
     /// The next complete packet in `pending`, if any (the delimiter is consumed).
@@ -79,13 +158,13 @@ impl SerialLink {
     }
 }
 
-impl Link for SerialLink {
+impl<S: Stream> Link for StreamLink<S> {
     fn send(&mut self, message: &Message) -> Result<u16, LinkError> {
         let (report, n, seq) = self.seq.encode(message);
         let mut bytes = cobs::encode(&report[..n]);
         bytes.push(0);
-        self.port.write_all(&bytes)?;
-        self.port.flush()?;
+        self.stream.write_all(&bytes)?;
+        self.stream.flush()?;
         Ok(seq)
     }
 
@@ -99,7 +178,7 @@ impl Link for SerialLink {
                 }
                 let bad = |code| LinkError::Frame(FrameError { code, seq: None });
                 let frame = cobs::decode(&packet).map_err(|_| bad(ErrorCode::BadLength))?;
-                return Frame::decode(&frame).map(Some).map_err(LinkError::Frame);
+                return self.seq.decode_reply(&frame).map(Some);
             }
             // Without a delimiter for longer than any frame, the bytes are noise.
             if self.pending.len() > cobs::max_encoded_len(MAX_FRAME) {
@@ -109,12 +188,19 @@ impl Link for SerialLink {
             if left.is_zero() {
                 return Ok(None);
             }
-            self.port.set_timeout(left)?;
-            let mut buf = [0u8; 256];
-            match self.port.read(&mut buf) {
+            self.stream.set_read_timeout(left)?;
+            let mut buf = [0u8; 4096];
+            match self.stream.read(&mut buf) {
                 Ok(0) => return Err(LinkError::Closed),
                 Ok(n) => self.pending.extend_from_slice(&buf[..n]),
-                Err(e) if e.kind() == std::io::ErrorKind::TimedOut => return Ok(None),
+                Err(e)
+                    if matches!(
+                        e.kind(),
+                        std::io::ErrorKind::TimedOut | std::io::ErrorKind::WouldBlock
+                    ) =>
+                {
+                    return Ok(None);
+                }
                 Err(e) => return Err(e.into()),
             }
         }

@@ -184,7 +184,7 @@ impl Link for SimLink {
     fn recv(&mut self, timeout: Duration) -> Result<Option<Frame>, LinkError> {
         let from_device = self.from_device.as_ref().ok_or(LinkError::Closed)?;
         match from_device.recv_timeout(timeout) {
-            Ok(bytes) => Frame::decode(&bytes).map(Some).map_err(LinkError::Frame),
+            Ok(bytes) => self.seq.decode_reply(&bytes).map(Some),
             Err(RecvTimeoutError::Timeout) => Ok(None),
             Err(RecvTimeoutError::Disconnected) => Err(LinkError::Closed),
         }
@@ -295,12 +295,7 @@ impl SimDevice {
     /// Handles one host frame; `Ok(true)` when it committed a scene.
     fn handle(&mut self, controller: &mut Controller<Chain<'_>>, bytes: &[u8]) -> Result<bool, ()> {
         // The simulated joints "rest on their end stops": the counts read there.
-        let spec = &self.config.spec;
-        let per_rad = spec.counts_per_joint_rad();
-        let home = [0, 1].map(|i| {
-            let stop = spec.encoder_direction[i].sign() * spec.end_stop_rad[i] * per_rad[i];
-            spec.encoder_offset_counts[i].wrapping_add(libm::floorf(stop) as i32)
-        });
+        let home = self.config.spec.end_stop_counts();
         let (paced, frames, seq) = (self.config.paced, &self.frames, &mut self.seq);
         let mut gone = false;
         let event = self.session.handle(

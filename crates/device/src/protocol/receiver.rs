@@ -39,10 +39,15 @@ struct Upload {
 /// - The first frame, and any [`Message::Hello`], sets the expected sequence number; after
 ///   that each frame must carry the next one (wrapping). A frame with another number is
 ///   rejected with [`ErrorCode::SequenceGap`] (the nack carries the expected number) and
-///   changes nothing.
-/// - **Every rejected frame leaves the receiver exactly as it was**: the expected sequence
-///   number, the upload in progress, and the active scene. Only accepted frames advance the
-///   sequence number.
+///   changes nothing: a frame was lost or repeated, and the host resynchronises on the
+///   nack's number.
+/// - **Every rejected frame leaves the upload in progress and the active scene as they
+///   were.** A frame that carries the expected number and a good CRC but is refused (a bad
+///   field, a chunk out of order, a failed commit) still uses up its number, as an accepted
+///   one does: it arrived, and the host's next frame, already on its way behind it, follows
+///   it. So a host that sends heartbeats and hand targets without waiting for each ack loses
+///   only the refused frame, not every frame behind it. The nack carries the number
+///   expected next.
 /// - An upload runs `SceneBegin` → `SceneChunk`s in order (each at the offset where the last
 ///   ended) → `SceneCommit`. Chunks go to the staging buffer; the commit checks the length,
 ///   the CRC-32 and the validator, and only then swaps staging and active. A new
@@ -115,16 +120,38 @@ impl<const N: usize> SceneReceiver<N> {
         bytes: &[u8],
         validator: &mut impl SceneValidator,
     ) -> Result<Frame, Nack> {
-        let frame = Frame::decode(bytes).map_err(|e| self.nack(e.seq, e.code, None))?;
+        let frame = match Frame::decode(bytes) {
+            Ok(frame) => frame,
+            Err(e) => {
+                // A good CRC makes its number trustworthy: in sequence, the frame uses it up.
+                if let Some(seq) = e.seq
+                    && self.expected_seq.is_none_or(|x| x == seq)
+                {
+                    self.expected_seq = Some(seq.wrapping_add(1));
+                }
+                return Err(self.nack(e.seq, e.code, None));
+            }
+        };
         let seq = frame.seq;
         let resync = matches!(frame.message, Message::Hello(_)) || self.expected_seq.is_none();
         if !resync && self.expected_seq != Some(seq) {
             return Err(self.nack(Some(seq), ErrorCode::SequenceGap, None));
         }
+        let handled = self.handle(&frame, validator);
+        self.expected_seq = Some(seq.wrapping_add(1));
+        handled.map(|()| frame).map_err(|nack| Nack {
+            expected_seq: seq.wrapping_add(1),
+            ..nack
+        })
+    }
+
+    /// Handles an in-sequence frame's message: scene upload here, the rest the caller's.
+    fn handle(&mut self, frame: &Frame, validator: &mut impl SceneValidator) -> Result<(), Nack> {
+        let seq = frame.seq;
         match frame.message {
             Message::Hello(_) => self.upload = None,
             Message::SceneBegin { total_len, crc32 } => self.begin(total_len, crc32, seq)?,
-            Message::SceneChunk(chunk) => self.chunk(&chunk, seq)?,
+            Message::SceneChunk(ref chunk) => self.chunk(chunk, seq)?,
             Message::SceneCommit => self.commit(validator, seq)?,
             Message::Ack { .. } | Message::Nack(_) | Message::Status(_) | Message::Telemetry(_) => {
                 return Err(self.nack(Some(seq), ErrorCode::UnexpectedMessage, None));
@@ -140,8 +167,7 @@ impl<const N: usize> SceneReceiver<N> {
             | Message::Calibrate
             | Message::ClearFaults { .. } => {}
         }
-        self.expected_seq = Some(seq.wrapping_add(1));
-        Ok(frame)
+        Ok(())
     }
 
     /// The reply to the outcome of [`SceneReceiver::receive`]: an ack or the nack.

@@ -1,0 +1,275 @@
+//! The firmware under QEMU's `netduinoplus2` as a device the host talks to: the same [`App`]
+//! as the board, the simulated pantograph (`device::simulator`) as the plant, held by a
+//! virtual hand whose target the host sets ([`Message::HandTarget`]), and the protocol on the
+//! emulated UART (USART1), COBS-framed like the host's serial link. `cargo xtask qemu --serve
+//! 127.0.0.1:PORT` boots it with the UART on that TCP port; `cargo xtask qemu` runs a whole
+//! host session against it.
+//!
+//! The device starts uncalibrated, forces off, with no scene, exactly as a board after reset.
+//! One cooperative loop: it reads the link until no byte waits (every frame through
+//! [`Session`], the device side of the link the host's simulator uses too), then runs the tick
+//! when SysTick marks the next millisecond (1 kHz of the emulated 168 MHz core), then the
+//! acquisition a scene load asks for (between ticks, as the board's lowest-priority task). A
+//! committed scene is swapped in at that tick boundary: the app is parked (its view of the old
+//! store dropped), the two stores swap roles, and the new store is loaded.
+//!
+//! [`Message::HandTarget`]: device::protocol::Message::HandTarget
+//! [`App`]: firmware::app::App
+#![no_std]
+#![no_main]
+
+use cortex_m::peripheral::syst::SystClkSource;
+use cortex_m_rt::{ExceptionFrame, entry, exception};
+use cortex_m_semihosting::{debug, hprintln};
+use device::protocol::{MAX_FRAME, Message, SceneStore};
+use device::safety::SafetyConfig;
+use device::session::{Event, Session};
+use device::simulator::{SimParams, SimulatedPantograph};
+use device::spec::DeviceSpec;
+use firmware::app::Parked;
+use firmware::board::Board;
+use firmware::netduino::{Clock, Uart};
+use nurbs::Vec2;
+
+/// The tick period.
+const PERIOD_US: u64 = 1000;
+/// SysTick's reload: 0.1 ms of the emulated 168 MHz core. Its interrupt only wakes the loop
+/// from `wfi`; the ticks follow the clock (TIM2). The loop sleeps rather than polls because
+/// every peripheral access of the emulated core takes QEMU's global lock, which its main loop
+/// (the one that moves the host's bytes into the USART, one per turn) then rarely gets: a
+/// polling loop left the link towards the device at a few hundred bytes a second.
+const SYSTICK_RELOAD: u32 = 16_800 - 1;
+/// The ramp-in of forces (s), as the host's simulator.
+const RAMP_TIME_S: f32 = 0.02;
+/// The watchdog's heartbeat timeout (s): 250 ms rather than a board's 100 ms, because QEMU on a
+/// shared, loaded host is not real time: its process may stall for tens of milliseconds, and
+/// the bytes of a heartbeat wait for it (measured: a 75 ms stall now and then on a 2-core
+/// machine running builds beside it).
+const HEARTBEAT_TIMEOUT_S: f32 = 0.25;
+/// The scene receiver's capacity (bytes).
+const SCENE_CAPACITY: usize = 4096;
+/// Where the handle starts (m): as the host's simulator, `device::host::SimConfig`.
+const START_M: Vec2 = Vec2::new(0.0, 0.09);
+
+/// The emulated board: the simulated pantograph as the plant, the tick count as the clock.
+struct SimBoard {
+    arm: SimulatedPantograph,
+    now_us: u64,
+    currents_a: [f32; 2],
+    driver_enabled: bool,
+    uart: Uart,
+}
+
+impl Board for SimBoard {
+    fn encoder_counts(&mut self) -> [i32; 2] {
+        self.arm.encoder_counts()
+    }
+
+    fn set_motor_currents(&mut self, currents_a: [f32; 2]) {
+        self.currents_a = currents_a;
+    }
+
+    fn set_driver_enabled(&mut self, enabled: bool) {
+        self.driver_enabled = enabled;
+    }
+
+    fn now_us(&mut self) -> u64 {
+        self.now_us
+    }
+
+    fn link_send(&mut self, frame: &[u8]) {
+        self.uart.send_frame(frame);
+    }
+
+    fn link_receive(&mut self, buf: &mut [u8]) -> usize {
+        let mut n = 0;
+        for slot in buf.iter_mut() {
+            match self.uart.receive() {
+                Some(b) => *slot = b,
+                None => break,
+            }
+            n += 1;
+        }
+        n
+    }
+}
+
+/// The bytes of one COBS packet as they arrive, up to its `0x00` delimiter.
+struct Packet {
+    bytes: [u8; cobs::max_encoding_length(MAX_FRAME) + 1],
+    len: usize,
+    overflow: bool,
+}
+
+impl Packet {
+    /// Adds `byte`; at a delimiter returns the decoded frame bytes (empty when the packet is
+    /// not COBS or too long, which the session then refuses as a bad frame).
+    fn push(&mut self, byte: u8, frame: &mut [u8; MAX_FRAME]) -> Option<usize> {
+        if byte != 0 {
+            match self.bytes.get_mut(self.len) {
+                Some(slot) => {
+                    *slot = byte;
+                    self.len += 1;
+                }
+                None => self.overflow = true,
+            }
+            return None;
+        }
+        let packet = self.bytes.get(..self.len).unwrap_or(&[]);
+        let n = if self.overflow || packet.is_empty() {
+            None
+        } else {
+            cobs::decode(packet, frame).ok().map(|r| r.frame_size())
+        };
+        let empty = packet.is_empty() && !self.overflow;
+        self.len = 0;
+        self.overflow = false;
+        // Back-to-back delimiters are line idle, not frames.
+        if empty { None } else { Some(n.unwrap_or(0)) }
+    }
+}
+
+fn fail(what: core::fmt::Arguments<'_>) -> ! {
+    hprintln!("qemu-serve: FAILED: {}", what);
+    debug::exit(debug::EXIT_FAILURE);
+    #[allow(clippy::empty_loop)]
+    loop {}
+}
+
+/// The device's software version.
+fn software_version() -> [u8; 3] {
+    let part = |s: &str| s.parse::<u8>().unwrap_or(0);
+    [
+        part(env!("CARGO_PKG_VERSION_MAJOR")),
+        part(env!("CARGO_PKG_VERSION_MINOR")),
+        part(env!("CARGO_PKG_VERSION_PATCH")),
+    ]
+}
+
+#[entry]
+fn main() -> ! {
+    let Some(peripherals) = cortex_m::Peripherals::take() else {
+        fail(format_args!("core peripherals already taken"));
+    };
+    let mut syst = peripherals.SYST;
+    syst.set_clock_source(SystClkSource::Core);
+    syst.set_reload(SYSTICK_RELOAD);
+    syst.clear_current();
+    syst.enable_interrupt();
+    syst.enable_counter();
+
+    let spec = DeviceSpec::default();
+    // A firm hand, as the host's simulator (`device::host::SimConfig::default`).
+    let hand = SimParams {
+        hand_stiffness_n_per_m: 2000.0,
+        hand_damping_ns_per_m: 5.0,
+        ..SimParams::default()
+    };
+    let arm = match SimulatedPantograph::new(spec, hand, START_M) {
+        Ok(arm) => arm,
+        Err(e) => fail(format_args!("simulated pantograph: {e}")),
+    };
+    let mut board = SimBoard {
+        arm,
+        now_us: 0,
+        currents_a: [0.0; 2],
+        driver_enabled: false,
+        uart: Uart::init(),
+    };
+    let period_s = PERIOD_US as f32 * 1e-6;
+    let mut parked = match Parked::with_safety(SafetyConfig {
+        period_s,
+        ramp_time_s: RAMP_TIME_S,
+        heartbeat_timeout_s: HEARTBEAT_TIMEOUT_S,
+        ..SafetyConfig::default()
+    }) {
+        Ok(p) => p,
+        Err(e) => fail(format_args!("{e}")),
+    };
+    let mut session: Session<SCENE_CAPACITY> = Session::new(software_version(), true, true);
+    // The stores live in main's frame, which never returns.
+    let (mut a, mut b) = (SceneStore::new(), SceneStore::new());
+    let (mut active, mut scratch) = (&mut a, &mut b);
+    let mut hand_target = START_M;
+    let mut packet = Packet {
+        bytes: [0; cobs::max_encoding_length(MAX_FRAME) + 1],
+        len: 0,
+        overflow: false,
+    };
+    let mut clock = Clock::start();
+    let mut due_us = 0u64;
+    hprintln!("qemu-serve: ready");
+    loop {
+        // An empty store (before the first upload) loads nothing: the app runs without force.
+        let (mut app, _) = parked.load(active, 0);
+        'epoch: loop {
+            let mut byte = [0u8; 1];
+            while board.link_receive(&mut byte) == 1 {
+                let mut frame = [0u8; MAX_FRAME];
+                let Some(n) = packet.push(byte[0], &mut frame) else {
+                    continue;
+                };
+                let mut replies: [Option<Message>; 2] = [None; 2];
+                let mut k = 0;
+                let event = session.handle(
+                    frame.get(..n).unwrap_or(&[]),
+                    &mut *scratch,
+                    app.controller_mut(),
+                    spec.end_stop_counts(),
+                    &mut |m: &Message| {
+                        if let Some(slot) = replies.get_mut(k) {
+                            *slot = Some(*m);
+                            k += 1;
+                        }
+                    },
+                );
+                for m in replies.iter().flatten() {
+                    app.send(&mut board, m);
+                }
+                match event {
+                    Event::SceneCommitted => break 'epoch,
+                    Event::HandTarget(t) => hand_target = t,
+                    Event::None => {}
+                }
+            }
+            let now_us = clock.now_us();
+            if now_us >= due_us {
+                // Ticks on the period's grid; after a stall (the host stopped QEMU) the grid
+                // restarts rather than racing through the missed ticks.
+                due_us = if now_us - due_us > 100 * PERIOD_US {
+                    now_us + PERIOD_US
+                } else {
+                    due_us + PERIOD_US
+                };
+                board.now_us = now_us;
+                app.tick(&mut board);
+                let currents = if board.driver_enabled {
+                    board.currents_a
+                } else {
+                    [0.0; 2]
+                };
+                // An arm driven into a singular pose stays there, as a real one on its stops.
+                let _ = board.arm.step(currents, hand_target, period_s);
+                app.acquire();
+            }
+            cortex_m::asm::wfi();
+        }
+        parked = app.park();
+        core::mem::swap(&mut active, &mut scratch);
+    }
+}
+
+/// Only wakes the loop from `wfi`.
+#[exception]
+fn SysTick() {}
+
+#[exception]
+#[allow(unsafe_code)]
+unsafe fn HardFault(frame: &ExceptionFrame) -> ! {
+    fail(format_args!("HardFault at pc={:#010x}", frame.pc()))
+}
+
+#[panic_handler]
+fn panic(info: &core::panic::PanicInfo<'_>) -> ! {
+    fail(format_args!("panic: {info}"))
+}

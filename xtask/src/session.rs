@@ -1,0 +1,428 @@
+//! The host ↔ firmware session of `cargo xtask qemu`: the QEMU binary `qemu-serve` with its
+//! UART on a TCP port, driven through the real protocol by the host's own link
+//! (`device::host::TcpLink`), as `viewer device monitor --tcp` does: hello, scene upload and
+//! commit, forces on, the virtual hand into the object and along it (stuck → slip in the
+//! telemetry), malformed and out-of-order frames refused with the device running on and its
+//! scene unchanged, a second scene swapped in while in contact, and heartbeat loss turning the
+//! force off at the watchdog's timeout.
+
+use std::net::TcpListener;
+use std::path::Path;
+use std::process::{Child, Command, Stdio};
+use std::time::{Duration, Instant};
+
+use device::host::{Link, TcpLink};
+use device::protocol::{
+    ErrorCode, Message, SceneChunk, Status, Telemetry, WireObject, WirePatch, crc32, encode_scene,
+    scene_upload,
+};
+use device::safety::Faults;
+use friction::{FrictionMaterial, Mode};
+use nurbs::Vec2;
+use viewer::scene::Scene;
+
+/// How long a reply may take (real time: QEMU runs without -icount here, so its clock is the
+/// host's).
+const REPLY: Duration = Duration::from_secs(5);
+/// Heartbeats every 50 ms, as `device monitor`'s: a fifth of the emulated board's 250 ms
+/// watchdog (`firmware/src/bin/qemu-serve.rs`), so that QEMU on a loaded machine may stall
+/// for most of 200 ms without tripping it.
+const HEARTBEAT: Duration = Duration::from_millis(50);
+/// The emulated board's heartbeat timeout (µs).
+const WATCHDOG_US: u32 = 250_000;
+/// The hand's target every 10 ms: at the slide's 17 mm/s a step of 0.17 mm, under half the
+/// hand's spring stretch at breakaway (μs F_N / 2000 N/m ≈ 0.4 mm), so the steps do not make
+/// their own stick–slip.
+const TARGET_PERIOD: Duration = Duration::from_millis(10);
+
+/// QEMU's arguments for `qemu-serve` with its UART served on `address` (`HOST:PORT`); `wait`
+/// holds the emulation until a client connects.
+pub fn serve_args(address: &str, wait: bool) -> Vec<String> {
+    let wait = if wait { "on" } else { "off" };
+    [
+        "-machine",
+        "netduinoplus2",
+        "-nographic",
+        "-monitor",
+        "none",
+        "-semihosting-config",
+        "enable=on,target=native",
+        "-serial",
+    ]
+    .iter()
+    .map(|s| s.to_string())
+    .chain([format!("tcp:{address},server=on,wait={wait}")])
+    .collect()
+}
+
+/// Kills QEMU when the session ends, however it ends.
+struct Qemu(Child);
+
+impl Drop for Qemu {
+    fn drop(&mut self) {
+        let _ = self.0.kill();
+        let _ = self.0.wait();
+    }
+}
+
+/// The host's side: the link, its heartbeat and the virtual hand's target.
+struct Host {
+    link: TcpLink,
+    heartbeats: bool,
+    last_heartbeat: Instant,
+    last_target: Instant,
+    /// Telemetry received, in order.
+    telemetry: Vec<Telemetry>,
+    /// Nacks of frames nobody waited for.
+    nacks: Vec<(u16, ErrorCode)>,
+    /// The frame whose answer [`Host::request`] waits for, and the answer.
+    awaited: Option<u16>,
+    answer: Option<Result<(), ErrorCode>>,
+    /// The last status (a heartbeat's answer).
+    status: Option<Status>,
+    /// The last heartbeat's sequence number, and the index in `telemetry` of the first frame
+    /// after its ack: the tick that stamped it.
+    heartbeat_seq: Option<u16>,
+    stamp_index: Option<usize>,
+}
+
+impl Host {
+    /// Reads for `d`, sending heartbeats (while on, every [`HEARTBEAT`]) and the hand's target
+    /// `target(t)` (`t` from 0 to 1 over `d`, every [`TARGET_PERIOD`]).
+    fn pump(&mut self, d: Duration, mut target: impl FnMut(f32) -> Vec2) -> Result<(), String> {
+        let start = Instant::now();
+        loop {
+            let t = (start.elapsed().as_secs_f32() / d.as_secs_f32()).min(1.0);
+            if self.heartbeats && self.last_heartbeat.elapsed() >= HEARTBEAT {
+                let seq = self
+                    .link
+                    .send(&Message::Heartbeat { uptime_ms: 0 })
+                    .map_err(|e| format!("session: heartbeat: {e}"))?;
+                self.heartbeat_seq = Some(seq);
+                self.stamp_index = None;
+                self.last_heartbeat = Instant::now();
+            }
+            if self.last_target.elapsed() >= TARGET_PERIOD {
+                self.link
+                    .send(&Message::HandTarget {
+                        target_m: target(t),
+                    })
+                    .map_err(|e| format!("session: hand target: {e}"))?;
+                self.last_target = Instant::now();
+            }
+            let frame = self
+                .link
+                .recv(Duration::from_millis(2))
+                .map_err(|e| format!("session: link: {e}"))?;
+            match frame.map(|f| f.message) {
+                Some(Message::Telemetry(t)) => self.telemetry.push(t),
+                Some(Message::Ack { seq }) if self.awaited == Some(seq) => {
+                    self.answer = Some(Ok(()));
+                }
+                Some(Message::Ack { seq }) if self.heartbeat_seq == Some(seq) => {
+                    self.stamp_index = Some(self.telemetry.len());
+                }
+                Some(Message::Nack(n)) if self.awaited == Some(n.seq) => {
+                    self.answer = Some(Err(n.code));
+                }
+                Some(Message::Nack(n)) => self.nacks.push((n.seq, n.code)),
+                Some(Message::Status(s)) => self.status = Some(s),
+                _ => {}
+            }
+            if start.elapsed() >= d {
+                return Ok(());
+            }
+        }
+    }
+
+    /// Sends `m` and pumps, the hand held at `at`, until the device answers it.
+    fn send_awaiting(&mut self, m: &Message, at: Vec2) -> Result<Result<(), ErrorCode>, String> {
+        let seq = self
+            .link
+            .send(m)
+            .map_err(|e| format!("session: {:?}: {e}", m.message_type()))?;
+        self.awaited = Some(seq);
+        self.answer = None;
+        let start = Instant::now();
+        while self.answer.is_none() && start.elapsed() < REPLY {
+            self.pump(Duration::from_millis(10), |_| at)?;
+        }
+        self.awaited = None;
+        self.answer.take().ok_or_else(|| {
+            format!(
+                "session: no answer to {:?} within {REPLY:?}",
+                m.message_type()
+            )
+        })
+    }
+
+    /// [`Host::send_awaiting`], a nack being an error.
+    fn request(&mut self, m: &Message, at: Vec2) -> Result<(), String> {
+        self.send_awaiting(m, at)?
+            .map_err(|code| format!("session: {:?} refused: {code}", m.message_type()))
+    }
+
+    /// Uploads and commits `scene`, frame by frame, the hand held at `at`.
+    fn upload(&mut self, scene: &[u8], at: Vec2) -> Result<(), String> {
+        for m in scene_upload(scene) {
+            self.request(&m, at)?;
+        }
+        Ok(())
+    }
+
+    /// The active scene's CRC-32, from the status answering the next heartbeat.
+    fn scene_crc(&mut self, at: Vec2) -> Result<u32, String> {
+        self.status = None;
+        let start = Instant::now();
+        while self.status.is_none() && start.elapsed() < REPLY {
+            self.pump(Duration::from_millis(10), |_| at)?;
+        }
+        self.status
+            .map(|s| s.scene_crc32)
+            .ok_or_else(|| "session: no status after a heartbeat".to_string())
+    }
+}
+
+/// The wire scene of object 0 of `scene` with `material`.
+fn wire_scene(scene: &Scene, material: FrictionMaterial) -> Result<Vec<u8>, String> {
+    let object = &scene.objects()[0];
+    let curves = object
+        .curve_views()
+        .ok_or("session: object 0 is not made of planar curves")?;
+    let patches: Vec<WirePatch<'_>> = curves.iter().copied().map(WirePatch::Curve).collect();
+    encode_scene(&[WireObject {
+        material,
+        patches: &patches,
+    }])
+    .map_err(|e| format!("session: wire scene: {e}"))
+}
+
+/// The modes of `t` in order, repeats collapsed.
+fn modes(t: &[Telemetry]) -> Vec<Mode> {
+    let mut out: Vec<Mode> = Vec::new();
+    for m in t.iter().map(|t| t.mode) {
+        if out.last() != Some(&m) {
+            out.push(m);
+        }
+    }
+    out
+}
+
+/// Runs the session against `elf` (the `qemu-serve` binary) and returns its result lines.
+pub fn run(elf: &Path, root: &Path) -> Result<Vec<String>, String> {
+    let port = TcpListener::bind("127.0.0.1:0")
+        .and_then(|l| l.local_addr())
+        .map_err(|e| format!("session: no free TCP port: {e}"))?
+        .port();
+    let address = format!("127.0.0.1:{port}");
+    let args = serve_args(&address, true);
+    println!(
+        "\n==> qemu-system-arm {} -kernel {} (the host session)",
+        args.join(" "),
+        elf.display()
+    );
+    let child = Command::new("qemu-system-arm")
+        .args(&args)
+        .arg("-kernel")
+        .arg(elf)
+        .stdin(Stdio::null())
+        .stdout(Stdio::null())
+        .stderr(Stdio::inherit())
+        .spawn()
+        .map_err(|e| format!("cannot start qemu-system-arm: {e}"))?;
+    let _qemu = Qemu(child);
+    let started = Instant::now();
+    let link = loop {
+        match TcpLink::connect(&address, Duration::from_millis(200)) {
+            Ok(l) => break l,
+            Err(_) if started.elapsed() < Duration::from_secs(20) => {
+                std::thread::sleep(Duration::from_millis(100));
+            }
+            Err(e) => return Err(format!("session: cannot connect to QEMU on {address}: {e}")),
+        }
+    };
+    let mut host = Host {
+        link,
+        heartbeats: true,
+        last_heartbeat: Instant::now(),
+        last_target: Instant::now(),
+        telemetry: Vec::new(),
+        nacks: Vec::new(),
+        awaited: None,
+        answer: None,
+        status: None,
+        heartbeat_seq: None,
+        stamp_index: None,
+    };
+    let mut lines = Vec::new();
+    // QEMU starts the emulation when the connection arrives, and its USART drops what it
+    // receives before the firmware has enabled it: speak once the device has.
+    while host
+        .link
+        .recv(Duration::from_millis(50))
+        .map_err(|e| format!("session: link: {e}"))?
+        .is_none()
+    {
+        if started.elapsed() > Duration::from_secs(20) {
+            return Err("session: the emulated board sent nothing within 20 s of boot".into());
+        }
+    }
+    let hello = host
+        .link
+        .hello(REPLY)
+        .map_err(|e| format!("session: hello: {e}"))?;
+    lines.push(format!(
+        "session hello software={:?} scene_capacity={}",
+        hello.software, hello.scene_capacity
+    ));
+
+    let scene_path = root.join("scenes").join("thesis-2d.json");
+    let scene = Scene::load(&scene_path).map_err(|e| format!("{}: {e}", scene_path.display()))?;
+    let material = scene.objects()[0].material().friction_material();
+    let first = wire_scene(&scene, material)?;
+    // Above the object (the arcs' top is at y = 94.6 mm), clear of it.
+    let above = Vec2::new(0.01, 0.11);
+    host.pump(Duration::from_millis(300), |_| above)?;
+    // The watchdog tripped between boot and the first heartbeat.
+    host.request(&Message::ClearFaults { mask: 0xFFFF }, above)?;
+    host.request(&Message::Calibrate, above)?;
+    host.upload(&first, above)?;
+    host.request(&Message::EnableForces, above)?;
+    host.telemetry.clear();
+    // The right arc is the circle of radius 40 mm about (−20, 60) mm from 0° to 60°. Into it
+    // 4 mm deep at 41.4° (x = 7 mm), hold, then along it, 4 mm deep, to 15° (16.6 mm in 1 s).
+    let centre = Vec2::new(-0.02, 0.06);
+    let deep = |deg: f32| {
+        let a = deg.to_radians();
+        centre + Vec2::new(a.cos(), a.sin()) * 0.036
+    };
+    let inside = deep(41.4);
+    host.pump(Duration::from_millis(500), |t| above + (inside - above) * t)?;
+    host.pump(Duration::from_millis(300), |_| inside)?;
+    host.pump(Duration::from_millis(1000), |t| {
+        deep(41.4 + (15.0 - 41.4) * t)
+    })?;
+    let along = deep(15.0);
+    host.pump(Duration::from_millis(200), |_| along)?;
+    let seen = modes(&host.telemetry);
+    let faults = host.telemetry.iter().fold(0, |f, t| f | t.faults);
+    lines.push(format!(
+        "session contact ticks={} modes={seen:?} faults={faults:#x}",
+        host.telemetry.len()
+    ));
+    let stuck = seen.iter().position(|&m| m == Mode::Stuck);
+    let slip = seen.iter().rposition(|&m| m == Mode::Slip);
+    if !matches!((stuck, slip), (Some(a), Some(b)) if a < b) || faults != 0 {
+        return Err(format!(
+            "session: pressing into thesis-2d and sliding along it did not go stuck → slip \
+             without faults: modes {seen:?}, faults {faults:#x}"
+        ));
+    }
+
+    // Malformed and out-of-order frames, in contact: refused, the device runs on, the active
+    // scene unchanged.
+    let before = host.scene_crc(along)?;
+    if before != crc32(&first) {
+        return Err(format!(
+            "session: the active scene's CRC {before:#x} is not the uploaded one's {:#x}",
+            crc32(&first)
+        ));
+    }
+    host.nacks.clear();
+    host.link
+        .send_raw(&[0x05, 0x01, 0x02, 0x03, 0x04, 0x00])
+        .map_err(|e| format!("session: raw bytes: {e}"))?;
+    let chunk = Message::SceneChunk(SceneChunk::new(0, &[1, 2, 3]).ok_or("session: chunk")?);
+    let out_of_order = host.send_awaiting(&chunk, along)?;
+    let ticks_before = host.telemetry.len();
+    host.pump(Duration::from_millis(200), |_| along)?;
+    // Still ticking: telemetry keeps coming (at 1 kHz of the device's clock; a loaded host
+    // may slow QEMU, so only a tenth of the 200 ms is asked for).
+    let running = host.telemetry.len() > ticks_before + 20;
+    let after = host.scene_crc(along)?;
+    lines.push(format!(
+        "session malformed nacks={:?} chunk_without_begin={out_of_order:?} running={running} \
+         scene_unchanged={}",
+        host.nacks,
+        after == before
+    ));
+    if host.nacks.is_empty() || out_of_order != Err(ErrorCode::NoUpload) || !running {
+        return Err(format!(
+            "session: malformed frames: nacks {:?}, chunk without begin {out_of_order:?}, \
+             running on: {running}",
+            host.nacks
+        ));
+    }
+    if after != before {
+        return Err(format!(
+            "session: a refused frame changed the active scene: CRC {before:#x} → {after:#x}"
+        ));
+    }
+
+    // A second scene (the same curves, half as stiff) swapped in while in contact.
+    let softer = FrictionMaterial {
+        stiffness_n_per_m: material.stiffness_n_per_m * 0.5,
+        ..material
+    };
+    let second = wire_scene(&scene, softer)?;
+    host.upload(&second, along)?;
+    host.telemetry.clear();
+    host.pump(Duration::from_millis(300), |_| along)?;
+    let swapped = host.scene_crc(along)?;
+    let last = host.telemetry.last().copied();
+    let in_contact = last.is_some_and(|t| t.mode != Mode::Free && t.force_n.length() > 0.0);
+    lines.push(format!(
+        "session swap crc={swapped:#x} expected={:#x} in_contact_after={in_contact}",
+        crc32(&second)
+    ));
+    if swapped != crc32(&second) || !in_contact {
+        return Err(format!(
+            "session: the second scene is not active and rendering (CRC {swapped:#x}, expected \
+             {:#x}; last telemetry {last:?})",
+            crc32(&second)
+        ));
+    }
+
+    // Heartbeat loss: the force goes off at the watchdog's timeout. The tick that stamped the
+    // last heartbeat is the first telemetry after its ack (the device acks a frame when it
+    // handles it, between ticks, and the next tick stamps the heartbeat).
+    host.heartbeats = false;
+    host.pump(Duration::from_millis(400), |_| along)?;
+    let stamped = host
+        .stamp_index
+        .and_then(|i| host.telemetry.get(i..))
+        .ok_or("session: no telemetry after the last heartbeat's ack")?;
+    let stamp = stamped[0].time_us;
+    let Some(k) = stamped
+        .iter()
+        .position(|t| Faults::from_bits_truncate(t.faults).contains(Faults::WATCHDOG))
+    else {
+        return Err("session: the watchdog never tripped without heartbeats".into());
+    };
+    // The heartbeat's age on the k-th tick after the stamping one, as the device measures it:
+    // the larger of its clock's difference and k periods (`device::controller`, "Time").
+    let age = |k: usize| {
+        let t = stamped.get(k).map_or(0, |t| t.time_us.wrapping_sub(stamp));
+        t.max(k as u32 * 1000)
+    };
+    let forced = stamped[k..]
+        .iter()
+        .map(|t| t.force_n.length())
+        .fold(0.0f32, f32::max);
+    lines.push(format!(
+        "session watchdog trip_tick={k} age_before_us={} age_at_trip_us={} largest_force_from_trip_n={forced}",
+        age(k.saturating_sub(1)),
+        age(k)
+    ));
+    // The first tick whose age is past the timeout trips (not one before, not one later), and
+    // from that tick on there is no force.
+    if k == 0 || age(k - 1) > WATCHDOG_US || age(k) <= WATCHDOG_US || forced != 0.0 {
+        return Err(format!(
+            "session: the watchdog tripped on tick {k} after the last heartbeat (ages {} and {} \
+             µs around it, timeout {WATCHDOG_US} µs) with up to {forced} N from then on",
+            age(k.saturating_sub(1)),
+            age(k)
+        ));
+    }
+    Ok(lines)
+}
