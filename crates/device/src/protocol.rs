@@ -130,6 +130,14 @@ pub use scene::{
 pub use scene::{WireObject, WirePatch, encode_scene};
 pub use wire::{MATERIAL_LEN, material_valid};
 
+/// USB vendor id of the board (its HID interface carries the frames, one per 64-byte report):
+/// pid.codes' open-source vendor id. A placeholder until the project has a product id of its
+/// own. Here (no_std) so that the firmware and the host (`device::host`) share it.
+pub const USB_VID: u16 = 0x1209;
+/// USB product id of the board: pid.codes' test PID (`0x0001`), reserved for development and
+/// not unique; replace it with an allocated one before boards leave the lab.
+pub const USB_PID: u16 = 0x0001;
+
 /// The messages that upload `scene`: a begin, chunks of up to [`MAX_CHUNK`] bytes, a commit.
 /// Scenes longer than `u32::MAX` bytes are not representable; the receiver's capacity is far
 /// smaller anyway.

@@ -676,7 +676,7 @@ mod app {
         let hid = HIDClass::new(usb_bus, REPORT_DESCRIPTOR, 1);
         let usb_device = UsbDeviceBuilder::new(
             usb_bus,
-            UsbVidPid(device_host_ids::USB_VID, device_host_ids::USB_PID),
+            UsbVidPid(device::protocol::USB_VID, device::protocol::USB_PID),
         )
         .strings(&[StringDescriptors::default()
             .manufacturer("nurbs-haptics")
@@ -911,15 +911,6 @@ fn load(app: &mut App<'static>, store: &Published<BoardStore>) -> Result<(), App
 #[inline(never)]
 fn run_tick(app: &mut App<'static>, hw: &mut Hw) -> TickOutput {
     app.tick(hw)
-}
-
-/// The host's ids for the board (`device::host::{USB_VID, USB_PID}` live behind the host's
-/// `std` feature; these must equal them).
-mod device_host_ids {
-    /// pid.codes' open-source vendor id.
-    pub const USB_VID: u16 = 0x1209;
-    /// pid.codes' test product id.
-    pub const USB_PID: u16 = 0x0001;
 }
 
 /// Puts the motors off with raw register writes that cannot fail: the driver enable pin

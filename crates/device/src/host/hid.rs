@@ -7,13 +7,7 @@ use hidapi::{HidApi, HidDevice};
 
 use super::{Link, LinkError, Sequencer};
 use crate::protocol::{Frame, MAX_FRAME};
-
-/// USB vendor id of the board: pid.codes' open-source vendor id. A placeholder until the
-/// project has a product id of its own.
-pub const USB_VID: u16 = 0x1209;
-/// USB product id of the board: pid.codes' test PID (`0x0001`), reserved for development and
-/// not unique; replace it with an allocated one before boards leave the lab.
-pub const USB_PID: u16 = 0x0001;
+pub use crate::protocol::{USB_PID, USB_VID};
 
 /// One HID device with the board's vendor and product id.
 #[derive(Clone, Debug, PartialEq, Eq)]
