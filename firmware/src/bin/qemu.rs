@@ -287,7 +287,14 @@ const STAGE_NAMES: [&str; 5] = [
 #[cfg(feature = "stages")]
 impl<'s> Shadow<'s> {
     /// One tick's stages; `tick` is the tick's own count (bracket subtracted).
-    fn stages(&mut self, meter: &mut Meter, counts: [i32; 2], out: &TickOutput, tick: u32) {
+    fn stages(
+        &mut self,
+        meter: &mut Meter,
+        counts: [i32; 2],
+        out: &TickOutput,
+        tick: u32,
+        index: usize,
+    ) {
         let overhead = meter.overhead;
         let count = |r: Result<u32, Overflow>| r.map_or(u32::MAX, |n| n.saturating_sub(overhead));
         let (spec, arm, calibration) = (&self.spec, &self.arm, &self.calibration);
@@ -343,7 +350,7 @@ impl<'s> Shadow<'s> {
             .iter_mut()
             .zip([kinematics, render, currents, telemetry, rest])
         {
-            stats.add(n);
+            stats.add(n, index);
         }
     }
 }
@@ -389,13 +396,18 @@ struct Stats {
     n: u64,
     sum: u64,
     max: u32,
+    /// The tick of the maximum (the first, of equal ones).
+    max_at: usize,
 }
 
 impl Stats {
-    fn add(&mut self, v: u32) {
+    fn add(&mut self, v: u32, tick: usize) {
         self.n += 1;
         self.sum += u64::from(v);
-        self.max = self.max.max(v);
+        if v > self.max || self.n == 1 {
+            self.max = v;
+            self.max_at = tick;
+        }
     }
 
     /// Mean in tenths, rounded.
@@ -409,10 +421,11 @@ impl core::fmt::Display for Stats {
         let m = self.mean_tenths();
         write!(
             f,
-            "mean={}.{} max={} ticks={}",
+            "mean={}.{} max={} at_tick={} ticks={}",
             m / 10,
             m % 10,
             self.max,
+            self.max_at,
             self.n
         )
     }
@@ -565,12 +578,12 @@ fn main() -> ! {
             Err(ref e) => fail(format_args!("tick {i}: instruction count: {e:?}")),
         };
         #[cfg(feature = "stages")]
-        shadow.stages(&mut board.meter, counts, &out, n);
-        all.add(n);
+        shadow.stages(&mut board.meter, counts, &out, n, i);
+        all.add(n, i);
         if i == 0 {
             first = n;
         } else {
-            after_first.add(n);
+            after_first.add(n, i);
         }
         if out.render.is_some() && first_rendered.is_none() {
             first_rendered = Some(n);
@@ -580,11 +593,11 @@ fn main() -> ! {
         let (started, searched) = board.meter.instructions(|| app.acquire());
         if started {
             match searched {
-                Ok(c) => acquisition.add(c.saturating_sub(board.meter.overhead)),
+                Ok(c) => acquisition.add(c.saturating_sub(board.meter.overhead), i),
                 Err(e) => fail(format_args!("tick {i}: acquisition count: {e:?}")),
             }
         }
-        by_mode[mode_index(out.telemetry.mode)].add(n);
+        by_mode[mode_index(out.telemetry.mode)].add(n, i);
         if out.telemetry.faults != 0 {
             fault_ticks += 1;
         }
