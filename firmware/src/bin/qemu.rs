@@ -33,10 +33,11 @@ use device::{
 use firmware::app::App;
 use firmware::board::Board;
 use firmware::netduino::Uart;
-use firmware::scenario::Scenario;
-use friction::Mode;
+use firmware::scenario::{HipPath, Scenario};
 #[cfg(feature = "stages")]
-use friction::{FrictionMaterial, FrictionRenderer};
+use friction::FrictionMaterial;
+use friction::FrictionRenderer;
+use friction::Mode;
 use nurbs::Vec2;
 #[cfg(feature = "stages")]
 use tracker::Chain;
@@ -59,6 +60,25 @@ static SCENARIO: &[u8] = include_bytes!(concat!(
         "build the QEMU binary through `cargo xtask qemu`"
     ),
     "/scenario.bin"
+));
+
+/// A surface scene (wire format) and the HIP's path over it (`firmware::scenario::HipPath`),
+/// written by `cargo xtask qemu`: the friction renderer alone on a bicubic patch.
+static SURFACE_SCENE: &[u8] = include_bytes!(concat!(
+    env!(
+        "FIRMWARE_QEMU_DATA",
+        "build the QEMU binary through `cargo xtask qemu`"
+    ),
+    "/surface.bin"
+));
+
+/// The HIP's path over [`SURFACE_SCENE`].
+static SURFACE_PATH: &[u8] = include_bytes!(concat!(
+    env!(
+        "FIRMWARE_QEMU_DATA",
+        "build the QEMU binary through `cargo xtask qemu`"
+    ),
+    "/surface-path.bin"
 ));
 
 /// SysTick counts per instruction as a fraction: 168 MHz · 32 ns = 5.376 = 672 / 125.
@@ -666,6 +686,7 @@ fn main() -> ! {
         last_hip.x,
         last_hip.y
     );
+    surface_run(&mut board.meter);
     let (bottom, top) = stack_region();
     hprintln!(
         "stack peak_bytes={} region_bytes={} painted_bytes={}",
@@ -676,6 +697,85 @@ fn main() -> ! {
     debug::exit(debug::EXIT_SUCCESS);
     #[allow(clippy::empty_loop)]
     loop {}
+}
+
+/// The friction renderer alone (the planar pantograph cannot reach a surface) on object 0 of
+/// [`SURFACE_SCENE`], the HIP on [`SURFACE_PATH`]: every `FrictionRenderer::tick` counted, and
+/// the global search that starts it counted alone.
+#[inline(never)]
+fn surface_run(meter: &mut Meter) {
+    let path = match HipPath::parse(SURFACE_PATH) {
+        Ok(p) => p,
+        Err(e) => fail(format_args!("surface path: {e}")),
+    };
+    let name = path.name;
+    let mut store = SceneStore::new();
+    if let Err(e) = store.decode(SURFACE_SCENE) {
+        fail(format_args!("scene {name}: {e}"));
+    }
+    let n = store.patch_count(0).unwrap_or(0);
+    let Some(first) = store.surface(0, 0) else {
+        fail(format_args!(
+            "scene {name}: object 0 is not made of surfaces"
+        ));
+    };
+    let mut patches = [first; tracker::MAX_SHELL_PATCHES];
+    for (p, s) in patches.iter_mut().enumerate().take(n).skip(1) {
+        match store.surface(0, p) {
+            Some(surface) => *s = surface,
+            None => fail(format_args!("scene {name}: patch {p} is not a surface")),
+        }
+    }
+    let shell = match patches.get(..n).map(tracker::Shell::new) {
+        Some(Ok(shell)) => shell,
+        Some(Err(e)) => fail(format_args!("scene {name}: {e}")),
+        None => fail(format_args!("scene {name}: {n} patches")),
+    };
+    let Some(material) = store.material(0) else {
+        fail(format_args!("scene {name}: no material"));
+    };
+    let t = (1.0 / path.rate_hz) as f32;
+    let hip0 = match path.point(0) {
+        Ok(p) => p,
+        Err(e) => fail(format_args!("{e}")),
+    };
+    let overhead = meter.overhead;
+    let (mut renderer, search) =
+        meter.instructions(|| FrictionRenderer::new(&shell, material, hip0, t));
+    let mut all = Stats::default();
+    let mut by_mode = [Stats::default(); 4];
+    let mut previous = hip0;
+    for i in 0..path.ticks() {
+        let hip = match path.point(i) {
+            Ok(p) => p,
+            Err(e) => fail(format_args!("{e}")),
+        };
+        let velocity = (hip - previous) * (1.0 / t);
+        previous = hip;
+        let (out, n) = meter.instructions(|| renderer.tick(&shell, hip, velocity, t));
+        let n = match n {
+            Ok(n) => n.saturating_sub(overhead),
+            Err(e) => fail(format_args!("tick {i}: instruction count: {e:?}")),
+        };
+        all.add(n, i);
+        by_mode[mode_index(out.mode)].add(n, i);
+    }
+    hprintln!(
+        "instructions_acquisition scene={} count={:?}",
+        name,
+        search.ok().map(|n| n.saturating_sub(overhead))
+    );
+    hprintln!("instructions_per_tick scene={} {}", name, all);
+    for (mode, stats) in MODE_NAMES.iter().zip(by_mode) {
+        if stats.n > 0 {
+            hprintln!(
+                "instructions_by_mode scene={} mode={} {}",
+                name,
+                mode,
+                stats
+            );
+        }
+    }
 }
 
 #[exception]
