@@ -480,9 +480,8 @@ impl<O: Object> FrictionRenderer<O> {
             self.prev_hip = Some(hip);
             self.slip_speed = 0.0;
             self.law.reset();
-            let (cp_patch, cp_params) = O::position(&self.cp);
-            let frame = object.frame(cp_patch, cp_params);
-            return self.at_cp(contact, (cp_patch, cp_params), &frame, 0.0, O::P::ZERO, 0.0);
+            let frame = object.state_frame(&self.cp);
+            return self.at_cp(contact, O::position(&self.cp), &frame, 0.0, O::P::ZERO, 0.0);
         }
 
         if !matches!(self.law, LawState::StickSlip) {
@@ -503,8 +502,12 @@ impl<O: Object> FrictionRenderer<O> {
         );
 
         if self.mode == Mode::Free {
+            // The GO starts at the CP, whose frame the tracker has just evaluated.
             let (p, t) = O::position(&self.cp);
-            self.place_go(object, p, t);
+            self.go_patch = p;
+            self.go_params = t;
+            self.go_frame = object.state_frame(&self.cp);
+            self.crease = None;
             self.slip_speed = 0.0;
             self.switch(Mode::Stuck, SwitchCause::Contact);
         } else if matches!(self.mode, Mode::Transition | Mode::Slip)
@@ -659,7 +662,7 @@ impl<O: Object> FrictionRenderer<O> {
     ) -> FrictionOutput<O::P> {
         let m = self.material;
         let (cp_patch, cp_params) = O::position(&self.cp);
-        let fr = object.frame(cp_patch, cp_params);
+        let fr = object.state_frame(&self.cp);
         let f_n = math::max(
             0.0,
             m.stiffness_n_per_m * contact.depth

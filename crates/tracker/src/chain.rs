@@ -450,6 +450,11 @@ impl ChainTracker {
         (self.curve, self.tracker.t()[0])
     }
 
+    /// The curve's jet at [`ChainTracker::position`] (the tracker's own evaluation).
+    pub fn jet(&self) -> &crate::patch::Jet<Vec2, 1> {
+        self.tracker.jet()
+    }
+
     /// Puts the tracker on curve `i` at parameter `u` (e.g. to pin a god-object).
     pub fn reset(&mut self, chain: &Chain<'_>, i: usize, u: f32) {
         let i = i.min(chain.n_curves - 1);

@@ -40,6 +40,10 @@ pub trait Object {
     /// Puts a state's tracker on `patch` at `params`.
     fn place(&self, state: &mut Self::State, patch: usize, params: [f32; 2]);
 
+    /// [`Object::frame`] at a state's position ([`Object::position`]), from the evaluation
+    /// its tracker already made: no evaluation.
+    fn state_frame(&self, state: &Self::State) -> Frame<Self::P>;
+
     /// Point, unit outward normal and unit tangent (along the first parameter) of `patch` at
     /// `params`.
     fn frame(&self, patch: usize, params: [f32; 2]) -> Frame<Self::P>;
@@ -124,6 +128,12 @@ impl Object for Chain<'_> {
     fn frame(&self, patch: usize, params: [f32; 2]) -> Frame<Vec2> {
         let c = &self.curves()[patch.min(self.curves().len() - 1)];
         frame_of(c, [params[0]])
+    }
+
+    fn state_frame(&self, state: &ChainTracker) -> Frame<Vec2> {
+        let (i, u) = state.position();
+        let c = &self.curves()[i.min(self.curves().len() - 1)];
+        frame_from(c, [u], state.jet())
     }
 
     fn offset(
@@ -218,6 +228,12 @@ impl Object for Shell<'_> {
     fn frame(&self, patch: usize, params: [f32; 2]) -> Frame<Vec3> {
         let s = &self.patches()[patch.min(self.patches().len() - 1)];
         frame_of(s, params)
+    }
+
+    fn state_frame(&self, state: &ShellTracker) -> Frame<Vec3> {
+        let (i, t) = state.position();
+        let s = &self.patches()[i.min(self.patches().len() - 1)];
+        frame_from(s, t, state.jet())
     }
 
     fn offset(
@@ -316,8 +332,16 @@ pub struct Frame<P> {
 }
 
 fn frame_of<S: Patch<N>, const N: usize>(s: &S, t: [f32; N]) -> Frame<S::P> {
-    let jet = s.jet(t, 1);
-    let normal = s.normal(t, &jet);
+    frame_from(s, t, &s.jet(t, 1))
+}
+
+/// The frame at `t` from the patch's jet there.
+fn frame_from<S: Patch<N>, const N: usize>(
+    s: &S,
+    t: [f32; N],
+    jet: &crate::patch::Jet<S::P, N>,
+) -> Frame<S::P> {
+    let normal = s.normal(t, jet);
     let in_plane = |d: S::P| {
         (d - normal * d.dot(normal))
             .try_normalize()

@@ -214,6 +214,11 @@ impl<P: Point, const N: usize> Tracker<P, N> {
         self.t
     }
 
+    /// The patch's jet (order 2) at [`Tracker::t`], as the last update left it.
+    pub fn jet(&self) -> &Jet<P, N> {
+        &self.jet
+    }
+
     /// The settings.
     pub fn config(&self) -> &TrackerConfig {
         &self.cfg
