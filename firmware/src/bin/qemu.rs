@@ -40,7 +40,7 @@ use friction::FrictionRenderer;
 use friction::Mode;
 use nurbs::Vec2;
 #[cfg(feature = "stages")]
-use tracker::Chain;
+use tracker::{Chain, ChainTracker, Object};
 
 /// The scene as the device's wire format (`device::protocol::scene`), written by
 /// `cargo xtask qemu` from the scene JSON with the host crates; validated here as an upload.
@@ -289,16 +289,21 @@ struct Shadow<'s> {
     material: FrictionMaterial,
     period_s: f32,
     renderer: Option<FrictionRenderer<Chain<'s>>>,
+    /// A third CP tracker, started where the renderer's is and fed the same HIPs: the tracker's
+    /// share of the renderer's tick.
+    cp: Option<ChainTracker>,
     previous_hip: Option<Vec2>,
-    /// Kinematics, tracker + friction, Jᵀ F + currents, telemetry frame, the rest of the tick.
-    stats: [Stats; 5],
+    /// Kinematics, tracker, friction (the renderer minus its tracker), Jᵀ F + currents,
+    /// telemetry frame, the rest of the tick (safety and glue).
+    stats: [Stats; 6],
     mismatches: u32,
 }
 
 #[cfg(feature = "stages")]
-const STAGE_NAMES: [&str; 5] = [
+const STAGE_NAMES: [&str; 6] = [
     "kinematics",
-    "tracker+friction",
+    "tracker",
+    "friction",
     "jt_f+currents",
     "telemetry_frame",
     "safety+rest",
@@ -324,6 +329,7 @@ impl<'s> Shadow<'s> {
         });
         let kinematics = count(kinematics);
         let mut render = 0;
+        let mut tracking = 0;
         let mut currents = 0;
         if let Some((theta, hip)) = state {
             let t = self.period_s;
@@ -335,13 +341,16 @@ impl<'s> Shadow<'s> {
             if self.renderer.is_none() && out.render.is_some() {
                 let from = self.previous_hip.unwrap_or(hip);
                 self.renderer = Some(FrictionRenderer::new(&self.object, self.material, from, t));
+                self.cp = Some(self.object.start(from, friction::cp_config()));
             }
             self.previous_hip = Some(hip);
             let (object, renderer) = (&self.object, &mut self.renderer);
-            if let Some(renderer) = renderer.as_mut() {
+            if let (Some(renderer), Some(cp)) = (renderer.as_mut(), self.cp.as_mut()) {
+                let (contact, n) = meter.instructions(|| object.track(cp, hip, t, true));
+                tracking = count(n);
                 let (output, n) = meter.instructions(|| renderer.tick(object, hip, velocity, t));
                 render = count(n);
-                if Some(output) != out.render {
+                if Some(output) != out.render || Some(contact) != out.render.map(|r| r.contact) {
                     self.mismatches += 1;
                 }
             } else if out.render.is_some() {
@@ -365,11 +374,14 @@ impl<'s> Shadow<'s> {
         let (_, telemetry) = meter.instructions(|| frame.encode(&mut bytes));
         let telemetry = count(telemetry);
         let rest = tick.saturating_sub(kinematics.saturating_add(render).saturating_add(currents));
-        for (stats, n) in self
-            .stats
-            .iter_mut()
-            .zip([kinematics, render, currents, telemetry, rest])
-        {
+        for (stats, n) in self.stats.iter_mut().zip([
+            kinematics,
+            tracking,
+            render.saturating_sub(tracking),
+            currents,
+            telemetry,
+            rest,
+        ]) {
             stats.add(n, index);
         }
     }
@@ -402,8 +414,9 @@ fn shadow<'s>(
             material,
             period_s,
             renderer: None,
+            cp: None,
             previous_hip: None,
-            stats: [Stats::default(); 5],
+            stats: [Stats::default(); 6],
             mismatches: 0,
         },
         Err(e) => fail(format_args!("device description: {e}")),
