@@ -8,6 +8,7 @@ use device::protocol::{Frame, MAX_FRAME, Message, SceneStore};
 use device::safety::SafetyConfig;
 use device::spec::DeviceSpec;
 use friction::FrictionMaterial;
+use nurbs::{Curve, Vec2};
 use tracker::{Chain, ChainError, MAX_CHAIN_CURVES};
 
 use crate::board::Board;
@@ -124,14 +125,23 @@ impl<'s> App<'s> {
         store: &'s SceneStore<K, C, S>,
         object: usize,
     ) -> Result<(), AppError> {
-        let chain = chain(store, object)?;
+        let (curves, n) = curves(store, object)?;
         let material = store.material(object).ok_or(AppError::NoObject(object))?;
+        let given = curves
+            .get(..n)
+            .ok_or(AppError::Chain(ChainError::TooManyCurves { count: n }))?;
+        // The chain borrowed where `Chain::new` put it (a chain is a few KiB of stack).
+        let built = Chain::new(given);
+        let chain = match &built {
+            Ok(chain) => chain,
+            Err(e) => return Err(AppError::Chain(*e)),
+        };
         let controller = &mut self.controller;
-        self.passivity_control = match controller.load_scene(chain, material, false) {
+        self.passivity_control = match controller.load_scene(*chain, material, false) {
             Ok(()) => false,
             Err(ControllerError::Passivity(_)) => {
                 controller
-                    .load_scene(chain, material, true)
+                    .load_scene(*chain, material, true)
                     .map_err(AppError::Controller)?;
                 true
             }
@@ -226,6 +236,20 @@ pub fn chain<'s, const K: usize, const C: usize, const S: usize>(
     store: &'s SceneStore<K, C, S>,
     object: usize,
 ) -> Result<Chain<'s>, AppError> {
+    let (curves, n) = curves(store, object)?;
+    let given = curves
+        .get(..n)
+        .ok_or(AppError::Chain(ChainError::TooManyCurves { count: n }))?;
+    Chain::new(given).map_err(AppError::Chain)
+}
+
+/// The curves [`chain`] builds its chain of, and how many: for a caller that builds the chain
+/// itself and borrows `Chain::new`'s result in place (a chain is a few KiB: every move of
+/// one is stack).
+pub fn curves<'s, const K: usize, const C: usize, const S: usize>(
+    store: &'s SceneStore<K, C, S>,
+    object: usize,
+) -> Result<([Curve<'s, Vec2>; MAX_CHAIN_CURVES], usize), AppError> {
     let n = store
         .patch_count(object)
         .ok_or(AppError::NoObject(object))?;
@@ -234,8 +258,5 @@ pub fn chain<'s, const K: usize, const C: usize, const S: usize>(
     for (p, c) in curves.iter_mut().enumerate().take(n).skip(1) {
         *c = store.curve(object, p).ok_or(AppError::NotPlanar(object))?;
     }
-    let given = curves
-        .get(..n)
-        .ok_or(AppError::Chain(ChainError::TooManyCurves { count: n }))?;
-    Chain::new(given).map_err(AppError::Chain)
+    Ok((curves, n))
 }

@@ -178,3 +178,94 @@ impl<'a> Scenario<'a> {
         Ok(Vec2::new(r.f32("target")?, r.f32("target")?))
     }
 }
+
+/// First bytes of a HIP-path table.
+pub const PATH_MAGIC: [u8; 4] = *b"HPTH";
+
+/// A prescribed path of the HIP in space, tick by tick, for a renderer run on its own (a
+/// surface: the planar pantograph cannot reach it). Layout, little-endian (written by
+/// `xtask/src/qemu.rs`, `path_table`):
+///
+/// | bytes | field |
+/// |---|---|
+/// | 4 | magic `HPTH` |
+/// | 1 | version, [`VERSION`] |
+/// | 1 | name length `L` |
+/// | L | scene name, UTF-8 |
+/// | 8 | tick rate (Hz), f64 |
+/// | 4 | tick count `N`, u32 |
+/// | 12 N | the HIP at each tick (m), 3 × f32 |
+#[derive(Clone, Copy, Debug)]
+pub struct HipPath<'a> {
+    /// The scene's name.
+    pub name: &'a str,
+    /// Tick rate (Hz).
+    pub rate_hz: f64,
+    points: &'a [u8],
+}
+
+impl<'a> HipPath<'a> {
+    /// Parses a table; every field is checked as in [`Scenario::parse`].
+    pub fn parse(bytes: &'a [u8]) -> Result<Self, ScenarioError> {
+        let r = &mut Reader { bytes, at: 0 };
+        let bad = |offset, field, problem| ScenarioError {
+            offset,
+            field,
+            problem,
+        };
+        if r.array::<4>("magic")? != PATH_MAGIC {
+            return Err(bad(0, "magic", "not HPTH"));
+        }
+        if r.array::<1>("version")?[0] != VERSION {
+            return Err(bad(4, "version", "unknown version"));
+        }
+        let len = usize::from(r.array::<1>("name length")?[0]);
+        let at = r.at;
+        let name =
+            core::str::from_utf8(r.take(len, "name")?).map_err(|_| bad(at, "name", "not UTF-8"))?;
+        let at = r.at;
+        let rate_hz = f64::from_le_bytes(r.array("tick rate")?);
+        if !(rate_hz.is_finite() && rate_hz > 0.0) {
+            return Err(bad(at, "tick rate", "not finite and positive"));
+        }
+        let at = r.at;
+        let n = u32::from_le_bytes(r.array("tick count")?) as usize;
+        let len = n
+            .checked_mul(12)
+            .ok_or(bad(at, "tick count", "too large"))?;
+        let points = r.take(len, "points")?;
+        if r.at != bytes.len() {
+            return Err(bad(r.at, "points", "bytes after the last point"));
+        }
+        let path = HipPath {
+            name,
+            rate_hz,
+            points,
+        };
+        for i in 0..n {
+            path.point(i).map_err(|mut e| {
+                e.offset += at + 4;
+                e
+            })?;
+        }
+        Ok(path)
+    }
+
+    /// Number of ticks.
+    pub fn ticks(&self) -> usize {
+        self.points.len() / 12
+    }
+
+    /// The HIP at tick `i` (m); an error past the end.
+    pub fn point(&self, i: usize) -> Result<nurbs::Vec3, ScenarioError> {
+        let r = &mut Reader {
+            bytes: self.points,
+            at: i.saturating_mul(12),
+        };
+        Ok(nurbs::Vec3::new(
+            r.f32("point")?,
+            r.f32("point")?,
+            r.f32("point")?,
+        ))
+    }
+}

@@ -342,8 +342,14 @@ fn write_inputs(root: &Path, dir: &Path) -> Result<(), String> {
     .map_err(|e| format!("{}: as a wire scene: {e}", scene_path.display()))?;
 
     let table = scenario_table(&trajectory, ticks)?;
+    let (surface, path) = surface_inputs(root)?;
     fs::create_dir_all(dir).map_err(|e| format!("cannot create {}: {e}", dir.display()))?;
-    for (name, bytes) in [("scene.bin", &wire), ("scenario.bin", &table)] {
+    for (name, bytes) in [
+        ("scene.bin", &wire),
+        ("scenario.bin", &table),
+        ("surface.bin", &surface),
+        ("surface-path.bin", &path),
+    ] {
         let path = dir.join(name);
         fs::write(&path, bytes).map_err(|e| format!("cannot write {}: {e}", path.display()))?;
     }
@@ -355,6 +361,61 @@ fn write_inputs(root: &Path, dir: &Path) -> Result<(), String> {
         dir.display()
     );
     Ok(())
+}
+
+/// The bicubic scenario: the `bump` of `scenes/examples.json` (one bicubic Bézier patch) as a
+/// wire scene, and the HIP's path over it as a `firmware::scenario::HipPath` table: 5 mm above
+/// the point (u, v) = (0.5, 0.3) down to 2 mm inside it over 0.3 s, held 0.3 s (stuck), slid at
+/// 2 mm depth to v = 0.7 over 0.8 s (slip), held 0.1 s; 1 kHz, 1500 ticks.
+fn surface_inputs(root: &Path) -> Result<(Vec<u8>, Vec<u8>), String> {
+    const NAME: &str = "bump";
+    let scene_path = root.join("scenes").join("examples.json");
+    let scene = Scene::load(&scene_path).map_err(|e| format!("{}: {e}", scene_path.display()))?;
+    let object = scene
+        .objects()
+        .iter()
+        .find(|o| o.name() == NAME)
+        .ok_or_else(|| format!("{}: no object named {NAME}", scene_path.display()))?;
+    let surfaces = object
+        .surface_views()
+        .ok_or_else(|| format!("{}: {NAME} is not made of surfaces", scene_path.display()))?;
+    let s = *surfaces
+        .first()
+        .ok_or_else(|| format!("{}: {NAME} has no patch", scene_path.display()))?;
+    let patches: Vec<WirePatch<'_>> = surfaces.iter().copied().map(WirePatch::Surface).collect();
+    let wire = encode_scene(&[WireObject {
+        material: object.material().friction_material(),
+        patches: &patches,
+    }])
+    .map_err(|e| format!("{}: {NAME} as a wire scene: {e}", scene_path.display()))?;
+    let ((u0, u1), (v0, v1)) = s.domain();
+    let at = |u: f32, v: f32, height_m: f32| {
+        let (u, v) = (u0 + u * (u1 - u0), v0 + v * (v1 - v0));
+        s.point(u, v) + s.normal(u, v) * height_m
+    };
+    let mut points = Vec::with_capacity(1500);
+    for k in 0..1500 {
+        let p = match k {
+            0..300 => at(0.5, 0.3, 0.005 - 0.007 * k as f32 / 299.0),
+            300..600 => at(0.5, 0.3, -0.002),
+            600..1400 => at(0.5, 0.3 + 0.4 * (k - 600) as f32 / 799.0, -0.002),
+            _ => at(0.5, 0.7, -0.002),
+        };
+        points.push(p);
+    }
+    let mut out = Vec::with_capacity(32 + 12 * points.len());
+    out.extend_from_slice(b"HPTH");
+    out.push(1);
+    out.push(NAME.len() as u8);
+    out.extend_from_slice(NAME.as_bytes());
+    out.extend_from_slice(&RATE_HZ.to_le_bytes());
+    out.extend_from_slice(&(points.len() as u32).to_le_bytes());
+    for p in &points {
+        for v in [p.x, p.y, p.z] {
+            out.extend_from_slice(&v.to_le_bytes());
+        }
+    }
+    Ok((wire, out))
 }
 
 /// The firmware's scenario table (layout in `firmware/src/scenario.rs`): the setup and the

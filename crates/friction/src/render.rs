@@ -392,10 +392,13 @@ impl<O: Object> FrictionRenderer<O> {
             // A step that would leave the crease (f32 rounding of the Gauss–Newton step drifts
             // off the boundary) is not taken.
             if rest.length_squared() > square(1e-9) {
-                let params = object.offset(self.go_patch, self.go_params, rest);
-                if let Some((patch, across)) = object.neighbour(self.go_patch, params, c.out_of) {
+                let params = object.offset(self.go_patch, self.go_params, &self.go_frame, rest);
+                let at = object.frame(self.go_patch, params);
+                if let Some((patch, across)) =
+                    object.neighbour(self.go_patch, params, &at, c.out_of)
+                {
                     self.go_params = params;
-                    self.go_frame = object.frame(self.go_patch, params);
+                    self.go_frame = at;
                     c.patch = patch;
                     c.params = across;
                     c.normal = object.frame(patch, across).normal;
@@ -411,7 +414,7 @@ impl<O: Object> FrictionRenderer<O> {
             return;
         }
         let before = self.go_frame.point;
-        let params = object.offset(self.go_patch, self.go_params, d);
+        let params = object.offset(self.go_patch, self.go_params, &self.go_frame, d);
         self.go_params = params;
         self.go_frame = object.frame(self.go_patch, params);
         let moved = self.go_frame.point - before;
@@ -420,11 +423,13 @@ impl<O: Object> FrictionRenderer<O> {
         if rest_sq <= square(1e-3) * d.length_squared() || rest_sq <= f32::MIN_POSITIVE {
             return;
         }
-        if let Some((patch, params)) = object.neighbour(self.go_patch, self.go_params, rest) {
+        if let Some((patch, params)) =
+            object.neighbour(self.go_patch, self.go_params, &self.go_frame, rest)
+        {
             let across = object.frame(patch, params);
             if (across.normal - self.go_frame.normal).length_squared() <= square(SMOOTH_CHORD) {
                 self.place_go(object, patch, params);
-                let p = object.offset(patch, params, rest);
+                let p = object.offset(patch, params, &self.go_frame, rest);
                 self.go_params = p;
                 self.go_frame = object.frame(patch, p);
             } else {
@@ -475,9 +480,8 @@ impl<O: Object> FrictionRenderer<O> {
             self.prev_hip = Some(hip);
             self.slip_speed = 0.0;
             self.law.reset();
-            let (cp_patch, cp_params) = O::position(&self.cp);
-            let frame = object.frame(cp_patch, cp_params);
-            return self.at_cp(contact, (cp_patch, cp_params), &frame, 0.0, O::P::ZERO, 0.0);
+            let frame = object.state_frame(&self.cp);
+            return self.at_cp(contact, O::position(&self.cp), &frame, 0.0, O::P::ZERO, 0.0);
         }
 
         if !matches!(self.law, LawState::StickSlip) {
@@ -498,8 +502,12 @@ impl<O: Object> FrictionRenderer<O> {
         );
 
         if self.mode == Mode::Free {
+            // The GO starts at the CP, whose frame the tracker has just evaluated.
             let (p, t) = O::position(&self.cp);
-            self.place_go(object, p, t);
+            self.go_patch = p;
+            self.go_params = t;
+            self.go_frame = object.state_frame(&self.cp);
+            self.crease = None;
             self.slip_speed = 0.0;
             self.switch(Mode::Stuck, SwitchCause::Contact);
         } else if matches!(self.mode, Mode::Transition | Mode::Slip)
@@ -654,7 +662,7 @@ impl<O: Object> FrictionRenderer<O> {
     ) -> FrictionOutput<O::P> {
         let m = self.material;
         let (cp_patch, cp_params) = O::position(&self.cp);
-        let fr = object.frame(cp_patch, cp_params);
+        let fr = object.state_frame(&self.cp);
         let f_n = math::max(
             0.0,
             m.stiffness_n_per_m * contact.depth

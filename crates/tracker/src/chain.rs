@@ -33,7 +33,7 @@
 
 use crate::contact::{Contact, Feature};
 use crate::global::{GlobalConfig, closest_point};
-use crate::patch::Patch;
+use crate::patch::{Jet, Patch};
 use crate::track::{PERIODIC_TOL, Tracker, TrackerConfig};
 use nurbs::{Curve, Point, Vec2};
 
@@ -201,6 +201,10 @@ pub struct Chain<'a> {
     closed: bool,
     vertices: [Vertex; MAX_CHAIN_CURVES + 1],
     n_vertices: usize,
+    /// Each curve's jet (order 2) at the start and the end of its domain: a tracker that
+    /// switches onto a curve across a vertex starts there, and the jet is the dearest part of
+    /// starting it.
+    end_jets: [[Jet<Vec2, 1>; 2]; MAX_CHAIN_CURVES],
 }
 
 impl<'a> Chain<'a> {
@@ -305,6 +309,16 @@ impl<'a> Chain<'a> {
         for (p, c) in periodic.iter_mut().zip(curves) {
             *p = c.is_closed(PERIODIC_TOL);
         }
+        let zero = Jet {
+            point: Vec2::ZERO,
+            d: [Vec2::ZERO],
+            dd: [[Vec2::ZERO]],
+        };
+        let mut end_jets = [[zero; 2]; MAX_CHAIN_CURVES];
+        for (jets, c) in end_jets.iter_mut().zip(curves) {
+            let (a, b) = c.domain();
+            *jets = [c.jet([a], 2), c.jet([b], 2)];
+        }
         Ok(Chain {
             curves: pieces,
             n_curves: n,
@@ -313,6 +327,7 @@ impl<'a> Chain<'a> {
             closed,
             vertices,
             n_vertices,
+            end_jets,
         })
     }
 
@@ -329,7 +344,14 @@ impl<'a> Chain<'a> {
 
     /// A tracker on curve `i` at `u`, with the curve's closedness known from load.
     fn tracker_on(&self, i: usize, u: f32, cfg: TrackerConfig) -> Tracker<Vec2, 1> {
-        Tracker::with_topology(&self.curves[i], [u], cfg, [self.periodic[i]], [[false; 2]])
+        let c = &self.curves[i];
+        let (a, b) = c.domain();
+        let topology = ([self.periodic[i]], [[false; 2]]);
+        match self.end_jets.get(i) {
+            Some(jets) if u == a => Tracker::with_jet(c, [a], jets[0], cfg, topology.0, topology.1),
+            Some(jets) if u == b => Tracker::with_jet(c, [b], jets[1], cfg, topology.0, topology.1),
+            _ => Tracker::with_topology(c, [u], cfg, topology.0, topology.1),
+        }
     }
 
     /// Whether the last curve ends where the first starts.
@@ -426,6 +448,11 @@ impl ChainTracker {
     /// The curve the tracker is on and its parameter.
     pub fn position(&self) -> (usize, f32) {
         (self.curve, self.tracker.t()[0])
+    }
+
+    /// The curve's jet at [`ChainTracker::position`] (the tracker's own evaluation).
+    pub fn jet(&self) -> &crate::patch::Jet<Vec2, 1> {
+        self.tracker.jet()
     }
 
     /// Puts the tracker on curve `i` at parameter `u` (e.g. to pin a god-object).

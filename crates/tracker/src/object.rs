@@ -40,13 +40,25 @@ pub trait Object {
     /// Puts a state's tracker on `patch` at `params`.
     fn place(&self, state: &mut Self::State, patch: usize, params: [f32; 2]);
 
+    /// [`Object::frame`] at a state's position ([`Object::position`]), from the evaluation
+    /// its tracker already made: no evaluation.
+    fn state_frame(&self, state: &Self::State) -> Frame<Self::P>;
+
     /// Point, unit outward normal and unit tangent (along the first parameter) of `patch` at
     /// `params`.
     fn frame(&self, patch: usize, params: [f32; 2]) -> Frame<Self::P>;
 
     /// Parameters of the point reached by moving `displacement` (tangential, small) from
-    /// `params` on `patch`: one Gauss–Newton step, clamped into the domain.
-    fn offset(&self, patch: usize, params: [f32; 2], displacement: Self::P) -> [f32; 2];
+    /// `params` on `patch`: one Gauss–Newton step, clamped into the domain. `at` is the frame
+    /// at `params` ([`Object::frame`]); the step takes its derivatives from it, so it costs no
+    /// evaluation.
+    fn offset(
+        &self,
+        patch: usize,
+        params: [f32; 2],
+        at: &Frame<Self::P>,
+        displacement: Self::P,
+    ) -> [f32; 2];
 
     /// Number of patches (pieces: patches are split at load at their corners and creases).
     fn patch_count(&self) -> usize;
@@ -55,11 +67,13 @@ pub trait Object {
     /// that it shares with another patch (a chain's vertex, a shell's edge) and `toward` (a
     /// tangential direction) leads out through that boundary; `None` inside a patch, on a free
     /// end or rim, or when `toward` leads back into the patch. This is how a god-object
-    /// sliding over the object finds the patch it crosses onto.
+    /// sliding over the object finds the patch it crosses onto. `at` is the frame at `params`
+    /// ([`Object::frame`]), whose tangents tell the way out.
     fn neighbour(
         &self,
         patch: usize,
         params: [f32; 2],
+        at: &Frame<Self::P>,
         toward: Self::P,
     ) -> Option<(usize, [f32; 2])>;
 
@@ -116,9 +130,21 @@ impl Object for Chain<'_> {
         frame_of(c, [params[0]])
     }
 
-    fn offset(&self, patch: usize, params: [f32; 2], displacement: Vec2) -> [f32; 2] {
+    fn state_frame(&self, state: &ChainTracker) -> Frame<Vec2> {
+        let (i, u) = state.position();
+        let c = &self.curves()[i.min(self.curves().len() - 1)];
+        frame_from(c, [u], state.jet())
+    }
+
+    fn offset(
+        &self,
+        patch: usize,
+        params: [f32; 2],
+        at: &Frame<Vec2>,
+        displacement: Vec2,
+    ) -> [f32; 2] {
         let c = &self.curves()[patch.min(self.curves().len() - 1)];
-        let t = offset_on(c, [params[0]], displacement);
+        let t = offset_on(c, [params[0]], at, displacement);
         [t[0], 0.0]
     }
 
@@ -126,11 +152,17 @@ impl Object for Chain<'_> {
         self.curves().len()
     }
 
-    fn neighbour(&self, patch: usize, params: [f32; 2], toward: Vec2) -> Option<(usize, [f32; 2])> {
+    fn neighbour(
+        &self,
+        patch: usize,
+        params: [f32; 2],
+        at: &Frame<Vec2>,
+        toward: Vec2,
+    ) -> Option<(usize, [f32; 2])> {
         let curves = self.curves();
         let c = curves.get(patch)?;
         let domain = c.domain();
-        let tangent = frame_of(c, [params[0]]).tangent;
+        let tangent = at.tangent;
         for v in self.vertices() {
             let (this, other, leaving) =
                 if at_end(params[0], domain, true) && v.incoming == Some(patch as u16) {
@@ -198,15 +230,33 @@ impl Object for Shell<'_> {
         frame_of(s, params)
     }
 
-    fn offset(&self, patch: usize, params: [f32; 2], displacement: Vec3) -> [f32; 2] {
-        let s = &self.patches()[patch.min(self.patches().len() - 1)];
-        offset_on(s, params, displacement)
+    fn state_frame(&self, state: &ShellTracker) -> Frame<Vec3> {
+        let (i, t) = state.position();
+        let s = &self.patches()[i.min(self.patches().len() - 1)];
+        frame_from(s, t, state.jet())
     }
 
-    fn neighbour(&self, patch: usize, params: [f32; 2], toward: Vec3) -> Option<(usize, [f32; 2])> {
+    fn offset(
+        &self,
+        patch: usize,
+        params: [f32; 2],
+        at: &Frame<Vec3>,
+        displacement: Vec3,
+    ) -> [f32; 2] {
+        let s = &self.patches()[patch.min(self.patches().len() - 1)];
+        offset_on(s, params, at, displacement)
+    }
+
+    fn neighbour(
+        &self,
+        patch: usize,
+        params: [f32; 2],
+        at: &Frame<Vec3>,
+        toward: Vec3,
+    ) -> Option<(usize, [f32; 2])> {
         let s = self.patches().get(patch)?;
         let (du, dv) = s.domain();
-        let fr = frame_of(s, params);
+        let fr = at;
         // Sides in the order of `Side`: u = u_min, u = u_max, v = v_min, v = v_max; the one
         // `toward` leaves through fastest.
         let on = [
@@ -276,11 +326,22 @@ pub struct Frame<P> {
     /// Unit tangent along the second parameter, orthogonalised against the normal (equal to
     /// `tangent` on curves).
     pub bitangent: P,
+    /// The partial derivatives `∂S/∂u`, `∂S/∂v` there (`∂C/∂u` twice on curves): what a
+    /// Gauss–Newton step from the point needs ([`Object::offset`]).
+    pub derivatives: [P; 2],
 }
 
 fn frame_of<S: Patch<N>, const N: usize>(s: &S, t: [f32; N]) -> Frame<S::P> {
-    let jet = s.jet(t, 1);
-    let normal = s.normal(t, &jet);
+    frame_from(s, t, &s.jet(t, 1))
+}
+
+/// The frame at `t` from the patch's jet there.
+fn frame_from<S: Patch<N>, const N: usize>(
+    s: &S,
+    t: [f32; N],
+    jet: &crate::patch::Jet<S::P, N>,
+) -> Frame<S::P> {
+    let normal = s.normal(t, jet);
     let in_plane = |d: S::P| {
         (d - normal * d.dot(normal))
             .try_normalize()
@@ -296,11 +357,21 @@ fn frame_of<S: Patch<N>, const N: usize>(s: &S, t: [f32; N]) -> Frame<S::P> {
         } else {
             tangent
         },
+        derivatives: [jet.d[0], jet.d[N - 1]],
     }
 }
 
-fn offset_on<S: Patch<N>, const N: usize>(s: &S, t: [f32; N], displacement: S::P) -> [f32; N] {
-    let jet = s.jet(t, 1);
+fn offset_on<S: Patch<N>, const N: usize>(
+    s: &S,
+    t: [f32; N],
+    at: &Frame<S::P>,
+    displacement: S::P,
+) -> [f32; N] {
+    let jet = crate::patch::Jet {
+        point: at.point,
+        d: core::array::from_fn(|i| at.derivatives[i.min(1)]),
+        dd: [[S::P::ZERO; N]; N],
+    };
     let step = crate::track::gauss_newton_step(&jet.metric(), &jet.psi(-displacement));
     let domain = s.domain();
     let mut out = t;

@@ -522,6 +522,11 @@ impl ShellTracker {
         (self.patch, self.tracker.t())
     }
 
+    /// The patch's jet at [`ShellTracker::position`] (the tracker's own evaluation).
+    pub fn jet(&self) -> &crate::patch::Jet<Vec3, 2> {
+        self.tracker.jet()
+    }
+
     /// Sliding mode, as [`crate::ChainTracker::set_sliding`]: switch features only when the
     /// tracked point reaches a patch boundary.
     pub fn set_sliding(&mut self, sliding: bool) {

@@ -179,6 +179,27 @@ impl<P: Point, const N: usize> Tracker<P, N> {
         }
     }
 
+    /// [`Tracker::with_topology`] at `t0` (inside the domain) with `jet`, the patch's jet of
+    /// order 2 there, evaluated beforehand: no evaluation.
+    pub(crate) fn with_jet<S: Patch<N, P = P>>(
+        patch: &S,
+        t0: [f32; N],
+        jet: Jet<P, N>,
+        cfg: TrackerConfig,
+        periodic: [bool; N],
+        collapsed: [[bool; 2]; N],
+    ) -> Self {
+        Tracker {
+            cfg,
+            t: t0,
+            jet,
+            domain: patch.domain(),
+            periodic,
+            collapsed,
+            last_hip: None,
+        }
+    }
+
     /// Moves the test point to `t` on the same patch (re-initialisation).
     pub fn reset<S: Patch<N, P = P>>(&mut self, patch: &S, t: [f32; N]) {
         for i in 0..N {
@@ -191,6 +212,11 @@ impl<P: Point, const N: usize> Tracker<P, N> {
     /// Current parameters.
     pub fn t(&self) -> [f32; N] {
         self.t
+    }
+
+    /// The patch's jet (order 2) at [`Tracker::t`], as the last update left it.
+    pub fn jet(&self) -> &Jet<P, N> {
+        &self.jet
     }
 
     /// The settings.

@@ -77,7 +77,7 @@ const PWM_HZ: u32 = 20_000;
 /// validation, 10 KiB of stack, out of the link task). About 3 KiB.
 type BoardStore = SceneStore<128, 96, 0>;
 /// The largest wire scene the board receives (bytes); the receiver holds two.
-const SCENE_CAPACITY: usize = 2048;
+const SCENE_CAPACITY: usize = 1792;
 type Receiver = SceneReceiver<SCENE_CAPACITY>;
 
 /// The two scene stores: one rendered by the tick, one the link decodes uploads into.
@@ -109,8 +109,8 @@ enum Command {
 const COMMANDS: usize = 8;
 const FRAMES: usize = 4;
 /// Host reports waiting for the protocol task, and its replies waiting for USB.
-const REPORTS: usize = 6;
-const REPLIES: usize = 6;
+const REPORTS: usize = 4;
+const REPLIES: usize = 4;
 /// Both stores can be in flight at once, so neither hand-over queue can overflow.
 const STORES: usize = 3;
 
@@ -374,9 +374,12 @@ type ChainAcquisition = Acquisition<<Chain<'static> as Object>::State>;
 /// the controller's) and the global search on it.
 #[inline(never)]
 fn run_job(job: AcquisitionJob) -> Option<ChainAcquisition> {
-    firmware::app::chain(job.store, 0)
-        .ok()
-        .map(|chain| acquire(&chain, job.request))
+    let (curves, n) = firmware::app::curves(job.store, 0).ok()?;
+    // Borrowed in place: no copy of the chain on the stack.
+    match &Chain::new(curves.get(..n)?) {
+        Ok(chain) => Some(acquire(chain, job.request)),
+        Err(_) => None,
+    }
 }
 
 /// The protocol side, in the lowest-priority task: host frames through the receiver (which

@@ -33,13 +33,14 @@ use device::{
 use firmware::app::App;
 use firmware::board::Board;
 use firmware::netduino::Uart;
-use firmware::scenario::Scenario;
-use friction::Mode;
+use firmware::scenario::{HipPath, Scenario};
 #[cfg(feature = "stages")]
-use friction::{FrictionMaterial, FrictionRenderer};
+use friction::FrictionMaterial;
+use friction::FrictionRenderer;
+use friction::Mode;
 use nurbs::Vec2;
 #[cfg(feature = "stages")]
-use tracker::Chain;
+use tracker::{Chain, ChainTracker, Object};
 
 /// The scene as the device's wire format (`device::protocol::scene`), written by
 /// `cargo xtask qemu` from the scene JSON with the host crates; validated here as an upload.
@@ -59,6 +60,25 @@ static SCENARIO: &[u8] = include_bytes!(concat!(
         "build the QEMU binary through `cargo xtask qemu`"
     ),
     "/scenario.bin"
+));
+
+/// A surface scene (wire format) and the HIP's path over it (`firmware::scenario::HipPath`),
+/// written by `cargo xtask qemu`: the friction renderer alone on a bicubic patch.
+static SURFACE_SCENE: &[u8] = include_bytes!(concat!(
+    env!(
+        "FIRMWARE_QEMU_DATA",
+        "build the QEMU binary through `cargo xtask qemu`"
+    ),
+    "/surface.bin"
+));
+
+/// The HIP's path over [`SURFACE_SCENE`].
+static SURFACE_PATH: &[u8] = include_bytes!(concat!(
+    env!(
+        "FIRMWARE_QEMU_DATA",
+        "build the QEMU binary through `cargo xtask qemu`"
+    ),
+    "/surface-path.bin"
 ));
 
 /// SysTick counts per instruction as a fraction: 168 MHz · 32 ns = 5.376 = 672 / 125.
@@ -269,16 +289,21 @@ struct Shadow<'s> {
     material: FrictionMaterial,
     period_s: f32,
     renderer: Option<FrictionRenderer<Chain<'s>>>,
+    /// A third CP tracker, started where the renderer's is and fed the same HIPs: the tracker's
+    /// share of the renderer's tick.
+    cp: Option<ChainTracker>,
     previous_hip: Option<Vec2>,
-    /// Kinematics, tracker + friction, Jᵀ F + currents, telemetry frame, the rest of the tick.
-    stats: [Stats; 5],
+    /// Kinematics, tracker, friction (the renderer minus its tracker), Jᵀ F + currents,
+    /// telemetry frame, the rest of the tick (safety and glue).
+    stats: [Stats; 6],
     mismatches: u32,
 }
 
 #[cfg(feature = "stages")]
-const STAGE_NAMES: [&str; 5] = [
+const STAGE_NAMES: [&str; 6] = [
     "kinematics",
-    "tracker+friction",
+    "tracker",
+    "friction",
     "jt_f+currents",
     "telemetry_frame",
     "safety+rest",
@@ -287,7 +312,14 @@ const STAGE_NAMES: [&str; 5] = [
 #[cfg(feature = "stages")]
 impl<'s> Shadow<'s> {
     /// One tick's stages; `tick` is the tick's own count (bracket subtracted).
-    fn stages(&mut self, meter: &mut Meter, counts: [i32; 2], out: &TickOutput, tick: u32) {
+    fn stages(
+        &mut self,
+        meter: &mut Meter,
+        counts: [i32; 2],
+        out: &TickOutput,
+        tick: u32,
+        index: usize,
+    ) {
         let overhead = meter.overhead;
         let count = |r: Result<u32, Overflow>| r.map_or(u32::MAX, |n| n.saturating_sub(overhead));
         let (spec, arm, calibration) = (&self.spec, &self.arm, &self.calibration);
@@ -297,6 +329,7 @@ impl<'s> Shadow<'s> {
         });
         let kinematics = count(kinematics);
         let mut render = 0;
+        let mut tracking = 0;
         let mut currents = 0;
         if let Some((theta, hip)) = state {
             let t = self.period_s;
@@ -308,13 +341,16 @@ impl<'s> Shadow<'s> {
             if self.renderer.is_none() && out.render.is_some() {
                 let from = self.previous_hip.unwrap_or(hip);
                 self.renderer = Some(FrictionRenderer::new(&self.object, self.material, from, t));
+                self.cp = Some(self.object.start(from, friction::cp_config()));
             }
             self.previous_hip = Some(hip);
             let (object, renderer) = (&self.object, &mut self.renderer);
-            if let Some(renderer) = renderer.as_mut() {
+            if let (Some(renderer), Some(cp)) = (renderer.as_mut(), self.cp.as_mut()) {
+                let (contact, n) = meter.instructions(|| object.track(cp, hip, t, true));
+                tracking = count(n);
                 let (output, n) = meter.instructions(|| renderer.tick(object, hip, velocity, t));
                 render = count(n);
-                if Some(output) != out.render {
+                if Some(output) != out.render || Some(contact) != out.render.map(|r| r.contact) {
                     self.mismatches += 1;
                 }
             } else if out.render.is_some() {
@@ -338,12 +374,15 @@ impl<'s> Shadow<'s> {
         let (_, telemetry) = meter.instructions(|| frame.encode(&mut bytes));
         let telemetry = count(telemetry);
         let rest = tick.saturating_sub(kinematics.saturating_add(render).saturating_add(currents));
-        for (stats, n) in self
-            .stats
-            .iter_mut()
-            .zip([kinematics, render, currents, telemetry, rest])
-        {
-            stats.add(n);
+        for (stats, n) in self.stats.iter_mut().zip([
+            kinematics,
+            tracking,
+            render.saturating_sub(tracking),
+            currents,
+            telemetry,
+            rest,
+        ]) {
+            stats.add(n, index);
         }
     }
 }
@@ -375,8 +414,9 @@ fn shadow<'s>(
             material,
             period_s,
             renderer: None,
+            cp: None,
             previous_hip: None,
-            stats: [Stats::default(); 5],
+            stats: [Stats::default(); 6],
             mismatches: 0,
         },
         Err(e) => fail(format_args!("device description: {e}")),
@@ -389,13 +429,18 @@ struct Stats {
     n: u64,
     sum: u64,
     max: u32,
+    /// The tick of the maximum (the first, of equal ones).
+    max_at: usize,
 }
 
 impl Stats {
-    fn add(&mut self, v: u32) {
+    fn add(&mut self, v: u32, tick: usize) {
         self.n += 1;
         self.sum += u64::from(v);
-        self.max = self.max.max(v);
+        if v > self.max || self.n == 1 {
+            self.max = v;
+            self.max_at = tick;
+        }
     }
 
     /// Mean in tenths, rounded.
@@ -409,10 +454,11 @@ impl core::fmt::Display for Stats {
         let m = self.mean_tenths();
         write!(
             f,
-            "mean={}.{} max={} ticks={}",
+            "mean={}.{} max={} at_tick={} ticks={}",
             m / 10,
             m % 10,
             self.max,
+            self.max_at,
             self.n
         )
     }
@@ -565,12 +611,12 @@ fn main() -> ! {
             Err(ref e) => fail(format_args!("tick {i}: instruction count: {e:?}")),
         };
         #[cfg(feature = "stages")]
-        shadow.stages(&mut board.meter, counts, &out, n);
-        all.add(n);
+        shadow.stages(&mut board.meter, counts, &out, n, i);
+        all.add(n, i);
         if i == 0 {
             first = n;
         } else {
-            after_first.add(n);
+            after_first.add(n, i);
         }
         if out.render.is_some() && first_rendered.is_none() {
             first_rendered = Some(n);
@@ -580,11 +626,11 @@ fn main() -> ! {
         let (started, searched) = board.meter.instructions(|| app.acquire());
         if started {
             match searched {
-                Ok(c) => acquisition.add(c.saturating_sub(board.meter.overhead)),
+                Ok(c) => acquisition.add(c.saturating_sub(board.meter.overhead), i),
                 Err(e) => fail(format_args!("tick {i}: acquisition count: {e:?}")),
             }
         }
-        by_mode[mode_index(out.telemetry.mode)].add(n);
+        by_mode[mode_index(out.telemetry.mode)].add(n, i);
         if out.telemetry.faults != 0 {
             fault_ticks += 1;
         }
@@ -653,6 +699,7 @@ fn main() -> ! {
         last_hip.x,
         last_hip.y
     );
+    surface_run(&mut board.meter);
     let (bottom, top) = stack_region();
     hprintln!(
         "stack peak_bytes={} region_bytes={} painted_bytes={}",
@@ -663,6 +710,85 @@ fn main() -> ! {
     debug::exit(debug::EXIT_SUCCESS);
     #[allow(clippy::empty_loop)]
     loop {}
+}
+
+/// The friction renderer alone (the planar pantograph cannot reach a surface) on object 0 of
+/// [`SURFACE_SCENE`], the HIP on [`SURFACE_PATH`]: every `FrictionRenderer::tick` counted, and
+/// the global search that starts it counted alone.
+#[inline(never)]
+fn surface_run(meter: &mut Meter) {
+    let path = match HipPath::parse(SURFACE_PATH) {
+        Ok(p) => p,
+        Err(e) => fail(format_args!("surface path: {e}")),
+    };
+    let name = path.name;
+    let mut store = SceneStore::new();
+    if let Err(e) = store.decode(SURFACE_SCENE) {
+        fail(format_args!("scene {name}: {e}"));
+    }
+    let n = store.patch_count(0).unwrap_or(0);
+    let Some(first) = store.surface(0, 0) else {
+        fail(format_args!(
+            "scene {name}: object 0 is not made of surfaces"
+        ));
+    };
+    let mut patches = [first; tracker::MAX_SHELL_PATCHES];
+    for (p, s) in patches.iter_mut().enumerate().take(n).skip(1) {
+        match store.surface(0, p) {
+            Some(surface) => *s = surface,
+            None => fail(format_args!("scene {name}: patch {p} is not a surface")),
+        }
+    }
+    let shell = match patches.get(..n).map(tracker::Shell::new) {
+        Some(Ok(shell)) => shell,
+        Some(Err(e)) => fail(format_args!("scene {name}: {e}")),
+        None => fail(format_args!("scene {name}: {n} patches")),
+    };
+    let Some(material) = store.material(0) else {
+        fail(format_args!("scene {name}: no material"));
+    };
+    let t = (1.0 / path.rate_hz) as f32;
+    let hip0 = match path.point(0) {
+        Ok(p) => p,
+        Err(e) => fail(format_args!("{e}")),
+    };
+    let overhead = meter.overhead;
+    let (mut renderer, search) =
+        meter.instructions(|| FrictionRenderer::new(&shell, material, hip0, t));
+    let mut all = Stats::default();
+    let mut by_mode = [Stats::default(); 4];
+    let mut previous = hip0;
+    for i in 0..path.ticks() {
+        let hip = match path.point(i) {
+            Ok(p) => p,
+            Err(e) => fail(format_args!("{e}")),
+        };
+        let velocity = (hip - previous) * (1.0 / t);
+        previous = hip;
+        let (out, n) = meter.instructions(|| renderer.tick(&shell, hip, velocity, t));
+        let n = match n {
+            Ok(n) => n.saturating_sub(overhead),
+            Err(e) => fail(format_args!("tick {i}: instruction count: {e:?}")),
+        };
+        all.add(n, i);
+        by_mode[mode_index(out.mode)].add(n, i);
+    }
+    hprintln!(
+        "instructions_acquisition scene={} count={:?}",
+        name,
+        search.ok().map(|n| n.saturating_sub(overhead))
+    );
+    hprintln!("instructions_per_tick scene={} {}", name, all);
+    for (mode, stats) in MODE_NAMES.iter().zip(by_mode) {
+        if stats.n > 0 {
+            hprintln!(
+                "instructions_by_mode scene={} mode={} {}",
+                name,
+                mode,
+                stats
+            );
+        }
+    }
 }
 
 #[exception]
