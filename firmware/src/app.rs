@@ -4,10 +4,10 @@
 //! code the board runs.
 
 use device::controller::{Controller, ControllerError, TickOutput};
-use device::protocol::{Frame, MAX_FRAME, Message, SceneStore};
+use device::protocol::{ErrorCode, Frame, MAX_FRAME, Message, SceneStore};
 use device::safety::SafetyConfig;
+use device::session::Command;
 use device::spec::DeviceSpec;
-use friction::FrictionMaterial;
 use nurbs::{Curve, Vec2};
 use tracker::{Chain, ChainError, MAX_CHAIN_CURVES};
 
@@ -46,7 +46,6 @@ impl core::fmt::Display for AppError {
 #[derive(Debug)]
 pub struct App<'s> {
     controller: Controller<Chain<'s>>,
-    passivity_control: bool,
     seq: u16,
 }
 
@@ -97,7 +96,6 @@ impl Parked {
     pub fn unloaded<'s>(self) -> App<'s> {
         App {
             controller: self.controller.rebind(),
-            passivity_control: false,
             seq: self.seq,
         }
     }
@@ -136,34 +134,17 @@ impl<'s> App<'s> {
             Ok(chain) => chain,
             Err(e) => return Err(AppError::Chain(*e)),
         };
-        let controller = &mut self.controller;
-        self.passivity_control = match controller.load_scene(*chain, material, false) {
-            Ok(()) => false,
-            Err(ControllerError::Passivity(_)) => {
-                controller
-                    .load_scene(*chain, material, true)
-                    .map_err(AppError::Controller)?;
-                true
-            }
-            Err(e) => return Err(AppError::Controller(e)),
-        };
+        self.controller
+            .load_scene_as_needed(*chain, material, true)
+            .map_err(AppError::Controller)?;
         Ok(())
     }
 
-    /// Replaces the loaded object's material, with the passivity controller on when the
-    /// material needs it (as [`App::load`]). On error the material stays.
-    pub fn set_material(&mut self, material: FrictionMaterial) -> Result<(), AppError> {
-        self.passivity_control = match self.controller.set_material(material, false) {
-            Ok(()) => false,
-            Err(ControllerError::Passivity(_)) => {
-                self.controller
-                    .set_material(material, true)
-                    .map_err(AppError::Controller)?;
-                true
-            }
-            Err(e) => return Err(AppError::Controller(e)),
-        };
-        Ok(())
+    /// Applies a command of the link ([`device::session::Command::apply`]): calibration on
+    /// `home_counts`, a material with the passivity controller on where it needs it (as
+    /// [`App::load`]). The error is the code for the status's `last_error`.
+    pub fn apply(&mut self, command: Command, home_counts: [i32; 2]) -> Result<(), ErrorCode> {
+        command.apply(&mut self.controller, home_counts, true)
     }
 
     /// The app without its scene, to swap the scene storage.
@@ -188,7 +169,7 @@ impl<'s> App<'s> {
 
     /// Whether the scene runs with the passivity controller on.
     pub fn passivity_control(&self) -> bool {
-        self.passivity_control
+        self.controller.passivity_control()
     }
 
     /// The controller.

@@ -11,3 +11,13 @@ pub mod board;
 pub mod netduino;
 pub mod scenario;
 pub mod swap;
+
+/// This firmware's version, as its hello reports it: `[major, minor, patch]` of the crate.
+pub fn software_version() -> [u8; 3] {
+    let part = |s: &str| s.parse::<u8>().unwrap_or(0);
+    [
+        part(env!("CARGO_PKG_VERSION_MAJOR")),
+        part(env!("CARGO_PKG_VERSION_MINOR")),
+        part(env!("CARGO_PKG_VERSION_PATCH")),
+    ]
+}

@@ -262,6 +262,41 @@ impl<O: Object<P = Vec2>> Controller<O> {
         Ok(())
     }
 
+    /// [`Controller::load_scene`] with the passivity controller on only where the material
+    /// needs it (stiffer than the device renders passively at this rate) and
+    /// `allow_passivity_control`; returns whether it is on. On error the previous scene stays.
+    pub fn load_scene_as_needed(
+        &mut self,
+        object: O,
+        material: FrictionMaterial,
+        allow_passivity_control: bool,
+    ) -> Result<bool, ControllerError>
+    where
+        O: Clone,
+    {
+        match self.load_scene(object.clone(), material, false) {
+            Err(ControllerError::Passivity(_)) if allow_passivity_control => {
+                self.load_scene(object, material, true).map(|()| true)
+            }
+            other => other.map(|()| false),
+        }
+    }
+
+    /// [`Controller::set_material`] with the passivity controller on only where the material
+    /// needs it, as [`Controller::load_scene_as_needed`]; returns whether it is on.
+    pub fn set_material_as_needed(
+        &mut self,
+        material: FrictionMaterial,
+        allow_passivity_control: bool,
+    ) -> Result<bool, ControllerError> {
+        match self.set_material(material, false) {
+            Err(ControllerError::Passivity(_)) if allow_passivity_control => {
+                self.set_material(material, true).map(|()| true)
+            }
+            other => other.map(|()| false),
+        }
+    }
+
     /// Replaces the loaded object's material (the renderer restarts with it, the force ramps
     /// in), with the same check as [`Controller::load_scene`].
     pub fn set_material(
@@ -389,6 +424,11 @@ impl<O: Object<P = Vec2>> Controller<O> {
     /// The device description.
     pub fn spec(&self) -> &DeviceSpec {
         &self.spec
+    }
+
+    /// Whether the loaded material renders with the time-domain passivity controller on.
+    pub fn passivity_control(&self) -> bool {
+        self.safety.passivity_control()
     }
 
     /// Whether force output is enabled (the safety layer may still hold it off).

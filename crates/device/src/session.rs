@@ -1,14 +1,17 @@
 //! The device side of a link, once for every device: the host's simulator
 //! ([`host::sim`](crate::host)), the firmware under QEMU and the board. A [`Session`] takes
 //! each frame the host sent through its [`SceneReceiver`] (sequence numbers, scene upload),
-//! acks or nacks it, answers a hello with the device's hello and a heartbeat with a status,
-//! and applies the commands to the [`Controller`]. What depends on the device's storage or
-//! plant comes back as an [`Event`]: a committed scene (the caller swaps its scene storage
-//! at a tick boundary) or a hand target (only a simulated plant's session accepts one).
+//! acks or nacks it, answers a hello with the device's hello and a heartbeat with a status.
+//! What it asks of the device comes back as an [`Event`]: a [`Command`] for the controller
+//! (applied at once by a single-threaded device, [`Command::apply`], or queued to a board's
+//! tick, which owns the controller), a committed scene (the caller swaps its scene storage at
+//! a tick boundary) or a hand target (only a simulated plant's session accepts one).
 //!
 //! No allocation, no panic; replies go through the caller's `reply` (which frames them with
-//! the device's own sequence numbers).
+//! the device's own sequence numbers). The session never touches the controller: a status is
+//! made of the [`DeviceState`] the caller passes.
 
+use friction::FrictionMaterial;
 use nurbs::Vec2;
 use tracker::Object;
 
@@ -17,6 +20,85 @@ use crate::protocol::{
     ErrorCode, Hello, MAX_PAYLOAD, Message, SceneReceiver, SceneValidator, Status,
 };
 
+/// A command for the controller, from a frame the session accepted. A single-threaded
+/// device applies it at once ([`Command::apply`]); a board queues it to its tick, which owns
+/// the controller.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Command {
+    /// The host is alive ([`Controller::heartbeat`]).
+    Heartbeat,
+    /// A new material for object 0.
+    SetMaterial(FrictionMaterial),
+    /// Forces on or off.
+    Forces(bool),
+    /// Calibrate against the end stops (the joints rest on them).
+    Calibrate,
+    /// Clear the latched faults whose condition is gone.
+    ClearFaults,
+}
+
+impl Command {
+    /// Applies the command to `controller`. A calibration records `home_counts` (the encoder
+    /// counts with the joints on their end stops); a material is loaded with the passivity
+    /// controller on only where it needs it and `allow_passivity_control`
+    /// ([`Controller::set_material_as_needed`]). The error is the code for the status's
+    /// `last_error`.
+    pub fn apply<O: Object<P = Vec2>>(
+        self,
+        controller: &mut Controller<O>,
+        home_counts: [i32; 2],
+        allow_passivity_control: bool,
+    ) -> Result<(), ErrorCode> {
+        match self {
+            Command::Heartbeat => controller.heartbeat(),
+            Command::Forces(on) => controller.set_forces_enabled(on),
+            Command::Calibrate => {
+                controller
+                    .calibrate(home_counts)
+                    .map_err(|_| ErrorCode::BadField)?;
+            }
+            Command::ClearFaults => {
+                controller.clear_faults();
+            }
+            Command::SetMaterial(material) => {
+                // Without a scene there is nothing to set (the next upload brings its own).
+                if let Err(ControllerError::Passivity(_) | ControllerError::BeyondDevice(_)) =
+                    controller.set_material_as_needed(material, allow_passivity_control)
+                {
+                    return Err(ErrorCode::BadMaterial);
+                }
+            }
+        }
+        Ok(())
+    }
+}
+
+/// What a hello and a status report of the device: its software version and a snapshot of
+/// the controller, so that a session whose controller belongs to another task (a board's
+/// tick) can answer.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct DeviceState {
+    /// The device's software version, `[major, minor, patch]`.
+    pub software: [u8; 3],
+    /// Force output enabled.
+    pub forces_enabled: bool,
+    /// Calibrated.
+    pub calibrated: bool,
+    /// The latched faults' bits.
+    pub faults: u16,
+}
+
+impl DeviceState {
+    /// A device running `software` with `controller` as it is now.
+    pub fn of<O: Object<P = Vec2>>(software: [u8; 3], controller: &Controller<O>) -> Self {
+        DeviceState {
+            software,
+            forces_enabled: controller.forces_enabled(),
+            calibrated: controller.is_calibrated(),
+            faults: controller.faults().bits(),
+        }
+    }
+}
 /// What the caller must do after [`Session::handle`].
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Event {
@@ -27,31 +109,28 @@ pub enum Event {
     SceneCommitted,
     /// The virtual hand's new target (m, device frame); only from a simulated plant's session.
     HandTarget(Vec2),
+    /// A command for the controller.
+    Command(Command),
 }
 
 /// The device side of one link.
 #[derive(Clone, Debug)]
 pub struct Session<const N: usize> {
     receiver: SceneReceiver<N>,
-    software: [u8; 3],
-    passivity_control: bool,
     last_error: u8,
 }
 
 impl<const N: usize> Session<N> {
-    /// A session of a device running `software` (its version), whose plant is simulated or
-    /// not (a board's session refuses hand targets with [`ErrorCode::NotSimulated`]), loading
-    /// materials stiffer than it renders passively with the passivity controller when
-    /// `passivity_control` (the firmware decides that; the wire does not carry it).
-    pub const fn new(software: [u8; 3], simulated_plant: bool, passivity_control: bool) -> Self {
+    /// A session of a device whose plant is simulated or not (a board's session refuses
+    /// hand targets with [`ErrorCode::NotSimulated`]). A board's is all zero bits (a static
+    /// of it needs no image in flash).
+    pub const fn new(simulated_plant: bool) -> Self {
         Session {
             receiver: if simulated_plant {
                 SceneReceiver::for_simulated_plant()
             } else {
                 SceneReceiver::new()
             },
-            software,
-            passivity_control,
             last_error: 0,
         }
     }
@@ -61,23 +140,18 @@ impl<const N: usize> Session<N> {
         &self.receiver
     }
 
-    /// Whether materials beyond the passive bound are loaded with the passivity controller.
-    pub fn passivity_control(&self) -> bool {
-        self.passivity_control
-    }
-
     /// Records why a command failed for the next status (`last_error`).
     pub fn note_error(&mut self, code: ErrorCode) {
         self.last_error = code as u8;
     }
 
-    /// The device's status now.
-    pub fn status<O: Object<P = Vec2>>(&self, controller: &Controller<O>) -> Status {
+    /// The device's status: the controller's `state` with the receiver's.
+    pub fn status(&self, state: DeviceState) -> Status {
         let r = &self.receiver;
         Status {
-            forces_enabled: controller.forces_enabled(),
-            calibrated: controller.is_calibrated(),
-            faults: controller.faults().bits(),
+            forces_enabled: state.forces_enabled,
+            calibrated: state.calibrated,
+            faults: state.faults,
             scene_len: u32::try_from(r.active_scene().len()).unwrap_or(u32::MAX),
             scene_crc32: r.active_crc32(),
             upload_received: r
@@ -90,16 +164,15 @@ impl<const N: usize> Session<N> {
     }
 
     /// Handles one frame from the host (`bytes`, undelimited). `scratch` validates a commit
-    /// (decoding it into the store that becomes active on [`Event::SceneCommitted`]);
-    /// `home_counts` are the encoder counts a calibration records (the joints on their end
-    /// stops); `reply` sends a message to the host. A rejected frame changes nothing but the
-    /// status's `last_error`.
-    pub fn handle<O: Object<P = Vec2>>(
+    /// (decoding it into the store that becomes active on [`Event::SceneCommitted`]); `state`
+    /// is the device's, for a hello or a heartbeat's status; `reply` sends a message to the
+    /// host. A
+    /// rejected frame changes nothing but the status's `last_error`.
+    pub fn handle(
         &mut self,
         bytes: &[u8],
         scratch: &mut impl SceneValidator,
-        controller: &mut Controller<O>,
-        home_counts: [i32; 2],
+        state: DeviceState,
         reply: &mut impl FnMut(&Message),
     ) -> Event {
         let outcome = self.receiver.receive(bytes, scratch);
@@ -113,35 +186,27 @@ impl<const N: usize> Session<N> {
         };
         match frame.message {
             Message::Hello(_) => reply(&Message::Hello(Hello {
-                software: self.software,
+                software: state.software,
                 scene_capacity: u32::try_from(N).unwrap_or(u32::MAX),
                 max_payload: MAX_PAYLOAD as u8,
             })),
             Message::Heartbeat { .. } => {
-                controller.heartbeat();
-                reply(&Message::Status(self.status(controller)));
+                reply(&Message::Status(self.status(state)));
+                return Event::Command(Command::Heartbeat);
             }
             Message::SceneCommit => return Event::SceneCommitted,
             Message::SetMaterial {
                 object: 0,
                 material,
-            } => {
-                // Without a scene there is nothing to set (the next upload brings its own).
-                if matches!(
-                    controller.set_material(material, self.passivity_control),
-                    Err(ControllerError::Passivity(_) | ControllerError::BeyondDevice(_))
-                ) {
-                    self.last_error = ErrorCode::BadMaterial as u8;
-                }
-            }
-            Message::EnableForces => controller.set_forces_enabled(true),
-            Message::DisableForces => controller.set_forces_enabled(false),
-            Message::Calibrate if controller.calibrate(home_counts).is_err() => {
+            } => return Event::Command(Command::SetMaterial(material)),
+            Message::SetMaterial { .. } => {
+                // One object is rendered: object 0.
                 self.last_error = ErrorCode::BadField as u8;
             }
-            Message::ClearFaults { .. } => {
-                controller.clear_faults();
-            }
+            Message::EnableForces => return Event::Command(Command::Forces(true)),
+            Message::DisableForces => return Event::Command(Command::Forces(false)),
+            Message::Calibrate => return Event::Command(Command::Calibrate),
+            Message::ClearFaults { .. } => return Event::Command(Command::ClearFaults),
             Message::HandTarget { target_m } => return Event::HandTarget(target_m),
             _ => {}
         }

@@ -453,16 +453,9 @@ fn device_controller<'a>(
     };
     let mut controller: Controller<Chain<'a>> =
         Controller::new(DeviceSpec::default(), safety).map_err(SimError::Controller)?;
-    let passivity_control = match controller.load_scene(chain, material, false) {
-        Ok(()) => false,
-        Err(ControllerError::Passivity(_)) => {
-            controller
-                .load_scene(chain, material, true)
-                .map_err(SimError::Controller)?;
-            true
-        }
-        Err(e) => return Err(SimError::Controller(e)),
-    };
+    let passivity_control = controller
+        .load_scene_as_needed(chain, material, true)
+        .map_err(SimError::Controller)?;
     Ok((controller, passivity_control))
 }
 

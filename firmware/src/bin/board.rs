@@ -26,17 +26,14 @@
 #![no_std]
 #![no_main]
 
-use core::sync::atomic::{AtomicBool, AtomicU32, Ordering};
+use core::sync::atomic::{AtomicBool, AtomicU8, AtomicU32, Ordering};
 
 use device::controller::{Acquisition, AcquisitionRequest, TickOutput, acquire};
-use device::protocol::{
-    ErrorCode, Frame, Hello, MAX_FRAME, MAX_PAYLOAD, Message, SceneError, SceneFault,
-    SceneReceiver, SceneStore, Status,
-};
+use device::protocol::{ErrorCode, Frame, MAX_FRAME, Message, SceneError, SceneFault, SceneStore};
+use device::session::{Command, DeviceState, Event as LinkEvent, Session};
 use firmware::app::{App, AppError, Parked};
 use firmware::board::Board;
 use firmware::swap::{Published, SceneBuffers, Staging};
-use friction::FrictionMaterial;
 use stm32f4xx_hal::gpio::{Output, PB12, PB13, PB14, PC13};
 use stm32f4xx_hal::pac;
 use stm32f4xx_hal::prelude::*;
@@ -78,7 +75,7 @@ const PWM_HZ: u32 = 20_000;
 type BoardStore = SceneStore<128, 96, 0>;
 /// The largest wire scene the board receives (bytes); the receiver holds two.
 const SCENE_CAPACITY: usize = 1792;
-type Receiver = SceneReceiver<SCENE_CAPACITY>;
+type Link = Session<SCENE_CAPACITY>;
 
 /// The two scene stores: one rendered by the tick, one the link decodes uploads into.
 /// All zero bits when empty, so in `.bss`.
@@ -95,15 +92,9 @@ static TICK_STATUS: AtomicU32 = AtomicU32::new(0);
 /// builds one too) never preempt each other: their stack frames do not add up.
 static COMMIT_PENDING: AtomicBool = AtomicBool::new(false);
 
-/// Commands from the link to the tick, applied at the start of the next tick.
-#[derive(Clone, Copy, Debug)]
-enum Command {
-    Heartbeat,
-    Forces(bool),
-    Calibrate,
-    ClearFaults,
-    SetMaterial(FrictionMaterial),
-}
+/// Why the tick refused the link's last command (an `ErrorCode`, 0 for none): written by the
+/// tick, read into the status by the link task.
+static COMMAND_ERROR: AtomicU8 = AtomicU8::new(0);
 
 /// Queue lengths (heapless' spsc holds one less than its size).
 const COMMANDS: usize = 8;
@@ -322,20 +313,6 @@ impl Led {
     }
 }
 
-/// The device's [`Hello`].
-fn hello() -> Hello {
-    let part = |s: &str| s.parse::<u8>().unwrap_or(0);
-    Hello {
-        software: [
-            part(env!("CARGO_PKG_VERSION_MAJOR")),
-            part(env!("CARGO_PKG_VERSION_MINOR")),
-            part(env!("CARGO_PKG_VERSION_PATCH")),
-        ],
-        scene_capacity: SCENE_CAPACITY as u32,
-        max_payload: MAX_PAYLOAD as u8,
-    }
-}
-
 /// USB HID report descriptor: one vendor-defined collection with a 64-byte input and a
 /// 64-byte output report, no report ids (what `device::host::HidLink` reads and writes).
 #[rustfmt::skip]
@@ -387,10 +364,9 @@ fn run_job(job: AcquisitionJob) -> Option<ChainAcquisition> {
 /// acquisition. Both build chains (the validation, the search's object), so they run in one
 /// task, one after the other, and their stack frames never add up.
 struct Protocol {
-    receiver: &'static mut Receiver,
+    session: &'static mut Link,
     /// The store the next commit is validated into; `None` while both are with the tick.
     staging: Option<Staging<BoardStore>>,
-    last_error: u8,
     reports: heapless::spsc::Consumer<'static, Report, REPORTS>,
     replies: heapless::spsc::Producer<'static, Message, REPLIES>,
     commands: heapless::spsc::Producer<'static, Command, COMMANDS>,
@@ -437,25 +413,26 @@ impl Protocol {
                 fault: SceneFault::Capacity,
             }),
         };
-        let outcome = self.receiver.receive(bytes, &mut validate);
-        self.reply(Receiver::reply(&outcome));
-        let frame = match outcome {
-            Ok(frame) => frame,
-            Err(nack) => {
-                self.last_error = nack.code as u8;
-                return;
-            }
+        if let Some(code) = ErrorCode::from_u8(COMMAND_ERROR.swap(0, Ordering::AcqRel)) {
+            self.session.note_error(code);
+        }
+        let tick = TICK_STATUS.load(Ordering::Acquire);
+        let state = DeviceState {
+            software: firmware::software_version(),
+            forces_enabled: tick & (1 << 16) != 0,
+            calibrated: tick & (1 << 17) != 0,
+            faults: tick as u16,
         };
-        let command = match frame.message {
-            Message::Hello(_) => {
-                self.reply(Message::Hello(hello()));
-                None
-            }
-            Message::Heartbeat { .. } => {
-                self.reply(Message::Status(self.status()));
-                Some(Command::Heartbeat)
-            }
-            Message::SceneCommit => {
+        let replies = &mut self.replies;
+        let event = self
+            .session
+            .handle(bytes, &mut validate, state, &mut |m: &Message| {
+                // Dropped when the replies queue is full (the host sends faster than it reads):
+                // it sees the missing acks.
+                let _ = replies.enqueue(*m);
+            });
+        match event {
+            LinkEvent::SceneCommitted => {
                 // The queue has room for both stores, so it is always ready here.
                 if self.commits.ready()
                     && let Some(store) = self.staging.take()
@@ -463,53 +440,16 @@ impl Protocol {
                     COMMIT_PENDING.store(true, Ordering::Release);
                     let _ = self.commits.enqueue(store.publish());
                 }
-                None
             }
-            Message::SetMaterial {
-                object: 0,
-                material,
-            } => Some(Command::SetMaterial(material)),
-            Message::SetMaterial { .. } => {
-                // The board renders object 0 only.
-                self.last_error = ErrorCode::BadField as u8;
-                None
+            // A board's session refuses hand targets (no virtual hand here).
+            LinkEvent::HandTarget(_) | LinkEvent::None => {}
+            LinkEvent::Command(command) => {
+                if self.commands.enqueue(command).is_err() {
+                    // The tick takes every command each tick; a full queue means a flood.
+                    self.session.note_error(ErrorCode::UnexpectedMessage);
+                }
             }
-            Message::EnableForces => Some(Command::Forces(true)),
-            Message::DisableForces => Some(Command::Forces(false)),
-            Message::Calibrate => Some(Command::Calibrate),
-            Message::ClearFaults { .. } => Some(Command::ClearFaults),
-            _ => None,
-        };
-        if let Some(command) = command
-            && self.commands.enqueue(command).is_err()
-        {
-            // The tick takes every command each tick; a full queue means a flood.
-            self.last_error = ErrorCode::UnexpectedMessage as u8;
         }
-    }
-
-    fn status(&self) -> Status {
-        let tick = TICK_STATUS.load(Ordering::Acquire);
-        Status {
-            forces_enabled: tick & (1 << 16) != 0,
-            calibrated: tick & (1 << 17) != 0,
-            faults: tick as u16,
-            scene_len: u32::try_from(self.receiver.active_scene().len()).unwrap_or(0),
-            scene_crc32: self.receiver.active_crc32(),
-            upload_received: self
-                .receiver
-                .upload_received()
-                .and_then(|n| u32::try_from(n).ok())
-                .unwrap_or(0),
-            expected_seq: self.receiver.expected_seq().unwrap_or(0),
-            last_error: self.last_error,
-        }
-    }
-
-    fn reply(&mut self, message: Message) {
-        // Dropped when the replies queue is full (the host sends faster than it reads): it
-        // sees the missing acks.
-        let _ = self.replies.enqueue(message);
     }
 }
 
@@ -595,7 +535,7 @@ mod app {
     #[init(local = [
         ep_memory: [u32; 64] = [0; 64],
         usb_bus: Option<UsbBusAllocator<UsbBusType>> = None,
-        receiver: Receiver = Receiver::new(),
+        session: Link = Session::new(false),
         command_queue: heapless::spsc::Queue<Command, COMMANDS> = heapless::spsc::Queue::new(),
         frame_queue: heapless::spsc::Queue<Report, FRAMES> = heapless::spsc::Queue::new(),
         report_queue: heapless::spsc::Queue<Report, REPORTS> = heapless::spsc::Queue::new(),
@@ -722,9 +662,8 @@ mod app {
             frames_dropped: 0,
         };
         let protocol = Protocol {
-            receiver: cx.local.receiver,
+            session: cx.local.session,
             staging: Some(first),
-            last_error: 0,
             reports: report_rx,
             replies: reply_tx,
             commands: command_tx,
@@ -828,20 +767,10 @@ mod app {
         }
 
         while let Some(command) = l.commands.dequeue() {
-            let controller = l.app.controller_mut();
-            match command {
-                Command::Heartbeat => controller.heartbeat(),
-                Command::Forces(on) => controller.set_forces_enabled(on),
-                Command::Calibrate => {
-                    let counts = l.hw.encoder_counts();
-                    let _ = controller.calibrate(counts);
-                }
-                Command::ClearFaults => {
-                    let _ = controller.clear_faults();
-                }
-                Command::SetMaterial(material) => {
-                    let _ = l.app.set_material(material);
-                }
+            // A calibration records the counts now: the user holds the joints on their stops.
+            let home = l.hw.encoder_counts();
+            if let Err(code) = l.app.apply(command, home) {
+                COMMAND_ERROR.store(code as u8, Ordering::Release);
             }
         }
 

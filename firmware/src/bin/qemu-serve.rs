@@ -23,7 +23,7 @@ use cortex_m_rt::{ExceptionFrame, entry, exception};
 use cortex_m_semihosting::{debug, hprintln};
 use device::protocol::{MAX_FRAME, Message, SceneStore};
 use device::safety::SafetyConfig;
-use device::session::{Event, Session};
+use device::session::{DeviceState, Event, Session};
 use device::simulator::{SimParams, SimulatedPantograph};
 use device::spec::DeviceSpec;
 use firmware::app::Parked;
@@ -136,16 +136,6 @@ fn fail(what: core::fmt::Arguments<'_>) -> ! {
     loop {}
 }
 
-/// The device's software version.
-fn software_version() -> [u8; 3] {
-    let part = |s: &str| s.parse::<u8>().unwrap_or(0);
-    [
-        part(env!("CARGO_PKG_VERSION_MAJOR")),
-        part(env!("CARGO_PKG_VERSION_MINOR")),
-        part(env!("CARGO_PKG_VERSION_PATCH")),
-    ]
-}
-
 #[entry]
 fn main() -> ! {
     let Some(peripherals) = cortex_m::Peripherals::take() else {
@@ -186,7 +176,7 @@ fn main() -> ! {
         Ok(p) => p,
         Err(e) => fail(format_args!("{e}")),
     };
-    let mut session: Session<SCENE_CAPACITY> = Session::new(software_version(), true, true);
+    let mut session: Session<SCENE_CAPACITY> = Session::new(true);
     // The stores live in main's frame, which never returns.
     let (mut a, mut b) = (SceneStore::new(), SceneStore::new());
     let (mut active, mut scratch) = (&mut a, &mut b);
@@ -209,26 +199,22 @@ fn main() -> ! {
                 let Some(n) = packet.push(byte[0], &mut frame) else {
                     continue;
                 };
-                let mut replies: [Option<Message>; 2] = [None; 2];
-                let mut k = 0;
+                let state = DeviceState::of(firmware::software_version(), app.controller());
                 let event = session.handle(
                     frame.get(..n).unwrap_or(&[]),
                     &mut *scratch,
-                    app.controller_mut(),
-                    spec.end_stop_counts(),
-                    &mut |m: &Message| {
-                        if let Some(slot) = replies.get_mut(k) {
-                            *slot = Some(*m);
-                            k += 1;
-                        }
-                    },
+                    state,
+                    &mut |m: &Message| app.send(&mut board, m),
                 );
-                for m in replies.iter().flatten() {
-                    app.send(&mut board, m);
-                }
                 match event {
                     Event::SceneCommitted => break 'epoch,
                     Event::HandTarget(t) => hand_target = t,
+                    Event::Command(command) => {
+                        // The simulated joints "rest on their end stops": the counts read there.
+                        if let Err(code) = app.apply(command, spec.end_stop_counts()) {
+                            session.note_error(code);
+                        }
+                    }
                     Event::None => {}
                 }
             }

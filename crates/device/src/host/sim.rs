@@ -25,7 +25,7 @@ use super::{Link, LinkError, Sequencer, software_version};
 use crate::controller::Controller;
 use crate::protocol::{Frame, MAX_FRAME, Message, SceneStore};
 use crate::safety::SafetyConfig;
-use crate::session::{Event, Session};
+use crate::session::{DeviceState, Event, Session};
 use crate::simulator::{SimParams, SimulatedPantograph};
 use crate::spec::DeviceSpec;
 
@@ -104,11 +104,7 @@ impl SimLink {
                     frames,
                     arm,
                     hand_target: config.start_hip,
-                    session: Box::new(Session::new(
-                        software_version(),
-                        true,
-                        config.passivity_control,
-                    )),
+                    session: Box::new(Session::new(true)),
                     scratch: Box::new(SceneStore::new()),
                     seq: Sequencer::default(),
                     tick: 0,
@@ -230,7 +226,7 @@ impl SimDevice {
             let mut active: Controller<Chain<'_>> = parked.rebind();
             if let (Ok(chain), Some(material)) = (Chain::new(&curves), store.material(0))
                 && active
-                    .load_scene(chain, material, self.config.passivity_control)
+                    .load_scene_as_needed(chain, material, self.config.passivity_control)
                     .is_err()
             {
                 self.session
@@ -301,8 +297,7 @@ impl SimDevice {
         let event = self.session.handle(
             bytes,
             &mut *self.scratch,
-            controller,
-            home,
+            DeviceState::of(software_version(), controller),
             &mut |m: &Message| gone |= emit(paced, frames, seq, m).is_err(),
         );
         if gone {
@@ -312,6 +307,12 @@ impl SimDevice {
             Event::SceneCommitted => true,
             Event::HandTarget(target) => {
                 self.hand_target = target;
+                false
+            }
+            Event::Command(command) => {
+                if let Err(code) = command.apply(controller, home, self.config.passivity_control) {
+                    self.session.note_error(code);
+                }
                 false
             }
             Event::None => false,
