@@ -2,6 +2,7 @@
 //! CI runs, in order, stopping at the first failure. `cargo xtask qemu`: the firmware under
 //! QEMU, its instructions per tick and its size (see `qemu.rs`).
 
+mod gui;
 mod qemu;
 
 use std::env;
@@ -56,6 +57,7 @@ fn main() -> ExitCode {
 
 fn ci() -> Result<(), String> {
     ensure_toolchain()?;
+    gui::ensure_packages()?;
     let cargo = env::var("CARGO").unwrap_or_else(|_| "cargo".into());
     run(&cargo, &["fmt", "--all", "--check"])?;
     run(
@@ -105,6 +107,7 @@ fn ci() -> Result<(), String> {
             ],
         )?;
     }
+    gui::window_test(&cargo)?;
     qemu::check_firmware(&cargo)?;
     Ok(())
 }

@@ -284,13 +284,30 @@ fn help_documents_input_output_and_exit_status() {
     }
 }
 
+/// `viewer` alone is `viewer gui`, which opens a window: only its refusals are tested here
+/// (they happen before any window; the window itself is `cargo xtask ci`'s Xvfb test).
 #[test]
-fn no_subcommand_prints_help_and_exits_2() {
-    let out = viewer(&[], "");
+fn gui_refuses_other_devices_and_bad_scenes_before_opening_a_window() {
+    for device in ["hid", "serial:/dev/ttyACM0", "tcp:127.0.0.1:4000"] {
+        let out = viewer(&["gui", "--device", device], "");
+        assert_eq!(out.status.code(), Some(2), "{device}");
+        let err = stderr(&out);
+        assert!(
+            err.contains("only the simulated pantograph for now (--device sim)"),
+            "{err}"
+        );
+        assert!(err.contains("tcp:HOST:PORT"), "{err}");
+    }
+    let out = viewer(&["gui", "no-such-scene.json"], "");
     assert_eq!(out.status.code(), Some(2));
     let err = stderr(&out);
-    assert!(err.contains("GUI"), "{err}");
-    assert!(err.contains("eval"), "{err}");
+    assert!(err.contains("no-such-scene.json"), "{err}");
+    let help = viewer(&["--help"], "");
+    let text = String::from_utf8_lossy(&help.stdout);
+    assert!(
+        text.contains("Without a subcommand the desktop app starts"),
+        "{text}"
+    );
 }
 
 /// Scene numbers that f32 evaluation cannot carry: a weight of 1e-20 beside weights of 1 and
