@@ -93,9 +93,18 @@ pub(crate) fn window_test(cargo: &str) -> Result<(), String> {
         WINDOW_FRAMES,
     ];
     println!("\n==> xvfb-run {}", args.join(" "));
+    // winit asks for a runtime directory, which a CI shell may not have.
+    let runtime = std::env::temp_dir().join("xtask-gui-runtime");
+    std::fs::create_dir_all(&runtime)
+        .and_then(|()| {
+            use std::os::unix::fs::PermissionsExt;
+            std::fs::set_permissions(&runtime, std::fs::Permissions::from_mode(0o700))
+        })
+        .map_err(|e| format!("{}: {e}", runtime.display()))?;
     let started = Instant::now();
     let mut child = Command::new("xvfb-run")
         .args(args)
+        .env("XDG_RUNTIME_DIR", &runtime)
         .spawn()
         .map_err(|e| format!("cannot start xvfb-run: {e}"))?;
     loop {

@@ -287,10 +287,13 @@ impl HapticLoop {
         self.material
     }
 
-    /// Renders `session` from the next tick; the arm and the hand stay where they are.
+    /// Renders `session` from the next tick; the arm, the hand and the forces' switch stay
+    /// as they are.
     pub fn swap_session(&mut self, session: Session) {
+        let forces = self.forces_enabled();
         self.material = material_of(&session);
         self.session = session;
+        self.set_forces_enabled(forces);
     }
 
     /// The session.
@@ -680,4 +683,99 @@ fn record(mut out: BufWriter<File>, rx: &Receiver<Tick>) -> io::Result<RecordSum
     out.flush()?;
     out.into_inner().map_err(|e| e.into_error())?.sync_all()?;
     Ok(summary)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn thesis_2d() -> Scene {
+        Scene::from_json_str(include_str!("../../../scenes/thesis-2d.json"))
+            .unwrap_or_else(|e| panic!("{e}"))
+    }
+
+    /// The recorder writes the header of `sim --device` logs and one row per tick, readable
+    /// by `viewer plot`'s reader; rows reach the file while it runs (the flush period is
+    /// 0.5 s: polled for up to 10 s, so a loaded machine does not fail it), and all of them
+    /// when it finishes.
+    #[test]
+    fn recorder_writes_a_run_log_while_running_and_completes_it() {
+        let dir = std::env::temp_dir().join(format!("viewer-recorder-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).expect("temp dir");
+        let path = dir.join("rec.csv");
+        let (recorder, tx) = Recorder::start(&path).expect("start");
+        let session = Session::new(thesis_2d()).expect("session");
+        let mut haptic = HapticLoop::new(session, START_HIP).expect("loop");
+        for _ in 0..300 {
+            tx.send(haptic.step()).expect("recorder alive");
+        }
+        let waited = Instant::now();
+        let rows = || std::fs::read_to_string(&path).map_or(0, |t| t.lines().count());
+        while rows() < 301 && waited.elapsed() < Duration::from_secs(10) {
+            std::thread::sleep(Duration::from_millis(20));
+        }
+        assert_eq!(rows(), 301, "flushed while running");
+        for _ in 0..200 {
+            tx.send(haptic.step()).expect("recorder alive");
+        }
+        drop(tx);
+        let summary = recorder.finish().expect("finish");
+        assert_eq!(
+            summary,
+            RecordSummary {
+                rows: 500,
+                skipped: 0
+            }
+        );
+        let text = std::fs::read_to_string(&path).expect("read");
+        assert_eq!(
+            text.lines().next(),
+            Some(format!("{},{}", sim::csv_header(Space::Planar), sim::DEVICE_COLUMNS).as_str())
+        );
+        let log = crate::runlog::parse(&text, &path).unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(log.run.ticks.len(), 500);
+        assert_eq!(log.run.rate_hz, RATE_HZ);
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    /// The thread ticks on its own and answers commands; dropping it stops it. Polled for up
+    /// to 10 s of wall time (a loaded machine may be slow; nothing here is timed).
+    #[test]
+    fn loop_thread_ticks_and_answers() {
+        let session = Session::new(thesis_2d()).expect("session");
+        let haptic = HapticLoop::new(session, START_HIP).expect("loop");
+        let thread = LoopThread::spawn(haptic, None).expect("spawn");
+        assert!(thread.send(Command::HandTarget(Vec2::new(0.0, 0.105))));
+        let bad = FrictionMaterial {
+            mu_dynamic: 0.9,
+            ..FrictionMaterial::default()
+        };
+        assert!(thread.send(Command::SetMaterial(bad)));
+        let waited = Instant::now();
+        let (mut samples, mut replies) = (Vec::new(), Vec::new());
+        while (samples.len() < 50 || replies.is_empty())
+            && waited.elapsed() < Duration::from_secs(10)
+        {
+            thread.drain_samples(|s| samples.push(s));
+            replies.extend(thread.drain_replies());
+            std::thread::sleep(Duration::from_millis(5));
+        }
+        assert!(samples.len() >= 50, "{} samples", samples.len());
+        assert!(samples.windows(2).all(|w| w[1].tick.t_s > w[0].tick.t_s));
+        assert!(samples.iter().skip(1).all(|s| s.period_us.is_some()));
+        assert!(
+            samples
+                .last()
+                .is_some_and(|s| s.hand_target == Vec2::new(0.0, 0.105))
+        );
+        match replies.first() {
+            Some(Reply::Material(Err(MaterialChangeError::Invalid(e)))) => {
+                assert_eq!(e.field(), "mu_dynamic");
+            }
+            other => panic!("{other:?}"),
+        }
+        assert!(thread.is_running());
+        assert!(thread.counters().ticks.load(Ordering::Relaxed) >= 50);
+        drop(thread);
+    }
 }

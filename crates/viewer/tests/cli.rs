@@ -361,3 +361,42 @@ fn eval_refuses_scenes_f32_cannot_evaluate() {
     assert!(out.stdout.is_empty());
     assert!(stderr(&out).contains("line 1 (\"0\"): the answer's duu is not a finite f32"));
 }
+
+/// `viewer plot` draws a `sim --device` run log; a file that is not a run log is refused
+/// with exit 2, naming the file and the line.
+#[test]
+fn plot_draws_a_run_log_and_refuses_other_files() {
+    let dir = TempScene::new("plot", "not a scene");
+    let root = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../..");
+    let scene = root.join("scenes/thesis-2d.json");
+    let trajectory = dir.dir.join("press.csv");
+    std::fs::write(&trajectory, "t,x,y\n0,0.0,0.1\n0.4,0.0,0.09\n").expect("write");
+    let log = dir.dir.join("run.csv");
+    let png = dir.dir.join("run.png");
+    let s = |p: &PathBuf| p.to_str().expect("UTF-8 path").to_owned();
+    let out = viewer(
+        &[
+            "sim",
+            &s(&scene),
+            "--device",
+            "--trajectory",
+            &s(&trajectory),
+            "--out",
+            &s(&log),
+        ],
+        "",
+    );
+    assert_eq!(out.status.code(), Some(0), "{}", stderr(&out));
+    let out = viewer(&["plot", &s(&log), "--out", &s(&png)], "");
+    assert_eq!(out.status.code(), Some(0), "{}", stderr(&out));
+    let bytes = std::fs::read(&png).expect("the plot");
+    assert!(bytes.starts_with(b"\x89PNG\r\n\x1a\n"), "a PNG");
+
+    let out = viewer(&["plot", dir.path(), "--out", &s(&png)], "");
+    assert_eq!(out.status.code(), Some(2));
+    let err = stderr(&out);
+    assert!(
+        err.contains("plot.json: line 1 is not a run log's header"),
+        "{err}"
+    );
+}

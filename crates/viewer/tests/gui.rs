@@ -304,8 +304,7 @@ fn snapshot_invalid_material_error() {
 #[test]
 fn snapshot_whole_window_while_sliding() {
     let mut state = stepped();
-    press(&mut state);
-    slide(&mut state, 0.03, 30.0, 45.0, 600);
+    press_and_slide(&mut state);
     let mut h = harness([1400.0, 860.0], ViewerUi::new(state), |ui, v| v.ui(ui));
     h.run_steps(2);
     h.snapshot("viewer_window");

@@ -14,7 +14,7 @@ use std::time::{Duration, Instant};
 
 use eframe::egui;
 use egui::{Color32, RichText};
-use egui_plot::{Legend, Line, Plot, PlotPoints, Span};
+use egui_plot::{Corner, Legend, Line, Plot, PlotPoints, Span};
 use friction::{FrictionMaterial, Mode, Stribeck};
 
 use crate::haptic::Recorder;
@@ -258,7 +258,7 @@ pub fn telemetry_ui(ui: &mut egui::Ui, state: &AppState) {
             .include_x(-state::HISTORY_S)
             .include_x(0.0)
             .y_axis_min_width(36.0)
-            .legend(Legend::default())
+            .legend(Legend::default().position(Corner::LeftTop))
     };
     ui.label(RichText::new("forces (N) over the friction mode").strong());
     plot("forces", 150.0).include_y(0.0).show(ui, |p| {
@@ -298,9 +298,12 @@ pub fn telemetry_ui(ui: &mut egui::Ui, state: &AppState) {
             .color(NORMAL),
         );
     });
-    plot("psi", 70.0).show(ui, |p| {
-        p.line(Line::new("Ψ", series(&|s, i| f64::from(at(s, i).psi))).color(TOTAL));
-    });
+    plot("psi", 70.0)
+        .y_axis_formatter(|mark, _| format!("{:.0e}", mark.value))
+        .y_axis_min_width(44.0)
+        .show(ui, |p| {
+            p.line(Line::new("Ψ", series(&|s, i| f64::from(at(s, i).psi))).color(TOTAL));
+        });
     ui.label(RichText::new("tick period (µs)").strong());
     if state.is_threaded() {
         plot("period", 80.0).include_y(1000.0).show(ui, |p| {
@@ -412,7 +415,7 @@ pub struct GuiOptions {
     pub record: Option<PathBuf>,
     /// Close the window by itself after this many frames (tests, CI).
     pub quit_after_frames: Option<u64>,
-    /// Move the hand along the thesis's 2-D path, as a drag would.
+    /// Move the hand along the thesis's 2-D path, forth and back, as a drag would.
     pub demo: bool,
 }
 
@@ -463,8 +466,16 @@ impl eframe::App for ViewerApp {
     fn ui(&mut self, ui: &mut egui::Ui, _frame: &mut eframe::Frame) {
         let begun = Instant::now();
         if let Some(demo) = &self.demo {
+            // Forth and back along the path, so that the target never jumps (a jump would
+            // yank the handle past the device's speed limit and latch a fault).
             let span = demo.end_s() - demo.start_s();
-            let t = demo.start_s() + self.started.elapsed().as_secs_f64() % span;
+            let phase = self.started.elapsed().as_secs_f64() % (2.0 * span);
+            let t = demo.start_s()
+                + if phase < span {
+                    phase
+                } else {
+                    2.0 * span - phase
+                };
             let p = demo.at(t);
             self.ui
                 .state

@@ -99,12 +99,26 @@ pub fn view_2d_ui(ui: &mut egui::Ui, state: &mut AppState, view: &mut View2d) {
         return;
     }
 
-    if view.fit_pending {
+    if view.fit_pending || response.double_clicked() {
         view.fit(rect, state.scene.bounds, haptic_start());
     }
-    if response.double_clicked() {
-        view.fit(rect, state.scene.bounds, haptic_start());
-    }
+    // Two buttons in the top right corner: fit the scene, or the device's whole workspace.
+    let buttons = Rect::from_min_size(
+        rect.right_top() + EVec2::new(-230.0, 6.0),
+        EVec2::new(224.0, 24.0),
+    );
+    ui.scope_builder(egui::UiBuilder::new().max_rect(buttons), |ui| {
+        ui.horizontal(|ui| {
+            if ui.button("fit scene").clicked() {
+                view.fit(rect, state.scene.bounds, haptic_start());
+            }
+            if ui.button("fit workspace").clicked() {
+                let reach = &state.reach;
+                let b = reach.safety_box;
+                view.fit(rect, (b.min_in_device, b.max_in_device), haptic_start());
+            }
+        });
+    });
 
     // Pan with the secondary or middle button, zoom with the wheel about the pointer.
     if response.dragged_by(egui::PointerButton::Secondary)
@@ -271,7 +285,7 @@ fn draw_legend(painter: &egui::Painter, rect: Rect, view: &View2d, state: &AppSt
     }
     line(
         &mut y,
-        "drag: hand  ·  right-drag: pan  ·  wheel: zoom  ·  double-click: fit".into(),
+        "drag: hand  ·  right-drag: pan  ·  wheel: zoom  ·  double-click: fit the scene".into(),
         Color32::from_gray(110),
     );
     // Key, bottom left.
