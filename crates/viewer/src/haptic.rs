@@ -49,6 +49,11 @@ pub const RECORD_CAPACITY: usize = 4096;
 /// workspace, above the bundled planar scenes.
 pub const START_HIP: Vec2 = Vec2::new(0.0, 0.11);
 
+/// The fastest the virtual hand's target follows its command (m/s). A hand does not
+/// teleport: a click far from the handle would otherwise yank it through the 300 N/m grip
+/// past the device's 1 m/s speed limit and latch the velocity fault.
+pub const MAX_HAND_SPEED_M_PER_S: f32 = 0.3;
+
 /// A scene the loop renders: the scene, the index of the object the device renders (the
 /// first planar one; `None` when the scene has none), and the controller built for it.
 pub struct Session(SessionCell);
@@ -191,6 +196,7 @@ pub struct HapticLoop {
     material: Option<FrictionMaterial>,
     arm: SimulatedPantograph,
     hand_target: Vec2,
+    hand_command: Vec2,
     tick: u64,
     period_s: f32,
     last_error: Option<String>,
@@ -208,6 +214,7 @@ impl HapticLoop {
             material,
             arm,
             hand_target: start_hip,
+            hand_command: start_hip,
             tick: 0,
             period_s: (1.0 / RATE_HZ) as f32,
             last_error: None,
@@ -217,6 +224,14 @@ impl HapticLoop {
     /// One tick (see [`sim::device_tick`]). An arm driven into a singular pose stays there; the
     /// tick is then recorded at the last pose and [`HapticLoop::last_error`] says why.
     pub fn step(&mut self) -> Tick {
+        // The target moves towards its command at most MAX_HAND_SPEED_M_PER_S.
+        let to_go = self.hand_command - self.hand_target;
+        let max_step = MAX_HAND_SPEED_M_PER_S * self.period_s;
+        if to_go.length() > max_step {
+            self.hand_target += to_go * (max_step / to_go.length());
+        } else {
+            self.hand_target = self.hand_command;
+        }
         let t_s = self.tick as f64 / RATE_HZ;
         // The device clock: integer microseconds, as a board's timer.
         let now_us = (self.tick as f64 * 1e6 / RATE_HZ).round() as u64;
@@ -239,14 +254,15 @@ impl HapticLoop {
         }
     }
 
-    /// Moves the virtual hand's target (m, device frame); a non-finite target is ignored.
+    /// Commands the virtual hand's target (m, device frame): from the next tick it moves
+    /// there at up to [`MAX_HAND_SPEED_M_PER_S`]; a non-finite target is ignored.
     pub fn set_hand_target(&mut self, target: Vec2) {
         if target.is_finite() {
-            self.hand_target = target;
+            self.hand_command = target;
         }
     }
 
-    /// The hand's target.
+    /// The hand's target (where it is on its way to the command).
     pub fn hand_target(&self) -> Vec2 {
         self.hand_target
     }
@@ -425,6 +441,31 @@ pub struct LoopCounters {
     pub dropped_records: AtomicU64,
     /// Ticks run.
     pub ticks: AtomicU64,
+    /// Whether the OS gave the loop thread real-time scheduling ([`raise_priority`]).
+    pub realtime: AtomicBool,
+}
+
+/// Asks the OS to run the calling thread ahead of every normal one: real-time FIFO
+/// scheduling at the lowest real-time priority, where the OS allows it (root, CAP_SYS_NICE or
+/// an rtprio limit); elsewhere nothing changes. Returns whether it took. The loop sleeps
+/// until its next tick is due, so it takes about 5 % of a core; Linux also keeps 5 % of every
+/// second for normal threads whatever real-time threads do.
+pub fn raise_priority() -> bool {
+    #[cfg(unix)]
+    {
+        use thread_priority::unix::{set_thread_priority_and_policy, thread_native_id};
+        use thread_priority::{RealtimeThreadSchedulePolicy, ThreadPriority, ThreadSchedulePolicy};
+        set_thread_priority_and_policy(
+            thread_native_id(),
+            ThreadPriority::Min,
+            ThreadSchedulePolicy::Realtime(RealtimeThreadSchedulePolicy::Fifo),
+        )
+        .is_ok()
+    }
+    #[cfg(not(unix))]
+    {
+        thread_priority::set_current_thread_priority(thread_priority::ThreadPriority::Max).is_ok()
+    }
 }
 
 /// A [`HapticLoop`] on its own thread, ticking in real time at [`RATE_HZ`]. Dropping it stops
@@ -453,6 +494,7 @@ impl LoopThread {
             std::thread::Builder::new()
                 .name("haptic-loop".into())
                 .spawn(move || {
+                    counters.realtime.store(raise_priority(), Ordering::Relaxed);
                     run_paced(
                         &mut haptic,
                         &command_rx,

@@ -309,3 +309,31 @@ fn snapshot_whole_window_while_sliding() {
     h.run_steps(2);
     h.snapshot("viewer_window");
 }
+
+/// A press far from the handle does not teleport the hand: its target follows at up to
+/// 0.3 m/s, so the handle stays below the device's 1 m/s speed limit and nothing latches.
+#[test]
+fn a_press_far_from_the_handle_moves_the_hand_at_a_bounded_speed() {
+    let mut state = stepped();
+    let start = viewer::haptic::START_HIP;
+    let far = Vec2::new(0.03, 0.08); // 42 mm away, in free space beside the arch
+    assert!(state.set_hand_target(far));
+    state.step(1);
+    let first = state.latest().expect("a tick").hand_target;
+    // One tick of 1 ms at 0.3 m/s: 0.3 mm, to f32 rounding of the step (1e-5 relative).
+    let step = (first - start).length();
+    assert!(
+        (0.3e-3 * (1.0 - 1e-5)..=0.3e-3 * (1.0 + 1e-5)).contains(&step),
+        "{step}"
+    );
+    // 42 mm at 0.3 m/s takes 141 ms; 400 ms later it is there, exactly.
+    state.step(400);
+    assert_eq!(state.latest().expect("ticks").hand_target, far);
+    assert!(state.faults().is_empty(), "{:?}", state.faults());
+    let fastest = state
+        .history
+        .iter()
+        .map(|s| s.tick.hip_velocity.length())
+        .fold(0.0, f32::max);
+    assert!(fastest < 1.0, "handle at {fastest} m/s");
+}

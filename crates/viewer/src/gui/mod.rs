@@ -373,8 +373,13 @@ pub fn status_bar_ui(ui: &mut egui::Ui, state: &mut AppState, recording: Option<
         ui.separator();
         match state.recent_jitter() {
             Some((mean, max, p99)) => {
+                let priority = if state.loop_realtime() {
+                    "real-time"
+                } else {
+                    "normal priority"
+                };
                 ui.label(format!(
-                    "tick {mean:.1} µs (1 kHz): jitter p99 {p99:.0} µs, max {max:.0} µs"
+                    "tick {mean:.1} µs (1 kHz, {priority}): jitter p99 {p99:.0} µs, max {max:.0} µs"
                 ));
             }
             None => {
@@ -426,6 +431,11 @@ pub struct Summary {
     pub frames: u64,
     /// Mean and 95th-percentile frame interval (ms).
     pub frame_ms: Option<(f32, f32)>,
+    /// Mean time the app's own UI code took per frame (ms): layout and state, before
+    /// tessellation and rendering.
+    pub ui_ms: Option<f32>,
+    /// Whether the loop thread got real-time scheduling.
+    pub realtime: bool,
     /// Mean tick period and 99th-percentile and largest |period − 1 ms| (µs).
     pub tick_us: Option<(f64, f32, f32)>,
     /// Samples dropped on the way to the UI.
@@ -440,11 +450,16 @@ impl std::fmt::Display for Summary {
         if let Some((mean, p95)) = self.frame_ms {
             write!(f, ", frame time mean {mean:.1} ms (p95 {p95:.1} ms)")?;
         }
+        if let Some(ui) = self.ui_ms {
+            write!(f, ", UI {ui:.1} ms")?;
+        }
         if let Some((mean, p99, max)) = self.tick_us {
             write!(
                 f,
-                "; {} ticks, period mean {mean:.1} µs, jitter p99 {p99:.0} µs, max {max:.0} µs",
-                self.received
+                "; {} ticks ({} priority), period mean {mean:.1} µs, jitter p99 {p99:.0} µs, \
+                 max {max:.0} µs",
+                self.received,
+                if self.realtime { "real-time" } else { "normal" }
             )?;
         }
         write!(f, "; {} telemetry frames dropped", self.dropped)
@@ -459,6 +474,7 @@ struct ViewerApp {
     last_frame: Option<Instant>,
     frames: u64,
     intervals: Vec<f32>,
+    ui_total_ms: f64,
     summary: std::sync::Arc<std::sync::Mutex<Summary>>,
 }
 
@@ -490,6 +506,7 @@ impl eframe::App for ViewerApp {
             self.ui.state.record_frame(interval, ui_ms);
             self.intervals.push(interval);
         }
+        self.ui_total_ms += f64::from(ui_ms);
         self.frames += 1;
         if self
             .options
@@ -522,6 +539,8 @@ impl eframe::App for ViewerApp {
         let summary = Summary {
             frames: self.frames,
             frame_ms,
+            ui_ms: (self.frames > 0).then(|| (self.ui_total_ms / self.frames as f64) as f32),
+            realtime: self.ui.state.loop_realtime(),
             tick_us,
             dropped: self.ui.state.dropped().0,
             received: self.ui.state.received,
@@ -572,6 +591,7 @@ pub fn run(options: GuiOptions) -> anyhow::Result<Summary> {
         last_frame: None,
         frames: 0,
         intervals: Vec::new(),
+        ui_total_ms: 0.0,
         summary: summary.clone(),
     };
     let native = eframe::NativeOptions {

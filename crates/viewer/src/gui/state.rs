@@ -683,6 +683,14 @@ impl AppState {
         }
     }
 
+    /// Whether the loop thread runs with real-time scheduling.
+    pub fn loop_realtime(&self) -> bool {
+        match &self.backend {
+            Backend::Thread(t) => t.counters().realtime.load(Ordering::Relaxed),
+            Backend::Stepped(_) | Backend::Stopped => false,
+        }
+    }
+
     /// Whether the loop thread is running (always true for a stepped loop).
     pub fn loop_running(&self) -> bool {
         match &self.backend {

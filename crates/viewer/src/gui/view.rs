@@ -206,11 +206,19 @@ fn draw_scene(painter: &egui::Painter, rect: Rect, view: &View2d, state: &AppSta
 }
 
 fn draw_hand(painter: &egui::Painter, rect: Rect, view: &View2d, state: &AppState) {
-    let target = view.screen_of(rect, state.hand_target);
+    let command = view.screen_of(rect, state.hand_target);
     let Some(s) = state.latest() else {
-        cross(painter, target, Color32::from_rgb(90, 90, 200));
+        cross(painter, command, Color32::from_rgb(90, 90, 200));
         return;
     };
+    // The target follows the command (the pointer) at a bounded speed.
+    let target = view.screen_of(rect, s.hand_target);
+    if (command - target).length() > 2.0 {
+        painter.line_segment(
+            [command, target],
+            Stroke::new(1.0, Color32::from_rgb(190, 190, 230)),
+        );
+    }
     let k = &s.tick;
     let xy = |v: nurbs::Vec3| Vec2::new(v.x, v.y);
     let hip = view.screen_of(rect, xy(k.hip));
