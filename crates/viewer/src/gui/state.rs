@@ -705,3 +705,52 @@ impl AppState {
         self.backend = Backend::Stopped;
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Every scene in `scenes/` is bundled (one click away in the app), and each loads and
+    /// builds the device's session.
+    #[test]
+    fn every_scene_file_is_bundled_and_loads() {
+        let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes");
+        let mut files: Vec<String> = std::fs::read_dir(&dir)
+            .expect("scenes/")
+            .filter_map(|e| e.ok())
+            .map(|e| e.path())
+            .filter(|p| p.extension().is_some_and(|x| x == "json"))
+            .filter_map(|p| p.file_stem().map(|s| s.to_string_lossy().into_owned()))
+            .collect();
+        files.sort();
+        let mut bundled: Vec<String> = BUNDLED.iter().map(|b| b.name.to_owned()).collect();
+        bundled.sort();
+        assert_eq!(files, bundled);
+        for b in BUNDLED {
+            let on_disk = std::fs::read_to_string(dir.join(format!("{}.json", b.name)))
+                .expect("the scene file");
+            assert_eq!(on_disk, b.json, "{} is embedded as it is on disk", b.name);
+            let scene = Scene::from_json_str(b.json).unwrap_or_else(|e| panic!("{}: {e}", b.name));
+            let session = Session::new(scene).unwrap_or_else(|e| panic!("{}: {e}", b.name));
+            let planar = b.name != "thesis-3d";
+            assert_eq!(session.object().is_some(), planar, "{}", b.name);
+        }
+    }
+
+    /// The jitter statistics: quantiles to the 10 µs bin above, the largest exactly.
+    #[test]
+    fn jitter_statistics() {
+        let mut j = JitterStats::default();
+        for p in [1000.0, 1004.0, 996.0, 1025.0, 1300.0] {
+            j.add(p);
+        }
+        assert_eq!(j.count, 5);
+        assert_eq!(j.max_abs_us, 300.0);
+        assert_eq!(j.mean_period_us(), Some(1065.0));
+        // |jitter| = 0, 4, 4, 25, 300: the median in the first bin (0-10 µs), the 80 %
+        // quantile in the 20-30 µs bin, the largest in the 300-310 µs bin.
+        assert_eq!(j.quantile_us(0.5), Some(10.0));
+        assert_eq!(j.quantile_us(0.8), Some(30.0));
+        assert_eq!(j.quantile_us(1.0), Some(310.0));
+    }
+}
