@@ -4,6 +4,7 @@
 //! the board binary and checks its budget (see `board.rs`).
 
 mod board;
+mod gui;
 mod qemu;
 mod session;
 
@@ -63,6 +64,7 @@ fn main() -> ExitCode {
 
 fn ci() -> Result<(), String> {
     ensure_toolchain()?;
+    gui::ensure_packages()?;
     let cargo = env::var("CARGO").unwrap_or_else(|_| "cargo".into());
     run(&cargo, &["fmt", "--all", "--check"])?;
     run(
@@ -112,6 +114,7 @@ fn ci() -> Result<(), String> {
             ],
         )?;
     }
+    gui::window_test(&cargo)?;
     qemu::check_firmware(&cargo)?;
     board::check_board(&cargo)?;
     // The firmware under QEMU: the thesis-2d scenario in the emulated MCU compared frame by

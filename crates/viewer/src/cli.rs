@@ -1,5 +1,5 @@
-//! The command line, as clap types. `main.rs` runs it; later issues add `device …` and the
-//! GUI when no subcommand is given.
+//! The command line, as clap types. `main.rs` runs it; without a subcommand it starts the
+//! GUI (`viewer gui`).
 
 use std::path::PathBuf;
 use std::time::Duration;
@@ -18,14 +18,15 @@ Exit status:
   0  success
   1  a bad input line (eval), or the output could not be written
   2  bad command line, unreadable or invalid scene or trajectory, bad --object/--patch
-     index, or no subcommand (the desktop GUI is not there yet)";
+     index
 
-/// Haptic rendering of NURBS models: the desktop viewer (to come) and headless tools.
+Without a subcommand the desktop app starts (`viewer gui` on the bundled thesis-2d scene).";
+
+/// Haptic rendering of NURBS models: the desktop viewer and headless tools.
 #[derive(Debug, Parser)]
 #[command(name = "viewer", version, after_help = EXIT_CODES)]
 pub struct Cli {
-    /// What to do. Without a subcommand the desktop GUI will start; for now this prints the
-    /// help and exits with status 2.
+    /// What to do. Without a subcommand the desktop GUI starts (`viewer gui`).
     #[command(subcommand)]
     pub command: Option<Command>,
 }
@@ -45,6 +46,101 @@ pub enum Command {
     /// Talk to a haptic device: list the boards, monitor telemetry.
     #[command(subcommand)]
     Device(DeviceCommand),
+    /// The desktop app: feel a scene with the mouse on the simulated pantograph (the default
+    /// without a subcommand).
+    #[command(long_about = GUI_ABOUT, after_long_help = GUI_AFTER)]
+    Gui(GuiArgs),
+    /// Draw a run log (from `sim --out` or `gui --record`) as a PNG, as `sim --plot` does.
+    #[command(after_long_help = PLOT_AFTER)]
+    Plot(PlotArgs),
+}
+
+const GUI_ABOUT: &str = "\
+The desktop app: the haptic loop (tracking, Voronoi feature switching, stick-slip friction, \
+the device's safety layer) runs at 1 kHz on its own thread on a simulated pantograph, held by \
+a virtual hand that follows the mouse. Press and drag in the 2-D view to move the hand; the \
+rendered force pushes the handle back, so sticking, breakaway and slipping show as you move.";
+
+const GUI_AFTER: &str = "\
+Without SCENE the bundled thesis-2d scene opens; the bundled scenes (thesis-2d, thesis-3d, \
+examples) are one click away in the app, and any scene file can be opened by its path. The \
+device renders the first object of planar curves; a scene of surfaces shows a message (the \
+3-D view comes later).
+
+--record writes one run-log row per tick with the columns of `viewer sim --device` (see \
+`viewer sim --help`), flushed at least every 0.5 s and completed when the window closes; \
+`viewer plot` draws it.
+
+When the window closes a line on standard error gives the frames drawn, the frame time, the \
+loop's tick period and jitter, and the telemetry frames dropped.
+
+Exit status:
+  0  the window was closed
+  1  the window could not be opened, or the recording could not be written
+  2  bad command line, unreadable or invalid scene, a --device other than sim, or a
+     --record file that cannot be created
+
+Examples:
+  viewer
+  viewer gui scenes/examples.json --record run.csv";
+
+const PLOT_AFTER: &str = "\
+Reads a run log with the header of `viewer sim --out` (2-D or 3-D, with or without the \
+--device columns) and draws forces against time over coloured bands of the friction mode, and \
+the joint torques for device logs. A run log carries no CP and GO parameters, so their panel \
+of `sim --plot` is left out.
+
+Exit status:
+  0  plot written
+  1  the plot could not be written
+  2  bad command line, or an unreadable or invalid run log (the message names the line)
+
+Example:
+  viewer plot run.csv --out run.png";
+
+/// Arguments of `gui`.
+#[derive(Debug, Args, Default)]
+pub struct GuiArgs {
+    /// Scene file (JSON, format `scene/1`); the bundled thesis-2d scene without it.
+    #[arg(value_name = "SCENE")]
+    pub scene: Option<PathBuf>,
+    /// The device: `sim`, the simulated pantograph in this process (the only one for now).
+    #[arg(long, value_name = "DEVICE", default_value = "sim", value_parser = gui_device)]
+    pub device: String,
+    /// Record the telemetry to this run log (CSV) while the app runs.
+    #[arg(long, value_name = "RUN.csv")]
+    pub record: Option<PathBuf>,
+    /// Close the window by itself after this many frames (for tests and CI).
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u64).range(1..))]
+    pub quit_after_frames: Option<u64>,
+    /// Move the hand along the thesis's 2-D path (scenes/thesis-2d.csv), as a drag would.
+    #[arg(long)]
+    pub demo: bool,
+}
+
+fn gui_device(text: &str) -> Result<String, String> {
+    let later = "USB HID (hid), serial (serial:PATH) and the emulated board (tcp:HOST:PORT) \
+                 come later";
+    match text {
+        "sim" => Ok(text.to_owned()),
+        t if t == "hid" || t.starts_with("serial:") || t.starts_with("tcp:") => Err(format!(
+            "{t}: the GUI drives only the simulated pantograph for now (--device sim); {later}"
+        )),
+        t => Err(format!(
+            "{t:?} is not a device; the GUI supports --device sim for now ({later})"
+        )),
+    }
+}
+
+/// Arguments of `plot`.
+#[derive(Debug, Args)]
+pub struct PlotArgs {
+    /// The run log (CSV).
+    #[arg(value_name = "RUN.csv")]
+    pub log: PathBuf,
+    /// Where to write the PNG.
+    #[arg(long, value_name = "RUN.png")]
+    pub out: PathBuf,
 }
 
 /// `device …` subcommands.
@@ -375,6 +471,53 @@ pub struct PatchSelection {
 mod tests {
     use super::*;
     use clap::CommandFactory;
+
+    #[test]
+    fn gui_arguments() {
+        let cli = Cli::try_parse_from(["viewer", "gui"]).expect("valid");
+        let Some(Command::Gui(args)) = cli.command else {
+            panic!("gui")
+        };
+        assert_eq!(
+            (args.scene, args.device.as_str(), args.record),
+            (None, "sim", None)
+        );
+        let cli = Cli::try_parse_from([
+            "viewer", "gui", "s.json", "--device", "sim", "--record", "r.csv",
+        ])
+        .expect("valid");
+        let Some(Command::Gui(args)) = cli.command else {
+            panic!("gui")
+        };
+        assert_eq!(args.scene, Some(PathBuf::from("s.json")));
+        assert_eq!(args.record, Some(PathBuf::from("r.csv")));
+        for later in ["hid", "serial:/dev/ttyACM0", "tcp:localhost:4000"] {
+            let e = Cli::try_parse_from(["viewer", "gui", "--device", later]).expect_err(later);
+            let text = e.to_string();
+            assert!(
+                text.contains("only the simulated pantograph for now (--device sim)"),
+                "{text}"
+            );
+        }
+        let e = Cli::try_parse_from(["viewer", "gui", "--device", "usb"]).expect_err("usb");
+        assert!(e.to_string().contains("--device sim"), "{e}");
+        assert!(Cli::try_parse_from(["viewer", "gui", "--quit-after-frames", "0"]).is_err());
+        let cli = Cli::try_parse_from(["viewer"]).expect("no subcommand");
+        assert!(cli.command.is_none());
+    }
+
+    #[test]
+    fn plot_arguments() {
+        let cli = Cli::try_parse_from(["viewer", "plot", "r.csv", "--out", "r.png"]).expect("ok");
+        let Some(Command::Plot(args)) = cli.command else {
+            panic!("plot")
+        };
+        assert_eq!(
+            (args.log, args.out),
+            (PathBuf::from("r.csv"), PathBuf::from("r.png"))
+        );
+        assert!(Cli::try_parse_from(["viewer", "plot", "r.csv"]).is_err());
+    }
 
     #[test]
     fn command_line_is_consistent() {

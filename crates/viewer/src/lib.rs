@@ -5,8 +5,12 @@ pub mod cli;
 pub mod closest;
 pub mod devices;
 pub mod eval;
+#[cfg(feature = "gui")]
+pub mod gui;
+pub mod haptic;
 pub mod output;
 pub mod plot;
+pub mod runlog;
 pub mod scene;
 pub mod sim;
 pub mod stribeck;

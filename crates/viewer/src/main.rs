@@ -5,9 +5,10 @@ use std::path::Path;
 use std::process::ExitCode;
 
 use anyhow::{Context, Result, anyhow};
-use clap::{CommandFactory, Parser};
+use clap::Parser;
 use viewer::cli::{
-    Cli, ClosestArgs, Command, EXIT_BAD_INPUT, EXIT_BAD_SETUP, EvalArgs, PatchSelection, SimArgs,
+    Cli, ClosestArgs, Command, EXIT_BAD_INPUT, EXIT_BAD_SETUP, EvalArgs, GuiArgs, PatchSelection,
+    PlotArgs, SimArgs,
 };
 use viewer::closest;
 use viewer::eval::{self, EvalError};
@@ -18,7 +19,12 @@ use viewer::sim::{self, Trajectory};
 
 fn main() -> ExitCode {
     match Cli::parse().command {
-        None => no_command(),
+        None => gui_command(&GuiArgs {
+            device: "sim".into(),
+            ..GuiArgs::default()
+        }),
+        Some(Command::Gui(args)) => gui_command(&args),
+        Some(Command::Plot(args)) => plot_command(&args),
         Some(Command::Eval(args)) => eval_command(&args),
         Some(Command::Sim(args)) => sim_command(&args),
         Some(Command::Closest(args)) => closest_command(&args),
@@ -55,10 +61,74 @@ fn closest_command(args: &ClosestArgs) -> ExitCode {
     }
 }
 
-fn no_command() -> ExitCode {
-    let help = Cli::command().render_help();
-    eprintln!("viewer: the desktop GUI is not implemented yet; use a subcommand.\n\n{help}");
-    ExitCode::from(EXIT_BAD_SETUP)
+#[cfg(feature = "gui")]
+fn gui_command(args: &GuiArgs) -> ExitCode {
+    // The scene is checked before the window opens, so that a bad one is a setup error.
+    if let Some(path) = &args.scene
+        && let Err(e) = Scene::load(path).context("invalid scene")
+    {
+        return fail(&e, EXIT_BAD_SETUP);
+    }
+    if let Some(path) = &args.record
+        && let Err(e) = std::fs::OpenOptions::new()
+            .create(true)
+            .append(true)
+            .open(path)
+            .with_context(|| format!("cannot create the record file {}", path.display()))
+    {
+        return fail(&e, EXIT_BAD_SETUP);
+    }
+    let options = viewer::gui::GuiOptions {
+        scene: args.scene.clone(),
+        record: args.record.clone(),
+        quit_after_frames: args.quit_after_frames,
+        demo: args.demo,
+    };
+    match viewer::gui::run(options) {
+        Ok(summary) => {
+            eprintln!("viewer gui: {summary}");
+            ExitCode::SUCCESS
+        }
+        Err(e) => fail(&e, EXIT_BAD_INPUT),
+    }
+}
+
+#[cfg(not(feature = "gui"))]
+fn gui_command(_: &GuiArgs) -> ExitCode {
+    let e = anyhow!(
+        "this viewer was built without its `gui` feature; use a subcommand (viewer --help) \
+         or rebuild with the default features"
+    );
+    fail(&e, EXIT_BAD_SETUP)
+}
+
+fn plot_command(args: &PlotArgs) -> ExitCode {
+    let log = match viewer::runlog::read(&args.log) {
+        Ok(log) => log,
+        Err(e) => return fail(&anyhow::Error::new(e), EXIT_BAD_SETUP),
+    };
+    let out = match AtomicFile::create(&args.out)
+        .with_context(|| format!("cannot create plot {}", args.out.display()))
+    {
+        Ok(f) => f,
+        Err(e) => return fail(&e, EXIT_BAD_INPUT),
+    };
+    if let Err(e) = plot::write_png_panels(
+        &log.run,
+        out.temp_path(),
+        &args.out,
+        plot::DEFAULT_SIZE,
+        log.has_parameters,
+    ) {
+        return fail(&anyhow::Error::new(e), EXIT_BAD_INPUT);
+    }
+    match out
+        .commit()
+        .with_context(|| format!("cannot write plot {}", args.out.display()))
+    {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => fail(&e, EXIT_BAD_INPUT),
+    }
 }
 
 fn eval_command(args: &EvalArgs) -> ExitCode {

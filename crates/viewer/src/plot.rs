@@ -78,6 +78,18 @@ pub fn write_png_as(
     path: &Path,
     size: (u32, u32),
 ) -> Result<(), PlotError> {
+    write_png_panels(run, file, path, size, true)
+}
+
+/// [`write_png_as`], with the panel of CP and GO parameters only when `parameters` (a run
+/// log read back has none: `viewer plot`).
+pub fn write_png_panels(
+    run: &Run,
+    file: &Path,
+    path: &Path,
+    size: (u32, u32),
+    parameters: bool,
+) -> Result<(), PlotError> {
     load_font()?;
     if run.ticks.is_empty() {
         return Err(PlotError::Empty {
@@ -89,36 +101,54 @@ pub fn write_png_as(
         message: e.to_string(),
     };
     let root = BitMapBackend::new(file, size).into_drawing_area();
-    draw(run, &root).map_err(|e| draw_error(&e))?;
+    draw(run, &root, parameters).map_err(|e| draw_error(&e))?;
     root.present().map_err(|e| draw_error(&e))?;
     Ok(())
 }
 
 type DrawResult<T> = Result<T, Box<dyn std::error::Error>>;
 
-fn draw(run: &Run, root: &DrawingArea<BitMapBackend<'_>, Shift>) -> DrawResult<()> {
+fn draw(
+    run: &Run,
+    root: &DrawingArea<BitMapBackend<'_>, Shift>,
+    with_parameters: bool,
+) -> DrawResult<()> {
     root.fill(&WHITE)?;
-    let title = format!(
-        "object {} ({:?}), {} Hz, K = {} N/m, \u{3bc}s = {}, \u{3bc}d = {}",
-        run.object,
-        run.object_name,
-        run.rate_hz,
-        run.material.stiffness_n_per_m,
-        run.material.mu_static,
-        run.material.mu_dynamic
-    );
+    // A run log read back knows neither the object nor the material.
+    let title = if with_parameters {
+        format!(
+            "object {} ({:?}), {} Hz, K = {} N/m, \u{3bc}s = {}, \u{3bc}d = {}",
+            run.object,
+            run.object_name,
+            run.rate_hz,
+            run.material.stiffness_n_per_m,
+            run.material.mu_static,
+            run.material.mu_dynamic
+        )
+    } else {
+        format!("run log {}, {} Hz", run.object_name, run.rate_hz)
+    };
     let root = root.titled(&title, (FONT, 22))?;
     let height = root.dim_in_pixel().1;
-    if run.is_device_run() {
-        let (top, rest) = root.split_vertically(height * 44 / 100);
-        let (middle, bottom) = rest.split_vertically(height * 28 / 100);
-        forces(run, &top)?;
-        parameters(run, &middle)?;
-        torques(run, &bottom)?;
-    } else {
-        let (top, bottom) = root.split_vertically(height * 58 / 100);
-        forces(run, &top)?;
-        parameters(run, &bottom)?;
+    match (run.is_device_run(), with_parameters) {
+        (true, true) => {
+            let (top, rest) = root.split_vertically(height * 44 / 100);
+            let (middle, bottom) = rest.split_vertically(height * 28 / 100);
+            forces(run, &top)?;
+            parameters(run, &middle)?;
+            torques(run, &bottom)?;
+        }
+        (false, true) => {
+            let (top, bottom) = root.split_vertically(height * 58 / 100);
+            forces(run, &top)?;
+            parameters(run, &bottom)?;
+        }
+        (true, false) => {
+            let (top, bottom) = root.split_vertically(height * 62 / 100);
+            forces(run, &top)?;
+            torques(run, &bottom)?;
+        }
+        (false, false) => forces(run, &root)?,
     }
     Ok(())
 }

@@ -441,7 +441,7 @@ fn with_chain<R>(
 
 /// The default device at `rate_hz` with `chain` and `material` loaded, the passivity
 /// controller on only when the material needs it (returned as the flag).
-fn device_controller<'a>(
+pub(crate) fn device_controller<'a>(
     chain: Chain<'a>,
     material: FrictionMaterial,
     rate_hz: f64,
@@ -502,20 +502,17 @@ pub fn run_device(
             let t_s = trajectory.tick_time_s(i, rate_hz);
             // The device clock: integer microseconds since the start, as a board's timer.
             let now_us = (i as f64 * 1e6 / rate_hz).round() as u64;
-            let (hip, hip_velocity) = arm.hip().map_err(|error| SimError::Arm { t_s, error })?;
-            controller.heartbeat();
-            let out = controller.tick(arm.encoder_counts(), now_us);
-            // The global search that starts the renderer runs between ticks, as a board's
-            // lower-priority task (device::controller, "Acquisition is not the tick's").
-            controller.acquire_now();
-            telemetry.push(out.telemetry);
-            let tick = device_record(t_s, hip, hip_velocity, &out);
-            ticks.push(match controller.object() {
-                Some(object) => in_source_patches(tick, object),
-                None => tick,
-            });
-            arm.step(out.currents_a, vec2(trajectory.at(t_s)), period_s)
-                .map_err(|error| SimError::Arm { t_s, error })?;
+            let target = vec2(trajectory.at(t_s));
+            let (tick, frame) = device_tick(
+                &mut controller,
+                &mut arm,
+                t_s,
+                now_us,
+                target,
+                period_s,
+            )?;
+            ticks.push(tick);
+            telemetry.push(frame);
             progress(i + 1, n);
         }
         Ok(DeviceRun {
@@ -531,6 +528,36 @@ pub fn run_device(
             telemetry,
         })
     })
+}
+
+/// One closed-loop tick, the step of [`run_device`] and of the GUI's haptic loop: a heartbeat,
+/// one controller tick on the simulated encoders at `now_us` (the device clock), the
+/// acquisition a scene load asks for (between ticks, as a board's lower-priority task:
+/// `device::controller`, "Acquisition is not the tick's"), then the simulated pantograph moves
+/// for `period_s` under the controller's currents and the virtual hand pulling towards
+/// `hand_target`. Returns the tick's record, with the handle's true HIP before the move (patch
+/// indices naming the scene's patches), and its telemetry frame. An arm driven into a singular
+/// pose is [`SimError::Arm`]; it stays where it was.
+pub fn device_tick<O: TrackedObject<P = Vec2>>(
+    controller: &mut Controller<O>,
+    arm: &mut SimulatedPantograph,
+    t_s: f64,
+    now_us: u64,
+    hand_target: Vec2,
+    period_s: f32,
+) -> Result<(Tick, Telemetry), SimError> {
+    let (hip, hip_velocity) = arm.hip().map_err(|error| SimError::Arm { t_s, error })?;
+    controller.heartbeat();
+    let out = controller.tick(arm.encoder_counts(), now_us);
+    controller.acquire_now();
+    let tick = device_record(t_s, hip, hip_velocity, &out);
+    let tick = match controller.object() {
+        Some(object) => in_source_patches(tick, object),
+        None => tick,
+    };
+    arm.step(out.currents_a, hand_target, period_s)
+        .map_err(|error| SimError::Arm { t_s, error })?;
+    Ok((tick, out.telemetry))
 }
 
 /// The raw counts the encoders of `spec` read with both joints resting on their end stops:
@@ -663,6 +690,90 @@ pub fn csv_header(space: Space) -> String {
     )
 }
 
+/// Writes the run log's header line: [`csv_header`], followed by [`DEVICE_COLUMNS`] when
+/// `device`.
+pub fn write_csv_header(mut w: impl Write, space: Space, device: bool) -> io::Result<()> {
+    if device {
+        writeln!(w, "{},{DEVICE_COLUMNS}", csv_header(space))
+    } else {
+        writeln!(w, "{}", csv_header(space))
+    }
+}
+
+impl Tick {
+    /// The first run-log column of this tick with a NaN or an infinity, if any.
+    pub fn non_finite_column(&self) -> Option<&'static str> {
+        let k = self;
+        let d = k.device.unwrap_or(DeviceSample {
+            theta_rad: [0.0; 2],
+            tau_nm: [0.0; 2],
+            faults: 0,
+        });
+        let columns: [(&'static str, &[f32]); 11] = [
+            ("hip", &k.hip.to_array()),
+            ("cp", &k.cp.to_array()),
+            ("go", &k.go.to_array()),
+            ("depth_m", &[k.depth_m]),
+            ("normal_force_n", &[k.normal_force_n]),
+            ("friction_force_n", &[k.friction_force_n]),
+            ("mu", &[k.mu]),
+            ("psi", &[k.psi]),
+            ("force", &k.force.to_array()),
+            ("theta_rad", &d.theta_rad),
+            ("tau_nm", &d.tau_nm),
+        ];
+        if !k.t_s.is_finite() {
+            return Some("t_s");
+        }
+        columns
+            .into_iter()
+            .find(|(_, v)| !v.iter().all(|x| x.is_finite()))
+            .map(|(name, _)| name)
+    }
+
+    /// Writes this tick as one run-log row (see [`Run::write_csv`]); with `device`, the
+    /// [`DEVICE_COLUMNS`] too (0 without a [`DeviceSample`]). Does not check finiteness
+    /// ([`Tick::non_finite_column`]).
+    pub fn write_csv_row(&self, mut w: impl Write, space: Space, device: bool) -> io::Result<()> {
+        let k = self;
+        let dim = space.dim();
+        write!(w, "{}", k.t_s)?;
+        for v in [k.hip, k.cp, k.go] {
+            for x in &v.to_array()[..dim] {
+                write!(w, ",{x:?}")?;
+            }
+        }
+        let patch = k.patch.map_or(-1, |p| p as i64);
+        write!(
+            w,
+            ",{patch},{},{},{:?},{:?},{:?},{:?},{:?}",
+            k.mode.name(),
+            k.cause.name(),
+            k.depth_m.max(0.0),
+            k.normal_force_n,
+            k.friction_force_n,
+            k.mu,
+            k.psi
+        )?;
+        for x in &k.force.to_array()[..dim] {
+            write!(w, ",{x:?}")?;
+        }
+        if device {
+            let d = k.device.unwrap_or(DeviceSample {
+                theta_rad: [0.0; 2],
+                tau_nm: [0.0; 2],
+                faults: 0,
+            });
+            write!(
+                w,
+                ",{:?},{:?},{:?},{:?},{}",
+                d.theta_rad[0], d.theta_rad[1], d.tau_nm[0], d.tau_nm[1], d.faults
+            )?;
+        }
+        writeln!(w)
+    }
+}
+
 impl Run {
     /// Writes the run log: [`csv_header`], then one row per tick. `patch` is −1 when free,
     /// `mode` one of `free`, `stuck`, `transition`, `slip`, `cause` why the mode last changed
@@ -684,80 +795,19 @@ impl Run {
         }
         let mut w = io::BufWriter::new(out);
         let device = self.is_device_run();
-        if device {
-            writeln!(w, "{},{DEVICE_COLUMNS}", csv_header(self.space))?;
-        } else {
-            writeln!(w, "{}", csv_header(self.space))?;
-        }
-        let dim = self.space.dim();
+        write_csv_header(&mut w, self.space, device)?;
         for k in &self.ticks {
-            write!(w, "{}", k.t_s)?;
-            for v in [k.hip, k.cp, k.go] {
-                for x in &v.to_array()[..dim] {
-                    write!(w, ",{x:?}")?;
-                }
-            }
-            let patch = k.patch.map_or(-1, |p| p as i64);
-            write!(
-                w,
-                ",{patch},{},{},{:?},{:?},{:?},{:?},{:?}",
-                k.mode.name(),
-                k.cause.name(),
-                k.depth_m.max(0.0),
-                k.normal_force_n,
-                k.friction_force_n,
-                k.mu,
-                k.psi
-            )?;
-            for x in &k.force.to_array()[..dim] {
-                write!(w, ",{x:?}")?;
-            }
-            if device {
-                let d = k.device.unwrap_or(DeviceSample {
-                    theta_rad: [0.0; 2],
-                    tau_nm: [0.0; 2],
-                    faults: 0,
-                });
-                write!(
-                    w,
-                    ",{:?},{:?},{:?},{:?},{}",
-                    d.theta_rad[0], d.theta_rad[1], d.tau_nm[0], d.tau_nm[1], d.faults
-                )?;
-            }
-            writeln!(w)?;
+            k.write_csv_row(&mut w, self.space, device)?;
         }
         w.flush()
     }
 
     /// The first tick and run-log column with a NaN or an infinity.
     fn first_non_finite(&self) -> Option<(usize, &'static str)> {
-        self.ticks.iter().enumerate().find_map(|(i, k)| {
-            let d = k.device.unwrap_or(DeviceSample {
-                theta_rad: [0.0; 2],
-                tau_nm: [0.0; 2],
-                faults: 0,
-            });
-            let columns: [(&'static str, &[f32]); 11] = [
-                ("hip", &k.hip.to_array()),
-                ("cp", &k.cp.to_array()),
-                ("go", &k.go.to_array()),
-                ("depth_m", &[k.depth_m]),
-                ("normal_force_n", &[k.normal_force_n]),
-                ("friction_force_n", &[k.friction_force_n]),
-                ("mu", &[k.mu]),
-                ("psi", &[k.psi]),
-                ("force", &k.force.to_array()),
-                ("theta_rad", &d.theta_rad),
-                ("tau_nm", &d.tau_nm),
-            ];
-            if !k.t_s.is_finite() {
-                return Some((i, "t_s"));
-            }
-            columns
-                .into_iter()
-                .find(|(_, v)| !v.iter().all(|x| x.is_finite()))
-                .map(|(name, _)| (i, name))
-        })
+        self.ticks
+            .iter()
+            .enumerate()
+            .find_map(|(i, k)| k.non_finite_column().map(|c| (i, c)))
     }
 
     /// Whether this is a closed-loop run of the device ([`run_device`]): its ticks carry a

@@ -284,13 +284,30 @@ fn help_documents_input_output_and_exit_status() {
     }
 }
 
+/// `viewer` alone is `viewer gui`, which opens a window: only its refusals are tested here
+/// (they happen before any window; the window itself is `cargo xtask ci`'s Xvfb test).
 #[test]
-fn no_subcommand_prints_help_and_exits_2() {
-    let out = viewer(&[], "");
+fn gui_refuses_other_devices_and_bad_scenes_before_opening_a_window() {
+    for device in ["hid", "serial:/dev/ttyACM0", "tcp:127.0.0.1:4000"] {
+        let out = viewer(&["gui", "--device", device], "");
+        assert_eq!(out.status.code(), Some(2), "{device}");
+        let err = stderr(&out);
+        assert!(
+            err.contains("only the simulated pantograph for now (--device sim)"),
+            "{err}"
+        );
+        assert!(err.contains("tcp:HOST:PORT"), "{err}");
+    }
+    let out = viewer(&["gui", "no-such-scene.json"], "");
     assert_eq!(out.status.code(), Some(2));
     let err = stderr(&out);
-    assert!(err.contains("GUI"), "{err}");
-    assert!(err.contains("eval"), "{err}");
+    assert!(err.contains("no-such-scene.json"), "{err}");
+    let help = viewer(&["--help"], "");
+    let text = String::from_utf8_lossy(&help.stdout);
+    assert!(
+        text.contains("Without a subcommand the desktop app starts"),
+        "{text}"
+    );
 }
 
 /// Scene numbers that f32 evaluation cannot carry: a weight of 1e-20 beside weights of 1 and
@@ -343,4 +360,43 @@ fn eval_refuses_scenes_f32_cannot_evaluate() {
     assert_eq!(out.status.code(), Some(1), "{}", stderr(&out));
     assert!(out.stdout.is_empty());
     assert!(stderr(&out).contains("line 1 (\"0\"): the answer's duu is not a finite f32"));
+}
+
+/// `viewer plot` draws a `sim --device` run log; a file that is not a run log is refused
+/// with exit 2, naming the file and the line.
+#[test]
+fn plot_draws_a_run_log_and_refuses_other_files() {
+    let dir = TempScene::new("plot", "not a scene");
+    let root = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../..");
+    let scene = root.join("scenes/thesis-2d.json");
+    let trajectory = dir.dir.join("press.csv");
+    std::fs::write(&trajectory, "t,x,y\n0,0.0,0.1\n0.4,0.0,0.09\n").expect("write");
+    let log = dir.dir.join("run.csv");
+    let png = dir.dir.join("run.png");
+    let s = |p: &PathBuf| p.to_str().expect("UTF-8 path").to_owned();
+    let out = viewer(
+        &[
+            "sim",
+            &s(&scene),
+            "--device",
+            "--trajectory",
+            &s(&trajectory),
+            "--out",
+            &s(&log),
+        ],
+        "",
+    );
+    assert_eq!(out.status.code(), Some(0), "{}", stderr(&out));
+    let out = viewer(&["plot", &s(&log), "--out", &s(&png)], "");
+    assert_eq!(out.status.code(), Some(0), "{}", stderr(&out));
+    let bytes = std::fs::read(&png).expect("the plot");
+    assert!(bytes.starts_with(b"\x89PNG\r\n\x1a\n"), "a PNG");
+
+    let out = viewer(&["plot", dir.path(), "--out", &s(&png)], "");
+    assert_eq!(out.status.code(), Some(2));
+    let err = stderr(&out);
+    assert!(
+        err.contains("plot.json: line 1 is not a run log's header"),
+        "{err}"
+    );
 }

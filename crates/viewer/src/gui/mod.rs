@@ -1,0 +1,629 @@
+//! The desktop app (`viewer gui`, and `viewer` alone): egui on eframe's wgpu renderer.
+//!
+//! Rerun-style: the haptic loop runs on its own thread ([`crate::haptic::LoopThread`]) and
+//! the UI reads what it sends, never waiting for it; [`state::AppState`] holds everything
+//! apart from the drawing, so tests drive it without a window, and the panels below are
+//! small functions named by what they show (`*_ui`), each snapshot-tested with
+//! `egui_kittest`.
+
+pub mod state;
+pub mod view;
+
+use std::path::{Path, PathBuf};
+use std::time::{Duration, Instant};
+
+use eframe::egui;
+use egui::{Color32, RichText};
+use egui_plot::{Corner, Legend, Line, Plot, PlotPoints, Span};
+use friction::{FrictionMaterial, Mode, Stribeck};
+
+use crate::haptic::Recorder;
+use crate::scene::Scene;
+use crate::trajectory::Trajectory;
+use state::{AppState, BUNDLED};
+use view::{View2d, mode_colour, view_2d_ui};
+
+/// Plot colours of the force lines.
+const NORMAL: Color32 = Color32::from_rgb(40, 110, 200);
+const FRICTION: Color32 = Color32::from_rgb(200, 90, 40);
+const TOTAL: Color32 = Color32::from_rgb(30, 30, 30);
+
+/// Points per plotted series at most (the history is decimated to this).
+const PLOT_POINTS: usize = 1000;
+
+/// The UI: the state, the 2-D view's camera and the open-scene field.
+#[derive(Debug)]
+pub struct ViewerUi {
+    /// The app's state.
+    pub state: AppState,
+    /// The 2-D view's camera.
+    pub view: View2d,
+    /// Where `--record` writes, shown in the status bar.
+    pub recording: Option<PathBuf>,
+}
+
+impl ViewerUi {
+    /// A UI on `state`.
+    pub fn new(state: AppState) -> Self {
+        ViewerUi {
+            state,
+            view: View2d::default(),
+            recording: None,
+        }
+    }
+
+    /// The whole window: scenes on top, status at the bottom, materials on the left,
+    /// telemetry on the right, the 2-D view in the middle.
+    pub fn ui(&mut self, ui: &mut egui::Ui) {
+        let before = self.state.scene.label.clone();
+        egui::Panel::top("scenes").show(ui, |ui| scenes_ui(ui, &mut self.state));
+        if self.state.scene.label != before {
+            self.view.fit_pending = true;
+        }
+        egui::Panel::bottom("status").show(ui, |ui| {
+            status_bar_ui(ui, &mut self.state, self.recording.as_deref());
+        });
+        egui::Panel::left("materials")
+            .default_size(250.0)
+            .show(ui, |ui| materials_ui(ui, &mut self.state));
+        egui::Panel::right("telemetry")
+            .default_size(430.0)
+            .show(ui, |ui| telemetry_ui(ui, &self.state));
+        egui::CentralPanel::no_frame().show(ui, |ui| {
+            view_2d_ui(ui, &mut self.state, &mut self.view);
+        });
+    }
+}
+
+/// The bundled scenes, one click each, and a path field to open a scene file.
+pub fn scenes_ui(ui: &mut egui::Ui, state: &mut AppState) {
+    ui.horizontal_wrapped(|ui| {
+        ui.label(RichText::new("Scenes").strong());
+        for b in BUNDLED {
+            let selected = state.scene.label == b.name;
+            if ui.selectable_label(selected, b.name).clicked() {
+                state.open_bundled(b.name);
+            }
+        }
+        ui.separator();
+        ui.label("file:");
+        let field = ui.add(
+            egui::TextEdit::singleline(&mut state.scene_path)
+                .hint_text("path/to/scene.json")
+                .desired_width(260.0),
+        );
+        let enter = field.lost_focus() && ui.input(|i| i.key_pressed(egui::Key::Enter));
+        if (ui.button("Open").clicked() || enter) && !state.scene_path.trim().is_empty() {
+            let path = PathBuf::from(state.scene_path.trim());
+            state.open_path(&path);
+        }
+    });
+    if let Some(e) = &state.scene_error {
+        ui.colored_label(Color32::from_rgb(190, 30, 30), e);
+    }
+}
+
+/// The rendered object's material: stiffness, damping, μs, μd and the Stribeck speed,
+/// applied as they are edited; a value the material or the device refuses is named and the
+/// running material stays.
+pub fn materials_ui(ui: &mut egui::Ui, state: &mut AppState) {
+    ui.heading("Material");
+    let Some(index) = state.scene.rendered else {
+        ui.label("No object of planar curves: nothing to render.");
+        return;
+    };
+    if let Some(o) = state.scene.objects.get(index) {
+        ui.label(format!("object {index}: {}", o.name));
+    }
+    let m = &mut state.edited_material;
+    let mut changed = false;
+    egui::Grid::new("material").num_columns(2).show(ui, |ui| {
+        let mut row = |ui: &mut egui::Ui, label: &str, v: &mut f32, speed: f64, unit: &str| {
+            let name = ui.label(label);
+            changed |= ui
+                .add(
+                    egui::DragValue::new(v)
+                        .speed(speed)
+                        .max_decimals(4)
+                        .suffix(unit),
+                )
+                .labelled_by(name.id)
+                .changed();
+            ui.end_row();
+        };
+        row(ui, "stiffness K", &mut m.stiffness_n_per_m, 10.0, " N/m");
+        row(ui, "damping b", &mut m.damping_ns_per_m, 0.05, " N·s/m");
+        row(ui, "μ static", &mut m.mu_static, 0.01, "");
+        row(ui, "μ dynamic", &mut m.mu_dynamic, 0.01, "");
+        row(
+            ui,
+            "Stribeck speed",
+            &mut m.stribeck_speed_m_per_s,
+            0.001,
+            " m/s",
+        );
+    });
+    if changed {
+        state.apply_material();
+    }
+    ui.horizontal(|ui| {
+        if ui.button("Revert to running").clicked() {
+            state.revert_material();
+        }
+    });
+    if let Some(e) = &state.material_error {
+        ui.colored_label(Color32::from_rgb(190, 30, 30), e);
+        ui.label("The running material is unchanged.");
+    }
+    if let Some(r) = state.running_material {
+        ui.separator();
+        ui.label(RichText::new("Running").strong());
+        ui.label(material_text(&r));
+    }
+}
+
+fn material_text(m: &FrictionMaterial) -> String {
+    let stribeck = match m.stribeck {
+        Stribeck::Power { exponent } => format!("power {exponent}"),
+        other => format!("{other:?}").to_lowercase(),
+    };
+    format!(
+        "K = {} N/m, b = {} N·s/m\nμs = {}, μd = {}\nStribeck: {stribeck}, v_s = {} m/s\nmodel: {:?}",
+        m.stiffness_n_per_m,
+        m.damping_ns_per_m,
+        m.mu_static,
+        m.mu_dynamic,
+        m.stribeck_speed_m_per_s,
+        m.model
+    )
+}
+
+/// The telemetry: the newest values, the mode switches, and plots of the last
+/// [`state::HISTORY_S`] seconds.
+pub fn telemetry_ui(ui: &mut egui::Ui, state: &AppState) {
+    ui.heading("Telemetry");
+    let Some(latest) = state.latest() else {
+        ui.label("waiting for the loop…");
+        return;
+    };
+    let k = &latest.tick;
+    egui::Grid::new("now").num_columns(4).show(ui, |ui| {
+        ui.label("mode");
+        ui.label(
+            RichText::new(k.mode.name())
+                .color(mode_colour(k.mode))
+                .strong(),
+        );
+        ui.label("switch cause");
+        ui.label(k.cause.name());
+        ui.end_row();
+        ui.label("F_N");
+        ui.label(format!("{:.3} N", k.normal_force_n));
+        ui.label("F_T");
+        ui.label(format!("{:+.3} N", k.friction_force_n));
+        ui.end_row();
+        ui.label("|F| (device)");
+        ui.label(format!("{:.3} N", k.force.length()));
+        ui.label("depth");
+        ui.label(format!("{:.3} mm", k.depth_m.max(0.0) * 1e3));
+        ui.end_row();
+        ui.label("μ");
+        ui.label(format!("{:.3}", k.mu));
+        ui.label("Ψ");
+        ui.label(format!("{:.2e}", k.psi));
+        ui.end_row();
+    });
+    let switches: Vec<String> = state
+        .switches
+        .iter()
+        .rev()
+        .take(3)
+        .map(|s| {
+            format!(
+                "{:.3} s  {} -> {}  ({})",
+                s.t_s,
+                s.from.name(),
+                s.to.name(),
+                s.cause.name()
+            )
+        })
+        .collect();
+    if !switches.is_empty() {
+        ui.label(RichText::new("last switches").strong());
+        for s in switches {
+            ui.label(s);
+        }
+    }
+
+    let t_now = k.t_s;
+    let step = (state.history.len() / PLOT_POINTS).max(1);
+    let series = |f: &dyn Fn(&state::AppState, usize) -> f64| -> PlotPoints<'static> {
+        state
+            .history
+            .iter()
+            .enumerate()
+            .step_by(step)
+            .map(|(i, s)| [s.tick.t_s - t_now, f(state, i)])
+            .collect()
+    };
+    let at = |st: &AppState, i: usize| st.history[i].tick;
+    let link = egui::Id::unique("telemetry-time");
+    let plot = |name: &str, height: f32| {
+        Plot::new(name.to_owned())
+            .height(height)
+            .link_axis(link, egui::Vec2b::new(true, false))
+            .allow_scroll(false)
+            .allow_zoom(false)
+            .allow_drag(false)
+            .include_x(-state::HISTORY_S)
+            .include_x(0.0)
+            .y_axis_min_width(36.0)
+            .legend(Legend::default().position(Corner::LeftTop))
+    };
+    ui.label(RichText::new("forces (N) over the friction mode").strong());
+    plot("forces", 150.0).include_y(0.0).show(ui, |p| {
+        for (mode, from, to) in mode_spans(state, t_now) {
+            p.span(
+                Span::new(mode.name(), from..=to)
+                    .fill(mode_colour(mode).gamma_multiply(0.25))
+                    .border_width(0.0),
+            );
+        }
+        p.line(
+            Line::new("normal", series(&|s, i| f64::from(at(s, i).normal_force_n))).color(NORMAL),
+        );
+        p.line(
+            Line::new(
+                "friction",
+                series(&|s, i| f64::from(at(s, i).friction_force_n)),
+            )
+            .color(FRICTION),
+        );
+        p.line(
+            Line::new(
+                "|total|",
+                series(&|s, i| f64::from(at(s, i).force.length())),
+            )
+            .color(TOTAL),
+        );
+    });
+    ui.label(RichText::new("μ, depth (mm), Ψ").strong());
+    plot("mu-depth", 90.0).include_y(0.0).show(ui, |p| {
+        p.line(Line::new("μ", series(&|s, i| f64::from(at(s, i).mu))).color(FRICTION));
+        p.line(
+            Line::new(
+                "depth mm",
+                series(&|s, i| f64::from(at(s, i).depth_m.max(0.0)) * 1e3),
+            )
+            .color(NORMAL),
+        );
+    });
+    plot("psi", 70.0)
+        .y_axis_formatter(|mark, _| format!("{:.0e}", mark.value))
+        .y_axis_min_width(44.0)
+        .show(ui, |p| {
+            p.line(Line::new("Ψ", series(&|s, i| f64::from(at(s, i).psi))).color(TOTAL));
+        });
+    ui.label(RichText::new("tick period (µs)").strong());
+    if state.is_threaded() {
+        plot("period", 80.0).include_y(1000.0).show(ui, |p| {
+            let points: PlotPoints<'static> = state
+                .history
+                .iter()
+                .step_by(step)
+                .filter_map(|s| s.period_us.map(|v| [s.tick.t_s - t_now, f64::from(v)]))
+                .collect();
+            p.line(Line::new("period", points).color(TOTAL));
+        });
+    } else {
+        ui.label("stepped loop: no clock, no jitter");
+    }
+}
+
+/// The mode bands of the history, in plot time (s before the newest tick).
+fn mode_spans(state: &AppState, t_now: f64) -> Vec<(Mode, f64, f64)> {
+    let mut spans: Vec<(Mode, f64, f64)> = Vec::new();
+    for s in &state.history {
+        let t = s.tick.t_s - t_now;
+        match spans.last_mut() {
+            Some((mode, _, to)) if *mode == s.tick.mode => *to = t,
+            _ => spans.push((s.tick.mode, t, t)),
+        }
+    }
+    spans.retain(|(m, _, _)| *m != Mode::Free);
+    spans
+}
+
+/// Forces on/off, the latched faults and their clear button, the loop's tick rate and
+/// jitter, the frame time, the dropped samples, the recording.
+pub fn status_bar_ui(ui: &mut egui::Ui, state: &mut AppState, recording: Option<&Path>) {
+    ui.horizontal_wrapped(|ui| {
+        let mut on = state.forces_requested;
+        if ui.checkbox(&mut on, "forces").changed() {
+            state.set_forces(on);
+        }
+        let live = state.latest().map(|s| s.forces_enabled);
+        if live == Some(false) && on {
+            ui.label("(switching…)");
+        }
+        ui.separator();
+        let faults = state.faults();
+        if faults.is_empty() {
+            ui.label("faults: none");
+        } else {
+            let names: Vec<&str> = faults.names().collect();
+            ui.colored_label(
+                Color32::from_rgb(190, 30, 30),
+                format!("faults latched: {} (forces off)", names.join(", ")),
+            );
+        }
+        if ui
+            .add_enabled(!faults.is_empty(), egui::Button::new("Clear faults"))
+            .clicked()
+        {
+            state.clear_faults();
+        }
+        if let Some(f) = state.faults_after_clear
+            && !f.is_empty()
+            && !faults.is_empty()
+        {
+            let names: Vec<&str> = f.names().collect();
+            ui.label(format!("still present: {}", names.join(", ")));
+        }
+        ui.separator();
+        match state.recent_jitter() {
+            Some((mean, max, p99)) => {
+                let priority = if state.loop_realtime() {
+                    "real-time"
+                } else {
+                    "normal priority"
+                };
+                ui.label(format!(
+                    "tick {mean:.1} µs (1 kHz, {priority}): jitter p99 {p99:.0} µs, max {max:.0} µs"
+                ));
+            }
+            None => {
+                ui.label("tick: stepped (no clock)");
+            }
+        }
+        ui.separator();
+        if let Some((mean, max, ui_ms)) = state.frame_stats() {
+            ui.label(format!(
+                "frame {mean:.1} ms (max {max:.1}), UI {ui_ms:.1} ms"
+            ));
+            ui.separator();
+        }
+        let (samples, commands, records) = state.dropped();
+        ui.label(format!("dropped: {samples} frames"));
+        if commands > 0 {
+            ui.label(format!(", {commands} commands"));
+        }
+        if let Some(path) = recording {
+            ui.separator();
+            ui.label(format!("recording {} ({records} dropped)", path.display()));
+        }
+        if !state.loop_running() {
+            ui.colored_label(Color32::from_rgb(190, 30, 30), "haptic loop stopped");
+        }
+        if let Some(e) = state.arm_error() {
+            ui.colored_label(Color32::from_rgb(190, 30, 30), e);
+        }
+    });
+}
+
+/// How `viewer gui` starts.
+#[derive(Clone, Debug, Default)]
+pub struct GuiOptions {
+    /// The scene file; the bundled thesis-2d scene when `None`.
+    pub scene: Option<PathBuf>,
+    /// Record the run log here.
+    pub record: Option<PathBuf>,
+    /// Close the window by itself after this many frames (tests, CI).
+    pub quit_after_frames: Option<u64>,
+    /// Move the hand along the thesis's 2-D path, forth and back, as a drag would.
+    pub demo: bool,
+}
+
+/// What a session measured, printed when the window closes.
+#[derive(Clone, Debug, Default)]
+pub struct Summary {
+    /// Frames drawn.
+    pub frames: u64,
+    /// Mean and 95th-percentile frame interval (ms).
+    pub frame_ms: Option<(f32, f32)>,
+    /// Mean time the app's own UI code took per frame (ms): layout and state, before
+    /// tessellation and rendering.
+    pub ui_ms: Option<f32>,
+    /// Whether the loop thread got real-time scheduling.
+    pub realtime: bool,
+    /// Mean tick period and 99th-percentile and largest |period − 1 ms| (µs).
+    pub tick_us: Option<(f64, f32, f32)>,
+    /// Samples dropped on the way to the UI.
+    pub dropped: u64,
+    /// Ticks run.
+    pub received: u64,
+}
+
+impl std::fmt::Display for Summary {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "{} frames", self.frames)?;
+        if let Some((mean, p95)) = self.frame_ms {
+            write!(f, ", frame time mean {mean:.1} ms (p95 {p95:.1} ms)")?;
+        }
+        if let Some(ui) = self.ui_ms {
+            write!(f, ", UI {ui:.1} ms")?;
+        }
+        if let Some((mean, p99, max)) = self.tick_us {
+            write!(
+                f,
+                "; {} ticks ({} priority), period mean {mean:.1} µs, jitter p99 {p99:.0} µs, \
+                 max {max:.0} µs",
+                self.received,
+                if self.realtime { "real-time" } else { "normal" }
+            )?;
+        }
+        write!(f, "; {} telemetry frames dropped", self.dropped)
+    }
+}
+
+struct ViewerApp {
+    ui: ViewerUi,
+    options: GuiOptions,
+    demo: Option<Trajectory>,
+    started: Instant,
+    last_frame: Option<Instant>,
+    frames: u64,
+    intervals: Vec<f32>,
+    ui_total_ms: f64,
+    summary: std::sync::Arc<std::sync::Mutex<Summary>>,
+}
+
+impl eframe::App for ViewerApp {
+    fn ui(&mut self, ui: &mut egui::Ui, _frame: &mut eframe::Frame) {
+        let begun = Instant::now();
+        if let Some(demo) = &self.demo {
+            // Forth and back along the path, so that the target never jumps (a jump would
+            // yank the handle past the device's speed limit and latch a fault).
+            let span = demo.end_s() - demo.start_s();
+            let phase = self.started.elapsed().as_secs_f64() % (2.0 * span);
+            let t = demo.start_s()
+                + if phase < span {
+                    phase
+                } else {
+                    2.0 * span - phase
+                };
+            let p = demo.at(t);
+            self.ui
+                .state
+                .set_hand_target(nurbs::Vec2::new(p[0] as f32, p[1] as f32));
+        }
+        self.ui.state.poll();
+        self.ui.ui(ui);
+        let interval = self.last_frame.map(|l| (begun - l).as_secs_f32() * 1e3);
+        self.last_frame = Some(begun);
+        let ui_ms = begun.elapsed().as_secs_f32() * 1e3;
+        if let Some(interval) = interval {
+            self.ui.state.record_frame(interval, ui_ms);
+            self.intervals.push(interval);
+        }
+        self.ui_total_ms += f64::from(ui_ms);
+        self.frames += 1;
+        if self
+            .options
+            .quit_after_frames
+            .is_some_and(|n| self.frames >= n)
+        {
+            ui.ctx().send_viewport_cmd(egui::ViewportCommand::Close);
+        }
+        // The loop ticks on: redraw at about 60 Hz (a display's vsync may slow this).
+        ui.ctx().request_repaint_after(Duration::from_millis(15));
+    }
+
+    fn on_exit(&mut self) {
+        let mut intervals = std::mem::take(&mut self.intervals);
+        intervals.sort_by(f32::total_cmp);
+        let frame_ms = (!intervals.is_empty()).then(|| {
+            let mean = intervals.iter().sum::<f32>() / intervals.len() as f32;
+            let p95 = intervals
+                [((intervals.len() as f32 * 0.95).ceil() as usize).clamp(1, intervals.len()) - 1];
+            (mean, p95)
+        });
+        let j = &self.ui.state.jitter;
+        let tick_us = j.mean_period_us().map(|mean| {
+            (
+                mean,
+                j.quantile_us(0.99).unwrap_or(j.max_abs_us),
+                j.max_abs_us,
+            )
+        });
+        let summary = Summary {
+            frames: self.frames,
+            frame_ms,
+            ui_ms: (self.frames > 0).then(|| (self.ui_total_ms / self.frames as f64) as f32),
+            realtime: self.ui.state.loop_realtime(),
+            tick_us,
+            dropped: self.ui.state.dropped().0,
+            received: self.ui.state.received,
+        };
+        if let Ok(mut s) = self.summary.lock() {
+            *s = summary;
+        }
+        self.ui.state.shutdown();
+    }
+}
+
+/// Runs the app until its window closes; returns what it measured. Errors name what could
+/// not be opened (the scene, the record file, the window).
+pub fn run(options: GuiOptions) -> anyhow::Result<Summary> {
+    use anyhow::Context;
+    let (label, scene) = match &options.scene {
+        Some(path) => (
+            path.display().to_string(),
+            Scene::load(path).context("invalid scene")?,
+        ),
+        None => (
+            BUNDLED[0].name.to_owned(),
+            Scene::from_json_str(BUNDLED[0].json).context("the bundled thesis-2d scene")?,
+        ),
+    };
+    let (recorder, record_tx) = match &options.record {
+        Some(path) => {
+            let (r, tx) = Recorder::start(path)
+                .with_context(|| format!("cannot create the record file {}", path.display()))?;
+            (Some(r), Some(tx))
+        }
+        None => (None, None),
+    };
+    let state = AppState::new(&label, scene, true, record_tx)?;
+    let mut ui = ViewerUi::new(state);
+    ui.recording = options.record.clone();
+    let demo = if options.demo {
+        Some(Trajectory::parse(state::DEMO_PATH, "scenes/thesis-2d.csv")?)
+    } else {
+        None
+    };
+    let summary = std::sync::Arc::new(std::sync::Mutex::new(Summary::default()));
+    let app = ViewerApp {
+        ui,
+        options: options.clone(),
+        demo,
+        started: Instant::now(),
+        last_frame: None,
+        frames: 0,
+        intervals: Vec::new(),
+        ui_total_ms: 0.0,
+        summary: summary.clone(),
+    };
+    let native = eframe::NativeOptions {
+        viewport: egui::ViewportBuilder::default()
+            .with_title("NURBS haptics viewer")
+            .with_inner_size([1400.0, 860.0]),
+        ..Default::default()
+    };
+    let result = eframe::run_native(
+        "nurbs-haptics-viewer",
+        native,
+        Box::new(move |cc| {
+            cc.egui_ctx.set_theme(egui::Theme::Light);
+            Ok(Box::new(app))
+        }),
+    );
+    // The app (and the loop, whose sender feeds the recorder) is gone by now.
+    let recorded = recorder.map(Recorder::finish).transpose();
+    result.map_err(|e| anyhow::anyhow!("cannot run the window: {e}"))?;
+    let recorded = recorded.context("the recording")?;
+    let summary = summary.lock().map(|s| s.clone()).unwrap_or_default();
+    if let (Some(r), Some(path)) = (recorded, &options.record) {
+        eprintln!(
+            "viewer gui: recorded {} ticks to {}{}",
+            r.rows,
+            path.display(),
+            if r.skipped > 0 {
+                format!(" ({} skipped: not finite)", r.skipped)
+            } else {
+                String::new()
+            }
+        );
+    }
+    Ok(summary)
+}

@@ -1,0 +1,756 @@
+//! The app's state, apart from the drawing: the haptic loop (on its thread, or stepped in
+//! place for tests), the telemetry history, the scene as drawn, the material editor and the
+//! measurements. Everything the panels show is read from here, and everything they do goes
+//! through its methods, so a test drives the app by calling them, without a window.
+
+use std::collections::VecDeque;
+use std::path::Path;
+use std::sync::atomic::Ordering;
+
+use device::kinematics::Pantograph;
+use device::safety::{Faults, SafetyConfig};
+use device::spec::{DeviceSpec, WorkspaceBox};
+use friction::{FrictionMaterial, Mode, SwitchCause};
+use nurbs::Vec2;
+
+use crate::haptic::{
+    self, Command, HapticLoop, LoopThread, MaterialChangeError, Reply, START_HIP, Sample, Session,
+};
+use crate::scene::{Material, Patch, Scene, Space};
+use crate::sim::Tick;
+
+/// Seconds of telemetry the plots show.
+pub const HISTORY_S: f64 = 5.0;
+/// Samples in the tick-jitter statistics window (1 s at 1 kHz).
+pub const JITTER_WINDOW: usize = 1000;
+/// Frames in the frame-time statistics window.
+pub const FRAME_WINDOW: usize = 120;
+/// Points per curve patch drawn in the 2-D view (for display only).
+pub const CURVE_SAMPLES: usize = 256;
+
+/// A scene that ships with the program.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Bundled {
+    /// Short name (the file's stem).
+    pub name: &'static str,
+    /// The `scene/1` JSON.
+    pub json: &'static str,
+}
+
+/// The bundled scenes, `scenes/*.json`, embedded so that the binary runs from any directory.
+pub const BUNDLED: &[Bundled] = &[
+    Bundled {
+        name: "thesis-2d",
+        json: include_str!("../../../../scenes/thesis-2d.json"),
+    },
+    Bundled {
+        name: "thesis-3d",
+        json: include_str!("../../../../scenes/thesis-3d.json"),
+    },
+    Bundled {
+        name: "examples",
+        json: include_str!("../../../../scenes/examples.json"),
+    },
+];
+
+/// The thesis's 2-D hand path (`scenes/thesis-2d.csv`), which `--demo` plays as the hand's
+/// target, as `viewer sim --device` does.
+pub const DEMO_PATH: &str = include_str!("../../../../scenes/thesis-2d.csv");
+
+/// One object as the 2-D view draws it.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ObjectView {
+    /// Its name.
+    pub name: String,
+    /// Planar or spatial.
+    pub space: Space,
+    /// Each patch sampled along its parameter (planar curves; empty for surfaces).
+    pub curves: Vec<Vec<Vec2>>,
+    /// Each patch's control polygon (x, y of the control points).
+    pub control_polygons: Vec<Vec<Vec2>>,
+}
+
+/// A scene as the UI knows it.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SceneView {
+    /// Where it came from (a bundled name or a path).
+    pub label: String,
+    /// Its objects.
+    pub objects: Vec<ObjectView>,
+    /// The object the device renders.
+    pub rendered: Option<usize>,
+    /// Bounding box of everything drawn (m): min, max.
+    pub bounds: (Vec2, Vec2),
+}
+
+impl SceneView {
+    /// The drawable geometry of `scene`.
+    pub fn new(label: &str, scene: &Scene, rendered: Option<usize>) -> Self {
+        let mut objects = Vec::new();
+        let (mut lo, mut hi) = (Vec2::splat(f32::INFINITY), Vec2::splat(f32::NEG_INFINITY));
+        for o in scene.objects() {
+            let mut curves = Vec::new();
+            let mut control_polygons = Vec::new();
+            let mut extra = Vec::new();
+            for p in o.patches() {
+                match p {
+                    Patch::Curve2(c) => {
+                        let view = c.view();
+                        let (a, b) = view.domain();
+                        let pts: Vec<Vec2> = (0..=CURVE_SAMPLES)
+                            .map(|i| {
+                                let u = a + (b - a) * i as f32 / CURVE_SAMPLES as f32;
+                                view.point(u)
+                            })
+                            .collect();
+                        curves.push(pts);
+                        control_polygons.push(
+                            (0..view.points().len())
+                                .filter_map(|i| view.control_point(i).map(|(p, _)| p))
+                                .collect(),
+                        );
+                    }
+                    // Spatial patches are not drawn in the 2-D view; their control points
+                    // (projected on z = 0) still bound the scene.
+                    Patch::Curve3(c) => {
+                        let dehom = c.points().iter().map(|h| Vec2::new(h.x / h.w, h.y / h.w));
+                        extra.extend(dehom);
+                    }
+                    Patch::Surface(s) => {
+                        let dehom = s.points().iter().map(|h| Vec2::new(h.x / h.w, h.y / h.w));
+                        extra.extend(dehom);
+                    }
+                }
+            }
+            for p in curves
+                .iter()
+                .chain(&control_polygons)
+                .flatten()
+                .chain(&extra)
+            {
+                lo = lo.min(*p);
+                hi = hi.max(*p);
+            }
+            objects.push(ObjectView {
+                name: o.name().to_owned(),
+                space: o.space(),
+                curves,
+                control_polygons,
+            });
+        }
+        if !(lo.is_finite() && hi.is_finite()) {
+            (lo, hi) = (Vec2::new(-0.05, 0.05), Vec2::new(0.05, 0.13));
+        }
+        SceneView {
+            label: label.to_owned(),
+            objects,
+            rendered,
+            bounds: (lo, hi),
+        }
+    }
+
+    /// Whether the scene has an object the 2-D view and the device render.
+    pub fn is_planar(&self) -> bool {
+        self.rendered.is_some()
+    }
+}
+
+/// Where the device reaches: a grid over the plane, each cell reachable when the pantograph's
+/// inverse kinematics has a solution there with a Jacobian condition number within the
+/// device's limit.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Reach {
+    /// Lower-left corner of the grid (m).
+    pub origin: Vec2,
+    /// Cell size (m).
+    pub cell_m: f32,
+    /// Cells per row and rows.
+    pub size: (usize, usize),
+    /// Row-major reachability of the cells' centres.
+    pub cells: Vec<bool>,
+    /// The outline: the edges between reachable and unreachable cells (m).
+    pub outline: Vec<[Vec2; 2]>,
+    /// The box the device guarantees to reach ([`DeviceSpec::workspace`]).
+    pub guaranteed: WorkspaceBox,
+    /// The safety layer's workspace box: leaving it latches the workspace fault.
+    pub safety_box: WorkspaceBox,
+}
+
+impl Reach {
+    /// The reach of the default device on a 2 mm grid.
+    pub fn of_default_device() -> Self {
+        let spec = DeviceSpec::default();
+        let arm = spec.pantograph().ok();
+        let cell_m = 0.002;
+        let origin = Vec2::new(-0.16, -0.02);
+        let size = (160, 120);
+        let reachable = |p: Vec2| match &arm {
+            Some(arm) => reachable(arm, &spec, p),
+            None => false,
+        };
+        let mut cells = Vec::with_capacity(size.0 * size.1);
+        for j in 0..size.1 {
+            for i in 0..size.0 {
+                let c = origin + Vec2::new(i as f32 + 0.5, j as f32 + 0.5) * cell_m;
+                cells.push(reachable(c));
+            }
+        }
+        let at = |i: usize, j: usize| cells[j * size.0 + i];
+        let mut outline = Vec::new();
+        for j in 0..size.1 {
+            for i in 0..size.0 {
+                let corner = origin + Vec2::new(i as f32, j as f32) * cell_m;
+                // Left and bottom edges of every cell, and the grid's own border.
+                let left = if i == 0 { false } else { at(i - 1, j) };
+                if at(i, j) != left {
+                    outline.push([corner, corner + Vec2::new(0.0, cell_m)]);
+                }
+                let below = if j == 0 { false } else { at(i, j - 1) };
+                if at(i, j) != below {
+                    outline.push([corner, corner + Vec2::new(cell_m, 0.0)]);
+                }
+                if i + 1 == size.0 && at(i, j) {
+                    let c = corner + Vec2::new(cell_m, 0.0);
+                    outline.push([c, c + Vec2::new(0.0, cell_m)]);
+                }
+                if j + 1 == size.1 && at(i, j) {
+                    let c = corner + Vec2::new(0.0, cell_m);
+                    outline.push([c, c + Vec2::new(cell_m, 0.0)]);
+                }
+            }
+        }
+        Reach {
+            origin,
+            cell_m,
+            size,
+            cells,
+            outline,
+            guaranteed: spec.workspace,
+            safety_box: SafetyConfig::default().workspace,
+        }
+    }
+
+    /// Whether `p` lies in a reachable cell.
+    pub fn contains(&self, p: Vec2) -> bool {
+        let q = (p - self.origin) / self.cell_m;
+        if !(q.x >= 0.0 && q.y >= 0.0) {
+            return false;
+        }
+        let (i, j) = (q.x as usize, q.y as usize);
+        i < self.size.0 && j < self.size.1 && self.cells[j * self.size.0 + i]
+    }
+}
+
+fn reachable(arm: &Pantograph, spec: &DeviceSpec, p: Vec2) -> bool {
+    arm.inverse(p)
+        .and_then(|theta| arm.jacobian(theta))
+        .is_ok_and(|j| j.condition_number() <= spec.max_condition_number)
+}
+
+/// Running statistics of the loop's tick period.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct JitterStats {
+    /// Periods seen (µs).
+    pub count: u64,
+    sum_us: f64,
+    /// Largest |period − 1 ms| seen (µs).
+    pub max_abs_us: f32,
+    /// Histogram of |period − 1 ms| in 10 µs bins (the last bin: 10 ms and more).
+    bins: Vec<u64>,
+}
+
+impl JitterStats {
+    fn add(&mut self, period_us: f32) {
+        if self.bins.is_empty() {
+            self.bins = vec![0; 1001];
+        }
+        let jitter = (period_us - 1e6 / haptic::RATE_HZ as f32).abs();
+        self.count += 1;
+        self.sum_us += f64::from(period_us);
+        self.max_abs_us = self.max_abs_us.max(jitter);
+        let bin = ((jitter / 10.0) as usize).min(self.bins.len() - 1);
+        self.bins[bin] += 1;
+    }
+
+    /// Mean period (µs).
+    pub fn mean_period_us(&self) -> Option<f64> {
+        (self.count > 0).then(|| self.sum_us / self.count as f64)
+    }
+
+    /// The `q`-quantile of |period − 1 ms| (µs), to the 10 µs bin above it.
+    pub fn quantile_us(&self, q: f64) -> Option<f32> {
+        if self.count == 0 {
+            return None;
+        }
+        let want = (q * self.count as f64).ceil() as u64;
+        let mut seen = 0;
+        for (i, n) in self.bins.iter().enumerate() {
+            seen += n;
+            if seen >= want {
+                return Some((i as f32 + 1.0) * 10.0);
+            }
+        }
+        Some(self.max_abs_us)
+    }
+}
+
+/// A change of friction mode seen in the telemetry.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Switch {
+    /// When (s, loop time).
+    pub t_s: f64,
+    /// From.
+    pub from: Mode,
+    /// To.
+    pub to: Mode,
+    /// Why.
+    pub cause: SwitchCause,
+}
+
+/// How the loop runs.
+#[derive(Debug)]
+enum Backend {
+    /// On its own thread in real time.
+    Thread(LoopThread),
+    /// Here, one tick per [`AppState::step`] (tests: no thread, no clock).
+    Stepped(Box<HapticLoop>),
+    /// Stopped ([`AppState::shutdown`]).
+    Stopped,
+}
+
+/// The whole state of the app.
+#[derive(Debug)]
+pub struct AppState {
+    backend: Backend,
+    /// The scene being rendered.
+    pub scene: SceneView,
+    /// The device's reach.
+    pub reach: Reach,
+    /// The last [`HISTORY_S`] seconds of telemetry.
+    pub history: VecDeque<Sample>,
+    /// Recent tick periods (µs), for the jitter shown live.
+    pub recent_periods: VecDeque<f32>,
+    /// Tick-period statistics since the start.
+    pub jitter: JitterStats,
+    /// Recent frame intervals (ms) and the time the UI spent per frame (ms).
+    pub frames: VecDeque<(f32, f32)>,
+    /// The mode switches seen, newest last (at most 64).
+    pub switches: VecDeque<Switch>,
+    /// The material the loop renders.
+    pub running_material: Option<FrictionMaterial>,
+    /// The material editor's values.
+    pub edited_material: FrictionMaterial,
+    /// Why the edited material was not applied.
+    pub material_error: Option<String>,
+    /// Why the last scene could not be opened.
+    pub scene_error: Option<String>,
+    /// The path typed into the open-scene field.
+    pub scene_path: String,
+    /// The hand's target as last set (m).
+    pub hand_target: Vec2,
+    /// Whether the user is dragging the hand.
+    pub dragging: bool,
+    /// Forces on, as last asked.
+    pub forces_requested: bool,
+    /// Faults still latched after the last clear, if one was asked for.
+    pub faults_after_clear: Option<Faults>,
+    /// Samples received in all.
+    pub received: u64,
+}
+
+impl AppState {
+    /// The app on the bundled scene `name` (or on `scene`), with the loop on its thread
+    /// (`threaded`) or stepped in place, recording to `record` when given.
+    pub fn new(
+        label: &str,
+        scene: Scene,
+        threaded: bool,
+        record: Option<std::sync::mpsc::SyncSender<Tick>>,
+    ) -> anyhow::Result<Self> {
+        let session = Session::new(scene.clone())?;
+        let view = SceneView::new(label, &scene, session.object());
+        let haptic = HapticLoop::new(session, START_HIP)?;
+        let running_material = haptic.material();
+        let backend = if threaded {
+            Backend::Thread(LoopThread::spawn(haptic, record)?)
+        } else {
+            Backend::Stepped(Box::new(haptic))
+        };
+        Ok(AppState {
+            backend,
+            scene: view,
+            reach: Reach::of_default_device(),
+            history: VecDeque::new(),
+            recent_periods: VecDeque::new(),
+            jitter: JitterStats::default(),
+            frames: VecDeque::new(),
+            switches: VecDeque::new(),
+            running_material,
+            edited_material: running_material.unwrap_or_default(),
+            material_error: None,
+            scene_error: None,
+            scene_path: String::new(),
+            hand_target: START_HIP,
+            dragging: false,
+            forces_requested: true,
+            faults_after_clear: None,
+            received: 0,
+        })
+    }
+
+    /// The app on the bundled scene `name`, stepped in place (for tests).
+    pub fn stepped(name: &str) -> anyhow::Result<Self> {
+        let bundled = BUNDLED
+            .iter()
+            .find(|b| b.name == name)
+            .ok_or_else(|| anyhow::anyhow!("no bundled scene {name:?}"))?;
+        let scene = Scene::from_json_str(bundled.json)?;
+        Self::new(bundled.name, scene, false, None)
+    }
+
+    /// Whether the loop runs on its own thread (real time).
+    pub fn is_threaded(&self) -> bool {
+        matches!(self.backend, Backend::Thread(_))
+    }
+
+    fn command(&mut self, command: Command) -> bool {
+        match &mut self.backend {
+            Backend::Thread(t) => t.send(command),
+            Backend::Stepped(h) => {
+                if let Some(reply) = haptic::apply(h, command) {
+                    self.on_reply(reply);
+                }
+                true
+            }
+            Backend::Stopped => false,
+        }
+    }
+
+    /// Runs `n` ticks of a stepped loop (nothing for a threaded one), then takes in their
+    /// telemetry as [`AppState::poll`] does.
+    pub fn step(&mut self, n: usize) {
+        let mut samples = Vec::new();
+        if let Backend::Stepped(h) = &mut self.backend {
+            for _ in 0..n {
+                let tick = h.step();
+                samples.push(Sample {
+                    tick,
+                    hand_target: h.hand_target(),
+                    period_us: None,
+                    forces_enabled: h.forces_enabled(),
+                });
+            }
+        }
+        for s in samples {
+            self.take(s);
+        }
+    }
+
+    /// Takes in what the loop sent since the last call (never waits).
+    pub fn poll(&mut self) {
+        let (mut samples, mut replies) = (Vec::new(), Vec::new());
+        if let Backend::Thread(t) = &self.backend {
+            t.drain_samples(|s| samples.push(s));
+            replies = t.drain_replies();
+        }
+        for s in samples {
+            self.take(s);
+        }
+        for r in replies {
+            self.on_reply(r);
+        }
+    }
+
+    fn take(&mut self, s: Sample) {
+        self.received += 1;
+        if let Some(last) = self.history.back()
+            && last.tick.mode != s.tick.mode
+        {
+            if self.switches.len() == 64 {
+                self.switches.pop_front();
+            }
+            self.switches.push_back(Switch {
+                t_s: s.tick.t_s,
+                from: last.tick.mode,
+                to: s.tick.mode,
+                cause: s.tick.cause,
+            });
+        }
+        if let Some(p) = s.period_us {
+            self.jitter.add(p);
+            if self.recent_periods.len() == JITTER_WINDOW {
+                self.recent_periods.pop_front();
+            }
+            self.recent_periods.push_back(p);
+        }
+        self.history.push_back(s);
+        while let Some(first) = self.history.front() {
+            if s.tick.t_s - first.tick.t_s > HISTORY_S {
+                self.history.pop_front();
+            } else {
+                break;
+            }
+        }
+    }
+
+    fn on_reply(&mut self, reply: Reply) {
+        match reply {
+            Reply::Material(Ok(m)) => {
+                self.running_material = Some(m);
+                self.material_error = None;
+            }
+            Reply::Material(Err(e)) => self.material_error = Some(e.to_string()),
+            Reply::Swapped => {}
+            Reply::FaultsCleared(f) => self.faults_after_clear = Some(f),
+        }
+    }
+
+    /// The newest sample.
+    pub fn latest(&self) -> Option<&Sample> {
+        self.history.back()
+    }
+
+    /// The latched faults in the newest sample.
+    pub fn faults(&self) -> Faults {
+        Faults::from_bits_truncate(
+            self.latest()
+                .and_then(|s| s.tick.device)
+                .map_or(0, |d| d.faults),
+        )
+    }
+
+    /// Moves the hand's target to `target` (m) when the device reaches it; a target out of
+    /// reach leaves the hand where it was (returns false).
+    pub fn set_hand_target(&mut self, target: Vec2) -> bool {
+        if !self.reach.contains(target) {
+            return false;
+        }
+        self.hand_target = target;
+        self.command(Command::HandTarget(target))
+    }
+
+    /// Applies the material editor's values: validated field by field here (the message names
+    /// the field), then by the device's controller in the loop. On error the running material
+    /// stays and [`AppState::material_error`] says why.
+    pub fn apply_material(&mut self) {
+        let m = self.edited_material;
+        if let Err(e) = Material::from_friction(m) {
+            self.material_error = Some(MaterialChangeError::Invalid(e).to_string());
+            return;
+        }
+        if self.scene.rendered.is_none() {
+            self.material_error = Some(MaterialChangeError::NoObject.to_string());
+            return;
+        }
+        if !self.command(Command::SetMaterial(m)) {
+            self.material_error =
+                Some("the haptic loop did not take the material (its queue is full)".into());
+        }
+    }
+
+    /// Resets the editor to the running material.
+    pub fn revert_material(&mut self) {
+        if let Some(m) = self.running_material {
+            self.edited_material = m;
+        }
+        self.material_error = None;
+    }
+
+    /// Opens the bundled scene `name`.
+    pub fn open_bundled(&mut self, name: &str) {
+        match BUNDLED.iter().find(|b| b.name == name) {
+            Some(b) => self.open_text(b.name, b.json),
+            None => self.scene_error = Some(format!("no bundled scene {name:?}")),
+        }
+    }
+
+    /// Opens the scene file at `path`.
+    pub fn open_path(&mut self, path: &Path) {
+        match Scene::load(path) {
+            Ok(scene) => self.open_scene(&path.display().to_string(), scene),
+            Err(e) => self.scene_error = Some(format!("{e}; the running scene is unchanged")),
+        }
+    }
+
+    /// Opens a scene from its JSON text, labelled `label`.
+    pub fn open_text(&mut self, label: &str, json: &str) {
+        match Scene::from_json_str(json) {
+            Ok(scene) => self.open_scene(label, scene),
+            Err(e) => {
+                self.scene_error = Some(format!("{label}: {e}; the running scene is unchanged"));
+            }
+        }
+    }
+
+    /// Renders `scene` from the next tick when the device accepts it; otherwise the running
+    /// scene stays and [`AppState::scene_error`] says why.
+    pub fn open_scene(&mut self, label: &str, scene: Scene) {
+        let session = match Session::new(scene.clone()) {
+            Ok(s) => s,
+            Err(e) => {
+                self.scene_error = Some(format!("{label}: {e}; the running scene is unchanged"));
+                return;
+            }
+        };
+        let view = SceneView::new(label, &scene, session.object());
+        let material = view
+            .rendered
+            .and_then(|i| scene.object(i))
+            .map(|o| o.material().friction_material());
+        if !self.command(Command::Swap(Box::new(session))) {
+            self.scene_error = Some(format!(
+                "{label}: the haptic loop did not take the scene (its queue is full)"
+            ));
+            return;
+        }
+        self.scene = view;
+        self.scene_error = None;
+        self.running_material = material;
+        self.edited_material = material.unwrap_or_default();
+        self.material_error = None;
+    }
+
+    /// Enables or disables the forces.
+    pub fn set_forces(&mut self, on: bool) {
+        self.forces_requested = on;
+        self.command(Command::Forces(on));
+    }
+
+    /// Clears the latched faults whose condition is gone.
+    pub fn clear_faults(&mut self) {
+        self.command(Command::ClearFaults);
+    }
+
+    /// Records one frame: the interval since the previous one and the UI's own time (ms).
+    pub fn record_frame(&mut self, interval_ms: f32, ui_ms: f32) {
+        if self.frames.len() == FRAME_WINDOW {
+            self.frames.pop_front();
+        }
+        self.frames.push_back((interval_ms, ui_ms));
+    }
+
+    /// Mean and largest recent frame interval (ms), and the mean UI time (ms).
+    pub fn frame_stats(&self) -> Option<(f32, f32, f32)> {
+        if self.frames.is_empty() {
+            return None;
+        }
+        let n = self.frames.len() as f32;
+        let mean = self.frames.iter().map(|f| f.0).sum::<f32>() / n;
+        let max = self.frames.iter().map(|f| f.0).fold(0.0, f32::max);
+        let ui = self.frames.iter().map(|f| f.1).sum::<f32>() / n;
+        Some((mean, max, ui))
+    }
+
+    /// Mean recent tick period and largest and 99th-percentile |period − 1 ms| (µs), over
+    /// the last [`JITTER_WINDOW`] ticks received.
+    pub fn recent_jitter(&self) -> Option<(f32, f32, f32)> {
+        if self.recent_periods.is_empty() {
+            return None;
+        }
+        let nominal = 1e6 / haptic::RATE_HZ as f32;
+        let n = self.recent_periods.len();
+        let mean = self.recent_periods.iter().sum::<f32>() / n as f32;
+        let mut dev: Vec<f32> = self
+            .recent_periods
+            .iter()
+            .map(|p| (p - nominal).abs())
+            .collect();
+        dev.sort_by(f32::total_cmp);
+        let p99 = dev[((n as f32 * 0.99).ceil() as usize).clamp(1, n) - 1];
+        Some((mean, dev[n - 1], p99))
+    }
+
+    /// Samples the UI channel dropped, commands dropped, and ticks the recorder dropped.
+    pub fn dropped(&self) -> (u64, u64, u64) {
+        match &self.backend {
+            Backend::Thread(t) => {
+                let c = t.counters();
+                (
+                    c.dropped_samples.load(Ordering::Relaxed),
+                    c.dropped_commands.load(Ordering::Relaxed),
+                    c.dropped_records.load(Ordering::Relaxed),
+                )
+            }
+            Backend::Stepped(_) | Backend::Stopped => (0, 0, 0),
+        }
+    }
+
+    /// Why the arm could not move on some tick, if that happened (stepped loops only).
+    pub fn arm_error(&self) -> Option<String> {
+        match &self.backend {
+            Backend::Stepped(h) => h.last_error().map(str::to_owned),
+            Backend::Thread(_) | Backend::Stopped => None,
+        }
+    }
+
+    /// Whether the loop thread runs with real-time scheduling.
+    pub fn loop_realtime(&self) -> bool {
+        match &self.backend {
+            Backend::Thread(t) => t.counters().realtime.load(Ordering::Relaxed),
+            Backend::Stepped(_) | Backend::Stopped => false,
+        }
+    }
+
+    /// Whether the loop thread is running (always true for a stepped loop).
+    pub fn loop_running(&self) -> bool {
+        match &self.backend {
+            Backend::Thread(t) => t.is_running(),
+            Backend::Stepped(_) => true,
+            Backend::Stopped => false,
+        }
+    }
+
+    /// Stops the loop (joins its thread); the recorder's input closes with it.
+    pub fn shutdown(&mut self) {
+        self.backend = Backend::Stopped;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Every scene in `scenes/` is bundled (one click away in the app), and each loads and
+    /// builds the device's session.
+    #[test]
+    fn every_scene_file_is_bundled_and_loads() {
+        let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes");
+        let mut files: Vec<String> = std::fs::read_dir(&dir)
+            .expect("scenes/")
+            .filter_map(|e| e.ok())
+            .map(|e| e.path())
+            .filter(|p| p.extension().is_some_and(|x| x == "json"))
+            .filter_map(|p| p.file_stem().map(|s| s.to_string_lossy().into_owned()))
+            .collect();
+        files.sort();
+        let mut bundled: Vec<String> = BUNDLED.iter().map(|b| b.name.to_owned()).collect();
+        bundled.sort();
+        assert_eq!(files, bundled);
+        for b in BUNDLED {
+            let on_disk = std::fs::read_to_string(dir.join(format!("{}.json", b.name)))
+                .expect("the scene file");
+            assert_eq!(on_disk, b.json, "{} is embedded as it is on disk", b.name);
+            let scene = Scene::from_json_str(b.json).unwrap_or_else(|e| panic!("{}: {e}", b.name));
+            let session = Session::new(scene).unwrap_or_else(|e| panic!("{}: {e}", b.name));
+            let planar = b.name != "thesis-3d";
+            assert_eq!(session.object().is_some(), planar, "{}", b.name);
+        }
+    }
+
+    /// The jitter statistics: quantiles to the 10 µs bin above, the largest exactly.
+    #[test]
+    fn jitter_statistics() {
+        let mut j = JitterStats::default();
+        for p in [1000.0, 1004.0, 996.0, 1025.0, 1300.0] {
+            j.add(p);
+        }
+        assert_eq!(j.count, 5);
+        assert_eq!(j.max_abs_us, 300.0);
+        assert_eq!(j.mean_period_us(), Some(1065.0));
+        // |jitter| = 0, 4, 4, 25, 300: the median in the first bin (0-10 µs), the 80 %
+        // quantile in the 20-30 µs bin, the largest in the 300-310 µs bin.
+        assert_eq!(j.quantile_us(0.5), Some(10.0));
+        assert_eq!(j.quantile_us(0.8), Some(30.0));
+        assert_eq!(j.quantile_us(1.0), Some(310.0));
+    }
+}

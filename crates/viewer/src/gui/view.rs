@@ -1,0 +1,352 @@
+//! The 2-D view of a planar scene, drawn with egui's painter: the device's reach, the curves
+//! and their control polygons, the hand's target, the HIP, CP and GO, and the normal,
+//! friction and total force. Pressing and dragging with the primary button moves the hand's
+//! target; dragging with the secondary or middle button pans, the wheel zooms about the
+//! pointer, a double click fits the scene.
+
+use eframe::egui;
+use egui::{Align2, Color32, FontId, Pos2, Rect, Sense, Shape, Stroke, StrokeKind, Vec2 as EVec2};
+use friction::Mode;
+use nurbs::Vec2;
+
+use super::state::AppState;
+
+/// Screen pixels per newton of the force arrows (independent of the zoom).
+pub const PX_PER_N: f32 = 30.0;
+
+/// The colour of a friction mode: the bands of `sim --plot`, deepened for lines on white.
+pub fn mode_colour(mode: Mode) -> Color32 {
+    let c = crate::plot::mode_colour(mode);
+    let deepen = |v: u8| (f32::from(v) * 0.8) as u8;
+    Color32::from_rgb(deepen(c.0), deepen(c.1), deepen(c.2))
+}
+
+/// Where the view looks: the device-frame point at the centre of the view and the zoom.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct View2d {
+    /// Device-frame point at the centre (m).
+    pub centre: Vec2,
+    /// Screen points per metre.
+    pub scale: f32,
+    /// Fit to the scene at the next frame.
+    pub fit_pending: bool,
+}
+
+impl Default for View2d {
+    fn default() -> Self {
+        View2d {
+            centre: Vec2::new(0.0, 0.09),
+            scale: 4000.0,
+            fit_pending: true,
+        }
+    }
+}
+
+impl View2d {
+    fn screen_of(&self, rect: Rect, p: Vec2) -> Pos2 {
+        let c = rect.center();
+        Pos2::new(
+            c.x + (p.x - self.centre.x) * self.scale,
+            c.y - (p.y - self.centre.y) * self.scale,
+        )
+    }
+
+    fn device_of(&self, rect: Rect, p: Pos2) -> Vec2 {
+        let c = rect.center();
+        Vec2::new(
+            self.centre.x + (p.x - c.x) / self.scale,
+            self.centre.y - (p.y - c.y) / self.scale,
+        )
+    }
+
+    /// Centres `bounds` (with the hand's start) in `rect` with a margin.
+    pub fn fit(&mut self, rect: Rect, (lo, hi): (Vec2, Vec2), include: Vec2) {
+        let (lo, hi) = (lo.min(include), hi.max(include));
+        let size = (hi - lo).max(Vec2::splat(0.01));
+        self.centre = (lo + hi) * 0.5;
+        self.scale = (rect.width() / size.x).min(rect.height() / size.y) * 0.8;
+        self.fit_pending = false;
+    }
+}
+
+/// The 2-D view, filling the space it is given.
+pub fn view_2d_ui(ui: &mut egui::Ui, state: &mut AppState, view: &mut View2d) {
+    let size = ui.available_size();
+    let (response, painter) = ui.allocate_painter(size, Sense::click_and_drag());
+    let rect = response.rect;
+    painter.rect_filled(rect, 0.0, Color32::from_gray(250));
+
+    if !state.scene.is_planar() {
+        let names: Vec<&str> = state
+            .scene
+            .objects
+            .iter()
+            .map(|o| o.name.as_str())
+            .collect();
+        painter.text(
+            rect.center(),
+            Align2::CENTER_CENTER,
+            format!(
+                "3-D view comes later.\n\n{} has no object of planar curves ({}).\n\
+                 The pantograph is planar: it renders nothing for this scene.\n\
+                 Open a planar scene (thesis-2d, examples) to feel it.",
+                state.scene.label,
+                names.join(", ")
+            ),
+            FontId::proportional(16.0),
+            Color32::from_gray(60),
+        );
+        return;
+    }
+
+    if view.fit_pending || response.double_clicked() {
+        view.fit(rect, state.scene.bounds, haptic_start());
+    }
+    // Two buttons in the top right corner: fit the scene, or the device's whole workspace.
+    let buttons = Rect::from_min_size(
+        rect.right_top() + EVec2::new(-230.0, 6.0),
+        EVec2::new(224.0, 24.0),
+    );
+    ui.scope_builder(egui::UiBuilder::new().max_rect(buttons), |ui| {
+        ui.horizontal(|ui| {
+            if ui.button("fit scene").clicked() {
+                view.fit(rect, state.scene.bounds, haptic_start());
+            }
+            if ui.button("fit workspace").clicked() {
+                let reach = &state.reach;
+                let b = reach.safety_box;
+                view.fit(rect, (b.min_in_device, b.max_in_device), haptic_start());
+            }
+        });
+    });
+
+    // Pan with the secondary or middle button, zoom with the wheel about the pointer.
+    if response.dragged_by(egui::PointerButton::Secondary)
+        || response.dragged_by(egui::PointerButton::Middle)
+    {
+        let d = response.drag_delta();
+        view.centre -= Vec2::new(d.x, -d.y) / view.scale;
+    }
+    if response.hovered() {
+        let (scroll, zoom) = ui.input(|i| (i.smooth_scroll_delta().y, i.zoom_delta()));
+        let factor = zoom * (scroll / 200.0).exp();
+        if (factor - 1.0).abs() > 1e-4
+            && let Some(at) = response.hover_pos()
+        {
+            let anchor = view.device_of(rect, at);
+            view.scale = (view.scale * factor).clamp(200.0, 200_000.0);
+            let moved = view.device_of(rect, at);
+            view.centre += anchor - moved;
+        }
+    }
+    // The hand: press and drag with the primary button.
+    let primary_down = ui.input(|i| i.pointer.primary_down());
+    if response.is_pointer_button_down_on() && primary_down {
+        if let Some(p) = response.interact_pointer_pos() {
+            state.dragging = true;
+            state.set_hand_target(view.device_of(rect, p));
+        }
+    } else {
+        state.dragging = false;
+    }
+
+    let painter = painter.with_clip_rect(rect);
+    draw_reach(&painter, rect, view, state);
+    draw_scene(&painter, rect, view, state);
+    draw_hand(&painter, rect, view, state);
+    draw_legend(&painter, rect, view, state);
+}
+
+fn haptic_start() -> Vec2 {
+    crate::haptic::START_HIP
+}
+
+fn draw_reach(painter: &egui::Painter, rect: Rect, view: &View2d, state: &AppState) {
+    let reach = &state.reach;
+    let stroke = Stroke::new(1.0, Color32::from_gray(170));
+    for [a, b] in &reach.outline {
+        painter.line_segment([view.screen_of(rect, *a), view.screen_of(rect, *b)], stroke);
+    }
+    let boxed = |b: &device::spec::WorkspaceBox, colour: Color32| {
+        let r = Rect::from_two_pos(
+            view.screen_of(rect, b.min_in_device),
+            view.screen_of(rect, b.max_in_device),
+        );
+        painter.rect_stroke(r, 0.0, Stroke::new(1.0, colour), StrokeKind::Middle);
+    };
+    boxed(&reach.guaranteed, Color32::from_rgb(150, 190, 150));
+    boxed(&reach.safety_box, Color32::from_rgb(225, 150, 110));
+}
+
+fn draw_scene(painter: &egui::Painter, rect: Rect, view: &View2d, state: &AppState) {
+    let polygon = Stroke::new(1.0, Color32::from_gray(150));
+    for (i, o) in state.scene.objects.iter().enumerate() {
+        let rendered = state.scene.rendered == Some(i);
+        for poly in &o.control_polygons {
+            let pts: Vec<Pos2> = poly.iter().map(|p| view.screen_of(rect, *p)).collect();
+            painter.add(Shape::dashed_line(&pts, polygon, 4.0, 3.0));
+            for p in &pts {
+                painter.rect_filled(
+                    Rect::from_center_size(*p, EVec2::splat(5.0)),
+                    0.0,
+                    polygon.color,
+                );
+            }
+        }
+        let stroke = if rendered {
+            Stroke::new(3.0, Color32::from_rgb(30, 30, 30))
+        } else {
+            Stroke::new(1.5, Color32::from_gray(120))
+        };
+        for curve in &o.curves {
+            let pts: Vec<Pos2> = curve.iter().map(|p| view.screen_of(rect, *p)).collect();
+            painter.line(pts, stroke);
+        }
+    }
+}
+
+fn draw_hand(painter: &egui::Painter, rect: Rect, view: &View2d, state: &AppState) {
+    let command = view.screen_of(rect, state.hand_target);
+    let Some(s) = state.latest() else {
+        cross(painter, command, Color32::from_rgb(90, 90, 200));
+        return;
+    };
+    // The target follows the command (the pointer) at a bounded speed.
+    let target = view.screen_of(rect, s.hand_target);
+    if (command - target).length() > 2.0 {
+        painter.line_segment(
+            [command, target],
+            Stroke::new(1.0, Color32::from_rgb(190, 190, 230)),
+        );
+    }
+    let k = &s.tick;
+    let xy = |v: nurbs::Vec3| Vec2::new(v.x, v.y);
+    let hip = view.screen_of(rect, xy(k.hip));
+    // The hand's spring, target to handle.
+    painter.add(Shape::dashed_line(
+        &[target, hip],
+        Stroke::new(1.0, Color32::from_rgb(90, 90, 200)),
+        3.0,
+        3.0,
+    ));
+    cross(painter, target, Color32::from_rgb(90, 90, 200));
+    let colour = mode_colour(k.mode);
+    if k.mode != Mode::Free {
+        let cp = view.screen_of(rect, xy(k.cp));
+        let go = view.screen_of(rect, xy(k.go));
+        painter.line_segment([hip, go], Stroke::new(1.0, Color32::from_gray(90)));
+        painter.circle_stroke(cp, 4.0, Stroke::new(2.0, Color32::from_rgb(40, 110, 200)));
+        painter.circle_filled(go, 4.5, colour);
+        painter.circle_stroke(go, 4.5, Stroke::new(1.0, Color32::BLACK));
+        let arrow = |v: nurbs::Vec3, colour: Color32, width: f32| {
+            let d = EVec2::new(v.x, -v.y) * PX_PER_N;
+            if d.length() > 1.0 {
+                painter.arrow(hip, d, Stroke::new(width, colour));
+            }
+        };
+        arrow(
+            k.normal * k.normal_force_n,
+            Color32::from_rgb(40, 110, 200),
+            2.5,
+        );
+        arrow(k.friction, colour, 2.5);
+        arrow(k.force, Color32::from_gray(30), 1.0);
+    }
+    painter.circle_filled(hip, 6.0, colour);
+    painter.circle_stroke(hip, 6.0, Stroke::new(1.5, Color32::BLACK));
+}
+
+fn cross(painter: &egui::Painter, at: Pos2, colour: Color32) {
+    let s = Stroke::new(1.5, colour);
+    painter.line_segment([at - EVec2::new(6.0, 0.0), at + EVec2::new(6.0, 0.0)], s);
+    painter.line_segment([at - EVec2::new(0.0, 6.0), at + EVec2::new(0.0, 6.0)], s);
+}
+
+fn draw_legend(painter: &egui::Painter, rect: Rect, view: &View2d, state: &AppState) {
+    let font = FontId::proportional(13.0);
+    let text = Color32::from_gray(40);
+    let mut y = rect.top() + 8.0;
+    let x = rect.left() + 10.0;
+    let line = |y: &mut f32, s: String, c: Color32| {
+        painter.text(Pos2::new(x, *y), Align2::LEFT_TOP, s, font.clone(), c);
+        *y += 17.0;
+    };
+    if let Some(i) = state.scene.rendered
+        && let Some(o) = state.scene.objects.get(i)
+    {
+        line(&mut y, format!("{}: {}", state.scene.label, o.name), text);
+    }
+    if let Some(s) = state.latest() {
+        let k = &s.tick;
+        line(
+            &mut y,
+            format!(
+                "{}  F_N {:.2} N  F_T {:+.2} N  |F| {:.2} N  depth {:.2} mm",
+                k.mode.name(),
+                k.normal_force_n,
+                k.friction_force_n,
+                k.force.length(),
+                k.depth_m.max(0.0) * 1e3
+            ),
+            mode_colour(k.mode),
+        );
+    }
+    line(
+        &mut y,
+        "drag: hand  ·  right-drag: pan  ·  wheel: zoom  ·  double-click: fit the scene".into(),
+        Color32::from_gray(110),
+    );
+    // Key, bottom left.
+    let mut y = rect.bottom() - 8.0 - 17.0 * 4.0;
+    let key = [
+        (
+            "big dot: HIP, coloured by the friction mode",
+            Color32::from_gray(40),
+        ),
+        (
+            "blue ring: CP  ·  small dot: GO  ·  cross: hand target",
+            Color32::from_rgb(40, 110, 200),
+        ),
+        (
+            "arrows: blue normal, coloured friction, black total",
+            Color32::from_gray(40),
+        ),
+        (
+            "green box: guaranteed workspace  ·  orange: safety box  ·  grey: reach",
+            Color32::from_gray(110),
+        ),
+    ];
+    for (s, c) in key {
+        line(&mut y, s.to_owned(), c);
+    }
+    // Scale bar, bottom right: 10 mm, and the force scale.
+    let bar = 0.01 * view.scale;
+    let right = rect.right() - 12.0;
+    let bottom = rect.bottom() - 12.0;
+    let s = Stroke::new(2.0, Color32::from_gray(60));
+    painter.line_segment(
+        [Pos2::new(right - bar, bottom), Pos2::new(right, bottom)],
+        s,
+    );
+    painter.text(
+        Pos2::new(right - bar * 0.5, bottom - 4.0),
+        Align2::CENTER_BOTTOM,
+        "10 mm",
+        font.clone(),
+        text,
+    );
+    painter.line_segment(
+        [
+            Pos2::new(right - PX_PER_N, bottom - 26.0),
+            Pos2::new(right, bottom - 26.0),
+        ],
+        Stroke::new(2.0, Color32::from_rgb(40, 110, 200)),
+    );
+    painter.text(
+        Pos2::new(right - PX_PER_N - 6.0, bottom - 26.0),
+        Align2::RIGHT_CENTER,
+        "1 N",
+        font,
+        text,
+    );
+}

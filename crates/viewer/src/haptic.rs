@@ -1,0 +1,820 @@
+//! The haptic loop behind the GUI: the simulated pantograph and the device's [`Controller`]
+//! on one planar object of a scene, stepped one tick at a time ([`HapticLoop::step`], the
+//! same [`sim::device_tick`] as `viewer sim --device`), driven by a virtual hand whose target
+//! the UI moves.
+//!
+//! [`LoopThread`] runs a [`HapticLoop`] on its own thread at its tick rate. The UI talks to it
+//! through channels only and never waits for it: commands (hand target, material, scene swap,
+//! forces, clear faults) go through a bounded channel the loop drains at every tick boundary
+//! (a full channel drops the command and counts it); every tick goes back as a [`Sample`]
+//! through another bounded channel (a full channel drops the sample and counts it, so a slow
+//! frame never delays a tick); replies to commands come through a third, unbounded one (they
+//! are rare). With `--record` a third consumer, the [`Recorder`] thread, gets every tick
+//! through its own bounded channel and writes the run log.
+//!
+//! Tests step a [`HapticLoop`] directly: no thread, no clock, the same ticks for the same
+//! inputs.
+
+use std::fs::File;
+use std::io::{self, BufWriter, Write};
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+use std::sync::mpsc::{self, Receiver, Sender, SyncSender, TryRecvError, TrySendError};
+use std::thread::JoinHandle;
+use std::time::{Duration, Instant};
+
+use device::controller::{Controller, ControllerError};
+use device::safety::Faults;
+use device::simulator::{SimParams, SimulatedPantograph};
+use device::spec::DeviceSpec;
+use friction::FrictionMaterial;
+use nurbs::Vec2;
+use tracker::Chain;
+
+use crate::scene::{Material, MaterialError, Scene, Space};
+use crate::sim::{self, SimError, Tick};
+
+/// The loop's tick rate (Hz).
+pub const RATE_HZ: f64 = 1000.0;
+
+/// Ticks the UI channel holds (2 s at 1 kHz): a UI that stalls longer loses samples.
+pub const TELEMETRY_CAPACITY: usize = 2048;
+/// Commands the loop's channel holds between two ticks.
+pub const COMMAND_CAPACITY: usize = 256;
+/// Ticks the recorder's channel holds (4 s at 1 kHz).
+pub const RECORD_CAPACITY: usize = 4096;
+
+/// Where the handle (and the hand's target) starts: in the middle of the default device's
+/// workspace, above the bundled planar scenes.
+pub const START_HIP: Vec2 = Vec2::new(0.0, 0.11);
+
+/// The fastest the virtual hand's target follows its command (m/s). A hand does not
+/// teleport: a click far from the handle would otherwise yank it through the 300 N/m grip
+/// past the device's 1 m/s speed limit and latch the velocity fault.
+pub const MAX_HAND_SPEED_M_PER_S: f32 = 0.3;
+
+/// A scene the loop renders: the scene, the index of the object the device renders (the
+/// first planar one; `None` when the scene has none), and the controller built for it.
+pub struct Session(SessionCell);
+
+/// The controller of a [`Session`], borrowing the scene's curves.
+#[derive(Debug)]
+struct Rendering<'a> {
+    controller: Controller<Chain<'a>>,
+    passivity_control: bool,
+}
+
+self_cell::self_cell!(
+    struct SessionCell {
+        owner: SceneChoice,
+        // The controller's state names the object type (`Controller<Chain<'a>>` is not
+        // covariant in 'a): it is reached through closures only.
+        #[not_covariant]
+        dependent: Rendering,
+    }
+);
+
+/// The owner of a [`Session`]: the scene and the object chosen.
+#[derive(Debug)]
+struct SceneChoice {
+    scene: Scene,
+    object: Option<usize>,
+}
+
+impl std::fmt::Debug for Session {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Session")
+            .field("object", &self.object())
+            .field("passivity_control", &self.passivity_control())
+            .finish_non_exhaustive()
+    }
+}
+
+/// Why a scene cannot be rendered.
+#[derive(Debug, thiserror::Error)]
+pub enum SessionError {
+    /// The controller or the chain refused the object.
+    #[error("{0}")]
+    Sim(#[from] SimError),
+}
+
+impl Session {
+    /// The default device at [`RATE_HZ`], calibrated on its end stops, forces enabled, with
+    /// the first object of planar curves of `scene` loaded (none when it has none: the
+    /// pantograph is planar, so a scene of surfaces renders nothing). The controller's own
+    /// checks apply: a material stiffer than the device renders is refused, naming the limit.
+    pub fn new(scene: Scene) -> Result<Self, SessionError> {
+        let object = scene
+            .objects()
+            .iter()
+            .position(|o| o.space() == Space::Planar);
+        Self::with_object(scene, object)
+    }
+
+    /// [`Session::new`] with object `object` (which must be planar), or none.
+    pub fn with_object(scene: Scene, object: Option<usize>) -> Result<Self, SessionError> {
+        let choice = SceneChoice { scene, object };
+        let cell = SessionCell::try_new(choice, build_controller)?;
+        Ok(Session(cell))
+    }
+
+    /// The scene.
+    pub fn scene(&self) -> &Scene {
+        &self.0.borrow_owner().scene
+    }
+
+    /// The index of the object the device renders, if any.
+    pub fn object(&self) -> Option<usize> {
+        self.0.borrow_owner().object
+    }
+
+    /// Whether the controller renders the material with the passivity controller on (the
+    /// material is stiffer than the device renders passively at [`RATE_HZ`]).
+    pub fn passivity_control(&self) -> bool {
+        self.0.with_dependent(|_, r| r.passivity_control)
+    }
+}
+
+fn build_controller(choice: &SceneChoice) -> Result<Rendering<'_>, SessionError> {
+    let spec = DeviceSpec::default();
+    let (mut controller, passivity_control) = match choice.object {
+        Some(index) => {
+            let object = choice.scene.object(index).ok_or(SimError::ObjectIndex {
+                index,
+                count: choice.scene.objects().len(),
+            })?;
+            let curves = object.curve_views().ok_or_else(|| SimError::Surface {
+                index,
+                name: object.name().to_owned(),
+            })?;
+            let chain = Chain::new(&curves).map_err(|error| SimError::Chain { index, error })?;
+            let material = object.material().friction_material();
+            sim::device_controller(chain, material, RATE_HZ)?
+        }
+        None => {
+            let safety = device::safety::SafetyConfig {
+                period_s: (1.0 / RATE_HZ) as f32,
+                ramp_time_s: sim::DEVICE_RAMP_TIME_S,
+                ..device::safety::SafetyConfig::default()
+            };
+            (
+                Controller::new(spec, safety).map_err(SimError::Controller)?,
+                false,
+            )
+        }
+    };
+    controller
+        .calibrate(sim::end_stop_counts(&spec))
+        .map_err(SimError::Controller)?;
+    controller.set_forces_enabled(true);
+    Ok(Rendering {
+        controller,
+        passivity_control,
+    })
+}
+
+/// Why a material was not applied. The running material is unchanged.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum MaterialChangeError {
+    /// A value is out of its range (the message names the field).
+    #[error("{0}")]
+    Invalid(#[from] MaterialError),
+    /// The device's controller refused it (a stiffness beyond the device; the message names
+    /// the limit).
+    #[error("device controller: {0}")]
+    Controller(ControllerError),
+    /// The scene has no object the device renders.
+    #[error("the scene has no object of planar curves for the device to render")]
+    NoObject,
+}
+
+/// The loop's state: the session, the simulated arm and the hand. Stepped one tick at a time.
+#[derive(Debug)]
+pub struct HapticLoop {
+    session: Session,
+    material: Option<FrictionMaterial>,
+    arm: SimulatedPantograph,
+    hand_target: Vec2,
+    hand_command: Vec2,
+    tick: u64,
+    period_s: f32,
+    last_error: Option<String>,
+}
+
+impl HapticLoop {
+    /// A loop on `session` with the handle at rest at `start_hip`, held by the default
+    /// relaxed hand of `viewer sim --device` ([`SimParams::default`], 300 N/m).
+    pub fn new(session: Session, start_hip: Vec2) -> Result<Self, SessionError> {
+        let arm = SimulatedPantograph::new(DeviceSpec::default(), SimParams::default(), start_hip)
+            .map_err(SimError::Simulator)?;
+        let material = material_of(&session);
+        Ok(HapticLoop {
+            session,
+            material,
+            arm,
+            hand_target: start_hip,
+            hand_command: start_hip,
+            tick: 0,
+            period_s: (1.0 / RATE_HZ) as f32,
+            last_error: None,
+        })
+    }
+
+    /// One tick (see [`sim::device_tick`]). An arm driven into a singular pose stays there; the
+    /// tick is then recorded at the last pose and [`HapticLoop::last_error`] says why.
+    pub fn step(&mut self) -> Tick {
+        // The target moves towards its command at most MAX_HAND_SPEED_M_PER_S.
+        let to_go = self.hand_command - self.hand_target;
+        let max_step = MAX_HAND_SPEED_M_PER_S * self.period_s;
+        if to_go.length() > max_step {
+            self.hand_target += to_go * (max_step / to_go.length());
+        } else {
+            self.hand_target = self.hand_command;
+        }
+        let t_s = self.tick as f64 / RATE_HZ;
+        // The device clock: integer microseconds, as a board's timer.
+        let now_us = (self.tick as f64 * 1e6 / RATE_HZ).round() as u64;
+        let (target, period_s) = (self.hand_target, self.period_s);
+        let arm = &mut self.arm;
+        let result = self.session.0.with_dependent_mut(|_, r| {
+            sim::device_tick(&mut r.controller, arm, t_s, now_us, target, period_s)
+        });
+        self.tick += 1;
+        match result {
+            Ok((tick, _)) => tick,
+            Err(e) => {
+                self.last_error = Some(e.to_string());
+                let hip = self.arm.hip().map(|(p, _)| p).unwrap_or(target);
+                Tick {
+                    hip: nurbs::Vec3::new(hip.x, hip.y, 0.0),
+                    ..idle_tick(t_s)
+                }
+            }
+        }
+    }
+
+    /// Commands the virtual hand's target (m, device frame): from the next tick it moves
+    /// there at up to [`MAX_HAND_SPEED_M_PER_S`]; a non-finite target is ignored.
+    pub fn set_hand_target(&mut self, target: Vec2) {
+        if target.is_finite() {
+            self.hand_command = target;
+        }
+    }
+
+    /// The hand's target (where it is on its way to the command).
+    pub fn hand_target(&self) -> Vec2 {
+        self.hand_target
+    }
+
+    /// Ticks so far.
+    pub fn ticks(&self) -> u64 {
+        self.tick
+    }
+
+    /// Validates `material` (every field, then the controller's own check) and, when both
+    /// accept it, renders the object with it from the next tick (the renderer restarts, the
+    /// force ramps in). On error the running material stays.
+    pub fn set_material(
+        &mut self,
+        material: FrictionMaterial,
+    ) -> Result<FrictionMaterial, MaterialChangeError> {
+        Material::from_friction(material)?;
+        if self.session.object().is_none() {
+            return Err(MaterialChangeError::NoObject);
+        }
+        self.session.0.with_dependent_mut(|_, r| {
+            let passivity = r
+                .controller
+                .set_material_as_needed(material, true)
+                .map_err(MaterialChangeError::Controller)?;
+            r.passivity_control = passivity;
+            Ok::<(), MaterialChangeError>(())
+        })?;
+        self.material = Some(material);
+        Ok(material)
+    }
+
+    /// The material the loop renders, if it renders an object.
+    pub fn material(&self) -> Option<FrictionMaterial> {
+        self.material
+    }
+
+    /// Renders `session` from the next tick; the arm, the hand and the forces' switch stay
+    /// as they are.
+    pub fn swap_session(&mut self, session: Session) {
+        let forces = self.forces_enabled();
+        self.material = material_of(&session);
+        self.session = session;
+        self.set_forces_enabled(forces);
+    }
+
+    /// The session.
+    pub fn session(&self) -> &Session {
+        &self.session
+    }
+
+    /// Enables or disables the forces.
+    pub fn set_forces_enabled(&mut self, enabled: bool) {
+        self.session
+            .0
+            .with_dependent_mut(|_, r| r.controller.set_forces_enabled(enabled));
+    }
+
+    /// Whether forces are enabled.
+    pub fn forces_enabled(&self) -> bool {
+        self.session
+            .0
+            .with_dependent(|_, r| r.controller.forces_enabled())
+    }
+
+    /// Clears the latched faults whose condition is gone; returns those still latched.
+    pub fn clear_faults(&mut self) -> Faults {
+        self.session
+            .0
+            .with_dependent_mut(|_, r| r.controller.clear_faults())
+    }
+
+    /// The latched faults.
+    pub fn faults(&self) -> Faults {
+        self.session.0.with_dependent(|_, r| r.controller.faults())
+    }
+
+    /// Why the last tick could not move the arm, if it could not.
+    pub fn last_error(&self) -> Option<&str> {
+        self.last_error.as_deref()
+    }
+}
+
+fn material_of(session: &Session) -> Option<FrictionMaterial> {
+    session
+        .object()
+        .and_then(|i| session.scene().object(i))
+        .map(|o| o.material().friction_material())
+}
+
+/// A tick with nothing rendered at time `t_s`.
+fn idle_tick(t_s: f64) -> Tick {
+    use friction::{Mode, SwitchCause};
+    use nurbs::Vec3;
+    Tick {
+        t_s,
+        hip: Vec3::ZERO,
+        hip_velocity: Vec3::ZERO,
+        cp: Vec3::ZERO,
+        go: Vec3::ZERO,
+        patch: None,
+        feature: tracker::Feature::Patch(0),
+        mode: Mode::Free,
+        cause: SwitchCause::None,
+        depth_m: 0.0,
+        normal_force_n: 0.0,
+        friction_force_n: 0.0,
+        mu: 0.0,
+        psi: 0.0,
+        normal: Vec3::ZERO,
+        tangent: Vec3::ZERO,
+        friction: Vec3::ZERO,
+        force: Vec3::ZERO,
+        cp_patch: 0,
+        cp_param: 0.0,
+        cp_params: [0.0; 2],
+        go_patch: 0,
+        go_param: 0.0,
+        go_params: [0.0; 2],
+        device: None,
+    }
+}
+
+/// What the UI asks of the loop.
+#[derive(Debug)]
+pub enum Command {
+    /// Move the hand's target (m).
+    HandTarget(Vec2),
+    /// Set the rendered object's material ([`HapticLoop::set_material`]).
+    SetMaterial(FrictionMaterial),
+    /// Render another scene ([`HapticLoop::swap_session`]); built by the UI, swapped in at a
+    /// tick boundary.
+    Swap(Box<Session>),
+    /// Enable or disable the forces.
+    Forces(bool),
+    /// Clear the latched faults.
+    ClearFaults,
+}
+
+/// What the loop answers.
+#[derive(Debug)]
+pub enum Reply {
+    /// The result of a [`Command::SetMaterial`].
+    Material(Result<FrictionMaterial, MaterialChangeError>),
+    /// A [`Command::Swap`] took effect.
+    Swapped,
+    /// Faults still latched after a [`Command::ClearFaults`].
+    FaultsCleared(Faults),
+}
+
+/// One tick as the UI receives it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Sample {
+    /// The tick.
+    pub tick: Tick,
+    /// The hand's target during the tick (m).
+    pub hand_target: Vec2,
+    /// Time since the previous tick began (µs), `None` for the first tick or in a stepped
+    /// loop (no clock).
+    pub period_us: Option<f32>,
+    /// Whether forces were enabled.
+    pub forces_enabled: bool,
+}
+
+/// Counters the loop thread shares with the UI.
+#[derive(Debug, Default)]
+pub struct LoopCounters {
+    /// Samples dropped because the UI's channel was full.
+    pub dropped_samples: AtomicU64,
+    /// Commands dropped because the loop's channel was full.
+    pub dropped_commands: AtomicU64,
+    /// Ticks dropped because the recorder's channel was full.
+    pub dropped_records: AtomicU64,
+    /// Ticks run.
+    pub ticks: AtomicU64,
+    /// Whether the OS gave the loop thread real-time scheduling ([`raise_priority`]).
+    pub realtime: AtomicBool,
+}
+
+/// Asks the OS to run the calling thread ahead of every normal one: real-time FIFO
+/// scheduling at the lowest real-time priority, where the OS allows it (root, CAP_SYS_NICE or
+/// an rtprio limit); elsewhere nothing changes. Returns whether it took. The loop sleeps
+/// until its next tick is due, so it takes about 5 % of a core; Linux also keeps 5 % of every
+/// second for normal threads whatever real-time threads do.
+pub fn raise_priority() -> bool {
+    #[cfg(unix)]
+    {
+        use thread_priority::unix::{set_thread_priority_and_policy, thread_native_id};
+        use thread_priority::{RealtimeThreadSchedulePolicy, ThreadPriority, ThreadSchedulePolicy};
+        set_thread_priority_and_policy(
+            thread_native_id(),
+            ThreadPriority::Min,
+            ThreadSchedulePolicy::Realtime(RealtimeThreadSchedulePolicy::Fifo),
+        )
+        .is_ok()
+    }
+    #[cfg(not(unix))]
+    {
+        thread_priority::set_current_thread_priority(thread_priority::ThreadPriority::Max).is_ok()
+    }
+}
+
+/// A [`HapticLoop`] on its own thread, ticking in real time at [`RATE_HZ`]. Dropping it stops
+/// the thread (and, with it, the recorder's input).
+#[derive(Debug)]
+pub struct LoopThread {
+    commands: SyncSender<Command>,
+    samples: Receiver<Sample>,
+    replies: Receiver<Reply>,
+    counters: Arc<LoopCounters>,
+    stop: Arc<AtomicBool>,
+    thread: Option<JoinHandle<()>>,
+}
+
+impl LoopThread {
+    /// Starts `haptic` on a thread named `haptic-loop`; every tick also goes to `record`
+    /// when given.
+    pub fn spawn(mut haptic: HapticLoop, record: Option<SyncSender<Tick>>) -> io::Result<Self> {
+        let (commands, command_rx) = mpsc::sync_channel(COMMAND_CAPACITY);
+        let (sample_tx, samples) = mpsc::sync_channel(TELEMETRY_CAPACITY);
+        let (reply_tx, replies) = mpsc::channel();
+        let counters = Arc::new(LoopCounters::default());
+        let stop = Arc::new(AtomicBool::new(false));
+        let thread = {
+            let (counters, stop) = (counters.clone(), stop.clone());
+            std::thread::Builder::new()
+                .name("haptic-loop".into())
+                .spawn(move || {
+                    counters.realtime.store(raise_priority(), Ordering::Relaxed);
+                    run_paced(
+                        &mut haptic,
+                        &command_rx,
+                        &sample_tx,
+                        &reply_tx,
+                        record.as_ref(),
+                        &counters,
+                        &stop,
+                    );
+                })?
+        };
+        Ok(LoopThread {
+            commands,
+            samples,
+            replies,
+            counters,
+            stop,
+            thread: Some(thread),
+        })
+    }
+
+    /// Sends a command without waiting; a full channel drops it (counted) and returns false.
+    pub fn send(&self, command: Command) -> bool {
+        match self.commands.try_send(command) {
+            Ok(()) => true,
+            Err(TrySendError::Full(_) | TrySendError::Disconnected(_)) => {
+                self.counters
+                    .dropped_commands
+                    .fetch_add(1, Ordering::Relaxed);
+                false
+            }
+        }
+    }
+
+    /// The samples that arrived since the last call, without waiting.
+    pub fn drain_samples(&self, mut f: impl FnMut(Sample)) {
+        while let Ok(s) = self.samples.try_recv() {
+            f(s);
+        }
+    }
+
+    /// The replies that arrived since the last call, without waiting.
+    pub fn drain_replies(&self) -> Vec<Reply> {
+        self.replies.try_iter().collect()
+    }
+
+    /// The shared counters.
+    pub fn counters(&self) -> &LoopCounters {
+        &self.counters
+    }
+
+    /// Whether the thread is still running.
+    pub fn is_running(&self) -> bool {
+        self.thread.as_ref().is_some_and(|t| !t.is_finished())
+    }
+}
+
+impl Drop for LoopThread {
+    fn drop(&mut self) {
+        self.stop.store(true, Ordering::Relaxed);
+        if let Some(thread) = self.thread.take() {
+            let _ = thread.join();
+        }
+    }
+}
+
+/// Applies one command to `haptic`; the reply, if it has one.
+pub fn apply(haptic: &mut HapticLoop, command: Command) -> Option<Reply> {
+    match command {
+        Command::HandTarget(t) => {
+            haptic.set_hand_target(t);
+            None
+        }
+        Command::SetMaterial(m) => Some(Reply::Material(haptic.set_material(m))),
+        Command::Swap(session) => {
+            haptic.swap_session(*session);
+            Some(Reply::Swapped)
+        }
+        Command::Forces(on) => {
+            haptic.set_forces_enabled(on);
+            None
+        }
+        Command::ClearFaults => Some(Reply::FaultsCleared(haptic.clear_faults())),
+    }
+}
+
+/// The thread's loop: at each tick boundary the pending commands, then one tick, its sample
+/// to the UI and the recorder (dropped, and counted, when their channels are full), then a
+/// sleep until the next tick is due on an absolute schedule (so lateness does not
+/// accumulate; more than 100 ms behind, after a suspend, the schedule restarts).
+fn run_paced(
+    haptic: &mut HapticLoop,
+    commands: &Receiver<Command>,
+    samples: &SyncSender<Sample>,
+    replies: &Sender<Reply>,
+    record: Option<&SyncSender<Tick>>,
+    counters: &LoopCounters,
+    stop: &AtomicBool,
+) {
+    let period = Duration::from_secs_f64(1.0 / RATE_HZ);
+    let mut epoch = Instant::now();
+    let mut since_epoch: u32 = 0;
+    let mut previous: Option<Instant> = None;
+    while !stop.load(Ordering::Relaxed) {
+        let begun = Instant::now();
+        loop {
+            match commands.try_recv() {
+                Ok(c) => {
+                    if let Some(r) = apply(haptic, c) {
+                        let _ = replies.send(r);
+                    }
+                }
+                Err(TryRecvError::Empty) => break,
+                Err(TryRecvError::Disconnected) => return,
+            }
+        }
+        let tick = haptic.step();
+        let sample = Sample {
+            tick,
+            hand_target: haptic.hand_target(),
+            period_us: previous.map(|p| (begun - p).as_secs_f32() * 1e6),
+            forces_enabled: haptic.forces_enabled(),
+        };
+        previous = Some(begun);
+        counters.ticks.fetch_add(1, Ordering::Relaxed);
+        match samples.try_send(sample) {
+            Ok(()) => {}
+            Err(TrySendError::Full(_)) => {
+                counters.dropped_samples.fetch_add(1, Ordering::Relaxed);
+            }
+            Err(TrySendError::Disconnected(_)) => return,
+        }
+        if let Some(record) = record
+            && record.try_send(tick).is_err()
+        {
+            counters.dropped_records.fetch_add(1, Ordering::Relaxed);
+        }
+        since_epoch += 1;
+        let due = epoch + period * since_epoch;
+        let now = Instant::now();
+        if due > now {
+            std::thread::sleep(due - now);
+        } else if now - due > Duration::from_millis(100) {
+            epoch = now;
+            since_epoch = 0;
+        }
+    }
+}
+
+/// Writes the ticks it receives to a run log (the columns of `viewer sim --device`), flushed
+/// at least once a second, completed when the loop stops.
+#[derive(Debug)]
+pub struct Recorder {
+    thread: Option<JoinHandle<io::Result<RecordSummary>>>,
+    path: PathBuf,
+}
+
+/// What a recording wrote.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct RecordSummary {
+    /// Rows written.
+    pub rows: u64,
+    /// Ticks skipped because a value was not finite (a run log never holds NaN or inf).
+    pub skipped: u64,
+}
+
+/// How often the recorder flushes at the latest.
+pub const FLUSH_PERIOD: Duration = Duration::from_millis(500);
+
+impl Recorder {
+    /// Creates `path` (writing its header) and starts the writer thread; returns it and the
+    /// sender the loop feeds.
+    pub fn start(path: &Path) -> io::Result<(Self, SyncSender<Tick>)> {
+        let file = File::create(path)?;
+        let mut out = BufWriter::new(file);
+        sim::write_csv_header(&mut out, Space::Planar, true)?;
+        out.flush()?;
+        let (tx, rx) = mpsc::sync_channel::<Tick>(RECORD_CAPACITY);
+        let thread = std::thread::Builder::new()
+            .name("recorder".into())
+            .spawn(move || record(out, &rx))?;
+        Ok((
+            Recorder {
+                thread: Some(thread),
+                path: path.to_owned(),
+            },
+            tx,
+        ))
+    }
+
+    /// Waits for the writer to finish (after the loop's sender is gone) and flushes.
+    pub fn finish(mut self) -> io::Result<RecordSummary> {
+        let path = self.path.clone();
+        match self.thread.take().map(JoinHandle::join) {
+            Some(Ok(result)) => {
+                result.map_err(|e| io::Error::new(e.kind(), format!("{}: {e}", path.display())))
+            }
+            Some(Err(_)) => Err(io::Error::other(format!(
+                "{}: the recorder thread panicked",
+                path.display()
+            ))),
+            None => Ok(RecordSummary::default()),
+        }
+    }
+}
+
+fn record(mut out: BufWriter<File>, rx: &Receiver<Tick>) -> io::Result<RecordSummary> {
+    let mut summary = RecordSummary::default();
+    let mut flushed = Instant::now();
+    loop {
+        match rx.recv_timeout(FLUSH_PERIOD) {
+            Ok(tick) => {
+                if tick.non_finite_column().is_some() {
+                    summary.skipped += 1;
+                } else {
+                    tick.write_csv_row(&mut out, Space::Planar, true)?;
+                    summary.rows += 1;
+                }
+            }
+            Err(mpsc::RecvTimeoutError::Timeout) => {}
+            Err(mpsc::RecvTimeoutError::Disconnected) => break,
+        }
+        if flushed.elapsed() >= FLUSH_PERIOD {
+            out.flush()?;
+            flushed = Instant::now();
+        }
+    }
+    out.flush()?;
+    out.into_inner().map_err(|e| e.into_error())?.sync_all()?;
+    Ok(summary)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn thesis_2d() -> Scene {
+        Scene::from_json_str(include_str!("../../../scenes/thesis-2d.json"))
+            .unwrap_or_else(|e| panic!("{e}"))
+    }
+
+    /// The recorder writes the header of `sim --device` logs and one row per tick, readable
+    /// by `viewer plot`'s reader; rows reach the file while it runs (the flush period is
+    /// 0.5 s: polled for up to 10 s, so a loaded machine does not fail it), and all of them
+    /// when it finishes.
+    #[test]
+    fn recorder_writes_a_run_log_while_running_and_completes_it() {
+        let dir = std::env::temp_dir().join(format!("viewer-recorder-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).expect("temp dir");
+        let path = dir.join("rec.csv");
+        let (recorder, tx) = Recorder::start(&path).expect("start");
+        let session = Session::new(thesis_2d()).expect("session");
+        let mut haptic = HapticLoop::new(session, START_HIP).expect("loop");
+        for _ in 0..300 {
+            tx.send(haptic.step()).expect("recorder alive");
+        }
+        let waited = Instant::now();
+        let rows = || std::fs::read_to_string(&path).map_or(0, |t| t.lines().count());
+        while rows() < 301 && waited.elapsed() < Duration::from_secs(10) {
+            std::thread::sleep(Duration::from_millis(20));
+        }
+        assert_eq!(rows(), 301, "flushed while running");
+        for _ in 0..200 {
+            tx.send(haptic.step()).expect("recorder alive");
+        }
+        drop(tx);
+        let summary = recorder.finish().expect("finish");
+        assert_eq!(
+            summary,
+            RecordSummary {
+                rows: 500,
+                skipped: 0
+            }
+        );
+        let text = std::fs::read_to_string(&path).expect("read");
+        assert_eq!(
+            text.lines().next(),
+            Some(format!("{},{}", sim::csv_header(Space::Planar), sim::DEVICE_COLUMNS).as_str())
+        );
+        let log = crate::runlog::parse(&text, &path).unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(log.run.ticks.len(), 500);
+        assert_eq!(log.run.rate_hz, RATE_HZ);
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    /// The thread ticks on its own and answers commands; dropping it stops it. Polled for up
+    /// to 10 s of wall time (a loaded machine may be slow; nothing here is timed).
+    #[test]
+    fn loop_thread_ticks_and_answers() {
+        let session = Session::new(thesis_2d()).expect("session");
+        let haptic = HapticLoop::new(session, START_HIP).expect("loop");
+        let thread = LoopThread::spawn(haptic, None).expect("spawn");
+        assert!(thread.send(Command::HandTarget(Vec2::new(0.0, 0.105))));
+        let bad = FrictionMaterial {
+            mu_dynamic: 0.9,
+            ..FrictionMaterial::default()
+        };
+        assert!(thread.send(Command::SetMaterial(bad)));
+        let waited = Instant::now();
+        let (mut samples, mut replies) = (Vec::new(), Vec::new());
+        while (samples.len() < 50 || replies.is_empty())
+            && waited.elapsed() < Duration::from_secs(10)
+        {
+            thread.drain_samples(|s| samples.push(s));
+            replies.extend(thread.drain_replies());
+            std::thread::sleep(Duration::from_millis(5));
+        }
+        assert!(samples.len() >= 50, "{} samples", samples.len());
+        assert!(samples.windows(2).all(|w| w[1].tick.t_s > w[0].tick.t_s));
+        assert!(samples.iter().skip(1).all(|s| s.period_us.is_some()));
+        assert!(
+            samples
+                .last()
+                .is_some_and(|s| s.hand_target == Vec2::new(0.0, 0.105))
+        );
+        match replies.first() {
+            Some(Reply::Material(Err(MaterialChangeError::Invalid(e)))) => {
+                assert_eq!(e.field(), "mu_dynamic");
+            }
+            other => panic!("{other:?}"),
+        }
+        assert!(thread.is_running());
+        assert!(thread.counters().ticks.load(Ordering::Relaxed) >= 50);
+        drop(thread);
+    }
+}
