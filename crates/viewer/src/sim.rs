@@ -503,14 +503,8 @@ pub fn run_device(
             // The device clock: integer microseconds since the start, as a board's timer.
             let now_us = (i as f64 * 1e6 / rate_hz).round() as u64;
             let target = vec2(trajectory.at(t_s));
-            let (tick, frame) = device_tick(
-                &mut controller,
-                &mut arm,
-                t_s,
-                now_us,
-                target,
-                period_s,
-            )?;
+            let (tick, frame) =
+                device_tick(&mut controller, &mut arm, t_s, now_us, target, period_s)?;
             ticks.push(tick);
             telemetry.push(frame);
             progress(i + 1, n);
