@@ -28,7 +28,7 @@ use device::simulator::{SimParams, SimulatedPantograph};
 use device::spec::DeviceSpec;
 use firmware::app::Parked;
 use firmware::board::Board;
-use firmware::netduino::{Clock, Uart};
+use firmware::netduino::{Clock, SimulatedBoard};
 use nurbs::Vec2;
 
 /// The tick period.
@@ -50,49 +50,6 @@ const HEARTBEAT_TIMEOUT_S: f32 = 0.25;
 const SCENE_CAPACITY: usize = 4096;
 /// Where the handle starts (m): as the host's simulator, `device::host::SimConfig`.
 const START_M: Vec2 = Vec2::new(0.0, 0.09);
-
-/// The emulated board: the simulated pantograph as the plant, the tick count as the clock.
-struct SimBoard {
-    arm: SimulatedPantograph,
-    now_us: u64,
-    currents_a: [f32; 2],
-    driver_enabled: bool,
-    uart: Uart,
-}
-
-impl Board for SimBoard {
-    fn encoder_counts(&mut self) -> [i32; 2] {
-        self.arm.encoder_counts()
-    }
-
-    fn set_motor_currents(&mut self, currents_a: [f32; 2]) {
-        self.currents_a = currents_a;
-    }
-
-    fn set_driver_enabled(&mut self, enabled: bool) {
-        self.driver_enabled = enabled;
-    }
-
-    fn now_us(&mut self) -> u64 {
-        self.now_us
-    }
-
-    fn link_send(&mut self, frame: &[u8]) {
-        self.uart.send_frame(frame);
-    }
-
-    fn link_receive(&mut self, buf: &mut [u8]) -> usize {
-        let mut n = 0;
-        for slot in buf.iter_mut() {
-            match self.uart.receive() {
-                Some(b) => *slot = b,
-                None => break,
-            }
-            n += 1;
-        }
-        n
-    }
-}
 
 /// The bytes of one COBS packet as they arrive, up to its `0x00` delimiter.
 struct Packet {
@@ -159,13 +116,7 @@ fn main() -> ! {
         Ok(arm) => arm,
         Err(e) => fail(format_args!("simulated pantograph: {e}")),
     };
-    let mut board = SimBoard {
-        arm,
-        now_us: 0,
-        currents_a: [0.0; 2],
-        driver_enabled: false,
-        uart: Uart::init(),
-    };
+    let mut board = SimulatedBoard::new(arm);
     let period_s = PERIOD_US as f32 * 1e-6;
     let mut parked = match Parked::with_safety(SafetyConfig {
         period_s,
@@ -229,13 +180,8 @@ fn main() -> ! {
                 };
                 board.now_us = now_us;
                 app.tick(&mut board);
-                let currents = if board.driver_enabled {
-                    board.currents_a
-                } else {
-                    [0.0; 2]
-                };
                 // An arm driven into a singular pose stays there, as a real one on its stops.
-                let _ = board.arm.step(currents, hand_target, period_s);
+                let _ = board.step_plant(hand_target, period_s);
                 app.acquire();
             }
             cortex_m::asm::wfi();

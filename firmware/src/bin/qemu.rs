@@ -32,7 +32,7 @@ use device::{
 };
 use firmware::app::App;
 use firmware::board::Board;
-use firmware::netduino::Uart;
+use firmware::netduino::SimulatedBoard;
 use firmware::scenario::{HipPath, Scenario};
 #[cfg(feature = "stages")]
 use friction::FrictionMaterial;
@@ -215,14 +215,9 @@ fn stack_peak() -> usize {
     top - p
 }
 
-/// The emulated board: the simulated pantograph as the plant, the scenario's clock.
+/// The emulated board with the instruction counter around the tick.
 struct QemuBoard {
-    arm: SimulatedPantograph,
-    now_us: u64,
-    currents_a: [f32; 2],
-    driver_enabled: bool,
-    frames_sent: u32,
-    uart: Uart,
+    sim: SimulatedBoard,
     meter: Meter,
     /// Instructions of the last `Controller::tick`, bracket subtracted.
     last: Result<u32, Overflow>,
@@ -230,36 +225,27 @@ struct QemuBoard {
 
 impl Board for QemuBoard {
     fn encoder_counts(&mut self) -> [i32; 2] {
-        self.arm.encoder_counts()
+        self.sim.encoder_counts()
     }
 
     fn set_motor_currents(&mut self, currents_a: [f32; 2]) {
-        self.currents_a = currents_a;
+        self.sim.set_motor_currents(currents_a);
     }
 
     fn set_driver_enabled(&mut self, enabled: bool) {
-        self.driver_enabled = enabled;
+        self.sim.set_driver_enabled(enabled);
     }
 
     fn now_us(&mut self) -> u64 {
-        self.now_us
+        self.sim.now_us()
     }
 
     fn link_send(&mut self, frame: &[u8]) {
-        self.uart.send_frame(frame);
-        self.frames_sent = self.frames_sent.wrapping_add(1);
+        self.sim.link_send(frame);
     }
 
     fn link_receive(&mut self, buf: &mut [u8]) -> usize {
-        let mut n = 0;
-        for slot in buf.iter_mut() {
-            match self.uart.receive() {
-                Some(b) => *slot = b,
-                None => break,
-            }
-            n += 1;
-        }
-        n
+        self.sim.link_receive(buf)
     }
 
     fn around_tick<R>(&mut self, tick: impl FnOnce() -> R) -> R {
@@ -577,12 +563,7 @@ fn main() -> ! {
     #[cfg(feature = "stages")]
     let mut shadow = shadow(&app, &store, &scenario, period_s);
     let mut board = QemuBoard {
-        arm,
-        now_us: 0,
-        currents_a: [0.0; 2],
-        driver_enabled: false,
-        frames_sent: 0,
-        uart: Uart::init(),
+        sim: SimulatedBoard::new(arm),
         meter,
         last: Ok(0),
     };
@@ -597,14 +578,14 @@ fn main() -> ! {
     let mut last_hip = Vec2::ZERO;
     for i in 0..scenario.ticks() {
         // The device clock: integer microseconds since the start, as the host's run.
-        board.now_us = libm::round(i as f64 * 1e6 / scenario.rate_hz) as u64;
-        match board.arm.hip() {
+        board.sim.now_us = libm::round(i as f64 * 1e6 / scenario.rate_hz) as u64;
+        match board.sim.arm.hip() {
             Ok((hip, _)) => last_hip = hip,
             Err(e) => fail(format_args!("tick {i}: simulated arm: {e}")),
         }
         app.controller_mut().heartbeat();
         #[cfg(feature = "stages")]
-        let counts = board.arm.encoder_counts();
+        let counts = board.sim.arm.encoder_counts();
         let out = app.tick(&mut board);
         let n = match board.last {
             Ok(n) => n,
@@ -639,12 +620,7 @@ fn main() -> ! {
             Err(e) => fail(format_args!("{e}")),
         };
         // A disabled driver puts no current through the motors.
-        let currents = if board.driver_enabled {
-            board.currents_a
-        } else {
-            [0.0; 2]
-        };
-        if let Err(e) = board.arm.step(currents, target, period_s) {
+        if let Err(e) = board.sim.step_plant(target, period_s) {
             fail(format_args!("tick {i}: simulated arm: {e}"));
         }
     }
@@ -695,7 +671,7 @@ fn main() -> ! {
         name,
         all.n,
         fault_ticks,
-        board.frames_sent,
+        board.sim.frames_sent,
         last_hip.x,
         last_hip.y
     );
