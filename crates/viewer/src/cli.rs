@@ -67,6 +67,14 @@ examples) are one click away in the app, and any scene file can be opened by its
 device renders the first object of planar curves; a scene of surfaces shows a message (the \
 3-D view comes later).
 
+--device picks what the app drives: sim (default) runs the simulated pantograph in the app; \
+tcp:HOST:PORT connects to the firmware under QEMU (start it with `cargo xtask qemu --serve \
+HOST:PORT`), whose simulated arm the mouse moves; hid and serial:PATH connect to a board, whose \
+handle a real hand moves. The running scene is uploaded on connect and after every change (the \
+device's upload: begin, chunks, commit); a board waits for Calibrate (handle at its end stops) \
+and the forces switch. If the link drops, the app says so and the device's watchdog turns its \
+forces off.
+
 --record writes one run-log row per tick with the columns of `viewer sim --device` (see \
 `viewer sim --help`), flushed at least every 0.5 s and completed when the window closes; \
 `viewer plot` draws it.
@@ -77,8 +85,8 @@ loop's tick period and jitter, and the telemetry frames dropped.
 Exit status:
   0  the window was closed
   1  the window could not be opened, or the recording could not be written
-  2  bad command line, unreadable or invalid scene, a --device other than sim, or a
-     --record file that cannot be created
+  2  bad command line (an unknown --device), unreadable or invalid scene, or a --record
+     file that cannot be created
 
 Examples:
   viewer
@@ -104,9 +112,11 @@ pub struct GuiArgs {
     /// Scene file (JSON, format `scene/1`); the bundled thesis-2d scene without it.
     #[arg(value_name = "SCENE")]
     pub scene: Option<PathBuf>,
-    /// The device: `sim`, the simulated pantograph in this process (the only one for now).
+    /// The device: `sim` (the simulated pantograph in this process), `hid` (the first USB
+    /// HID board), `serial:PATH` (a board on a serial port) or `tcp:HOST:PORT` (the firmware
+    /// under QEMU, `cargo xtask qemu --serve HOST:PORT`).
     #[arg(long, value_name = "DEVICE", default_value = "sim", value_parser = gui_device)]
-    pub device: String,
+    pub device: GuiDevice,
     /// Record the telemetry to this run log (CSV) while the app runs.
     #[arg(long, value_name = "RUN.csv")]
     pub record: Option<PathBuf>,
@@ -118,17 +128,34 @@ pub struct GuiArgs {
     pub demo: bool,
 }
 
-fn gui_device(text: &str) -> Result<String, String> {
-    let later = "USB HID (hid), serial (serial:PATH) and the emulated board (tcp:HOST:PORT) \
-                 come later";
+/// The device of `viewer gui --device`: `None` for the simulated pantograph in the app.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct GuiDevice(pub Option<crate::devices::Target>);
+
+fn gui_device(text: &str) -> Result<GuiDevice, String> {
+    parse_gui_device(text).map(GuiDevice)
+}
+
+/// Parses a `--device` of `viewer gui`.
+pub fn parse_gui_device(text: &str) -> Result<Option<crate::devices::Target>, String> {
+    use crate::devices::Target;
+    let choices = "sim (the simulated pantograph in the app), hid (the first USB HID board), \
+                   serial:PATH (a board on a serial port) or tcp:HOST:PORT (the firmware under \
+                   QEMU: cargo xtask qemu --serve HOST:PORT)";
     match text {
-        "sim" => Ok(text.to_owned()),
-        t if t == "hid" || t.starts_with("serial:") || t.starts_with("tcp:") => Err(format!(
-            "{t}: the GUI drives only the simulated pantograph for now (--device sim); {later}"
-        )),
-        t => Err(format!(
-            "{t:?} is not a device; the GUI supports --device sim for now ({later})"
-        )),
+        "sim" => Ok(None),
+        "hid" => Ok(Some(Target::Hid)),
+        t => match t.split_once(':') {
+            Some(("serial", path)) if !path.is_empty() => Ok(Some(Target::Serial(path.into()))),
+            Some(("tcp", address))
+                if address
+                    .rsplit_once(':')
+                    .is_some_and(|(h, p)| !h.is_empty() && p.parse::<u16>().is_ok()) =>
+            {
+                Ok(Some(Target::Tcp(address.into())))
+            }
+            _ => Err(format!("{t:?} is not a device; choose {choices}")),
+        },
     }
 }
 
@@ -479,8 +506,8 @@ mod tests {
             panic!("gui")
         };
         assert_eq!(
-            (args.scene, args.device.as_str(), args.record),
-            (None, "sim", None)
+            (args.scene, args.device, args.record),
+            (None, GuiDevice(None), None)
         );
         let cli = Cli::try_parse_from([
             "viewer", "gui", "s.json", "--device", "sim", "--record", "r.csv",
@@ -491,16 +518,33 @@ mod tests {
         };
         assert_eq!(args.scene, Some(PathBuf::from("s.json")));
         assert_eq!(args.record, Some(PathBuf::from("r.csv")));
-        for later in ["hid", "serial:/dev/ttyACM0", "tcp:localhost:4000"] {
-            let e = Cli::try_parse_from(["viewer", "gui", "--device", later]).expect_err(later);
+        use crate::devices::Target;
+        for (text, target) in [
+            ("hid", Target::Hid),
+            ("serial:/dev/ttyACM0", Target::Serial("/dev/ttyACM0".into())),
+            ("tcp:localhost:4000", Target::Tcp("localhost:4000".into())),
+        ] {
+            let cli = Cli::try_parse_from(["viewer", "gui", "--device", text]).expect(text);
+            let Some(Command::Gui(args)) = cli.command else {
+                panic!("gui")
+            };
+            assert_eq!(args.device, GuiDevice(Some(target)));
+        }
+        for bad in [
+            "usb",
+            "serial:",
+            "tcp:localhost",
+            "tcp::4000",
+            "tcp:host:99999",
+        ] {
+            let e = Cli::try_parse_from(["viewer", "gui", "--device", bad]).expect_err(bad);
             let text = e.to_string();
             assert!(
-                text.contains("only the simulated pantograph for now (--device sim)"),
+                text.contains(&format!("{bad:?} is not a device"))
+                    && text.contains("tcp:HOST:PORT"),
                 "{text}"
             );
         }
-        let e = Cli::try_parse_from(["viewer", "gui", "--device", "usb"]).expect_err("usb");
-        assert!(e.to_string().contains("--device sim"), "{e}");
         assert!(Cli::try_parse_from(["viewer", "gui", "--quit-after-frames", "0"]).is_err());
         let cli = Cli::try_parse_from(["viewer"]).expect("no subcommand");
         assert!(cli.command.is_none());

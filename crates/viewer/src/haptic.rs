@@ -25,6 +25,7 @@ use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
 use device::controller::{Controller, ControllerError};
+use device::protocol::SceneStore;
 use device::safety::Faults;
 use device::simulator::{SimParams, SimulatedPantograph};
 use device::spec::DeviceSpec;
@@ -34,6 +35,7 @@ use tracker::Chain;
 
 use crate::scene::{Material, MaterialError, Scene, Space};
 use crate::sim::{self, SimError, Tick};
+use crate::upload::{self, UploadError};
 
 /// The loop's tick rate (Hz).
 pub const RATE_HZ: f64 = 1000.0;
@@ -75,11 +77,21 @@ self_cell::self_cell!(
     }
 );
 
-/// The owner of a [`Session`]: the scene and the object chosen.
+/// The owner of a [`Session`]: the scene, the object chosen, and that object as the device
+/// received it (its wire scene, the store the device decoded it into, the CRC it reports).
 #[derive(Debug)]
 struct SceneChoice {
     scene: Scene,
     object: Option<usize>,
+    received: Option<Received>,
+}
+
+/// An object as the device received it ([`upload::receive`]).
+#[derive(Debug)]
+struct Received {
+    wire: Vec<u8>,
+    store: Box<SceneStore>,
+    crc32: u32,
 }
 
 impl std::fmt::Debug for Session {
@@ -97,6 +109,9 @@ pub enum SessionError {
     /// The controller or the chain refused the object.
     #[error("{0}")]
     Sim(#[from] SimError),
+    /// The device refused its upload.
+    #[error("{0}")]
+    Upload(#[from] UploadError),
 }
 
 impl Session {
@@ -112,9 +127,24 @@ impl Session {
         Self::with_object(scene, object)
     }
 
-    /// [`Session::new`] with object `object` (which must be planar), or none.
+    /// [`Session::new`] with object `object` (which must be planar), or none. The object
+    /// reaches the controller as a board's would: its wire scene ([`upload::wire_scene`])
+    /// goes frame by frame through the device's receiver ([`upload::receive`]), and the
+    /// controller renders the store the device decoded.
     pub fn with_object(scene: Scene, object: Option<usize>) -> Result<Self, SessionError> {
-        let choice = SceneChoice { scene, object };
+        let received = match object {
+            Some(index) => {
+                let wire = upload::wire_scene(&scene, index)?;
+                let (store, crc32) = upload::receive(&wire)?;
+                Some(Received { wire, store, crc32 })
+            }
+            None => None,
+        };
+        let choice = SceneChoice {
+            scene,
+            object,
+            received,
+        };
         let cell = SessionCell::try_new(choice, build_controller)?;
         Ok(Session(cell))
     }
@@ -129,6 +159,22 @@ impl Session {
         self.0.borrow_owner().object
     }
 
+    /// The wire scene the device received (the rendered object alone), if it renders one:
+    /// what an upload to a board carries.
+    pub fn wire(&self) -> Option<&[u8]> {
+        self.0
+            .borrow_owner()
+            .received
+            .as_ref()
+            .map(|r| r.wire.as_slice())
+    }
+
+    /// The CRC-32 the device reports for its active scene (`Status::scene_crc32`), if it
+    /// renders one.
+    pub fn scene_crc32(&self) -> Option<u32> {
+        self.0.borrow_owner().received.as_ref().map(|r| r.crc32)
+    }
+
     /// Whether the controller renders the material with the passivity controller on (the
     /// material is stiffer than the device renders passively at [`RATE_HZ`]).
     pub fn passivity_control(&self) -> bool {
@@ -138,18 +184,15 @@ impl Session {
 
 fn build_controller(choice: &SceneChoice) -> Result<Rendering<'_>, SessionError> {
     let spec = DeviceSpec::default();
-    let (mut controller, passivity_control) = match choice.object {
-        Some(index) => {
-            let object = choice.scene.object(index).ok_or(SimError::ObjectIndex {
-                index,
-                count: choice.scene.objects().len(),
-            })?;
-            let curves = object.curve_views().ok_or_else(|| SimError::Surface {
-                index,
-                name: object.name().to_owned(),
-            })?;
+    let (mut controller, passivity_control) = match &choice.received {
+        Some(received) => {
+            let store = &received.store;
+            let curves: Vec<_> = (0..store.patch_count(0).unwrap_or(0))
+                .filter_map(|p| store.curve(0, p))
+                .collect();
+            let index = choice.object.unwrap_or(0);
             let chain = Chain::new(&curves).map_err(|error| SimError::Chain { index, error })?;
-            let material = object.material().friction_material();
+            let material = store.material(0).unwrap_or_default();
             sim::device_controller(chain, material, RATE_HZ)?
         }
         None => {
@@ -187,6 +230,9 @@ pub enum MaterialChangeError {
     /// The scene has no object the device renders.
     #[error("the scene has no object of planar curves for the device to render")]
     NoObject,
+    /// The device behind the link refused it (its reason).
+    #[error("the device refused the material: {0}")]
+    Device(String),
 }
 
 /// The loop's state: the session, the simulated arm and the hand. Stepped one tick at a time.
@@ -335,6 +381,18 @@ impl HapticLoop {
             .with_dependent_mut(|_, r| r.controller.clear_faults())
     }
 
+    /// Calibrates the controller on the simulated arm's end stops (where it was homed).
+    pub fn calibrate(&mut self) {
+        let counts = sim::end_stop_counts(&DeviceSpec::default());
+        let result = self
+            .session
+            .0
+            .with_dependent_mut(|_, r| r.controller.calibrate(counts));
+        if let Err(e) = result {
+            self.last_error = Some(e.to_string());
+        }
+    }
+
     /// The latched faults.
     pub fn faults(&self) -> Faults {
         self.session.0.with_dependent(|_, r| r.controller.faults())
@@ -400,6 +458,8 @@ pub enum Command {
     Forces(bool),
     /// Clear the latched faults.
     ClearFaults,
+    /// Calibrate against the end stops (the simulated arm is homed at once).
+    Calibrate,
 }
 
 /// What the loop answers.
@@ -411,6 +471,33 @@ pub enum Reply {
     Swapped,
     /// Faults still latched after a [`Command::ClearFaults`].
     FaultsCleared(Faults),
+    /// What a device behind a link said or did ([`crate::remote`]).
+    Link(LinkEvent),
+}
+
+/// What happened on the link to a device ([`crate::remote`]).
+#[derive(Clone, Debug, PartialEq)]
+pub enum LinkEvent {
+    /// The device answered the hello.
+    Connected {
+        /// What the link is (`tcp 127.0.0.1:7000`, `hid`, …).
+        device: String,
+        /// The device's hello (firmware version, scene capacity).
+        hello: device::protocol::Hello,
+        /// Whether the device's plant is simulated (it takes hand targets).
+        simulated_plant: bool,
+    },
+    /// The device's status (the answer to every heartbeat).
+    Status(device::protocol::Status),
+    /// The device refused a command (`what`), for `reason`; its state is unchanged.
+    Refused {
+        /// The command.
+        what: &'static str,
+        /// The device's reason.
+        reason: String,
+    },
+    /// The link is gone (or never came up); the device's watchdog turns its forces off.
+    Lost(String),
 }
 
 /// One tick as the UI receives it.
@@ -440,6 +527,12 @@ pub struct LoopCounters {
     pub ticks: AtomicU64,
     /// Whether the OS gave the loop thread real-time scheduling ([`raise_priority`]).
     pub realtime: AtomicBool,
+    /// Frames of a device behind a link lost on the way (gaps in its sequence numbers).
+    pub link_lost_frames: AtomicU64,
+    /// Corrupt frames from a device behind a link.
+    pub link_bad_frames: AtomicU64,
+    /// The latest heartbeat's round trip to a device behind a link (µs; 0 before one).
+    pub link_rtt_us: AtomicU64,
 }
 
 /// Asks the OS to run the calling thread ahead of every normal one: real-time FIFO
@@ -481,28 +574,37 @@ impl LoopThread {
     /// Starts `haptic` on a thread named `haptic-loop`; every tick also goes to `record`
     /// when given.
     pub fn spawn(mut haptic: HapticLoop, record: Option<SyncSender<Tick>>) -> io::Result<Self> {
+        Self::spawn_with("haptic-loop", record, move |ends| {
+            ends.counters
+                .realtime
+                .store(raise_priority(), Ordering::Relaxed);
+            run_paced(&mut haptic, &ends);
+        })
+    }
+
+    /// Starts `body` on a thread named `name` with the thread's ends of the channels: the
+    /// loop of a device behind a link ([`crate::remote`]) is the other body.
+    pub fn spawn_with(
+        name: &str,
+        record: Option<SyncSender<Tick>>,
+        body: impl FnOnce(LoopEnds) + Send + 'static,
+    ) -> io::Result<Self> {
         let (commands, command_rx) = mpsc::sync_channel(COMMAND_CAPACITY);
         let (sample_tx, samples) = mpsc::sync_channel(TELEMETRY_CAPACITY);
         let (reply_tx, replies) = mpsc::channel();
         let counters = Arc::new(LoopCounters::default());
         let stop = Arc::new(AtomicBool::new(false));
-        let thread = {
-            let (counters, stop) = (counters.clone(), stop.clone());
-            std::thread::Builder::new()
-                .name("haptic-loop".into())
-                .spawn(move || {
-                    counters.realtime.store(raise_priority(), Ordering::Relaxed);
-                    run_paced(
-                        &mut haptic,
-                        &command_rx,
-                        &sample_tx,
-                        &reply_tx,
-                        record.as_ref(),
-                        &counters,
-                        &stop,
-                    );
-                })?
+        let ends = LoopEnds {
+            commands: command_rx,
+            samples: sample_tx,
+            replies: reply_tx,
+            record,
+            counters: counters.clone(),
+            stop: stop.clone(),
         };
+        let thread = std::thread::Builder::new()
+            .name(name.into())
+            .spawn(move || body(ends))?;
         Ok(LoopThread {
             commands,
             samples,
@@ -575,6 +677,59 @@ pub fn apply(haptic: &mut HapticLoop, command: Command) -> Option<Reply> {
             None
         }
         Command::ClearFaults => Some(Reply::FaultsCleared(haptic.clear_faults())),
+        Command::Calibrate => {
+            haptic.calibrate();
+            None
+        }
+    }
+}
+
+/// The loop thread's ends of its channels.
+#[derive(Debug)]
+pub struct LoopEnds {
+    /// Commands from the UI.
+    pub commands: Receiver<Command>,
+    samples: SyncSender<Sample>,
+    /// Replies to the UI.
+    pub replies: Sender<Reply>,
+    record: Option<SyncSender<Tick>>,
+    /// The counters shared with the UI.
+    pub counters: Arc<LoopCounters>,
+    stop: Arc<AtomicBool>,
+}
+
+impl LoopEnds {
+    /// Whether the UI asked the thread to stop.
+    pub fn stopping(&self) -> bool {
+        self.stop.load(Ordering::Relaxed)
+    }
+
+    /// Sends a reply (a UI gone is not an error: the thread sees it at its next sample).
+    pub fn reply(&self, reply: Reply) {
+        let _ = self.replies.send(reply);
+    }
+
+    /// Hands one tick to the UI and the recorder, dropping it (counted) where a channel is
+    /// full; false when the UI is gone.
+    pub fn publish(&self, sample: Sample) -> bool {
+        self.counters.ticks.fetch_add(1, Ordering::Relaxed);
+        match self.samples.try_send(sample) {
+            Ok(()) => {}
+            Err(TrySendError::Full(_)) => {
+                self.counters
+                    .dropped_samples
+                    .fetch_add(1, Ordering::Relaxed);
+            }
+            Err(TrySendError::Disconnected(_)) => return false,
+        }
+        if let Some(record) = &self.record
+            && record.try_send(sample.tick).is_err()
+        {
+            self.counters
+                .dropped_records
+                .fetch_add(1, Ordering::Relaxed);
+        }
+        true
     }
 }
 
@@ -582,26 +737,18 @@ pub fn apply(haptic: &mut HapticLoop, command: Command) -> Option<Reply> {
 /// to the UI and the recorder (dropped, and counted, when their channels are full), then a
 /// sleep until the next tick is due on an absolute schedule (so lateness does not
 /// accumulate; more than 100 ms behind, after a suspend, the schedule restarts).
-fn run_paced(
-    haptic: &mut HapticLoop,
-    commands: &Receiver<Command>,
-    samples: &SyncSender<Sample>,
-    replies: &Sender<Reply>,
-    record: Option<&SyncSender<Tick>>,
-    counters: &LoopCounters,
-    stop: &AtomicBool,
-) {
+fn run_paced(haptic: &mut HapticLoop, ends: &LoopEnds) {
     let period = Duration::from_secs_f64(1.0 / RATE_HZ);
     let mut epoch = Instant::now();
     let mut since_epoch: u32 = 0;
     let mut previous: Option<Instant> = None;
-    while !stop.load(Ordering::Relaxed) {
+    while !ends.stopping() {
         let begun = Instant::now();
         loop {
-            match commands.try_recv() {
+            match ends.commands.try_recv() {
                 Ok(c) => {
                     if let Some(r) = apply(haptic, c) {
-                        let _ = replies.send(r);
+                        ends.reply(r);
                     }
                 }
                 Err(TryRecvError::Empty) => break,
@@ -616,18 +763,8 @@ fn run_paced(
             forces_enabled: haptic.forces_enabled(),
         };
         previous = Some(begun);
-        counters.ticks.fetch_add(1, Ordering::Relaxed);
-        match samples.try_send(sample) {
-            Ok(()) => {}
-            Err(TrySendError::Full(_)) => {
-                counters.dropped_samples.fetch_add(1, Ordering::Relaxed);
-            }
-            Err(TrySendError::Disconnected(_)) => return,
-        }
-        if let Some(record) = record
-            && record.try_send(tick).is_err()
-        {
-            counters.dropped_records.fetch_add(1, Ordering::Relaxed);
+        if !ends.publish(sample) {
+            return;
         }
         since_epoch += 1;
         let due = epoch + period * since_epoch;

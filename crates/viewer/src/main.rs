@@ -19,10 +19,7 @@ use viewer::sim::{self, Trajectory};
 
 fn main() -> ExitCode {
     match Cli::parse().command {
-        None => gui_command(&GuiArgs {
-            device: "sim".into(),
-            ..GuiArgs::default()
-        }),
+        None => gui_command(&GuiArgs::default()),
         Some(Command::Gui(args)) => gui_command(&args),
         Some(Command::Plot(args)) => plot_command(&args),
         Some(Command::Eval(args)) => eval_command(&args),
@@ -82,6 +79,7 @@ fn gui_command(args: &GuiArgs) -> ExitCode {
         scene: args.scene.clone(),
         record: args.record.clone(),
         quit_after_frames: args.quit_after_frames,
+        device: args.device.0.clone(),
         demo: args.demo,
     };
     match viewer::gui::run(options) {

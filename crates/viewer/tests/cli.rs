@@ -287,13 +287,13 @@ fn help_documents_input_output_and_exit_status() {
 /// `viewer` alone is `viewer gui`, which opens a window: only its refusals are tested here
 /// (they happen before any window; the window itself is `cargo xtask ci`'s Xvfb test).
 #[test]
-fn gui_refuses_other_devices_and_bad_scenes_before_opening_a_window() {
-    for device in ["hid", "serial:/dev/ttyACM0", "tcp:127.0.0.1:4000"] {
+fn gui_refuses_unknown_devices_and_bad_scenes_before_opening_a_window() {
+    for device in ["usb", "serial:", "tcp:127.0.0.1", "tcp:127.0.0.1:http"] {
         let out = viewer(&["gui", "--device", device], "");
         assert_eq!(out.status.code(), Some(2), "{device}");
         let err = stderr(&out);
         assert!(
-            err.contains("only the simulated pantograph for now (--device sim)"),
+            err.contains(&format!("{device:?} is not a device")),
             "{err}"
         );
         assert!(err.contains("tcp:HOST:PORT"), "{err}");

@@ -65,13 +65,127 @@ impl ViewerUi {
         });
         egui::Panel::left("materials")
             .default_size(250.0)
-            .show(ui, |ui| materials_ui(ui, &mut self.state));
+            .show(ui, |ui| {
+                device_ui(ui, &mut self.state);
+                ui.separator();
+                materials_ui(ui, &mut self.state);
+            });
         egui::Panel::right("telemetry")
             .default_size(430.0)
             .show(ui, |ui| telemetry_ui(ui, &self.state));
         egui::CentralPanel::no_frame().show(ui, |ui| {
             view_2d_ui(ui, &mut self.state, &mut self.view);
         });
+    }
+}
+
+/// The device: which one the app drives (the simulator in the app, the emulated board over
+/// TCP, a board over USB HID or serial), connect, calibrate, and what the link reports
+/// (firmware, calibration, scene, quality, why it was lost).
+pub fn device_ui(ui: &mut egui::Ui, state: &mut AppState) {
+    use crate::devices::Target;
+    use state::DeviceChoice;
+    ui.heading("Device");
+    match &state.device {
+        DeviceChoice::Simulated => {
+            ui.label("simulated pantograph (in the app)");
+        }
+        DeviceChoice::Linked(name) => {
+            ui.label(format!("linked: {name}"));
+        }
+    }
+    let mut connect = None;
+    egui::Grid::new("device-choice")
+        .num_columns(2)
+        .show(ui, |ui| {
+            if ui.button("Simulated").clicked() {
+                connect = Some(None);
+            }
+            ui.label("in the app, no board");
+            ui.end_row();
+            let emulated = ui.button("Emulated");
+            if emulated.clicked() {
+                connect = Some(Some(Target::Tcp(state.device_form.tcp.trim().to_owned())));
+            }
+            ui.add(egui::TextEdit::singleline(&mut state.device_form.tcp).desired_width(120.0))
+                .on_hover_text("HOST:PORT of `cargo xtask qemu --serve HOST:PORT`")
+                .labelled_by(emulated.id);
+            ui.end_row();
+            if ui.button("USB HID").clicked() {
+                connect = Some(Some(Target::Hid));
+            }
+            ui.label("the first board");
+            ui.end_row();
+            let serial = ui.button("Serial");
+            if serial.clicked() {
+                connect = Some(Some(Target::Serial(
+                    state.device_form.serial.trim().to_owned(),
+                )));
+            }
+            ui.add(egui::TextEdit::singleline(&mut state.device_form.serial).desired_width(120.0))
+                .labelled_by(serial.id);
+            ui.end_row();
+        });
+    match connect {
+        Some(None) => state.use_simulated(),
+        Some(Some(target)) => state.connect(target),
+        None => {}
+    }
+    if let DeviceChoice::Linked(_) = state.device {
+        let link = state.link.clone();
+        match &link.hello {
+            Some(h) => {
+                let [a, b, c] = h.software;
+                ui.label(format!(
+                    "firmware {a}.{b}.{c}, scene capacity {} B{}",
+                    h.scene_capacity,
+                    if link.simulated_plant {
+                        ", simulated arm (the mouse is the hand)"
+                    } else {
+                        ", real arm (your hand on the handle)"
+                    }
+                ));
+            }
+            None if link.lost.is_none() => {
+                ui.label("connecting…");
+            }
+            None => {}
+        }
+        if let Some(s) = link.status {
+            ui.label(format!(
+                "{}, forces {}, scene {} B (CRC {:08x})",
+                if s.calibrated {
+                    "calibrated"
+                } else {
+                    "not calibrated"
+                },
+                if s.forces_enabled { "on" } else { "off" },
+                s.scene_len,
+                s.scene_crc32
+            ));
+        }
+        if let Some((lost, bad, rtt_us)) = state.link_quality() {
+            ui.label(format!(
+                "link: {lost} frames lost, {bad} corrupt, heartbeat round trip {:.1} ms",
+                rtt_us as f64 * 1e-3
+            ));
+        }
+        if ui
+            .add_enabled(link.lost.is_none(), egui::Button::new("Calibrate"))
+            .on_hover_text("a board: hold the handle against its end stops first")
+            .clicked()
+        {
+            state.calibrate();
+        }
+        if let Some(r) = &link.refused {
+            ui.colored_label(Color32::from_rgb(190, 30, 30), r);
+        }
+        if let Some(reason) = &link.lost {
+            ui.colored_label(
+                Color32::from_rgb(190, 30, 30),
+                format!("link lost: {reason}; forces off (the device's watchdog)"),
+            );
+        }
     }
 }
 
@@ -342,9 +456,14 @@ pub fn status_bar_ui(ui: &mut egui::Ui, state: &mut AppState, recording: Option<
         if ui.checkbox(&mut on, "forces").changed() {
             state.set_forces(on);
         }
-        let live = state.latest().map(|s| s.forces_enabled);
-        if live == Some(false) && on {
-            ui.label("(switching…)");
+        if on && !state.forces_on() {
+            ui.label("(off…)");
+        }
+        if let Some(reason) = &state.link.lost {
+            ui.colored_label(
+                Color32::from_rgb(190, 30, 30),
+                format!("link lost ({reason}): forces off"),
+            );
         }
         ui.separator();
         let faults = state.faults();
@@ -422,6 +541,8 @@ pub struct GuiOptions {
     pub quit_after_frames: Option<u64>,
     /// Move the hand along the thesis's 2-D path, forth and back, as a drag would.
     pub demo: bool,
+    /// The device behind a link to drive; the simulated pantograph in the app when `None`.
+    pub device: Option<crate::devices::Target>,
 }
 
 /// What a session measured, printed when the window closes.
@@ -574,7 +695,10 @@ pub fn run(options: GuiOptions) -> anyhow::Result<Summary> {
         }
         None => (None, None),
     };
-    let state = AppState::new(&label, scene, true, record_tx)?;
+    let mut state = AppState::new(&label, scene, true, record_tx)?;
+    if let Some(target) = options.device.clone() {
+        state.connect(target);
+    }
     let mut ui = ViewerUi::new(state);
     ui.recording = options.record.clone();
     let demo = if options.demo {

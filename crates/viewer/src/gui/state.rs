@@ -13,8 +13,10 @@ use device::spec::{DeviceSpec, WorkspaceBox};
 use friction::{FrictionMaterial, Mode, SwitchCause};
 use nurbs::Vec2;
 
+use crate::devices::{self, Target};
 use crate::haptic::{
-    self, Command, HapticLoop, LoopThread, MaterialChangeError, Reply, START_HIP, Sample, Session,
+    self, Command, HapticLoop, LinkEvent, LoopThread, MaterialChangeError, Reply, START_HIP,
+    Sample, Session,
 };
 use crate::scene::{Material, Patch, Scene, Space};
 use crate::sim::Tick;
@@ -318,10 +320,71 @@ enum Backend {
     Stopped,
 }
 
+/// Which device the app drives.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum DeviceChoice {
+    /// The simulated pantograph in this process (the loop on the app's own thread).
+    Simulated,
+    /// A device behind a link ([`crate::remote`]): its name (`tcp 127.0.0.1:7000`, …).
+    Linked(String),
+}
+
+/// The link to a device, as the app last heard of it.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct LinkState {
+    /// The device's hello, once it answered.
+    pub hello: Option<device::protocol::Hello>,
+    /// Whether its plant is simulated (the mouse moves its virtual hand).
+    pub simulated_plant: bool,
+    /// Its newest status.
+    pub status: Option<device::protocol::Status>,
+    /// Why the link is gone, once it is.
+    pub lost: Option<String>,
+    /// The newest refusal (a command the device nacked), as a message.
+    pub refused: Option<String>,
+}
+
+/// The device panel's fields.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct DeviceForm {
+    /// The emulated board's address (`cargo xtask qemu --serve HOST:PORT`).
+    pub tcp: String,
+    /// A board's serial port.
+    pub serial: String,
+}
+
+impl Default for DeviceForm {
+    fn default() -> Self {
+        DeviceForm {
+            tcp: "127.0.0.1:7878".into(),
+            serial: "/dev/ttyACM0".into(),
+        }
+    }
+}
+
+/// A scene sent to the loop, shown once the loop (or the device) took it.
+#[derive(Clone, Debug)]
+struct PendingScene {
+    scene: Scene,
+    view: SceneView,
+    material: Option<FrictionMaterial>,
+}
+
 /// The whole state of the app.
 #[derive(Debug)]
 pub struct AppState {
     backend: Backend,
+    /// The device the app drives.
+    pub device: DeviceChoice,
+    /// The link to it (default for the simulated one).
+    pub link: LinkState,
+    /// The device panel's fields.
+    pub device_form: DeviceForm,
+    /// The scene the loop renders (the model the scene view draws).
+    pub source: Scene,
+    pending: Option<PendingScene>,
+    /// The recorder's input, handed to every loop the app starts.
+    record: Option<std::sync::mpsc::SyncSender<Tick>>,
     /// The scene being rendered.
     pub scene: SceneView,
     /// The device's reach.
@@ -369,15 +432,22 @@ impl AppState {
     ) -> anyhow::Result<Self> {
         let session = Session::new(scene.clone())?;
         let view = SceneView::new(label, &scene, session.object());
+        let source = scene;
         let haptic = HapticLoop::new(session, START_HIP)?;
         let running_material = haptic.material();
         let backend = if threaded {
-            Backend::Thread(LoopThread::spawn(haptic, record)?)
+            Backend::Thread(LoopThread::spawn(haptic, record.clone())?)
         } else {
             Backend::Stepped(Box::new(haptic))
         };
         Ok(AppState {
             backend,
+            device: DeviceChoice::Simulated,
+            link: LinkState::default(),
+            device_form: DeviceForm::default(),
+            source,
+            pending: None,
+            record,
             scene: view,
             reach: Reach::of_default_device(),
             history: VecDeque::new(),
@@ -500,9 +570,143 @@ impl AppState {
                 self.material_error = None;
             }
             Reply::Material(Err(e)) => self.material_error = Some(e.to_string()),
-            Reply::Swapped => {}
+            Reply::Swapped => {
+                if let Some(p) = self.pending.take() {
+                    self.show_scene(p);
+                }
+            }
             Reply::FaultsCleared(f) => self.faults_after_clear = Some(f),
+            Reply::Link(event) => self.on_link(event),
         }
+    }
+
+    fn on_link(&mut self, event: LinkEvent) {
+        match event {
+            LinkEvent::Connected {
+                hello,
+                simulated_plant,
+                ..
+            } => {
+                self.link.hello = Some(hello);
+                self.link.simulated_plant = simulated_plant;
+            }
+            LinkEvent::Status(s) => self.link.status = Some(s),
+            LinkEvent::Refused { what, reason } => {
+                let message = format!("the device refused {what}: {reason}");
+                if what == "the scene upload"
+                    && let Some(p) = self.pending.take()
+                {
+                    self.scene_error = Some(format!(
+                        "{}: {message}; the running scene is unchanged",
+                        p.view.label
+                    ));
+                }
+                self.link.refused = Some(message);
+            }
+            LinkEvent::Lost(reason) => {
+                self.link.lost = Some(reason);
+                self.forces_requested = false;
+                self.pending = None;
+            }
+        }
+    }
+
+    fn show_scene(&mut self, p: PendingScene) {
+        self.source = p.scene;
+        self.scene = p.view;
+        self.scene_error = None;
+        self.running_material = p.material;
+        self.edited_material = p.material.unwrap_or_default();
+        self.material_error = None;
+    }
+
+    /// Drives the device `target` instead of the one now driven: the link opens on its own
+    /// thread (the UI never waits for it); once the device answers, the running scene is
+    /// uploaded to it, and a device with a simulated plant (the host's simulator, the
+    /// firmware under QEMU) has its faults cleared, is calibrated and has its forces
+    /// enabled. A board waits for Calibrate and the forces switch. `Target::Sim` here is
+    /// the host's simulated device behind the protocol ([`device::host::SimLink`]).
+    pub fn connect(&mut self, target: Target) {
+        let setup = !matches!(target, Target::Hid | Target::Serial(_));
+        self.connect_with(describe(&target), move || devices::open(&target), setup);
+    }
+
+    /// [`AppState::connect`] with the link opened by `open` (tests wrap a link in one they
+    /// can cut); `setup` as for a simulated plant.
+    pub fn connect_with(
+        &mut self,
+        device: String,
+        open: impl FnOnce() -> Result<devices::Opened, device::host::LinkError> + Send + 'static,
+        setup: bool,
+    ) {
+        match crate::remote::spawn(device.clone(), open, setup, self.record.clone()) {
+            Ok(thread) => {
+                self.backend = Backend::Thread(thread);
+                self.device = DeviceChoice::Linked(device);
+                self.link = LinkState::default();
+                self.forces_requested = setup;
+                self.history.clear();
+                self.recent_periods.clear();
+                self.jitter = JitterStats::default();
+                let scene = self.source.clone();
+                let label = self.scene.label.clone();
+                self.open_scene(&label, scene);
+            }
+            Err(e) => self.link.lost = Some(format!("cannot start the link's thread: {e}")),
+        }
+    }
+
+    /// Drives the simulated pantograph in this process again, on the running scene.
+    pub fn use_simulated(&mut self) {
+        let rebuilt = Session::new(self.source.clone())
+            .map_err(anyhow::Error::from)
+            .and_then(|s| Ok(HapticLoop::new(s, START_HIP)?))
+            .and_then(|h| Ok(LoopThread::spawn(h, self.record.clone())?));
+        match rebuilt {
+            Ok(thread) => {
+                self.backend = Backend::Thread(thread);
+                self.device = DeviceChoice::Simulated;
+                self.link = LinkState::default();
+                self.forces_requested = true;
+                self.history.clear();
+                self.recent_periods.clear();
+                self.jitter = JitterStats::default();
+            }
+            Err(e) => self.scene_error = Some(format!("cannot restart the simulator: {e}")),
+        }
+    }
+
+    /// Whether the device's forces are on as far as the app knows: the simulator's switch,
+    /// or the linked device's newest status while its link is up (a lost link counts as
+    /// off: the device's watchdog turns them off).
+    pub fn forces_on(&self) -> bool {
+        match &self.device {
+            DeviceChoice::Simulated => self.latest().is_some_and(|s| s.forces_enabled),
+            DeviceChoice::Linked(_) => {
+                self.link.lost.is_none() && self.link.status.is_some_and(|s| s.forces_enabled)
+            }
+        }
+    }
+
+    /// The link's quality: frames lost and corrupt on the way, and the newest heartbeat's
+    /// round trip (µs); `None` for the simulator in the app.
+    pub fn link_quality(&self) -> Option<(u64, u64, u64)> {
+        match (&self.device, &self.backend) {
+            (DeviceChoice::Linked(_), Backend::Thread(t)) => {
+                let c = t.counters();
+                Some((
+                    c.link_lost_frames.load(Ordering::Relaxed),
+                    c.link_bad_frames.load(Ordering::Relaxed),
+                    c.link_rtt_us.load(Ordering::Relaxed),
+                ))
+            }
+            _ => None,
+        }
+    }
+
+    /// Calibrates the device (a board must sit at its end stops).
+    pub fn calibrate(&mut self) {
+        self.command(Command::Calibrate);
     }
 
     /// The newest sample.
@@ -603,11 +807,16 @@ impl AppState {
             ));
             return;
         }
-        self.scene = view;
-        self.scene_error = None;
-        self.running_material = material;
-        self.edited_material = material.unwrap_or_default();
-        self.material_error = None;
+        let pending = PendingScene {
+            scene,
+            view,
+            material,
+        };
+        match &self.backend {
+            // A stepped loop has already answered (in `command`).
+            Backend::Stepped(_) => self.show_scene(pending),
+            Backend::Thread(_) | Backend::Stopped => self.pending = Some(pending),
+        }
     }
 
     /// Enables or disables the forces.
@@ -703,6 +912,17 @@ impl AppState {
     /// Stops the loop (joins its thread); the recorder's input closes with it.
     pub fn shutdown(&mut self) {
         self.backend = Backend::Stopped;
+        self.record = None;
+    }
+}
+
+/// How the app names a device.
+pub fn describe(target: &Target) -> String {
+    match target {
+        Target::Serial(path) => format!("serial {path}"),
+        Target::Tcp(address) => format!("tcp {address}"),
+        Target::Hid => "USB HID".to_owned(),
+        Target::Sim => "simulated device (protocol)".to_owned(),
     }
 }
 

@@ -1,0 +1,462 @@
+//! The app's loop on a device behind a link: the firmware under QEMU over TCP, a board over
+//! USB HID or serial, or the host's simulated device ([`device::host::SimLink`]). The device
+//! runs the haptic loop; this thread is its host: it keeps the watchdog fed, turns the UI's
+//! [`Command`]s into protocol messages, and each telemetry frame into a [`Sample`], through
+//! the same channels as the in-process loop ([`LoopThread::spawn_with`]), so the app does
+//! not care which it drives.
+//!
+//! - Requests (scene upload, material, forces, calibration, clearing faults) go one at a
+//!   time: the next is sent when the device acks the one in flight, as
+//!   [`Link::upload_scene`](device::host::Link::upload_scene) does, but without waiting, so telemetry keeps flowing. A nack is
+//!   a [`LinkEvent::Refused`] naming the device's reason (or a material error); the device's
+//!   state is unchanged.
+//! - Heartbeats go every [`HEARTBEAT_PERIOD`]; the device answers each with its status
+//!   ([`LinkEvent::Status`]), and its round trip is the link's latency.
+//! - Hand targets go at once, without waiting, to a device whose plant is simulated; a board
+//!   (a real hand on the handle) refuses them and the thread stops sending them.
+//! - The link is lost when it fails or the device is silent for [`SILENCE_TIMEOUT`]: the
+//!   thread says so ([`LinkEvent::Lost`]) and ends. The device's own watchdog turns its
+//!   forces off once heartbeats stop (a board's within 100 ms), whatever the host does.
+
+use std::collections::VecDeque;
+use std::sync::atomic::Ordering;
+use std::sync::mpsc::{SyncSender, TryRecvError};
+use std::time::{Duration, Instant};
+
+use device::host::{GapCounter, LinkError};
+use device::protocol::{ErrorCode, Frame, Message, Status, Telemetry, scene_upload};
+use device::safety::Faults;
+use friction::Mode;
+use nurbs::{Vec2, Vec3};
+use tracker::Feature;
+
+use crate::devices::{HEARTBEAT_PERIOD, Opened};
+use crate::haptic::{Command, LinkEvent, LoopEnds, LoopThread, MaterialChangeError, Reply, Sample};
+use crate::sim::{DeviceSample, Tick};
+
+/// A device silent this long is gone (telemetry comes every tick, so this is hundreds of
+/// frames).
+pub const SILENCE_TIMEOUT: Duration = Duration::from_millis(500);
+/// A request the device has not answered within this is given up.
+pub const REQUEST_TIMEOUT: Duration = Duration::from_secs(2);
+
+/// Starts the host of a device on a thread: `open` connects and says hello (it runs on the
+/// thread, so a slow connection never blocks the UI); `device` names the link for the UI.
+/// With `setup`, once connected, the thread clears the faults, calibrates (a simulated plant
+/// is homed at once; a board must be at its end stops) and enables the forces; a board
+/// without it waits for the user's commands. Every tick also goes to `record`.
+pub fn spawn(
+    device: String,
+    open: impl FnOnce() -> Result<Opened, LinkError> + Send + 'static,
+    setup: bool,
+    record: Option<SyncSender<Tick>>,
+) -> std::io::Result<LoopThread> {
+    LoopThread::spawn_with("device-link", record, move |ends| {
+        let reason = match open() {
+            Ok(opened) => Host::new(device, opened, setup).run(&ends),
+            Err(e) => format!("cannot connect to {device}: {e}"),
+        };
+        ends.reply(Reply::Link(LinkEvent::Lost(reason)));
+    })
+}
+
+/// What a request in flight was for.
+#[derive(Clone, Copy, Debug)]
+enum Purpose {
+    /// A step of a scene upload; `last` is its commit.
+    Upload {
+        last: bool,
+    },
+    Material(friction::FrictionMaterial),
+    Forces,
+    Calibrate,
+    ClearFaults,
+}
+
+impl Purpose {
+    fn name(self) -> &'static str {
+        match self {
+            Purpose::Upload { .. } => "the scene upload",
+            Purpose::Material(_) => "the material",
+            Purpose::Forces => "forces on/off",
+            Purpose::Calibrate => "the calibration",
+            Purpose::ClearFaults => "clearing the faults",
+        }
+    }
+}
+
+struct Host {
+    device: String,
+    opened: Opened,
+    /// Requests waiting for the one in flight.
+    queue: VecDeque<(Message, Purpose)>,
+    in_flight: Option<(u16, Purpose, Instant)>,
+    /// Whether the device takes hand targets (until it refuses one).
+    simulated_plant: bool,
+    gaps: GapCounter,
+    heartbeat_due: Instant,
+    /// Sequence number and send time of the newest heartbeat.
+    heartbeat: Option<(u16, Instant)>,
+    status: Option<Status>,
+    hand_target: Vec2,
+    /// A command refused before it was sent, to report at the end of the turn.
+    refused_now: Option<(Purpose, String)>,
+    clock: DeviceClock,
+    started: Instant,
+    heard: Instant,
+}
+
+impl Host {
+    fn new(device: String, opened: Opened, setup: bool) -> Self {
+        let now = Instant::now();
+        let mut host = Host {
+            device,
+            simulated_plant: opened.hand.is_some(),
+            opened,
+            queue: VecDeque::new(),
+            in_flight: None,
+            gaps: GapCounter::default(),
+            heartbeat_due: now,
+            heartbeat: None,
+            status: None,
+            hand_target: Vec2::ZERO,
+            refused_now: None,
+            clock: DeviceClock::default(),
+            started: now,
+            heard: now,
+        };
+        if setup {
+            host.simulated_plant = true;
+            host.request(
+                Message::ClearFaults {
+                    mask: Faults::all().bits(),
+                },
+                Purpose::ClearFaults,
+            );
+            host.request(Message::Calibrate, Purpose::Calibrate);
+            host.request(Message::EnableForces, Purpose::Forces);
+        }
+        host
+    }
+
+    fn request(&mut self, message: Message, purpose: Purpose) {
+        self.queue.push_back((message, purpose));
+    }
+
+    /// Runs until the link is lost or the UI stops the thread; returns why it ended.
+    fn run(mut self, ends: &LoopEnds) -> String {
+        ends.reply(Reply::Link(LinkEvent::Connected {
+            device: self.device.clone(),
+            hello: self.opened.hello,
+            simulated_plant: self.simulated_plant,
+        }));
+        loop {
+            if ends.stopping() {
+                return format!("disconnected from {}", self.device);
+            }
+            if let Err(reason) = self.turn(ends) {
+                return reason;
+            }
+        }
+    }
+
+    /// One turn: the UI's commands, the request queue, the heartbeat, then the frames that
+    /// arrive within a millisecond.
+    fn turn(&mut self, ends: &LoopEnds) -> Result<(), String> {
+        loop {
+            match ends.commands.try_recv() {
+                Ok(c) => self.command(c).map_err(|e| self.lost(&e))?,
+                Err(TryRecvError::Empty) => break,
+                Err(TryRecvError::Disconnected) => return Err("the app closed".into()),
+            }
+            if let Some((purpose, reason)) = self.refused_now.take() {
+                self.refused(ends, purpose, reason);
+            }
+        }
+        let now = Instant::now();
+        if let Some((_, purpose, sent)) = self.in_flight
+            && now - sent > REQUEST_TIMEOUT
+        {
+            self.in_flight = None;
+            self.refused(
+                ends,
+                purpose,
+                format!("no answer within {REQUEST_TIMEOUT:?}"),
+            );
+        }
+        if self.in_flight.is_none()
+            && let Some((message, purpose)) = self.queue.pop_front()
+        {
+            let seq = self.opened.link.send(&message).map_err(|e| self.lost(&e))?;
+            self.in_flight = Some((seq, purpose, now));
+        }
+        if now >= self.heartbeat_due {
+            let uptime_ms = u32::try_from((now - self.started).as_millis()).unwrap_or(u32::MAX);
+            let seq = self
+                .opened
+                .link
+                .send(&Message::Heartbeat { uptime_ms })
+                .map_err(|e| self.lost(&e))?;
+            self.heartbeat = Some((seq, now));
+            self.heartbeat_due = now + HEARTBEAT_PERIOD;
+        }
+        let until = now + Duration::from_millis(1);
+        loop {
+            let left = until.saturating_duration_since(Instant::now());
+            match self.opened.link.recv(left) {
+                Ok(Some(frame)) => {
+                    self.heard = Instant::now();
+                    self.frame(ends, frame)?;
+                }
+                Ok(None) => break,
+                // A corrupt frame is counted as a lost one; the link goes on.
+                Err(LinkError::Frame(_)) => {
+                    ends.counters
+                        .link_bad_frames
+                        .fetch_add(1, Ordering::Relaxed);
+                }
+                Err(e) => return Err(self.lost(&e)),
+            }
+            if Instant::now() >= until {
+                break;
+            }
+        }
+        if self.heard.elapsed() > SILENCE_TIMEOUT {
+            return Err(format!(
+                "{}: no frame from the device for {} ms",
+                self.device,
+                SILENCE_TIMEOUT.as_millis()
+            ));
+        }
+        Ok(())
+    }
+
+    fn lost(&self, e: &LinkError) -> String {
+        format!("{}: {e}", self.device)
+    }
+
+    fn command(&mut self, command: Command) -> Result<(), LinkError> {
+        match command {
+            Command::HandTarget(t) => {
+                self.hand_target = t;
+                if self.simulated_plant {
+                    match &self.opened.hand {
+                        Some(hand) => hand.set_target(t)?,
+                        None => {
+                            self.opened
+                                .link
+                                .send(&Message::HandTarget { target_m: t })?;
+                        }
+                    }
+                }
+            }
+            Command::SetMaterial(m) => self.request(
+                Message::SetMaterial {
+                    object: 0,
+                    material: m,
+                },
+                Purpose::Material(m),
+            ),
+            Command::Swap(session) => match session.wire() {
+                Some(wire) => {
+                    let steps: Vec<Message> = scene_upload(wire).collect();
+                    let n = steps.len();
+                    for (i, m) in steps.into_iter().enumerate() {
+                        self.request(m, Purpose::Upload { last: i + 1 == n });
+                    }
+                }
+                None => {
+                    self.refused_now = Some((
+                        Purpose::Upload { last: true },
+                        "the scene has no object of planar curves for the pantograph; the \
+                         device keeps its scene"
+                            .to_owned(),
+                    ));
+                }
+            },
+            Command::Forces(on) => self.request(
+                if on {
+                    Message::EnableForces
+                } else {
+                    Message::DisableForces
+                },
+                Purpose::Forces,
+            ),
+            Command::ClearFaults => self.request(
+                Message::ClearFaults {
+                    mask: Faults::all().bits(),
+                },
+                Purpose::ClearFaults,
+            ),
+            Command::Calibrate => self.request(Message::Calibrate, Purpose::Calibrate),
+        }
+        Ok(())
+    }
+
+    fn refused(&mut self, ends: &LoopEnds, purpose: Purpose, reason: String) {
+        match purpose {
+            Purpose::Material(_) => {
+                ends.reply(Reply::Material(Err(MaterialChangeError::Device(reason))));
+            }
+            Purpose::Upload { .. } => {
+                // The rest of this upload is moot: the device dropped it.
+                while matches!(self.queue.front(), Some((_, Purpose::Upload { .. }))) {
+                    self.queue.pop_front();
+                }
+                ends.reply(Reply::Link(LinkEvent::Refused {
+                    what: purpose.name(),
+                    reason,
+                }));
+            }
+            _ => ends.reply(Reply::Link(LinkEvent::Refused {
+                what: purpose.name(),
+                reason,
+            })),
+        }
+    }
+
+    fn frame(&mut self, ends: &LoopEnds, frame: Frame) -> Result<(), String> {
+        let Frame { seq, message } = frame;
+        let lost = self.gaps.observe(seq);
+        if lost > 0 {
+            ends.counters
+                .link_lost_frames
+                .fetch_add(u64::from(lost), Ordering::Relaxed);
+        }
+        match message {
+            Message::Telemetry(t) => {
+                let sample = self.sample(&t);
+                if !ends.publish(sample) {
+                    return Err("the app closed".into());
+                }
+            }
+            Message::Status(s) => {
+                if let Some((_, sent)) = self.heartbeat.take() {
+                    let rtt = u64::try_from(sent.elapsed().as_micros()).unwrap_or(u64::MAX);
+                    ends.counters.link_rtt_us.store(rtt, Ordering::Relaxed);
+                }
+                self.status = Some(s);
+                ends.reply(Reply::Link(LinkEvent::Status(s)));
+            }
+            Message::Ack { seq } => {
+                if let Some((s, purpose, _)) = self.in_flight
+                    && s == seq
+                {
+                    self.in_flight = None;
+                    match purpose {
+                        Purpose::Material(m) => ends.reply(Reply::Material(Ok(m))),
+                        Purpose::Upload { last: true } => ends.reply(Reply::Swapped),
+                        Purpose::ClearFaults => ends.reply(Reply::FaultsCleared(
+                            Faults::from_bits_truncate(self.status.map_or(0, |s| s.faults)),
+                        )),
+                        Purpose::Upload { last: false } | Purpose::Forces | Purpose::Calibrate => {}
+                    }
+                }
+            }
+            Message::Nack(n) => {
+                if let Some((s, purpose, _)) = self.in_flight
+                    && s == n.seq
+                {
+                    self.in_flight = None;
+                    self.refused(ends, purpose, n.code.message().to_owned());
+                } else if n.code == ErrorCode::NotSimulated && self.simulated_plant {
+                    // A board: the hand on the handle is real.
+                    self.simulated_plant = false;
+                    ends.reply(Reply::Link(LinkEvent::Refused {
+                        what: "the virtual hand",
+                        reason: format!(
+                            "{}; the device's plant is real: move its handle by hand",
+                            n.code.message()
+                        ),
+                    }));
+                }
+            }
+            _ => {}
+        }
+        Ok(())
+    }
+
+    /// The UI's sample of a telemetry frame.
+    fn sample(&mut self, t: &Telemetry) -> Sample {
+        let (t_s, period_us) = self.clock.advance(t.time_us);
+        let forces_enabled = self.status.is_some_and(|s| s.forces_enabled);
+        Sample {
+            tick: tick_of(t, t_s),
+            hand_target: self.hand_target,
+            period_us,
+            forces_enabled,
+        }
+    }
+}
+
+/// The device's 32-bit microsecond clock, unwrapped.
+#[derive(Clone, Copy, Debug, Default)]
+struct DeviceClock {
+    last: Option<u32>,
+    total_us: u64,
+}
+
+impl DeviceClock {
+    /// Device time (s) of a frame stamped `time_us`, and the period since the previous frame
+    /// (µs; the device's own tick period, its jitter free of the host's scheduling).
+    fn advance(&mut self, time_us: u32) -> (f64, Option<f32>) {
+        let period = self.last.map(|last| time_us.wrapping_sub(last));
+        self.total_us += u64::from(period.unwrap_or(0));
+        self.last = Some(time_us);
+        (self.total_us as f64 * 1e-6, period.map(|p| p as f32))
+    }
+}
+
+/// The tick a telemetry frame describes. The wire carries the HIP, CP, GO, the total force
+/// and both magnitudes; the normal is recovered from the CP: the CP is the closest point, so
+/// the HIP lies on its normal, and the unit normal is (CP − HIP)/|CP − HIP| inside the
+/// object (the tick renders no force outside). The friction vector is the total minus the
+/// normal force. Quantities the frame does not carry (joint angles, torques, velocity, the
+/// parameters) are zero.
+pub fn tick_of(t: &Telemetry, t_s: f64) -> Tick {
+    let v3 = |v: Vec2| Vec3::new(v.x, v.y, 0.0);
+    let inward = t.cp_m - t.hip_m;
+    let depth = inward.length();
+    let in_contact = t.mode != Mode::Free && depth > 0.0;
+    let normal = if in_contact {
+        inward / depth
+    } else {
+        Vec2::ZERO
+    };
+    let tangent = Vec2::new(-normal.y, normal.x);
+    let friction = t.force_n - normal * t.force_normal_n;
+    Tick {
+        t_s,
+        hip: v3(t.hip_m),
+        hip_velocity: Vec3::ZERO,
+        cp: v3(t.cp_m),
+        go: v3(t.go_m),
+        patch: match t.feature {
+            Some(Feature::Patch(p)) => Some(usize::from(p)),
+            _ => None,
+        },
+        feature: t.feature.unwrap_or(Feature::Patch(0)),
+        mode: t.mode,
+        cause: t.cause,
+        depth_m: if in_contact { depth } else { 0.0 },
+        normal_force_n: t.force_normal_n,
+        friction_force_n: friction.dot(tangent),
+        mu: t.mu(),
+        psi: t.psi,
+        normal: v3(normal),
+        tangent: v3(tangent),
+        friction: v3(friction),
+        force: v3(t.force_n),
+        cp_patch: 0,
+        cp_param: 0.0,
+        cp_params: [0.0; 2],
+        go_patch: 0,
+        go_param: 0.0,
+        go_params: [0.0; 2],
+        device: Some(DeviceSample {
+            theta_rad: [0.0; 2],
+            tau_nm: [0.0; 2],
+            faults: t.faults,
+        }),
+    }
+}

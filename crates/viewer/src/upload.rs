@@ -1,0 +1,160 @@
+//! A scene as a device receives it: the wire scene of the object the device renders
+//! ([`wire_scene`]), and the device side of its upload for the simulated pantograph in this
+//! process ([`receive`]): the same frames a board gets, through the device's own receiver
+//! ([`device::session::Session`]), decoded into the device's own [`SceneStore`].
+//!
+//! So every scene the app renders, on any device, is the one the upload carried: an edit
+//! that does not survive the wire format (f32, the device's capacities and checks) is refused
+//! before it reaches the loop, with the device's reason.
+
+use device::host::Sequencer;
+use device::protocol::{
+    ErrorCode, Message, SceneError, SceneStore, WireObject, WirePatch, encode_scene, scene_upload,
+};
+use device::session::{DeviceState, Event, Session};
+
+use crate::scene::Scene;
+
+/// Scene capacity of the simulated device (bytes), as the host simulator's and the emulated
+/// board's receivers.
+pub const SIM_SCENE_CAPACITY: usize = 8192;
+
+/// Why a scene cannot be uploaded. The device's running scene is unchanged.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum UploadError {
+    /// The object is not a chain of planar curves (the pantograph renders those only).
+    #[error("object {index} ({name}) is not a chain of planar curves: the pantograph is planar")]
+    NotPlanar {
+        /// Object index in the scene.
+        index: usize,
+        /// Its name.
+        name: String,
+    },
+    /// There is no such object.
+    #[error("the scene has no object {index} (it has {count})")]
+    NoObject {
+        /// The index asked for.
+        index: usize,
+        /// Objects in the scene.
+        count: usize,
+    },
+    /// The wire format cannot hold it (a capacity, a count), as the device would decide.
+    #[error("object {index} ({name}) as a wire scene: {error}")]
+    Encode {
+        /// Object index in the scene.
+        index: usize,
+        /// Its name.
+        name: String,
+        /// What the encoder refused.
+        error: SceneError,
+    },
+    /// The device refused a frame of the upload.
+    #[error("the device refused the upload: {}", .0.message())]
+    Refused(ErrorCode),
+    /// The device's receiver never committed the scene.
+    #[error("the device did not commit the upload")]
+    NotCommitted,
+}
+
+/// The wire scene a device gets for object `index` of `scene`: that object alone, as the
+/// device's object 0 (a device renders its first object).
+pub fn wire_scene(scene: &Scene, index: usize) -> Result<Vec<u8>, UploadError> {
+    let object = scene.object(index).ok_or(UploadError::NoObject {
+        index,
+        count: scene.objects().len(),
+    })?;
+    let curves = object.curve_views().ok_or_else(|| UploadError::NotPlanar {
+        index,
+        name: object.name().to_owned(),
+    })?;
+    let patches: Vec<WirePatch<'_>> = curves.iter().copied().map(WirePatch::Curve).collect();
+    encode_scene(&[WireObject {
+        material: object.material().friction_material(),
+        patches: &patches,
+    }])
+    .map_err(|error| UploadError::Encode {
+        index,
+        name: object.name().to_owned(),
+        error,
+    })
+}
+
+/// The simulated device's side of uploading `wire`: every frame of the upload (begin,
+/// chunks, commit, as [`device::host::Link::upload_scene`] sends them to a board), encoded
+/// with sequence numbers and handled by a device [`Session`] of [`SIM_SCENE_CAPACITY`]
+/// bytes, which validates the commit by decoding it into a [`SceneStore`]. Returns that
+/// store and the CRC-32 the device reports for its active scene.
+pub fn receive(wire: &[u8]) -> Result<(Box<SceneStore>, u32), UploadError> {
+    let mut session: Box<Session<SIM_SCENE_CAPACITY>> = Box::new(Session::new(true));
+    let mut store = Box::new(SceneStore::new());
+    let mut host = Sequencer::default();
+    let state = DeviceState {
+        software: [0; 3],
+        forces_enabled: false,
+        calibrated: true,
+        faults: 0,
+    };
+    let mut committed = false;
+    for message in scene_upload(wire) {
+        let (frame, len, _) = host.encode(&message);
+        let mut refused = None;
+        let event = session.handle(&frame[..len], store.as_mut(), state, &mut |reply| {
+            if let Message::Nack(n) = reply {
+                refused = Some(n.code);
+            }
+        });
+        if let Some(code) = refused {
+            return Err(UploadError::Refused(code));
+        }
+        committed |= event == Event::SceneCommitted;
+    }
+    if !committed {
+        return Err(UploadError::NotCommitted);
+    }
+    Ok((store, session.receiver().active_crc32()))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use device::protocol::crc32;
+
+    fn thesis_2d() -> Scene {
+        Scene::from_json_str(include_str!("../../../scenes/thesis-2d.json"))
+            .unwrap_or_else(|e| panic!("{e}"))
+    }
+
+    /// The store the device decodes holds the scene's curves exactly (the wire carries f32,
+    /// the scene's type: no rounding) and its material; the CRC is the upload's.
+    #[test]
+    fn the_device_receives_the_scene_exactly() {
+        let scene = thesis_2d();
+        let wire = wire_scene(&scene, 0).expect("planar");
+        let (store, crc) = receive(&wire).expect("received");
+        assert_eq!(crc, crc32(&wire));
+        let object = scene.object(0).expect("object 0");
+        let curves = object.curve_views().expect("curves");
+        assert_eq!(store.object_count(), 1);
+        assert_eq!(store.patch_count(0), Some(curves.len()));
+        for (p, c) in curves.iter().enumerate() {
+            let d = store.curve(0, p).expect("curve");
+            assert_eq!(d.knots(), c.knots());
+            assert_eq!(d.points(), c.points());
+        }
+        assert_eq!(
+            store.material(0),
+            Some(object.material().friction_material())
+        );
+    }
+
+    /// A wire scene the device's receiver refuses (cut one byte short: the begin announces
+    /// that length and CRC, so the transfer checks pass and the device's decode refuses it)
+    /// is an error naming the device's reason.
+    #[test]
+    fn a_truncated_scene_is_refused_with_the_devices_reason() {
+        let wire = wire_scene(&thesis_2d(), 0).expect("planar");
+        let e = receive(&wire[..wire.len() - 1]).expect_err("truncated");
+        assert!(matches!(e, UploadError::Refused(_)), "{e}");
+        assert!(e.to_string().starts_with("the device refused the upload: "));
+    }
+}

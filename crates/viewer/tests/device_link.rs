@@ -1,0 +1,201 @@
+//! The app driving a device behind a link (`viewer gui --device …`), through the app's state:
+//! the host's simulated device ([`device::host::SimLink`], the same protocol as a board)
+//! behind a link the test can pull out.
+
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::{Arc, Mutex};
+use std::time::{Duration, Instant};
+
+use device::host::{Link, LinkError, SimConfig, SimLink};
+use device::protocol::{Frame, Message, Telemetry, crc32};
+use device::safety::Faults;
+use nurbs::Vec2;
+use viewer::devices::Opened;
+use viewer::gui::state::{AppState, DeviceChoice};
+use viewer::scene::Scene;
+
+/// How long a test waits for something that takes milliseconds (a loaded machine is slow;
+/// nothing here is timed).
+const PATIENCE: Duration = Duration::from_secs(20);
+
+/// A link that can be pulled out: once `cut`, what the host sends is lost and nothing
+/// reaches it, as with an unplugged cable; the device's frames still come out of it into
+/// `after_cut`, so the test sees what the device did.
+#[derive(Debug)]
+struct Pullable {
+    inner: Box<dyn Link>,
+    cut: Arc<AtomicBool>,
+    after_cut: Arc<Mutex<Vec<Telemetry>>>,
+}
+
+impl Link for Pullable {
+    fn send(&mut self, message: &Message) -> Result<u16, LinkError> {
+        if self.cut.load(Ordering::SeqCst) {
+            return Ok(0);
+        }
+        self.inner.send(message)
+    }
+
+    fn recv(&mut self, timeout: Duration) -> Result<Option<Frame>, LinkError> {
+        if self.cut.load(Ordering::SeqCst) {
+            if let Some(Frame {
+                message: Message::Telemetry(t),
+                ..
+            }) = self.inner.recv(timeout)?
+                && let Ok(mut v) = self.after_cut.lock()
+            {
+                v.push(t);
+            }
+            return Ok(None);
+        }
+        self.inner.recv(timeout)
+    }
+}
+
+fn thesis_2d() -> Scene {
+    Scene::from_json_str(include_str!("../../../scenes/thesis-2d.json"))
+        .unwrap_or_else(|e| panic!("{e}"))
+}
+
+/// Polls the app until `done`, or panics after [`PATIENCE`] naming `what`.
+fn wait_for(state: &mut AppState, what: &str, mut done: impl FnMut(&AppState) -> bool) {
+    let start = Instant::now();
+    while !done(state) {
+        assert!(
+            start.elapsed() < PATIENCE,
+            "waited {PATIENCE:?} for {what}; link {:?}",
+            state.link
+        );
+        std::thread::sleep(Duration::from_millis(5));
+        state.poll();
+    }
+}
+
+/// An app on thesis-2d whose loop is on the host's simulated device behind a pullable link.
+fn linked() -> (AppState, Arc<AtomicBool>, Arc<Mutex<Vec<Telemetry>>>) {
+    let mut state = AppState::new("thesis-2d", thesis_2d(), true, None).expect("app");
+    let cut = Arc::new(AtomicBool::new(false));
+    let after_cut = Arc::new(Mutex::new(Vec::new()));
+    let (c, a) = (cut.clone(), after_cut.clone());
+    state.connect_with(
+        "pullable".into(),
+        move || {
+            let sim = SimLink::spawn(SimConfig::default())?;
+            let hand = sim.hand()?;
+            let mut link = Pullable {
+                inner: Box::new(sim),
+                cut: c,
+                after_cut: a,
+            };
+            let hello = link.hello(Duration::from_secs(2))?;
+            Ok(Opened {
+                link: Box::new(link),
+                hello,
+                hand: Some(hand),
+            })
+        },
+        true,
+    );
+    (state, cut, after_cut)
+}
+
+/// Connecting uploads the running scene through the protocol (the device's status reports
+/// the CRC of exactly the app's wire scene), the setup calibrates and enables the forces,
+/// the mouse moves the simulated device's hand and the device renders the curve: pressed
+/// 2 mm into the top of thesis-2d's right arc, the normal force is about K·depth.
+#[test]
+fn a_linked_device_gets_the_scene_and_renders_it() {
+    let (mut state, _cut, _) = linked();
+    assert_eq!(state.device, DeviceChoice::Linked("pullable".into()));
+    let wire = viewer::upload::wire_scene(&thesis_2d(), 0).expect("wire");
+    wait_for(&mut state, "the uploaded scene and the forces", |s| {
+        s.link
+            .status
+            .is_some_and(|st| st.scene_crc32 == crc32(&wire) && st.forces_enabled)
+    });
+    assert!(state.forces_on());
+    let status = state.link.status.expect("status");
+    assert!(status.calibrated);
+    assert_eq!(status.scene_len as usize, wire.len());
+    // The hand goes down onto the top of the curve at x = 0 (thesis-2d's arcs meet the
+    // y-axis at y = 0.1 m, see scenes/generate.py) and presses 2 mm below it.
+    let top = thesis_2d()
+        .object(0)
+        .and_then(|o| o.curve_views())
+        .map(|c| {
+            c.iter()
+                .flat_map(|c| {
+                    let (a, b) = c.domain();
+                    (0..=400).map(move |i| c.point(a + (b - a) * i as f32 / 400.0))
+                })
+                .filter(|p| p.x.abs() < 2e-3)
+                .map(|p| p.y)
+                .fold(f32::NEG_INFINITY, f32::max)
+        })
+        .expect("curves");
+    assert!(state.set_hand_target(Vec2::new(0.0, top - 0.004)));
+    wait_for(&mut state, "contact", |s| {
+        s.latest().is_some_and(|l| l.tick.normal_force_n > 0.5)
+    });
+    // Let the handle settle (the hand's spring is 2000 N/m, the surface's K 1000 N/m: the
+    // handle rests where they balance), then compare F_N with K·depth of the rendered
+    // penetration: both come from the device, so they agree to the telemetry's rounding.
+    std::thread::sleep(Duration::from_millis(500));
+    state.poll();
+    let k = state.running_material.expect("material").stiffness_n_per_m;
+    let last = state.latest().expect("telemetry").tick;
+    let expected = k * last.depth_m;
+    assert!(
+        (last.normal_force_n - expected).abs() < 0.02 * expected + 1e-3,
+        "F_N {} vs K·depth {expected}",
+        last.normal_force_n
+    );
+    // The handle rests between the hand and the surface: F_N = hand spring × stretch, so the
+    // depth is 4 mm × 2000 / (2000 + K) within the friction's share.
+    assert!(
+        last.depth_m > 1e-3 && last.depth_m < 4e-3,
+        "{}",
+        last.depth_m
+    );
+}
+
+/// Pulling the link out: the app says the link is lost and shows the forces off within the
+/// silence timeout, and the device's own watchdog turns its forces off: its telemetry after
+/// the cut shows the watchdog fault, and zero force from that frame on.
+///
+/// When, in device time after the first frame that came out after the cut (`f0`): the
+/// watchdog trips 100 ms (its timeout) after the last heartbeat the device got. That
+/// heartbeat left at most one heartbeat period (50 ms) before the cut, and `f0` left the
+/// device no later than the cut and at most the device's frame queue (64 frames, 64 ms at
+/// 1 kHz) before it; the simulated device is paced, never faster than real time. So the trip
+/// comes between 100 − 50 = 50 ms and 100 + 64 ms after `f0`, give or take a tick.
+#[test]
+fn pulling_the_link_turns_the_forces_off_and_says_so() {
+    let (mut state, cut, after_cut) = linked();
+    wait_for(&mut state, "the forces on", AppState::forces_on);
+    wait_for(&mut state, "telemetry", |s| s.latest().is_some());
+    cut.store(true, Ordering::SeqCst);
+    wait_for(&mut state, "the link lost", |s| s.link.lost.is_some());
+    assert!(!state.forces_on());
+    assert!(!state.forces_requested);
+    let reason = state.link.lost.clone().expect("reason");
+    assert!(
+        reason.contains("pullable") && reason.contains("no frame"),
+        "{reason}"
+    );
+
+    let frames = after_cut.lock().expect("frames").clone();
+    let trip = frames
+        .iter()
+        .position(|t| Faults::from_bits_truncate(t.faults).contains(Faults::WATCHDOG))
+        .unwrap_or_else(|| panic!("no watchdog trip in {} frames after the cut", frames.len()));
+    assert!(
+        frames[trip..].iter().all(|t| t.force_n == Vec2::ZERO),
+        "force after the trip"
+    );
+    let span_us = f64::from(frames[trip].time_us.wrapping_sub(frames[0].time_us));
+    assert!(
+        (50_000.0 - 1_000.0..=164_000.0 + 1_000.0).contains(&span_us),
+        "the watchdog tripped {span_us} µs after the first frame after the cut"
+    );
+}
