@@ -164,7 +164,8 @@ pub fn qemu(options: &Options) -> Result<(), String> {
             &[],
         );
     }
-    let session = crate::session::run(&serve_elf, &root)?;
+    let mut session = crate::session::run(&serve_elf, &root)?;
+    session.extend(crate::session::app(&serve_elf, &root)?);
     for level in &options.opt_levels {
         let data = data_dir.to_string_lossy().into_owned();
         let target = target_dir.to_string_lossy().into_owned();

@@ -208,16 +208,20 @@ fn modes(t: &[Telemetry]) -> Vec<Mode> {
     out
 }
 
-/// Runs the session against `elf` (the `qemu-serve` binary) and returns its result lines.
-pub fn run(elf: &Path, root: &Path) -> Result<Vec<String>, String> {
+/// A free TCP address on the loopback interface.
+fn free_address() -> Result<String, String> {
     let port = TcpListener::bind("127.0.0.1:0")
         .and_then(|l| l.local_addr())
         .map_err(|e| format!("session: no free TCP port: {e}"))?
         .port();
-    let address = format!("127.0.0.1:{port}");
-    let args = serve_args(&address, true);
+    Ok(format!("127.0.0.1:{port}"))
+}
+
+/// Boots `elf` (`qemu-serve`) under QEMU with its UART served on `address`.
+fn start(elf: &Path, address: &str, wait: bool, what: &str) -> Result<Qemu, String> {
+    let args = serve_args(address, wait);
     println!(
-        "\n==> qemu-system-arm {} -kernel {} (the host session)",
+        "\n==> qemu-system-arm {} -kernel {} ({what})",
         args.join(" "),
         elf.display()
     );
@@ -230,7 +234,113 @@ pub fn run(elf: &Path, root: &Path) -> Result<Vec<String>, String> {
         .stderr(Stdio::inherit())
         .spawn()
         .map_err(|e| format!("cannot start qemu-system-arm: {e}"))?;
-    let _qemu = Qemu(child);
+    Ok(Qemu(child))
+}
+
+/// The desktop app's device link (`viewer gui --device tcp:HOST:PORT`, through the app's
+/// state, no window) against the emulated board, as a user would start it: the board boots
+/// first (`cargo xtask qemu --serve`), then the app connects. The app's own setup clears the
+/// boot fault, calibrates, uploads thesis-2d and enables the forces; the device's status must
+/// then report exactly that scene's CRC with the forces on. The mouse (the hand's target)
+/// goes 4 mm into the right arc: the device must render contact (stuck, a normal force)
+/// without a fault.
+pub fn app(elf: &Path, root: &Path) -> Result<Vec<String>, String> {
+    use viewer::devices::Target;
+    use viewer::gui::state::AppState;
+    let address = free_address()?;
+    let _qemu = start(elf, &address, false, "the desktop app's link")?;
+    // The board is up once QEMU listens (its emulation runs without waiting for a client);
+    // give the firmware a moment to enable its USART, which drops bytes before that.
+    let started = Instant::now();
+    while std::net::TcpStream::connect(&address).is_err() {
+        if started.elapsed() > Duration::from_secs(20) {
+            return Err(format!("app: QEMU did not listen on {address} within 20 s"));
+        }
+        std::thread::sleep(Duration::from_millis(100));
+    }
+    std::thread::sleep(Duration::from_millis(500));
+    let scene_path = root.join("scenes").join("thesis-2d.json");
+    let scene = Scene::load(&scene_path).map_err(|e| format!("{}: {e}", scene_path.display()))?;
+    let wire = viewer::upload::wire_scene(&scene, 0).map_err(|e| format!("app: {e}"))?;
+    let mut state =
+        AppState::new("thesis-2d", scene, true, None).map_err(|e| format!("app: {e}"))?;
+    state.connect(Target::Tcp(address.clone()));
+    let wait = |state: &mut AppState, what: &str, done: &dyn Fn(&AppState) -> bool| {
+        let since = Instant::now();
+        while !done(state) {
+            if let Some(reason) = &state.link.lost {
+                return Err(format!("app: link lost waiting for {what}: {reason}"));
+            }
+            if since.elapsed() > Duration::from_secs(20) {
+                return Err(format!("app: no {what} within 20 s; link {:?}", state.link));
+            }
+            std::thread::sleep(Duration::from_millis(10));
+            state.poll();
+        }
+        Ok(since.elapsed())
+    };
+    let crc = crc32(&wire);
+    let setup = wait(&mut state, "upload and forces on", &|s| {
+        s.link
+            .status
+            .is_some_and(|st| st.scene_crc32 == crc && st.forces_enabled && st.calibrated)
+    })?;
+    let hello = state.link.hello.ok_or("app: no hello")?;
+    // Above the arcs, then 4 mm into the right arc at 41.4° (see `run`).
+    let centre = Vec2::new(-0.02, 0.06);
+    let a = 41.4_f32.to_radians();
+    let inside = centre + Vec2::new(a.cos(), a.sin()) * 0.036;
+    let steps = 50;
+    let above = Vec2::new(0.01, 0.11);
+    for i in 0..=steps {
+        state.set_hand_target(above + (inside - above) * (i as f32 / steps as f32));
+        std::thread::sleep(Duration::from_millis(10));
+        state.poll();
+    }
+    let contact = wait(&mut state, "contact", &|s| {
+        s.latest()
+            .is_some_and(|l| l.tick.mode == Mode::Stuck && l.tick.normal_force_n > 0.5)
+    })?;
+    let last = state.latest().ok_or("app: no telemetry")?.tick;
+    let faults = last.device.map_or(0, |d| d.faults);
+    let (lost, bad, rtt_us) = state.link_quality().unwrap_or_default();
+    if faults != 0 {
+        let first = state
+            .history
+            .iter()
+            .position(|s| s.tick.device.is_some_and(|d| d.faults & !0x8 != 0));
+        let around: Vec<String> =
+            first
+                .map(|i| {
+                    state.history.iter().skip(i.saturating_sub(3)).take(6).map(|s| {
+                    format!("t={:.4} hip=({:.5},{:.5}) target=({:.5},{:.5}) mode={:?} faults={:#x}",
+                        s.tick.t_s, s.tick.hip.x, s.tick.hip.y, s.hand_target.x, s.hand_target.y,
+                        s.tick.mode, s.tick.device.map_or(0, |d| d.faults))
+                }).collect()
+                })
+                .unwrap_or_default();
+        return Err(format!(
+            "app: faults {faults:#x} in contact; first at {first:?} of {}:\n{}",
+            state.history.len(),
+            around.join("\n")
+        ));
+    }
+    state.shutdown();
+    Ok(vec![format!(
+        "app link firmware={:?} setup_ms={} contact_ms={} normal_n={:.3} depth_mm={:.3} \
+         frames_lost={lost} corrupt={bad} rtt_us={rtt_us}",
+        hello.software,
+        setup.as_millis(),
+        contact.as_millis(),
+        last.normal_force_n,
+        last.depth_m * 1e3
+    )])
+}
+
+/// Runs the session against `elf` (the `qemu-serve` binary) and returns its result lines.
+pub fn run(elf: &Path, root: &Path) -> Result<Vec<String>, String> {
+    let address = free_address()?;
+    let _qemu = start(elf, &address, true, "the host session")?;
     let started = Instant::now();
     let link = loop {
         match TcpLink::connect(&address, Duration::from_millis(200)) {

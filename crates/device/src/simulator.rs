@@ -48,6 +48,60 @@ impl Default for SimParams {
     }
 }
 
+/// The fastest a [`VirtualHand`]'s target follows its command (m/s). A hand does not
+/// teleport: a command far from the handle would otherwise yank it through the hand's spring
+/// past the device's 1 m/s speed limit and latch the velocity fault.
+pub const MAX_HAND_SPEED_M_PER_S: f32 = 0.3;
+
+/// The virtual hand of a simulated plant: the point its spring pulls the handle towards
+/// (the argument of [`SimulatedPantograph::step`]) follows the commanded one at up to
+/// [`MAX_HAND_SPEED_M_PER_S`], in the device's own time, however commands arrive (a link may
+/// deliver them late and in bursts).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct VirtualHand {
+    target: Vec2,
+    command: Vec2,
+}
+
+impl VirtualHand {
+    /// A hand at rest at `at`.
+    pub const fn at(at: Vec2) -> Self {
+        VirtualHand {
+            target: at,
+            command: at,
+        }
+    }
+
+    /// Commands the hand towards `to`; a non-finite command is ignored.
+    pub fn command(&mut self, to: Vec2) {
+        if to.is_finite() {
+            self.command = to;
+        }
+    }
+
+    /// Moves the target one period `dt_s` towards the command and returns it.
+    pub fn step(&mut self, dt_s: f32) -> Vec2 {
+        self.target = approach(self.target, self.command, MAX_HAND_SPEED_M_PER_S * dt_s);
+        self.target
+    }
+
+    /// Where the spring pulls now.
+    pub fn target(&self) -> Vec2 {
+        self.target
+    }
+}
+
+/// `from` one step towards `to`: at most `max_step` (m) along the way.
+pub fn approach(from: Vec2, to: Vec2, max_step: f32) -> Vec2 {
+    let to_go = to - from;
+    let d2 = to_go.length_squared();
+    if d2 > max_step * max_step {
+        from + to_go * (max_step / libm::sqrtf(d2))
+    } else {
+        to
+    }
+}
+
 /// Why the simulator could not start or move.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum SimulatorError {

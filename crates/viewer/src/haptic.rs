@@ -27,7 +27,7 @@ use std::time::{Duration, Instant};
 use device::controller::{Controller, ControllerError};
 use device::protocol::SceneStore;
 use device::safety::Faults;
-use device::simulator::{SimParams, SimulatedPantograph};
+use device::simulator::{SimParams, SimulatedPantograph, VirtualHand};
 use device::spec::DeviceSpec;
 use friction::FrictionMaterial;
 use nurbs::Vec2;
@@ -51,10 +51,9 @@ pub const RECORD_CAPACITY: usize = 4096;
 /// workspace, above the bundled planar scenes.
 pub const START_HIP: Vec2 = Vec2::new(0.0, 0.11);
 
-/// The fastest the virtual hand's target follows its command (m/s). A hand does not
-/// teleport: a click far from the handle would otherwise yank it through the 300 N/m grip
-/// past the device's 1 m/s speed limit and latch the velocity fault.
-pub const MAX_HAND_SPEED_M_PER_S: f32 = 0.3;
+/// The fastest the virtual hand's target follows its command (m/s): the simulated
+/// plant's ([`device::simulator::VirtualHand`]).
+pub const MAX_HAND_SPEED_M_PER_S: f32 = device::simulator::MAX_HAND_SPEED_M_PER_S;
 
 /// A scene the loop renders: the scene, the index of the object the device renders (the
 /// first planar one; `None` when the scene has none), and the controller built for it.
@@ -241,8 +240,7 @@ pub struct HapticLoop {
     session: Session,
     material: Option<FrictionMaterial>,
     arm: SimulatedPantograph,
-    hand_target: Vec2,
-    hand_command: Vec2,
+    hand: VirtualHand,
     tick: u64,
     period_s: f32,
     last_error: Option<String>,
@@ -259,8 +257,7 @@ impl HapticLoop {
             session,
             material,
             arm,
-            hand_target: start_hip,
-            hand_command: start_hip,
+            hand: VirtualHand::at(start_hip),
             tick: 0,
             period_s: (1.0 / RATE_HZ) as f32,
             last_error: None,
@@ -270,18 +267,11 @@ impl HapticLoop {
     /// One tick (see [`sim::device_tick`]). An arm driven into a singular pose stays there; the
     /// tick is then recorded at the last pose and [`HapticLoop::last_error`] says why.
     pub fn step(&mut self) -> Tick {
-        // The target moves towards its command at most MAX_HAND_SPEED_M_PER_S.
-        let to_go = self.hand_command - self.hand_target;
-        let max_step = MAX_HAND_SPEED_M_PER_S * self.period_s;
-        if to_go.length() > max_step {
-            self.hand_target += to_go * (max_step / to_go.length());
-        } else {
-            self.hand_target = self.hand_command;
-        }
+        let target = self.hand.step(self.period_s);
         let t_s = self.tick as f64 / RATE_HZ;
         // The device clock: integer microseconds, as a board's timer.
         let now_us = (self.tick as f64 * 1e6 / RATE_HZ).round() as u64;
-        let (target, period_s) = (self.hand_target, self.period_s);
+        let period_s = self.period_s;
         let arm = &mut self.arm;
         let result = self.session.0.with_dependent_mut(|_, r| {
             sim::device_tick(&mut r.controller, arm, t_s, now_us, target, period_s)
@@ -303,14 +293,12 @@ impl HapticLoop {
     /// Commands the virtual hand's target (m, device frame): from the next tick it moves
     /// there at up to [`MAX_HAND_SPEED_M_PER_S`]; a non-finite target is ignored.
     pub fn set_hand_target(&mut self, target: Vec2) {
-        if target.is_finite() {
-            self.hand_command = target;
-        }
+        self.hand.command(target);
     }
 
     /// The hand's target (where it is on its way to the command).
     pub fn hand_target(&self) -> Vec2 {
-        self.hand_target
+        self.hand.target()
     }
 
     /// Ticks so far.

@@ -13,6 +13,7 @@ pub mod plot;
 pub mod remote;
 pub mod runlog;
 pub mod scene;
+mod scene_json;
 pub mod sim;
 pub mod stribeck;
 pub mod trajectory;

@@ -12,8 +12,14 @@
 //!   state is unchanged.
 //! - Heartbeats go every [`HEARTBEAT_PERIOD`]; the device answers each with its status
 //!   ([`LinkEvent::Status`]), and its round trip is the link's latency.
-//! - Hand targets go at once, without waiting, to a device whose plant is simulated; a board
-//!   (a real hand on the handle) refuses them and the thread stops sending them.
+//! - Hand targets go, without waiting, to a device whose plant is simulated: the newest one
+//!   every [`HAND_PERIOD`] while it changes. The device's virtual hand follows them at a
+//!   bounded speed in its own time ([`device::simulator::VirtualHand`]: a hand does not
+//!   teleport, and a link may deliver targets late and in bursts); a board (a real hand on the handle) refuses them and the thread stops
+//!   sending them.
+//! - Requests wait for the device's first status (the answer to the first heartbeat), so
+//!   that clearing the boot fault (the watchdog, tripped before any host spoke) finds its
+//!   condition gone.
 //! - The link is lost when it fails or the device is silent for [`SILENCE_TIMEOUT`]: the
 //!   thread says so ([`LinkEvent::Lost`]) and ends. The device's own watchdog turns its
 //!   forces off once heartbeats stop (a board's within 100 ms), whatever the host does.
@@ -37,6 +43,15 @@ use crate::sim::{DeviceSample, Tick};
 /// A device silent this long is gone (telemetry comes every tick, so this is hundreds of
 /// frames).
 pub const SILENCE_TIMEOUT: Duration = Duration::from_millis(500);
+/// How long the setup waits for a simulated handle to reach the hand before it goes on.
+pub const SETTLE_TIMEOUT: Duration = Duration::from_secs(3);
+/// How close the handle must come to the hand's target to count as there (m).
+pub const SETTLED_M: f32 = 1e-3;
+
+/// How often the virtual hand's target is sent: 100 frames a second of 16 bytes, a third of
+/// what the emulated board's UART carries under QEMU (about 5 kB/s, see
+/// `firmware/src/bin/qemu-serve.rs`), leaving room for the heartbeats and the uploads.
+pub const HAND_PERIOD: Duration = Duration::from_millis(10);
 /// A request the device has not answered within this is given up.
 pub const REQUEST_TIMEOUT: Duration = Duration::from_secs(2);
 
@@ -71,6 +86,9 @@ enum Purpose {
     Forces,
     Calibrate,
     ClearFaults,
+    /// Not a message: the queue waits here until the handle of a simulated plant has
+    /// followed the virtual hand to the pointer's target (or [`SETTLE_TIMEOUT`] passed).
+    Settle,
 }
 
 impl Purpose {
@@ -81,6 +99,7 @@ impl Purpose {
             Purpose::Forces => "forces on/off",
             Purpose::Calibrate => "the calibration",
             Purpose::ClearFaults => "clearing the faults",
+            Purpose::Settle => "moving the handle to the hand",
         }
     }
 }
@@ -98,7 +117,14 @@ struct Host {
     /// Sequence number and send time of the newest heartbeat.
     heartbeat: Option<(u16, Instant)>,
     status: Option<Status>,
-    hand_target: Vec2,
+    /// Where the pointer wants the hand.
+    hand_command: Option<Vec2>,
+    /// The hand's target as last sent, and when.
+    hand_target: Option<(Vec2, Instant)>,
+    /// The newest HIP, once the device is calibrated.
+    hip: Option<Vec2>,
+    /// When the setup began waiting for the handle.
+    settle_since: Option<Instant>,
     /// A command refused before it was sent, to report at the end of the turn.
     refused_now: Option<(Purpose, String)>,
     clock: DeviceClock,
@@ -119,7 +145,10 @@ impl Host {
             heartbeat_due: now,
             heartbeat: None,
             status: None,
-            hand_target: Vec2::ZERO,
+            hand_command: None,
+            hand_target: None,
+            hip: None,
+            settle_since: None,
             refused_now: None,
             clock: DeviceClock::default(),
             started: now,
@@ -134,6 +163,10 @@ impl Host {
                 Purpose::ClearFaults,
             );
             host.request(Message::Calibrate, Purpose::Calibrate);
+            // A simulated handle starts where its device put it, maybe inside an object: it
+            // first follows the hand to the pointer's target, then the forces go on (and the
+            // scene, which the app sends next).
+            host.request(Message::Calibrate, Purpose::Settle);
             host.request(Message::EnableForces, Purpose::Forces);
         }
         host
@@ -184,12 +217,6 @@ impl Host {
                 format!("no answer within {REQUEST_TIMEOUT:?}"),
             );
         }
-        if self.in_flight.is_none()
-            && let Some((message, purpose)) = self.queue.pop_front()
-        {
-            let seq = self.opened.link.send(&message).map_err(|e| self.lost(&e))?;
-            self.in_flight = Some((seq, purpose, now));
-        }
         if now >= self.heartbeat_due {
             let uptime_ms = u32::try_from((now - self.started).as_millis()).unwrap_or(u32::MAX);
             let seq = self
@@ -200,6 +227,28 @@ impl Host {
             self.heartbeat = Some((seq, now));
             self.heartbeat_due = now + HEARTBEAT_PERIOD;
         }
+        if let Some((_, Purpose::Settle)) = self.queue.front()
+            && self.in_flight.is_none()
+        {
+            let since = *self.settle_since.get_or_insert(now);
+            let settled = match (self.hand_command, self.hip) {
+                (Some(target), Some(hip)) => (hip - target).length() < SETTLED_M,
+                (None, _) => true,
+                (_, None) => false,
+            };
+            if settled || now - since > SETTLE_TIMEOUT {
+                self.queue.pop_front();
+            }
+        }
+        if self.in_flight.is_none()
+            && self.status.is_some()
+            && !matches!(self.queue.front(), Some((_, Purpose::Settle)))
+            && let Some((message, purpose)) = self.queue.pop_front()
+        {
+            let seq = self.opened.link.send(&message).map_err(|e| self.lost(&e))?;
+            self.in_flight = Some((seq, purpose, now));
+        }
+        self.move_hand(now).map_err(|e| self.lost(&e))?;
         let until = now + Duration::from_millis(1);
         loop {
             let left = until.saturating_duration_since(Instant::now());
@@ -231,25 +280,37 @@ impl Host {
         Ok(())
     }
 
+    /// Sends the newest hand target, at most every [`HAND_PERIOD`].
+    fn move_hand(&mut self, now: Instant) -> Result<(), LinkError> {
+        let Some(command) = self.hand_command else {
+            return Ok(());
+        };
+        if !self.simulated_plant
+            || self
+                .hand_target
+                .is_some_and(|(t, sent)| t == command || now - sent < HAND_PERIOD)
+        {
+            return Ok(());
+        }
+        match &self.opened.hand {
+            Some(hand) => hand.set_target(command)?,
+            None => {
+                self.opened
+                    .link
+                    .send(&Message::HandTarget { target_m: command })?;
+            }
+        }
+        self.hand_target = Some((command, now));
+        Ok(())
+    }
+
     fn lost(&self, e: &LinkError) -> String {
         format!("{}: {e}", self.device)
     }
 
     fn command(&mut self, command: Command) -> Result<(), LinkError> {
         match command {
-            Command::HandTarget(t) => {
-                self.hand_target = t;
-                if self.simulated_plant {
-                    match &self.opened.hand {
-                        Some(hand) => hand.set_target(t)?,
-                        None => {
-                            self.opened
-                                .link
-                                .send(&Message::HandTarget { target_m: t })?;
-                        }
-                    }
-                }
-            }
+            Command::HandTarget(t) => self.hand_command = Some(t),
             Command::SetMaterial(m) => self.request(
                 Message::SetMaterial {
                     object: 0,
@@ -349,7 +410,10 @@ impl Host {
                         Purpose::ClearFaults => ends.reply(Reply::FaultsCleared(
                             Faults::from_bits_truncate(self.status.map_or(0, |s| s.faults)),
                         )),
-                        Purpose::Upload { last: false } | Purpose::Forces | Purpose::Calibrate => {}
+                        Purpose::Upload { last: false }
+                        | Purpose::Forces
+                        | Purpose::Calibrate
+                        | Purpose::Settle => {}
                     }
                 }
             }
@@ -379,10 +443,13 @@ impl Host {
     /// The UI's sample of a telemetry frame.
     fn sample(&mut self, t: &Telemetry) -> Sample {
         let (t_s, period_us) = self.clock.advance(t.time_us);
+        if t.hip_m != Vec2::ZERO {
+            self.hip = Some(t.hip_m);
+        }
         let forces_enabled = self.status.is_some_and(|s| s.forces_enabled);
         Sample {
             tick: tick_of(t, t_s),
-            hand_target: self.hand_target,
+            hand_target: self.hand_target.map_or(t.hip_m, |(p, _)| p),
             period_us,
             forces_enabled,
         }

@@ -24,7 +24,7 @@ use cortex_m_semihosting::{debug, hprintln};
 use device::protocol::{MAX_FRAME, Message, SceneStore};
 use device::safety::SafetyConfig;
 use device::session::{DeviceState, Event, Session};
-use device::simulator::{SimParams, SimulatedPantograph};
+use device::simulator::{SimParams, SimulatedPantograph, VirtualHand};
 use device::spec::DeviceSpec;
 use firmware::app::Parked;
 use firmware::board::Board;
@@ -131,7 +131,7 @@ fn main() -> ! {
     // The stores live in main's frame, which never returns.
     let (mut a, mut b) = (SceneStore::new(), SceneStore::new());
     let (mut active, mut scratch) = (&mut a, &mut b);
-    let mut hand_target = START_M;
+    let mut hand = VirtualHand::at(START_M);
     let mut packet = Packet {
         bytes: [0; cobs::max_encoding_length(MAX_FRAME) + 1],
         len: 0,
@@ -159,7 +159,7 @@ fn main() -> ! {
                 );
                 match event {
                     Event::SceneCommitted => break 'epoch,
-                    Event::HandTarget(t) => hand_target = t,
+                    Event::HandTarget(t) => hand.command(t),
                     Event::Command(command) => {
                         // The simulated joints "rest on their end stops": the counts read there.
                         if let Err(code) = app.apply(command, spec.end_stop_counts()) {
@@ -181,7 +181,7 @@ fn main() -> ! {
                 board.now_us = now_us;
                 app.tick(&mut board);
                 // An arm driven into a singular pose stays there, as a real one on its stops.
-                let _ = board.step_plant(hand_target, period_s);
+                let _ = board.step_plant(hand.step(period_s), period_s);
                 app.acquire();
             }
             cortex_m::asm::wfi();

@@ -26,7 +26,7 @@ use crate::controller::Controller;
 use crate::protocol::{Frame, MAX_FRAME, Message, SceneStore};
 use crate::safety::SafetyConfig;
 use crate::session::{DeviceState, Event, Session};
-use crate::simulator::{SimParams, SimulatedPantograph};
+use crate::simulator::{SimParams, SimulatedPantograph, VirtualHand};
 use crate::spec::DeviceSpec;
 
 /// Scene capacity of the simulated device (bytes), as the firmware's receiver.
@@ -103,7 +103,7 @@ impl SimLink {
                     commands,
                     frames,
                     arm,
-                    hand_target: config.start_hip,
+                    hand: VirtualHand::at(config.start_hip),
                     session: Box::new(Session::new(true)),
                     scratch: Box::new(SceneStore::new()),
                     seq: Sequencer::default(),
@@ -200,7 +200,7 @@ struct SimDevice {
     commands: Receiver<ToDevice>,
     frames: SyncSender<[u8; MAX_FRAME]>,
     arm: SimulatedPantograph,
-    hand_target: Vec2,
+    hand: VirtualHand,
     session: Box<Session<SCENE_CAPACITY>>,
     /// Where commits are validated (decoded); swapped with the active store on success.
     scratch: Box<SceneStore>,
@@ -252,7 +252,7 @@ impl SimDevice {
         loop {
             loop {
                 match self.commands.try_recv() {
-                    Ok(ToDevice::HandTarget(t)) => self.hand_target = t,
+                    Ok(ToDevice::HandTarget(t)) => self.hand.command(t),
                     Ok(ToDevice::Frame(bytes)) => match self.handle(controller, &bytes) {
                         Ok(true) => return EpochEnd::Swap,
                         Ok(false) => {}
@@ -265,7 +265,8 @@ impl SimDevice {
             let begun = Instant::now();
             let mut out = controller.tick(self.arm.encoder_counts(), self.now_us());
             // An arm driven into a singular pose stays there, as a real one on its stops.
-            let _ = self.arm.step(out.currents_a, self.hand_target, period_s);
+            let hand = self.hand.step(period_s);
+            let _ = self.arm.step(out.currents_a, hand, period_s);
             out.telemetry.tick_us = u16::try_from(begun.elapsed().as_micros()).unwrap_or(u16::MAX);
             // The global search after a swap, outside the tick as on the board.
             controller.acquire_now();
@@ -306,7 +307,7 @@ impl SimDevice {
         Ok(match event {
             Event::SceneCommitted => true,
             Event::HandTarget(target) => {
-                self.hand_target = target;
+                self.hand.command(target);
                 false
             }
             Event::Command(command) => {

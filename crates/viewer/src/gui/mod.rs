@@ -6,6 +6,7 @@
 //! small functions named by what they show (`*_ui`), each snapshot-tested with
 //! `egui_kittest`.
 
+pub mod replay;
 pub mod state;
 pub mod view;
 
@@ -211,9 +212,78 @@ pub fn scenes_ui(ui: &mut egui::Ui, state: &mut AppState) {
             let path = PathBuf::from(state.scene_path.trim());
             state.open_path(&path);
         }
+        if ui.button("Save").clicked() && !state.scene_path.trim().is_empty() {
+            let path = PathBuf::from(state.scene_path.trim());
+            state.save_scene(&path);
+        }
+        ui.separator();
+        ui.label("run log:");
+        let field = ui.add(
+            egui::TextEdit::singleline(&mut state.replay_path)
+                .hint_text("run.csv")
+                .desired_width(160.0),
+        );
+        let enter = field.lost_focus() && ui.input(|i| i.key_pressed(egui::Key::Enter));
+        if (ui.button("Replay").clicked() || enter) && !state.replay_path.trim().is_empty() {
+            let path = PathBuf::from(state.replay_path.trim());
+            state.open_replay(&path);
+        }
     });
     if let Some(e) = &state.scene_error {
         ui.colored_label(Color32::from_rgb(190, 30, 30), e);
+    }
+    if let Some(e) = &state.replay_error {
+        ui.colored_label(Color32::from_rgb(190, 30, 30), e);
+    }
+    if let Some(m) = &state.scene_saved {
+        ui.label(m);
+    }
+    replay_ui(ui, state);
+}
+
+/// The replay's controls: play or pause, the cursor over the log's time, the speed, and
+/// back to the live loop.
+pub fn replay_ui(ui: &mut egui::Ui, state: &mut AppState) {
+    let Some(r) = &state.replay else {
+        return;
+    };
+    let (start, end) = r.span();
+    let (mut cursor, mut playing, mut speed) = (r.cursor(), r.playing, r.speed);
+    let label = r.label.clone();
+    let mut live = false;
+    ui.horizontal_wrapped(|ui| {
+        ui.label(RichText::new(format!("replaying {label}")).strong());
+        if ui.button(if playing { "Pause" } else { "Play" }).clicked() {
+            playing = !playing;
+            if playing && cursor >= end {
+                cursor = start;
+            }
+        }
+        ui.add(
+            egui::Slider::new(&mut cursor, start..=end)
+                .suffix(" s")
+                .fixed_decimals(3)
+                .text("time"),
+        );
+        egui::ComboBox::from_label("speed")
+            .selected_text(format!("{speed}×"))
+            .show_ui(ui, |ui| {
+                for s in replay::SPEEDS {
+                    ui.selectable_value(&mut speed, s, format!("{s}×"));
+                }
+            });
+        live = ui.button("Back to live").clicked();
+    });
+    if live {
+        state.close_replay();
+        return;
+    }
+    if let Some(r) = &mut state.replay {
+        r.playing = playing;
+        r.speed = speed;
+    }
+    if state.replay.as_ref().is_some_and(|r| r.cursor() != cursor) {
+        state.seek_replay(cursor);
     }
 }
 
@@ -619,6 +689,9 @@ impl eframe::App for ViewerApp {
                 .set_hand_target(nurbs::Vec2::new(p[0] as f32, p[1] as f32));
         }
         self.ui.state.poll();
+        if let Some(last) = self.last_frame {
+            self.ui.state.advance_replay((begun - last).as_secs_f64());
+        }
         self.ui.ui(ui);
         let interval = self.last_frame.map(|l| (begun - l).as_secs_f32() * 1e3);
         self.last_frame = Some(begun);

@@ -13,6 +13,7 @@ use device::spec::{DeviceSpec, WorkspaceBox};
 use friction::{FrictionMaterial, Mode, SwitchCause};
 use nurbs::Vec2;
 
+use super::replay::Replay;
 use crate::devices::{self, Target};
 use crate::haptic::{
     self, Command, HapticLoop, LinkEvent, LoopThread, MaterialChangeError, Reply, START_HIP,
@@ -383,6 +384,15 @@ pub struct AppState {
     /// The scene the loop renders (the model the scene view draws).
     pub source: Scene,
     pending: Option<PendingScene>,
+    /// The run log being replayed, if one is: the views and plots show it instead of the
+    /// live loop.
+    pub replay: Option<Replay>,
+    /// Where the scene was last saved, as a message.
+    pub scene_saved: Option<String>,
+    /// Why the last run log could not be replayed.
+    pub replay_error: Option<String>,
+    /// The path typed into the replay field.
+    pub replay_path: String,
     /// The recorder's input, handed to every loop the app starts.
     record: Option<std::sync::mpsc::SyncSender<Tick>>,
     /// The scene being rendered.
@@ -447,6 +457,10 @@ impl AppState {
             device_form: DeviceForm::default(),
             source,
             pending: None,
+            replay: None,
+            replay_error: None,
+            scene_saved: None,
+            replay_path: String::new(),
             record,
             scene: view,
             reach: Reach::of_default_device(),
@@ -533,6 +547,23 @@ impl AppState {
 
     fn take(&mut self, s: Sample) {
         self.received += 1;
+        if self.replay.is_some() {
+            // The live loop runs on behind a replay; its ticks are not shown.
+            return;
+        }
+        if let Some(p) = s.period_us {
+            self.jitter.add(p);
+            if self.recent_periods.len() == JITTER_WINDOW {
+                self.recent_periods.pop_front();
+            }
+            self.recent_periods.push_back(p);
+        }
+        self.push_history(s);
+    }
+
+    /// Appends `s` to the history (noting a mode switch) and drops what is older than
+    /// [`HISTORY_S`].
+    fn push_history(&mut self, s: Sample) {
         if let Some(last) = self.history.back()
             && last.tick.mode != s.tick.mode
         {
@@ -545,13 +576,6 @@ impl AppState {
                 to: s.tick.mode,
                 cause: s.tick.cause,
             });
-        }
-        if let Some(p) = s.period_us {
-            self.jitter.add(p);
-            if self.recent_periods.len() == JITTER_WINDOW {
-                self.recent_periods.pop_front();
-            }
-            self.recent_periods.push_back(p);
         }
         self.history.push_back(s);
         while let Some(first) = self.history.front() {
@@ -645,6 +669,8 @@ impl AppState {
                 self.device = DeviceChoice::Linked(device);
                 self.link = LinkState::default();
                 self.forces_requested = setup;
+                // The virtual hand of a simulated plant goes where the app's hand is.
+                self.command(Command::HandTarget(self.hand_target));
                 self.history.clear();
                 self.recent_periods.clear();
                 self.jitter = JitterStats::default();
@@ -709,6 +735,57 @@ impl AppState {
         self.command(Command::Calibrate);
     }
 
+    /// Replays the run log at `path` in the views and plots (the live loop runs on behind
+    /// it, unseen); an unreadable or invalid log leaves everything as it was and
+    /// [`AppState::replay_error`] names the line at fault.
+    pub fn open_replay(&mut self, path: &Path) {
+        match Replay::open(path) {
+            Ok(r) => {
+                self.replay = Some(r);
+                self.replay_error = None;
+                self.refresh_replay();
+            }
+            Err(e) => self.replay_error = Some(e.to_string()),
+        }
+    }
+
+    /// Back to the live loop.
+    pub fn close_replay(&mut self) {
+        self.replay = None;
+        self.history.clear();
+        self.switches.clear();
+    }
+
+    /// Moves the replay's cursor to `t_s` (s, the log's time).
+    pub fn seek_replay(&mut self, t_s: f64) {
+        if let Some(r) = &mut self.replay {
+            r.seek(t_s);
+            self.refresh_replay();
+        }
+    }
+
+    /// Advances a playing replay by `wall_s` of real time (the app calls it every frame).
+    pub fn advance_replay(&mut self, wall_s: f64) {
+        if let Some(r) = &mut self.replay
+            && r.playing
+        {
+            r.advance(wall_s);
+            self.refresh_replay();
+        }
+    }
+
+    fn refresh_replay(&mut self) {
+        let Some(r) = self.replay.take() else {
+            return;
+        };
+        self.history.clear();
+        self.switches.clear();
+        for s in r.window() {
+            self.push_history(s);
+        }
+        self.replay = Some(r);
+    }
+
     /// The newest sample.
     pub fn latest(&self) -> Option<&Sample> {
         self.history.back()
@@ -726,7 +803,7 @@ impl AppState {
     /// Moves the hand's target to `target` (m) when the device reaches it; a target out of
     /// reach leaves the hand where it was (returns false).
     pub fn set_hand_target(&mut self, target: Vec2) -> bool {
-        if !self.reach.contains(target) {
+        if self.replay.is_some() || !self.reach.contains(target) {
             return false;
         }
         self.hand_target = target;
@@ -816,6 +893,28 @@ impl AppState {
             // A stepped loop has already answered (in `command`).
             Backend::Stepped(_) => self.show_scene(pending),
             Backend::Thread(_) | Backend::Stopped => self.pending = Some(pending),
+        }
+    }
+
+    /// Saves the running scene (with the running material) to `path` as a `scene/1` file;
+    /// an error names the file and the running scene is untouched.
+    pub fn save_scene(&mut self, path: &Path) {
+        let mut scene = self.source.clone();
+        if let (Some(i), Some(m)) = (self.scene.rendered, self.running_material)
+            && let Ok(m) = Material::from_friction(m)
+        {
+            scene = scene.with_material(i, m).unwrap_or(scene);
+        }
+        let text = scene.to_json_string();
+        match std::fs::write(path, text) {
+            Ok(()) => {
+                self.scene_saved = Some(format!("saved {}", path.display()));
+                self.scene_error = None;
+            }
+            Err(e) => {
+                self.scene_saved = None;
+                self.scene_error = Some(format!("cannot save {}: {e}", path.display()));
+            }
         }
     }
 
