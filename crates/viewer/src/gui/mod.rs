@@ -16,7 +16,7 @@ use std::time::{Duration, Instant};
 use eframe::egui;
 use egui::{Color32, RichText};
 use egui_plot::{Corner, Legend, Line, Plot, PlotPoints, Span};
-use friction::{FrictionMaterial, Mode, Stribeck};
+use friction::{FrictionMaterial, Mode, ModelKind, Stribeck};
 
 use crate::haptic::Recorder;
 use crate::scene::Scene;
@@ -67,9 +67,13 @@ impl ViewerUi {
         egui::Panel::left("materials")
             .default_size(250.0)
             .show(ui, |ui| {
-                device_ui(ui, &mut self.state);
-                ui.separator();
-                materials_ui(ui, &mut self.state);
+                egui::ScrollArea::vertical().show(ui, |ui| {
+                    device_ui(ui, &mut self.state);
+                    ui.separator();
+                    objects_ui(ui, &mut self.state);
+                    ui.separator();
+                    materials_ui(ui, &mut self.state);
+                });
             });
         egui::Panel::right("telemetry")
             .default_size(430.0)
@@ -190,6 +194,69 @@ pub fn device_ui(ui: &mut egui::Ui, state: &mut AppState) {
     }
 }
 
+/// The scene's objects and their patches (kind, degree, control points, domain); the object
+/// the device renders is marked, and a click on another planar one renders that one.
+pub fn objects_ui(ui: &mut egui::Ui, state: &mut AppState) {
+    use crate::scene::{Patch, Space};
+    ui.heading("Objects");
+    let mut render = None;
+    for (i, o) in state.source.objects().iter().enumerate() {
+        let rendered = state.scene.rendered == Some(i);
+        // The panel is narrow: a long name is cut (the full one is inside).
+        let short: String = o.name().chars().take(24).collect();
+        let cut = if short.len() < o.name().len() {
+            "..."
+        } else {
+            ""
+        };
+        let title = format!(
+            "{}{i}: {short}{cut}",
+            if rendered { "(rendered) " } else { "" }
+        );
+        egui::CollapsingHeader::new(title)
+            .id_salt(("object", i))
+            .default_open(false)
+            .show(ui, |ui| {
+                ui.label(format!(
+                    "{} ({}, {} patches)",
+                    o.name(),
+                    o.space(),
+                    o.patches().len()
+                ));
+                for (j, p) in o.patches().iter().enumerate() {
+                    let text = match p {
+                        Patch::Curve2(c) => {
+                            let (a, b) = c.view().domain();
+                            format!(
+                                "patch {j}: planar curve, degree {}, {} points, u in [{a}, {b}]",
+                                c.degree(),
+                                c.points().len()
+                            )
+                        }
+                        Patch::Curve3(c) => format!(
+                            "patch {j}: spatial curve, degree {}, {} points",
+                            c.degree(),
+                            c.points().len()
+                        ),
+                        Patch::Surface(s) => {
+                            let (p, q) = s.degree();
+                            let (nu, nv) = s.counts();
+                            format!("patch {j}: surface, degree ({p}, {q}), {nu}×{nv} points")
+                        }
+                    };
+                    ui.label(text);
+                }
+                if o.space() == Space::Planar && !rendered && ui.button("Render this one").clicked()
+                {
+                    render = Some(i);
+                }
+            });
+    }
+    if let Some(i) = render {
+        state.render_object(i);
+    }
+}
+
 /// The bundled scenes, one click each, and a path field to open a scene file.
 pub fn scenes_ui(ui: &mut egui::Ui, state: &mut AppState) {
     ui.horizontal_wrapped(|ui| {
@@ -300,6 +367,7 @@ pub fn materials_ui(ui: &mut egui::Ui, state: &mut AppState) {
         ui.label(format!("object {index}: {}", o.name));
     }
     let m = &mut state.edited_material;
+    let (stribeck_before, model_before) = (m.stribeck, m.model);
     let mut changed = false;
     egui::Grid::new("material").num_columns(2).show(ui, |ui| {
         let mut row = |ui: &mut egui::Ui, label: &str, v: &mut f32, speed: f64, unit: &str| {
@@ -326,8 +394,90 @@ pub fn materials_ui(ui: &mut egui::Ui, state: &mut AppState) {
             0.001,
             " m/s",
         );
+        row(ui, "transition time", &mut m.transition_time_s, 0.001, " s");
+        row(ui, "stop speed", &mut m.stop_speed_m_per_s, 0.0001, " m/s");
+        let name = ui.label("Stribeck shape");
+        let shape = |s: Stribeck| match s {
+            Stribeck::Linear => "linear".to_owned(),
+            Stribeck::Power { exponent } => format!("power {exponent}"),
+            Stribeck::Smoothstep => "smoothstep".to_owned(),
+        };
+        egui::ComboBox::from_id_salt("stribeck")
+            .selected_text(shape(m.stribeck))
+            .show_ui(ui, |ui| {
+                ui.selectable_value(&mut m.stribeck, Stribeck::Linear, "linear");
+                let power = match m.stribeck {
+                    Stribeck::Power { exponent } => exponent,
+                    _ => 2,
+                };
+                ui.selectable_value(
+                    &mut m.stribeck,
+                    Stribeck::Power { exponent: power },
+                    "power n",
+                );
+                ui.selectable_value(&mut m.stribeck, Stribeck::Smoothstep, "smoothstep");
+            })
+            .response
+            .labelled_by(name.id);
+        ui.end_row();
+        if let Stribeck::Power { exponent } = &mut m.stribeck {
+            let name = ui.label("exponent n");
+            ui.add(egui::DragValue::new(exponent).range(1..=255))
+                .labelled_by(name.id);
+            ui.end_row();
+        }
+        let name = ui.label("friction model");
+        egui::ComboBox::from_id_salt("model")
+            .selected_text(model_name(m.model))
+            .show_ui(ui, |ui| {
+                for k in [
+                    ModelKind::StickSlip,
+                    ModelKind::CoulombViscous,
+                    ModelKind::Karnopp,
+                    ModelKind::Dahl,
+                    ModelKind::LuGre,
+                ] {
+                    ui.selectable_value(&mut m.model, k, model_name(k));
+                }
+            })
+            .response
+            .labelled_by(name.id);
+        ui.end_row();
+        match m.model {
+            ModelKind::StickSlip => {}
+            ModelKind::CoulombViscous => {
+                row(ui, "viscous", &mut m.viscous_ns_per_m, 0.05, " N·s/m");
+            }
+            ModelKind::Karnopp => {
+                row(ui, "viscous", &mut m.viscous_ns_per_m, 0.05, " N·s/m");
+                row(
+                    ui,
+                    "stick band",
+                    &mut m.karnopp_band_m_per_s,
+                    0.0001,
+                    " m/s",
+                );
+            }
+            ModelKind::Dahl | ModelKind::LuGre => {
+                row(
+                    ui,
+                    "bristle K",
+                    &mut m.bristle_stiffness_n_per_m,
+                    10.0,
+                    " N/m",
+                );
+                row(
+                    ui,
+                    "bristle b",
+                    &mut m.bristle_damping_ns_per_m,
+                    0.05,
+                    " N·s/m",
+                );
+                row(ui, "viscous", &mut m.viscous_ns_per_m, 0.05, " N·s/m");
+            }
+        }
     });
-    if changed {
+    if changed || m.stribeck != stribeck_before || m.model != model_before {
         state.apply_material();
     }
     ui.horizontal(|ui| {
@@ -343,6 +493,17 @@ pub fn materials_ui(ui: &mut egui::Ui, state: &mut AppState) {
         ui.separator();
         ui.label(RichText::new("Running").strong());
         ui.label(material_text(&r));
+    }
+}
+
+/// The scene file's name of a friction model.
+fn model_name(k: ModelKind) -> &'static str {
+    match k {
+        ModelKind::StickSlip => "stick–slip (thesis)",
+        ModelKind::CoulombViscous => "Coulomb + viscous",
+        ModelKind::Karnopp => "Karnopp",
+        ModelKind::Dahl => "Dahl",
+        ModelKind::LuGre => "LuGre",
     }
 }
 

@@ -863,10 +863,26 @@ impl AppState {
         }
     }
 
+    /// Renders object `index` of the running scene (a planar one) instead of the one now
+    /// rendered.
+    pub fn render_object(&mut self, index: usize) {
+        let label = self.scene.label.clone();
+        self.open_scene_object(&label, self.source.clone(), Some(index));
+    }
+
     /// Renders `scene` from the next tick when the device accepts it; otherwise the running
     /// scene stays and [`AppState::scene_error`] says why.
     pub fn open_scene(&mut self, label: &str, scene: Scene) {
-        let session = match Session::new(scene.clone()) {
+        self.open_scene_object(label, scene, None);
+    }
+
+    /// [`AppState::open_scene`] rendering object `object` (the first planar one when `None`).
+    fn open_scene_object(&mut self, label: &str, scene: Scene, object: Option<usize>) {
+        let built = match object {
+            Some(i) => Session::with_object(scene.clone(), Some(i)),
+            None => Session::new(scene.clone()),
+        };
+        let session = match built {
             Ok(s) => s,
             Err(e) => {
                 self.scene_error = Some(format!("{label}: {e}; the running scene is unchanged"));
