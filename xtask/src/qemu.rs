@@ -328,19 +328,8 @@ fn write_inputs(root: &Path, dir: &Path) -> Result<(), String> {
     let ticks = validate_device(&scene, OBJECT, &trajectory, RATE_HZ)
         .map_err(|e| format!("{}: {e}", scene_path.display()))?;
 
-    let object = &scene.objects()[OBJECT];
-    let curves = object.curve_views().ok_or_else(|| {
-        format!(
-            "{}: object {OBJECT} is not made of planar curves",
-            scene_path.display()
-        )
-    })?;
-    let patches: Vec<WirePatch<'_>> = curves.iter().copied().map(WirePatch::Curve).collect();
-    let wire = encode_scene(&[WireObject {
-        material: object.material().friction_material(),
-        patches: &patches,
-    }])
-    .map_err(|e| format!("{}: as a wire scene: {e}", scene_path.display()))?;
+    let wire = viewer::upload::wire_scene(&scene, OBJECT)
+        .map_err(|e| format!("{}: as a wire scene: {e}", scene_path.display()))?;
 
     let table = scenario_table(&trajectory, ticks)?;
     let (surface, path) = surface_inputs(root)?;

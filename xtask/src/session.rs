@@ -12,10 +12,7 @@ use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
 
 use device::host::{Link, TcpLink};
-use device::protocol::{
-    ErrorCode, Message, SceneChunk, Status, Telemetry, WireObject, WirePatch, crc32, encode_scene,
-    scene_upload,
-};
+use device::protocol::{ErrorCode, Message, SceneChunk, Status, Telemetry, crc32, scene_upload};
 use device::safety::Faults;
 use friction::{FrictionMaterial, Mode};
 use nurbs::Vec2;
@@ -183,18 +180,14 @@ impl Host {
     }
 }
 
-/// The wire scene of object 0 of `scene` with `material`.
+/// The wire scene of object 0 of `scene` with `material` (the app's own upload).
 fn wire_scene(scene: &Scene, material: FrictionMaterial) -> Result<Vec<u8>, String> {
-    let object = &scene.objects()[0];
-    let curves = object
-        .curve_views()
-        .ok_or("session: object 0 is not made of planar curves")?;
-    let patches: Vec<WirePatch<'_>> = curves.iter().copied().map(WirePatch::Curve).collect();
-    encode_scene(&[WireObject {
-        material,
-        patches: &patches,
-    }])
-    .map_err(|e| format!("session: wire scene: {e}"))
+    let material = viewer::scene::Material::from_friction(material)
+        .map_err(|e| format!("session: material: {e}"))?;
+    let scene = scene
+        .with_material(0, material)
+        .map_err(|e| format!("session: {e}"))?;
+    viewer::upload::wire_scene(&scene, 0).map_err(|e| format!("session: wire scene: {e}"))
 }
 
 /// The modes of `t` in order, repeats collapsed.
