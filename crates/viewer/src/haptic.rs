@@ -284,7 +284,7 @@ impl HapticLoop {
                 let hip = self.arm.hip().map(|(p, _)| p).unwrap_or(target);
                 Tick {
                     hip: nurbs::Vec3::new(hip.x, hip.y, 0.0),
-                    ..idle_tick(t_s)
+                    ..Tick::idle(t_s)
                 }
             }
         }
@@ -397,39 +397,6 @@ fn material_of(session: &Session) -> Option<FrictionMaterial> {
         .object()
         .and_then(|i| session.scene().object(i))
         .map(|o| o.material().friction_material())
-}
-
-/// A tick with nothing rendered at time `t_s`.
-fn idle_tick(t_s: f64) -> Tick {
-    use friction::{Mode, SwitchCause};
-    use nurbs::Vec3;
-    Tick {
-        t_s,
-        hip: Vec3::ZERO,
-        hip_velocity: Vec3::ZERO,
-        cp: Vec3::ZERO,
-        go: Vec3::ZERO,
-        patch: None,
-        feature: tracker::Feature::Patch(0),
-        mode: Mode::Free,
-        cause: SwitchCause::None,
-        depth_m: 0.0,
-        normal_force_n: 0.0,
-        friction_force_n: 0.0,
-        mu: 0.0,
-        psi: 0.0,
-        normal: Vec3::ZERO,
-        tangent: Vec3::ZERO,
-        friction: Vec3::ZERO,
-        force: Vec3::ZERO,
-        cp_patch: 0,
-        cp_param: 0.0,
-        cp_params: [0.0; 2],
-        go_patch: 0,
-        go_param: 0.0,
-        go_params: [0.0; 2],
-        device: None,
-    }
 }
 
 /// What the UI asks of the loop.

@@ -495,7 +495,6 @@ pub fn tick_of(t: &Telemetry, t_s: f64) -> Tick {
     Tick {
         t_s,
         hip: v3(t.hip_m),
-        hip_velocity: Vec3::ZERO,
         cp: v3(t.cp_m),
         go: v3(t.go_m),
         patch: match t.feature {
@@ -514,16 +513,11 @@ pub fn tick_of(t: &Telemetry, t_s: f64) -> Tick {
         tangent: v3(tangent),
         friction: v3(friction),
         force: v3(t.force_n),
-        cp_patch: 0,
-        cp_param: 0.0,
-        cp_params: [0.0; 2],
-        go_patch: 0,
-        go_param: 0.0,
-        go_params: [0.0; 2],
         device: Some(DeviceSample {
             theta_rad: [0.0; 2],
             tau_nm: [0.0; 2],
             faults: t.faults,
         }),
+        ..Tick::idle(t_s)
     }
 }

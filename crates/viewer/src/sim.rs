@@ -100,6 +100,40 @@ pub struct Tick {
     pub device: Option<DeviceSample>,
 }
 
+impl Tick {
+    /// A tick at `t_s` that rendered nothing: free, every vector and value zero, the HIP at
+    /// the origin, no device sample.
+    pub fn idle(t_s: f64) -> Self {
+        Tick {
+            t_s,
+            hip: Vec3::ZERO,
+            hip_velocity: Vec3::ZERO,
+            cp: Vec3::ZERO,
+            go: Vec3::ZERO,
+            patch: None,
+            feature: Feature::Patch(0),
+            mode: Mode::Free,
+            cause: SwitchCause::None,
+            depth_m: 0.0,
+            normal_force_n: 0.0,
+            friction_force_n: 0.0,
+            mu: 0.0,
+            psi: 0.0,
+            normal: Vec3::ZERO,
+            tangent: Vec3::ZERO,
+            friction: Vec3::ZERO,
+            force: Vec3::ZERO,
+            cp_patch: 0,
+            cp_param: 0.0,
+            cp_params: [0.0; 2],
+            go_patch: 0,
+            go_param: 0.0,
+            go_params: [0.0; 2],
+            device: None,
+        }
+    }
+}
+
 /// The device side of one closed-loop tick.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct DeviceSample {
@@ -578,31 +612,9 @@ fn device_record(t_s: f64, hip: Vec2, hip_velocity: Vec2, out: &TickOutput) -> T
     let mut tick = match &out.render {
         Some(render) => record(t_s, hip, hip_velocity, render),
         None => Tick {
-            t_s,
             hip: vec3(hip),
             hip_velocity: vec3(hip_velocity),
-            cp: Vec3::ZERO,
-            go: Vec3::ZERO,
-            patch: None,
-            feature: Feature::Patch(0),
-            mode: Mode::Free,
-            cause: SwitchCause::None,
-            depth_m: 0.0,
-            normal_force_n: 0.0,
-            friction_force_n: 0.0,
-            mu: 0.0,
-            psi: 0.0,
-            normal: Vec3::ZERO,
-            tangent: Vec3::ZERO,
-            friction: Vec3::ZERO,
-            force: Vec3::ZERO,
-            cp_patch: 0,
-            cp_param: 0.0,
-            cp_params: [0.0; 2],
-            go_patch: 0,
-            go_param: 0.0,
-            go_params: [0.0; 2],
-            device: None,
+            ..Tick::idle(t_s)
         },
     };
     tick.force = vec3(out.telemetry.force_n);
