@@ -68,6 +68,36 @@ struct Reader<'a> {
 }
 
 impl<'a> Reader<'a> {
+    /// The header both tables start with: `magic` (`wrong` when it differs), the version,
+    /// the scene's name and the tick rate; returns the name and the rate.
+    fn header(
+        &mut self,
+        magic: [u8; 4],
+        wrong: &'static str,
+    ) -> Result<(&'a str, f64), ScenarioError> {
+        let bad = |offset, field, problem| ScenarioError {
+            offset,
+            field,
+            problem,
+        };
+        if self.array::<4>("magic")? != magic {
+            return Err(bad(0, "magic", wrong));
+        }
+        if self.array::<1>("version")?[0] != VERSION {
+            return Err(bad(4, "version", "unknown version"));
+        }
+        let len = usize::from(self.array::<1>("name length")?[0]);
+        let at = self.at;
+        let name = core::str::from_utf8(self.take(len, "name")?)
+            .map_err(|_| bad(at, "name", "not UTF-8"))?;
+        let at = self.at;
+        let rate_hz = f64::from_le_bytes(self.array("tick rate")?);
+        if !(rate_hz.is_finite() && rate_hz > 0.0) {
+            return Err(bad(at, "tick rate", "not finite and positive"));
+        }
+        Ok((name, rate_hz))
+    }
+
     fn take(&mut self, n: usize, field: &'static str) -> Result<&'a [u8], ScenarioError> {
         let end = self.at.checked_add(n);
         let got = end.and_then(|end| self.bytes.get(self.at..end));
@@ -115,21 +145,7 @@ impl<'a> Scenario<'a> {
             field,
             problem,
         };
-        if r.array::<4>("magic")? != MAGIC {
-            return Err(bad(0, "magic", "not HSCN"));
-        }
-        if r.array::<1>("version")?[0] != VERSION {
-            return Err(bad(4, "version", "unknown version"));
-        }
-        let len = usize::from(r.array::<1>("name length")?[0]);
-        let at = r.at;
-        let name =
-            core::str::from_utf8(r.take(len, "name")?).map_err(|_| bad(at, "name", "not UTF-8"))?;
-        let at = r.at;
-        let rate_hz = f64::from_le_bytes(r.array("tick rate")?);
-        if !(rate_hz.is_finite() && rate_hz > 0.0) {
-            return Err(bad(at, "tick rate", "not finite and positive"));
-        }
+        let (name, rate_hz) = r.header(MAGIC, "not HSCN")?;
         let at = r.at;
         let ramp_time_s = r.f32("ramp-in time")?;
         if ramp_time_s <= 0.0 {
@@ -213,21 +229,7 @@ impl<'a> HipPath<'a> {
             field,
             problem,
         };
-        if r.array::<4>("magic")? != PATH_MAGIC {
-            return Err(bad(0, "magic", "not HPTH"));
-        }
-        if r.array::<1>("version")?[0] != VERSION {
-            return Err(bad(4, "version", "unknown version"));
-        }
-        let len = usize::from(r.array::<1>("name length")?[0]);
-        let at = r.at;
-        let name =
-            core::str::from_utf8(r.take(len, "name")?).map_err(|_| bad(at, "name", "not UTF-8"))?;
-        let at = r.at;
-        let rate_hz = f64::from_le_bytes(r.array("tick rate")?);
-        if !(rate_hz.is_finite() && rate_hz > 0.0) {
-            return Err(bad(at, "tick rate", "not finite and positive"));
-        }
+        let (name, rate_hz) = r.header(PATH_MAGIC, "not HPTH")?;
         let at = r.at;
         let n = u32::from_le_bytes(r.array("tick count")?) as usize;
         let len = n
