@@ -6,6 +6,7 @@
 //! small functions named by what they show (`*_ui`), each snapshot-tested with
 //! `egui_kittest`.
 
+pub mod editing;
 pub mod state;
 pub mod view;
 

@@ -13,6 +13,7 @@ use device::spec::{DeviceSpec, WorkspaceBox};
 use friction::{FrictionMaterial, Mode, SwitchCause};
 use nurbs::Vec2;
 
+use super::editing::EditState;
 use crate::haptic::{
     self, Command, HapticLoop, LoopThread, MaterialChangeError, Reply, START_HIP, Sample, Session,
 };
@@ -81,6 +82,8 @@ pub struct SceneView {
     pub rendered: Option<usize>,
     /// Bounding box of everything drawn (m): min, max.
     pub bounds: (Vec2, Vec2),
+    /// The scene itself, which edits start from.
+    pub model: Scene,
 }
 
 impl SceneView {
@@ -146,6 +149,7 @@ impl SceneView {
             objects,
             rendered,
             bounds: (lo, hi),
+            model: scene.clone(),
         }
     }
 
@@ -356,6 +360,8 @@ pub struct AppState {
     pub faults_after_clear: Option<Faults>,
     /// Samples received in all.
     pub received: u64,
+    /// Editing in the 2-D view: selection, drag, undo history.
+    pub edit: EditState,
 }
 
 impl AppState {
@@ -395,6 +401,7 @@ impl AppState {
             forces_requested: true,
             faults_after_clear: None,
             received: 0,
+            edit: EditState::default(),
         })
     }
 
@@ -413,7 +420,7 @@ impl AppState {
         matches!(self.backend, Backend::Thread(_))
     }
 
-    fn command(&mut self, command: Command) -> bool {
+    pub(super) fn command(&mut self, command: Command) -> bool {
         match &mut self.backend {
             Backend::Thread(t) => t.send(command),
             Backend::Stepped(h) => {
@@ -604,6 +611,7 @@ impl AppState {
             return;
         }
         self.scene = view;
+        self.edit.reset();
         self.scene_error = None;
         self.running_material = material;
         self.edited_material = material.unwrap_or_default();
