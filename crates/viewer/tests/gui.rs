@@ -514,3 +514,58 @@ fn invalid_edits_leave_the_scene_and_undo_redo_round_trip() {
     assert_eq!(state.edit.history.depth(), (0, 0));
     assert_eq!(state.edit.selected, None);
 }
+
+/// The view's wiring, with a simulated pointer: pressing on a handle and dragging it moves
+/// the control point to where it is released (and not the hand), nothing is applied before
+/// the release; Ctrl+Z undoes the move and Ctrl+Shift+Z redoes it.
+#[test]
+fn dragging_a_handle_with_the_pointer_and_undoing_with_the_keyboard() {
+    let mut state = stepped();
+    state.edit.enabled = true;
+    let original = state.scene.model.clone();
+    let (p1, _) = viewer::gui::editing::control_point(&state.scene.model, MIDDLE).expect("P_1");
+    let mut h = Harness::builder()
+        .with_size(egui::Vec2::new(800.0, 600.0))
+        .build_ui_state(
+            |ui, v: &mut ViewerUi| view::view_2d_ui(ui, &mut v.state, &mut v.view),
+            ViewerUi::new(state),
+        );
+    h.run_steps(2);
+    let view = h.state().view;
+    let rect = view.last_rect.expect("drawn");
+    let at = view.screen_of(rect, p1);
+    let to = at + egui::Vec2::new(24.0, -16.0);
+    h.hover_at(at);
+    h.run_steps(1);
+    h.drag_at(at);
+    h.run_steps(1);
+    for i in 1..=4 {
+        h.hover_at(at + (to - at) * (i as f32 / 4.0));
+        h.run_steps(1);
+    }
+    let s = &h.state().state;
+    assert!(s.edit.drag.is_some());
+    assert_eq!(s.scene.model, original, "applied only when released");
+    h.drop_at(to);
+    h.run_steps(1);
+    let s = &h.state().state;
+    assert_eq!(s.edit.error, None);
+    assert_eq!(s.edit.selected, Some(MIDDLE));
+    assert_eq!(s.hand_target, viewer::haptic::START_HIP, "the hand stayed");
+    let expected = view.device_of(rect, to);
+    let (moved, _) = viewer::gui::editing::control_point(&s.scene.model, MIDDLE).expect("P_1");
+    // Stored as (w·P, w): an ulp or two of the 0.09 m coordinates.
+    assert!((moved - expected).length() < 2e-8, "{moved} vs {expected}");
+
+    h.key_press_modifiers(egui::Modifiers::COMMAND, egui::Key::Z);
+    h.run_steps(1);
+    assert_eq!(h.state().state.scene.model, original);
+    h.key_press_modifiers(
+        egui::Modifiers::COMMAND | egui::Modifiers::SHIFT,
+        egui::Key::Z,
+    );
+    h.run_steps(1);
+    let (redone, _) =
+        viewer::gui::editing::control_point(&h.state().state.scene.model, MIDDLE).expect("P_1");
+    assert_eq!(redone, moved);
+}

@@ -7,8 +7,9 @@
 //! In edit mode ([`super::editing`]) the control points are handles: pressing on one selects
 //! it, dragging it moves it (the edit is applied when the drag ends; meanwhile the edited
 //! curve is drawn over the running one), and a panel shows the selected point's weight and
-//! the knot, split, join, undo and redo buttons (Ctrl+Z, Ctrl+Shift+Z). Pressing anywhere
-//! else still moves the hand, so an edit can be felt at once. The Voronoi region boundaries
+//! the knot, split, join, undo and redo buttons (Ctrl+Z, Ctrl+Shift+Z; Escape deselects).
+//! Pressing anywhere else still moves the hand (the selection stays), so an edit can be felt
+//! at once. The Voronoi region boundaries
 //! of the rendered object ([`region_boundaries`]) are drawn faintly on request.
 
 use eframe::egui;
@@ -43,6 +44,8 @@ pub struct View2d {
     pub scale: f32,
     /// Fit to the scene at the next frame.
     pub fit_pending: bool,
+    /// Where on the screen the view was last drawn.
+    pub last_rect: Option<Rect>,
 }
 
 impl Default for View2d {
@@ -51,6 +54,7 @@ impl Default for View2d {
             centre: Vec2::new(0.0, 0.09),
             scale: 4000.0,
             fit_pending: true,
+            last_rect: None,
         }
     }
 }
@@ -89,6 +93,7 @@ pub fn view_2d_ui(ui: &mut egui::Ui, state: &mut AppState, view: &mut View2d) {
     let size = ui.available_size();
     let (response, painter) = ui.allocate_painter(size, Sense::click_and_drag());
     let rect = response.rect;
+    view.last_rect = Some(rect);
     painter.rect_filled(rect, 0.0, Color32::from_gray(250));
 
     if !state.scene.is_planar() {
@@ -216,11 +221,14 @@ fn edit_input(
         && response.hovered()
         && let Some(p) = origin
     {
-        let at = state.handle_near(view.device_of(rect, p), HANDLE_PICK_PX / view.scale);
-        match at {
-            Some(at) => state.begin_point_drag(at),
-            None => state.select_point(None),
+        // A press elsewhere moves the hand and keeps the selection, so that the selected
+        // point's weight can be changed while feeling the curve; Escape deselects.
+        if let Some(at) = state.handle_near(view.device_of(rect, p), HANDLE_PICK_PX / view.scale) {
+            state.begin_point_drag(at);
         }
+    }
+    if ui.input(|i| i.key_pressed(egui::Key::Escape)) {
+        state.select_point(None);
     }
     if state.edit.drag.is_some() {
         if primary_down {
