@@ -569,3 +569,29 @@ fn dragging_a_handle_with_the_pointer_and_undoing_with_the_keyboard() {
         viewer::gui::editing::control_point(&h.state().state.scene.model, MIDDLE).expect("P_1");
     assert_eq!(redone, moved);
 }
+
+/// Halfway through a drag of P_1 with the pointer: the edited arc (orange) drawn over the
+/// running one, nothing applied yet.
+#[test]
+fn snapshot_2d_view_while_dragging_a_control_point() {
+    let mut state = stepped();
+    state.edit.enabled = true;
+    state.edit.show_regions = true;
+    let (p1, _) = viewer::gui::editing::control_point(&state.scene.model, MIDDLE).expect("P_1");
+    let mut h = harness([800.0, 600.0], ViewerUi::new(state), |ui, v| {
+        view::view_2d_ui(ui, &mut v.state, &mut v.view);
+    });
+    h.run_steps(2);
+    let view = h.state().view;
+    let rect = view.last_rect.expect("drawn");
+    let at = view.screen_of(rect, p1);
+    h.hover_at(at);
+    h.run_steps(1);
+    h.drag_at(at);
+    h.run_steps(1);
+    let to = view.screen_of(rect, p1 + outward() * 0.008);
+    h.hover_at(to);
+    h.run_steps(2);
+    assert!(h.state().state.edit.drag.is_some());
+    h.snapshot("view_2d_thesis_2d_edit_dragging");
+}

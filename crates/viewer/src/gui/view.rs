@@ -124,15 +124,24 @@ pub fn view_2d_ui(ui: &mut egui::Ui, state: &mut AppState, view: &mut View2d) {
     }
     // Two buttons in the top right corner: fit the scene, or the device's whole workspace.
     let buttons = Rect::from_min_size(
-        rect.right_top() + EVec2::new(-370.0, 6.0),
-        EVec2::new(364.0, 24.0),
+        rect.right_top() + EVec2::new(-230.0, 6.0),
+        EVec2::new(224.0, 24.0),
     );
-    ui.scope_builder(egui::UiBuilder::new().max_rect(buttons), |ui| {
+    // The editing toggles, bottom right above the scale bars (the title runs along the top).
+    let toggles = Rect::from_min_size(
+        rect.right_bottom() + EVec2::new(-160.0, -84.0),
+        EVec2::new(154.0, 24.0),
+    );
+    ui.scope_builder(egui::UiBuilder::new().max_rect(toggles), |ui| {
         ui.horizontal(|ui| {
             ui.checkbox(&mut state.edit.enabled, "edit")
                 .on_hover_text("control points become handles");
             ui.checkbox(&mut state.edit.show_regions, "regions")
                 .on_hover_text("the Voronoi region boundaries of the rendered object");
+        });
+    });
+    ui.scope_builder(egui::UiBuilder::new().max_rect(buttons), |ui| {
+        ui.horizontal(|ui| {
             if ui.button("fit scene").clicked() {
                 view.fit(rect, state.scene.bounds, haptic_start());
             }
@@ -192,7 +201,7 @@ pub fn view_2d_ui(ui: &mut egui::Ui, state: &mut AppState, view: &mut View2d) {
     draw_legend(&painter, rect, view, state);
     if state.edit.enabled {
         let panel = Rect::from_min_size(
-            rect.right_top() + EVec2::new(-300.0, 36.0),
+            rect.right_top() + EVec2::new(-300.0, 72.0),
             EVec2::new(294.0, 240.0),
         );
         ui.scope_builder(egui::UiBuilder::new().max_rect(panel), |ui| {
