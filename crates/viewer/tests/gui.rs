@@ -595,3 +595,36 @@ fn snapshot_2d_view_while_dragging_a_control_point() {
     assert!(h.state().state.edit.drag.is_some());
     h.snapshot("view_2d_thesis_2d_edit_dragging");
 }
+
+/// The edit panel's weight field sets the selected point's weight; a weight the scene refuses
+/// is shown, naming the field, and the running one stays; the undo button steps back.
+#[test]
+fn the_weight_field_sets_the_weight_and_shows_a_refusal() {
+    use egui_kittest::kittest::Queryable;
+    let mut state = stepped();
+    state.edit.enabled = true;
+    state.select_point(Some(MIDDLE));
+    let mut h = Harness::builder()
+        .with_size(egui::Vec2::new(800.0, 600.0))
+        .build_ui_state(
+            |ui, v: &mut ViewerUi| view::view_2d_ui(ui, &mut v.state, &mut v.view),
+            ViewerUi::new(state),
+        );
+    h.run_steps(2);
+    let weight = |h: &Harness<'_, ViewerUi>| {
+        viewer::gui::editing::control_point(&h.state().state.scene.model, MIDDLE)
+            .expect("P_1")
+            .1
+    };
+    h.get_by_label("weight").set_value_accesskit(2.0);
+    h.run_steps(2);
+    assert_eq!(weight(&h), 2.0, "{:?}", h.state().state.edit.error);
+    h.get_by_label("weight").set_value_accesskit(-1.0);
+    h.run_steps(2);
+    let e = h.state().state.edit.error.clone().expect("refused");
+    assert!(e.contains("patch 0: weights[1]: -1 must be"), "{e}");
+    assert_eq!(weight(&h), 2.0);
+    h.get_by_label("undo (1)").click();
+    h.run_steps(2);
+    assert_eq!(weight(&h), 0.866_025_4);
+}
