@@ -699,29 +699,14 @@ mod tests {
     use crate::scene::Scene;
     use tracker::Feature;
 
-    /// Every boundary drawn for thesis-2d separates two different regions of the tracker's
-    /// own definition (`tracker::Vertex::region`): points just either side of its middle fall
-    /// in different features. The open arch has two free ends (a normal line each) and a
-    /// convex apex (two outward normal rays bounding the vertex's wedge, the inward bisector).
-    #[test]
-    fn region_boundaries_separate_the_trackers_regions() {
-        let json = include_str!("../../../../scenes/thesis-2d.json");
-        let scene = Scene::from_json_str(json).expect("thesis-2d");
-        let object = &scene.objects()[0];
+    /// Points just either side of the middle of every boundary drawn fall in different
+    /// features of the tracker's own definition (`tracker::Vertex::region`): a vertex's wedge
+    /// and a curve across a normal ray, the two curves across a bisector.
+    fn check_boundaries(object: &Object) -> Vec<(VertexKind, usize, usize)> {
         let length = 0.01;
         let boundaries = region_boundaries(object, length);
         let curves = object.curve_views().expect("planar");
         let chain = Chain::new(&curves).expect("a chain");
-        let kinds: Vec<VertexKind> = chain.vertices().iter().map(|v| v.kind).collect();
-        assert_eq!(
-            kinds,
-            [VertexKind::End, VertexKind::Convex, VertexKind::End]
-        );
-        let per_vertex: Vec<usize> = (0..3)
-            .map(|k| boundaries.iter().filter(|b| b.vertex == k).count())
-            .collect();
-        assert_eq!(per_vertex, [2, 3, 2]);
-        assert_eq!(boundaries.iter().filter(|b| b.bisector).count(), 1);
         for b in &boundaries {
             let d = b.to - b.from;
             assert!((d.length() - length).abs() < 1e-6, "{b:?}");
@@ -733,17 +718,67 @@ mod tests {
                 v.region(b.vertex as u16, mid - side),
             );
             assert_ne!(left, right, "{b:?}");
+            let vertex = |f: Feature| matches!(f, Feature::Vertex(_));
             if b.bisector {
-                assert!(
-                    matches!((left, right), (Feature::Patch(_), Feature::Patch(_))),
-                    "{b:?}: {left:?} {right:?}"
-                );
-            } else {
-                assert!(
-                    matches!(left, Feature::Vertex(_)) != matches!(right, Feature::Vertex(_)),
-                    "{b:?}: {left:?} {right:?}"
-                );
+                assert!(!vertex(left) && !vertex(right), "{b:?}: {left:?} {right:?}");
+            } else if v.kind != VertexKind::Smooth {
+                assert!(vertex(left) != vertex(right), "{b:?}: {left:?} {right:?}");
             }
         }
+        // Per vertex: its kind, its boundaries, how many of them are bisectors.
+        chain
+            .vertices()
+            .iter()
+            .enumerate()
+            .map(|(k, v)| {
+                let mine = boundaries.iter().filter(|b| b.vertex == k);
+                (
+                    v.kind,
+                    mine.clone().count(),
+                    mine.filter(|b| b.bisector).count(),
+                )
+            })
+            .collect()
+    }
+
+    fn thesis() -> Scene {
+        Scene::from_json_str(include_str!("../../../../scenes/thesis-2d.json")).expect("thesis")
+    }
+
+    /// The open arch of thesis-2d: two free ends (a normal line each) and a convex apex (two
+    /// outward normal rays bounding the vertex's wedge, the inward bisector).
+    #[test]
+    fn region_boundaries_of_a_convex_vertex_and_free_ends() {
+        let kinds = check_boundaries(&thesis().objects()[0]);
+        assert_eq!(
+            kinds,
+            [
+                (VertexKind::End, 2, 0),
+                (VertexKind::Convex, 3, 1),
+                (VertexKind::End, 2, 0)
+            ]
+        );
+    }
+
+    /// A reflex corner (two inward normal rays, the outward bisector) and a smooth join (the
+    /// normal line: an arc split in two).
+    #[test]
+    fn region_boundaries_of_reflex_and_smooth_vertices() {
+        let json = r#"{ "format": "scene/1", "objects": [ { "name": "notch",
+            "material": { "stiffness_n_per_m": 500, "damping_ns_per_m": 0,
+                          "mu_static": 0.5, "mu_dynamic": 0.4 },
+            "patches": [
+              { "degree": 1, "knots": [0, 0, 1, 1], "points": [[-0.02, 0.1], [0, 0.1]] },
+              { "degree": 1, "knots": [0, 0, 1, 1], "points": [[0, 0.1], [0.02, 0.09]] } ] } ] }"#;
+        let notch = Scene::from_json_str(json).expect("notch");
+        assert_eq!(
+            check_boundaries(&notch.objects()[0])[1],
+            (VertexKind::Reflex, 3, 1)
+        );
+        let split = crate::edit::split_patch(&thesis(), 0, 0, 0.5).expect("split");
+        assert_eq!(
+            check_boundaries(&split.objects()[0])[1],
+            (VertexKind::Smooth, 2, 0)
+        );
     }
 }
