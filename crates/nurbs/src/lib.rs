@@ -17,6 +17,8 @@ pub mod math;
 #[cfg(feature = "alloc")]
 mod owned;
 mod point;
+#[cfg(feature = "alloc")]
+mod refine;
 mod surface;
 
 pub use basis::{basis_funs, ders_basis_funs};
@@ -28,6 +30,8 @@ pub use knots::Knots;
 #[cfg(feature = "alloc")]
 pub use owned::{CurveBuf, SurfaceBuf};
 pub use point::Point;
+#[cfg(feature = "alloc")]
+pub use refine::RefineError;
 pub use surface::{Surface, SurfaceDerivs};
 
 /// Highest supported degree in either direction.

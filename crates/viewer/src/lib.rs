@@ -4,6 +4,7 @@
 pub mod cli;
 pub mod closest;
 pub mod devices;
+pub mod edit;
 pub mod eval;
 #[cfg(feature = "gui")]
 pub mod gui;

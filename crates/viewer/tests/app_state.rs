@@ -10,7 +10,9 @@ use viewer::gui::state::AppState;
 fn another_object_of_the_scene_can_be_rendered() {
     let mut state = AppState::stepped("examples").unwrap_or_else(|e| panic!("{e:#}"));
     assert_eq!(state.scene.rendered, Some(0));
-    let circle = state.source.objects()[1].material().friction_material();
+    let circle = state.scene.model.objects()[1]
+        .material()
+        .friction_material();
     state.render_object(1);
     state.step(1);
     assert_eq!(state.scene.rendered, Some(1));
@@ -45,4 +47,35 @@ fn the_model_and_the_stribeck_shape_are_editable() {
         state.running_material.map(|m| m.stribeck),
         Some(Stribeck::Power { exponent: 3 })
     );
+}
+
+/// Dragging a control point reaches the loop as the device's upload: the scene the device
+/// received (its receiver's CRC) is the edited scene's wire form, not the old one's; an
+/// undo uploads the old one again.
+#[test]
+fn an_edit_is_uploaded_to_the_device() {
+    use viewer::edit::PointRef;
+    use viewer::upload::wire_scene;
+    let mut state = AppState::stepped("thesis-2d").unwrap_or_else(|e| panic!("{e:#}"));
+    let crc =
+        |s: &viewer::scene::Scene| device::protocol::crc32(&wire_scene(s, 0).expect("planar"));
+    let before = state.scene.model.clone();
+    assert_eq!(state.device_scene_crc32(), Some(crc(&before)));
+    let at = PointRef {
+        object: 0,
+        patch: 0,
+        index: 1,
+    };
+    let from = viewer::gui::editing::control_point(&before, at)
+        .expect("a point")
+        .0;
+    assert!(state.move_point(at, from + nurbs::Vec2::new(0.0, 0.004)));
+    state.step(1);
+    let after = state.scene.model.clone();
+    assert_ne!(after, before);
+    assert_eq!(state.device_scene_crc32(), Some(crc(&after)));
+    assert_ne!(crc(&after), crc(&before));
+    state.undo();
+    state.step(1);
+    assert_eq!(state.device_scene_crc32(), Some(crc(&before)));
 }

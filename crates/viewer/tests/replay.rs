@@ -140,7 +140,7 @@ fn a_saved_scene_opens_again() {
     state.save_scene(&path);
     assert_eq!(state.scene_error, None);
     let saved = Scene::load(&path).unwrap_or_else(|e| panic!("{e}"));
-    assert_eq!(saved.objects().len(), state.source.objects().len());
+    assert_eq!(saved.objects().len(), state.scene.model.objects().len());
     assert_eq!(
         saved.objects()[0].material().stiffness_n_per_m(),
         800.0,

@@ -6,6 +6,7 @@
 //! small functions named by what they show (`*_ui`), each snapshot-tested with
 //! `egui_kittest`.
 
+pub mod editing;
 pub mod replay;
 pub mod state;
 pub mod view;
@@ -200,7 +201,7 @@ pub fn objects_ui(ui: &mut egui::Ui, state: &mut AppState) {
     use crate::scene::{Patch, Space};
     ui.heading("Objects");
     let mut render = None;
-    for (i, o) in state.source.objects().iter().enumerate() {
+    for (i, o) in state.scene.model.objects().iter().enumerate() {
         let rendered = state.scene.rendered == Some(i);
         // The panel is narrow: a long name is cut (the full one is inside).
         let short: String = o.name().chars().take(24).collect();

@@ -13,6 +13,7 @@ use device::spec::{DeviceSpec, WorkspaceBox};
 use friction::{FrictionMaterial, Mode, SwitchCause};
 use nurbs::Vec2;
 
+use super::editing::EditState;
 use super::replay::Replay;
 use crate::devices::{self, Target};
 use crate::haptic::{
@@ -84,6 +85,8 @@ pub struct SceneView {
     pub rendered: Option<usize>,
     /// Bounding box of everything drawn (m): min, max.
     pub bounds: (Vec2, Vec2),
+    /// The scene itself, which edits start from.
+    pub model: Scene,
 }
 
 impl SceneView {
@@ -149,6 +152,7 @@ impl SceneView {
             objects,
             rendered,
             bounds: (lo, hi),
+            model: scene.clone(),
         }
     }
 
@@ -366,9 +370,10 @@ impl Default for DeviceForm {
 /// A scene sent to the loop, shown once the loop (or the device) took it.
 #[derive(Clone, Debug)]
 struct PendingScene {
-    scene: Scene,
     view: SceneView,
     material: Option<FrictionMaterial>,
+    /// An edit of the running scene (the edit history and the material editor stay).
+    edited: bool,
 }
 
 /// The whole state of the app.
@@ -381,8 +386,6 @@ pub struct AppState {
     pub link: LinkState,
     /// The device panel's fields.
     pub device_form: DeviceForm,
-    /// The scene the loop renders (the model the scene view draws).
-    pub source: Scene,
     pending: Option<PendingScene>,
     /// The run log being replayed, if one is: the views and plots show it instead of the
     /// live loop.
@@ -429,6 +432,8 @@ pub struct AppState {
     pub faults_after_clear: Option<Faults>,
     /// Samples received in all.
     pub received: u64,
+    /// Editing in the 2-D view: selection, drag, undo history.
+    pub edit: EditState,
 }
 
 impl AppState {
@@ -442,7 +447,6 @@ impl AppState {
     ) -> anyhow::Result<Self> {
         let session = Session::new(scene.clone())?;
         let view = SceneView::new(label, &scene, session.object());
-        let source = scene;
         let haptic = HapticLoop::new(session, START_HIP)?;
         let running_material = haptic.material();
         let backend = if threaded {
@@ -455,7 +459,6 @@ impl AppState {
             device: DeviceChoice::Simulated,
             link: LinkState::default(),
             device_form: DeviceForm::default(),
-            source,
             pending: None,
             replay: None,
             replay_error: None,
@@ -479,6 +482,7 @@ impl AppState {
             forces_requested: true,
             faults_after_clear: None,
             received: 0,
+            edit: EditState::default(),
         })
     }
 
@@ -497,7 +501,7 @@ impl AppState {
         matches!(self.backend, Backend::Thread(_))
     }
 
-    fn command(&mut self, command: Command) -> bool {
+    pub(super) fn command(&mut self, command: Command) -> bool {
         match &mut self.backend {
             Backend::Thread(t) => t.send(command),
             Backend::Stepped(h) => {
@@ -636,12 +640,16 @@ impl AppState {
     }
 
     fn show_scene(&mut self, p: PendingScene) {
-        self.source = p.scene;
         self.scene = p.view;
         self.scene_error = None;
         self.running_material = p.material;
-        self.edited_material = p.material.unwrap_or_default();
-        self.material_error = None;
+        if p.edited {
+            self.edit.keep_valid_selection(&self.scene.model);
+        } else {
+            self.edit.reset();
+            self.edited_material = p.material.unwrap_or_default();
+            self.material_error = None;
+        }
     }
 
     /// Drives the device `target` instead of the one now driven: the link opens on its own
@@ -674,7 +682,7 @@ impl AppState {
                 self.history.clear();
                 self.recent_periods.clear();
                 self.jitter = JitterStats::default();
-                let scene = self.source.clone();
+                let scene = self.scene.model.clone();
                 let label = self.scene.label.clone();
                 self.open_scene(&label, scene);
             }
@@ -684,7 +692,7 @@ impl AppState {
 
     /// Drives the simulated pantograph in this process again, on the running scene.
     pub fn use_simulated(&mut self) {
-        let rebuilt = Session::new(self.source.clone())
+        let rebuilt = Session::new(self.scene.model.clone())
             .map_err(anyhow::Error::from)
             .and_then(|s| Ok(HapticLoop::new(s, START_HIP)?))
             .and_then(|h| Ok(LoopThread::spawn(h, self.record.clone())?));
@@ -727,6 +735,22 @@ impl AppState {
                 ))
             }
             _ => None,
+        }
+    }
+
+    /// The CRC-32 of the scene the device has active: the simulator's own receiver's in the
+    /// app, the newest status's for a device behind a link; `None` before there is one.
+    pub fn device_scene_crc32(&self) -> Option<u32> {
+        match (&self.device, &self.backend) {
+            (DeviceChoice::Simulated, Backend::Stepped(h)) => h.session().scene_crc32(),
+            (DeviceChoice::Linked(_), _) => self.link.status.map(|s| s.scene_crc32),
+            // The threaded simulator's session lives on its thread; the scene it took is
+            // the one shown.
+            (DeviceChoice::Simulated, _) => self
+                .scene
+                .rendered
+                .and_then(|i| crate::upload::wire_scene(&self.scene.model, i).ok())
+                .map(|w| device::protocol::crc32(&w)),
         }
     }
 
@@ -867,7 +891,7 @@ impl AppState {
     /// rendered.
     pub fn render_object(&mut self, index: usize) {
         let label = self.scene.label.clone();
-        self.open_scene_object(&label, self.source.clone(), Some(index));
+        self.open_scene_object(&label, self.scene.model.clone(), Some(index));
     }
 
     /// Renders `scene` from the next tick when the device accepts it; otherwise the running
@@ -878,44 +902,65 @@ impl AppState {
 
     /// [`AppState::open_scene`] rendering object `object` (the first planar one when `None`).
     fn open_scene_object(&mut self, label: &str, scene: Scene, object: Option<usize>) {
+        if let Err(e) = self.swap(label, scene, object, false) {
+            self.scene_error = Some(e);
+        }
+    }
+
+    /// Sends `scene` (rendering `object`, the first planar one when `None`) to the loop as
+    /// the device's upload ([`Session::with_object`]); it is shown once the loop took it (at
+    /// once for a stepped loop). `edited`: an edit of the running scene, which keeps the edit
+    /// history and the material editor. An error names the scene (`label`) and says the
+    /// running scene is unchanged.
+    pub(super) fn swap(
+        &mut self,
+        label: &str,
+        scene: Scene,
+        object: Option<usize>,
+        edited: bool,
+    ) -> Result<(), String> {
         let built = match object {
             Some(i) => Session::with_object(scene.clone(), Some(i)),
             None => Session::new(scene.clone()),
         };
-        let session = match built {
-            Ok(s) => s,
-            Err(e) => {
-                self.scene_error = Some(format!("{label}: {e}; the running scene is unchanged"));
-                return;
-            }
-        };
-        let view = SceneView::new(label, &scene, session.object());
+        let session = built.map_err(|e| format!("{label}: {e}; the running scene is unchanged"))?;
+        let view = SceneView::new(&self.scene_label(label, edited), &scene, session.object());
         let material = view
             .rendered
             .and_then(|i| scene.object(i))
             .map(|o| o.material().friction_material());
         if !self.command(Command::Swap(Box::new(session))) {
-            self.scene_error = Some(format!(
+            return Err(format!(
                 "{label}: the haptic loop did not take the scene (its queue is full)"
             ));
-            return;
         }
         let pending = PendingScene {
-            scene,
             view,
             material,
+            edited,
         };
         match &self.backend {
             // A stepped loop has already answered (in `command`).
             Backend::Stepped(_) => self.show_scene(pending),
             Backend::Thread(_) | Backend::Stopped => self.pending = Some(pending),
         }
+        Ok(())
+    }
+
+    /// The label a swapped scene is shown under: an edit keeps the running scene's (so the
+    /// view is not refitted).
+    fn scene_label(&self, label: &str, edited: bool) -> String {
+        if edited {
+            self.scene.label.clone()
+        } else {
+            label.to_owned()
+        }
     }
 
     /// Saves the running scene (with the running material) to `path` as a `scene/1` file;
     /// an error names the file and the running scene is untouched.
     pub fn save_scene(&mut self, path: &Path) {
-        let mut scene = self.source.clone();
+        let mut scene = self.scene.model.clone();
         if let (Some(i), Some(m)) = (self.scene.rendered, self.running_material)
             && let Ok(m) = Material::from_friction(m)
         {

@@ -3,16 +3,30 @@
 //! friction and total force. Pressing and dragging with the primary button moves the hand's
 //! target; dragging with the secondary or middle button pans, the wheel zooms about the
 //! pointer, a double click fits the scene.
+//!
+//! In edit mode ([`super::editing`]) the control points are handles: pressing on one selects
+//! it, dragging it moves it (the edit is applied when the drag ends; meanwhile the edited
+//! curve is drawn over the running one), and a panel shows the selected point's weight and
+//! the knot, split, join, undo and redo buttons (Ctrl+Z, Ctrl+Shift+Z; Escape deselects).
+//! Pressing anywhere else still moves the hand (the selection stays), so an edit can be felt
+//! at once. The Voronoi region boundaries
+//! of the rendered object ([`region_boundaries`]) are drawn faintly on request.
 
 use eframe::egui;
 use egui::{Align2, Color32, FontId, Pos2, Rect, Sense, Shape, Stroke, StrokeKind, Vec2 as EVec2};
 use friction::Mode;
 use nurbs::Vec2;
+use tracker::{Chain, VertexKind};
 
 use super::state::AppState;
+use crate::scene::Object;
 
 /// Screen pixels per newton of the force arrows (independent of the zoom).
 pub const PX_PER_N: f32 = 30.0;
+/// Screen points within which a press picks a control point's handle.
+pub const HANDLE_PICK_PX: f32 = 8.0;
+/// Screen length of the drawn region boundaries.
+pub const REGION_RAY_PX: f32 = 70.0;
 
 /// The colour of a friction mode: the bands of `sim --plot`, deepened for lines on white.
 pub fn mode_colour(mode: Mode) -> Color32 {
@@ -30,6 +44,8 @@ pub struct View2d {
     pub scale: f32,
     /// Fit to the scene at the next frame.
     pub fit_pending: bool,
+    /// Where on the screen the view was last drawn.
+    pub last_rect: Option<Rect>,
 }
 
 impl Default for View2d {
@@ -38,12 +54,14 @@ impl Default for View2d {
             centre: Vec2::new(0.0, 0.09),
             scale: 4000.0,
             fit_pending: true,
+            last_rect: None,
         }
     }
 }
 
 impl View2d {
-    fn screen_of(&self, rect: Rect, p: Vec2) -> Pos2 {
+    /// The screen position of device-frame point `p` (m) in a view drawn in `rect`.
+    pub fn screen_of(&self, rect: Rect, p: Vec2) -> Pos2 {
         let c = rect.center();
         Pos2::new(
             c.x + (p.x - self.centre.x) * self.scale,
@@ -51,7 +69,8 @@ impl View2d {
         )
     }
 
-    fn device_of(&self, rect: Rect, p: Pos2) -> Vec2 {
+    /// The device-frame point (m) at screen position `p` of a view drawn in `rect`.
+    pub fn device_of(&self, rect: Rect, p: Pos2) -> Vec2 {
         let c = rect.center();
         Vec2::new(
             self.centre.x + (p.x - c.x) / self.scale,
@@ -74,6 +93,7 @@ pub fn view_2d_ui(ui: &mut egui::Ui, state: &mut AppState, view: &mut View2d) {
     let size = ui.available_size();
     let (response, painter) = ui.allocate_painter(size, Sense::click_and_drag());
     let rect = response.rect;
+    view.last_rect = Some(rect);
     painter.rect_filled(rect, 0.0, Color32::from_gray(250));
 
     if !state.scene.is_planar() {
@@ -107,6 +127,19 @@ pub fn view_2d_ui(ui: &mut egui::Ui, state: &mut AppState, view: &mut View2d) {
         rect.right_top() + EVec2::new(-230.0, 6.0),
         EVec2::new(224.0, 24.0),
     );
+    // The editing toggles, bottom right above the scale bars (the title runs along the top).
+    let toggles = Rect::from_min_size(
+        rect.right_bottom() + EVec2::new(-160.0, -84.0),
+        EVec2::new(154.0, 24.0),
+    );
+    ui.scope_builder(egui::UiBuilder::new().max_rect(toggles), |ui| {
+        ui.horizontal(|ui| {
+            ui.checkbox(&mut state.edit.enabled, "edit")
+                .on_hover_text("control points become handles");
+            ui.checkbox(&mut state.edit.show_regions, "regions")
+                .on_hover_text("the Voronoi region boundaries of the rendered object");
+        });
+    });
     ui.scope_builder(egui::UiBuilder::new().max_rect(buttons), |ui| {
         ui.horizontal(|ui| {
             if ui.button("fit scene").clicked() {
@@ -139,9 +172,14 @@ pub fn view_2d_ui(ui: &mut egui::Ui, state: &mut AppState, view: &mut View2d) {
             view.centre += anchor - moved;
         }
     }
-    // The hand: press and drag with the primary button.
     let primary_down = ui.input(|i| i.pointer.primary_down());
-    if response.is_pointer_button_down_on() && primary_down {
+    if state.edit.enabled {
+        edit_input(ui, &response, rect, view, state, primary_down);
+    } else {
+        state.edit.drag = None;
+    }
+    // The hand: press and drag with the primary button (not on a handle).
+    if state.edit.drag.is_none() && response.is_pointer_button_down_on() && primary_down {
         if let Some(p) = response.interact_pointer_pos() {
             state.dragging = true;
             state.set_hand_target(view.device_of(rect, p));
@@ -152,9 +190,312 @@ pub fn view_2d_ui(ui: &mut egui::Ui, state: &mut AppState, view: &mut View2d) {
 
     let painter = painter.with_clip_rect(rect);
     draw_reach(&painter, rect, view, state);
+    if state.edit.show_regions {
+        draw_regions(&painter, rect, view, state);
+    }
     draw_scene(&painter, rect, view, state);
+    if state.edit.enabled {
+        draw_handles(&painter, rect, view, state);
+    }
     draw_hand(&painter, rect, view, state);
     draw_legend(&painter, rect, view, state);
+    if state.edit.enabled {
+        let panel = Rect::from_min_size(
+            rect.right_top() + EVec2::new(-300.0, 72.0),
+            EVec2::new(294.0, 240.0),
+        );
+        ui.scope_builder(egui::UiBuilder::new().max_rect(panel), |ui| {
+            edit_panel_ui(ui, state);
+        });
+    }
+}
+
+/// Presses on handles, the drag of a control point, and the undo/redo shortcuts.
+fn edit_input(
+    ui: &egui::Ui,
+    response: &egui::Response,
+    rect: Rect,
+    view: &View2d,
+    state: &mut AppState,
+    primary_down: bool,
+) {
+    let (pressed, origin, latest) = ui.input(|i| {
+        (
+            i.pointer.primary_pressed(),
+            i.pointer.press_origin(),
+            i.pointer.latest_pos(),
+        )
+    });
+    if pressed
+        && response.hovered()
+        && let Some(p) = origin
+    {
+        // A press elsewhere moves the hand and keeps the selection, so that the selected
+        // point's weight can be changed while feeling the curve; Escape deselects.
+        if let Some(at) = state.handle_near(view.device_of(rect, p), HANDLE_PICK_PX / view.scale) {
+            state.begin_point_drag(at);
+        }
+    }
+    if ui.input(|i| i.key_pressed(egui::Key::Escape)) {
+        state.select_point(None);
+    }
+    if state.edit.drag.is_some() {
+        if primary_down {
+            if let Some(p) = latest {
+                state.drag_point_to(view.device_of(rect, p));
+            }
+        } else {
+            state.end_point_drag();
+        }
+    }
+    let no_text_focus = ui.memory(|m| m.focused().is_none());
+    if no_text_focus {
+        let redo = egui::KeyboardShortcut::new(
+            egui::Modifiers::COMMAND | egui::Modifiers::SHIFT,
+            egui::Key::Z,
+        );
+        let undo = egui::KeyboardShortcut::new(egui::Modifiers::COMMAND, egui::Key::Z);
+        // Redo first: the undo shortcut also matches with Shift held.
+        if ui.input_mut(|i| i.consume_shortcut(&redo)) {
+            state.redo();
+        } else if ui.input_mut(|i| i.consume_shortcut(&undo)) {
+            state.undo();
+        }
+    }
+}
+
+/// The selected point (position, weight), the edit buttons, the history and the last error.
+pub fn edit_panel_ui(ui: &mut egui::Ui, state: &mut AppState) {
+    egui::Frame::group(ui.style())
+        .fill(Color32::from_rgba_unmultiplied(255, 255, 255, 235))
+        .show(ui, |ui| {
+            ui.set_width(280.0);
+            ui.label(egui::RichText::new("Edit").strong());
+            let selected = state.edit.selected;
+            match (selected, state.selected_point()) {
+                (Some(at), Some((p, w))) => {
+                    ui.label(format!(
+                        "object {}, patch {}, point {}: ({:.2}, {:.2}) mm",
+                        at.object,
+                        at.patch,
+                        at.index,
+                        p.x * 1e3,
+                        p.y * 1e3
+                    ));
+                    ui.horizontal(|ui| {
+                        let name = ui.label("weight");
+                        let draft = state.edit.weight_draft.get_or_insert(f64::from(w));
+                        let r = ui
+                            .add(
+                                egui::DragValue::new(draft)
+                                    .speed(0.01)
+                                    .max_decimals(4)
+                                    .update_while_editing(false),
+                            )
+                            .labelled_by(name.id);
+                        let done = r.drag_stopped() || (r.changed() && !r.dragged());
+                        if done && let Some(weight) = state.edit.weight_draft.take() {
+                            state.set_point_weight(at, weight);
+                        }
+                    });
+                }
+                _ => {
+                    ui.label("press a control point to select it, drag it to move it");
+                }
+            }
+            ui.horizontal(|ui| {
+                let some = selected.is_some();
+                if ui
+                    .add_enabled(some, egui::Button::new("insert knot"))
+                    .on_hover_text("at the selected point's parameter (its Greville abscissa)")
+                    .clicked()
+                {
+                    state.insert_knot_at_selected();
+                }
+                if ui
+                    .add_enabled(some, egui::Button::new("split"))
+                    .on_hover_text("the patch in two at the selected point's parameter")
+                    .clicked()
+                {
+                    state.split_at_selected();
+                }
+                if ui
+                    .add_enabled(some, egui::Button::new("join next"))
+                    .on_hover_text("the selected point's patch with the next one")
+                    .clicked()
+                {
+                    state.join_selected_with_next();
+                }
+            });
+            ui.horizontal(|ui| {
+                let (undo, redo) = state.edit.history.depth();
+                if ui
+                    .add_enabled(undo > 0, egui::Button::new(format!("undo ({undo})")))
+                    .on_hover_text("Ctrl+Z")
+                    .clicked()
+                {
+                    state.undo();
+                }
+                if ui
+                    .add_enabled(redo > 0, egui::Button::new(format!("redo ({redo})")))
+                    .on_hover_text("Ctrl+Shift+Z")
+                    .clicked()
+                {
+                    state.redo();
+                }
+            });
+            if let Some(last) = &state.edit.last {
+                ui.label(
+                    egui::RichText::new(format!("last: {last}")).color(Color32::from_gray(90)),
+                );
+            }
+            if let Some(e) = &state.edit.error {
+                ui.colored_label(Color32::from_rgb(190, 30, 30), e);
+            }
+        });
+}
+
+/// A boundary between the Voronoi regions of two features of a chain, drawn from a vertex.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RegionBoundary {
+    /// Index of the vertex in [`tracker::Chain::vertices`].
+    pub vertex: usize,
+    /// The segment (m).
+    pub from: Vec2,
+    /// Its other end (m).
+    pub to: Vec2,
+    /// Whether it is the bisector between the two curves' regions (where they overlap),
+    /// rather than a normal line at a curve's end.
+    pub bisector: bool,
+}
+
+/// The Voronoi region boundaries of a planar object's chain, `length_m` long from each vertex
+/// (the tracker's definition, `tracker::Vertex::region`): at a convex vertex the two rays
+/// along the adjacent curves' end normals bound the external vertex wedge and the inward
+/// bisector of the normals splits the curves' regions inside; at a reflex vertex the same,
+/// mirrored (an internal wedge, an external bisector); at a smooth join and at a free end,
+/// the normal line through the vertex. Empty for an object that is not a valid chain.
+pub fn region_boundaries(object: &Object, length_m: f32) -> Vec<RegionBoundary> {
+    let Some(curves) = object.curve_views() else {
+        return Vec::new();
+    };
+    let Ok(chain) = Chain::new(&curves) else {
+        return Vec::new();
+    };
+    let normal = |t: Vec2| Vec2::new(t.y, -t.x);
+    let mut out = Vec::new();
+    for (k, v) in chain.vertices().iter().enumerate() {
+        let (n_in, n_out) = (normal(v.t_in), normal(v.t_out));
+        let at = v.position;
+        let mut ray = |d: Vec2, bisector: bool| {
+            out.push(RegionBoundary {
+                vertex: k,
+                from: at,
+                to: at + d * length_m,
+                bisector,
+            });
+        };
+        let bisector = (n_in + n_out).normalize_or_zero();
+        match v.kind {
+            VertexKind::Convex => {
+                ray(n_in, false);
+                ray(n_out, false);
+                ray(-bisector, true);
+            }
+            VertexKind::Reflex => {
+                ray(-n_in, false);
+                ray(-n_out, false);
+                ray(bisector, true);
+            }
+            VertexKind::Smooth | VertexKind::End => {
+                ray(n_out, false);
+                ray(-n_out, false);
+            }
+        }
+    }
+    out
+}
+
+fn draw_regions(painter: &egui::Painter, rect: Rect, view: &View2d, state: &AppState) {
+    let Some(object) = state
+        .scene
+        .rendered
+        .and_then(|i| state.scene.model.object(i))
+    else {
+        return;
+    };
+    let colour = Color32::from_rgba_unmultiplied(130, 70, 170, 120);
+    for b in region_boundaries(object, REGION_RAY_PX / view.scale) {
+        let ends = [view.screen_of(rect, b.from), view.screen_of(rect, b.to)];
+        if b.bisector {
+            painter.add(Shape::dashed_line(
+                &ends,
+                Stroke::new(1.0, colour),
+                5.0,
+                4.0,
+            ));
+        } else {
+            painter.line_segment(ends, Stroke::new(1.0, colour));
+        }
+    }
+}
+
+/// The control points as handles, the selected one highlighted, and a dragged point's
+/// edited curves (or why the edit would be refused).
+fn draw_handles(painter: &egui::Painter, rect: Rect, view: &View2d, state: &AppState) {
+    let selected_fill = Color32::from_rgb(235, 140, 30);
+    if let Some(drag) = &state.edit.drag
+        && drag.to != drag.from
+    {
+        match &drag.preview {
+            Ok((_, preview)) => {
+                if let Some(o) = preview.objects.get(drag.at.object) {
+                    let stroke = Stroke::new(2.0, selected_fill);
+                    for curve in &o.curves {
+                        let pts: Vec<Pos2> =
+                            curve.iter().map(|p| view.screen_of(rect, *p)).collect();
+                        painter.line(pts, stroke);
+                    }
+                    for poly in &o.control_polygons {
+                        let pts: Vec<Pos2> =
+                            poly.iter().map(|p| view.screen_of(rect, *p)).collect();
+                        painter.add(Shape::dashed_line(
+                            &pts,
+                            Stroke::new(1.0, selected_fill),
+                            4.0,
+                            3.0,
+                        ));
+                    }
+                }
+            }
+            Err(e) => {
+                painter.text(
+                    view.screen_of(rect, drag.to) + EVec2::new(10.0, 10.0),
+                    Align2::LEFT_TOP,
+                    e,
+                    FontId::proportional(12.0),
+                    Color32::from_rgb(190, 30, 30),
+                );
+            }
+        }
+    }
+    for (i, o) in state.scene.objects.iter().enumerate() {
+        for (k, poly) in o.control_polygons.iter().enumerate() {
+            for (j, p) in poly.iter().enumerate() {
+                let at = crate::edit::PointRef::new(i, k, j);
+                let dragged = state.edit.drag.as_ref().filter(|d| d.at == at);
+                let p = dragged.map_or(*p, |d| d.to);
+                let c = view.screen_of(rect, p);
+                if state.edit.selected == Some(at) {
+                    painter.circle_filled(c, 6.0, selected_fill);
+                    painter.circle_stroke(c, 6.0, Stroke::new(1.5, Color32::BLACK));
+                } else {
+                    painter.circle_filled(c, 4.5, Color32::WHITE);
+                    painter.circle_stroke(c, 4.5, Stroke::new(1.5, Color32::from_gray(60)));
+                }
+            }
+        }
+    }
 }
 
 fn haptic_start() -> Vec2 {
@@ -291,11 +632,12 @@ fn draw_legend(painter: &egui::Painter, rect: Rect, view: &View2d, state: &AppSt
             mode_colour(k.mode),
         );
     }
-    line(
-        &mut y,
-        "drag: hand  ·  right-drag: pan  ·  wheel: zoom  ·  double-click: fit the scene".into(),
-        Color32::from_gray(110),
-    );
+    let help = if state.edit.enabled {
+        "edit: drag a handle: move its point  ·  elsewhere: hand  ·  Ctrl+Z: undo"
+    } else {
+        "drag: hand  ·  right-drag: pan  ·  wheel: zoom  ·  double-click: fit the scene"
+    };
+    line(&mut y, help.into(), Color32::from_gray(110));
     // Key, bottom left.
     let mut y = rect.bottom() - 8.0 - 17.0 * 4.0;
     let key = [
@@ -349,4 +691,94 @@ fn draw_legend(painter: &egui::Painter, rect: Rect, view: &View2d, state: &AppSt
         font,
         text,
     );
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scene::Scene;
+    use tracker::Feature;
+
+    /// Points just either side of the middle of every boundary drawn fall in different
+    /// features of the tracker's own definition (`tracker::Vertex::region`): a vertex's wedge
+    /// and a curve across a normal ray, the two curves across a bisector.
+    fn check_boundaries(object: &Object) -> Vec<(VertexKind, usize, usize)> {
+        let length = 0.01;
+        let boundaries = region_boundaries(object, length);
+        let curves = object.curve_views().expect("planar");
+        let chain = Chain::new(&curves).expect("a chain");
+        for b in &boundaries {
+            let d = b.to - b.from;
+            assert!((d.length() - length).abs() < 1e-6, "{b:?}");
+            let mid = b.from + d * 0.5;
+            let side = Vec2::new(-d.y, d.x) * 1e-3;
+            let v = &chain.vertices()[b.vertex];
+            let (left, right) = (
+                v.region(b.vertex as u16, mid + side),
+                v.region(b.vertex as u16, mid - side),
+            );
+            assert_ne!(left, right, "{b:?}");
+            let vertex = |f: Feature| matches!(f, Feature::Vertex(_));
+            if b.bisector {
+                assert!(!vertex(left) && !vertex(right), "{b:?}: {left:?} {right:?}");
+            } else if v.kind != VertexKind::Smooth {
+                assert!(vertex(left) != vertex(right), "{b:?}: {left:?} {right:?}");
+            }
+        }
+        // Per vertex: its kind, its boundaries, how many of them are bisectors.
+        chain
+            .vertices()
+            .iter()
+            .enumerate()
+            .map(|(k, v)| {
+                let mine = boundaries.iter().filter(|b| b.vertex == k);
+                (
+                    v.kind,
+                    mine.clone().count(),
+                    mine.filter(|b| b.bisector).count(),
+                )
+            })
+            .collect()
+    }
+
+    fn thesis() -> Scene {
+        Scene::from_json_str(include_str!("../../../../scenes/thesis-2d.json")).expect("thesis")
+    }
+
+    /// The open arch of thesis-2d: two free ends (a normal line each) and a convex apex (two
+    /// outward normal rays bounding the vertex's wedge, the inward bisector).
+    #[test]
+    fn region_boundaries_of_a_convex_vertex_and_free_ends() {
+        let kinds = check_boundaries(&thesis().objects()[0]);
+        assert_eq!(
+            kinds,
+            [
+                (VertexKind::End, 2, 0),
+                (VertexKind::Convex, 3, 1),
+                (VertexKind::End, 2, 0)
+            ]
+        );
+    }
+
+    /// A reflex corner (two inward normal rays, the outward bisector) and a smooth join (the
+    /// normal line: an arc split in two).
+    #[test]
+    fn region_boundaries_of_reflex_and_smooth_vertices() {
+        let json = r#"{ "format": "scene/1", "objects": [ { "name": "notch",
+            "material": { "stiffness_n_per_m": 500, "damping_ns_per_m": 0,
+                          "mu_static": 0.5, "mu_dynamic": 0.4 },
+            "patches": [
+              { "degree": 1, "knots": [0, 0, 1, 1], "points": [[-0.02, 0.1], [0, 0.1]] },
+              { "degree": 1, "knots": [0, 0, 1, 1], "points": [[0, 0.1], [0.02, 0.09]] } ] } ] }"#;
+        let notch = Scene::from_json_str(json).expect("notch");
+        assert_eq!(
+            check_boundaries(&notch.objects()[0])[1],
+            (VertexKind::Reflex, 3, 1)
+        );
+        let split = crate::edit::split_patch(&thesis(), 0, 0, 0.5).expect("split");
+        assert_eq!(
+            check_boundaries(&split.objects()[0])[1],
+            (VertexKind::Smooth, 2, 0)
+        );
+    }
 }
