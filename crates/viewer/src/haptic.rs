@@ -465,11 +465,40 @@ pub fn raise_priority() -> bool {
     }
 }
 
-/// A [`HapticLoop`] on its own thread, ticking in real time at [`RATE_HZ`]. Dropping it stops
-/// the thread (and, with it, the recorder's input).
+/// A loop [`LoopThread`] runs: the planar [`HapticLoop`], or the spatial hand of
+/// [`crate::haptic3d`]. One tick at a time, commands applied between ticks.
+pub trait Steppable: Send + 'static {
+    /// What the UI asks of it.
+    type Command: Send + 'static;
+    /// Applies one command; the reply, if it has one.
+    fn apply(&mut self, command: Self::Command) -> Option<Reply>;
+    /// Runs one tick; its sample without a period (the thread adds it).
+    fn step_sample(&mut self) -> Sample;
+}
+
+impl Steppable for HapticLoop {
+    type Command = Command;
+
+    fn apply(&mut self, command: Command) -> Option<Reply> {
+        apply(self, command)
+    }
+
+    fn step_sample(&mut self) -> Sample {
+        let tick = self.step();
+        Sample {
+            tick,
+            hand_target: self.hand_target(),
+            period_us: None,
+            forces_enabled: self.forces_enabled(),
+        }
+    }
+}
+
+/// A [`HapticLoop`] (or another [`Steppable`]) on its own thread, ticking in real time at
+/// [`RATE_HZ`]. Dropping it stops the thread (and, with it, the recorder's input).
 #[derive(Debug)]
-pub struct LoopThread {
-    commands: SyncSender<Command>,
+pub struct LoopThread<L: Steppable = HapticLoop> {
+    commands: SyncSender<L::Command>,
     samples: Receiver<Sample>,
     replies: Receiver<Reply>,
     counters: Arc<LoopCounters>,
@@ -477,10 +506,10 @@ pub struct LoopThread {
     thread: Option<JoinHandle<()>>,
 }
 
-impl LoopThread {
+impl<L: Steppable> LoopThread<L> {
     /// Starts `haptic` on a thread named `haptic-loop`; every tick also goes to `record`
     /// when given.
-    pub fn spawn(mut haptic: HapticLoop, record: Option<SyncSender<Tick>>) -> io::Result<Self> {
+    pub fn spawn(mut haptic: L, record: Option<SyncSender<Tick>>) -> io::Result<Self> {
         let (commands, command_rx) = mpsc::sync_channel(COMMAND_CAPACITY);
         let (sample_tx, samples) = mpsc::sync_channel(TELEMETRY_CAPACITY);
         let (reply_tx, replies) = mpsc::channel();
@@ -514,7 +543,7 @@ impl LoopThread {
     }
 
     /// Sends a command without waiting; a full channel drops it (counted) and returns false.
-    pub fn send(&self, command: Command) -> bool {
+    pub fn send(&self, command: L::Command) -> bool {
         match self.commands.try_send(command) {
             Ok(()) => true,
             Err(TrySendError::Full(_) | TrySendError::Disconnected(_)) => {
@@ -549,7 +578,7 @@ impl LoopThread {
     }
 }
 
-impl Drop for LoopThread {
+impl<L: Steppable> Drop for LoopThread<L> {
     fn drop(&mut self) {
         self.stop.store(true, Ordering::Relaxed);
         if let Some(thread) = self.thread.take() {
@@ -582,9 +611,9 @@ pub fn apply(haptic: &mut HapticLoop, command: Command) -> Option<Reply> {
 /// to the UI and the recorder (dropped, and counted, when their channels are full), then a
 /// sleep until the next tick is due on an absolute schedule (so lateness does not
 /// accumulate; more than 100 ms behind, after a suspend, the schedule restarts).
-fn run_paced(
-    haptic: &mut HapticLoop,
-    commands: &Receiver<Command>,
+fn run_paced<L: Steppable>(
+    haptic: &mut L,
+    commands: &Receiver<L::Command>,
     samples: &SyncSender<Sample>,
     replies: &Sender<Reply>,
     record: Option<&SyncSender<Tick>>,
@@ -600,7 +629,7 @@ fn run_paced(
         loop {
             match commands.try_recv() {
                 Ok(c) => {
-                    if let Some(r) = apply(haptic, c) {
+                    if let Some(r) = haptic.apply(c) {
                         let _ = replies.send(r);
                     }
                 }
@@ -608,13 +637,11 @@ fn run_paced(
                 Err(TryRecvError::Disconnected) => return,
             }
         }
-        let tick = haptic.step();
         let sample = Sample {
-            tick,
-            hand_target: haptic.hand_target(),
             period_us: previous.map(|p| (begun - p).as_secs_f32() * 1e6),
-            forces_enabled: haptic.forces_enabled(),
+            ..haptic.step_sample()
         };
+        let tick = sample.tick;
         previous = Some(begun);
         counters.ticks.fetch_add(1, Ordering::Relaxed);
         match samples.try_send(sample) {
