@@ -116,6 +116,10 @@ pub struct GuiArgs {
     /// Move the hand along the thesis's 2-D path (scenes/thesis-2d.csv), as a drag would.
     #[arg(long)]
     pub demo: bool,
+    /// Open this Wavefront OBJ mesh instead of a scene: felt through the polygonal baseline
+    /// (penalty along the closest triangle's face normal) in the 3-D view.
+    #[arg(long, value_name = "FILE.obj", conflicts_with = "scene")]
+    pub mesh: Option<PathBuf>,
 }
 
 fn gui_device(text: &str) -> Result<String, String> {

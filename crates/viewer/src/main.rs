@@ -83,6 +83,7 @@ fn gui_command(args: &GuiArgs) -> ExitCode {
         record: args.record.clone(),
         quit_after_frames: args.quit_after_frames,
         demo: args.demo,
+        mesh: args.mesh.clone(),
     };
     match viewer::gui::run(options) {
         Ok(summary) => {

@@ -337,3 +337,337 @@ fn a_press_far_from_the_handle_moves_the_hand_at_a_bounded_speed() {
         .fold(0.0, f32::max);
     assert!(fastest < 1.0, "handle at {fastest} m/s");
 }
+
+// ----- the 3-D view, the spatial hand and meshes -----
+
+use nurbs::Vec3;
+use viewer::gui::view3d::{self, Camera3d};
+use viewer::scene::{Material, Object, Patch, Scene};
+
+/// The apex of thesis-3d's bicubic bump. Its control net is linear in x and y (x from −0.04
+/// to 0.04, y from 0.06 to 0.12, evenly spaced) with the four inner points raised 12 mm, so
+/// the surface is z = 0.012 · 9 u(1 − u) v(1 − v), u = (x + 0.04)/0.08, v = (y − 0.06)/0.06
+/// (the cubic Bernstein weights of the inner points sum to 3u(1 − u)): the apex is at
+/// (0, 0.09, 0.00675), its normal +z, its radii of curvature 0.118 m (x) and 0.067 m (y).
+const APEX: Vec3 = Vec3::new(0.0, 0.09, 0.00675);
+
+fn bump_z(x: f32, y: f32) -> f32 {
+    let u = (x + 0.04) / 0.08;
+    let v = (y - 0.06) / 0.06;
+    0.012 * 9.0 * u * (1.0 - u) * v * (1.0 - v)
+}
+
+/// Moves the spatial hand's target from where it is to `to` in `ms` ticks, then steps.
+fn move_hand(state: &mut AppState, to: Vec3, ms: usize) {
+    let from = state.spatial.as_ref().expect("3-D scene").target;
+    for i in 1..=ms {
+        let t = from + (to - from) * (i as f32 / ms as f32);
+        state.spatial.as_mut().expect("3-D scene").set_target(t);
+        state.step(1);
+    }
+}
+
+/// The hand pressed `depth_m` straight down into the bump's apex and held.
+fn press_apex(state: &mut AppState, depth_m: f32) {
+    move_hand(state, APEX + Vec3::new(0.0, 0.0, 0.005), 300);
+    move_hand(state, APEX - Vec3::new(0.0, 0.0, depth_m), 300);
+    state.step(200);
+}
+
+fn stepped_3d() -> AppState {
+    let state = AppState::stepped("thesis-3d").unwrap_or_else(|e| panic!("{e:#}"));
+    assert!(state.spatial.as_ref().is_some_and(|s| s.has_loop()));
+    state
+}
+
+/// Pressing the spatial hand d = 2 mm into the apex gives F_N = K·d = 2 N (K = 1000 N/m)
+/// along +z. Where it comes from: the HIP is at rest (v = 0: no damping term, and the
+/// material has none), straight below the apex, and the radii of curvature (67 mm and more)
+/// are far larger than d, so the closest point is the apex and the depth is d exactly. What is
+/// left is f32 rounding of heights near 7 mm (ulp 4.7e-10 m, 5e-7 N) and the tracker's
+/// residual, whose effect on the depth is second order in its parameter error: 1e-4 N (0.1 µm
+/// of depth) bounds both. Pressed straight along the normal the GO stays at the CP: no
+/// friction.
+#[test]
+fn the_spatial_hand_pressed_d_into_the_bump_feels_k_d() {
+    let mut state = stepped_3d();
+    let start = state.spatial.as_ref().expect("3-D").start;
+    // Above the middle of the control net, 10 mm above its top (12 mm).
+    assert!(
+        (start - Vec3::new(0.0, 0.09, 0.022)).length() < 1e-7,
+        "{start}"
+    );
+    press_apex(&mut state, 0.002);
+    let k = state.latest().expect("ticks").tick;
+    assert!(
+        (k.hip - (APEX - Vec3::new(0.0, 0.0, 0.002))).length() < 1e-7,
+        "{k:?}"
+    );
+    assert_eq!(k.mode, Mode::Stuck, "{k:?}");
+    assert!((k.depth_m - 0.002).abs() < 1e-7, "{k:?}");
+    assert!((k.normal_force_n - 2.0).abs() < 1e-4, "{k:?}");
+    assert!(
+        (k.force - Vec3::new(0.0, 0.0, 2.0)).length() < 1e-4,
+        "{k:?}"
+    );
+    assert!((k.cp - APEX).length() < 1e-6, "{k:?}");
+    // Before the hand reached the surface nothing was felt.
+    assert_eq!(state.history[0].tick.mode, Mode::Free);
+
+    // Sliding 10 mm along y stays on the bump (its height there from the closed form) and
+    // keeps the force within the friction cone.
+    let to = Vec3::new(0.0, 0.1, bump_z(0.0, 0.1) - 0.002);
+    move_hand(&mut state, to, 1000);
+    let k = state.latest().expect("ticks").tick;
+    assert_ne!(k.mode, Mode::Free, "{k:?}");
+    assert!(
+        k.friction.length() <= 0.7 * k.normal_force_n * (1.0 + 1e-5),
+        "{k:?}"
+    );
+}
+
+/// A cylinder of radius 20 mm lying along x, its top at z = 0.02, frictionless (μ = 0: the
+/// normal is all there is to feel).
+fn cylinder_scene() -> Scene {
+    let s = nurbs::construct::cylinder(Vec3::new(0.03, 0.09, 0.0), -Vec3::X, 0.02, 0.06)
+        .expect("cylinder");
+    let material = Material::new(1000.0, 0.0, 0.0, 0.0).expect("material");
+    let o = Object::new("cylinder", material, vec![Patch::Surface(s)]).expect("object");
+    Scene::new(vec![o]).expect("scene")
+}
+
+/// On the cylinder (axis along x through (y, z) = (0.09, 0)), the point at angle `a` from the
+/// top towards +y, `r` from the axis.
+fn around(a: f32, r: f32) -> Vec3 {
+    Vec3::new(0.0, 0.09 + r * a.sin(), r * a.cos())
+}
+
+/// How far the slide over the cylinder goes around (rad), in 1000 ticks.
+const SLIDE_RAD: f32 = 0.9;
+
+/// The normals the hand felt while sliding 1 mm deep over the cylinder from the top to
+/// [`SLIDE_RAD`] around (17 mm of arc in 1 s, 0.9 mrad per tick).
+fn slide_over_cylinder(state: &mut AppState) -> Vec<Vec3> {
+    move_hand(state, around(0.0, 0.019), 400);
+    state.step(100);
+    let first = state.history.len();
+    for i in 1..=1000 {
+        let a = SLIDE_RAD * i as f32 / 1000.0;
+        state
+            .spatial
+            .as_mut()
+            .expect("3-D")
+            .set_target(around(a, 0.019));
+        state.step(1);
+    }
+    state
+        .history
+        .iter()
+        .skip(first)
+        .map(|s| {
+            assert_ne!(s.tick.mode, Mode::Free, "{:?}", s.tick);
+            s.tick.normal
+        })
+        .collect()
+}
+
+/// The thesis's point (Fig. 2.1.2): the polygonal baseline's normal jumps across every edge
+/// of the tessellation by the angle between the facets, the NURBS normal turns continuously.
+/// References from the exact construction: the NURBS normal at the hand is the radial
+/// direction (the cylinder's normal), turning 0.5 mrad per tick; a chord facet between the
+/// vertices at angles a and b has the radial normal at (a + b)/2, so crossing the edge at b to
+/// the facet [b, c] turns the normal by (c − a)/2, and a facet whose chord height is within
+/// the tolerance h spans at most 2·acos(1 − h/r).
+#[test]
+fn the_mesh_normal_jumps_across_edges_and_the_nurbs_normal_does_not() {
+    let mut state = stepped_3d();
+    state.open_scene("cylinder", cylinder_scene());
+    assert_eq!(state.scene_error, None);
+    // atan2 of sine and cosine: acos near 1 in f32 cannot resolve less than 0.35 mrad.
+    let angle = |a: Vec3, b: Vec3| a.cross(b).length().atan2(a.dot(b));
+
+    let nurbs = slide_over_cylinder(&mut state);
+    let nurbs_step = nurbs
+        .windows(2)
+        .map(|w| angle(w[0], w[1]))
+        .fold(0.0, f32::max);
+    // 0.9 mrad per tick, and the tracker follows within a few ticks: 3 mrad at most.
+    assert!(
+        nurbs_step < 3e-3,
+        "largest NURBS normal step {nurbs_step} rad"
+    );
+    let last = state.latest().expect("ticks").tick;
+    let radial = (around(SLIDE_RAD, 1.0) - around(SLIDE_RAD, 0.0)).normalize();
+    assert!(angle(last.normal, radial) < 3e-3, "{last:?}");
+
+    // The same slide on the tessellation at h = 0.5 mm.
+    let tol = 5e-4;
+    move_hand(&mut state, around(0.0, 0.03), 300);
+    {
+        let spatial = state.spatial.as_mut().expect("3-D");
+        spatial.set_tolerance(tol);
+        spatial.set_render_mesh(true);
+        assert_eq!(spatial.message, None);
+        assert!(spatial.stepped().is_some_and(|s| s.renders_mesh()));
+    }
+    let mesh = state
+        .spatial
+        .as_ref()
+        .and_then(|s| s.tessellation())
+        .expect("mesh");
+    let facets = slide_over_cylinder(&mut state);
+    let steps: Vec<f32> = facets.windows(2).map(|w| angle(w[0], w[1])).collect();
+    let jumps: Vec<(usize, f32)> = steps
+        .iter()
+        .copied()
+        .enumerate()
+        .filter(|&(_, s)| s > 1e-5)
+        .collect();
+    // At 0.5 mm the facets span π/8 or less: at least two edges crossed in 0.9 rad.
+    assert!(jumps.len() >= 2, "{jumps:?}");
+    eprintln!("mesh normal jumps (tick, rad): {jumps:?}; largest NURBS step {nurbs_step} rad");
+    // Between the edges the face normal does not move at all (one flat facet).
+    assert!(
+        steps.iter().all(|&s| !(1e-5..=0.05).contains(&s)),
+        "{steps:?}"
+    );
+    // The vertices' angles around the axis, from their positions.
+    let mut angles: Vec<f32> = mesh
+        .vertices()
+        .iter()
+        .map(|p| (p.y - 0.09).atan2(p.z))
+        .collect();
+    angles.sort_by(f32::total_cmp);
+    angles.dedup_by(|a, b| (*a - *b).abs() < 1e-5);
+    let bound = 2.0 * (1.0 - tol / 0.02f32).acos();
+    for (tick, jump) in jumps {
+        // The edge crossed: the vertex angle nearest the hand's angle at that tick.
+        let a_hand = SLIDE_RAD * (tick + 1) as f32 / 1000.0;
+        let k = angles
+            .iter()
+            .enumerate()
+            .min_by(|x, y| (x.1 - a_hand).abs().total_cmp(&(y.1 - a_hand).abs()))
+            .map(|(k, _)| k)
+            .expect("angles");
+        let expected = 0.5 * (angles[k + 1] - angles[k - 1]);
+        assert!(
+            (jump - expected).abs() < 2e-3,
+            "jump {jump} rad at tick {tick}, facets say {expected} rad"
+        );
+        assert!(
+            jump <= bound * 1.001,
+            "jump {jump} beyond the tolerance's {bound}"
+        );
+        assert!(
+            jump > 50.0 * nurbs_step,
+            "jump {jump} vs NURBS step {nurbs_step}"
+        );
+    }
+}
+
+/// The OBJ export of thesis-3d's bump, read back with tobj: the same vertices as the
+/// tessellation (bit for bit: f32 written as its shortest round-tripping decimal), every
+/// vertex on the surface (the closed form above, to f32 rounding: 1e-6 m) and every
+/// triangle's centroid within the chordal tolerance of it (vertically: the bump's slope is
+/// below 0.35, so the vertical distance is within 6 % of the normal one).
+#[test]
+fn obj_export_round_trips_and_lies_on_the_surface() {
+    let mut state = stepped_3d();
+    let tol = 5e-4;
+    let dir = std::env::temp_dir().join(format!("viewer-obj-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("temp dir");
+    let path = dir.join("bump.obj");
+    let spatial = state.spatial.as_mut().expect("3-D");
+    spatial.set_tolerance(tol);
+    let written = spatial.export_obj(&path).expect("export");
+    let mesh = spatial.tessellation().expect("mesh");
+    assert_eq!(written, mesh.triangles().len());
+
+    let (models, _) = tobj::load_obj(&path, &tobj::GPU_LOAD_OPTIONS).expect("tobj reads it");
+    assert_eq!(models.len(), 1);
+    let m = &models[0].mesh;
+    let read: Vec<Vec3> = m
+        .positions
+        .chunks_exact(3)
+        .map(|p| Vec3::new(p[0], p[1], p[2]))
+        .collect();
+    // single_index (GPU options) may reorder: compare as sets of bit patterns.
+    let key = |p: &Vec3| p.to_array().map(f32::to_bits);
+    let mut a: Vec<[u32; 3]> = read.iter().map(key).collect();
+    let mut b: Vec<[u32; 3]> = mesh.vertices().iter().map(key).collect();
+    a.sort_unstable();
+    b.sort_unstable();
+    a.dedup();
+    b.dedup();
+    assert_eq!(a, b, "the same vertices");
+    assert_eq!(m.indices.len(), 3 * mesh.triangles().len());
+    for p in &read {
+        assert!((p.z - bump_z(p.x, p.y)).abs() < 1e-6, "{p} off the surface");
+    }
+    for t in m.indices.chunks_exact(3) {
+        let c = t.iter().map(|&i| read[i as usize]).sum::<Vec3>() / 3.0;
+        let off = (c.z - bump_z(c.x, c.y)).abs();
+        assert!(off <= tol * 1.06, "centroid {c} is {off} m off");
+    }
+    // And the app opens it as a mesh, felt with the baseline.
+    state.open_obj(&path);
+    assert_eq!(state.scene_error, None);
+    let spatial = state.spatial.as_ref().expect("3-D");
+    assert!(spatial.stepped().is_some_and(|s| s.renders_mesh()));
+    assert_eq!(spatial.mesh_triangles, Some(mesh.triangles().len()));
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// An invalid OBJ names the file and the line, and the running scene stays.
+#[test]
+fn an_invalid_obj_is_refused_naming_the_line() {
+    let mut state = stepped_3d();
+    let dir = std::env::temp_dir().join(format!("viewer-bad-obj-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("temp dir");
+    let path = dir.join("bad.obj");
+    std::fs::write(&path, "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 7\n").expect("write");
+    state.open_obj(&path);
+    let e = state.scene_error.clone().expect("refused");
+    assert!(
+        e.starts_with(&format!(
+            "{}:4: face corner \"7\": vertex 7 does not exist",
+            path.display()
+        )),
+        "{e}"
+    );
+    assert!(e.ends_with("the running scene is unchanged"), "{e}");
+    assert_eq!(state.scene.label, "thesis-3d");
+    press_apex(&mut state, 0.001);
+    assert_ne!(state.latest().expect("ticks").tick.mode, Mode::Free);
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn snapshot_3d_view_pressed_into_the_bump() {
+    use eframe::egui_wgpu;
+    let mut state = stepped_3d();
+    press_apex(&mut state, 0.002);
+    let render_state = egui_kittest::wgpu::create_render_state(
+        egui_kittest::wgpu::default_wgpu_setup(),
+        egui_wgpu::RendererOptions::PREDICTABLE,
+    );
+    view3d::install(&render_state);
+    let mut ui = ViewerUi::new(state);
+    ui.wgpu_installed = true;
+    ui.camera3d = Camera3d::default();
+    let mut h = Harness::builder()
+        .with_size(egui::Vec2::new(800.0, 600.0))
+        .with_theme(egui::Theme::Light)
+        .renderer(egui_kittest::wgpu::WgpuTestRenderer::from_render_state(
+            render_state,
+        ))
+        .build_ui_state(
+            |ui, v: &mut ViewerUi| {
+                let installed = v.wgpu_installed;
+                view3d::view_3d_ui(ui, &mut v.state, &mut v.camera3d, installed);
+            },
+            ui,
+        );
+    h.run_steps(2);
+    h.snapshot("view_3d_thesis_3d_pressed");
+}

@@ -6,8 +6,10 @@
 //! small functions named by what they show (`*_ui`), each snapshot-tested with
 //! `egui_kittest`.
 
+pub mod spatial;
 pub mod state;
 pub mod view;
+pub mod view3d;
 
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
@@ -22,6 +24,7 @@ use crate::scene::Scene;
 use crate::trajectory::Trajectory;
 use state::{AppState, BUNDLED};
 use view::{View2d, mode_colour, view_2d_ui};
+use view3d::{Camera3d, view_3d_ui};
 
 /// Plot colours of the force lines.
 const NORMAL: Color32 = Color32::from_rgb(40, 110, 200);
@@ -40,6 +43,10 @@ pub struct ViewerUi {
     pub view: View2d,
     /// Where `--record` writes, shown in the status bar.
     pub recording: Option<PathBuf>,
+    /// The 3-D view's camera.
+    pub camera3d: Camera3d,
+    /// Whether the 3-D view's wgpu pipelines are installed ([`view3d::install`]).
+    pub wgpu_installed: bool,
 }
 
 impl ViewerUi {
@@ -49,6 +56,8 @@ impl ViewerUi {
             state,
             view: View2d::default(),
             recording: None,
+            camera3d: Camera3d::default(),
+            wgpu_installed: false,
         }
     }
 
@@ -59,6 +68,7 @@ impl ViewerUi {
         egui::Panel::top("scenes").show(ui, |ui| scenes_ui(ui, &mut self.state));
         if self.state.scene.label != before {
             self.view.fit_pending = true;
+            self.camera3d.fit_pending = true;
         }
         egui::Panel::bottom("status").show(ui, |ui| {
             status_bar_ui(ui, &mut self.state, self.recording.as_deref());
@@ -70,7 +80,11 @@ impl ViewerUi {
             .default_size(430.0)
             .show(ui, |ui| telemetry_ui(ui, &self.state));
         egui::CentralPanel::no_frame().show(ui, |ui| {
-            view_2d_ui(ui, &mut self.state, &mut self.view);
+            if self.state.spatial.is_some() {
+                view_3d_ui(ui, &mut self.state, &mut self.camera3d, self.wgpu_installed);
+            } else {
+                view_2d_ui(ui, &mut self.state, &mut self.view);
+            }
         });
     }
 }
@@ -93,9 +107,24 @@ pub fn scenes_ui(ui: &mut egui::Ui, state: &mut AppState) {
                 .desired_width(260.0),
         );
         let enter = field.lost_focus() && ui.input(|i| i.key_pressed(egui::Key::Enter));
+        let path = PathBuf::from(state.scene_path.trim());
+        let obj = path
+            .extension()
+            .is_some_and(|e| e.eq_ignore_ascii_case("obj"));
         if (ui.button("Open").clicked() || enter) && !state.scene_path.trim().is_empty() {
-            let path = PathBuf::from(state.scene_path.trim());
-            state.open_path(&path);
+            if obj {
+                state.open_obj(&path);
+            } else {
+                state.open_path(&path);
+            }
+        }
+        if ui
+            .button("Open OBJ…")
+            .on_hover_text("open the path as a Wavefront OBJ mesh (the polygonal baseline)")
+            .clicked()
+            && !state.scene_path.trim().is_empty()
+        {
+            state.open_obj(&path);
         }
     });
     if let Some(e) = &state.scene_error {
@@ -422,6 +451,8 @@ pub struct GuiOptions {
     pub quit_after_frames: Option<u64>,
     /// Move the hand along the thesis's 2-D path, forth and back, as a drag would.
     pub demo: bool,
+    /// An OBJ mesh to open instead of the scene.
+    pub mesh: Option<PathBuf>,
 }
 
 /// What a session measured, printed when the window closes.
@@ -574,7 +605,13 @@ pub fn run(options: GuiOptions) -> anyhow::Result<Summary> {
         }
         None => (None, None),
     };
-    let state = AppState::new(&label, scene, true, record_tx)?;
+    let mut state = AppState::new(&label, scene, true, record_tx)?;
+    if let Some(path) = &options.mesh {
+        state.open_obj(path);
+        if let Some(e) = state.scene_error.take() {
+            anyhow::bail!("invalid mesh: {e}");
+        }
+    }
     let mut ui = ViewerUi::new(state);
     ui.recording = options.record.clone();
     let demo = if options.demo {
@@ -583,7 +620,7 @@ pub fn run(options: GuiOptions) -> anyhow::Result<Summary> {
         None
     };
     let summary = std::sync::Arc::new(std::sync::Mutex::new(Summary::default()));
-    let app = ViewerApp {
+    let mut app = ViewerApp {
         ui,
         options: options.clone(),
         demo,
@@ -605,6 +642,10 @@ pub fn run(options: GuiOptions) -> anyhow::Result<Summary> {
         native,
         Box::new(move |cc| {
             cc.egui_ctx.set_theme(egui::Theme::Light);
+            if let Some(render_state) = cc.wgpu_render_state.as_ref() {
+                view3d::install(render_state);
+                app.ui.wgpu_installed = true;
+            }
             Ok(Box::new(app))
         }),
     );

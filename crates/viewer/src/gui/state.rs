@@ -13,6 +13,7 @@ use device::spec::{DeviceSpec, WorkspaceBox};
 use friction::{FrictionMaterial, Mode, SwitchCause};
 use nurbs::Vec2;
 
+use super::spatial::SpatialState;
 use crate::haptic::{
     self, Command, HapticLoop, LoopThread, MaterialChangeError, Reply, START_HIP, Sample, Session,
 };
@@ -356,6 +357,9 @@ pub struct AppState {
     pub faults_after_clear: Option<Faults>,
     /// Samples received in all.
     pub received: u64,
+    /// The 3-D view and the spatial hand, for a scene without planar objects (or an opened
+    /// mesh); while it is there the telemetry is the spatial loop's.
+    pub spatial: Option<SpatialState>,
 }
 
 impl AppState {
@@ -371,6 +375,11 @@ impl AppState {
         let view = SceneView::new(label, &scene, session.object());
         let haptic = HapticLoop::new(session, START_HIP)?;
         let running_material = haptic.material();
+        let spatial = if view.is_planar() {
+            None
+        } else {
+            Some(SpatialState::of_scene(label, &scene, threaded)?)
+        };
         let backend = if threaded {
             Backend::Thread(LoopThread::spawn(haptic, record)?)
         } else {
@@ -395,6 +404,7 @@ impl AppState {
             forces_requested: true,
             faults_after_clear: None,
             received: 0,
+            spatial,
         })
     }
 
@@ -429,6 +439,12 @@ impl AppState {
     /// Runs `n` ticks of a stepped loop (nothing for a threaded one), then takes in their
     /// telemetry as [`AppState::poll`] does.
     pub fn step(&mut self, n: usize) {
+        if let Some(spatial) = &mut self.spatial {
+            for s in spatial.step(n) {
+                self.take(s);
+            }
+            return;
+        }
         let mut samples = Vec::new();
         if let Backend::Stepped(h) = &mut self.backend {
             for _ in 0..n {
@@ -452,6 +468,12 @@ impl AppState {
         if let Backend::Thread(t) = &self.backend {
             t.drain_samples(|s| samples.push(s));
             replies = t.drain_replies();
+        }
+        if let Some(spatial) = &self.spatial {
+            // The planar loop renders nothing meanwhile: its ticks are not shown.
+            let (spatial_samples, spatial_replies) = spatial.drain();
+            samples = spatial_samples;
+            replies.extend(spatial_replies);
         }
         for s in samples {
             self.take(s);
@@ -593,6 +615,18 @@ impl AppState {
             }
         };
         let view = SceneView::new(label, &scene, session.object());
+        let spatial = if view.is_planar() {
+            None
+        } else {
+            match SpatialState::of_scene(label, &scene, self.is_threaded()) {
+                Ok(s) => Some(s),
+                Err(e) => {
+                    self.scene_error =
+                        Some(format!("{label}: {e:#}; the running scene is unchanged"));
+                    return;
+                }
+            }
+        };
         let material = view
             .rendered
             .and_then(|i| scene.object(i))
@@ -603,6 +637,7 @@ impl AppState {
             ));
             return;
         }
+        self.spatial = spatial;
         self.scene = view;
         self.scene_error = None;
         self.running_material = material;
@@ -614,6 +649,57 @@ impl AppState {
     pub fn set_forces(&mut self, on: bool) {
         self.forces_requested = on;
         self.command(Command::Forces(on));
+        if let Some(spatial) = &mut self.spatial {
+            spatial.set_forces(on);
+        }
+    }
+
+    /// Opens the OBJ file at `path` as the scene: one mesh, felt through the polygonal
+    /// baseline with the default material (K = 1000 N/m), the planar device idle. An invalid
+    /// file (the message names the file and line) or a mesh too big for a tick leaves the
+    /// running scene.
+    pub fn open_obj(&mut self, path: &Path) {
+        let label = path.display().to_string();
+        let opened = crate::mesh::load_obj(path)
+            .map_err(anyhow::Error::from)
+            .and_then(|obj| {
+                let material = FrictionMaterial::default();
+                SpatialState::of_mesh(&label, obj, material, self.is_threaded())
+            });
+        let spatial = match opened {
+            Ok(s) => s,
+            Err(e) => {
+                self.scene_error = Some(format!("{e:#}; the running scene is unchanged"));
+                return;
+            }
+        };
+        // The planar device renders nothing while a mesh is open: a scene of surfaces only.
+        let idle = BUNDLED
+            .iter()
+            .find(|b| b.name == "thesis-3d")
+            .and_then(|b| Scene::from_json_str(b.json).ok())
+            .and_then(|scene| Session::with_object(scene, None).ok());
+        if let Some(idle) = idle {
+            self.command(Command::Swap(Box::new(idle)));
+        }
+        self.scene = SceneView {
+            label: label.clone(),
+            objects: vec![ObjectView {
+                name: spatial.view.rendered_name.clone().unwrap_or_default(),
+                space: Space::Spatial,
+                curves: Vec::new(),
+                control_polygons: Vec::new(),
+            }],
+            rendered: None,
+            bounds: {
+                let (lo, hi) = spatial.view.bounds;
+                (Vec2::new(lo.x, lo.y), Vec2::new(hi.x, hi.y))
+            },
+        };
+        self.spatial = Some(spatial);
+        self.scene_error = None;
+        self.running_material = None;
+        self.material_error = None;
     }
 
     /// Clears the latched faults whose condition is gone.
@@ -703,6 +789,7 @@ impl AppState {
     /// Stops the loop (joins its thread); the recorder's input closes with it.
     pub fn shutdown(&mut self) {
         self.backend = Backend::Stopped;
+        self.spatial = None;
     }
 }
 
