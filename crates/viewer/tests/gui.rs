@@ -209,16 +209,23 @@ fn an_invalid_scene_leaves_the_running_one_and_surfaces_render_nothing() {
     let k = state.latest().expect("ticks").tick;
     assert_eq!(k.mode, Mode::Stuck, "still pressed into thesis-2d: {k:?}");
 
-    // thesis-3d is a surface: the planar device renders nothing, the app keeps running.
+    // thesis-3d is a surface: the planar device renders nothing, the spatial hand takes
+    // over (from free space above the bump), and the material editor edits its material.
     state.open_bundled("thesis-3d");
     assert_eq!(state.scene_error, None);
     assert!(!state.scene.is_planar());
     state.step(200);
     let k = state.latest().expect("ticks").tick;
     assert_eq!((k.mode, k.force), (Mode::Free, nurbs::Vec3::ZERO), "{k:?}");
+    assert_eq!(state.running_material.map(|m| m.mu_dynamic), Some(0.5));
     state.edited_material.mu_dynamic = 0.1;
     state.apply_material();
+    assert_eq!(state.material_error, None);
+    assert_eq!(state.running_material.map(|m| m.mu_dynamic), Some(0.1));
+    state.edited_material.mu_dynamic = 0.9;
+    state.apply_material();
     assert!(state.material_error.is_some());
+    assert_eq!(state.running_material.map(|m| m.mu_dynamic), Some(0.1));
 
     // And back: the arc is felt again from where the hand is.
     state.open_bundled("thesis-2d");
@@ -642,11 +649,9 @@ fn an_invalid_obj_is_refused_naming_the_line() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
-#[test]
-fn snapshot_3d_view_pressed_into_the_bump() {
+/// A harness on the 3-D view with its wgpu pipelines installed.
+fn harness_3d<'a>(state: AppState) -> Harness<'a, ViewerUi> {
     use eframe::egui_wgpu;
-    let mut state = stepped_3d();
-    press_apex(&mut state, 0.002);
     let render_state = egui_kittest::wgpu::create_render_state(
         egui_kittest::wgpu::default_wgpu_setup(),
         egui_wgpu::RendererOptions::PREDICTABLE,
@@ -669,5 +674,26 @@ fn snapshot_3d_view_pressed_into_the_bump() {
             ui,
         );
     h.run_steps(2);
-    h.snapshot("view_3d_thesis_3d_pressed");
+    h
+}
+
+#[test]
+fn snapshot_3d_view_pressed_into_the_bump() {
+    let mut state = stepped_3d();
+    press_apex(&mut state, 0.002);
+    harness_3d(state).snapshot("view_3d_thesis_3d_pressed");
+}
+
+/// The same press felt through the bump's tessellation at 2 mm: the facets the hand feels,
+/// flat shaded, and the normal of the facet under the HIP.
+#[test]
+fn snapshot_3d_view_of_the_bump_felt_as_a_mesh() {
+    let mut state = stepped_3d();
+    {
+        let spatial = state.spatial.as_mut().expect("3-D");
+        spatial.set_tolerance(2e-3);
+        spatial.set_render_mesh(true);
+    }
+    press_apex(&mut state, 0.002);
+    harness_3d(state).snapshot("view_3d_thesis_3d_mesh");
 }

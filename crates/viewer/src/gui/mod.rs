@@ -137,12 +137,18 @@ pub fn scenes_ui(ui: &mut egui::Ui, state: &mut AppState) {
 /// running material stays.
 pub fn materials_ui(ui: &mut egui::Ui, state: &mut AppState) {
     ui.heading("Material");
-    let Some(index) = state.scene.rendered else {
-        ui.label("No object of planar curves: nothing to render.");
-        return;
-    };
-    if let Some(o) = state.scene.objects.get(index) {
-        ui.label(format!("object {index}: {}", o.name));
+    let spatial = state.spatial.as_ref().filter(|s| s.has_loop());
+    if let Some(s) = spatial {
+        let name = s.view.rendered_name.as_deref().unwrap_or("");
+        ui.label(format!("felt by the spatial hand: {name}"));
+    } else {
+        let Some(index) = state.scene.rendered else {
+            ui.label("No object to render.");
+            return;
+        };
+        if let Some(o) = state.scene.objects.get(index) {
+            ui.label(format!("object {index}: {}", o.name));
+        }
     }
     let m = &mut state.edited_material;
     let mut changed = false;

@@ -26,6 +26,8 @@ pub struct SpatialState {
     backend: Option<SpatialBackend>,
     /// The NURBS scene and the index of the object felt (none for an opened mesh).
     source: Option<(Scene, usize)>,
+    /// The material the loop was last given.
+    material: FrictionMaterial,
     /// What the 3-D view draws.
     pub view: Scene3d,
     /// The hand's command (m).
@@ -61,8 +63,13 @@ impl SpatialState {
             }
             None => (None, haptic3d::start_hip(view_corners(&view))),
         };
+        let material = object
+            .and_then(|i| scene.object(i))
+            .map(|o| o.material().friction_material())
+            .unwrap_or_default();
         Ok(SpatialState {
             backend,
+            material,
             source: object.map(|i| (scene.clone(), i)),
             view,
             target: start,
@@ -92,6 +99,7 @@ impl SpatialState {
             .map_err(|e| anyhow::anyhow!("{label}: {e}"))?;
         Ok(SpatialState {
             backend: Some(SpatialBackend::start(spatial, threaded, None)?),
+            material,
             source: None,
             view,
             target: start,
@@ -107,6 +115,12 @@ impl SpatialState {
     /// Whether the object felt is a NURBS object that can be tessellated (and exported).
     pub fn can_tessellate(&self) -> bool {
         self.source.is_some()
+    }
+
+    /// The material of the object felt, if there is one.
+    pub fn material(&self) -> Option<FrictionMaterial> {
+        self.backend.as_ref()?;
+        Some(self.material)
     }
 
     /// Whether there is a loop (an object of surfaces or a mesh to feel).
@@ -138,7 +152,11 @@ impl SpatialState {
 
     /// Sets the material (validated by the loop); the reply, for a stepped loop.
     pub fn set_material(&mut self, material: FrictionMaterial) -> Option<Reply> {
-        self.command(Command3d::SetMaterial(material))
+        let reply = self.command(Command3d::SetMaterial(material));
+        if let Some(Reply::Material(Ok(m))) = &reply {
+            self.material = *m;
+        }
+        reply
     }
 
     /// The NURBS object's tessellation at the current tolerance.

@@ -374,12 +374,14 @@ impl AppState {
         let session = Session::new(scene.clone())?;
         let view = SceneView::new(label, &scene, session.object());
         let haptic = HapticLoop::new(session, START_HIP)?;
-        let running_material = haptic.material();
         let spatial = if view.is_planar() {
             None
         } else {
             Some(SpatialState::of_scene(label, &scene, threaded)?)
         };
+        let running_material = haptic
+            .material()
+            .or_else(|| spatial.as_ref().and_then(SpatialState::material));
         let backend = if threaded {
             Backend::Thread(LoopThread::spawn(haptic, record)?)
         } else {
@@ -560,6 +562,12 @@ impl AppState {
             self.material_error = Some(MaterialChangeError::Invalid(e).to_string());
             return;
         }
+        if let Some(spatial) = self.spatial.as_mut().filter(|s| s.has_loop()) {
+            if let Some(reply) = spatial.set_material(m) {
+                self.on_reply(reply);
+            }
+            return;
+        }
         if self.scene.rendered.is_none() {
             self.material_error = Some(MaterialChangeError::NoObject.to_string());
             return;
@@ -630,7 +638,8 @@ impl AppState {
         let material = view
             .rendered
             .and_then(|i| scene.object(i))
-            .map(|o| o.material().friction_material());
+            .map(|o| o.material().friction_material())
+            .or_else(|| spatial.as_ref().and_then(SpatialState::material));
         if !self.command(Command::Swap(Box::new(session))) {
             self.scene_error = Some(format!(
                 "{label}: the haptic loop did not take the scene (its queue is full)"
@@ -696,9 +705,10 @@ impl AppState {
                 (Vec2::new(lo.x, lo.y), Vec2::new(hi.x, hi.y))
             },
         };
+        self.running_material = spatial.material();
+        self.edited_material = self.running_material.unwrap_or_default();
         self.spatial = Some(spatial);
         self.scene_error = None;
-        self.running_material = None;
         self.material_error = None;
     }
 
@@ -748,7 +758,8 @@ impl AppState {
 
     /// Samples the UI channel dropped, commands dropped, and ticks the recorder dropped.
     pub fn dropped(&self) -> (u64, u64, u64) {
-        match &self.backend {
+        let (samples, commands) = self.spatial.as_ref().map_or((0, 0), SpatialState::dropped);
+        let (s, c, r) = match &self.backend {
             Backend::Thread(t) => {
                 let c = t.counters();
                 (
@@ -758,7 +769,8 @@ impl AppState {
                 )
             }
             Backend::Stepped(_) | Backend::Stopped => (0, 0, 0),
-        }
+        };
+        (s + samples, c + commands, r)
     }
 
     /// Why the arm could not move on some tick, if that happened (stepped loops only).

@@ -306,7 +306,7 @@ impl Default for Camera3d {
         Camera3d {
             target: Vec3::new(0.0, 0.09, 0.0),
             yaw_rad: -60f32.to_radians(),
-            pitch_rad: 35f32.to_radians(),
+            pitch_rad: 22f32.to_radians(),
             distance_m: 0.25,
             fov_y_rad: 35f32.to_radians(),
             fit_pending: true,
@@ -381,8 +381,17 @@ impl Camera3d {
         let (lo, hi) = (lo.min(include), hi.max(include));
         self.target = (lo + hi) * 0.5;
         let radius = ((hi - lo).length() * 0.5).max(0.005);
-        self.distance_m = radius / (self.fov_y_rad * 0.5).sin() * 1.1;
+        self.distance_m = radius / (self.fov_y_rad * 0.5).sin() * 0.9;
         self.fit_pending = false;
+    }
+
+    /// The head light's direction (towards the light): from behind the eye, above and to
+    /// the right of it, so that a bump seen from the front still shows its relief.
+    pub fn light_dir(&self) -> Vec3 {
+        let forward = self.view_dir();
+        let right = forward.cross(Vec3::Z).normalize_or(Vec3::X);
+        let up = right.cross(forward);
+        (-forward + up * 0.7 + right * 0.35).normalize_or(-forward)
     }
 
     /// Orbits by a drag of `delta` points.
@@ -700,7 +709,7 @@ pub fn view_3d_ui(ui: &mut egui::Ui, state: &mut AppState, camera: &mut Camera3d
 
     let geometry = spatial.view.geometry.clone();
     if installed {
-        let light = -camera.view_dir();
+        let light = camera.light_dir();
         let mut uniforms = [0.0f32; 20];
         uniforms[..16].copy_from_slice(&camera.view_proj(rect.aspect_ratio()).to_cols_array());
         uniforms[16..19].copy_from_slice(&light.to_array());
@@ -905,20 +914,16 @@ fn draw_legend(
             text,
         );
     }
-    line(
-        "drag: hand in the view plane  ·  shift+wheel: hand in depth  ·  right-drag or \
-         alt+drag: orbit  ·  wheel: zoom"
-            .into(),
-        Color32::from_gray(110),
-    );
     if !installed {
         line(
             "(wgpu renderer not available: surfaces not drawn)".into(),
             Color32::from_rgb(190, 30, 30),
         );
     }
-    let key_y = rect.bottom() - 8.0 - 17.0 * 2.0;
+    let key_y = rect.bottom() - 8.0 - 17.0 * 3.0;
     let key = [
+        "drag: hand in the view plane  ·  shift+wheel: in depth  ·  right- or alt+drag: orbit  \
+         ·  wheel: zoom",
         "big dot: HIP (mode colour)  ·  ring: CP  ·  small dot: GO  ·  cross: hand",
         "arrows: blue normal, coloured friction, black total (10 mm per N)",
     ];
