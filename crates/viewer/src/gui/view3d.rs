@@ -8,9 +8,9 @@
 //! sort: the same picture for the same camera) and drawn two-sided with a head light.
 //!
 //! Mouse: primary drag moves the hand in the view plane (the plane through the hand's target
-//! perpendicular to the view direction); shift + wheel moves it in depth (along the view
-//! direction); secondary or middle drag, or alt + primary drag, orbits; the wheel zooms; a
-//! double click fits the scene.
+//! perpendicular to the view direction); the wheel while the hand is held (or shift + wheel)
+//! moves it in depth, 1 mm per 50 points of scroll, along the view direction; secondary or
+//! middle drag, or alt + primary drag, orbits; the wheel zooms; a double click fits the scene.
 
 use std::sync::Arc;
 
@@ -679,9 +679,12 @@ pub fn view_3d_ui(ui: &mut egui::Ui, state: &mut AppState, camera: &mut Camera3d
     if orbiting {
         camera.orbit(response.drag_delta());
     }
+    let primary_down = ui.input(|i| i.pointer.primary_down());
+    let holding = response.is_pointer_button_down_on() && primary_down && !modifiers.alt;
     if response.hovered() {
         let (scroll, zoom) = ui.input(|i| (i.smooth_scroll_delta(), i.zoom_delta()));
-        if modifiers.shift {
+        // The wheel moves the hand in depth while it is held (or with shift), else zooms.
+        if modifiers.shift || holding {
             // Shift turns the wheel sideways on some platforms: take both axes.
             let notches = (scroll.y + scroll.x) / 50.0;
             if notches.abs() > 1e-3 {
@@ -695,8 +698,7 @@ pub fn view_3d_ui(ui: &mut egui::Ui, state: &mut AppState, camera: &mut Camera3d
             }
         }
     }
-    let primary_down = ui.input(|i| i.pointer.primary_down());
-    if !orbiting && !modifiers.alt && response.is_pointer_button_down_on() && primary_down {
+    if !orbiting && holding {
         if let Some(p) = response.interact_pointer_pos()
             && let Some(target) = camera.on_view_plane(rect, p, spatial.target)
         {
@@ -922,7 +924,7 @@ fn draw_legend(
     }
     let key_y = rect.bottom() - 8.0 - 17.0 * 3.0;
     let key = [
-        "drag: hand in the view plane  ·  shift+wheel: in depth  ·  right- or alt+drag: orbit  \
+        "drag: hand  ·  wheel while dragging, or shift+wheel: depth  ·  right/alt-drag: orbit  \
          ·  wheel: zoom",
         "big dot: HIP (mode colour)  ·  ring: CP  ·  small dot: GO  ·  cross: hand",
         "arrows: blue normal, coloured friction, black total (10 mm per N)",
