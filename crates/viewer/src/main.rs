@@ -69,6 +69,11 @@ fn gui_command(args: &GuiArgs) -> ExitCode {
     {
         return fail(&e, EXIT_BAD_SETUP);
     }
+    if let Some(path) = &args.mesh
+        && let Err(e) = viewer::mesh::load_obj(path).context("invalid mesh")
+    {
+        return fail(&e, EXIT_BAD_SETUP);
+    }
     if let Some(path) = &args.record
         && let Err(e) = std::fs::OpenOptions::new()
             .create(true)

@@ -141,6 +141,9 @@ pub fn materials_ui(ui: &mut egui::Ui, state: &mut AppState) {
     if let Some(s) = spatial {
         let name = s.view.rendered_name.as_deref().unwrap_or("");
         ui.label(format!("felt by the spatial hand: {name}"));
+        if s.render_mesh {
+            ui.label("as a mesh: the polygonal baseline renders K·depth and b, no friction");
+        }
     } else {
         let Some(index) = state.scene.rendered else {
             ui.label("No object to render.");

@@ -376,12 +376,15 @@ impl Camera3d {
         (t > 0.0).then(|| o + d * t)
     }
 
-    /// Centres `bounds` (with `include`) in view at a distance that shows all of it.
-    pub fn fit(&mut self, (lo, hi): (Vec3, Vec3), include: Vec3) {
+    /// Centres `bounds` (with `include`) in a view of `aspect` (width / height) at a
+    /// distance that shows all of it: its bounding sphere within the narrower field of view.
+    pub fn fit(&mut self, (lo, hi): (Vec3, Vec3), include: Vec3, aspect: f32) {
         let (lo, hi) = (lo.min(include), hi.max(include));
         self.target = (lo + hi) * 0.5;
         let radius = ((hi - lo).length() * 0.5).max(0.005);
-        self.distance_m = radius / (self.fov_y_rad * 0.5).sin() * 0.9;
+        let half_y = self.fov_y_rad * 0.5;
+        let half_x = (half_y.tan() * aspect.max(0.1)).atan();
+        self.distance_m = radius / half_y.min(half_x).sin() * 0.95;
         self.fit_pending = false;
     }
 
@@ -668,7 +671,7 @@ pub fn view_3d_ui(ui: &mut egui::Ui, state: &mut AppState, camera: &mut Camera3d
         return;
     };
     if camera.fit_pending || response.double_clicked() {
-        camera.fit(spatial.view.bounds, spatial.start);
+        camera.fit(spatial.view.bounds, spatial.start, rect.aspect_ratio());
     }
     controls_ui(ui, rect, spatial, camera);
 
@@ -743,7 +746,7 @@ fn controls_ui(ui: &mut egui::Ui, rect: Rect, spatial: &mut SpatialState, camera
         egui::Frame::popup(ui.style()).show(ui, |ui| {
             ui.horizontal(|ui| {
                 if ui.button("fit").clicked() {
-                    camera.fit(spatial.view.bounds, spatial.start);
+                    camera.fit(spatial.view.bounds, spatial.start, rect.aspect_ratio());
                 }
                 if spatial.can_tessellate() {
                     let mut mesh = spatial.render_mesh;
