@@ -697,3 +697,71 @@ fn snapshot_3d_view_of_the_bump_felt_as_a_mesh() {
     press_apex(&mut state, 0.002);
     harness_3d(state).snapshot("view_3d_thesis_3d_mesh");
 }
+
+/// The mouse in the 3-D view: a primary drag moves the hand's target in the view plane (no
+/// component along the view direction; to the camera's right for a drag to the right, by
+/// the distance the field of view gives at the target's depth: 2·d·tan(fov/2) per view
+/// height), and the wheel while the hand is held pushes it along the view direction, 1 mm
+/// per 50 points of scroll.
+#[test]
+fn dragging_in_the_3d_view_moves_the_hand_in_the_view_plane_and_the_wheel_in_depth() {
+    let state = stepped_3d();
+    let mut h = Harness::builder()
+        .with_size(egui::Vec2::new(800.0, 600.0))
+        .build_ui_state(
+            |ui, v: &mut ViewerUi| {
+                view3d::view_3d_ui(ui, &mut v.state, &mut v.camera3d, false);
+            },
+            ViewerUi::new(state),
+        );
+    h.run_steps(2);
+    let camera = h.state().camera3d;
+    let start = h.state().state.spatial.as_ref().expect("3-D").target;
+    let centre = egui::pos2(400.0, 300.0);
+    h.hover_at(centre);
+    h.run_steps(1);
+    h.drag_at(centre);
+    h.run_steps(1);
+    let grabbed = h.state().state.spatial.as_ref().expect("3-D").target;
+    h.hover_at(centre + egui::vec2(100.0, 0.0));
+    h.run_steps(2);
+    let moved = h.state().state.spatial.as_ref().expect("3-D").target;
+    let delta = moved - grabbed;
+    let view = camera.view_dir();
+    let right = view.cross(Vec3::Z).normalize();
+    assert!(delta.dot(view).abs() < 1e-6, "{delta}");
+    assert!(delta.dot(right) > 0.99 * delta.length(), "{delta}");
+    // The view fills the window less egui's 8-point margins: 584 points high.
+    let depth = (grabbed - camera.eye()).dot(view);
+    let expected = 100.0 * 2.0 * depth * (camera.fov_y_rad * 0.5).tan() / 584.0;
+    assert!(
+        (delta.length() - expected).abs() < 0.02 * expected,
+        "{} vs {expected}",
+        delta.length()
+    );
+    // A press puts the hand under the pointer, at the depth it had.
+    let rect = egui::Rect::from_min_max(egui::pos2(8.0, 8.0), egui::pos2(792.0, 592.0));
+    let under = camera.project(rect, grabbed).expect("in front");
+    assert!((under - centre).length() < 0.5, "{under:?}");
+    assert!(((grabbed - start).dot(view)).abs() < 1e-6);
+
+    // Back to the centre, then the wheel while holding.
+    h.hover_at(centre);
+    h.run_steps(2);
+    let before = h.state().state.spatial.as_ref().expect("3-D").target;
+    h.event(egui::Event::MouseWheel {
+        unit: egui::MouseWheelUnit::Point,
+        delta: egui::vec2(0.0, 50.0),
+        phase: egui::TouchPhase::Move,
+        modifiers: egui::Modifiers::NONE,
+        source: egui::MouseWheelSource::Wheel,
+    });
+    h.run_steps(60);
+    let after = h.state().state.spatial.as_ref().expect("3-D").target;
+    let push = after - before;
+    assert!((push.dot(view) - 1e-3).abs() < 2e-5, "{push}");
+    assert!((push - view * push.dot(view)).length() < 2e-5, "{push}");
+    h.drop_at(centre);
+    h.run_steps(1);
+    assert!(!h.state().state.dragging);
+}
