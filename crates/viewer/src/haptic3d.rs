@@ -468,9 +468,9 @@ pub enum Command3d {
     Forces(bool),
 }
 
-/// Applies one command to `spatial`; the reply, if it has one. A refused mesh is reported as
-/// a [`Reply::Material`] error would be: through [`Reply::Swapped`] not coming (the UI checks
-/// meshes with [`check_mesh`] before sending them).
+/// Applies one command to `spatial`; the reply, if it has one: [`Reply::Swapped`] once a
+/// mesh or a session took effect (a mesh the loop refuses gets none; the UI checks meshes with
+/// [`check_mesh`] before sending them).
 pub fn apply(spatial: &mut SpatialLoop, command: Command3d) -> Option<Reply> {
     match command {
         Command3d::HandTarget(t) => {

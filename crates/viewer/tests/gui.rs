@@ -619,9 +619,17 @@ fn obj_export_round_trips_and_lies_on_the_surface() {
     // And the app opens it as a mesh, felt with the baseline.
     state.open_obj(&path);
     assert_eq!(state.scene_error, None);
-    let spatial = state.spatial.as_ref().expect("3-D");
+    let spatial = state.spatial.as_mut().expect("3-D");
     assert!(spatial.stepped().is_some_and(|s| s.renders_mesh()));
     assert_eq!(spatial.mesh_triangles, Some(mesh.triangles().len()));
+    // An opened mesh has no NURBS object to switch back to: it stays felt.
+    assert!(!spatial.can_tessellate());
+    spatial.set_tolerance(1e-3);
+    spatial.set_render_mesh(false);
+    assert!(spatial.stepped().is_some_and(|s| s.renders_mesh()));
+    press_apex(&mut state, 0.001);
+    let k = state.latest().expect("ticks").tick;
+    assert_eq!((k.mode, k.mu), (Mode::Slip, 0.0), "{k:?}");
     let _ = std::fs::remove_dir_all(&dir);
 }
 

@@ -167,16 +167,19 @@ impl SpatialState {
 
     /// Feels the tessellation at the current tolerance (`true`) or the NURBS object. A mesh
     /// the loop cannot scan in a tick is refused with a message and the NURBS object stays.
+    /// Nothing changes for an opened mesh (there is no NURBS object).
     pub fn set_render_mesh(&mut self, on: bool) {
-        let object = self.source.as_ref().map(|(_, i)| *i);
-        let (Some(object), true) = (object, on) else {
+        let Some(object) = self.source.as_ref().map(|(_, i)| *i) else {
+            return;
+        };
+        if !on {
             self.render_mesh = false;
             self.mesh_triangles = None;
             self.view.set_faceted(None);
             self.message = None;
             self.command(Command3d::Mesh(None));
             return;
-        };
+        }
         let Some(mesh) = self.tessellation() else {
             return;
         };
@@ -197,7 +200,7 @@ impl SpatialState {
         if tol_m.is_finite() {
             self.tolerance_m = tol_m.clamp(1e-5, 1e-2);
         }
-        if self.render_mesh {
+        if self.render_mesh && self.can_tessellate() {
             self.set_render_mesh(true);
         }
     }
