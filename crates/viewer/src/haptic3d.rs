@@ -501,7 +501,7 @@ impl Steppable for SpatialLoop {
     }
 
     /// The sample's `hand_target` is the hand's command projected on the plane (x, y); the
-    /// 3-D command is the UI's own ([`crate::gui::state::AppState::spatial_target`]).
+    /// 3-D command is the UI's own (the GUI's `SpatialState::target`).
     fn step_sample(&mut self) -> Sample {
         let tick = self.step();
         let c = self.hand_target();

@@ -36,7 +36,7 @@ pub const WIRE_SAMPLES: usize = 256;
 pub const M_PER_N: f32 = 0.01;
 
 /// Floats per vertex on the GPU: position (3), normal (3; zero for unlit lines), colour (4).
-const VERTEX_FLOATS: usize = 10;
+pub const VERTEX_FLOATS: usize = 10;
 
 const SURFACE: [f32; 4] = [0.55, 0.68, 0.85, 1.0];
 const FACETED: [f32; 4] = [0.85, 0.68, 0.45, 1.0];
