@@ -702,6 +702,39 @@ mod tests {
         );
     }
 
+    /// The spatial loop on its own thread (the planar loop's `LoopThread`): it ticks, takes
+    /// the hand's command and a material, and reports K·d once pressed (polled for up to 10 s
+    /// of wall time; nothing here is timed).
+    #[test]
+    fn the_spatial_loop_runs_on_the_loop_thread() {
+        use std::time::{Duration, Instant};
+        let scene = floor();
+        let start = start_hip(control_points(&scene, 0));
+        let session = SpatialSession::nurbs(scene, 0, start).expect("session");
+        let thread = LoopThread::spawn(SpatialLoop::new(session, start), None).expect("spawn");
+        let softer = FrictionMaterial {
+            stiffness_n_per_m: 500.0,
+            ..FrictionMaterial::default()
+        };
+        assert!(thread.send(Command3d::SetMaterial(softer)));
+        assert!(thread.send(Command3d::HandTarget(Vec3::new(start.x, start.y, -0.002))));
+        let waited = Instant::now();
+        let (mut last, mut replies) = (None, Vec::new());
+        while waited.elapsed() < Duration::from_secs(10) {
+            thread.drain_samples(|s| last = Some(s));
+            replies.extend(thread.drain_replies());
+            if last.is_some_and(|s: Sample| (s.tick.normal_force_n - 1.0).abs() < 1e-5) {
+                break;
+            }
+            std::thread::sleep(Duration::from_millis(5));
+        }
+        let s = last.expect("samples");
+        // K·d with the new K: 500 N/m × 2 mm.
+        assert!((s.tick.normal_force_n - 1.0).abs() < 1e-5, "{s:?}");
+        assert!(s.period_us.is_some());
+        assert!(matches!(replies.first(), Some(Reply::Material(Ok(m))) if *m == softer));
+    }
+
     /// A mesh beyond what a tick scans is refused and the NURBS rendering stays.
     #[test]
     fn a_too_fine_mesh_is_refused() {
