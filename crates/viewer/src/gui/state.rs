@@ -627,7 +627,10 @@ impl AppState {
             None
         } else {
             match SpatialState::of_scene(label, &scene, self.is_threaded()) {
-                Ok(s) => Some(s),
+                Ok(mut s) => {
+                    s.set_forces(self.forces_requested);
+                    Some(s)
+                }
                 Err(e) => {
                     self.scene_error =
                         Some(format!("{label}: {e:#}; the running scene is unchanged"));
@@ -676,7 +679,10 @@ impl AppState {
                 SpatialState::of_mesh(&label, obj, material, self.is_threaded())
             });
         let spatial = match opened {
-            Ok(s) => s,
+            Ok(mut s) => {
+                s.set_forces(self.forces_requested);
+                s
+            }
             Err(e) => {
                 self.scene_error = Some(format!("{e:#}; the running scene is unchanged"));
                 return;
