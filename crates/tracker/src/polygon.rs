@@ -406,6 +406,35 @@ impl TriMesh {
         }
     }
 
+    /// A mesh of given triangles (an imported mesh, or several tessellations joined):
+    /// `vertices`, the surface parameters of each (`[0, 0]` where there are none: `params`
+    /// shorter than `vertices` is padded), and triangles of vertex indices. Triangles with an
+    /// index out of range or of zero area get no normal and are dropped.
+    pub fn from_triangles(
+        vertices: Vec<Vec3>,
+        mut params: Vec<[f32; 2]>,
+        triangles: &[[u32; 3]],
+    ) -> Self {
+        params.resize(vertices.len(), [0.0; 2]);
+        let mut kept = Vec::with_capacity(triangles.len());
+        let mut normals = Vec::with_capacity(triangles.len());
+        for tri in triangles {
+            let [Some(a), Some(b), Some(c)] = tri.map(|k| vertices.get(k as usize).copied()) else {
+                continue;
+            };
+            if let Some(n) = triangle_normal(a, b, c) {
+                kept.push(*tri);
+                normals.push(n);
+            }
+        }
+        TriMesh {
+            vertices,
+            params,
+            triangles: kept,
+            normals,
+        }
+    }
+
     /// The vertices (all on the surface).
     pub fn vertices(&self) -> &[Vec3] {
         &self.vertices

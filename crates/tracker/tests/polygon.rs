@@ -323,3 +323,25 @@ fn caps_bound_degenerate_tolerances() {
     let line = construct::line(Vec2::new(-0.04, 0.06), Vec2::new(0.04, 0.12)).unwrap();
     assert_eq!(Polyline::tessellate(&line.view(), 1e-6).segment_count(), 1);
 }
+
+/// `TriMesh::from_triangles` keeps valid triangles with their right-hand normals, drops one
+/// whose index is out of range and one of zero area, and pads missing parameters with zero.
+#[test]
+fn from_triangles_keeps_the_valid_ones() {
+    let vertices = vec![
+        Vec3::new(0.0, 0.0, 0.0),
+        Vec3::new(1.0, 0.0, 0.0),
+        Vec3::new(0.0, 1.0, 0.0),
+        Vec3::new(2.0, 0.0, 0.0),
+    ];
+    let mesh = TriMesh::from_triangles(
+        vertices,
+        vec![[0.5, 0.5]],
+        &[[0, 1, 2], [0, 2, 1], [0, 1, 9], [0, 1, 3]],
+    );
+    assert_eq!(mesh.triangles(), &[[0, 1, 2], [0, 2, 1]]);
+    assert_eq!(mesh.normals(), &[Vec3::Z, -Vec3::Z]);
+    assert_eq!(mesh.params(), &[[0.5, 0.5], [0.0; 2], [0.0; 2], [0.0; 2]]);
+    let hit = mesh.closest(Vec3::new(0.25, 0.25, 1.0)).expect("a hit");
+    assert_eq!(hit.point, Vec3::new(0.25, 0.25, 0.0));
+}

@@ -64,8 +64,10 @@ rendered force pushes the handle back, so sticking, breakaway and slipping show 
 const GUI_AFTER: &str = "\
 Without SCENE the bundled thesis-2d scene opens; the bundled scenes (thesis-2d, thesis-3d, \
 examples) are one click away in the app, and any scene file can be opened by its path. The \
-device renders the first object of planar curves; a scene of surfaces shows a message (the \
-3-D view comes later).
+device renders the first object of planar curves. A scene with none (surfaces) opens the 3-D \
+view, where the hand is an impedance point moved in the view plane (shift + wheel or the \
+wheel while held: depth) and felt through the friction renderer; --mesh FILE.obj opens a \
+Wavefront mesh there, felt through the polygonal baseline.
 
 --device picks what the app drives: sim (default) runs the simulated pantograph in the app; \
 tcp:HOST:PORT connects to the firmware under QEMU (start it with `cargo xtask qemu --serve \
@@ -126,6 +128,10 @@ pub struct GuiArgs {
     /// Move the hand along the thesis's 2-D path (scenes/thesis-2d.csv), as a drag would.
     #[arg(long)]
     pub demo: bool,
+    /// Open this Wavefront OBJ mesh instead of a scene: felt through the polygonal baseline
+    /// (penalty along the closest triangle's face normal) in the 3-D view.
+    #[arg(long, value_name = "FILE.obj", conflicts_with = "scene")]
+    pub mesh: Option<PathBuf>,
 }
 
 /// The device of `viewer gui --device`: `None` for the simulated pantograph in the app.

@@ -513,11 +513,41 @@ pub fn raise_priority() -> bool {
     }
 }
 
-/// A [`HapticLoop`] on its own thread, ticking in real time at [`RATE_HZ`]. Dropping it stops
-/// the thread (and, with it, the recorder's input).
+/// A loop [`LoopThread`] runs: the planar [`HapticLoop`], or the spatial hand of
+/// [`crate::haptic3d`]. One tick at a time, commands applied between ticks.
+pub trait Steppable: Send + 'static {
+    /// What the UI asks of it.
+    type Command: Send + 'static;
+    /// Applies one command; the reply, if it has one.
+    fn apply(&mut self, command: Self::Command) -> Option<Reply>;
+    /// Runs one tick; its sample without a period (the thread adds it).
+    fn step_sample(&mut self) -> Sample;
+}
+
+impl Steppable for HapticLoop {
+    type Command = Command;
+
+    fn apply(&mut self, command: Command) -> Option<Reply> {
+        apply(self, command)
+    }
+
+    fn step_sample(&mut self) -> Sample {
+        let tick = self.step();
+        Sample {
+            tick,
+            hand_target: self.hand_target(),
+            period_us: None,
+            forces_enabled: self.forces_enabled(),
+        }
+    }
+}
+
+/// A [`HapticLoop`] (or another [`Steppable`], or the host of a device behind a link) on its
+/// own thread, ticking in real time at [`RATE_HZ`], taking commands of type `C`. Dropping it
+/// stops the thread (and, with it, the recorder's input).
 #[derive(Debug)]
-pub struct LoopThread {
-    commands: SyncSender<Command>,
+pub struct LoopThread<C: Send + 'static = Command> {
+    commands: SyncSender<C>,
     samples: Receiver<Sample>,
     replies: Receiver<Reply>,
     counters: Arc<LoopCounters>,
@@ -525,10 +555,13 @@ pub struct LoopThread {
     thread: Option<JoinHandle<()>>,
 }
 
-impl LoopThread {
+impl<C: Send + 'static> LoopThread<C> {
     /// Starts `haptic` on a thread named `haptic-loop`; every tick also goes to `record`
     /// when given.
-    pub fn spawn(mut haptic: HapticLoop, record: Option<SyncSender<Tick>>) -> io::Result<Self> {
+    pub fn spawn<L: Steppable<Command = C>>(
+        mut haptic: L,
+        record: Option<SyncSender<Tick>>,
+    ) -> io::Result<Self> {
         Self::spawn_with("haptic-loop", record, move |ends| {
             ends.counters
                 .realtime
@@ -538,11 +571,11 @@ impl LoopThread {
     }
 
     /// Starts `body` on a thread named `name` with the thread's ends of the channels: the
-    /// loop of a device behind a link ([`crate::remote`]) is the other body.
+    /// host of a device behind a link ([`crate::remote`]) is the other body.
     pub fn spawn_with(
         name: &str,
         record: Option<SyncSender<Tick>>,
-        body: impl FnOnce(LoopEnds) + Send + 'static,
+        body: impl FnOnce(LoopEnds<C>) + Send + 'static,
     ) -> io::Result<Self> {
         let (commands, command_rx) = mpsc::sync_channel(COMMAND_CAPACITY);
         let (sample_tx, samples) = mpsc::sync_channel(TELEMETRY_CAPACITY);
@@ -571,7 +604,7 @@ impl LoopThread {
     }
 
     /// Sends a command without waiting; a full channel drops it (counted) and returns false.
-    pub fn send(&self, command: Command) -> bool {
+    pub fn send(&self, command: C) -> bool {
         match self.commands.try_send(command) {
             Ok(()) => true,
             Err(TrySendError::Full(_) | TrySendError::Disconnected(_)) => {
@@ -606,7 +639,7 @@ impl LoopThread {
     }
 }
 
-impl Drop for LoopThread {
+impl<C: Send + 'static> Drop for LoopThread<C> {
     fn drop(&mut self) {
         self.stop.store(true, Ordering::Relaxed);
         if let Some(thread) = self.thread.take() {
@@ -641,9 +674,9 @@ pub fn apply(haptic: &mut HapticLoop, command: Command) -> Option<Reply> {
 
 /// The loop thread's ends of its channels.
 #[derive(Debug)]
-pub struct LoopEnds {
+pub struct LoopEnds<C = Command> {
     /// Commands from the UI.
-    pub commands: Receiver<Command>,
+    pub commands: Receiver<C>,
     samples: SyncSender<Sample>,
     /// Replies to the UI.
     pub replies: Sender<Reply>,
@@ -653,7 +686,7 @@ pub struct LoopEnds {
     stop: Arc<AtomicBool>,
 }
 
-impl LoopEnds {
+impl<C> LoopEnds<C> {
     /// Whether the UI asked the thread to stop.
     pub fn stopping(&self) -> bool {
         self.stop.load(Ordering::Relaxed)
@@ -692,7 +725,7 @@ impl LoopEnds {
 /// to the UI and the recorder (dropped, and counted, when their channels are full), then a
 /// sleep until the next tick is due on an absolute schedule (so lateness does not
 /// accumulate; more than 100 ms behind, after a suspend, the schedule restarts).
-fn run_paced(haptic: &mut HapticLoop, ends: &LoopEnds) {
+fn run_paced<L: Steppable>(haptic: &mut L, ends: &LoopEnds<L::Command>) {
     let period = Duration::from_secs_f64(1.0 / RATE_HZ);
     let mut epoch = Instant::now();
     let mut since_epoch: u32 = 0;
@@ -702,7 +735,7 @@ fn run_paced(haptic: &mut HapticLoop, ends: &LoopEnds) {
         loop {
             match ends.commands.try_recv() {
                 Ok(c) => {
-                    if let Some(r) = apply(haptic, c) {
+                    if let Some(r) = haptic.apply(c) {
                         ends.reply(r);
                     }
                 }
@@ -710,12 +743,9 @@ fn run_paced(haptic: &mut HapticLoop, ends: &LoopEnds) {
                 Err(TryRecvError::Disconnected) => return,
             }
         }
-        let tick = haptic.step();
         let sample = Sample {
-            tick,
-            hand_target: haptic.hand_target(),
             period_us: previous.map(|p| (begun - p).as_secs_f32() * 1e6),
-            forces_enabled: haptic.forces_enabled(),
+            ..haptic.step_sample()
         };
         previous = Some(begun);
         if !ends.publish(sample) {

@@ -9,6 +9,8 @@ pub mod eval;
 #[cfg(feature = "gui")]
 pub mod gui;
 pub mod haptic;
+pub mod haptic3d;
+pub mod mesh;
 pub mod output;
 pub mod plot;
 pub mod remote;

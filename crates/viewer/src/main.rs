@@ -66,6 +66,11 @@ fn gui_command(args: &GuiArgs) -> ExitCode {
     {
         return fail(&e, EXIT_BAD_SETUP);
     }
+    if let Some(path) = &args.mesh
+        && let Err(e) = viewer::mesh::load_obj(path).context("invalid mesh")
+    {
+        return fail(&e, EXIT_BAD_SETUP);
+    }
     if let Some(path) = &args.record
         && let Err(e) = std::fs::OpenOptions::new()
             .create(true)
@@ -81,6 +86,7 @@ fn gui_command(args: &GuiArgs) -> ExitCode {
         quit_after_frames: args.quit_after_frames,
         device: args.device.0.clone(),
         demo: args.demo,
+        mesh: args.mesh.clone(),
     };
     match viewer::gui::run(options) {
         Ok(summary) => {

@@ -402,14 +402,32 @@ fn simulate<O: TrackedObject>(
         };
         previous = xyz;
         let (hip, hip_velocity) = (point::<O::P>(xyz), point::<O::P>(velocity));
-        let out = renderer.tick(object, hip, hip_velocity, period_s);
-        ticks.push(in_source_patches(
-            record(t_s, hip, hip_velocity, &out),
+        ticks.push(render_tick(
+            &mut renderer,
             object,
+            t_s,
+            hip,
+            hip_velocity,
+            period_s,
         ));
         progress(i + 1, n);
     }
     ticks
+}
+
+/// One tick of a prescribed-HIP run, the step of [`run`] and of the GUI's spatial hand
+/// (`haptic3d`): the renderer turns the HIP and its velocity into a force, recorded as a
+/// [`Tick`] whose patch indices name the scene's patches.
+pub fn render_tick<O: TrackedObject>(
+    renderer: &mut FrictionRenderer<O>,
+    object: &O,
+    t_s: f64,
+    hip: O::P,
+    hip_velocity: O::P,
+    period_s: f32,
+) -> Tick {
+    let out = renderer.tick(object, hip, hip_velocity, period_s);
+    in_source_patches(record(t_s, hip, hip_velocity, &out), object)
 }
 
 /// A closed-loop run ([`run_device`]).

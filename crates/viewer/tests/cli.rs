@@ -400,3 +400,31 @@ fn plot_draws_a_run_log_and_refuses_other_files() {
         "{err}"
     );
 }
+
+/// `viewer gui --mesh FILE.obj` refuses an invalid mesh before opening a window, naming the
+/// file and the line (exit 2); a mesh and a scene together are refused by the command line.
+#[test]
+fn gui_refuses_an_invalid_mesh_before_opening_a_window() {
+    let dir = std::env::temp_dir().join(format!("viewer-cli-obj-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("temp dir");
+    let path = dir.join("bad.obj");
+    std::fs::write(&path, "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\nv 0 0 zero\n").expect("write");
+    let path_text = path.to_str().expect("UTF-8 path");
+    let out = viewer(&["gui", "--mesh", path_text], "");
+    assert_eq!(out.status.code(), Some(2));
+    let err = stderr(&out);
+    assert!(
+        err.contains(&format!(
+            "{path_text}:5: a vertex (v): \"zero\" is not a number"
+        )),
+        "{err}"
+    );
+    let out = viewer(&["gui", "s.json", "--mesh", path_text], "");
+    assert_eq!(out.status.code(), Some(2));
+    assert!(
+        stderr(&out).contains("cannot be used with"),
+        "{}",
+        stderr(&out)
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}

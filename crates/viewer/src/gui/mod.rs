@@ -8,8 +8,10 @@
 
 pub mod editing;
 pub mod replay;
+pub mod spatial;
 pub mod state;
 pub mod view;
+pub mod view3d;
 
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
@@ -24,6 +26,7 @@ use crate::scene::Scene;
 use crate::trajectory::Trajectory;
 use state::{AppState, BUNDLED};
 use view::{View2d, mode_colour, view_2d_ui};
+use view3d::{Camera3d, view_3d_ui};
 
 /// Plot colours of the force lines.
 const NORMAL: Color32 = Color32::from_rgb(40, 110, 200);
@@ -42,6 +45,10 @@ pub struct ViewerUi {
     pub view: View2d,
     /// Where `--record` writes, shown in the status bar.
     pub recording: Option<PathBuf>,
+    /// The 3-D view's camera.
+    pub camera3d: Camera3d,
+    /// Whether the 3-D view's wgpu pipelines are installed ([`view3d::install`]).
+    pub wgpu_installed: bool,
 }
 
 impl ViewerUi {
@@ -51,6 +58,8 @@ impl ViewerUi {
             state,
             view: View2d::default(),
             recording: None,
+            camera3d: Camera3d::default(),
+            wgpu_installed: false,
         }
     }
 
@@ -61,6 +70,7 @@ impl ViewerUi {
         egui::Panel::top("scenes").show(ui, |ui| scenes_ui(ui, &mut self.state));
         if self.state.scene.label != before {
             self.view.fit_pending = true;
+            self.camera3d.fit_pending = true;
         }
         egui::Panel::bottom("status").show(ui, |ui| {
             status_bar_ui(ui, &mut self.state, self.recording.as_deref());
@@ -80,7 +90,11 @@ impl ViewerUi {
             .default_size(430.0)
             .show(ui, |ui| telemetry_ui(ui, &self.state));
         egui::CentralPanel::no_frame().show(ui, |ui| {
-            view_2d_ui(ui, &mut self.state, &mut self.view);
+            if self.state.spatial.is_some() {
+                view_3d_ui(ui, &mut self.state, &mut self.camera3d, self.wgpu_installed);
+            } else {
+                view_2d_ui(ui, &mut self.state, &mut self.view);
+            }
         });
     }
 }
@@ -276,9 +290,24 @@ pub fn scenes_ui(ui: &mut egui::Ui, state: &mut AppState) {
                 .desired_width(260.0),
         );
         let enter = field.lost_focus() && ui.input(|i| i.key_pressed(egui::Key::Enter));
+        let path = PathBuf::from(state.scene_path.trim());
+        let obj = path
+            .extension()
+            .is_some_and(|e| e.eq_ignore_ascii_case("obj"));
         if (ui.button("Open").clicked() || enter) && !state.scene_path.trim().is_empty() {
-            let path = PathBuf::from(state.scene_path.trim());
-            state.open_path(&path);
+            if obj {
+                state.open_obj(&path);
+            } else {
+                state.open_path(&path);
+            }
+        }
+        if ui
+            .button("Open OBJ…")
+            .on_hover_text("open the path as a Wavefront OBJ mesh (the polygonal baseline)")
+            .clicked()
+            && !state.scene_path.trim().is_empty()
+        {
+            state.open_obj(&path);
         }
         if ui.button("Save").clicked() && !state.scene_path.trim().is_empty() {
             let path = PathBuf::from(state.scene_path.trim());
@@ -360,12 +389,21 @@ pub fn replay_ui(ui: &mut egui::Ui, state: &mut AppState) {
 /// running material stays.
 pub fn materials_ui(ui: &mut egui::Ui, state: &mut AppState) {
     ui.heading("Material");
-    let Some(index) = state.scene.rendered else {
-        ui.label("No object of planar curves: nothing to render.");
-        return;
-    };
-    if let Some(o) = state.scene.objects.get(index) {
-        ui.label(format!("object {index}: {}", o.name));
+    let spatial = state.spatial.as_ref().filter(|s| s.has_loop());
+    if let Some(s) = spatial {
+        let name = s.view.rendered_name.as_deref().unwrap_or("");
+        ui.label(format!("felt by the spatial hand: {name}"));
+        if s.render_mesh {
+            ui.label("as a mesh: the polygonal baseline renders K·depth and b, no friction");
+        }
+    } else {
+        let Some(index) = state.scene.rendered else {
+            ui.label("No object to render.");
+            return;
+        };
+        if let Some(o) = state.scene.objects.get(index) {
+            ui.label(format!("object {index}: {}", o.name));
+        }
     }
     let m = &mut state.edited_material;
     let (stribeck_before, model_before) = (m.stribeck, m.model);
@@ -775,6 +813,8 @@ pub struct GuiOptions {
     pub demo: bool,
     /// The device behind a link to drive; the simulated pantograph in the app when `None`.
     pub device: Option<crate::devices::Target>,
+    /// An OBJ mesh to open instead of the scene.
+    pub mesh: Option<PathBuf>,
 }
 
 /// What a session measured, printed when the window closes.
@@ -931,6 +971,12 @@ pub fn run(options: GuiOptions) -> anyhow::Result<Summary> {
         None => (None, None),
     };
     let mut state = AppState::new(&label, scene, true, record_tx)?;
+    if let Some(path) = &options.mesh {
+        state.open_obj(path);
+        if let Some(e) = state.scene_error.take() {
+            anyhow::bail!("invalid mesh: {e}");
+        }
+    }
     if let Some(target) = options.device.clone() {
         state.connect(target);
     }
@@ -942,7 +988,7 @@ pub fn run(options: GuiOptions) -> anyhow::Result<Summary> {
         None
     };
     let summary = std::sync::Arc::new(std::sync::Mutex::new(Summary::default()));
-    let app = ViewerApp {
+    let mut app = ViewerApp {
         ui,
         options: options.clone(),
         demo,
@@ -964,6 +1010,10 @@ pub fn run(options: GuiOptions) -> anyhow::Result<Summary> {
         native,
         Box::new(move |cc| {
             cc.egui_ctx.set_theme(egui::Theme::Light);
+            if let Some(render_state) = cc.wgpu_render_state.as_ref() {
+                view3d::install(render_state);
+                app.ui.wgpu_installed = true;
+            }
             Ok(Box::new(app))
         }),
     );

@@ -15,6 +15,7 @@ use nurbs::Vec2;
 
 use super::editing::EditState;
 use super::replay::Replay;
+use super::spatial::SpatialState;
 use crate::devices::{self, Target};
 use crate::haptic::{
     self, Command, HapticLoop, LinkEvent, LoopThread, MaterialChangeError, Reply, START_HIP,
@@ -368,12 +369,14 @@ impl Default for DeviceForm {
 }
 
 /// A scene sent to the loop, shown once the loop (or the device) took it.
-#[derive(Clone, Debug)]
+#[derive(Debug)]
 struct PendingScene {
     view: SceneView,
     material: Option<FrictionMaterial>,
     /// An edit of the running scene (the edit history and the material editor stay).
     edited: bool,
+    /// The spatial hand of a scene without planar objects.
+    spatial: Option<SpatialState>,
 }
 
 /// The whole state of the app.
@@ -434,6 +437,9 @@ pub struct AppState {
     pub received: u64,
     /// Editing in the 2-D view: selection, drag, undo history.
     pub edit: EditState,
+    /// The 3-D view and the spatial hand, for a scene without planar objects (or an opened
+    /// mesh); while it is there the telemetry is the spatial loop's.
+    pub spatial: Option<SpatialState>,
 }
 
 impl AppState {
@@ -448,7 +454,14 @@ impl AppState {
         let session = Session::new(scene.clone())?;
         let view = SceneView::new(label, &scene, session.object());
         let haptic = HapticLoop::new(session, START_HIP)?;
-        let running_material = haptic.material();
+        let spatial = if view.is_planar() {
+            None
+        } else {
+            Some(SpatialState::of_scene(label, &scene, threaded)?)
+        };
+        let running_material = haptic
+            .material()
+            .or_else(|| spatial.as_ref().and_then(SpatialState::material));
         let backend = if threaded {
             Backend::Thread(LoopThread::spawn(haptic, record.clone())?)
         } else {
@@ -483,6 +496,7 @@ impl AppState {
             faults_after_clear: None,
             received: 0,
             edit: EditState::default(),
+            spatial,
         })
     }
 
@@ -517,6 +531,12 @@ impl AppState {
     /// Runs `n` ticks of a stepped loop (nothing for a threaded one), then takes in their
     /// telemetry as [`AppState::poll`] does.
     pub fn step(&mut self, n: usize) {
+        if let Some(spatial) = &mut self.spatial {
+            for s in spatial.step(n) {
+                self.take(s);
+            }
+            return;
+        }
         let mut samples = Vec::new();
         if let Backend::Stepped(h) = &mut self.backend {
             for _ in 0..n {
@@ -540,6 +560,12 @@ impl AppState {
         if let Backend::Thread(t) = &self.backend {
             t.drain_samples(|s| samples.push(s));
             replies = t.drain_replies();
+        }
+        if let Some(spatial) = &self.spatial {
+            // The planar loop renders nothing meanwhile: its ticks are not shown.
+            let (spatial_samples, spatial_replies) = spatial.drain();
+            samples = spatial_samples;
+            replies.extend(spatial_replies);
         }
         for s in samples {
             self.take(s);
@@ -640,6 +666,7 @@ impl AppState {
     }
 
     fn show_scene(&mut self, p: PendingScene) {
+        self.spatial = p.spatial;
         self.scene = p.view;
         self.scene_error = None;
         self.running_material = p.material;
@@ -843,6 +870,12 @@ impl AppState {
             self.material_error = Some(MaterialChangeError::Invalid(e).to_string());
             return;
         }
+        if let Some(spatial) = self.spatial.as_mut().filter(|s| s.has_loop()) {
+            if let Some(reply) = spatial.set_material(m) {
+                self.on_reply(reply);
+            }
+            return;
+        }
         if self.scene.rendered.is_none() {
             self.material_error = Some(MaterialChangeError::NoObject.to_string());
             return;
@@ -925,10 +958,19 @@ impl AppState {
         };
         let session = built.map_err(|e| format!("{label}: {e}; the running scene is unchanged"))?;
         let view = SceneView::new(&self.scene_label(label, edited), &scene, session.object());
+        let spatial = if view.is_planar() {
+            None
+        } else {
+            let mut s = SpatialState::of_scene(label, &scene, self.is_threaded())
+                .map_err(|e| format!("{label}: {e:#}; the running scene is unchanged"))?;
+            s.set_forces(self.forces_requested);
+            Some(s)
+        };
         let material = view
             .rendered
             .and_then(|i| scene.object(i))
-            .map(|o| o.material().friction_material());
+            .map(|o| o.material().friction_material())
+            .or_else(|| spatial.as_ref().and_then(SpatialState::material));
         if !self.command(Command::Swap(Box::new(session))) {
             return Err(format!(
                 "{label}: the haptic loop did not take the scene (its queue is full)"
@@ -938,6 +980,7 @@ impl AppState {
             view,
             material,
             edited,
+            spatial,
         };
         match &self.backend {
             // A stepped loop has already answered (in `command`).
@@ -983,6 +1026,65 @@ impl AppState {
     pub fn set_forces(&mut self, on: bool) {
         self.forces_requested = on;
         self.command(Command::Forces(on));
+        if let Some(spatial) = &mut self.spatial {
+            spatial.set_forces(on);
+        }
+    }
+
+    /// Opens the OBJ file at `path` as the scene: one mesh, felt through the polygonal
+    /// baseline with the default material (K = 1000 N/m), the planar device idle. An invalid
+    /// file (the message names the file and line) or a mesh too big for a tick leaves the
+    /// running scene.
+    pub fn open_obj(&mut self, path: &Path) {
+        let label = path.display().to_string();
+        let opened = crate::mesh::load_obj(path)
+            .map_err(anyhow::Error::from)
+            .and_then(|obj| {
+                let material = FrictionMaterial::default();
+                SpatialState::of_mesh(&label, obj, material, self.is_threaded())
+            });
+        let spatial = match opened {
+            Ok(mut s) => {
+                s.set_forces(self.forces_requested);
+                s
+            }
+            Err(e) => {
+                self.scene_error = Some(format!("{e:#}; the running scene is unchanged"));
+                return;
+            }
+        };
+        // The planar device renders nothing while a mesh is open: a scene of surfaces only.
+        let Some(idle_scene) = BUNDLED
+            .iter()
+            .find(|b| b.name == "thesis-3d")
+            .and_then(|b| Scene::from_json_str(b.json).ok())
+        else {
+            return;
+        };
+        if let Ok(idle) = Session::with_object(idle_scene.clone(), None) {
+            self.command(Command::Swap(Box::new(idle)));
+        }
+        self.pending = None;
+        self.scene = SceneView {
+            model: idle_scene,
+            label: label.clone(),
+            objects: vec![ObjectView {
+                name: spatial.view.rendered_name.clone().unwrap_or_default(),
+                space: Space::Spatial,
+                curves: Vec::new(),
+                control_polygons: Vec::new(),
+            }],
+            rendered: None,
+            bounds: {
+                let (lo, hi) = spatial.view.bounds;
+                (Vec2::new(lo.x, lo.y), Vec2::new(hi.x, hi.y))
+            },
+        };
+        self.running_material = spatial.material();
+        self.edited_material = self.running_material.unwrap_or_default();
+        self.spatial = Some(spatial);
+        self.scene_error = None;
+        self.material_error = None;
     }
 
     /// Clears the latched faults whose condition is gone.
@@ -1031,7 +1133,8 @@ impl AppState {
 
     /// Samples the UI channel dropped, commands dropped, and ticks the recorder dropped.
     pub fn dropped(&self) -> (u64, u64, u64) {
-        match &self.backend {
+        let (samples, commands) = self.spatial.as_ref().map_or((0, 0), SpatialState::dropped);
+        let (s, c, r) = match &self.backend {
             Backend::Thread(t) => {
                 let c = t.counters();
                 (
@@ -1041,7 +1144,8 @@ impl AppState {
                 )
             }
             Backend::Stepped(_) | Backend::Stopped => (0, 0, 0),
-        }
+        };
+        (s + samples, c + commands, r)
     }
 
     /// Why the arm could not move on some tick, if that happened (stepped loops only).
@@ -1073,6 +1177,7 @@ impl AppState {
     pub fn shutdown(&mut self) {
         self.backend = Backend::Stopped;
         self.record = None;
+        self.spatial = None;
     }
 }
 

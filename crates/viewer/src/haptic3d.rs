@@ -1,0 +1,766 @@
+//! The spatial hand behind the GUI's 3-D view: an impedance point (the HIP goes where the hand
+//! puts it, the force is only shown) on an object of surfaces, stepped one tick at a time at
+//! [`RATE_HZ`] by the same per-tick step as `viewer sim` on a spatial scene
+//! ([`sim::render_tick`]: the friction renderer on a [`Shell`]), or, on a mesh, by the
+//! polygonal baseline of the thesis (§2.1.3, Fig. 2.1.2 (b)): the closest triangle of a
+//! [`TriMesh`] and the penalty `K·depth` along its face normal, without friction.
+//!
+//! The loop runs on the thread of [`crate::haptic::LoopThread`] (it is a
+//! [`Steppable`]); its commands are [`Command3d`], its replies and samples those of the planar
+//! loop ([`Reply`], [`Sample`]). Tests step a [`SpatialLoop`] directly.
+
+use std::sync::mpsc::SyncSender;
+
+use friction::{FrictionMaterial, FrictionRenderer, Mode, SwitchCause};
+use nurbs::{Vec2, Vec3};
+use tracker::{Contact, Feature, Penalty, Shell, TriMesh};
+
+use crate::haptic::{
+    LoopThread, MAX_HAND_SPEED_M_PER_S, MaterialChangeError, RATE_HZ, Reply, Sample, Steppable,
+};
+use crate::scene::{Material, Scene, Space};
+use crate::sim::{self, SimError, Tick};
+
+/// Most triangles a mesh the loop renders may have: the baseline scans every triangle each
+/// tick, measured at 30 to 42 ns a triangle in the test profile on the project's 2-core
+/// machine under load (`measure_tick_costs` below), so 10 000 take about 0.4 ms of the 1 ms
+/// tick.
+pub const MAX_HAPTIC_TRIANGLES: usize = 10_000;
+
+/// Height of the hand's start above the top of the object (m).
+pub const START_CLEARANCE_M: f32 = 0.01;
+
+/// The object the spatial hand feels: object `object` (of surfaces) of a scene through the
+/// friction renderer, or a mesh through the penalty baseline.
+pub struct SpatialSession(SpatialCell);
+
+/// The owner of a [`SpatialSession`].
+#[derive(Debug)]
+struct SpatialSource {
+    scene: Option<Scene>,
+    object: usize,
+    material: FrictionMaterial,
+    name: String,
+}
+
+/// The shell of a NURBS object and its renderer (none for a mesh session).
+#[derive(Debug)]
+struct ShellRendering<'a> {
+    shell: Shell<'a>,
+    renderer: FrictionRenderer<Shell<'a>>,
+}
+
+type MaybeShell<'a> = Option<ShellRendering<'a>>;
+
+self_cell::self_cell!(
+    struct SpatialCell {
+        owner: SpatialSource,
+        #[not_covariant]
+        dependent: MaybeShell,
+    }
+);
+
+impl std::fmt::Debug for SpatialSession {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("SpatialSession")
+            .field("name", &self.name())
+            .field("object", &self.object())
+            .finish_non_exhaustive()
+    }
+}
+
+impl SpatialSession {
+    /// Object `object` of `scene` (it must be of surfaces), its renderer started at `hip`.
+    pub fn nurbs(scene: Scene, object: usize, hip: Vec3) -> Result<Self, SimError> {
+        let count = scene.objects().len();
+        let o = scene.object(object).ok_or(SimError::ObjectIndex {
+            index: object,
+            count,
+        })?;
+        let source = SpatialSource {
+            material: o.material().friction_material(),
+            name: o.name().to_owned(),
+            scene: Some(scene),
+            object,
+        };
+        let cell = SpatialCell::try_new(source, |s| match &s.scene {
+            Some(scene) => shell_rendering(scene, s.object, s.material, hip).map(Some),
+            None => Ok(None),
+        })?;
+        Ok(SpatialSession(cell))
+    }
+
+    /// A mesh object named `name` with `material` (the mesh itself goes to
+    /// [`SpatialLoop::set_mesh`]).
+    pub fn mesh(name: &str, material: FrictionMaterial) -> Self {
+        let source = SpatialSource {
+            scene: None,
+            object: 0,
+            material,
+            name: name.to_owned(),
+        };
+        SpatialSession(SpatialCell::new(source, |_| None))
+    }
+
+    /// The scene, for a NURBS session.
+    pub fn scene(&self) -> Option<&Scene> {
+        self.0.borrow_owner().scene.as_ref()
+    }
+
+    /// The object's index in the scene.
+    pub fn object(&self) -> usize {
+        self.0.borrow_owner().object
+    }
+
+    /// The object's name.
+    pub fn name(&self) -> &str {
+        &self.0.borrow_owner().name
+    }
+
+    /// The material.
+    pub fn material(&self) -> FrictionMaterial {
+        self.0.borrow_owner().material
+    }
+
+    /// Whether there is a NURBS object to render.
+    pub fn has_nurbs(&self) -> bool {
+        self.0.with_dependent(|_, d| d.is_some())
+    }
+
+    /// Restarts the renderer at `hip` with `material`.
+    fn restart(&mut self, hip: Vec3, material: FrictionMaterial) {
+        self.0.with_dependent_mut(|_, d| {
+            if let Some(r) = d {
+                let period_s = (1.0 / RATE_HZ) as f32;
+                r.renderer = FrictionRenderer::new(&r.shell, material, hip, period_s);
+            }
+        });
+    }
+}
+
+fn shell_rendering(
+    scene: &Scene,
+    index: usize,
+    material: FrictionMaterial,
+    hip: Vec3,
+) -> Result<ShellRendering<'_>, SimError> {
+    let o = scene.object(index).ok_or(SimError::ObjectIndex {
+        index,
+        count: scene.objects().len(),
+    })?;
+    let surfaces = o.surface_views().ok_or_else(|| SimError::Space {
+        trajectory: Space::Spatial,
+        object: o.space(),
+        index,
+        name: o.name().to_owned(),
+    })?;
+    let shell = Shell::new(&surfaces).map_err(|error| SimError::Shell { index, error })?;
+    let renderer = FrictionRenderer::new(&shell, material, hip, (1.0 / RATE_HZ) as f32);
+    Ok(ShellRendering { shell, renderer })
+}
+
+/// Where the spatial hand starts over `scene`'s object `object`: above the middle of its
+/// control points' box, [`START_CLEARANCE_M`] above their top (the surface lies in their convex
+/// hull, so the hand starts in free space).
+pub fn start_hip(points: impl IntoIterator<Item = Vec3>) -> Vec3 {
+    let (mut lo, mut hi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
+    for p in points {
+        lo = lo.min(p);
+        hi = hi.max(p);
+    }
+    if !(lo.is_finite() && hi.is_finite()) {
+        return Vec3::new(0.0, 0.09, START_CLEARANCE_M);
+    }
+    let c = (lo + hi) * 0.5;
+    Vec3::new(c.x, c.y, hi.z + START_CLEARANCE_M)
+}
+
+/// The control points of object `object` of `scene` (dehomogenised).
+pub fn control_points(scene: &Scene, object: usize) -> Vec<Vec3> {
+    use crate::scene::Patch;
+    let Some(o) = scene.object(object) else {
+        return Vec::new();
+    };
+    o.patches()
+        .iter()
+        .flat_map(|p| match p {
+            Patch::Surface(s) => s.points().to_vec(),
+            Patch::Curve3(c) => c.points().to_vec(),
+            Patch::Curve2(c) => c
+                .points()
+                .iter()
+                .map(|h| nurbs::Vec4::new(h.x, h.y, 0.0, h.z))
+                .collect(),
+        })
+        .map(|h| Vec3::new(h.x / h.w, h.y / h.w, h.z / h.w))
+        .collect()
+}
+
+/// The spatial loop: the session, the mesh rendered instead of the NURBS object when one is
+/// set, the HIP and the hand's command.
+#[derive(Debug)]
+pub struct SpatialLoop {
+    session: SpatialSession,
+    mesh: Option<TriMesh>,
+    material: FrictionMaterial,
+    hip: Vec3,
+    previous_hip: Vec3,
+    hand_command: Vec3,
+    forces_enabled: bool,
+    tick: u64,
+    period_s: f32,
+}
+
+/// Why a mesh was not taken for rendering.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum MeshError {
+    /// More triangles than the loop scans in a tick.
+    #[error(
+        "{triangles} triangles: the polygonal baseline scans every triangle each tick, at most \
+         {MAX_HAPTIC_TRIANGLES}; use a coarser chordal tolerance or a smaller mesh"
+    )]
+    TooManyTriangles {
+        /// Triangles in the mesh.
+        triangles: usize,
+    },
+    /// No triangle of nonzero area.
+    #[error("the mesh has no triangle of nonzero area")]
+    Empty,
+}
+
+/// Checks that the loop can render `mesh` in a tick.
+pub fn check_mesh(mesh: &TriMesh) -> Result<(), MeshError> {
+    let triangles = mesh.triangles().len();
+    if triangles == 0 {
+        Err(MeshError::Empty)
+    } else if triangles > MAX_HAPTIC_TRIANGLES {
+        Err(MeshError::TooManyTriangles { triangles })
+    } else {
+        Ok(())
+    }
+}
+
+impl SpatialLoop {
+    /// A loop on `session` with the HIP at rest at `hip`, forces on.
+    pub fn new(session: SpatialSession, hip: Vec3) -> Self {
+        let material = session.material();
+        SpatialLoop {
+            session,
+            mesh: None,
+            material,
+            hip,
+            previous_hip: hip,
+            hand_command: hip,
+            forces_enabled: true,
+            tick: 0,
+            period_s: (1.0 / RATE_HZ) as f32,
+        }
+    }
+
+    /// One tick: the HIP moves towards the hand's command at up to
+    /// [`MAX_HAND_SPEED_M_PER_S`] (the tracker follows a hand, not a teleport), its velocity
+    /// is the backward difference, and the mesh (when set) or the NURBS object renders the
+    /// force. With forces off the contact is still shown, the force is zero.
+    pub fn step(&mut self) -> Tick {
+        let to_go = self.hand_command - self.hip;
+        let max_step = MAX_HAND_SPEED_M_PER_S * self.period_s;
+        let length = to_go.length();
+        self.previous_hip = self.hip;
+        if length > max_step {
+            self.hip += to_go * (max_step / length);
+        } else {
+            self.hip = self.hand_command;
+        }
+        let velocity = (self.hip - self.previous_hip) / self.period_s;
+        let t_s = self.tick as f64 / RATE_HZ;
+        self.tick += 1;
+        let (hip, period_s) = (self.hip, self.period_s);
+        let mut tick = match &self.mesh {
+            Some(mesh) => mesh_tick(mesh, &self.material, t_s, hip, velocity),
+            None => self.session.0.with_dependent_mut(|_, d| match d {
+                Some(r) => {
+                    sim::render_tick(&mut r.renderer, &r.shell, t_s, hip, velocity, period_s)
+                }
+                None => free_tick(t_s, hip, velocity),
+            }),
+        };
+        if !self.forces_enabled {
+            tick.force = Vec3::ZERO;
+        }
+        tick
+    }
+
+    /// Commands the hand (m, device frame); a non-finite target is ignored.
+    pub fn set_hand_target(&mut self, target: Vec3) {
+        if target.is_finite() {
+            self.hand_command = target;
+        }
+    }
+
+    /// The HIP.
+    pub fn hip(&self) -> Vec3 {
+        self.hip
+    }
+
+    /// The hand's command.
+    pub fn hand_target(&self) -> Vec3 {
+        self.hand_command
+    }
+
+    /// Renders `mesh` (the penalty baseline) from the next tick, or, with `None`, the NURBS
+    /// object again (its renderer restarted at the HIP). A mesh the loop cannot scan in a
+    /// tick is refused and the running rendering stays.
+    pub fn set_mesh(&mut self, mesh: Option<TriMesh>) -> Result<(), MeshError> {
+        if let Some(m) = &mesh {
+            check_mesh(m)?;
+        } else {
+            self.session.restart(self.hip, self.material);
+        }
+        self.mesh = mesh;
+        Ok(())
+    }
+
+    /// Whether a mesh is rendered (rather than the NURBS object).
+    pub fn renders_mesh(&self) -> bool {
+        self.mesh.is_some()
+    }
+
+    /// Validates `material` and renders with it from the next tick (the renderer restarts).
+    pub fn set_material(
+        &mut self,
+        material: FrictionMaterial,
+    ) -> Result<FrictionMaterial, MaterialChangeError> {
+        Material::from_friction(material)?;
+        self.material = material;
+        self.session.restart(self.hip, material);
+        Ok(material)
+    }
+
+    /// The material rendered.
+    pub fn material(&self) -> FrictionMaterial {
+        self.material
+    }
+
+    /// Renders another object from the next tick; the HIP stays where it is.
+    pub fn swap(&mut self, mut session: SpatialSession) {
+        self.material = session.material();
+        session.restart(self.hip, self.material);
+        self.session = session;
+        self.mesh = None;
+    }
+
+    /// The session.
+    pub fn session(&self) -> &SpatialSession {
+        &self.session
+    }
+
+    /// Enables or disables the forces.
+    pub fn set_forces_enabled(&mut self, enabled: bool) {
+        self.forces_enabled = enabled;
+    }
+
+    /// Whether forces are enabled.
+    pub fn forces_enabled(&self) -> bool {
+        self.forces_enabled
+    }
+
+    /// Ticks so far.
+    pub fn ticks(&self) -> u64 {
+        self.tick
+    }
+}
+
+/// One tick of the polygonal baseline: the closest point over the triangles, the depth
+/// `(point − HIP)·n` along the closest triangle's face normal `n`, and the penalty of
+/// [`Contact::normal_force`] (`K·depth − b·v·n`, never pulling), without friction: in contact
+/// it reports slip at μ = 0, the CP and the GO are the closest point, `cp_patch` the
+/// triangle's index and `cp_params` the surface parameters interpolated there (a tessellated
+/// NURBS surface; zero for an imported mesh).
+pub fn mesh_tick(
+    mesh: &TriMesh,
+    material: &FrictionMaterial,
+    t_s: f64,
+    hip: Vec3,
+    hip_velocity: Vec3,
+) -> Tick {
+    let Some(hit) = mesh.closest(hip) else {
+        return free_tick(t_s, hip, hip_velocity);
+    };
+    let depth = (hit.point - hip).dot(hit.normal);
+    let contact = Contact {
+        feature: Feature::Patch(0),
+        patch: 0,
+        params: hit.t,
+        point: hit.point,
+        normal: hit.normal,
+        depth,
+        psi: [0.0; 2],
+        inside: depth > 0.0,
+    };
+    let penalty = Penalty {
+        stiffness_n_per_m: material.stiffness_n_per_m,
+        damping_ns_per_m: material.damping_ns_per_m,
+    };
+    let normal_force_n = contact.normal_force(&penalty, hip_velocity);
+    let touching = depth > 0.0;
+    Tick {
+        cp: hit.point,
+        go: hit.point,
+        patch: touching.then_some(0),
+        mode: if touching { Mode::Slip } else { Mode::Free },
+        depth_m: depth,
+        normal_force_n,
+        normal: hit.normal,
+        force: hit.normal * normal_force_n,
+        cp_patch: hit.triangle,
+        cp_param: hit.t[0],
+        cp_params: hit.t,
+        go_patch: hit.triangle,
+        go_param: hit.t[0],
+        go_params: hit.t,
+        ..free_tick(t_s, hip, hip_velocity)
+    }
+}
+
+/// A tick with nothing in contact at `hip`.
+fn free_tick(t_s: f64, hip: Vec3, hip_velocity: Vec3) -> Tick {
+    Tick {
+        t_s,
+        hip,
+        hip_velocity,
+        cp: hip,
+        go: hip,
+        patch: None,
+        feature: Feature::Patch(0),
+        mode: Mode::Free,
+        cause: SwitchCause::None,
+        depth_m: 0.0,
+        normal_force_n: 0.0,
+        friction_force_n: 0.0,
+        mu: 0.0,
+        psi: 0.0,
+        normal: Vec3::ZERO,
+        tangent: Vec3::ZERO,
+        friction: Vec3::ZERO,
+        force: Vec3::ZERO,
+        cp_patch: 0,
+        cp_param: 0.0,
+        cp_params: [0.0; 2],
+        go_patch: 0,
+        go_param: 0.0,
+        go_params: [0.0; 2],
+        device: None,
+    }
+}
+
+/// What the UI asks of the spatial loop.
+#[derive(Debug)]
+pub enum Command3d {
+    /// Move the hand (m).
+    HandTarget(Vec3),
+    /// Render this mesh instead of the NURBS object, or the NURBS object again (`None`).
+    Mesh(Option<Box<TriMesh>>),
+    /// Set the material ([`SpatialLoop::set_material`]).
+    SetMaterial(FrictionMaterial),
+    /// Render another object ([`SpatialLoop::swap`]), built by the UI.
+    Swap(Box<SpatialSession>),
+    /// Enable or disable the forces.
+    Forces(bool),
+}
+
+/// Applies one command to `spatial`; the reply, if it has one: [`Reply::Swapped`] once a
+/// mesh or a session took effect (a mesh the loop refuses gets none; the UI checks meshes with
+/// [`check_mesh`] before sending them).
+pub fn apply(spatial: &mut SpatialLoop, command: Command3d) -> Option<Reply> {
+    match command {
+        Command3d::HandTarget(t) => {
+            spatial.set_hand_target(t);
+            None
+        }
+        Command3d::Mesh(mesh) => spatial
+            .set_mesh(mesh.map(|m| *m))
+            .is_ok()
+            .then_some(Reply::Swapped),
+        Command3d::SetMaterial(m) => Some(Reply::Material(spatial.set_material(m))),
+        Command3d::Swap(session) => {
+            spatial.swap(*session);
+            Some(Reply::Swapped)
+        }
+        Command3d::Forces(on) => {
+            spatial.set_forces_enabled(on);
+            None
+        }
+    }
+}
+
+impl Steppable for SpatialLoop {
+    type Command = Command3d;
+
+    fn apply(&mut self, command: Command3d) -> Option<Reply> {
+        apply(self, command)
+    }
+
+    /// The sample's `hand_target` is the hand's command projected on the plane (x, y); the
+    /// 3-D command is the UI's own (the GUI's `SpatialState::target`).
+    fn step_sample(&mut self) -> Sample {
+        let tick = self.step();
+        let c = self.hand_target();
+        Sample {
+            tick,
+            hand_target: Vec2::new(c.x, c.y),
+            period_us: None,
+            forces_enabled: self.forces_enabled,
+        }
+    }
+}
+
+/// How the spatial loop runs: on its own thread, or stepped in place (tests).
+#[derive(Debug)]
+pub enum SpatialBackend {
+    /// On its own thread in real time.
+    Thread(LoopThread<Command3d>),
+    /// Here, one tick per [`SpatialBackend::step`].
+    Stepped(Box<SpatialLoop>),
+}
+
+impl SpatialBackend {
+    /// `spatial` on its thread (`threaded`, ticks also to `record`) or stepped in place.
+    pub fn start(
+        spatial: SpatialLoop,
+        threaded: bool,
+        record: Option<SyncSender<Tick>>,
+    ) -> std::io::Result<Self> {
+        Ok(if threaded {
+            SpatialBackend::Thread(LoopThread::spawn(spatial, record)?)
+        } else {
+            SpatialBackend::Stepped(Box::new(spatial))
+        })
+    }
+
+    /// Sends (or, stepped, applies) a command; false when a full channel dropped it. The
+    /// reply of a stepped loop comes back at once.
+    pub fn command(&mut self, command: Command3d) -> (bool, Option<Reply>) {
+        match self {
+            SpatialBackend::Thread(t) => (t.send(command), None),
+            SpatialBackend::Stepped(s) => (true, apply(s, command)),
+        }
+    }
+
+    /// Runs `n` ticks of a stepped loop (none for a threaded one); their samples.
+    pub fn step(&mut self, n: usize) -> Vec<Sample> {
+        match self {
+            SpatialBackend::Thread(_) => Vec::new(),
+            SpatialBackend::Stepped(s) => (0..n).map(|_| s.step_sample()).collect(),
+        }
+    }
+
+    /// What a threaded loop sent since the last call: samples and replies.
+    pub fn drain(&self) -> (Vec<Sample>, Vec<Reply>) {
+        match self {
+            SpatialBackend::Thread(t) => {
+                let mut samples = Vec::new();
+                t.drain_samples(|s| samples.push(s));
+                (samples, t.drain_replies())
+            }
+            SpatialBackend::Stepped(_) => (Vec::new(), Vec::new()),
+        }
+    }
+
+    /// The stepped loop, for tests.
+    pub fn stepped(&self) -> Option<&SpatialLoop> {
+        match self {
+            SpatialBackend::Thread(_) => None,
+            SpatialBackend::Stepped(s) => Some(s),
+        }
+    }
+
+    /// The thread's counters, when threaded.
+    pub fn counters(&self) -> Option<&crate::haptic::LoopCounters> {
+        match self {
+            SpatialBackend::Thread(t) => Some(t.counters()),
+            SpatialBackend::Stepped(_) => None,
+        }
+    }
+}
+
+/// Joins tessellations of every surface of object `object` of `scene` at the chordal
+/// tolerance `tol_m` into one mesh (for display, export and the polygonal baseline).
+pub fn tessellate_object(scene: &Scene, object: usize, tol_m: f32) -> Option<TriMesh> {
+    let surfaces = scene.object(object)?.surface_views()?;
+    let (mut vertices, mut params, mut triangles) = (Vec::new(), Vec::new(), Vec::new());
+    for s in &surfaces {
+        let m = TriMesh::tessellate(s, tol_m);
+        let base = vertices.len() as u32;
+        vertices.extend_from_slice(m.vertices());
+        params.extend_from_slice(m.params());
+        triangles.extend(m.triangles().iter().map(|t| t.map(|i| i + base)));
+    }
+    Some(TriMesh::from_triangles(vertices, params, &triangles))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scene::{Object, Patch};
+
+    /// The plane z = 0 over x ∈ [−0.03, 0.03], y ∈ [0.06, 0.12] (normal +z), K = 1000 N/m,
+    /// no damping, μ_s = 0.7, μ_d = 0.5.
+    fn floor() -> Scene {
+        let s = nurbs::construct::bilinear(
+            Vec3::new(-0.03, 0.06, 0.0),
+            Vec3::new(0.03, 0.06, 0.0),
+            Vec3::new(-0.03, 0.12, 0.0),
+            Vec3::new(0.03, 0.12, 0.0),
+        )
+        .expect("plane");
+        let material = Material::new(1000.0, 0.0, 0.7, 0.5).expect("material");
+        let o = Object::new("floor", material, vec![Patch::Surface(s)]).expect("object");
+        Scene::new(vec![o]).expect("scene")
+    }
+
+    /// Pressing the hand d = 2 mm straight down into the plane: F_N = K·d = 2 N along +z.
+    /// The HIP is at rest (v = 0, so the damping term is zero anyway) and the plane's depth is
+    /// the HIP's height exactly, so the only error is f32 rounding of z ≈ −0.002 (ulp 2.3e-10
+    /// m, 2.3e-7 N at K = 1000 N/m): 1e-5 N allows forty ulps. Straight down, the GO stays
+    /// above the HIP: no friction.
+    #[test]
+    fn pressing_d_into_a_plane_gives_k_d() {
+        let scene = floor();
+        let start = start_hip(control_points(&scene, 0));
+        assert!((start - Vec3::new(0.0, 0.09, START_CLEARANCE_M)).length() < 1e-7);
+        let session = SpatialSession::nurbs(scene, 0, start).expect("session");
+        let mut spatial = SpatialLoop::new(session, start);
+        let pressed = Vec3::new(start.x, start.y, -0.002);
+        spatial.set_hand_target(pressed);
+        // 12 mm at 0.3 m/s: 40 ticks; 100 more at rest.
+        let ticks: Vec<Tick> = (0..140).map(|_| spatial.step()).collect();
+        let k = ticks[ticks.len() - 1];
+        assert_eq!(k.hip, pressed);
+        assert_ne!(k.mode, Mode::Free);
+        assert!((k.normal_force_n - 2.0).abs() < 1e-5, "{k:?}");
+        assert!(
+            (k.force - Vec3::new(0.0, 0.0, 2.0)).length() < 1e-5,
+            "{k:?}"
+        );
+        assert!(k.friction.length() < 1e-5, "{k:?}");
+        // Free until the HIP crosses z = 0 (tick 33 puts it at 10 mm − 34 × 0.3 mm < 0).
+        assert!(ticks[..30].iter().all(|t| t.mode == Mode::Free));
+
+        // The tessellated plane (two triangles, exact): the same K·d, by the baseline.
+        let scene = floor();
+        let mesh = tessellate_object(&scene, 0, 1e-4).expect("mesh");
+        assert_eq!(mesh.triangles().len(), 2);
+        spatial.set_mesh(Some(mesh)).expect("mesh taken");
+        let k = spatial.step();
+        assert_eq!((k.mode, k.mu), (Mode::Slip, 0.0));
+        assert!(
+            (k.force - Vec3::new(0.0, 0.0, 2.0)).length() < 1e-5,
+            "{k:?}"
+        );
+    }
+
+    /// What a tick of the baseline costs per triangle, and a NURBS tick on the same object
+    /// (`cargo test -p viewer --lib measure_tick_costs -- --ignored --nocapture`; timing, so
+    /// not run by default and not asserted).
+    #[test]
+    #[ignore]
+    fn measure_tick_costs() {
+        let scene = Scene::from_json_str(include_str!("../../../scenes/thesis-3d.json"))
+            .unwrap_or_else(|e| panic!("{e}"));
+        let start = start_hip(control_points(&scene, 0));
+        let pressed = Vec3::new(0.0, 0.09, 0.00475);
+        for tol in [1e-3, 2e-4, 5e-5] {
+            let mesh = tessellate_object(&scene, 0, tol).expect("mesh");
+            let n = mesh.triangles().len();
+            let m = FrictionMaterial::default();
+            let runs = 2000;
+            let t = std::time::Instant::now();
+            for _ in 0..runs {
+                std::hint::black_box(mesh_tick(&mesh, &m, 0.0, pressed, Vec3::ZERO));
+            }
+            let per_tick = t.elapsed().as_secs_f64() / runs as f64;
+            println!(
+                "mesh at {tol} m: {n} triangles, {:.1} µs per tick, {:.1} ns per triangle",
+                per_tick * 1e6,
+                per_tick * 1e9 / n as f64
+            );
+        }
+        let session = SpatialSession::nurbs(scene, 0, start).expect("session");
+        let mut spatial = SpatialLoop::new(session, start);
+        spatial.set_hand_target(pressed);
+        for _ in 0..200 {
+            spatial.step();
+        }
+        let runs = 20_000;
+        let t = std::time::Instant::now();
+        for _ in 0..runs {
+            std::hint::black_box(spatial.step());
+        }
+        println!(
+            "NURBS (friction renderer on the shell): {:.2} µs per tick",
+            t.elapsed().as_secs_f64() / runs as f64 * 1e6
+        );
+    }
+
+    /// The spatial loop on its own thread (the planar loop's `LoopThread`): it ticks, takes
+    /// the hand's command and a material, and reports K·d once pressed (polled for up to 10 s
+    /// of wall time; nothing here is timed).
+    #[test]
+    fn the_spatial_loop_runs_on_the_loop_thread() {
+        use std::time::{Duration, Instant};
+        let scene = floor();
+        let start = start_hip(control_points(&scene, 0));
+        let session = SpatialSession::nurbs(scene, 0, start).expect("session");
+        let thread = LoopThread::spawn(SpatialLoop::new(session, start), None).expect("spawn");
+        let softer = FrictionMaterial {
+            stiffness_n_per_m: 500.0,
+            ..FrictionMaterial::default()
+        };
+        assert!(thread.send(Command3d::SetMaterial(softer)));
+        assert!(thread.send(Command3d::HandTarget(Vec3::new(start.x, start.y, -0.002))));
+        let waited = Instant::now();
+        let (mut last, mut replies) = (None, Vec::new());
+        while waited.elapsed() < Duration::from_secs(10) {
+            thread.drain_samples(|s| last = Some(s));
+            replies.extend(thread.drain_replies());
+            if last.is_some_and(|s: Sample| (s.tick.normal_force_n - 1.0).abs() < 1e-5) {
+                break;
+            }
+            std::thread::sleep(Duration::from_millis(5));
+        }
+        let s = last.expect("samples");
+        // K·d with the new K: 500 N/m × 2 mm.
+        assert!((s.tick.normal_force_n - 1.0).abs() < 1e-5, "{s:?}");
+        assert!(s.period_us.is_some());
+        assert!(matches!(replies.first(), Some(Reply::Material(Ok(m))) if *m == softer));
+    }
+
+    /// A mesh beyond what a tick scans is refused and the NURBS rendering stays.
+    #[test]
+    fn a_too_fine_mesh_is_refused() {
+        let scene = floor();
+        let start = start_hip(control_points(&scene, 0));
+        let session = SpatialSession::nurbs(scene, 0, start).expect("session");
+        let mut spatial = SpatialLoop::new(session, start);
+        let mut triangles = Vec::new();
+        let mut vertices = Vec::new();
+        for i in 0..=MAX_HAPTIC_TRIANGLES as u32 {
+            let x = i as f32 * 1e-3;
+            vertices.extend([
+                Vec3::new(x, 0.0, 0.0),
+                Vec3::new(x + 1e-3, 0.0, 0.0),
+                Vec3::new(x, 1e-3, 0.0),
+            ]);
+            triangles.push([3 * i, 3 * i + 1, 3 * i + 2]);
+        }
+        let mesh = TriMesh::from_triangles(vertices, Vec::new(), &triangles);
+        let e = spatial.set_mesh(Some(mesh)).expect_err("refused");
+        assert_eq!(
+            e,
+            MeshError::TooManyTriangles {
+                triangles: MAX_HAPTIC_TRIANGLES + 1
+            }
+        );
+        assert!(!spatial.renders_mesh());
+    }
+}
