@@ -8,6 +8,8 @@ sharp convex vertex, like Fig. 3.2.1(a), in the pantograph's workspace; the traj
 reproduces events 1-13 of thesis section 3.2.1.
 thesis-3d: a bicubic NURBS bump; the trajectory keeps u constant and moves along v with the
 stick / slip / stick / slip sequence of section 3.2.2 (Fig. 3.2.6-3.2.7).
+torus: an exact rational biquadratic torus (one 9 x 9 patch, no trajectory), to feel a closed
+curved surface in the viewer's 3-D view.
 """
 import json
 import math
@@ -156,6 +158,38 @@ def thesis_3d():
     return scene, segs
 
 
+# --- torus -------------------------------------------------------------------------------
+def torus(center=(0.0, 0.09, 0.0), major=0.03, minor=0.01):
+    """The profile circle (radius `minor`, `major` from the axis) revolved about z: control
+    point (i, j) is the unit circle's point i scaled by the profile's x_j, at height z_j, with
+    weight w_i w_j (the tensor product of two 9-point rational quadratic circles)."""
+    s = math.sqrt(0.5)
+    unit = [(1, 0), (1, 1), (0, 1), (-1, 1), (-1, 0), (-1, -1), (0, -1), (1, -1), (1, 0)]
+    w = [1, s, 1, s, 1, s, 1, s, 1]
+    knots = [0, 0, 0, 0.25, 0.25, 0.5, 0.5, 0.75, 0.75, 1, 1, 1]
+    points, weights = [], []
+    for ci, wi in zip(unit, w):
+        row, wrow = [], []
+        for cj, wj in zip(unit, w):
+            x = major + minor * cj[0]
+            row.append([center[0] + x * ci[0], center[1] + x * ci[1], center[2] + minor * cj[1]])
+            wrow.append(wi * wj)
+        points.append(row)
+        weights.append(wrow)
+    return {
+        "format": "scene/1",
+        "objects": [
+            {
+                "name": "torus (R = 30 mm, r = 10 mm, rational biquadratic)",
+                "material": MATERIAL,
+                "patches": [
+                    {"degree": [2, 2], "knots": [knots, knots], "points": points, "weights": weights}
+                ],
+            }
+        ],
+    }
+
+
 def write(name, scene, segs):
     with open(os.path.join(HERE, f"{name}.json"), "w") as f:
         json.dump(scene, f, indent=1)
@@ -179,3 +213,6 @@ def write(name, scene, segs):
 if __name__ == "__main__":
     write("thesis-2d", *thesis_2d())
     write("thesis-3d", *thesis_3d())
+    with open(os.path.join(HERE, "torus.json"), "w") as f:
+        json.dump(torus(), f, indent=1)
+        f.write("\n")

@@ -308,6 +308,28 @@ fn snapshot_invalid_material_error() {
     h.snapshot("material_invalid_mu_dynamic");
 }
 
+/// An invalid scene file: the message names the file, the object, the patch and the field,
+/// and says the running scene is unchanged (which still renders: thesis-2d's label stays).
+#[test]
+fn snapshot_invalid_scene_error() {
+    let mut state = stepped();
+    let mut scene: serde_json::Value =
+        serde_json::from_str(include_str!("../../../scenes/thesis-2d.json")).expect("JSON");
+    scene["objects"][0]["patches"][1]["weights"][1] = serde_json::json!(-0.5);
+    state.open_text("bent.json", &scene.to_string());
+    let e = state.scene_error.clone().expect("refused");
+    assert!(
+        e.contains("bent.json") && e.contains("patch 1") && e.contains("weights"),
+        "{e}"
+    );
+    assert_eq!(state.scene.label, "thesis-2d");
+    let mut h = harness([1000.0, 80.0], ViewerUi::new(state), |ui, v| {
+        viewer::gui::scenes_ui(ui, &mut v.state);
+    });
+    h.run_steps(2);
+    h.snapshot("scene_invalid_weight");
+}
+
 #[test]
 fn snapshot_whole_window_while_sliding() {
     let mut state = stepped();

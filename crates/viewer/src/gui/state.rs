@@ -56,6 +56,10 @@ pub const BUNDLED: &[Bundled] = &[
         name: "examples",
         json: include_str!("../../../../scenes/examples.json"),
     },
+    Bundled {
+        name: "torus",
+        json: include_str!("../../../../scenes/torus.json"),
+    },
 ];
 
 /// The thesis's 2-D hand path (`scenes/thesis-2d.csv`), which `--demo` plays as the hand's
@@ -1217,7 +1221,7 @@ mod tests {
             assert_eq!(on_disk, b.json, "{} is embedded as it is on disk", b.name);
             let scene = Scene::from_json_str(b.json).unwrap_or_else(|e| panic!("{}: {e}", b.name));
             let session = Session::new(scene).unwrap_or_else(|e| panic!("{}: {e}", b.name));
-            let planar = b.name != "thesis-3d";
+            let planar = !matches!(b.name, "thesis-3d" | "torus");
             assert_eq!(session.object().is_some(), planar, "{}", b.name);
         }
     }
