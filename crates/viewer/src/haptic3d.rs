@@ -11,7 +11,7 @@
 
 use std::sync::mpsc::SyncSender;
 
-use friction::{FrictionMaterial, FrictionRenderer, Mode, SwitchCause};
+use friction::{FrictionMaterial, FrictionRenderer, Mode};
 use nurbs::{Vec2, Vec3};
 use tracker::{Contact, Feature, Penalty, Shell, TriMesh};
 
@@ -425,31 +425,11 @@ pub fn mesh_tick(
 /// A tick with nothing in contact at `hip`.
 fn free_tick(t_s: f64, hip: Vec3, hip_velocity: Vec3) -> Tick {
     Tick {
-        t_s,
         hip,
         hip_velocity,
         cp: hip,
         go: hip,
-        patch: None,
-        feature: Feature::Patch(0),
-        mode: Mode::Free,
-        cause: SwitchCause::None,
-        depth_m: 0.0,
-        normal_force_n: 0.0,
-        friction_force_n: 0.0,
-        mu: 0.0,
-        psi: 0.0,
-        normal: Vec3::ZERO,
-        tangent: Vec3::ZERO,
-        friction: Vec3::ZERO,
-        force: Vec3::ZERO,
-        cp_patch: 0,
-        cp_param: 0.0,
-        cp_params: [0.0; 2],
-        go_patch: 0,
-        go_param: 0.0,
-        go_params: [0.0; 2],
-        device: None,
+        ..Tick::idle(t_s)
     }
 }
 
