@@ -28,6 +28,19 @@ pub const HANDLE_PICK_PX: f32 = 8.0;
 /// Screen length of the drawn region boundaries.
 pub const REGION_RAY_PX: f32 = 70.0;
 
+/// One line on a tick, as the 2-D and 3-D views print it over the scene: the mode, the
+/// normal, friction and total force, and the depth.
+pub fn tick_summary(k: &crate::sim::Tick) -> String {
+    format!(
+        "{}  F_N {:.2} N  F_T {:+.2} N  |F| {:.2} N  depth {:.2} mm",
+        k.mode.name(),
+        k.normal_force_n,
+        k.friction_force_n,
+        k.force.length(),
+        k.depth_m.max(0.0) * 1e3
+    )
+}
+
 /// The colour of a friction mode: the bands of `sim --plot`, deepened for lines on white.
 pub fn mode_colour(mode: Mode) -> Color32 {
     let c = crate::plot::mode_colour(mode);
@@ -619,18 +632,7 @@ fn draw_legend(painter: &egui::Painter, rect: Rect, view: &View2d, state: &AppSt
     }
     if let Some(s) = state.latest() {
         let k = &s.tick;
-        line(
-            &mut y,
-            format!(
-                "{}  F_N {:.2} N  F_T {:+.2} N  |F| {:.2} N  depth {:.2} mm",
-                k.mode.name(),
-                k.normal_force_n,
-                k.friction_force_n,
-                k.force.length(),
-                k.depth_m.max(0.0) * 1e3
-            ),
-            mode_colour(k.mode),
-        );
+        line(&mut y, tick_summary(k), mode_colour(k.mode));
     }
     let help = if state.edit.enabled {
         "edit: drag a handle: move its point  ·  elsewhere: hand  ·  Ctrl+Z: undo"

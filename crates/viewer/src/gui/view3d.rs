@@ -898,17 +898,7 @@ fn draw_legend(
     }
     if let Some(s) = latest {
         let k = &s.tick;
-        line(
-            format!(
-                "{}  F_N {:.2} N  F_T {:+.2} N  |F| {:.2} N  depth {:.2} mm",
-                k.mode.name(),
-                k.normal_force_n,
-                k.friction_force_n,
-                k.force.length(),
-                k.depth_m.max(0.0) * 1e3
-            ),
-            mode_colour(k.mode),
-        );
+        line(super::view::tick_summary(k), mode_colour(k.mode));
         line(
             format!(
                 "HIP ({:.1}, {:.1}, {:.1}) mm",
