@@ -104,6 +104,7 @@ pub(crate) fn window_test(cargo: &str) -> Result<(), String> {
     let started = Instant::now();
     let mut child = Command::new("xvfb-run")
         .args(args)
+        .envs(crate::CI_ENV.iter().copied())
         .env("XDG_RUNTIME_DIR", &runtime)
         .spawn()
         .map_err(|e| format!("cannot start xvfb-run: {e}"))?;

@@ -66,8 +66,9 @@ fn ci() -> Result<(), String> {
     ensure_toolchain()?;
     gui::ensure_packages()?;
     let cargo = env::var("CARGO").unwrap_or_else(|_| "cargo".into());
+    report_disk("before the checks", Some(CI_DISK_WANTED_GB))?;
     run(&cargo, &["fmt", "--all", "--check"])?;
-    run(
+    run_with_env(
         &cargo,
         &[
             "clippy",
@@ -77,6 +78,7 @@ fn ci() -> Result<(), String> {
             "-D",
             "warnings",
         ],
+        CI_ENV,
     )?;
     // A fixed proptest seed in CI: a run that lands must not depend on luck. Plain
     // `cargo test` (and CI with PROPTEST_RNG_SEED set) explores new cases every run.
@@ -84,10 +86,11 @@ fn ci() -> Result<(), String> {
     run_with_env(
         &cargo,
         &["test", "--workspace"],
-        &[("PROPTEST_RNG_SEED", &seed)],
+        &[CI_ENV, &[("PROPTEST_RNG_SEED", &seed)]].concat(),
     )?;
+    report_disk("after the tests", None)?;
     for krate in NO_STD_CRATES {
-        run(
+        run_with_env(
             &cargo,
             &[
                 "build",
@@ -98,8 +101,9 @@ fn ci() -> Result<(), String> {
                 "--target",
                 EMBEDDED_TARGET,
             ],
+            CI_ENV,
         )?;
-        run(
+        run_with_env(
             &cargo,
             &[
                 "clippy",
@@ -112,6 +116,7 @@ fn ci() -> Result<(), String> {
                 "-D",
                 "warnings",
             ],
+            CI_ENV,
         )?;
     }
     gui::window_test(&cargo)?;
@@ -120,6 +125,60 @@ fn ci() -> Result<(), String> {
     // The firmware under QEMU: the thesis-2d scenario in the emulated MCU compared frame by
     // frame with the host's run, its instructions per tick and its sizes.
     qemu::qemu(&qemu::Options::default())?;
+    report_disk("at the end", None)?;
+    Ok(())
+}
+
+/// The environment of CI's cargo runs: no incremental caches. A one-off build gains nothing
+/// from them, and they took 1.7 GB of the disk.
+pub(crate) const CI_ENV: &[(&str, &str)] = &[("CARGO_INCREMENTAL", "0")];
+
+/// Below this much free disk `cargo xtask ci` warns before it starts: a clean run's target
+/// folders peak at about 6 GB (measured; the README's CI section), and cargo's registry,
+/// QEMU and Mesa need room beside them.
+const CI_DISK_WANTED_GB: f64 = 8.0;
+
+/// Prints the free disk where the build goes and the size of the target folders, and warns
+/// when there is less than `warn_below_gb`: a build that runs out of
+/// disk fails with a compiler panic that does not say why.
+fn report_disk(stage: &str, warn_below_gb: Option<f64>) -> Result<(), String> {
+    let root = qemu::workspace_root()?;
+    let target = env::var_os("CARGO_TARGET_DIR")
+        .map(std::path::PathBuf::from)
+        .unwrap_or_else(|| root.join("target"));
+    let free_kb = output("df", &["-Pk", &root.to_string_lossy()])
+        .ok()
+        .and_then(|out| {
+            let line = out.lines().nth(1)?.to_owned();
+            line.split_whitespace().nth(3)?.parse::<u64>().ok()
+        });
+    let used_kb = |dir: &Path| -> Option<u64> {
+        if !dir.exists() {
+            return Some(0);
+        }
+        output("du", &["-sk", &dir.to_string_lossy()])
+            .ok()
+            .and_then(|out| out.split_whitespace().next()?.parse().ok())
+    };
+    let gb = |kb: u64| kb as f64 / (1024.0 * 1024.0);
+    let fw = qemu::firmware_target_dir(&root);
+    let shown =
+        |kb: Option<u64>| kb.map_or_else(|| "?".to_owned(), |kb| format!("{:.1} GB", gb(kb)));
+    println!(
+        "\nxtask ci: disk {stage}: {} free; target {}, firmware target {}",
+        shown(free_kb),
+        shown(used_kb(&target)),
+        shown(used_kb(&fw))
+    );
+    if let (Some(free), Some(wanted)) = (free_kb, warn_below_gb)
+        && gb(free) < wanted
+    {
+        println!(
+            "xtask ci: WARNING: only {:.1} GB free; a clean run needs about {wanted} GB, \
+             and a build that runs out of disk fails with `No space left on device`",
+            gb(free)
+        );
+    }
     Ok(())
 }
 

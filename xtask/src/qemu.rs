@@ -250,7 +250,7 @@ pub fn check_firmware(cargo: &str) -> Result<(), String> {
         &firmware,
         cargo,
         &["clippy", "--bins", "--lib", "--", "-D", "warnings"],
-        &[("CARGO_TARGET_DIR", target.as_str())],
+        &[crate::CI_ENV, &[("CARGO_TARGET_DIR", target.as_str())]].concat(),
     )
 }
 
