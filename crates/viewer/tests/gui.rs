@@ -943,6 +943,17 @@ fn obj_export_round_trips_and_lies_on_the_surface() {
     press_apex(&mut state, 0.001);
     let k = state.latest().expect("ticks").tick;
     assert_eq!((k.mode, k.mu), (Mode::Slip, 0.0), "{k:?}");
+    // Save has no scene/1 for a mesh: it says so and writes nothing (the placeholder scene
+    // the idle planar loop holds is not what the user sees).
+    let saved = dir.join("saved.json");
+    state.save_scene(&saved);
+    let e = state.scene_error.clone().expect("refused");
+    assert!(
+        e.contains("is a mesh") && e.contains("nothing was written"),
+        "{e}"
+    );
+    assert!(!saved.exists(), "no file written");
+    assert!(state.spatial.as_ref().is_some_and(|s| s.is_opened_mesh()));
     let _ = std::fs::remove_dir_all(&dir);
 }
 

@@ -112,6 +112,11 @@ impl SpatialState {
         })
     }
 
+    /// Whether this is an opened OBJ mesh (felt, with no NURBS scene behind it).
+    pub fn is_opened_mesh(&self) -> bool {
+        self.source.is_none() && self.backend.is_some()
+    }
+
     /// Whether the object felt is a NURBS object that can be tessellated (and exported).
     pub fn can_tessellate(&self) -> bool {
         self.source.is_some()

@@ -1007,6 +1007,21 @@ impl AppState {
     /// Saves the running scene (with the running material) to `path` as a `scene/1` file;
     /// an error names the file and the running scene is untouched.
     pub fn save_scene(&mut self, path: &Path) {
+        // While a mesh is open the scene behind it is the idle placeholder, not what the
+        // user sees: writing it would silently save the wrong thing.
+        if self
+            .spatial
+            .as_ref()
+            .is_some_and(SpatialState::is_opened_mesh)
+        {
+            self.scene_saved = None;
+            self.scene_error = Some(format!(
+                "{} is a mesh and scene/1 holds NURBS objects only: nothing was written to {}",
+                self.scene.label,
+                path.display()
+            ));
+            return;
+        }
         let mut scene = self.scene.model.clone();
         if let (Some(i), Some(m)) = (self.scene.rendered, self.running_material)
             && let Ok(m) = Material::from_friction(m)
