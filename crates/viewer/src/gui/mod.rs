@@ -49,6 +49,8 @@ pub struct ViewerUi {
     pub camera3d: Camera3d,
     /// Whether the 3-D view's wgpu pipelines are installed ([`view3d::install`]).
     pub wgpu_installed: bool,
+    /// The scene's label, the object felt and whether the 3-D view shows it, as last shown.
+    shown: Option<(String, Option<usize>, bool)>,
 }
 
 impl ViewerUi {
@@ -60,18 +62,14 @@ impl ViewerUi {
             recording: None,
             camera3d: Camera3d::default(),
             wgpu_installed: false,
+            shown: None,
         }
     }
 
     /// The whole window: scenes on top, status at the bottom, materials on the left,
     /// telemetry on the right, the 2-D view in the middle.
     pub fn ui(&mut self, ui: &mut egui::Ui) {
-        let before = self.state.scene.label.clone();
         egui::Panel::top("scenes").show(ui, |ui| scenes_ui(ui, &mut self.state));
-        if self.state.scene.label != before {
-            self.view.fit_pending = true;
-            self.camera3d.fit_pending = true;
-        }
         egui::Panel::bottom("status").show(ui, |ui| {
             status_bar_ui(ui, &mut self.state, self.recording.as_deref());
         });
@@ -89,6 +87,20 @@ impl ViewerUi {
         egui::Panel::right("telemetry")
             .default_size(430.0)
             .show(ui, |ui| telemetry_ui(ui, &self.state));
+        // A new scene, or another object of it felt (which may switch 2-D and 3-D), is shown
+        // fitted, on the frame the loop took it.
+        let shown = (
+            self.state.scene.label.clone(),
+            self.state.felt_object(),
+            self.state.spatial.is_some(),
+        );
+        if self.shown.as_ref() != Some(&shown) {
+            if self.shown.is_some() {
+                self.view.fit_pending = true;
+                self.camera3d.fit_pending = true;
+            }
+            self.shown = Some(shown);
+        }
         egui::CentralPanel::no_frame().show(ui, |ui| {
             if self.state.spatial.is_some() {
                 view_3d_ui(ui, &mut self.state, &mut self.camera3d, self.wgpu_installed);
@@ -210,13 +222,24 @@ pub fn device_ui(ui: &mut egui::Ui, state: &mut AppState) {
 }
 
 /// The scene's objects and their patches (kind, degree, control points, domain); the object
-/// the device renders is marked, and a click on another planar one renders that one.
+/// felt is marked, and a click on another planar one (2-D) or one with surfaces (3-D) renders
+/// that one.
 pub fn objects_ui(ui: &mut egui::Ui, state: &mut AppState) {
     use crate::scene::{Patch, Space};
     ui.heading("Objects");
+    if let Some(spatial) = state.spatial.as_ref().filter(|s| s.is_opened_mesh()) {
+        // The scene model behind a mesh is the idle placeholder: show the mesh alone.
+        ui.label(format!(
+            "(rendered) mesh {}: {} triangles",
+            spatial.view.rendered_name.as_deref().unwrap_or(""),
+            spatial.mesh_triangles.unwrap_or(0)
+        ));
+        return;
+    }
+    let felt = state.felt_object();
     let mut render = None;
     for (i, o) in state.scene.model.objects().iter().enumerate() {
-        let rendered = state.scene.rendered == Some(i);
+        let rendered = felt == Some(i);
         // The panel is narrow: a long name is cut (the full one is inside).
         let short: String = o.name().chars().take(24).collect();
         let cut = if short.len() < o.name().len() {
@@ -261,8 +284,8 @@ pub fn objects_ui(ui: &mut egui::Ui, state: &mut AppState) {
                     };
                     ui.label(text);
                 }
-                if o.space() == Space::Planar && !rendered && ui.button("Render this one").clicked()
-                {
+                let renderable = o.space() == Space::Planar || spatial::can_be_felt(o);
+                if renderable && !rendered && ui.button("Render this one").clicked() {
                     render = Some(i);
                 }
             });

@@ -47,12 +47,18 @@ pub struct SpatialState {
 }
 
 impl SpatialState {
-    /// The 3-D state of `scene` (labelled `label`), which has no planar object: the spatial
-    /// hand on its first object of surfaces, threaded or stepped.
-    pub fn of_scene(label: &str, scene: &Scene, threaded: bool) -> anyhow::Result<Self> {
-        let object = scene.objects().iter().position(|o| {
-            o.space() == Space::Spatial && o.surface_views().is_some_and(|s| !s.is_empty())
-        });
+    /// The 3-D state of `scene` (labelled `label`): the spatial hand on its object `object`
+    /// when that one has surfaces, else on its first object of surfaces (none when it has
+    /// none: only curves are drawn), threaded or stepped.
+    pub fn of_scene(
+        label: &str,
+        scene: &Scene,
+        object: Option<usize>,
+        threaded: bool,
+    ) -> anyhow::Result<Self> {
+        let object = object
+            .filter(|&i| scene.object(i).is_some_and(can_be_felt))
+            .or_else(|| scene.objects().iter().position(can_be_felt));
         let view = Scene3d::new(label, scene, object);
         let (backend, start) = match object {
             Some(i) => {
@@ -110,6 +116,12 @@ impl SpatialState {
             message: None,
             export_path: String::new(),
         })
+    }
+
+    /// The index of the scene's object the spatial hand feels (none for an opened mesh or a
+    /// scene of curves only).
+    pub fn object(&self) -> Option<usize> {
+        self.source.as_ref().map(|(_, i)| *i)
     }
 
     /// Whether this is an opened OBJ mesh (felt, with no NURBS scene behind it).
@@ -273,4 +285,10 @@ impl SpatialState {
 fn view_corners(view: &Scene3d) -> Vec<Vec3> {
     let (lo, hi) = view.bounds;
     vec![lo, hi]
+}
+
+/// Whether the spatial hand can feel `object`: a spatial object with surfaces (the spatial
+/// loop feels surfaces; spatial curves are drawn only).
+pub fn can_be_felt(object: &crate::scene::Object) -> bool {
+    object.space() == Space::Spatial && object.surface_views().is_some_and(|s| !s.is_empty())
 }

@@ -461,7 +461,7 @@ impl AppState {
         let spatial = if view.is_planar() {
             None
         } else {
-            Some(SpatialState::of_scene(label, &scene, threaded)?)
+            Some(SpatialState::of_scene(label, &scene, None, threaded)?)
         };
         let running_material = haptic
             .material()
@@ -924,11 +924,20 @@ impl AppState {
         }
     }
 
-    /// Renders object `index` of the running scene (a planar one) instead of the one now
-    /// rendered.
+    /// Renders object `index` of the running scene instead of the one now felt: a planar
+    /// object on the device (the 2-D view), a spatial one with surfaces through the spatial
+    /// hand (the 3-D view, the planar device idle).
     pub fn render_object(&mut self, index: usize) {
         let label = self.scene.label.clone();
         self.open_scene_object(&label, self.scene.model.clone(), Some(index));
+    }
+
+    /// The index of the scene's object the user feels: the planar one the device renders,
+    /// or the surface object the spatial hand feels in the 3-D view.
+    pub fn felt_object(&self) -> Option<usize> {
+        self.scene
+            .rendered
+            .or_else(|| self.spatial.as_ref().and_then(SpatialState::object))
     }
 
     /// Renders `scene` from the next tick when the device accepts it; otherwise the running
@@ -956,7 +965,11 @@ impl AppState {
         object: Option<usize>,
         edited: bool,
     ) -> Result<(), String> {
+        // An object the spatial hand feels leaves the planar device idle (it is planar).
+        let felt_in_3d =
+            object.filter(|&i| scene.object(i).is_some_and(super::spatial::can_be_felt));
         let built = match object {
+            Some(_) if felt_in_3d.is_some() => Session::with_object(scene.clone(), None),
             Some(i) => Session::with_object(scene.clone(), Some(i)),
             None => Session::new(scene.clone()),
         };
@@ -965,7 +978,7 @@ impl AppState {
         let spatial = if view.is_planar() {
             None
         } else {
-            let mut s = SpatialState::of_scene(label, &scene, self.is_threaded())
+            let mut s = SpatialState::of_scene(label, &scene, felt_in_3d, self.is_threaded())
                 .map_err(|e| format!("{label}: {e:#}; the running scene is unchanged"))?;
             s.set_forces(self.forces_requested);
             Some(s)
@@ -1023,7 +1036,7 @@ impl AppState {
             return;
         }
         let mut scene = self.scene.model.clone();
-        if let (Some(i), Some(m)) = (self.scene.rendered, self.running_material)
+        if let (Some(i), Some(m)) = (self.felt_object(), self.running_material)
             && let Ok(m) = Material::from_friction(m)
         {
             scene = scene.with_material(i, m).unwrap_or(scene);
