@@ -79,7 +79,9 @@ forces off.
 
 --record writes one run-log row per tick with the columns of `viewer sim --device` (see \
 `viewer sim --help`), flushed at least every 0.5 s and completed when the window closes; \
-`viewer plot` draws it.
+`viewer plot` draws it. The 3-D view's ticks go to a second log beside it, RUN.3d.csv, with \
+the columns of `viewer sim` on a scene of surfaces. Each log's time runs on when a loop \
+restarts (another scene, another device), so a recording stays one run at one rate.
 
 When the window closes a line on standard error gives the frames drawn, the frame time, the \
 loop's tick period and jitter, and the telemetry frames dropped.

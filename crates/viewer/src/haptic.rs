@@ -560,7 +560,7 @@ impl<C: Send + 'static> LoopThread<C> {
     /// when given.
     pub fn spawn<L: Steppable<Command = C>>(
         mut haptic: L,
-        record: Option<SyncSender<Tick>>,
+        record: Option<RecordTx>,
     ) -> io::Result<Self> {
         Self::spawn_with("haptic-loop", record, move |ends| {
             ends.counters
@@ -574,7 +574,7 @@ impl<C: Send + 'static> LoopThread<C> {
     /// host of a device behind a link ([`crate::remote`]) is the other body.
     pub fn spawn_with(
         name: &str,
-        record: Option<SyncSender<Tick>>,
+        record: Option<RecordTx>,
         body: impl FnOnce(LoopEnds<C>) + Send + 'static,
     ) -> io::Result<Self> {
         let (commands, command_rx) = mpsc::sync_channel(COMMAND_CAPACITY);
@@ -680,7 +680,7 @@ pub struct LoopEnds<C = Command> {
     samples: SyncSender<Sample>,
     /// Replies to the UI.
     pub replies: Sender<Reply>,
-    record: Option<SyncSender<Tick>>,
+    record: Option<RecordTx>,
     /// The counters shared with the UI.
     pub counters: Arc<LoopCounters>,
     stop: Arc<AtomicBool>,
@@ -711,7 +711,7 @@ impl<C> LoopEnds<C> {
             Err(TrySendError::Disconnected(_)) => return false,
         }
         if let Some(record) = &self.record
-            && record.try_send(sample.tick).is_err()
+            && !record.try_send(sample.tick)
         {
             self.counters
                 .dropped_records
@@ -763,8 +763,13 @@ fn run_paced<L: Steppable>(haptic: &mut L, ends: &LoopEnds<L::Command>) {
     }
 }
 
-/// Writes the ticks it receives to a run log (the columns of `viewer sim --device`), flushed
-/// at least once a second, completed when the loop stops.
+/// Writes the ticks it receives to run logs (the columns of `viewer sim`), flushed at least
+/// once a second, completed when the loops stop: the planar loop's ticks to the path given
+/// (with the device's columns, as `viewer sim --device`), the spatial hand's to
+/// [`spatial_log_path`] of it (as `viewer sim` on a scene of surfaces), created at its first
+/// tick. Each log's time column runs on across loop restarts (a scene opened in 3-D, a device
+/// switch): a tick whose time is not after the last one written continues one period later,
+/// so a recording stays one run log with one rate.
 #[derive(Debug)]
 pub struct Recorder {
     thread: Option<JoinHandle<io::Result<RecordSummary>>>,
@@ -774,10 +779,50 @@ pub struct Recorder {
 /// What a recording wrote.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct RecordSummary {
-    /// Rows written.
+    /// Rows written to the planar log.
     pub rows: u64,
+    /// Rows written to the spatial log ([`spatial_log_path`]); 0 when there is none.
+    pub spatial_rows: u64,
     /// Ticks skipped because a value was not finite (a run log never holds NaN or inf).
     pub skipped: u64,
+}
+
+/// A loop's input to the [`Recorder`]: its ticks go to the run log of its space.
+#[derive(Clone, Debug)]
+pub struct RecordTx {
+    tx: SyncSender<(Space, Tick)>,
+    space: Space,
+}
+
+impl RecordTx {
+    /// The same recorder, for a loop whose ticks are of `space`.
+    pub fn for_space(&self, space: Space) -> Self {
+        RecordTx {
+            tx: self.tx.clone(),
+            space,
+        }
+    }
+
+    /// Hands `tick` to the recorder, waiting while its channel is full (never on a loop's
+    /// tick path: [`RecordTx::try_send`] is that one); false when it is gone.
+    pub fn send(&self, tick: Tick) -> bool {
+        self.tx.send((self.space, tick)).is_ok()
+    }
+
+    /// Hands `tick` to the recorder; false when its channel is full or it is gone.
+    pub fn try_send(&self, tick: Tick) -> bool {
+        self.tx.try_send((self.space, tick)).is_ok()
+    }
+}
+
+/// Where a recording to `path` writes the spatial hand's ticks: `RUN.csv` → `RUN.3d.csv`.
+pub fn spatial_log_path(path: &Path) -> PathBuf {
+    let stem = path.file_stem().unwrap_or_default().to_string_lossy();
+    let name = match path.extension() {
+        Some(ext) => format!("{stem}.3d.{}", ext.to_string_lossy()),
+        None => format!("{stem}.3d"),
+    };
+    path.with_file_name(name)
 }
 
 /// How often the recorder flushes at the latest.
@@ -785,26 +830,27 @@ pub const FLUSH_PERIOD: Duration = Duration::from_millis(500);
 
 impl Recorder {
     /// Creates `path` (writing its header) and starts the writer thread; returns it and the
-    /// sender the loop feeds.
-    pub fn start(path: &Path) -> io::Result<(Self, SyncSender<Tick>)> {
-        let file = File::create(path)?;
-        let mut out = BufWriter::new(file);
-        sim::write_csv_header(&mut out, Space::Planar, true)?;
-        out.flush()?;
-        let (tx, rx) = mpsc::sync_channel::<Tick>(RECORD_CAPACITY);
+    /// planar loops' input (see [`RecordTx::for_space`] for the spatial hand's).
+    pub fn start(path: &Path) -> io::Result<(Self, RecordTx)> {
+        let planar = RunLog::create(path, Space::Planar)?;
+        let spatial_path = spatial_log_path(path);
+        let (tx, rx) = mpsc::sync_channel::<(Space, Tick)>(RECORD_CAPACITY);
         let thread = std::thread::Builder::new()
             .name("recorder".into())
-            .spawn(move || record(out, &rx))?;
+            .spawn(move || record(planar, &spatial_path, &rx))?;
         Ok((
             Recorder {
                 thread: Some(thread),
                 path: path.to_owned(),
             },
-            tx,
+            RecordTx {
+                tx,
+                space: Space::Planar,
+            },
         ))
     }
 
-    /// Waits for the writer to finish (after the loop's sender is gone) and flushes.
+    /// Waits for the writer to finish (after the loops' senders are gone) and flushes.
     pub fn finish(mut self) -> io::Result<RecordSummary> {
         let path = self.path.clone();
         match self.thread.take().map(JoinHandle::join) {
@@ -820,29 +866,88 @@ impl Recorder {
     }
 }
 
-fn record(mut out: BufWriter<File>, rx: &Receiver<Tick>) -> io::Result<RecordSummary> {
+/// One run log being written.
+struct RunLog {
+    out: BufWriter<File>,
+    space: Space,
+    /// The time column of the last row written (s), and what is added to the loop's time.
+    last_t_s: Option<f64>,
+    offset_s: f64,
+}
+
+impl RunLog {
+    /// Creates `path` with the header of a log of `space` (the planar one with the device's
+    /// columns: the planar loop is the device's).
+    fn create(path: &Path, space: Space) -> io::Result<Self> {
+        let mut out = BufWriter::new(File::create(path)?);
+        sim::write_csv_header(&mut out, space, space == Space::Planar)?;
+        out.flush()?;
+        Ok(RunLog {
+            out,
+            space,
+            last_t_s: None,
+            offset_s: 0.0,
+        })
+    }
+
+    /// Writes `tick`, its time continued past the last row when the loop restarted.
+    fn write(&mut self, tick: &Tick) -> io::Result<()> {
+        let mut t_s = tick.t_s + self.offset_s;
+        if let Some(last) = self.last_t_s
+            && t_s <= last
+        {
+            self.offset_s = last + 1.0 / RATE_HZ - tick.t_s;
+            t_s = last + 1.0 / RATE_HZ;
+        }
+        self.last_t_s = Some(t_s);
+        Tick { t_s, ..*tick }.write_csv_row(&mut self.out, self.space, self.space == Space::Planar)
+    }
+
+    fn finish(mut self) -> io::Result<()> {
+        self.out.flush()?;
+        self.out
+            .into_inner()
+            .map_err(|e| e.into_error())?
+            .sync_all()
+    }
+}
+
+fn record(
+    mut planar: RunLog,
+    spatial_path: &Path,
+    rx: &Receiver<(Space, Tick)>,
+) -> io::Result<RecordSummary> {
     let mut summary = RecordSummary::default();
+    let mut spatial: Option<RunLog> = None;
     let mut flushed = Instant::now();
     loop {
         match rx.recv_timeout(FLUSH_PERIOD) {
-            Ok(tick) => {
-                if tick.non_finite_column().is_some() {
-                    summary.skipped += 1;
-                } else {
-                    tick.write_csv_row(&mut out, Space::Planar, true)?;
-                    summary.rows += 1;
-                }
+            Ok((_, tick)) if tick.non_finite_column().is_some() => summary.skipped += 1,
+            Ok((Space::Planar, tick)) => {
+                planar.write(&tick)?;
+                summary.rows += 1;
+            }
+            Ok((Space::Spatial, tick)) => {
+                let log = match &mut spatial {
+                    Some(log) => log,
+                    None => spatial.insert(RunLog::create(spatial_path, Space::Spatial)?),
+                };
+                log.write(&tick)?;
+                summary.spatial_rows += 1;
             }
             Err(mpsc::RecvTimeoutError::Timeout) => {}
             Err(mpsc::RecvTimeoutError::Disconnected) => break,
         }
         if flushed.elapsed() >= FLUSH_PERIOD {
-            out.flush()?;
+            planar.out.flush()?;
+            if let Some(log) = &mut spatial {
+                log.out.flush()?;
+            }
             flushed = Instant::now();
         }
     }
-    out.flush()?;
-    out.into_inner().map_err(|e| e.into_error())?.sync_all()?;
+    planar.finish()?;
+    spatial.map_or(Ok(()), RunLog::finish)?;
     Ok(summary)
 }
 
@@ -868,7 +973,7 @@ mod tests {
         let session = Session::new(thesis_2d()).expect("session");
         let mut haptic = HapticLoop::new(session, START_HIP).expect("loop");
         for _ in 0..300 {
-            tx.send(haptic.step()).expect("recorder alive");
+            assert!(tx.send(haptic.step()), "recorder alive");
         }
         let waited = Instant::now();
         let rows = || std::fs::read_to_string(&path).map_or(0, |t| t.lines().count());
@@ -877,7 +982,7 @@ mod tests {
         }
         assert_eq!(rows(), 301, "flushed while running");
         for _ in 0..200 {
-            tx.send(haptic.step()).expect("recorder alive");
+            assert!(tx.send(haptic.step()), "recorder alive");
         }
         drop(tx);
         let summary = recorder.finish().expect("finish");
@@ -885,8 +990,12 @@ mod tests {
             summary,
             RecordSummary {
                 rows: 500,
-                skipped: 0
+                ..RecordSummary::default()
             }
+        );
+        assert!(
+            !spatial_log_path(&path).exists(),
+            "no spatial log without 3-D ticks"
         );
         let text = std::fs::read_to_string(&path).expect("read");
         assert_eq!(
@@ -896,6 +1005,68 @@ mod tests {
         let log = crate::runlog::parse(&text, &path).unwrap_or_else(|e| panic!("{e}"));
         assert_eq!(log.run.ticks.len(), 500);
         assert_eq!(log.run.rate_hz, RATE_HZ);
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    /// A recording across loop restarts stays one run log of each space: the planar loop
+    /// restarted (as on a device switch, its clock back at 0) continues one period after its
+    /// last row, and the spatial hand's ticks go to `rec.3d.csv` with the spatial columns.
+    /// The reference is the tick period: every step of each log's time column is 1 ms (to
+    /// f64 rounding of sums of 1e-3, far below 1e-9 s). Without the continuation the planar
+    /// clock would step back at row 150, and the run log reader, which takes the rate from
+    /// the column's span, would read 300 rows over 0.149 s as 2 kHz.
+    #[test]
+    fn a_recording_continues_across_restarts_and_keeps_the_3d_ticks_apart() {
+        let dir = std::env::temp_dir().join(format!("viewer-rec3d-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).expect("temp dir");
+        let path = dir.join("rec.csv");
+        let (recorder, tx) = Recorder::start(&path).expect("start");
+        let spatial_tx = tx.for_space(Space::Spatial);
+        for _ in 0..2 {
+            let session = Session::new(thesis_2d()).expect("session");
+            let mut haptic = HapticLoop::new(session, START_HIP).expect("loop");
+            for _ in 0..150 {
+                assert!(tx.send(haptic.step()), "recorder alive");
+            }
+        }
+        for i in 0..120 {
+            let mut tick = Tick::idle(i as f64 / RATE_HZ);
+            tick.hip = nurbs::Vec3::new(0.0, 0.09, 0.02 - i as f32 * 1e-4);
+            assert!(spatial_tx.send(tick), "recorder alive");
+        }
+        drop((tx, spatial_tx));
+        let summary = recorder.finish().expect("finish");
+        assert_eq!(
+            summary,
+            RecordSummary {
+                rows: 300,
+                spatial_rows: 120,
+                skipped: 0
+            }
+        );
+        let planar = std::fs::read_to_string(&path).expect("read");
+        let log = crate::runlog::parse(&planar, &path).unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!((log.run.ticks.len(), log.run.rate_hz), (300, RATE_HZ));
+        let one_period = |ticks: &[Tick]| {
+            ticks
+                .windows(2)
+                .all(|w| (w[1].t_s - w[0].t_s - 1.0 / RATE_HZ).abs() < 1e-9)
+        };
+        assert!(one_period(&log.run.ticks));
+        let last = log.run.ticks.last().expect("rows").t_s;
+        assert!((last - 299.0 / RATE_HZ).abs() < 1e-9, "{last}");
+        let spatial_path = spatial_log_path(&path);
+        assert_eq!(spatial_path, dir.join("rec.3d.csv"));
+        let text = std::fs::read_to_string(&spatial_path).expect("read 3-D");
+        assert_eq!(
+            text.lines().next(),
+            Some(sim::csv_header(Space::Spatial).as_str())
+        );
+        let log = crate::runlog::parse(&text, &spatial_path).unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!((log.run.ticks.len(), log.run.rate_hz), (120, RATE_HZ));
+        assert!(one_period(&log.run.ticks));
+        let hip = log.run.ticks[119].hip;
+        assert!((hip.z - (0.02 - 119.0 * 1e-4)).abs() < 1e-7, "{hip:?}");
         let _ = std::fs::remove_dir_all(&dir);
     }
 

@@ -9,8 +9,6 @@
 //! [`Steppable`]); its commands are [`Command3d`], its replies and samples those of the planar
 //! loop ([`Reply`], [`Sample`]). Tests step a [`SpatialLoop`] directly.
 
-use std::sync::mpsc::SyncSender;
-
 use friction::{FrictionMaterial, FrictionRenderer, Mode};
 use nurbs::{Vec2, Vec3};
 use tracker::{Contact, Feature, Penalty, Shell, TriMesh};
@@ -508,7 +506,7 @@ impl SpatialBackend {
     pub fn start(
         spatial: SpatialLoop,
         threaded: bool,
-        record: Option<SyncSender<Tick>>,
+        record: Option<crate::haptic::RecordTx>,
     ) -> std::io::Result<Self> {
         Ok(if threaded {
             SpatialBackend::Thread(LoopThread::spawn(spatial, record)?)

@@ -26,7 +26,7 @@
 
 use std::collections::VecDeque;
 use std::sync::atomic::Ordering;
-use std::sync::mpsc::{SyncSender, TryRecvError};
+use std::sync::mpsc::TryRecvError;
 use std::time::{Duration, Instant};
 
 use device::host::{GapCounter, LinkError};
@@ -64,7 +64,7 @@ pub fn spawn(
     device: String,
     open: impl FnOnce() -> Result<Opened, LinkError> + Send + 'static,
     setup: bool,
-    record: Option<SyncSender<Tick>>,
+    record: Option<crate::haptic::RecordTx>,
 ) -> std::io::Result<LoopThread> {
     LoopThread::spawn_with("device-link", record, move |ends| {
         let reason = match open() {

@@ -1047,9 +1047,18 @@ pub fn run(options: GuiOptions) -> anyhow::Result<Summary> {
     let summary = summary.lock().map(|s| s.clone()).unwrap_or_default();
     if let (Some(r), Some(path)) = (recorded, &options.record) {
         eprintln!(
-            "viewer gui: recorded {} ticks to {}{}",
+            "viewer gui: recorded {} ticks to {}{}{}",
             r.rows,
             path.display(),
+            if r.spatial_rows > 0 {
+                format!(
+                    " and {} ticks of the 3-D view to {}",
+                    r.spatial_rows,
+                    crate::haptic::spatial_log_path(path).display()
+                )
+            } else {
+                String::new()
+            },
             if r.skipped > 0 {
                 format!(" ({} skipped: not finite)", r.skipped)
             } else {

@@ -9,7 +9,7 @@ use nurbs::Vec3;
 use tracker::TriMesh;
 
 use super::view3d::Scene3d;
-use crate::haptic::{Reply, Sample};
+use crate::haptic::{RecordTx, Reply, Sample};
 use crate::haptic3d::{
     self, Command3d, SpatialBackend, SpatialLoop, SpatialSession, check_mesh, tessellate_object,
 };
@@ -55,6 +55,7 @@ impl SpatialState {
         scene: &Scene,
         object: Option<usize>,
         threaded: bool,
+        record: Option<RecordTx>,
     ) -> anyhow::Result<Self> {
         let object = object
             .filter(|&i| scene.object(i).is_some_and(can_be_felt))
@@ -65,7 +66,10 @@ impl SpatialState {
                 let start = haptic3d::start_hip(haptic3d::control_points(scene, i));
                 let session = SpatialSession::nurbs(scene.clone(), i, start)?;
                 let spatial = SpatialLoop::new(session, start);
-                (Some(SpatialBackend::start(spatial, threaded, None)?), start)
+                (
+                    Some(SpatialBackend::start(spatial, threaded, record)?),
+                    start,
+                )
             }
             None => (None, haptic3d::start_hip(view_corners(&view))),
         };
@@ -94,6 +98,7 @@ impl SpatialState {
         obj: ObjMesh,
         material: FrictionMaterial,
         threaded: bool,
+        record: Option<RecordTx>,
     ) -> anyhow::Result<Self> {
         check_mesh(&obj.mesh).map_err(|e| anyhow::anyhow!("{label}: {e}"))?;
         let view = Scene3d::of_mesh(label, &obj.name, &obj.mesh);
@@ -104,7 +109,7 @@ impl SpatialState {
             .set_mesh(Some(obj.mesh))
             .map_err(|e| anyhow::anyhow!("{label}: {e}"))?;
         Ok(SpatialState {
-            backend: Some(SpatialBackend::start(spatial, threaded, None)?),
+            backend: Some(SpatialBackend::start(spatial, threaded, record)?),
             material,
             source: None,
             view,

@@ -18,11 +18,10 @@ use super::replay::Replay;
 use super::spatial::SpatialState;
 use crate::devices::{self, Target};
 use crate::haptic::{
-    self, Command, HapticLoop, LinkEvent, LoopThread, MaterialChangeError, Reply, START_HIP,
-    Sample, Session,
+    self, Command, HapticLoop, LinkEvent, LoopThread, MaterialChangeError, RecordTx, Reply,
+    START_HIP, Sample, Session,
 };
 use crate::scene::{Material, Patch, Scene, Space};
-use crate::sim::Tick;
 
 /// Seconds of telemetry the plots show.
 pub const HISTORY_S: f64 = 5.0;
@@ -404,7 +403,7 @@ pub struct AppState {
     /// The path typed into the replay field.
     pub replay_path: String,
     /// The recorder's input, handed to every loop the app starts.
-    record: Option<std::sync::mpsc::SyncSender<Tick>>,
+    record: Option<RecordTx>,
     /// The scene being rendered.
     pub scene: SceneView,
     /// The device's reach.
@@ -453,7 +452,7 @@ impl AppState {
         label: &str,
         scene: Scene,
         threaded: bool,
-        record: Option<std::sync::mpsc::SyncSender<Tick>>,
+        record: Option<RecordTx>,
     ) -> anyhow::Result<Self> {
         let session = Session::new(scene.clone())?;
         let view = SceneView::new(label, &scene, session.object());
@@ -461,7 +460,13 @@ impl AppState {
         let spatial = if view.is_planar() {
             None
         } else {
-            Some(SpatialState::of_scene(label, &scene, None, threaded)?)
+            Some(SpatialState::of_scene(
+                label,
+                &scene,
+                None,
+                threaded,
+                record.as_ref().map(|r| r.for_space(Space::Spatial)),
+            )?)
         };
         let running_material = haptic
             .material()
@@ -978,8 +983,14 @@ impl AppState {
         let spatial = if view.is_planar() {
             None
         } else {
-            let mut s = SpatialState::of_scene(label, &scene, felt_in_3d, self.is_threaded())
-                .map_err(|e| format!("{label}: {e:#}; the running scene is unchanged"))?;
+            let mut s = SpatialState::of_scene(
+                label,
+                &scene,
+                felt_in_3d,
+                self.is_threaded(),
+                self.spatial_record(),
+            )
+            .map_err(|e| format!("{label}: {e:#}; the running scene is unchanged"))?;
             s.set_forces(self.forces_requested);
             Some(s)
         };
@@ -1073,7 +1084,13 @@ impl AppState {
             .map_err(anyhow::Error::from)
             .and_then(|obj| {
                 let material = FrictionMaterial::default();
-                SpatialState::of_mesh(&label, obj, material, self.is_threaded())
+                SpatialState::of_mesh(
+                    &label,
+                    obj,
+                    material,
+                    self.is_threaded(),
+                    self.spatial_record(),
+                )
             });
         let spatial = match opened {
             Ok(mut s) => {
@@ -1203,6 +1220,11 @@ impl AppState {
             Backend::Stepped(_) => true,
             Backend::Stopped => false,
         }
+    }
+
+    /// The recorder's input for the spatial hand (its ticks go to the 3-D run log).
+    fn spatial_record(&self) -> Option<RecordTx> {
+        self.record.as_ref().map(|r| r.for_space(Space::Spatial))
     }
 
     /// Stops the loop (joins its thread); the recorder's input closes with it.
