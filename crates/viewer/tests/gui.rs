@@ -627,6 +627,42 @@ fn snapshot_2d_view_while_dragging_a_control_point() {
 
 /// The edit panel's weight field sets the selected point's weight; a weight the scene refuses
 /// is shown, naming the field, and the running one stays; the undo button steps back.
+/// The Objects panel's wiring: opening the examples' bump and clicking *Render this one*
+/// feels it in 3-D (the planar device idle); the circle's button brings the 2-D view back.
+/// The force that follows is checked in `app_state.rs`.
+#[test]
+fn the_objects_panel_renders_the_bump_in_3d_and_a_curve_in_2d() {
+    use egui_kittest::kittest::Queryable;
+    let state = AppState::stepped("examples").unwrap_or_else(|e| panic!("{e:#}"));
+    let mut h = Harness::builder()
+        .with_size(egui::Vec2::new(300.0, 600.0))
+        .build_ui_state(
+            |ui, v: &mut ViewerUi| viewer::gui::objects_ui(ui, &mut v.state),
+            ViewerUi::new(state),
+        );
+    h.run_steps(2);
+    h.get_by_label("2: bump").click();
+    h.run_steps(2);
+    h.get_by_label("Render this one").click();
+    h.run_steps(2);
+    h.state_mut().state.step(1);
+    h.run_steps(1);
+    let s = &h.state().state;
+    assert_eq!(s.scene_error, None);
+    assert!(s.spatial.is_some(), "the 3-D view");
+    assert_eq!((s.felt_object(), s.scene.rendered), (Some(2), None));
+    h.get_by_label("(rendered) 2: bump").click();
+    h.get_by_label("1: circle").click();
+    h.run_steps(2);
+    h.get_by_label("Render this one").click();
+    h.run_steps(2);
+    h.state_mut().state.step(1);
+    h.run_steps(1);
+    let s = &h.state().state;
+    assert!(s.spatial.is_none(), "back in 2-D");
+    assert_eq!((s.felt_object(), s.scene.rendered), (Some(1), Some(1)));
+}
+
 #[test]
 fn the_weight_field_sets_the_weight_and_shows_a_refusal() {
     use egui_kittest::kittest::Queryable;
