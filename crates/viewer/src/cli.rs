@@ -187,6 +187,33 @@ pub enum DeviceCommand {
     /// Print a device's telemetry, dropped frames and faults.
     #[command(after_long_help = DEVICE_MONITOR_AFTER)]
     Monitor(MonitorArgs),
+    /// Serve the simulated pantograph on a pseudo-terminal, as a board on a serial port.
+    #[command(after_long_help = DEVICE_SIM_PTY_AFTER)]
+    SimPty(SimPtyArgs),
+}
+
+const DEVICE_SIM_PTY_AFTER: &str = "\
+Opens a pseudo-terminal (Linux, macOS), prints its path (`/dev/pts/N`) on standard output \
+and serves the simulated pantograph on it: the serial link's COBS frames over a real tty, as \
+a board's USB serial port, so the serial path can be tried without a board. Hosts come and \
+go: `viewer gui --device serial:PATH` (a board's setup: press Clear, Calibrate and Forces on) \
+or `viewer device monitor --port PATH`. The device keeps ticking in between, with its \
+watchdog: without a host's heartbeats its forces are off.
+
+Exit status:
+  0  ran for --seconds (or until interrupted)
+  1  the pseudo-terminal failed during the run
+  2  bad command line, or no pseudo-terminal could be opened (or none on this OS)
+
+Example:
+  viewer device sim-pty --seconds 60";
+
+/// Arguments of `device sim-pty`.
+#[derive(Debug, Args)]
+pub struct SimPtyArgs {
+    /// Stop after this many seconds (finite, >= 0); without it, run until interrupted.
+    #[arg(long, value_name = "S", value_parser = seconds, allow_negative_numbers = true)]
+    pub seconds: Option<Duration>,
 }
 
 const DEVICE_LIST_AFTER: &str = "\

@@ -314,7 +314,52 @@ fn device_command(command: &viewer::cli::DeviceCommand) -> ExitCode {
             }
         }
         DeviceCommand::Monitor(args) => device_monitor(args),
+        DeviceCommand::SimPty(args) => device_sim_pty(args),
     }
+}
+
+#[cfg(unix)]
+fn device_sim_pty(args: &viewer::cli::SimPtyArgs) -> ExitCode {
+    use device::host::{SimConfig, SimLink};
+    use std::sync::Arc;
+    use std::sync::atomic::{AtomicBool, Ordering};
+    let pty = match device::host::pseudo_terminal().context("cannot open a pseudo-terminal") {
+        Ok(pty) => pty,
+        Err(e) => return fail(&e, EXIT_BAD_SETUP),
+    };
+    let sim = match SimLink::spawn(SimConfig::default()).context("cannot start the simulator") {
+        Ok(sim) => sim,
+        Err(e) => return fail(&e, EXIT_BAD_SETUP),
+    };
+    println!("{}", pty.path);
+    eprintln!(
+        "device sim-pty: the simulated pantograph is on {path}: `viewer gui --device serial:{path}` \
+         or `viewer device monitor --port {path}`",
+        path = pty.path
+    );
+    let stop = Arc::new(AtomicBool::new(false));
+    if let Some(after) = args.seconds {
+        let stop = stop.clone();
+        std::thread::spawn(move || {
+            std::thread::sleep(after);
+            stop.store(true, Ordering::Relaxed);
+        });
+    }
+    let path = pty.path.clone();
+    // The host end stays open in `pty`, so the device's end never sees it close.
+    let served = sim.serve(pty.device, &stop);
+    match served.with_context(|| format!("serving on {path}")) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => fail(&e, EXIT_BAD_INPUT),
+    }
+}
+
+#[cfg(not(unix))]
+fn device_sim_pty(_: &viewer::cli::SimPtyArgs) -> ExitCode {
+    fail(
+        &anyhow!("device sim-pty: pseudo-terminals need Linux or macOS"),
+        EXIT_BAD_SETUP,
+    )
 }
 
 fn device_monitor(args: &viewer::cli::MonitorArgs) -> ExitCode {

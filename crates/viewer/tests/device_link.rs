@@ -117,8 +117,13 @@ fn a_linked_device_gets_the_scene_and_renders_it() {
     let status = state.link.status.expect("status");
     assert!(status.calibrated);
     assert_eq!(status.scene_len as usize, wire.len());
-    // The hand goes down onto the top of the curve at x = 0 (thesis-2d's arcs meet the
-    // y-axis at y = 0.1 m, see scenes/generate.py) and presses 2 mm below it.
+    press_and_check_k_depth(&mut state);
+}
+
+/// The hand goes down onto the top of the curve at x = 0 (thesis-2d's arcs meet the y-axis
+/// at y = 0.1 m, see scenes/generate.py) and presses 4 mm below it; the device renders
+/// F_N = K·depth once the handle has settled.
+fn press_and_check_k_depth(state: &mut AppState) {
     let top = thesis_2d()
         .object(0)
         .and_then(|o| o.curve_views())
@@ -134,7 +139,7 @@ fn a_linked_device_gets_the_scene_and_renders_it() {
         })
         .expect("curves");
     assert!(state.set_hand_target(Vec2::new(0.0, top - 0.004)));
-    wait_for(&mut state, "contact", |s| {
+    wait_for(state, "contact", |s| {
         s.latest().is_some_and(|l| l.tick.normal_force_n > 0.5)
     });
     // Let the handle settle (the hand's spring is 2000 N/m, the surface's K 1000 N/m: the
@@ -157,6 +162,54 @@ fn a_linked_device_gets_the_scene_and_renders_it() {
         "{}",
         last.depth_m
     );
+}
+
+/// The serial path without a board: the host's simulated device served on one end of a
+/// pseudo-terminal ([`SimLink::serve`]: COBS packets over a real tty), and the app connected
+/// to the other end by its path, as to a board's port (`--device serial:PATH`, the same
+/// `SerialLink::open`). As for a board, the app uploads the scene at once and then waits for
+/// the user: calibration and forces come from the app's own buttons, after which the device
+/// renders the curve.
+#[cfg(unix)]
+#[test]
+fn the_serial_path_over_a_pseudo_terminal() {
+    let pty = device::host::pseudo_terminal().expect("a pseudo-terminal");
+    let path = pty.path.clone();
+    let stop = Arc::new(AtomicBool::new(false));
+    let server = {
+        let stop = stop.clone();
+        std::thread::spawn(move || {
+            let sim = SimLink::spawn(SimConfig::default())?;
+            sim.serve(pty.device, &stop)
+        })
+    };
+    let mut state = AppState::new("thesis-2d", thesis_2d(), true, None).expect("app");
+    state.connect(viewer::devices::Target::Serial(path.clone()));
+    let wire = viewer::upload::wire_scene(&thesis_2d(), 0).expect("wire");
+    wait_for(&mut state, "the uploaded scene", |s| {
+        s.link
+            .status
+            .is_some_and(|st| st.scene_crc32 == crc32(&wire))
+    });
+    let status = state.link.status.expect("status");
+    assert!(!status.calibrated && !status.forces_enabled, "{status:?}");
+    assert!(state.link.lost.is_none(), "{:?}", state.link.lost);
+    // A device boots with a fault latched (forces stay off until the user clears it).
+    state.clear_faults();
+    state.calibrate();
+    wait_for(&mut state, "calibrated", |s| {
+        s.link.status.is_some_and(|st| st.calibrated)
+    });
+    state.set_forces(true);
+    wait_for(&mut state, "the forces on", |s| {
+        s.link.status.is_some_and(|st| st.forces_enabled)
+    });
+    press_and_check_k_depth(&mut state);
+    assert!(state.link.lost.is_none(), "{:?}", state.link.lost);
+    state.shutdown();
+    stop.store(true, Ordering::SeqCst);
+    let served = server.join().expect("the server thread");
+    assert!(served.is_ok(), "{served:?}");
 }
 
 /// Pulling the link out: the app says the link is lost and shows the forces off within the
@@ -198,4 +251,47 @@ fn pulling_the_link_turns_the_forces_off_and_says_so() {
         (50_000.0 - 1_000.0..=164_000.0 + 1_000.0).contains(&span_us),
         "the watchdog tripped {span_us} µs after the first frame after the cut"
     );
+}
+
+/// `viewer device sim-pty`: the path it prints opens as a serial port and the device behind
+/// it answers the hello exactly as the in-process simulator does; with `--seconds` it exits
+/// 0 on its own.
+#[cfg(unix)]
+#[test]
+fn the_sim_pty_command_serves_a_device_a_serial_link_reaches() {
+    use device::host::SerialLink;
+    use std::io::BufRead;
+    let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_viewer"))
+        .args(["device", "sim-pty", "--seconds", "3"])
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::null())
+        .spawn()
+        .expect("viewer runs");
+    let mut line = String::new();
+    std::io::BufReader::new(child.stdout.take().expect("stdout"))
+        .read_line(&mut line)
+        .expect("the path");
+    let path = line.trim();
+    assert!(path.starts_with("/dev/"), "{line:?}");
+    let mut link = SerialLink::open(path).unwrap_or_else(|e| panic!("{path}: {e}"));
+    let hello = link.hello(Duration::from_secs(2)).expect("hello");
+    let direct = SimLink::spawn(SimConfig::default())
+        .and_then(|mut sim| sim.hello(Duration::from_secs(2)))
+        .expect("the in-process simulator's hello");
+    assert_eq!(hello, direct);
+    // Nobody reads the pseudo-terminal from here on: the device's frames pile up in it, and
+    // the command still stops on time.
+    drop(link);
+    let start = Instant::now();
+    let status = loop {
+        if let Some(status) = child.try_wait().expect("wait") {
+            break status;
+        }
+        if start.elapsed() > PATIENCE {
+            let _ = child.kill();
+            panic!("sim-pty --seconds 3 still ran after {PATIENCE:?}");
+        }
+        std::thread::sleep(Duration::from_millis(20));
+    };
+    assert!(status.success(), "{status}");
 }

@@ -43,6 +43,40 @@ pub fn list_serial() -> Result<Vec<SerialPortInfo>, LinkError> {
         .collect())
 }
 
+/// A pseudo-terminal: a device served on `device` ([`super::SimLink::serve`]) is reached at
+/// `path` as a board's serial port ([`SerialLink::open`]). It holds the other end open too,
+/// so hosts can come and go.
+#[cfg(unix)]
+pub struct PseudoTerminal {
+    /// The end a device is served on.
+    pub device: Box<dyn SerialPort>,
+    /// The path hosts open (`/dev/pts/N`).
+    pub path: String,
+    _host_end: serialport::TTYPort,
+}
+
+#[cfg(unix)]
+impl core::fmt::Debug for PseudoTerminal {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.debug_struct("PseudoTerminal")
+            .field("path", &self.path)
+            .finish_non_exhaustive()
+    }
+}
+
+/// Opens a new pseudo-terminal (raw mode), for the serial path without a board.
+#[cfg(unix)]
+pub fn pseudo_terminal() -> Result<PseudoTerminal, LinkError> {
+    let (device, host_end) = serialport::TTYPort::pair()?;
+    let path = SerialPort::name(&host_end)
+        .ok_or_else(|| LinkError::Io(std::io::Error::other("the pseudo-terminal has no path")))?;
+    Ok(PseudoTerminal {
+        device: Box::new(device),
+        path,
+        _host_end: host_end,
+    })
+}
+
 /// A byte stream the COBS framing runs over: a serial port, a TCP connection.
 pub trait Stream: Read + Write {
     /// Bounds the next read's wait.
@@ -73,13 +107,83 @@ impl Stream for TcpStream {
     }
 }
 
+/// The packets of a COBS byte stream: bytes in, the complete `0x00`-delimited packets out.
+/// Either end of a stream link uses it: the host ([`StreamLink`]) and a device served on a
+/// stream ([`super::SimLink::serve`]).
+#[derive(Debug, Default)]
+pub(crate) struct Packets {
+    pending: Vec<u8>,
+}
+
+impl Packets {
+    /// Appends bytes read from the stream.
+    pub(crate) fn push(&mut self, bytes: &[u8]) {
+        self.pending.extend_from_slice(bytes);
+    }
+
+    /// The next complete, non-empty packet (empty ones are delimiters sent back to back:
+    /// line idle, resync), its delimiter consumed; `None` until one is complete. Bytes
+    /// without a delimiter for longer than any frame's encoding are noise and are dropped.
+    pub(crate) fn next_packet(&mut self) -> Option<Vec<u8>> {
+        loop {
+            let Some(end) = self.pending.iter().position(|&b| b == 0) else {
+                if self.pending.len() > cobs::max_encoded_len(MAX_FRAME) {
+                    self.pending.clear();
+                }
+                return None;
+            };
+            let packet = self.pending[..end].to_vec();
+            self.pending.drain(..=end);
+            if !packet.is_empty() {
+                return Some(packet);
+            }
+        }
+    }
+}
+
+/// Reads what `stream` has within `timeout` into `packets`; false when nothing came.
+/// A stream that ended is [`LinkError::Closed`].
+pub(crate) fn read_packets(
+    stream: &mut impl Stream,
+    packets: &mut Packets,
+    timeout: Duration,
+) -> Result<bool, LinkError> {
+    stream.set_read_timeout(timeout)?;
+    let mut buf = [0u8; 4096];
+    match stream.read(&mut buf) {
+        Ok(0) => Err(LinkError::Closed),
+        Ok(n) => {
+            packets.push(&buf[..n]);
+            Ok(true)
+        }
+        Err(e)
+            if matches!(
+                e.kind(),
+                std::io::ErrorKind::TimedOut | std::io::ErrorKind::WouldBlock
+            ) =>
+        {
+            Ok(false)
+        }
+        Err(e) => Err(e.into()),
+    }
+}
+
+/// Writes `frame` (its bytes, at most [`MAX_FRAME`]) to `stream` COBS-encoded with its
+/// delimiter, and flushes.
+pub(crate) fn write_packet(stream: &mut impl Write, frame: &[u8]) -> std::io::Result<()> {
+    let mut bytes = cobs::encode(frame);
+    bytes.push(0);
+    stream.write_all(&bytes)?;
+    stream.flush()
+}
+
 /// A board over a byte stream: each frame COBS-encoded and followed by a `0x00` delimiter.
 /// [`SerialLink`] over a serial port, [`TcpLink`] over TCP (the firmware under QEMU, whose
 /// UART QEMU serves on a TCP port).
 pub struct StreamLink<S: Stream> {
     stream: S,
     seq: Sequencer,
-    pending: Vec<u8>,
+    packets: Packets,
 }
 
 /// A board over a serial port.
@@ -137,7 +241,7 @@ impl<S: Stream> StreamLink<S> {
         StreamLink {
             stream,
             seq: Sequencer::default(),
-            pending: Vec::new(),
+            packets: Packets::default(),
         }
     }
 
@@ -148,60 +252,29 @@ impl<S: Stream> StreamLink<S> {
         self.stream.flush()?;
         Ok(())
     }
-
-    /// The next complete packet in `pending`, if any (the delimiter is consumed).
-    fn take_packet(&mut self) -> Option<Vec<u8>> {
-        let end = self.pending.iter().position(|&b| b == 0)?;
-        let packet = self.pending[..end].to_vec();
-        self.pending.drain(..=end);
-        Some(packet)
-    }
 }
 
 impl<S: Stream> Link for StreamLink<S> {
     fn send(&mut self, message: &Message) -> Result<u16, LinkError> {
         let (report, n, seq) = self.seq.encode(message);
-        let mut bytes = cobs::encode(&report[..n]);
-        bytes.push(0);
-        self.stream.write_all(&bytes)?;
-        self.stream.flush()?;
+        write_packet(&mut self.stream, &report[..n])?;
         Ok(seq)
     }
 
     fn recv(&mut self, timeout: Duration) -> Result<Option<Frame>, LinkError> {
         let deadline = super::deadline(timeout);
         loop {
-            while let Some(packet) = self.take_packet() {
-                // Empty packets are delimiters sent back to back (line idle, resync).
-                if packet.is_empty() {
-                    continue;
-                }
+            if let Some(packet) = self.packets.next_packet() {
                 let bad = |code| LinkError::Frame(FrameError { code, seq: None });
                 let frame = cobs::decode(&packet).map_err(|_| bad(ErrorCode::BadLength))?;
                 return self.seq.decode_reply(&frame).map(Some);
-            }
-            // Without a delimiter for longer than any frame, the bytes are noise.
-            if self.pending.len() > cobs::max_encoded_len(MAX_FRAME) {
-                self.pending.clear();
             }
             let left = deadline.saturating_duration_since(Instant::now());
             if left.is_zero() {
                 return Ok(None);
             }
-            self.stream.set_read_timeout(left)?;
-            let mut buf = [0u8; 4096];
-            match self.stream.read(&mut buf) {
-                Ok(0) => return Err(LinkError::Closed),
-                Ok(n) => self.pending.extend_from_slice(&buf[..n]),
-                Err(e)
-                    if matches!(
-                        e.kind(),
-                        std::io::ErrorKind::TimedOut | std::io::ErrorKind::WouldBlock
-                    ) =>
-                {
-                    return Ok(None);
-                }
-                Err(e) => return Err(e.into()),
+            if !read_packets(&mut self.stream, &mut self.packets, left)? {
+                return Ok(None);
             }
         }
     }

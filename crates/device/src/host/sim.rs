@@ -14,6 +14,7 @@
 //! of the scene is rendered, when it is a chain of planar curves (the pantograph is planar:
 //! surfaces are accepted but render nothing).
 
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::mpsc::{self, Receiver, RecvTimeoutError, Sender, SyncSender, TryRecvError};
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
@@ -21,7 +22,8 @@ use std::time::{Duration, Instant};
 use nurbs::{Curve, Vec2};
 use tracker::Chain;
 
-use super::{Link, LinkError, Sequencer, software_version};
+use super::serial::{Packets, Stream, read_packets, write_packet};
+use super::{Link, LinkError, Sequencer, cobs, software_version};
 use crate::controller::Controller;
 use crate::protocol::{Frame, MAX_FRAME, Message, SceneStore};
 use crate::safety::SafetyConfig;
@@ -167,6 +169,61 @@ impl Drop for SimLink {
         if let Some(thread) = self.thread.take() {
             let _ = thread.join();
         }
+    }
+}
+
+impl SimLink {
+    /// Serves this simulated device on `stream` as a board serves its serial port: the
+    /// host's COBS packets in, the device's frames (acks, nacks, status, telemetry) out, so a
+    /// host reaches it through a [`super::StreamLink`] (a pseudo-terminal's other end, for
+    /// the serial path without a board). A packet that is not COBS reaches the device as
+    /// its raw bytes, which it refuses as a board does (a nack). Returns when `stop` is set,
+    /// the stream fails or ends, or the device's thread is gone.
+    pub fn serve<S: Stream>(self, mut stream: S, stop: &AtomicBool) -> Result<(), LinkError> {
+        let to_device = self.to_device.as_ref().ok_or(LinkError::Closed)?;
+        let from_device = self.from_device.as_ref().ok_or(LinkError::Closed)?;
+        let mut packets = Packets::default();
+        while !stop.load(Ordering::Relaxed) {
+            read_packets(&mut stream, &mut packets, Duration::from_millis(1))?;
+            while let Some(packet) = packets.next_packet() {
+                let bytes = cobs::decode(&packet).unwrap_or(packet);
+                let mut report = [0u8; MAX_FRAME];
+                let n = bytes.len().min(MAX_FRAME);
+                report[..n].copy_from_slice(&bytes[..n]);
+                to_device
+                    .send(ToDevice::Frame(report))
+                    .map_err(|_| LinkError::Closed)?;
+            }
+            // At most what the queue holds per round, so a stream that takes no bytes (no
+            // host reading the other end) cannot keep this loop from reading or stopping.
+            let mut writable = true;
+            for _ in 0..QUEUE {
+                match from_device.try_recv() {
+                    Ok(report) if writable => {
+                        // The device's frames are valid: re-encoding gives their length.
+                        let n = Frame::decode(&report).map_or(MAX_FRAME, |f| f.to_report().1);
+                        match write_packet(&mut stream, &report[..n]) {
+                            Ok(()) => {}
+                            // Nobody reads the other end: this round's frames are lost, as a
+                            // UART's bytes are (COBS resynchronises at the next delimiter).
+                            Err(e)
+                                if matches!(
+                                    e.kind(),
+                                    std::io::ErrorKind::TimedOut | std::io::ErrorKind::WouldBlock
+                                ) =>
+                            {
+                                writable = false;
+                            }
+                            Err(e) => return Err(e.into()),
+                        }
+                    }
+                    Ok(_) => {}
+                    Err(TryRecvError::Empty) => break,
+                    Err(TryRecvError::Disconnected) => return Err(LinkError::Closed),
+                }
+            }
+        }
+        Ok(())
     }
 }
 
