@@ -152,3 +152,33 @@ fn a_saved_scene_opens_again() {
     let e = state.scene_error.clone().expect("an error");
     assert!(e.contains("no-such-dir"), "{e}");
 }
+
+/// A 3-D run (the torus pressed, as `--record` writes the 3-D view's ticks) replays in the
+/// 3-D view with its own space, the HIP read back bit for bit; a planar log keeps its space.
+#[test]
+fn a_3d_log_replays_as_3d() {
+    let dir = Temp::new("3d");
+    let mut live = AppState::stepped("torus").unwrap_or_else(|e| panic!("{e:#}"));
+    let spatial = live.spatial.as_mut().expect("3-D");
+    spatial.set_target(spatial.target + nurbs::Vec3::new(0.0, 0.0, -0.002));
+    live.step(300);
+    let path = dir.0.join("run.3d.csv");
+    let mut out = Vec::new();
+    viewer::sim::write_csv_header(&mut out, Space::Spatial, false).expect("header");
+    for s in &live.history {
+        s.tick
+            .write_csv_row(&mut out, Space::Spatial, false)
+            .expect("row");
+    }
+    std::fs::write(&path, out).expect("write");
+    let mut state = AppState::stepped("torus").unwrap_or_else(|e| panic!("{e:#}"));
+    state.open_replay(&path);
+    assert_eq!(state.replay_error, None);
+    assert_eq!(state.replay.as_ref().map(|r| r.space), Some(Space::Spatial));
+    let last = live.history.back().expect("ticks").tick;
+    state.seek_replay(last.t_s);
+    assert_eq!(state.latest().expect("a tick").tick.hip, last.hip);
+    let (_, planar) = recorded_run(&dir);
+    state.open_replay(&planar);
+    assert_eq!(state.replay.as_ref().map(|r| r.space), Some(Space::Planar));
+}

@@ -370,7 +370,20 @@ pub fn replay_ui(ui: &mut egui::Ui, state: &mut AppState) {
     let (start, end) = r.span();
     let (mut cursor, mut playing, mut speed) = (r.cursor(), r.playing, r.speed);
     let label = r.label.clone();
+    // A log drawn in the other view shows where it can: the log does not name its scene.
+    let elsewhere = match (r.space, state.spatial.is_some()) {
+        (crate::scene::Space::Spatial, false) => Some(
+            "a 3-D log in the 2-D view: its x and y only; open its scene of surfaces to see it in 3-D",
+        ),
+        (crate::scene::Space::Planar, true) => {
+            Some("a 2-D log in the 3-D view: in the plane z = 0; open its planar scene")
+        }
+        _ => None,
+    };
     let mut live = false;
+    if let Some(note) = elsewhere {
+        ui.colored_label(Color32::from_rgb(160, 100, 0), note);
+    }
     ui.horizontal_wrapped(|ui| {
         ui.label(RichText::new(format!("replaying {label}")).strong());
         if ui.button(if playing { "Pause" } else { "Play" }).clicked() {

@@ -7,6 +7,7 @@ use std::path::Path;
 
 use crate::haptic::Sample;
 use crate::runlog::{self, RunLogError};
+use crate::scene::Space;
 use crate::sim::Tick;
 
 use super::state::HISTORY_S;
@@ -26,16 +27,21 @@ pub struct Replay {
     pub playing: bool,
     /// Speed (× real time).
     pub speed: f64,
+    /// The log's space: a planar run (2-D view) or a run on surfaces (3-D view).
+    pub space: Space,
 }
 
 impl Replay {
     /// Reads the run log at `path`; the cursor at its start, paused.
     pub fn open(path: &Path) -> Result<Self, RunLogError> {
         let log = runlog::read(path)?;
-        Ok(Self::of(path.display().to_string(), log.run.ticks))
+        Ok(Replay {
+            space: log.run.space,
+            ..Self::of(path.display().to_string(), log.run.ticks)
+        })
     }
 
-    /// A replay of `ticks` (non-empty, in time order, as a run log holds them).
+    /// A replay of the planar `ticks` (non-empty, in time order, as a run log holds them).
     pub fn of(label: String, ticks: Vec<Tick>) -> Self {
         let cursor_s = ticks.first().map_or(0.0, |t| t.t_s);
         Replay {
@@ -44,6 +50,7 @@ impl Replay {
             cursor_s,
             playing: false,
             speed: 1.0,
+            space: Space::Planar,
         }
     }
 
