@@ -640,24 +640,26 @@ fn the_objects_panel_renders_the_bump_in_3d_and_a_curve_in_2d() {
             |ui, v: &mut ViewerUi| viewer::gui::objects_ui(ui, &mut v.state),
             ViewerUi::new(state),
         );
+    // Opens the object's header (and closes `close`'s), clicks its button, lets the loop
+    // take the swap.
+    let render = |h: &mut Harness<'_, ViewerUi>, open: &str, close: Option<&str>| {
+        if let Some(close) = close {
+            h.get_by_label(close).click();
+        }
+        h.get_by_label(open).click();
+        h.run_steps(2);
+        h.get_by_label("Render this one").click();
+        h.run_steps(2);
+        h.state_mut().state.step(1);
+        h.run_steps(1);
+    };
     h.run_steps(2);
-    h.get_by_label("2: bump").click();
-    h.run_steps(2);
-    h.get_by_label("Render this one").click();
-    h.run_steps(2);
-    h.state_mut().state.step(1);
-    h.run_steps(1);
+    render(&mut h, "2: bump", None);
     let s = &h.state().state;
     assert_eq!(s.scene_error, None);
     assert!(s.spatial.is_some(), "the 3-D view");
     assert_eq!((s.felt_object(), s.scene.rendered), (Some(2), None));
-    h.get_by_label("(rendered) 2: bump").click();
-    h.get_by_label("1: circle").click();
-    h.run_steps(2);
-    h.get_by_label("Render this one").click();
-    h.run_steps(2);
-    h.state_mut().state.step(1);
-    h.run_steps(1);
+    render(&mut h, "1: circle", Some("(rendered) 2: bump"));
     let s = &h.state().state;
     assert!(s.spatial.is_none(), "back in 2-D");
     assert_eq!((s.felt_object(), s.scene.rendered), (Some(1), Some(1)));

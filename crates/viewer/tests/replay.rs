@@ -30,15 +30,20 @@ fn recorded_run(dir: &Temp) -> (AppState, PathBuf) {
     assert!(state.set_hand_target(Vec2::new(0.004, 0.09)));
     state.step(3000);
     let path = dir.0.join("run.csv");
-    let mut out = Vec::new();
-    viewer::sim::write_csv_header(&mut out, Space::Planar, true).expect("header");
-    for s in &state.history {
-        s.tick
-            .write_csv_row(&mut out, Space::Planar, true)
-            .expect("row");
-    }
-    std::fs::write(&path, out).expect("write");
+    write_log(&state, &path, Space::Planar);
     (state, path)
+}
+
+/// Writes the app's history to `path` as the run log `--record` writes for `space` (the
+/// planar one with the device's columns).
+fn write_log(state: &AppState, path: &std::path::Path, space: Space) {
+    let device = space == Space::Planar;
+    let mut out = Vec::new();
+    viewer::sim::write_csv_header(&mut out, space, device).expect("header");
+    for s in &state.history {
+        s.tick.write_csv_row(&mut out, space, device).expect("row");
+    }
+    std::fs::write(path, out).expect("write");
 }
 
 /// The replay shows exactly the logged ticks: at every cursor the newest sample is the
@@ -163,14 +168,7 @@ fn a_3d_log_replays_as_3d() {
     spatial.set_target(spatial.target + nurbs::Vec3::new(0.0, 0.0, -0.002));
     live.step(300);
     let path = dir.0.join("run.3d.csv");
-    let mut out = Vec::new();
-    viewer::sim::write_csv_header(&mut out, Space::Spatial, false).expect("header");
-    for s in &live.history {
-        s.tick
-            .write_csv_row(&mut out, Space::Spatial, false)
-            .expect("row");
-    }
-    std::fs::write(&path, out).expect("write");
+    write_log(&live, &path, Space::Spatial);
     let mut state = AppState::stepped("torus").unwrap_or_else(|e| panic!("{e:#}"));
     state.open_replay(&path);
     assert_eq!(state.replay_error, None);
