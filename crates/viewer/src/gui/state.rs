@@ -973,10 +973,10 @@ impl AppState {
         // An object the spatial hand feels leaves the planar device idle (it is planar).
         let felt_in_3d =
             object.filter(|&i| scene.object(i).is_some_and(super::spatial::can_be_felt));
-        let built = match object {
-            Some(_) if felt_in_3d.is_some() => Session::with_object(scene.clone(), None),
-            Some(i) => Session::with_object(scene.clone(), Some(i)),
-            None => Session::new(scene.clone()),
+        let built = match (object, felt_in_3d) {
+            (_, Some(_)) => Session::with_object(scene.clone(), None),
+            (Some(i), None) => Session::with_object(scene.clone(), Some(i)),
+            (None, None) => Session::new(scene.clone()),
         };
         let session = built.map_err(|e| format!("{label}: {e}; the running scene is unchanged"))?;
         let view = SceneView::new(&self.scene_label(label, edited), &scene, session.object());
