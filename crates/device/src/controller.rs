@@ -353,7 +353,6 @@ impl<O: Object<P = Vec2>> Controller<O> {
             &scene.object,
             scene.material,
             acquisition.state,
-            period_s,
         ));
         scene.request_hip = None;
         self.safety.notify_scene_swap();

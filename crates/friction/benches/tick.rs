@@ -12,7 +12,7 @@ const T: f32 = 1e-3;
 
 /// Runs `warm` ticks along `path` (cyclically, back and forth) and then benchmarks one tick.
 fn bench_object<O: Object>(c: &mut Criterion, name: &str, object: &O, path: &[O::P]) {
-    let mut r = FrictionRenderer::new(object, FrictionMaterial::default(), path[0], T);
+    let mut r = FrictionRenderer::new(object, FrictionMaterial::default(), path[0]);
     let n = path.len();
     // Ping-pong along the path so the motion stays smooth.
     let at = |k: usize| {

@@ -1,13 +1,15 @@
 //! Friction parameters of a material.
 
-/// The Stribeck curve of the stuck → slip transition: how μ falls from μ_s to μ_d with the
-/// god-object's slip speed `v`, `μ(v) = μ_d + (μ_s − μ_d) · m(s)` with
-/// `s = 1 − (v / v_s)²` clamped to [0, 1] (1 at rest, 0 at and above the Stribeck speed `v_s`,
-/// [`FrictionMaterial::stribeck_speed_m_per_s`]).
+/// The shape of μ's fall from μ_s to μ_d through the stuck → slip transition (thesis §3.1.1,
+/// Fig. 3.1.1(b)): `μ = μ_d + (μ_s − μ_d) · m(s)`, with `s` the share of the transition still to
+/// run (1 at breakaway, 0 at its end).
 ///
-/// The curve reaches μ_d at a finite speed, so the transition ends (thesis §3.1.1: μ = μ_d once
-/// the GO has caught up) and slip renders exactly μ_d. All shapes are polynomials in `v²`: no
-/// square roots or transcendental functions in the tick.
+/// How fast the transition runs is the Stribeck effect: it takes
+/// [`FrictionMaterial::transition_time_s`] τ for a contact sliding at or above the Stribeck
+/// speed `v_s`, and `τ v_s / v` at a slower `v` ([`FrictionMaterial::transition_duration_s`]).
+/// Then slip renders exactly μ_d: the steady friction is not velocity-weakening, so a steady
+/// slide at any speed settles instead of juddering. All shapes are polynomials: no square
+/// roots or transcendental functions in the tick.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Stribeck {
     /// `m(s) = s`: the thesis's linear interpolation between μ_s and μ_d.
@@ -44,25 +46,6 @@ impl Stribeck {
     pub fn mu(&self, mu_static: f32, mu_dynamic: f32, s: f32) -> f32 {
         mu_dynamic + (mu_static - mu_dynamic) * self.shape(s)
     }
-
-    /// μ at slip speed `speed_m_per_s` on a curve that reaches μ_d at `stribeck_speed_m_per_s`:
-    /// `s = 1 − (v / v_s)²`.
-    #[inline]
-    pub fn mu_at_speed(
-        &self,
-        mu_static: f32,
-        mu_dynamic: f32,
-        speed_m_per_s: f32,
-        stribeck_speed_m_per_s: f32,
-    ) -> f32 {
-        let vs_sq = stribeck_speed_m_per_s * stribeck_speed_m_per_s;
-        let s = if vs_sq > 0.0 {
-            1.0 - speed_m_per_s * speed_m_per_s / vs_sq
-        } else {
-            0.0
-        };
-        self.mu(mu_static, mu_dynamic, s)
-    }
 }
 
 /// Which friction law renders the material.
@@ -91,17 +74,19 @@ pub struct FrictionMaterial {
     pub mu_static: f32,
     /// Dynamic coefficient μ_d ≤ μ_s.
     pub mu_dynamic: f32,
-    /// The μ_s → μ_d modulation in the stuck → slip transition.
+    /// The shape of μ's fall from μ_s to μ_d in the stuck → slip transition.
     pub stribeck: Stribeck,
-    /// Frictional memory (s): the slip speed that sets μ on the Stribeck curve follows the
-    /// god-object's speed with this first-order lag, so μ cannot fall faster than the
-    /// contact's own time constant, however hard the hand jerks (Hess & Soom's lag).
+    /// Frictional memory (s): the shortest the stuck → slip transition takes (at or above the
+    /// Stribeck speed), so μ cannot fall faster than the contact's own time constant however
+    /// hard the hand jerks (Hess & Soom's lag); also the time constant of the god-object's
+    /// low-passed slip speed.
     pub transition_time_s: f32,
-    /// The transition ends when the god-object is within this distance of its slip position,
-    /// where the spring carries exactly μ_d F_N (m).
+    /// The transition ends when the god-object at the transition's μ is within this distance
+    /// of its slip position at μ_d, `(μ − μ_d)·depth ≤ converge_tol_m` (m).
     pub converge_tol_m: f32,
-    /// The transition or slip sticks when the god-object's slip speed falls below this, or when
-    /// the closest point moves back towards the god-object faster than this (m/s).
+    /// The transition or slip sticks when the god-object's low-passed slip speed falls below
+    /// this, or when the HIP moves back towards the god-object faster than this (m/s). Below
+    /// the slowest tracing speed a hand keeps up (1 mm/s), so a slow steady slide never sticks.
     pub stop_speed_m_per_s: f32,
     /// The friction law.
     pub model: ModelKind,
@@ -113,9 +98,21 @@ pub struct FrictionMaterial {
     pub bristle_stiffness_n_per_m: f32,
     /// Bristle damping σ₁ (N·s/m) of LuGre.
     pub bristle_damping_ns_per_m: f32,
-    /// Stribeck speed v_s (m/s): of the stick–slip transition's curve ([`Stribeck`]), where μ
-    /// reaches μ_d; and of LuGre's `g(v)`.
+    /// Stribeck speed v_s (m/s): a stick–slip transition at a sliding speed `v` below it takes
+    /// `τ v_s / v` instead of τ ([`Stribeck`]); and the speed of LuGre's `g(v)`.
     pub stribeck_speed_m_per_s: f32,
+}
+
+impl FrictionMaterial {
+    /// How long the stuck → slip transition takes for a contact sliding at `speed_m_per_s`:
+    /// `τ · max(1, v_s / v)` (infinite at rest).
+    pub fn transition_duration_s(&self, speed_m_per_s: f32) -> f32 {
+        if speed_m_per_s >= self.stribeck_speed_m_per_s {
+            self.transition_time_s
+        } else {
+            self.transition_time_s * self.stribeck_speed_m_per_s / speed_m_per_s
+        }
+    }
 }
 
 impl Default for FrictionMaterial {
@@ -129,7 +126,7 @@ impl Default for FrictionMaterial {
             stribeck: Stribeck::Linear,
             transition_time_s: 0.02,
             converge_tol_m: 1e-5,
-            stop_speed_m_per_s: 1e-3,
+            stop_speed_m_per_s: 5e-4,
             model: ModelKind::StickSlip,
             viscous_ns_per_m: 0.0,
             karnopp_band_m_per_s: 1e-3,

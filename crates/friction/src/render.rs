@@ -3,40 +3,65 @@
 //!
 //! # Algorithm 1, as implemented
 //!
-//! The closest point (CP) is tracked with feature switching always on, so the penetration depth
-//! is the object's true depth wherever the GO is. The GO is a point on the object's surface that
-//! moves only when friction cannot hold it: the force is
+//! The closest point (CP) is tracked with feature switching always on, so its depth `d` and
+//! normal `n` are the object's true ones wherever the GO is. The GO is the anchor of a spring
+//! from the HIP, and the whole elastic force is that spring:
 //!
-//! `F = F_N n + F_T`,  `F_N = K·depth − b·v·n_CP` (≥ 0),  `F_T = K·(GO − HIP)` tangential to `n`,
+//! `F = K (GO − HIP) − b (v·n) n`,  its normal part `F_N = F·n ≥ 0`, friction `F_T = F − F_N n`.
 //!
-//! with `n` the normal at the GO and `|F_T| ≤ μ F_N` (the friction cone).
+//! The friction cone is about the true contact normal: `|F_T| ≤ μ F_N`. Each tick first decides
+//! the state machine's edge from the spring as the HIP left it (one match arm per mode, each
+//! edge with its [`SwitchCause`]), then moves the GO as the new mode says, then advances the
+//! frictional memory.
 //!
 //! - **Free → stuck** on contact ([`SwitchCause::Contact`]): the GO is put at the CP.
-//! - **Stuck**: the GO stays where it is; friction is the tangential spring. Leaving the CP's
-//!   Voronoi region does not move the GO, so static friction holds at a corner (§3.1.2).
-//! - **Stuck → transition** when `|F_T| > μ_s F_N` ([`SwitchCause::Breakaway`]).
-//! - **Transition and slip**: each tick the GO slides towards the HIP just far enough that the
-//!   spring carries `μ F_N` (the cone's surface): friction opposes the slide and only ever
-//!   dissipates. In the transition μ follows the Stribeck curve of the GO's slip speed
-//!   ([`crate::Stribeck`]): `μ_s` at breakaway, `μ_d` at and above the Stribeck speed, so a
-//!   faster hand loses static friction sooner (§3.1.1). The slip speed is the GO's speed
-//!   low-passed, and μ lags the curve, both over `transition_time_s` (frictional memory): μ
-//!   falls by at most `(μ_s − μ_d) T/τ` per tick, and the jitter of a handle held by a
-//!   compliant hand does not make μ chatter.
-//! - **Transition → slip** once μ has reached μ_d and the GO sits within `converge_tol_m` of
-//!   its slip position ([`SwitchCause::Converged`]); slip renders `μ_d F_N`.
-//! - **Dynamic → stuck** (transition or slip, Algorithm 1's DYNAMIC state): when the normal
-//!   force jumps, `μ_d F_N[k] > μ_s F_N[k−1]` ([`SwitchCause::NormalForceJump`]); when the
-//!   CP moves back towards the GO faster than the stop speed ([`SwitchCause::Reversed`]); or
-//!   when the GO's slip speed has fallen below the stop speed ([`SwitchCause::Stopped`]). The
-//!   GO stays where it is, so the force carries on unchanged (force continuity).
+//! - **Stuck**: the GO stays where it is, so the force is a plain spring to a fixed point
+//!   (conservative). The CP keeps switching Voronoi regions; the GO does not follow it, so static
+//!   friction holds at a corner (§3.1.2) for as long as the spring lies in the cone about the
+//!   true normal there.
+//! - **Stuck → transition** when the spring leaves the cone, `|F_T| > μ_s F_N`
+//!   ([`SwitchCause::Breakaway`]).
+//! - **Transition and slip**: while the spring lies outside the cone of the mode's μ, the GO
+//!   slides to the cone's edge about the CP: `GO = HIP + d n + s t̂`, with `t̂` the direction of
+//!   the spring's tangential part and `s = min(μ d, √(|GO − HIP|² − d²))`. The spring then
+//!   carries `μ K d` of friction against the slide on a normal force of `K d`, and it is never
+//!   longer than before, so every slide takes energy out of it: the renderer is passive
+//!   whatever the geometry (below). With `μ = 0` the GO is the CP and the force is the penalty
+//!   wall `K d n`, the gradient of `½ K d²`.
+//! - **The transition** (§3.1.1) lowers μ from `μ_s` to `μ_d` along the material's Stribeck
+//!   shape ([`crate::Stribeck`]) as it progresses, and it progresses at `min(1, v/v_s)/τ`, with
+//!   `v` the contact's sliding speed over the object (the CP's), `v_s` the Stribeck speed and τ
+//!   `transition_time_s`: a slide at or above `v_s` takes τ to reach μ_d, a slower one
+//!   `τ v_s / v` (it always reaches it, after the same `v_s τ` of slide). So a faster hand loses
+//!   static friction sooner, and μ never rises again while sliding.
+//! - **Transition → slip** once the GO at μ sits within `converge_tol_m` of its slip position at
+//!   μ_d, `(μ − μ_d) d ≤ converge_tol_m` ([`SwitchCause::Converged`]); slip renders `μ_d`.
+//! - **Dynamic → stuck** (transition or slip, Algorithm 1's DYNAMIC state), each only where the
+//!   spring already lies in the cone the new mode holds, so the force carries on unchanged:
+//!   when the normal force jumps, `μ_d F_N[k] > μ_s F_N[k−1]` ([`SwitchCause::NormalForceJump`]);
+//!   when the HIP's step moves back towards the GO (in the tangent plane, faster than the stop
+//!   speed) and the spring has relaxed a tenth inside the cone ([`SwitchCause::Reversed`]); or
+//!   when the GO's slip speed has fallen below the stop speed ([`SwitchCause::Stopped`]).
 //! - **Contact lost → free** ([`SwitchCause::Released`]).
 //!
-//! Where the GO slides onto a neighbouring patch across a crease (a sharp vertex of a chain, an
-//! edge of a shell), it stops on the crease while its normal turns from one patch's normal to
-//! the other's over a slide of `depth × |n₁ − n₀|`: the crease is felt as if rounded to the
-//! depth of penetration, so the force turns by about `K` times the hand's step per tick instead
-//! of jumping by `|F|·|n₁ − n₀|`.
+//! # Why this design: passive at every vertex and edge
+//!
+//! With the force `K (GO − HIP)` the spring's energy `E = ½ K |GO − HIP|²` is a storage
+//! function: while the GO stands still the force is its exact gradient, and a slide never
+//! lengthens the spring, so over any stretch of the HIP's path the work done on the hand is at
+//! most `E(start) − E(end)`. A path that starts with the GO at the CP (on contact, or from a
+//! fresh renderer) starts at the least energy any GO on a convex object's tangent planes can
+//! have there, `½ K d²`: over a closed path the rendered force does no positive work, in every
+//! mode, across sharp convex and concave vertices and shell edges, in 2-D and 3-D alike. (On a
+//! concave patch the GO's tangent-plane point sits at most `κ s²/2` inside the object, which
+//! bounds what a loop there can return by `K d κ s²/2`.)
+//!
+//! The cone is about the CP's normal, not the GO's: that is what makes `μ = 0` the penalty
+//! wall whatever the history. Its price is at the inner bisector of a sharp convex vertex,
+//! where the true normal itself jumps: a spring inside one face's cone can lie outside the
+//! other's, and no GO that keeps the force in the new cone without lengthening the spring is
+//! near the old one, so the force jumps there by at most the penalty wall's own jump,
+//! `2 sin(θ/2) K d`, times `√(1 + μ²)` (θ the angle between the faces' normals).
 //!
 //! # Where this departs from a literal reading of the thesis
 //!
@@ -45,6 +70,11 @@
 //!   added to `F_T`). That reset stretches the spring out of nothing and injects `½ F_f² / K`
 //!   of energy each time. Here the GO stays where the spring already carries the friction, which
 //!   gives the same forces with friction that can only dissipate.
+//! - The thesis's transition modulates μ by the GO's speed; a μ that follows a falling
+//!   μ(speed) curve in steady sliding is velocity-weakening, which makes a steady slide between
+//!   `τ v_s² / ((μ_s − μ_d) d)` and `v_s` judder (stick–slip at 7–8 Hz, measured). Here the speed
+//!   sets how fast the transition runs, and slip is μ_d as in the thesis's Fig. 3.1.1(b): the
+//!   steady friction is a function of the present mode, not of how the slide was reached.
 //! - The stuck self-transition of Fig. 3.1.2 (reset the GO to the CP when the CP stops or
 //!   reverses while stuck) is not implemented. It would drop the friction force to zero in one
 //!   tick, a step of up to `μ_s F_N`, and the thesis's own Fig. 3.2.2 contradicts it: in 4 → 5
@@ -100,13 +130,15 @@ pub enum SwitchCause {
     None,
     /// Free → stuck: the HIP entered the object.
     Contact,
-    /// Stuck → transition: `|F_T| > μ_s F_N`.
+    /// Stuck → transition: `|F_T| > μ_s F_N`; for the velocity-based laws, stuck → slip.
     Breakaway,
-    /// Transition → slip: μ reached μ_d and the GO converged to its slip position.
+    /// Transition → slip: μ reached μ_d (the GO is within `converge_tol_m` of its slip
+    /// position).
     Converged,
-    /// Dynamic → stuck: the GO's slip speed fell below the stop speed (the CP stopped).
+    /// Dynamic → stuck: the GO's slip speed fell below the stop speed (the hand stopped or
+    /// pressed in); for the velocity-based laws, the CP's speed did.
     Stopped,
-    /// Dynamic → stuck: the CP reversed, moving back towards the GO.
+    /// Dynamic → stuck: the HIP's step went back towards the GO.
     Reversed,
     /// Dynamic → stuck: the normal force jumped, `μ_d F_N[k] > μ_s F_N[k−1]`.
     NormalForceJump,
@@ -178,8 +210,8 @@ pub struct FrictionOutput<P> {
     /// The CP tracker's projection error Ψ (thesis eq. 2.8, `[Ψ_u]` on curves): 0 once the
     /// closest point has converged.
     pub psi: f32,
-    /// The GO's slip speed that sets μ in the transition (m/s, filtered over
-    /// [`FrictionMaterial::transition_time_s`]).
+    /// The GO's slip speed (m/s, low-passed over [`FrictionMaterial::transition_time_s`]): a
+    /// dynamic mode sticks once it falls below the stop speed.
     pub slip_speed_m_per_s: f32,
 }
 
@@ -204,49 +236,34 @@ impl<P: Point> LawState<P> {
     }
 }
 
-/// A GO stopped on a crease: the patch across it, the same point's parameters there, that
-/// patch's normal, the directions of travel over the crease, and how far the GO's normal has
-/// turned towards the next patch's (0 → 1).
-#[derive(Clone, Copy, Debug)]
-struct Crease<P> {
-    patch: usize,
-    params: [f32; 2],
-    normal: P,
-    /// The unit tangent leaving the GO's patch through the crease, and entering the next one.
-    out_of: P,
-    into: P,
-    turned: f32,
-}
-
-/// Normals closer than this (chord of unit vectors, about 0.06°) meet smoothly: no crease.
-const SMOOTH_CHORD: f32 = 1e-3;
-
-/// How far the friction force must fall below `μ_d F_N` (as a fraction) with the CP moving back
-/// towards the GO before a dynamic mode counts the motion as reversed.
+/// How far the spring must relax inside the cone of the dynamic mode's μ (as a fraction of
+/// `μ F_N`), with the HIP moving back towards the GO, before the motion counts as reversed: the
+/// jitter of a handle held by a compliant hand does not.
 const REVERSAL_HYSTERESIS: f32 = 0.1;
 
-/// The smallest radius a crease is rounded to (m), so that a crease met at zero depth still
-/// turns over a few micrometres of slide rather than in one step.
-const MIN_ROUNDING_M: f32 = 1e-5;
+/// Relative f32 slack of the cone test (on `|F_T|²`): a spring the GO was just put on the
+/// edge of counts as inside.
+const CONE_SLACK: f32 = 1e-4;
 
 /// The whole friction renderer for one object: CP tracker, GO and state machine.
 #[derive(Clone, Copy, Debug)]
 pub struct FrictionRenderer<O: Object> {
     material: FrictionMaterial,
     cp: O::State,
+    /// The GO: the anchor of the friction spring, on the CP's tangent plane where it was put.
+    go: O::P,
+    /// The patch and parameters under the GO (one Gauss–Newton step from the CP it was put
+    /// beside), and that CP's frame: the sign reference of the friction.
     go_patch: usize,
     go_params: [f32; 2],
-    /// The GO's frame (evaluated where it moved; reused while it stands still).
     go_frame: Frame<O::P>,
-    crease: Option<Crease<O::P>>,
     mode: Mode,
     cause: SwitchCause,
     law: LawState<O::P>,
     /// The GO's slip speed (m/s), low-passed over `transition_time_s`.
     slip_speed: f32,
-    /// μ in the transition: follows the Stribeck curve of the slip speed with the lag
-    /// `transition_time_s`.
-    mu: f32,
+    /// How far the transition has run, 0 at breakaway to 1 at μ_d.
+    progress: f32,
     prev_cp: Option<O::P>,
     prev_hip: Option<O::P>,
     prev_normal_force: f32,
@@ -257,28 +274,48 @@ pub fn cp_config() -> tracker::TrackerConfig {
     tracker::TrackerConfig::default()
 }
 
+/// The spring from the HIP to the GO, split about the true contact normal `n`: its normal part
+/// `a` (m, positive when the GO is outward of the HIP) and its tangential part `t`.
+#[derive(Clone, Copy, Debug)]
+struct Spring<P> {
+    v: P,
+    a: f32,
+    t: P,
+}
+
+impl<P: Point> Spring<P> {
+    fn new(go: P, hip: P, n: P) -> Self {
+        let v = go - hip;
+        let a = v.dot(n);
+        Spring { v, a, t: v - n * a }
+    }
+
+    /// Whether the spring's force lies outside the cone `|F_T| ≤ μ F_N` (or pulls inward).
+    fn outside(&self, mu: f32) -> bool {
+        self.a < 0.0 || self.t.length_squared() > square(mu * self.a) * (1.0 + CONE_SLACK)
+    }
+
+    /// Whether it lies inside the cone of `μ` shrunk by the fraction `margin`.
+    fn inside(&self, mu: f32, margin: f32) -> bool {
+        !self.outside((1.0 - margin) * mu)
+    }
+}
+
 impl<O: Object> FrictionRenderer<O> {
-    /// A renderer for `object` with `material`, starting from a HIP at `hip`, ticking every
-    /// `period_s`.
+    /// A renderer for `object` with `material`, starting from a HIP at `hip`.
     ///
     /// This runs the object's global closest-point search ([`Object::start`]), far dearer than
     /// a tick; a loop with a deadline runs the search elsewhere and hands its result to
     /// [`FrictionRenderer::from_tracking`].
-    pub fn new(object: &O, material: FrictionMaterial, hip: O::P, period_s: f32) -> Self {
-        Self::from_tracking(object, material, object.start(hip, cp_config()), period_s)
+    pub fn new(object: &O, material: FrictionMaterial, hip: O::P) -> Self {
+        Self::from_tracking(object, material, object.start(hip, cp_config()))
     }
 
     /// A renderer for `object` with `material` whose CP tracker starts from `cp` (a state of
     /// [`Object::start`] with [`cp_config`], possibly found for an earlier HIP: the tracker's
-    /// feedback follows the HIP from there), ticking every `period_s`. Costs one frame
-    /// evaluation, no search.
-    pub fn from_tracking(
-        object: &O,
-        material: FrictionMaterial,
-        cp: O::State,
-        period_s: f32,
-    ) -> Self {
-        let _ = period_s;
+    /// feedback follows the HIP from there). Costs one frame evaluation, no search. The tick's
+    /// period is each [`FrictionRenderer::tick`]'s own.
+    pub fn from_tracking(object: &O, material: FrictionMaterial, cp: O::State) -> Self {
         let (go_patch, go_params) = O::position(&cp);
         let law = match material.model {
             ModelKind::StickSlip => LawState::StickSlip,
@@ -307,18 +344,19 @@ impl<O: Object> FrictionRenderer<O> {
                 z: O::P::ZERO,
             }),
         };
+        let go_frame = object.frame(go_patch, go_params);
         FrictionRenderer {
             material,
             cp,
+            go: go_frame.point,
             go_patch,
             go_params,
-            go_frame: object.frame(go_patch, go_params),
-            crease: None,
+            go_frame,
             mode: Mode::Free,
             cause: SwitchCause::None,
             law,
             slip_speed: 0.0,
-            mu: material.mu_static,
+            progress: 0.0,
             prev_cp: None,
             prev_hip: None,
             prev_normal_force: 0.0,
@@ -347,113 +385,74 @@ impl<O: Object> FrictionRenderer<O> {
         }
     }
 
-    /// The GO's unit normal: its patch's, or across a crease turned part of the way towards
-    /// the next patch's.
-    fn go_normal(&self) -> O::P {
-        match self.crease {
-            Some(c) => blend(self.go_frame.normal, c.normal, c.turned),
-            None => self.go_frame.normal,
-        }
+    /// μ of the transition at its present progress: μ_s at breakaway, μ_d at the end, along the
+    /// Stribeck shape.
+    fn transition_mu(&self) -> f32 {
+        let m = &self.material;
+        m.stribeck
+            .mu(m.mu_static, m.mu_dynamic, 1.0 - self.progress)
     }
 
-    /// Puts the GO at `(patch, params)`, off any crease.
-    fn place_go(&mut self, object: &O, patch: usize, params: [f32; 2]) {
-        self.go_patch = patch;
-        self.go_params = params;
-        self.go_frame = object.frame(patch, params);
-        self.crease = None;
-    }
-
-    /// Slides the GO by the tangential displacement `d` over the surface: within its patch by
-    /// one Gauss–Newton step, onto the next patch where it leaves through a shared boundary
-    /// (after turning its normal over the rounding of a crease, `radius` = the depth, by at
-    /// most `crease_step` of that rounding's arc per tick: the normal force, `K · radius`,
-    /// then turns by at most `K · crease_step`).
-    fn slide_go(&mut self, object: &O, d: O::P, radius: f32, crease_step: f32) {
-        if let Some(mut c) = self.crease {
-            let n0 = self.go_frame.normal;
-            let chord_sq = (c.normal - n0).length_squared();
-            // Forward over the rounding: from leaving the first patch to entering the next, for a
-            // ridge and a valley alike.
-            let forward = c.out_of * (1.0 - c.turned) + c.into * c.turned;
-            let len_sq = forward.length_squared();
-            if len_sq <= f32::MIN_POSITIVE || chord_sq <= f32::MIN_POSITIVE {
-                self.place_go(object, c.patch, c.params);
-                return;
-            }
-            let dir = forward * (1.0 / sqrt(len_sq));
-            let along = d.dot(dir);
-            // The rounding's arc: radius × the angle, the chord standing in for the angle.
-            c.turned += along.clamp(-crease_step, crease_step)
-                / (math::max(MIN_ROUNDING_M, radius) * sqrt(chord_sq));
-            // Along the crease (an edge of a shell): slide on the patch it belongs to, and find
-            // the next patch's point and normal again there.
-            let rest = tangential(d - dir * along, n0);
-            // A step that would leave the crease (f32 rounding of the Gauss–Newton step drifts
-            // off the boundary) is not taken.
-            if rest.length_squared() > square(1e-9) {
-                let params = object.offset(self.go_patch, self.go_params, &self.go_frame, rest);
-                let at = object.frame(self.go_patch, params);
-                if let Some((patch, across)) =
-                    object.neighbour(self.go_patch, params, &at, c.out_of)
+    /// The state machine's edge this tick (Fig. 3.1.2), decided from the spring as the HIP left
+    /// it, before the GO moves: the new mode and its cause, or `None` to stay.
+    fn edge(
+        &self,
+        spring: &Spring<O::P>,
+        depth: f32,
+        normal_force: f32,
+        hip_step: O::P,
+        period_s: f32,
+    ) -> Option<(Mode, SwitchCause)> {
+        let m = &self.material;
+        match self.mode {
+            Mode::Free => Some((Mode::Stuck, SwitchCause::Contact)),
+            Mode::Stuck => spring
+                .outside(m.mu_static)
+                .then_some((Mode::Transition, SwitchCause::Breakaway)),
+            Mode::Transition | Mode::Slip => {
+                let mu = if self.mode == Mode::Slip {
+                    m.mu_dynamic
+                } else {
+                    self.transition_mu()
+                };
+                // Algorithm 1: μ_d F_N[k] > μ_s F_N[k−1]; a relative margin keeps f32 noise from
+                // firing it when μ_s = μ_d.
+                let jump = m.mu_dynamic * normal_force
+                    > m.mu_static * self.prev_normal_force * (1.0 + 1e-4) + 1e-6;
+                // The HIP's step back towards the GO, in the tangent plane, faster than the
+                // stop speed.
+                let back_m = hip_step.dot(spring.t);
+                let back = back_m > 0.0
+                    && square(back_m)
+                        > square(m.stop_speed_m_per_s * period_s) * spring.t.length_squared();
+                if jump && spring.inside(m.mu_static, 0.0) {
+                    Some((Mode::Stuck, SwitchCause::NormalForceJump))
+                } else if back && spring.inside(mu, REVERSAL_HYSTERESIS) {
+                    Some((Mode::Stuck, SwitchCause::Reversed))
+                } else if self.slip_speed < m.stop_speed_m_per_s && spring.inside(mu, 0.0) {
+                    Some((Mode::Stuck, SwitchCause::Stopped))
+                } else if self.mode == Mode::Transition
+                    && (mu - m.mu_dynamic) * depth <= m.converge_tol_m
                 {
-                    self.go_params = params;
-                    self.go_frame = at;
-                    c.patch = patch;
-                    c.params = across;
-                    c.normal = object.frame(patch, across).normal;
+                    Some((Mode::Slip, SwitchCause::Converged))
+                } else {
+                    None
                 }
             }
-            if c.turned >= 1.0 {
-                self.place_go(object, c.patch, c.params);
-            } else if c.turned <= 0.0 {
-                self.crease = None;
-            } else {
-                self.crease = Some(c);
-            }
-            return;
-        }
-        let before = self.go_frame.point;
-        let params = object.offset(self.go_patch, self.go_params, &self.go_frame, d);
-        self.go_params = params;
-        self.go_frame = object.frame(self.go_patch, params);
-        let moved = self.go_frame.point - before;
-        let rest = tangential(d - moved, self.go_frame.normal);
-        let rest_sq = rest.length_squared();
-        if rest_sq <= square(1e-3) * d.length_squared() || rest_sq <= f32::MIN_POSITIVE {
-            return;
-        }
-        if let Some((patch, params)) =
-            object.neighbour(self.go_patch, self.go_params, &self.go_frame, rest)
-        {
-            let across = object.frame(patch, params);
-            if (across.normal - self.go_frame.normal).length_squared() <= square(SMOOTH_CHORD) {
-                self.place_go(object, patch, params);
-                let p = object.offset(patch, params, &self.go_frame, rest);
-                self.go_params = p;
-                self.go_frame = object.frame(patch, p);
-            } else {
-                let out_of = rest * (1.0 / sqrt(rest_sq));
-                let into = tangential(out_of, across.normal);
-                let into_sq = into.length_squared();
-                let into = if into_sq > f32::MIN_POSITIVE {
-                    into * (1.0 / sqrt(into_sq))
-                } else {
-                    out_of
-                };
-                self.crease = Some(Crease {
-                    patch,
-                    params,
-                    normal: across.normal,
-                    out_of,
-                    into,
-                    turned: 0.0,
-                });
-            }
         }
     }
 
-    /// One tick for a HIP at `hip` moving at `hip_velocity`.
+    /// Puts the GO at `go` beside the CP, with the patch and parameters under it.
+    fn place_go(&mut self, object: &O, contact: &Contact<O::P>, go: O::P) {
+        let (patch, params) = O::position(&self.cp);
+        let frame = object.state_frame(&self.cp);
+        self.go_params = object.offset(patch, params, &frame, go - contact.point);
+        self.go_patch = patch;
+        self.go_frame = frame;
+        self.go = go;
+    }
+
+    /// One tick for a HIP at `hip` moving at `hip_velocity`, `period_s` after the last.
     pub fn tick(
         &mut self,
         object: &O,
@@ -473,11 +472,12 @@ impl<O: Object> FrictionRenderer<O> {
             _ => O::P::ZERO,
         };
         self.prev_cp = Some(contact.point);
+        let hip_step = self.prev_hip.map_or(O::P::ZERO, |p| hip - p);
+        self.prev_hip = Some(hip);
 
         if !contact.inside {
             self.switch(Mode::Free, SwitchCause::Released);
             self.prev_normal_force = 0.0;
-            self.prev_hip = Some(hip);
             self.slip_speed = 0.0;
             self.law.reset();
             let frame = object.state_frame(&self.cp);
@@ -495,156 +495,105 @@ impl<O: Object> FrictionRenderer<O> {
             );
         }
 
-        // The normal force from the object's true penetration (thesis eq. 2.10, with damping).
-        let normal_force = math::max(
-            0.0,
-            k * contact.depth - m.damping_ns_per_m * hip_velocity.dot(contact.normal),
-        );
+        let n = contact.normal;
+        let depth = math::max(0.0, contact.depth);
+        // The damping acts on the normal velocity alone (it only dissipates).
+        let damping = -m.damping_ns_per_m * hip_velocity.dot(n);
+        let mut spring = Spring::new(self.go, hip, n);
 
-        if self.mode == Mode::Free {
-            // The GO starts at the CP, whose frame the tracker has just evaluated.
-            let (p, t) = O::position(&self.cp);
-            self.go_patch = p;
-            self.go_params = t;
-            self.go_frame = object.state_frame(&self.cp);
-            self.crease = None;
-            self.slip_speed = 0.0;
-            self.switch(Mode::Stuck, SwitchCause::Contact);
-        } else if matches!(self.mode, Mode::Transition | Mode::Slip)
-            && m.mu_dynamic * normal_force
-                > m.mu_static * self.prev_normal_force * (1.0 + 1e-4) + 1e-6
+        // 1. The edge, from the spring as the HIP left it.
+        let normal_force_before = math::max(0.0, k * spring.a + damping);
+        if let Some((mode, cause)) =
+            self.edge(&spring, depth, normal_force_before, hip_step, period_s)
         {
-            // Algorithm 1: μ_d F_N[k] > μ_s F_N[k−1]; a relative margin keeps f32 noise from
-            // firing it when μ_s = μ_d.
-            self.switch(Mode::Stuck, SwitchCause::NormalForceJump);
-        }
-
-        let mut n = self.go_normal();
-        let mut friction = tangential((self.go_frame.point - hip) * k, n);
-        let mut mu = m.mu_static;
-        if self.mode == Mode::Stuck
-            && friction.length_squared() > square(m.mu_static * normal_force)
-        {
-            // At breakaway the contact slides at the CP's speed; at least twice the stop speed,
-            // so that the slip speed's lag keeps the transition going for τ·ln 2 or more before
-            // a stop can end it (no stuck ↔ transition chatter of a creeping hand).
-            self.slip_speed = math::max(
-                2.0 * m.stop_speed_m_per_s,
-                sqrt(cp_velocity.length_squared()),
-            );
-            self.mu = m.mu_static;
-            self.switch(Mode::Transition, SwitchCause::Breakaway);
-        }
-        // Frictional memory: μ and the slip speed follow the GO's motion with the material's
-        // time constant (no clock sets them: a GO that does not slide keeps its μ).
-        let rate = math::min(1.0, period_s / math::max(period_s, m.transition_time_s));
-        if matches!(self.mode, Mode::Transition | Mode::Slip) {
-            mu = match self.mode {
-                Mode::Transition => {
-                    let target = m.stribeck.mu_at_speed(
-                        m.mu_static,
-                        m.mu_dynamic,
-                        self.slip_speed,
-                        m.stribeck_speed_m_per_s,
+            match cause {
+                SwitchCause::Contact => {
+                    self.place_go(object, &contact, hip + n * depth);
+                    spring = Spring::new(self.go, hip, n);
+                    self.slip_speed = 0.0;
+                }
+                SwitchCause::Breakaway => {
+                    // The contact starts sliding at the CP's speed; at least twice the stop
+                    // speed, so that the slip speed's lag keeps the transition going for τ·ln 2
+                    // or more before a stop can end it (no stuck ↔ transition chatter of a
+                    // creeping hand).
+                    self.slip_speed = math::max(
+                        2.0 * m.stop_speed_m_per_s,
+                        sqrt(cp_velocity.length_squared()),
                     );
-                    self.mu += rate * (target - self.mu);
-                    self.mu
+                    self.progress = 0.0;
                 }
-                _ => m.mu_dynamic,
-            };
-            // The friction cone: the GO slides towards the HIP just far enough that the spring
-            // carries μ F_N.
-            let limit = mu * normal_force;
-            let f_t_sq = friction.length_squared();
-            let mut slide = 0.0;
-            if f_t_sq > square(limit) && f_t_sq > f32::MIN_POSITIVE {
-                let f_t = sqrt(f_t_sq);
-                // The GO keeps up with the hand (twice its step covers the CP's faster motion
-                // on a convex curve) and takes the rest of its way at the frictional memory's
-                // rate T/τ: where the cone jumps away (μ fell, the GO is behind on another
-                // patch) the force turns over several ticks instead of in one. Across a crease
-                // it turns the GO's normal by no more than the hand's step allows (below).
-                let excess = (f_t - limit) / k;
-                let hip_step = self
-                    .prev_hip
-                    .map_or(0.0, |p| sqrt((hip - p).length_squared()));
-                let keep_up = 2.0 * (hip_step + m.stop_speed_m_per_s * period_s);
-                slide = math::min(excess, keep_up + rate * excess);
-                let d = friction * (-slide / f_t);
-                self.slide_go(object, d, math::max(0.0, contact.depth), keep_up);
-                n = self.go_normal();
-                friction = tangential((self.go_frame.point - hip) * k, n);
+                _ => {}
             }
-            let go_speed = if period_s > 0.0 {
-                slide / period_s
+            self.switch(mode, cause);
+        }
+
+        // 2. The GO moves as the mode says: stuck it stays; dynamic it slides to the cone's
+        // edge about the CP wherever the spring lies outside the cone, never lengthening it.
+        let mu = match self.mode {
+            Mode::Transition => self.transition_mu(),
+            Mode::Slip => m.mu_dynamic,
+            _ => m.mu_static,
+        };
+        let mut slide = 0.0;
+        if matches!(self.mode, Mode::Transition | Mode::Slip) && spring.outside(mu) {
+            let t_sq = spring.t.length_squared();
+            let reach_sq = math::max(0.0, spring.v.length_squared() - depth * depth);
+            let s = math::min(mu * depth, sqrt(reach_sq));
+            let along = if t_sq > f32::MIN_POSITIVE {
+                spring.t * (s / sqrt(t_sq))
             } else {
-                0.0
+                O::P::ZERO
             };
-            self.slip_speed += rate * (go_speed - self.slip_speed);
-            if slide < m.stop_speed_m_per_s * period_s {
-                // The GO did not need to move: the hand stopped, reversed, or pressed in. A
-                // reversal is the HIP moving back towards the GO (in the GO's tangent plane,
-                // faster than the stop speed) with the spring relaxed a tenth below the
-                // dynamic load μ_d F_N (the hand came back by a tenth of μ_d·depth): the jitter
-                // of a handle held by a compliant hand does not count.
-                let step = self.prev_hip.map_or(O::P::ZERO, |p| hip - p);
-                let back_m = tangential(step, n).dot(friction);
-                let back = back_m > 0.0
-                    && square(back_m)
-                        > square(m.stop_speed_m_per_s * period_s) * friction.length_squared();
-                let relaxed = friction.length_squared()
-                    < square((1.0 - REVERSAL_HYSTERESIS) * m.mu_dynamic * normal_force);
-                if back && relaxed {
-                    self.switch(Mode::Stuck, SwitchCause::Reversed);
-                } else if self.slip_speed < m.stop_speed_m_per_s {
-                    self.switch(Mode::Stuck, SwitchCause::Stopped);
-                }
-            }
-            // μ has come within 1 % of its way to μ_d (the lag only reaches it asymptotically;
-            // the last 1 % is a step of 0.01 (μ_s − μ_d) F_N).
-            if self.mode == Mode::Transition
-                && mu - m.mu_dynamic <= 0.01 * (m.mu_static - m.mu_dynamic)
-                && friction.length_squared()
-                    <= square(m.mu_dynamic * normal_force + k * m.converge_tol_m)
-            {
-                self.switch(Mode::Slip, SwitchCause::Converged);
-                mu = m.mu_dynamic;
-            }
+            let go = hip + n * depth + along;
+            slide = sqrt((go - self.go).length_squared());
+            self.place_go(object, &contact, go);
+            spring = Spring::new(go, hip, n);
         }
-        // What the friction renders: the spring, never beyond the cone of the mode's μ (it can
-        // exceed it for a tick where the GO stopped on a boundary it cannot leave).
-        let limit = if self.mode == Mode::Stuck {
-            m.mu_static
+
+        // 3. Frictional memory: the slip speed follows the GO's with the material's time
+        // constant, and the transition runs at min(1, v/v_s)/τ.
+        let rate = if m.transition_time_s > period_s {
+            period_s / m.transition_time_s
         } else {
-            mu
-        } * normal_force;
-        let f_t_sq = friction.length_squared();
-        if f_t_sq > square(limit) {
-            friction = friction * (limit / sqrt(f_t_sq));
+            1.0
+        };
+        let go_speed = if period_s > 0.0 {
+            slide / period_s
+        } else {
+            0.0
+        };
+        self.slip_speed += rate * (go_speed - self.slip_speed);
+        if self.mode == Mode::Transition {
+            // The pace is the contact's speed over the object (the CP's), not the GO's: the
+            // spring's own unloading as μ falls would otherwise speed the transition up and
+            // snap every slide through it at full pace.
+            let v_sq = cp_velocity.length_squared();
+            let vs = m.stribeck_speed_m_per_s;
+            let pace = if v_sq < vs * vs { sqrt(v_sq) / vs } else { 1.0 };
+            self.progress = math::min(1.0, self.progress + rate * pace);
         }
+
+        let normal_force = math::max(0.0, k * spring.a + damping);
         self.prev_normal_force = normal_force;
-        self.prev_hip = Some(hip);
+        let friction = spring.t * k;
         let total = n * normal_force + friction;
         let tangent = reference(&self.go_frame, friction);
         FrictionOutput {
             mode: self.mode,
             cause: self.cause,
             contact,
-            go: self.go_frame.point,
+            go: self.go,
             go_patch: self.go_patch as u16,
             go_params: self.go_params,
-            point_of_application: self.go_frame.point,
+            point_of_application: self.go,
             normal: n,
             tangent,
             normal_force_n: normal_force,
             friction_force_n: signed_along(friction, tangent),
             friction,
             total,
-            mu: if self.mode == Mode::Stuck {
-                m.mu_static
-            } else {
-                mu
-            },
+            mu,
             psi: contact.psi[0],
             slip_speed_m_per_s: self.slip_speed,
         }
@@ -686,16 +635,15 @@ impl<O: Object> FrictionRenderer<O> {
             LawState::LuGre(l) => l.force(&input),
             LawState::StickSlip => O::P::ZERO,
         };
-        if cp_velocity.length_squared() < square(m.stop_speed_m_per_s) {
-            let cause = if self.mode == Mode::Free {
-                SwitchCause::Contact
-            } else {
-                SwitchCause::Stopped
-            };
-            self.switch(Mode::Stuck, cause);
-        } else {
-            self.switch(Mode::Slip, SwitchCause::Breakaway);
-        }
+        // Each edge with its own cause: whichever mode contact starts in, it is the contact.
+        let moving = cp_velocity.length_squared() >= square(m.stop_speed_m_per_s);
+        let (mode, cause) = match (self.mode, moving) {
+            (Mode::Free, false) => (Mode::Stuck, SwitchCause::Contact),
+            (Mode::Free, true) => (Mode::Slip, SwitchCause::Contact),
+            (_, false) => (Mode::Stuck, SwitchCause::Stopped),
+            (_, true) => (Mode::Slip, SwitchCause::Breakaway),
+        };
+        self.switch(mode, cause);
         self.prev_normal_force = f_n;
         let mu = if f_n > 0.0 {
             sqrt(friction.length_squared()) / f_n
@@ -734,18 +682,6 @@ impl<O: Object> FrictionRenderer<O> {
             psi: contact.psi[0],
             slip_speed_m_per_s: 0.0,
         }
-    }
-}
-
-/// `normalize((1 − s) a + s b)`: the unit vector a fraction `s` of the way from `a` to `b`.
-#[inline]
-fn blend<P: Point>(a: P, b: P, s: f32) -> P {
-    let v = a * (1.0 - s) + b * s;
-    let len_sq = v.length_squared();
-    if len_sq > f32::MIN_POSITIVE {
-        v * (1.0 / sqrt(len_sq))
-    } else {
-        a
     }
 }
 

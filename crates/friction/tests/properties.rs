@@ -54,7 +54,7 @@ fn check_run<O: Object>(
     path: &[O::P],
     material: FrictionMaterial,
 ) -> Result<f32, TestCaseError> {
-    let mut r = FrictionRenderer::new(object, material, path[0], T);
+    let mut r = FrictionRenderer::new(object, material, path[0]);
     let mut prev_x = path[0];
     let mut prev_f = O::P::ZERO;
     let mut work = 0.0f32;

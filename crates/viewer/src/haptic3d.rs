@@ -130,7 +130,7 @@ impl SpatialSession {
         self.0.with_dependent_mut(|_, d| {
             if let Some(r) = d {
                 let period_s = (1.0 / RATE_HZ) as f32;
-                r.renderer = FrictionRenderer::new(&r.shell, material, hip, period_s);
+                r.renderer = FrictionRenderer::new(&r.shell, material, hip);
             }
         });
     }
@@ -153,7 +153,7 @@ fn shell_rendering(
         name: o.name().to_owned(),
     })?;
     let shell = Shell::new(&surfaces).map_err(|error| SimError::Shell { index, error })?;
-    let renderer = FrictionRenderer::new(&shell, material, hip, (1.0 / RATE_HZ) as f32);
+    let renderer = FrictionRenderer::new(&shell, material, hip);
     Ok(ShellRendering { shell, renderer })
 }
 

@@ -389,7 +389,7 @@ fn simulate<O: TrackedObject>(
 ) -> Vec<Tick> {
     let period_s = (1.0 / rate_hz) as f32;
     let start = trajectory.at(trajectory.start_s());
-    let mut renderer = FrictionRenderer::new(object, material, point::<O::P>(start), period_s);
+    let mut renderer = FrictionRenderer::new(object, material, point::<O::P>(start));
     let mut previous = start;
     let mut ticks = Vec::with_capacity(n);
     for i in 0..n {

@@ -39,7 +39,7 @@ pub fn sweep(material: FrictionMaterial, speeds: &[f32]) -> Vec<Slide> {
             // Breakaway needs μ_s × 2 mm of slide; then 0.4 s more.
             let slide_ticks = (material.mu_static * 0.002 / (v * t)) as usize + 400;
             let slide = (0..slide_ticks).map(|k| Vec2::new(v * t * k as f32, 0.078));
-            let mut r = FrictionRenderer::new(&chain, material, Vec2::new(0.0, 0.085), t);
+            let mut r = FrictionRenderer::new(&chain, material, Vec2::new(0.0, 0.085));
             let mut prev = Vec2::new(0.0, 0.085);
             let mut breakaway: Option<usize> = None;
             let mut samples = Vec::new();

@@ -326,7 +326,7 @@ impl<'s> Shadow<'s> {
             // acquisition searched from (`App::acquire` between ticks): the same here.
             if self.renderer.is_none() && out.render.is_some() {
                 let from = self.previous_hip.unwrap_or(hip);
-                self.renderer = Some(FrictionRenderer::new(&self.object, self.material, from, t));
+                self.renderer = Some(FrictionRenderer::new(&self.object, self.material, from));
                 self.cp = Some(self.object.start(from, friction::cp_config()));
             }
             self.previous_hip = Some(hip);
@@ -730,7 +730,7 @@ fn surface_run(meter: &mut Meter) {
     };
     let overhead = meter.overhead;
     let (mut renderer, search) =
-        meter.instructions(|| FrictionRenderer::new(&shell, material, hip0, t));
+        meter.instructions(|| FrictionRenderer::new(&shell, material, hip0));
     let mut all = Stats::default();
     let mut by_mode = [Stats::default(); 4];
     let mut previous = hip0;
