@@ -1,5 +1,6 @@
-//! Writes the Stribeck curve the stick–slip renderer produces (μ against the god-object's slip
-//! speed, and μ after breakaway, for hand speeds from 1 to 40 mm/s) with the default material:
+//! Writes the Stribeck effect the stick–slip renderer produces (the transition's duration against
+//! the hand's speed, and μ after breakaway, for hand speeds from 1 to 40 mm/s) with the default
+//! material:
 //!
 //! ```sh
 //! cargo run --release -p viewer --example stribeck -- docs/figures/stribeck.png

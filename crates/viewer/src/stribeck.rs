@@ -1,6 +1,7 @@
-//! The Stribeck curve the stick–slip renderer actually produces: μ against the god-object's
-//! slip speed, measured by sliding a HIP over a flat floor at a range of hand speeds, and its
-//! plot (`docs/figures/stribeck.png`, written by `cargo run -p viewer --example stribeck`).
+//! The Stribeck effect the stick–slip renderer actually produces: how long μ takes to fall from
+//! μ_s to μ_d after breakaway against the hand's speed, and μ over time after breakaway,
+//! measured by sliding a HIP over a flat floor at a range of hand speeds, and its plot
+//! (`docs/figures/stribeck.png`, written by `cargo run -p viewer --example stribeck`).
 
 use std::path::Path;
 
@@ -19,6 +20,8 @@ pub struct Slide {
     pub hand_speed_m_per_s: f32,
     /// `(t since breakaway, slip speed, μ)`, one per tick while not stuck.
     pub samples: Vec<(f32, f32, f32)>,
+    /// Time from breakaway to slip (s), if the slide got there.
+    pub transition_s: Option<f32>,
 }
 
 /// Presses 2 mm into a flat floor and slides along it at each of `speeds` (m/s) for 0.4 s
@@ -43,11 +46,17 @@ pub fn sweep(material: FrictionMaterial, speeds: &[f32]) -> Vec<Slide> {
             let mut prev = Vec2::new(0.0, 0.085);
             let mut breakaway: Option<usize> = None;
             let mut samples = Vec::new();
+            let mut transition_s = None;
             for (k, x) in press.chain(slide).enumerate() {
                 let o = r.tick(&chain, x, (x - prev) / t, t);
                 prev = x;
                 if breakaway.is_none() && o.mode == Mode::Transition {
                     breakaway = Some(k);
+                }
+                if let Some(b) =
+                    breakaway.filter(|_| transition_s.is_none() && o.mode == Mode::Slip)
+                {
+                    transition_s = Some((k - b) as f32 * t);
                 }
                 if let Some(b) = breakaway.filter(|_| o.mode != Mode::Stuck) {
                     samples.push(((k - b) as f32 * t, o.slip_speed_m_per_s, o.mu));
@@ -56,13 +65,14 @@ pub fn sweep(material: FrictionMaterial, speeds: &[f32]) -> Vec<Slide> {
             Slide {
                 hand_speed_m_per_s: v,
                 samples,
+                transition_s,
             }
         })
         .collect()
 }
 
-/// Writes the sweep as a PNG: μ against slip speed (left) over the material's nominal curve,
-/// and μ against time since breakaway (right).
+/// Writes the sweep as a PNG: the transition's duration against the hand's speed (left) over
+/// the material's `τ · max(1, v_s / v)`, and μ against time since breakaway (right).
 pub fn write_png(
     path: impl AsRef<Path>,
     material: &FrictionMaterial,
@@ -114,48 +124,50 @@ fn draw(
     );
     let root = root.titled(&title, (font, 20))?;
     let (left, right) = root.split_horizontally(700);
-    let v_max = 2.0 * f64::from(m.stribeck_speed_m_per_s) * 1e3;
+    let v_max = slides
+        .iter()
+        .map(|s| f64::from(s.hand_speed_m_per_s) * 1e3)
+        .fold(2.0 * f64::from(m.stribeck_speed_m_per_s) * 1e3, f64::max);
     let mu_range = f64::from(m.mu_dynamic) - 0.02..f64::from(m.mu_static) + 0.02;
     let colour = |i: usize| Palette99::pick(i).to_rgba();
 
+    let duration_ms =
+        |v_mm_s: f64| f64::from(m.transition_duration_s((v_mm_s * 1e-3) as f32)) * 1e3;
+    let d_max = slides
+        .iter()
+        .filter_map(|s| s.transition_s.map(|t| f64::from(t) * 1e3))
+        .fold(2.0 * f64::from(m.transition_time_s) * 1e3, f64::max)
+        * 1.1;
     let mut chart = ChartBuilder::on(&left)
         .margin(12)
         .x_label_area_size(40)
         .y_label_area_size(60)
-        .caption("\u{3bc} against the GO's slip speed", (font, 18))
-        .build_cartesian_2d(0.0..v_max, mu_range.clone())?;
+        .caption(
+            "the transition's duration against the hand's speed",
+            (font, 18),
+        )
+        .build_cartesian_2d(0.0..v_max, 0.0..d_max)?;
     chart
         .configure_mesh()
-        .x_desc("slip speed (mm/s)")
-        .y_desc("\u{3bc}")
+        .x_desc("hand speed (mm/s)")
+        .y_desc("breakaway to slip (ms)")
         .label_style((font, 14))
         .draw()?;
-    let nominal: Vec<(f64, f64)> = (0..=200)
-        .map(|i| {
-            let v = v_max * f64::from(i) / 200.0;
-            let mu = m.stribeck.mu_at_speed(
-                m.mu_static,
-                m.mu_dynamic,
-                (v * 1e-3) as f32,
-                m.stribeck_speed_m_per_s,
-            );
-            (v, f64::from(mu))
-        })
+    let nominal: Vec<(f64, f64)> = (1..=400)
+        .map(|i| v_max * f64::from(i) / 400.0)
+        .map(|v| (v, duration_ms(v)))
+        .filter(|p| p.1 <= d_max)
         .collect();
     chart
         .draw_series(LineSeries::new(nominal, BLACK.stroke_width(2)))?
-        .label("the material's curve \u{3bc}(v)")
+        .label("the material's \u{3c4} max(1, vs / v)")
         .legend(|(x, y)| PathElement::new([(x, y), (x + 20, y)], BLACK.stroke_width(2)));
     for (i, s) in slides.iter().enumerate() {
-        let pts: Vec<(f64, f64)> = s
-            .samples
-            .iter()
-            .map(|&(_, v, mu)| (f64::from(v) * 1e3, f64::from(mu)))
-            .filter(|p| p.0 <= v_max)
-            .collect();
+        let Some(d) = s.transition_s else { continue };
         let c = colour(i);
+        let p = (f64::from(s.hand_speed_m_per_s) * 1e3, f64::from(d) * 1e3);
         chart
-            .draw_series(pts.iter().map(|&p| Circle::new(p, 2, c.filled())))?
+            .draw_series(std::iter::once(Circle::new(p, 5, c.filled())))?
             .label(format!("hand at {} mm/s", s.hand_speed_m_per_s * 1e3))
             .legend(move |(x, y)| Circle::new((x + 10, y), 4, c.filled()));
     }
@@ -165,7 +177,7 @@ fn draw(
         .iter()
         .flat_map(|s| s.samples.iter().map(|p| f64::from(p.0)))
         .fold(0.1, f64::max)
-        .min(0.3);
+        .min(0.25);
     let mut chart = ChartBuilder::on(&right)
         .margin(12)
         .x_label_area_size(40)

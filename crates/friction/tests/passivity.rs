@@ -1,0 +1,458 @@
+//! Passivity of the whole rendered force: over a closed path of the HIP the total force (normal
+//! plus friction) does no positive work, in every mode, across sharp vertices and shell edges,
+//! on curved patches, in 2-D and 3-D; and with μ = 0 the force is the penalty wall
+//! `K·depth·n` at the true closest point, computed here from the exact geometry.
+//!
+//! Work is integrated with the trapezoid rule, `Σ ½ (F_k + F_{k+1})·(x_{k+1} − x_k)`, which is
+//! exact for a spring to a fixed point (so the zero-order hold's half-step lead does not count).
+//! Two effects remain, each bounded below from the physics, never a fit to the code's output:
+//! - where the force jumps (the penalty wall at the inner bisector of a convex vertex), the rule
+//!   errs by at most `½ |ΔF| h` per crossing, `h` the HIP's step;
+//! - a slide moves the GO by about the HIP's tangential step within the tick, which the rule
+//!   counts as `½ K h · (GO's travel)` of work on the hand.
+#![allow(clippy::unwrap_used)]
+
+use friction::{FrictionMaterial, FrictionOutput, FrictionRenderer, Mode};
+use nurbs::{Point, Vec2, Vec3, construct};
+use proptest::prelude::*;
+use tracker::{Chain, Object, Shell};
+
+const T: f32 = 1e-3;
+const K: f32 = 1000.0;
+
+/// The default material with both coefficients set to `mu`.
+fn with_mu(mu_static: f32, mu_dynamic: f32) -> FrictionMaterial {
+    FrictionMaterial {
+        mu_static,
+        mu_dynamic,
+        ..FrictionMaterial::default()
+    }
+}
+
+/// What a run of the renderer over `path` did: the outputs, the trapezoid work of the total
+/// force on the HIP (J, summed in f64), the GO's travel (m) and the largest force step (N).
+struct Run<P> {
+    out: Vec<FrictionOutput<P>>,
+    work_j: f64,
+    go_travel_m: f64,
+    max_jump_n: f64,
+}
+
+fn run<O: Object>(object: &O, material: FrictionMaterial, path: &[O::P]) -> Run<O::P>
+where
+    O::P: Point,
+{
+    let mut r = FrictionRenderer::new(object, material, path[0]);
+    let mut out: Vec<FrictionOutput<O::P>> = Vec::with_capacity(path.len());
+    let mut work = 0.0f64;
+    let mut travel = 0.0f64;
+    let mut jump = 0.0f64;
+    for (k, &x) in path.iter().enumerate() {
+        let prev_x = if k > 0 { path[k - 1] } else { x };
+        let o = r.tick(object, x, (x - prev_x) * (1.0 / T), T);
+        if let Some(p) = out.last() {
+            work += f64::from((p.total + o.total).dot(x - prev_x)) * 0.5;
+            if p.mode != Mode::Free && o.mode != Mode::Free {
+                travel += f64::from((o.go - p.go).length_squared()).sqrt();
+            }
+            jump = jump.max(f64::from((o.total - p.total).length_squared()).sqrt());
+        }
+        out.push(o);
+    }
+    Run {
+        out,
+        work_j: work,
+        go_travel_m: travel,
+        max_jump_n: jump,
+    }
+}
+
+/// `a → b` in steps of at most `h`, without `a`.
+fn segment<P: Point>(a: P, b: P, h: f32) -> impl Iterator<Item = P> {
+    let n = ((b - a).length_squared().sqrt() / h).ceil().max(1.0) as usize;
+    (1..=n).map(move |k| a + (b - a) * (k as f32 / n as f32))
+}
+
+/// Through the corners `pts` in order and back to the first, in steps of at most `h`, from
+/// `start` (outside) in to the first corner and back out to `start`.
+fn closed<P: Point>(start: P, pts: &[P], h: f32) -> Vec<P> {
+    let mut path = vec![start];
+    let mut at = start;
+    for &p in pts.iter().chain(core::iter::once(&pts[0])) {
+        path.extend(segment(at, p, h));
+        at = p;
+    }
+    path.extend(segment(at, start, h));
+    path
+}
+
+/// The wedge: two straight faces meeting at the apex (0, 0.09) with an interior angle of 106°,
+/// the outside above. Returns the curves (right face first, traced right to left so that the
+/// normals point out) and the faces' outward unit normals.
+fn wedge() -> ([nurbs::CurveBuf<Vec2>; 2], [Vec2; 2]) {
+    let half = 53f32.to_radians();
+    let apex = Vec2::new(0.0, 0.09);
+    // Down the faces, 40 mm each, at 53° from the vertical.
+    let right = apex + Vec2::new(half.sin(), -half.cos()) * 0.04;
+    let left = apex + Vec2::new(-half.sin(), -half.cos()) * 0.04;
+    let a = construct::line(right, apex).unwrap();
+    let b = construct::line(apex, left).unwrap();
+    let n_right = Vec2::new(half.cos(), half.sin());
+    let n_left = Vec2::new(-half.cos(), half.sin());
+    ([a, b], [n_right, n_left])
+}
+
+/// The wedge's exact penalty force at `x` inside it near the apex: `K·d·n` of the nearer face
+/// (f64), the distance to each face's line being the depth there; both faces' within `tie` of
+/// the bisector, where either is the nearer to within the tracker's tick.
+fn wedge_penalty(x: Vec2, normals: [Vec2; 2], tie: f64) -> Vec<[f64; 2]> {
+    let apex = [0.0f64, 0.09];
+    let rel = [f64::from(x.x) - apex[0], f64::from(x.y) - apex[1]];
+    let depth = |n: Vec2| -(rel[0] * f64::from(n.x) + rel[1] * f64::from(n.y));
+    let k = f64::from(K);
+    let force = |i: usize| {
+        let d = depth(normals[i]);
+        [
+            k * d * f64::from(normals[i].x),
+            k * d * f64::from(normals[i].y),
+        ]
+    };
+    let (d0, d1) = (depth(normals[0]), depth(normals[1]));
+    if (d0 - d1).abs() <= tie {
+        vec![force(0), force(1)]
+    } else if d0 < d1 {
+        vec![force(0)]
+    } else {
+        vec![force(1)]
+    }
+}
+
+/// A square of side `side` centred at `centre`, clockwise or not.
+fn square(centre: Vec2, side: f32, clockwise: bool) -> Vec<Vec2> {
+    let h = side / 2.0;
+    let mut c = vec![
+        centre + Vec2::new(-h, -h),
+        centre + Vec2::new(-h, h),
+        centre + Vec2::new(h, h),
+        centre + Vec2::new(h, -h),
+    ];
+    if !clockwise {
+        c.reverse();
+    }
+    c
+}
+
+/// The wedge with μ = 0: on both sides of the bisector, whatever the history, the force is the
+/// penalty wall of the nearer face; around 1 mm and 6 mm squares about the bisector 3 mm under
+/// the apex, both ways round, it does no work but the trapezoid rule's error at the bisector.
+#[test]
+fn frictionless_wedge_is_the_penalty_wall_and_does_no_work() {
+    let (curves, normals) = wedge();
+    let views = [curves[0].view(), curves[1].view()];
+    let chain = Chain::new(&views).unwrap();
+    let h = 1e-6;
+    for (side, centre) in [
+        (0.001f32, Vec2::new(0.0, 0.087)),
+        (0.006, Vec2::new(0.0, 0.084)),
+        (0.006, Vec2::new(0.003, 0.084)),
+    ] {
+        for clockwise in [true, false] {
+            let path = closed(Vec2::new(0.0, 0.095), &square(centre, side, clockwise), h);
+            let r = run(&chain, with_mu(0.0, 0.0), &path);
+            for (o, &x) in r.out.iter().zip(&path) {
+                if o.mode == Mode::Free {
+                    continue;
+                }
+                let exact = wedge_penalty(x, normals, f64::from(h));
+                let err = exact
+                    .iter()
+                    .map(|e| {
+                        ((f64::from(o.total.x) - e[0]).powi(2)
+                            + (f64::from(o.total.y) - e[1]).powi(2))
+                        .sqrt()
+                    })
+                    .fold(f64::INFINITY, f64::min);
+                // The tracker lands on the nearer face within a tick of crossing the bisector:
+                // one tick's error is K times the HIP's step (1 mN); f32 positions of 0.1 m
+                // carry 1e-8 m, K × that = 1e-5 N.
+                assert!(
+                    err <= f64::from(K * h) + 1e-4,
+                    "{x:?}: {:?} vs {exact:?}",
+                    o.total
+                );
+            }
+            // The jump at the bisector is the penalty wall's own, 2 sin(37°) K d ≤ 7.2 N at
+            // d ≤ 6 mm; the rule errs by ½ |ΔF| h at each of the two crossings.
+            let bound = r.max_jump_n * f64::from(h) + 1e-7;
+            println!(
+                "μ = 0, square {side} at {centre:?}, cw {clockwise}: {:+.3} µJ",
+                r.work_j * 1e6
+            );
+            assert!(
+                r.work_j.abs() <= bound,
+                "square {side} at {centre:?}, cw {clockwise}: {} µJ (bound {} µJ)",
+                r.work_j * 1e6,
+                bound * 1e6
+            );
+        }
+    }
+}
+
+/// The wedge with friction, the same squares: the total force only takes energy out. Each loop
+/// slides somewhere, so it dissipates at least... nothing is assumed: the bound is the rule's
+/// error alone, ½ K h per metre of the GO's travel and ½ |ΔF| h per bisector crossing.
+#[test]
+fn wedge_with_friction_is_passive() {
+    let (curves, _) = wedge();
+    let views = [curves[0].view(), curves[1].view()];
+    let chain = Chain::new(&views).unwrap();
+    let h = 1e-6;
+    for (side, centre) in [
+        (0.001f32, Vec2::new(0.0, 0.087)),
+        (0.006, Vec2::new(0.0, 0.084)),
+        (0.006, Vec2::new(0.003, 0.084)),
+    ] {
+        for clockwise in [true, false] {
+            let path = closed(Vec2::new(0.0, 0.095), &square(centre, side, clockwise), h);
+            let r = run(&chain, FrictionMaterial::default(), &path);
+            let slack = 0.5 * f64::from(K * h) * r.go_travel_m + 2.0 * r.max_jump_n * f64::from(h);
+            println!(
+                "μ default, square {side} at {centre:?}, cw {clockwise}: {:+.3} µJ",
+                r.work_j * 1e6
+            );
+            assert!(
+                r.work_j <= slack,
+                "square {side} at {centre:?}, cw {clockwise}: {} µJ (slack {} µJ)",
+                r.work_j * 1e6,
+                slack * 1e6
+            );
+            // The force never pulls the hand in, and stays in the cone about the true normal.
+            for o in &r.out {
+                assert!(o.total.dot(o.contact.normal) >= -1e-5);
+                assert!(o.friction.length() <= 0.7 * o.normal_force_n * (1.0 + 1e-4) + 1e-5);
+            }
+        }
+    }
+}
+
+/// A 6 mm square sliding on an exact circular arc (R = 30 mm, the rational quadratic circle),
+/// pressed 2 mm in: friction dissipates at least μ_d F_N over the stretches where the GO slides
+/// (the lower bound), and the whole force never returns energy (the upper).
+#[test]
+fn arc_loops_dissipate() {
+    let centre = Vec2::new(0.0, 0.06);
+    // Counter-clockwise from 30° to 150°: the outward normal points away from the centre.
+    let arc = construct::arc(
+        centre,
+        Vec2::new(0.03, 0.0),
+        Vec2::new(0.0, 0.03),
+        30f32.to_radians(),
+        120f32.to_radians(),
+    )
+    .unwrap();
+    let views = [arc.view()];
+    let chain = Chain::new(&views).unwrap();
+    let h = 5e-6;
+    let top = centre + Vec2::new(0.0, 0.03);
+    for clockwise in [true, false] {
+        let path = closed(
+            top + Vec2::new(0.0, 0.005),
+            &square(top - Vec2::new(0.0, 0.005), 0.006, clockwise),
+            h,
+        );
+        let r = run(&chain, FrictionMaterial::default(), &path);
+        let slack = 0.5 * f64::from(K * h) * r.go_travel_m;
+        println!("arc R 30 mm, cw {clockwise}: {:+.3} µJ", r.work_j * 1e6);
+        assert!(
+            r.work_j <= slack,
+            "cw {clockwise}: {} µJ (slack {} µJ)",
+            r.work_j * 1e6,
+            slack * 1e6
+        );
+        // The GO slides for most of each side; μ_d K × (the smallest depth on the loop,
+        // 2 mm) × its travel is the least friction can take out, less the rule's ½ K h.
+        let least = 0.5 * f64::from(K) * 0.002 * r.go_travel_m - slack;
+        assert!(r.go_travel_m > 0.005, "GO travel {}", r.go_travel_m);
+        assert!(
+            -r.work_j >= 0.9 * least,
+            "cw {clockwise}: dissipated {} mJ, at least {} mJ",
+            -r.work_j * 1e3,
+            least * 1e3
+        );
+    }
+}
+
+/// A closed HIP path: from 5 mm above `start` straight down to `depth`, a loop of random
+/// wiggles around the press point in the surface's tangent directions (reversed for the other
+/// orientation), and back up the same line, in steps of `h`.
+fn wiggle_loop<P: Point>(
+    start: P,
+    normal: P,
+    tangents: &[P],
+    depth: f32,
+    wiggle: &[(f32, f32)],
+    reverse: bool,
+    h: f32,
+) -> Vec<P> {
+    let pressed = start - normal * depth;
+    let mut corners = Vec::new();
+    let mut phase = 0.0f32;
+    for &(a, b) in wiggle {
+        phase += 1.0;
+        let mut off = P::ZERO;
+        for (i, &t) in tangents.iter().enumerate() {
+            off += t * (a * (phase * (1.3 + i as f32)).sin() + b * (phase * 0.7).cos());
+        }
+        corners.push(pressed + off);
+    }
+    if reverse {
+        corners.reverse();
+    }
+    corners.insert(0, pressed);
+    closed(start + normal * 0.005, &corners, h)
+}
+
+/// The check shared by the properties: the force stays in the cone about the true normal and
+/// never pulls in, nothing is NaN, and the total work is at most the rule's error.
+fn check_passive<O: Object>(
+    object: &O,
+    material: FrictionMaterial,
+    path: &[O::P],
+    h: f32,
+) -> Result<(), TestCaseError>
+where
+    O::P: Point,
+{
+    let r = run(object, material, path);
+    for o in &r.out {
+        prop_assert!(o.total.is_finite() && o.normal_force_n.is_finite());
+        prop_assert!(o.total.dot(o.contact.normal) >= -1e-5, "pulls in: {o:?}");
+        prop_assert!(
+            o.friction.length_squared().sqrt()
+                <= material.mu_static * o.normal_force_n * (1.0 + 1e-4) + 1e-5,
+            "outside the cone: {o:?}"
+        );
+    }
+    let slack = 0.5 * f64::from(material.stiffness_n_per_m * h) * r.go_travel_m
+        + 2.0 * r.max_jump_n * f64::from(h)
+        + 1e-8;
+    prop_assert!(
+        r.work_j <= slack,
+        "the force did {} µJ of work (slack {} µJ)",
+        r.work_j * 1e6,
+        slack * 1e6
+    );
+    Ok(())
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 32, ..ProptestConfig::default() })]
+
+    /// Chains with a sharp vertex, a roof or a valley of random angle, random friction
+    /// (μ = 0 included), random loops pressed in near the vertex at random depths, both ways.
+    #[test]
+    fn total_force_is_passive_across_sharp_vertices(
+        h in -0.02f32..0.02,
+        x0 in -0.008f32..0.008,
+        depth in 0.0005f32..0.005,
+        wiggle in prop::collection::vec((-0.006f32..0.006, -0.006f32..0.006), 2..8),
+        reverse: bool,
+        mu_s in prop::sample::select(vec![0.0f32, 0.3, 0.7, 1.0]),
+        ratio in 0.3f32..1.0,
+    ) {
+        let a = construct::line(Vec2::new(0.04, 0.08), Vec2::new(0.0, 0.08 + h)).unwrap();
+        let b = construct::line(Vec2::new(0.0, 0.08 + h), Vec2::new(-0.04, 0.08)).unwrap();
+        let views = [a.view(), b.view()];
+        let chain = Chain::new(&views).unwrap();
+        let (c, u) = if x0 >= 0.0 { (&a, 1.0 - x0 / 0.04) } else { (&b, -x0 / 0.04) };
+        let (start, n) = (c.view().point(u), c.view().frame(u).normal);
+        let t = Vec2::new(-n.y, n.x);
+        let step = 1e-5;
+        let path = wiggle_loop(start, n, &[t], depth, &wiggle, reverse, step);
+        check_passive(&chain, with_mu(mu_s, mu_s * ratio), &path, step)?;
+    }
+
+    /// Random smooth planar bumps (cubic Bézier), convex and concave stretches.
+    #[test]
+    fn total_force_is_passive_on_curved_chains(
+        h1 in -0.015f32..0.015, h2 in -0.015f32..0.015,
+        depth in 0.0005f32..0.005,
+        wiggle in prop::collection::vec((-0.006f32..0.006, -0.006f32..0.006), 2..8),
+        reverse: bool,
+        mu_s in prop::sample::select(vec![0.0f32, 0.3, 0.7, 1.0]),
+    ) {
+        let c = construct::bezier_curve(&[
+            Vec2::new(0.045, 0.08), Vec2::new(0.015, 0.08 + h1), Vec2::new(-0.015, 0.08 + h2), Vec2::new(-0.045, 0.08),
+        ]).unwrap();
+        let views = [c.view()];
+        let chain = Chain::new(&views).unwrap();
+        let (start, n) = (c.view().point(0.5), c.view().frame(0.5).normal);
+        let t = Vec2::new(-n.y, n.x);
+        let step = 1e-5;
+        let path = wiggle_loop(start, n, &[t], depth, &wiggle, reverse, step);
+        check_passive(&chain, with_mu(mu_s, 0.7 * mu_s), &path, step)?;
+    }
+
+    /// Shells of two bilinear patches meeting at an edge of random dihedral angle, a ridge or a
+    /// valley, loops across the edge in both tangent directions.
+    #[test]
+    fn total_force_is_passive_across_shell_edges(
+        slope in prop::sample::select(vec![-0.6f32, -0.3, 0.3, 0.6]),
+        x0 in -0.008f32..0.008,
+        depth in 0.0005f32..0.004,
+        wiggle in prop::collection::vec((-0.006f32..0.006, -0.006f32..0.006), 2..6),
+        reverse: bool,
+        mu_s in prop::sample::select(vec![0.0f32, 0.7]),
+    ) {
+        let z = |x: f32| -slope * x.abs();
+        let patch = |x0: f32, x1: f32| {
+            construct::bezier_patch(&[
+                vec![Vec3::new(x0, 0.06, z(x0)), Vec3::new(x0, 0.12, z(x0))],
+                vec![Vec3::new(x1, 0.06, z(x1)), Vec3::new(x1, 0.12, z(x1))],
+            ])
+            .unwrap()
+        };
+        let (left, right) = (patch(-0.04, 0.0), patch(0.0, 0.04));
+        let views = [left.view(), right.view()];
+        let shell = Shell::new(&views).unwrap();
+        let s = if x0 < 0.0 { &left } else { &right };
+        let u = if x0 < 0.0 { 1.0 + x0 / 0.04 } else { x0 / 0.04 };
+        let n = s.view().normal(u, 0.5);
+        let start = s.view().point(u, 0.5);
+        let t1 = Vec3::new(1.0, 0.0, 0.0);
+        let t1 = (t1 - n * t1.dot(n)).normalize();
+        let t2 = n.cross(t1);
+        let step = 2e-5;
+        let path = wiggle_loop(start, n, &[t1, t2], depth, &wiggle, reverse, step);
+        check_passive(&shell, with_mu(mu_s, 0.7 * mu_s), &path, step)?;
+    }
+
+    /// Random smooth bicubic bumps, loops in both tangent directions.
+    #[test]
+    fn total_force_is_passive_on_curved_shells(
+        heights in prop::collection::vec(-0.008f32..0.012, 4),
+        depth in 0.0005f32..0.004,
+        wiggle in prop::collection::vec((-0.006f32..0.006, -0.006f32..0.006), 2..6),
+        reverse: bool,
+    ) {
+        let xs = [-0.04f32, -0.0133, 0.0133, 0.04];
+        let ys = [0.06f32, 0.08, 0.10, 0.12];
+        let rows: Vec<Vec<Vec3>> = (0..4)
+            .map(|i| (0..4).map(|j| {
+                let inner = (1..3).contains(&i) && (1..3).contains(&j);
+                let z = if inner { heights[(i - 1) * 2 + (j - 1)] } else { 0.0 };
+                Vec3::new(xs[i], ys[j], z)
+            }).collect())
+            .collect();
+        let s = construct::bezier_patch(&rows).unwrap();
+        let views = [s.view()];
+        let shell = Shell::new(&views).unwrap();
+        let n = s.view().normal(0.5, 0.5);
+        let start = s.view().point(0.5, 0.5);
+        let t1 = n.any_orthonormal_vector();
+        let t2 = n.cross(t1);
+        let step = 2e-5;
+        let path = wiggle_loop(start, n, &[t1, t2], depth, &wiggle, reverse, step);
+        check_passive(&shell, FrictionMaterial::default(), &path, step)?;
+    }
+}
