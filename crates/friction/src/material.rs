@@ -78,8 +78,11 @@ pub struct FrictionMaterial {
     pub stribeck: Stribeck,
     /// Frictional memory (s): the shortest the stuck → slip transition takes (at or above the
     /// Stribeck speed), so μ cannot fall faster than the contact's own time constant however
-    /// hard the hand jerks (Hess & Soom's lag); also the time constant of the god-object's
-    /// low-passed slip speed.
+    /// hard the hand jerks (Hess & Soom's lag); a third of it is the time constant of the
+    /// god-object's low-passed slip speed. The default, 60 ms, is several periods of a relaxed grip on the
+    /// handle (300 N/m on some 50 g rings at about 12 Hz): the handle follows the friction's
+    /// fall without ringing back and sticking again, where 20 ms made the app's hand
+    /// stick–slip along thesis-2d's arc.
     pub transition_time_s: f32,
     /// The transition ends when the god-object at the transition's μ is within this distance
     /// of its slip position at μ_d, `(μ − μ_d)·depth ≤ converge_tol_m` (m).
@@ -124,7 +127,7 @@ impl Default for FrictionMaterial {
             mu_static: 0.7,
             mu_dynamic: 0.5,
             stribeck: Stribeck::Linear,
-            transition_time_s: 0.02,
+            transition_time_s: 0.06,
             converge_tol_m: 1e-5,
             stop_speed_m_per_s: 5e-4,
             model: ModelKind::StickSlip,

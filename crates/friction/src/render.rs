@@ -22,12 +22,14 @@
 //! - **Stuck → transition** when the spring leaves the cone, `|F_T| > μ_s F_N`
 //!   ([`SwitchCause::Breakaway`]).
 //! - **Transition and slip**: while the spring lies outside the cone of the mode's μ, the GO
-//!   slides to the cone's edge about the CP: `GO = HIP + d n + s t̂`, with `t̂` the direction of
-//!   the spring's tangential part and `s = min(μ d, √(|GO − HIP|² − d²))`. The spring then
-//!   carries `μ K d` of friction against the slide on a normal force of `K d`, and it is never
-//!   longer than before, so every slide takes energy out of it: the renderer is passive
-//!   whatever the geometry (below). With `μ = 0` the GO is the CP and the force is the penalty
-//!   wall `K d n`, the gradient of `½ K d²`.
+//!   slides to the cone's edge about the CP: `GO = HIP + a n + μ a t̂`, with `t̂` the direction
+//!   of the spring's tangential part and `a` the true depth `d`, or less where the spring is
+//!   shorter than that edge point, `a = |GO − HIP| / √(1 + μ²)`. The spring then carries
+//!   `μ K d` of friction against the slide on a normal force of `K d`, and it is never longer
+//!   than before, so every slide takes energy out of it: the renderer is passive whatever the
+//!   geometry (below). With `μ = 0` the GO is the CP and the force is the penalty wall
+//!   `K d n`, the gradient of `½ K d²` (a GO on a convex object's surface or tangent planes is
+//!   never nearer the HIP than the CP, so `a = d` there).
 //! - **The transition** (§3.1.1) lowers μ from `μ_s` to `μ_d` along the material's Stribeck
 //!   shape ([`crate::Stribeck`]) as it progresses, and it progresses at `min(1, v/v_s)/τ`, with
 //!   `v` the contact's sliding speed over the object (the CP's), `v_s` the Stribeck speed and τ
@@ -60,8 +62,9 @@
 //! wall whatever the history. Its price is at the inner bisector of a sharp convex vertex,
 //! where the true normal itself jumps: a spring inside one face's cone can lie outside the
 //! other's, and no GO that keeps the force in the new cone without lengthening the spring is
-//! near the old one, so the force jumps there by at most the penalty wall's own jump,
-//! `2 sin(θ/2) K d`, times `√(1 + μ²)` (θ the angle between the faces' normals).
+//! near the old one. The force keeps its magnitude or loses some and turns onto the new cone's
+//! edge: by at most θ (the angle between the faces' normals), a jump of at most `|F|` for
+//! θ ≤ 60°; with μ = 0 it is the penalty wall's own jump, `2 sin(θ/2) K d`.
 //!
 //! # Where this departs from a literal reading of the thesis
 //!
@@ -241,9 +244,15 @@ impl<P: Point> LawState<P> {
 /// jitter of a handle held by a compliant hand does not.
 const REVERSAL_HYSTERESIS: f32 = 0.1;
 
-/// Relative f32 slack of the cone test (on `|F_T|²`): a spring the GO was just put on the
-/// edge of counts as inside.
-const CONE_SLACK: f32 = 1e-4;
+/// The GO's slip speed is low-passed over this share of `transition_time_s`: long enough that a
+/// tick or two without a slide (the jitter of a compliant hand) does not stop a slide, short
+/// enough that a hand that stops is stuck again within `ln(v / v_stop) τ / 3`, 80 ms after a
+/// 20 mm/s slide at the default τ = 60 ms.
+const SLIP_SPEED_MEMORY: f32 = 1.0 / 3.0;
+
+/// Relative f32 slack of the cone test on `|F_T|²` (1e-5 on `|F_T|`): a spring the GO was just
+/// put on the edge of counts as inside.
+const CONE_SLACK: f32 = 2e-5;
 
 /// The whole friction renderer for one object: CP tracker, GO and state machine.
 #[derive(Clone, Copy, Debug)]
@@ -537,33 +546,44 @@ impl<O: Object> FrictionRenderer<O> {
         };
         let mut slide = 0.0;
         if matches!(self.mode, Mode::Transition | Mode::Slip) && spring.outside(mu) {
+            // On the cone's edge at the true depth, or nearer the HIP where the spring is too
+            // short to reach that far: |GO − HIP|² = a² (1 + μ²) ≤ |v|².
             let t_sq = spring.t.length_squared();
-            let reach_sq = math::max(0.0, spring.v.length_squared() - depth * depth);
-            let s = math::min(mu * depth, sqrt(reach_sq));
+            let edge_sq = 1.0 + mu * mu;
+            let reach_sq = spring.v.length_squared();
+            let a = if depth * depth * edge_sq <= reach_sq {
+                depth
+            } else {
+                sqrt(reach_sq / edge_sq)
+            };
             let along = if t_sq > f32::MIN_POSITIVE {
-                spring.t * (s / sqrt(t_sq))
+                spring.t * (mu * a / sqrt(t_sq))
             } else {
                 O::P::ZERO
             };
-            let go = hip + n * depth + along;
+            let go = hip + n * a + along;
             slide = sqrt((go - self.go).length_squared());
             self.place_go(object, &contact, go);
             spring = Spring::new(go, hip, n);
         }
 
-        // 3. Frictional memory: the slip speed follows the GO's with the material's time
-        // constant, and the transition runs at min(1, v/v_s)/τ.
-        let rate = if m.transition_time_s > period_s {
-            period_s / m.transition_time_s
-        } else {
-            1.0
+        // 3. Frictional memory: the transition runs at min(1, v/v_s)/τ, and the slip speed
+        // follows the GO's over a third of τ.
+        let per_tau = |time_s: f32| {
+            if time_s > period_s {
+                period_s / time_s
+            } else {
+                1.0
+            }
         };
+        let rate = per_tau(m.transition_time_s);
         let go_speed = if period_s > 0.0 {
             slide / period_s
         } else {
             0.0
         };
-        self.slip_speed += rate * (go_speed - self.slip_speed);
+        self.slip_speed +=
+            per_tau(m.transition_time_s * SLIP_SPEED_MEMORY) * (go_speed - self.slip_speed);
         if self.mode == Mode::Transition {
             // The pace is the contact's speed over the object (the CP's), not the GO's: the
             // spring's own unloading as μ falls would otherwise speed the transition up and

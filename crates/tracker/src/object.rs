@@ -4,7 +4,7 @@
 use crate::chain::{Chain, ChainTracker};
 use crate::contact::{Contact, Feature};
 use crate::patch::Patch;
-use crate::shell::{Shell, ShellTracker, Side};
+use crate::shell::{Shell, ShellTracker};
 use crate::track::TrackerConfig;
 use nurbs::{Point, Vec2, Vec3};
 
@@ -63,31 +63,10 @@ pub trait Object {
     /// Number of patches (pieces: patches are split at load at their corners and creases).
     fn patch_count(&self) -> usize;
 
-    /// The same point on the neighbouring patch, where `params` lies on a boundary of `patch`
-    /// that it shares with another patch (a chain's vertex, a shell's edge) and `toward` (a
-    /// tangential direction) leads out through that boundary; `None` inside a patch, on a free
-    /// end or rim, or when `toward` leads back into the patch. This is how a god-object
-    /// sliding over the object finds the patch it crosses onto. `at` is the frame at `params`
-    /// ([`Object::frame`]), whose tangents tell the way out.
-    fn neighbour(
-        &self,
-        patch: usize,
-        params: [f32; 2],
-        at: &Frame<Self::P>,
-        toward: Self::P,
-    ) -> Option<(usize, [f32; 2])>;
-
     /// Index of the patch given at construction that patch `patch` is a piece of (see
     /// [`Chain::source_curve`], [`Shell::source_patch`]). Parameters are shared: a piece is a
     /// window onto its source patch's parameter domain.
     fn source_patch(&self, patch: usize) -> usize;
-}
-
-/// Whether `t` sits on the end `end` of `(a, b)`, within 1e-4 of the domain's size: a point
-/// that slid along a boundary by Gauss–Newton steps drifts off it by f32 rounding of the steps.
-fn at_end(t: f32, (a, b): (f32, f32), end: bool) -> bool {
-    let tol = 1e-4 * nurbs::math::max(f32::MIN_POSITIVE, (b - a).abs());
-    if end { t >= b - tol } else { t <= a + tol }
 }
 
 impl Object for Chain<'_> {
@@ -152,40 +131,6 @@ impl Object for Chain<'_> {
         self.curves().len()
     }
 
-    fn neighbour(
-        &self,
-        patch: usize,
-        params: [f32; 2],
-        at: &Frame<Vec2>,
-        toward: Vec2,
-    ) -> Option<(usize, [f32; 2])> {
-        let curves = self.curves();
-        let c = curves.get(patch)?;
-        let domain = c.domain();
-        let tangent = at.tangent;
-        for v in self.vertices() {
-            let (this, other, leaving) =
-                if at_end(params[0], domain, true) && v.incoming == Some(patch as u16) {
-                    (true, v.outgoing, toward.dot(tangent) > 0.0)
-                } else if at_end(params[0], domain, false) && v.outgoing == Some(patch as u16) {
-                    (true, v.incoming, toward.dot(tangent) < 0.0)
-                } else {
-                    (false, None, false)
-                };
-            if !this || !leaving {
-                continue;
-            }
-            let j = other? as usize;
-            if j == patch {
-                return None;
-            }
-            let (a, b) = curves[j].domain();
-            let u = if v.outgoing == Some(j as u16) { a } else { b };
-            return Some((j, [u, 0.0]));
-        }
-        None
-    }
-
     fn source_patch(&self, patch: usize) -> usize {
         self.source_curve(patch)
     }
@@ -245,64 +190,6 @@ impl Object for Shell<'_> {
     ) -> [f32; 2] {
         let s = &self.patches()[patch.min(self.patches().len() - 1)];
         offset_on(s, params, at, displacement)
-    }
-
-    fn neighbour(
-        &self,
-        patch: usize,
-        params: [f32; 2],
-        at: &Frame<Vec3>,
-        toward: Vec3,
-    ) -> Option<(usize, [f32; 2])> {
-        let s = self.patches().get(patch)?;
-        let (du, dv) = s.domain();
-        let fr = at;
-        // Sides in the order of `Side`: u = u_min, u = u_max, v = v_min, v = v_max; the one
-        // `toward` leaves through fastest.
-        let on = [
-            at_end(params[0], du, false) && toward.dot(fr.tangent) < 0.0,
-            at_end(params[0], du, true) && toward.dot(fr.tangent) > 0.0,
-            at_end(params[1], dv, false) && toward.dot(fr.bitangent) < 0.0,
-            at_end(params[1], dv, true) && toward.dot(fr.bitangent) > 0.0,
-        ];
-        let speed = [
-            -toward.dot(fr.tangent),
-            toward.dot(fr.tangent),
-            -toward.dot(fr.bitangent),
-            toward.dot(fr.bitangent),
-        ];
-        let side = (0..4)
-            .filter(|&k| on[k])
-            .max_by(|&a, &b| speed[a].total_cmp(&speed[b]))?;
-        let Side::Shared(e) = self.sides(patch)[side] else {
-            return None;
-        };
-        let edge = *self.edges().get(e as usize)?;
-        let (other, other_side) = if edge.a == (patch as u16, side as u8) {
-            edge.b?
-        } else {
-            edge.a
-        };
-        let o = self.patches().get(other as usize)?;
-        let (ou, ov) = o.domain();
-        // Where along the side the point is, as a fraction, carried over to the other side.
-        let (run, run_domain) = if side < 2 {
-            (params[1], dv)
-        } else {
-            (params[0], du)
-        };
-        let mut f = (run - run_domain.0) / (run_domain.1 - run_domain.0);
-        if edge.reversed {
-            f = 1.0 - f;
-        }
-        let lerp = |(a, b): (f32, f32), f: f32| a + (b - a) * f.clamp(0.0, 1.0);
-        let p = match other_side {
-            0 => [ou.0, lerp(ov, f)],
-            1 => [ou.1, lerp(ov, f)],
-            2 => [lerp(ou, f), ov.0],
-            _ => [lerp(ou, f), ov.1],
-        };
-        Some((other as usize, p))
     }
 
     fn patch_count(&self) -> usize {

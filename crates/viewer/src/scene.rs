@@ -38,7 +38,7 @@
 //! | field | default | valid |
 //! |---|---|---|
 //! | `stribeck` | `"linear"` | `"linear"`, `{"power": n}` (integer n in 1..=255), `"smoothstep"` |
-//! | `transition_time_s` | 0.02 | > 0 |
+//! | `transition_time_s` | 0.06 | > 0 |
 //! | `converge_tol_m` | 1e-5 | > 0 |
 //! | `stop_speed_m_per_s` | 5e-4 | ≥ 0 |
 //! | `model` | `"stick_slip"` | `"stick_slip"`, `"coulomb_viscous"`, `"karnopp"`, `"dahl"`, `"lugre"` |
@@ -1522,7 +1522,7 @@ mod tests {
         );
         assert_eq!(m.stribeck, Stribeck::Linear);
         assert_eq!(m.model, ModelKind::StickSlip);
-        assert_eq!(m.transition_time_s, 0.02);
+        assert_eq!(m.transition_time_s, 0.06);
         assert_eq!(m.converge_tol_m, 1e-5);
         assert_eq!(m.stop_speed_m_per_s, 5e-4);
         assert_eq!(m.viscous_ns_per_m, 0.0);

@@ -53,6 +53,13 @@ fn press_and_slide(state: &mut AppState) {
     slide(state, 0.03, 30.0, 55.0, 1000);
 }
 
+/// Whether a tick's normal force is K · depth with K = 1000 N/m to within what the GO's offset
+/// from the CP on thesis-2d's 40 mm arcs allows, `K |GO − CP|² / 2R`, and f32 rounding.
+fn penalty_within_curvature(t: &viewer::sim::Tick) -> bool {
+    let s = (t.go - t.cp).length();
+    (t.normal_force_n - 1000.0 * t.depth_m).abs() <= 1000.0 * s * s / (2.0 * 0.04) + 1e-5
+}
+
 fn stepped() -> AppState {
     AppState::stepped("thesis-2d").unwrap_or_else(|e| panic!("{e:#}"))
 }
@@ -80,12 +87,11 @@ fn dragging_into_and_along_the_curve_sticks_then_slips() {
     // the 0.2 mm / 0.2 N allowed here.
     assert!((held.depth_m - 0.00231).abs() < 2e-4, "{held:?}");
     assert!((held.normal_force_n - 2.31).abs() < 0.2, "{held:?}");
-    // The renderer's normal force is the penalty K · depth (no damping in this material), to
-    // f32 rounding of a 2 N product (1e-5 N is a hundred ulps).
-    assert!(
-        (held.normal_force_n - 1000.0 * held.depth_m).abs() < 1e-5,
-        "{held:?}"
-    );
+    // The renderer's normal force is the spring to the GO along the true normal (no damping
+    // in this material): K · depth where the GO sits on the CP's tangent line, and on the
+    // 40 mm arc a GO |GO − CP| away sits |GO − CP|² / 2R inside it; plus f32 rounding of a
+    // 2 N product (1e-5 N is a hundred ulps).
+    assert!(penalty_within_curvature(&held), "{held:?}");
 
     slide(&mut state, 0.03, 30.0, 55.0, 1000);
     let seq = mode_sequence(&state);
@@ -95,6 +101,16 @@ fn dragging_into_and_along_the_curve_sticks_then_slips() {
         seq[0] == Mode::Free && stuck.is_some() && transition > stuck && slip > transition,
         "free → stuck → transition → slip, got {seq:?}"
     );
+    // And nothing else: the relaxed hand's handle (300 N/m on some 50 g, ringing at about
+    // 12 Hz) follows the transition's 60 ms fall of the friction without ringing back, so it
+    // slips on to the end of the slide instead of sticking again (at a 20 ms transition it
+    // rang back and stuck twice in this second, cause `reversed`).
+    assert_eq!(
+        seq,
+        [Mode::Free, Mode::Stuck, Mode::Transition, Mode::Slip],
+        "{:?}",
+        state.switches
+    );
     assert!(
         state
             .switches
@@ -103,8 +119,8 @@ fn dragging_into_and_along_the_curve_sticks_then_slips() {
         "{:?}",
         state.switches
     );
-    // In slip μ = μ_d = 0.5 and the friction lies in its cone, |F_T| <= μ_d F_N (up to f32
-    // rounding of the cone's scaling, 1e-5 relative). The GO slides only when the spring
+    // In slip μ = μ_d = 0.5 and the friction lies in its cone, |F_T| <= μ_d F_N (up to the
+    // renderer's slack in its cone test, 1e-5 relative, and f32 rounding of the spring). The GO slides only when the spring
     // pulls it past the cone, so a tick where the hand's pull eased carries less; the hand
     // drags at a steady 13 mm/s, so the median load is within 10 % of the cone (the first
     // slip tick, which ends the transition with μ a little above μ_d, is left out).
@@ -121,7 +137,7 @@ fn dragging_into_and_along_the_curve_sticks_then_slips() {
         assert_eq!(k.mu, 0.5, "{k:?}");
         let cone = 0.5 * k.normal_force_n;
         let f_t = k.friction_force_n.abs();
-        assert!(f_t <= cone * (1.0 + 1e-5), "{k:?}");
+        assert!(f_t <= cone * (1.0 + 2e-5), "{k:?}");
         load.push(f_t / cone);
     }
     load.sort_by(f32::total_cmp);
@@ -168,10 +184,7 @@ fn an_invalid_material_is_refused_and_the_old_one_keeps_running() {
     slide(&mut state, 0.03, 30.0, 55.0, 1000);
     let last = state.latest().expect("ticks").tick;
     assert_eq!((last.mode, last.mu), (Mode::Slip, 0.5), "{last:?}");
-    assert!(
-        (last.normal_force_n - 1000.0 * last.depth_m).abs() < 1e-5,
-        "{last:?}"
-    );
+    assert!(penalty_within_curvature(&last), "{last:?}");
 
     // A valid one takes effect at once: μ_d = 0.3 in the next slip.
     state.revert_material();
