@@ -342,7 +342,6 @@ impl<O: Object<P = Vec2>> Controller<O> {
     /// ramping in from zero. Refused (`false`, nothing changes) when the acquisition is for
     /// another scene or material than the loaded one, or the renderer already runs.
     pub fn complete_acquisition(&mut self, acquisition: Acquisition<O::State>) -> bool {
-        let period_s = self.period_s;
         let Some(scene) = self.scene.as_mut() else {
             return false;
         };

@@ -129,7 +129,6 @@ impl SpatialSession {
     fn restart(&mut self, hip: Vec3, material: FrictionMaterial) {
         self.0.with_dependent_mut(|_, d| {
             if let Some(r) = d {
-                let period_s = (1.0 / RATE_HZ) as f32;
                 r.renderer = FrictionRenderer::new(&r.shell, material, hip);
             }
         });
