@@ -317,18 +317,17 @@ fn check_friction_laws(r: &Run, reference: Reference) {
                 "tick {k}: {f_t} > μ F_N"
             );
             if slid && t.mode == prev.map_or(t.mode, |p| p.mode) {
-                assert!(f_t >= mu * f_n - split, "tick {k}: slid to {f_t} < μ F_N");
-                // A slide puts the GO at the true depth, or nearer where the spring before it
-                // (the last GO, this HIP) was shorter than that point of the cone's edge.
+                // A slide puts the GO at the true depth on the cone's edge, or nearer the CP
+                // where the spring before it (the last GO, this HIP) was too short to reach.
                 let before = f64::from(prev.map_or(0.0, |p| (p.go - t.hip).length()));
-                let reach = K * before / (1.0 + mu * mu).sqrt();
+                let reach = K * (before * before - depth * depth).max(0.0).sqrt();
                 assert!(
-                    f_n <= K * depth + 1e-3,
-                    "tick {k}: F_N {f_n} > K × true depth"
+                    f_t >= (mu * f_n).min(reach) - split - 1e-3,
+                    "tick {k}: slid to {f_t} < μ F_N and the reach {reach}"
                 );
                 assert!(
-                    f_n >= (K * depth).min(reach) - 1e-3,
-                    "tick {k}: F_N {f_n} below K × true depth and the spring's reach {reach}"
+                    (f_n - K * depth).abs() < 1e-3,
+                    "tick {k}: F_N {f_n} vs K × true depth"
                 );
             }
         }
@@ -459,7 +458,8 @@ fn thesis_2d_static_friction_at_the_corner() {
         let dx = f64::from((w[1].hip - w[0].hip).length());
         let (n0, n1) = (true_normal(xy(w[0].hip)), true_normal(xy(w[1].hip)));
         let half_turn = 0.5 * norm(sub(n1, n0));
-        let f = f64::from(w[0].force.length()) + K * dx;
+        let f = (f64::from(w[0].force.length()) + K * dx)
+            .max(K * true_depth(xy(w[1].hip)) * (1.0 + MU_S * MU_S).sqrt());
         let bound = 2.0 * half_turn * f + (1.0 + MU_S) * 2.0 * K * dx + 1e-4;
         assert!(df <= bound, "|ΔF| = {df} N > {bound} N");
         largest = largest.max(df);

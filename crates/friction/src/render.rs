@@ -22,7 +22,7 @@
 //! - **Stuck → transition** when the spring leaves the cone, `|F_T| > μ_s F_N`
 //!   ([`SwitchCause::Breakaway`]).
 //! - **Transition and slip**: while the spring lies outside the cone of the mode's μ, the GO
-//!   slides to the cone's edge about the CP: `GO = HIP + a n + μ a t̂`, with `t̂` the direction
+//!   slides to the cone's edge about the CP: `GO = HIP + d n + s t̂`, with `t̂` the direction
 //!   of the spring's tangential part and `a` the true depth `d`, or less where the spring is
 //!   shorter than that edge point, `a = |GO − HIP| / √(1 + μ²)`. The spring then carries
 //!   `μ K d` of friction against the slide on a normal force of `K d`, and it is never longer
@@ -546,21 +546,17 @@ impl<O: Object> FrictionRenderer<O> {
         };
         let mut slide = 0.0;
         if matches!(self.mode, Mode::Transition | Mode::Slip) && spring.outside(mu) {
-            // On the cone's edge at the true depth, or nearer the HIP where the spring is too
-            // short to reach that far: |GO − HIP|² = a² (1 + μ²) ≤ |v|².
+            // On the cone's edge at the true depth, or nearer the CP where the spring is too
+            // short to reach it: |GO − HIP|² = d² + s² ≤ |v|².
             let t_sq = spring.t.length_squared();
-            let edge_sq = 1.0 + mu * mu;
-            let reach_sq = spring.v.length_squared();
-            let a = if depth * depth * edge_sq <= reach_sq {
-                depth
-            } else {
-                sqrt(reach_sq / edge_sq)
-            };
+            let reach_sq = math::max(0.0, spring.v.length_squared() - depth * depth);
+            let s = math::min(mu * depth, sqrt(reach_sq));
             let along = if t_sq > f32::MIN_POSITIVE {
-                spring.t * (mu * a / sqrt(t_sq))
+                spring.t * (s / sqrt(t_sq))
             } else {
                 O::P::ZERO
             };
+            let a = depth;
             let go = hip + n * a + along;
             slide = sqrt((go - self.go).length_squared());
             self.place_go(object, &contact, go);
