@@ -23,11 +23,11 @@
 //!   ([`SwitchCause::Breakaway`]).
 //! - **Transition and slip**: while the spring lies outside the cone of the mode's μ, the GO
 //!   slides to the cone's edge about the CP: `GO = HIP + d n + s t̂`, with `t̂` the direction
-//!   of the spring's tangential part and `a` the true depth `d`, or less where the spring is
-//!   shorter than that edge point, `a = |GO − HIP| / √(1 + μ²)`. The spring then carries
-//!   `μ K d` of friction against the slide on a normal force of `K d`, and it is never longer
-//!   than before, so every slide takes energy out of it: the renderer is passive whatever the
-//!   geometry (below). With `μ = 0` the GO is the CP and the force is the penalty wall
+//!   of the spring's tangential part and `s = min(μ d, √(|GO − HIP|² − d²))`. The spring then
+//!   carries `μ K d` of friction against the slide on a normal force of `K d`, and it is never
+//!   longer than before, so every slide takes energy out of it: the renderer is passive whatever
+//!   the
+geometry (below). With `μ = 0` the GO is the CP and the force is the penalty wall
 //!   `K d n`, the gradient of `½ K d²` (a GO on a convex object's surface or tangent planes is
 //!   never nearer the HIP than the CP, so `a = d` there).
 //! - **The transition** (§3.1.1) lowers μ from `μ_s` to `μ_d` along the material's Stribeck
