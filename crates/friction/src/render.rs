@@ -26,8 +26,7 @@
 //!   of the spring's tangential part and `s = min(μ d, √(|GO − HIP|² − d²))`. The spring then
 //!   carries `μ K d` of friction against the slide on a normal force of `K d`, and it is never
 //!   longer than before, so every slide takes energy out of it: the renderer is passive whatever
-//!   the
-geometry (below). With `μ = 0` the GO is the CP and the force is the penalty wall
+//!   the geometry (below). With `μ = 0` the GO is the CP and the force is the penalty wall
 //!   `K d n`, the gradient of `½ K d²` (a GO on a convex object's surface or tangent planes is
 //!   never nearer the HIP than the CP, so `a = d` there).
 //! - **The transition** (§3.1.1) lowers μ from `μ_s` to `μ_d` along the material's Stribeck
