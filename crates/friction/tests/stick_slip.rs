@@ -202,6 +202,18 @@ fn switches(r: &Run) -> Vec<(usize, Mode, SwitchCause)> {
         .collect()
 }
 
+/// The edges of a press and a steady slide, in order, and nothing else.
+const PRESS_AND_SLIDE: [(Mode, SwitchCause); 3] = [
+    (Mode::Stuck, SwitchCause::Contact),
+    (Mode::Transition, SwitchCause::Breakaway),
+    (Mode::Slip, SwitchCause::Converged),
+];
+
+/// The new modes and causes of `switches`.
+fn edges(switches: &[(usize, Mode, SwitchCause)]) -> Vec<(Mode, SwitchCause)> {
+    switches.iter().map(|w| (w.1, w.2)).collect()
+}
+
 /// Press to `depth` at x = 0, then slide along +x at `speed` for `ticks`.
 fn press_then_slide(depth: f32, speed: f32, ticks: usize) -> Vec<Vec2> {
     let y = 0.08 - depth;
@@ -226,14 +238,7 @@ fn contact_breakaway_converged_in_order_and_nothing_else() {
     // 30 mm/s, above the Stribeck speed: the transition takes τ.
     let r = run(&press_then_slide(0.002, 0.03, 300));
     let s = switches(&r);
-    assert_eq!(
-        s.iter().map(|w| (w.1, w.2)).collect::<Vec<_>>(),
-        vec![
-            (Mode::Stuck, SwitchCause::Contact),
-            (Mode::Transition, SwitchCause::Breakaway),
-            (Mode::Slip, SwitchCause::Converged),
-        ]
-    );
+    assert_eq!(edges(&s), PRESS_AND_SLIDE);
     // Contact where the HIP crosses y = 0.08: 5/7 of the 100-tick press.
     assert_eq!(s[0].0, 72);
     // Breakaway at K Δx > μ_s K depth: Δx = 1.4 mm at 30 µm per tick, the 47th tick of the
@@ -347,15 +352,7 @@ fn stribeck_faster_slides_lose_static_friction_sooner() {
         let ticks = (0.0015 / (v * T)) as usize + transition_ticks(v, 0.002) + 200;
         let r = run(&press_then_slide(0.002, v, ticks));
         let s = switches(&r);
-        assert_eq!(
-            s.iter().map(|w| (w.1, w.2)).collect::<Vec<_>>(),
-            vec![
-                (Mode::Stuck, SwitchCause::Contact),
-                (Mode::Transition, SwitchCause::Breakaway),
-                (Mode::Slip, SwitchCause::Converged),
-            ],
-            "v = {v}"
-        );
+        assert_eq!(edges(&s), PRESS_AND_SLIDE, "v = {v}");
         let len = s[2].0 - s[1].0;
         // One tick of slack: the f32 sum of up to 200 progress steps of 0.005 can fall short of
         // the end by an ulp.
