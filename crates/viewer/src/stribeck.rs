@@ -24,7 +24,7 @@ pub struct Slide {
     pub transition_s: Option<f32>,
 }
 
-/// Presses 2 mm into a flat floor and slides along it at each of `speeds` (m/s) for 0.4 s
+/// Presses 2 mm into a flat floor and slides along it at each of `speeds` (m/s) for 0.8 s
 /// after breakaway, at 1 kHz, with `material`.
 pub fn sweep(material: FrictionMaterial, speeds: &[f32]) -> Vec<Slide> {
     let t = 1e-3f32;
@@ -39,8 +39,8 @@ pub fn sweep(material: FrictionMaterial, speeds: &[f32]) -> Vec<Slide> {
         .iter()
         .map(|&v| {
             let press = (0..100).map(|k| Vec2::new(0.0, 0.085 - 0.007 * k as f32 / 100.0));
-            // Breakaway needs μ_s × 2 mm of slide; then 0.4 s more.
-            let slide_ticks = (material.mu_static * 0.002 / (v * t)) as usize + 400;
+            // Breakaway needs μ_s × 2 mm of slide; then 0.8 s more.
+            let slide_ticks = (material.mu_static * 0.002 / (v * t)) as usize + 800;
             let slide = (0..slide_ticks).map(|k| Vec2::new(v * t * k as f32, 0.078));
             let mut r = FrictionRenderer::new(&chain, material, Vec2::new(0.0, 0.085));
             let mut prev = Vec2::new(0.0, 0.085);
@@ -116,7 +116,7 @@ fn draw(
     let font = crate::plot::FONT;
     root.fill(&WHITE)?;
     let title = format!(
-        "stick-slip transition: \u{3bc}s = {}, \u{3bc}d = {}, Stribeck speed {} mm/s, lag \u{3c4} = {} ms, depth 2 mm",
+        "stick-slip transition: \u{3bc}s = {}, \u{3bc}d = {}, Stribeck speed {} mm/s, memory \u{3c4} = {} ms, depth 2 mm",
         m.mu_static,
         m.mu_dynamic,
         m.stribeck_speed_m_per_s * 1e3,
