@@ -333,16 +333,18 @@ where
             f_t <= mu * o.normal_force_n * (1.0 + 1e-4) + 1e-5,
             "outside the cone of {mu}: {o:?}"
         );
-        if let Some(p) = k.checked_sub(1).map(|j| &r.out[j]) {
-            if p.mode != Mode::Free && o.mode != Mode::Free && p.go != o.go {
-                // f32 positions near 0.1 m are 7.5 nm apart: two of them of slack.
-                let before = (p.go - path[k]).length_squared().sqrt();
-                let after = (o.go - path[k]).length_squared().sqrt();
-                prop_assert!(
-                    after <= before * (1.0 + 1e-5) + 1.5e-8,
-                    "a slide lengthened the spring from {before} m to {after} m: {o:?}"
-                );
-            }
+        if let Some(p) = k
+            .checked_sub(1)
+            .map(|j| &r.out[j])
+            .filter(|p| p.mode != Mode::Free && o.mode != Mode::Free && p.go != o.go)
+        {
+            // f32 positions near 0.1 m are 7.5 nm apart: two of them of slack.
+            let before = (p.go - path[k]).length_squared().sqrt();
+            let after = (o.go - path[k]).length_squared().sqrt();
+            prop_assert!(
+                after <= before * (1.0 + 1e-5) + 1.5e-8,
+                "a slide lengthened the spring from {before} m to {after} m: {o:?}"
+            );
         }
     }
     let slack = 0.5 * f64::from(material.stiffness_n_per_m * h) * r.go_travel_m
