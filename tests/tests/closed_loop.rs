@@ -8,10 +8,10 @@ use device::safety::{PassivityError, SafetyConfig};
 use device::simulator::{SimParams, SimulatedPantograph};
 use device::spec::DeviceSpec;
 use friction::{FrictionMaterial, Mode};
+use host::trajectory::Trajectory;
 use nurbs::Vec2;
+use scene::Scene;
 use tracker::Chain;
-use viewer::scene::Scene;
-use viewer::trajectory::Trajectory;
 
 #[test]
 fn thesis_2d_stick_slip_through_the_simulated_pantograph() {
@@ -200,7 +200,7 @@ fn stiffness_sweep_renders_or_refuses_and_never_chatters() {
     let dir = concat!(env!("CARGO_MANIFEST_DIR"), "/../scenes/");
     let scene = Scene::load(format!("{dir}thesis-2d.json")).unwrap();
     let traj = Trajectory::load(format!("{dir}thesis-2d.csv")).unwrap();
-    let prescribed = viewer::sim::run(&scene, 0, &traj, 1000.0, |_, _| {}).unwrap();
+    let prescribed = host::sim::run(&scene, 0, &traj, 1000.0, |_, _| {}).unwrap();
     let entries = prescribed
         .ticks
         .windows(2)

@@ -5,8 +5,8 @@
 use std::path::PathBuf;
 
 use nurbs::Point;
+use scene::{Patch, Scene};
 use viewer::eval;
-use viewer::scene::{Patch, Scene};
 
 fn examples() -> Scene {
     let path = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../scenes/examples.json");

@@ -6,9 +6,9 @@
 #![allow(clippy::unwrap_used)]
 
 use friction::{Mode, SwitchCause};
-use viewer::scene::Scene;
-use viewer::sim::{Run, SimParams, Tick, run, run_device};
-use viewer::trajectory::Trajectory;
+use host::sim::{Run, SimParams, Tick, run, run_device};
+use host::trajectory::Trajectory;
+use scene::Scene;
 
 fn load(name: &str) -> (Scene, Trajectory) {
     let dir = concat!(env!("CARGO_MANIFEST_DIR"), "/../scenes/");

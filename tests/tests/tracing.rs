@@ -5,8 +5,8 @@
 
 use friction::{FrictionMaterial, FrictionOutput, FrictionRenderer, Mode};
 use nurbs::{Vec2, construct};
+use scene::Scene;
 use tracker::Chain;
-use viewer::scene::Scene;
 
 const T: f32 = 1e-3;
 

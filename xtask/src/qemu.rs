@@ -20,9 +20,9 @@ use device::host::cobs;
 use device::protocol::{Frame, Message, Telemetry, WireObject, WirePatch, encode_scene};
 use device::simulator::SimParams;
 use device::spec::DeviceSpec;
-use viewer::scene::Scene;
-use viewer::sim::{DEVICE_RAMP_TIME_S, end_stop_counts, run_device, validate_device};
-use viewer::trajectory::Trajectory;
+use host::sim::{DEVICE_RAMP_TIME_S, end_stop_counts, run_device, validate_device};
+use host::trajectory::Trajectory;
+use scene::Scene;
 
 use crate::{EMBEDDED_TARGET, ensure_toolchain, output, run_in};
 
@@ -328,7 +328,7 @@ fn write_inputs(root: &Path, dir: &Path) -> Result<(), String> {
     let ticks = validate_device(&scene, OBJECT, &trajectory, RATE_HZ)
         .map_err(|e| format!("{}: {e}", scene_path.display()))?;
 
-    let wire = viewer::upload::wire_scene(&scene, OBJECT)
+    let wire = host::upload::wire_scene(&scene, OBJECT)
         .map_err(|e| format!("{}: as a wire scene: {e}", scene_path.display()))?;
 
     let table = scenario_table(&trajectory, ticks)?;
@@ -409,7 +409,7 @@ fn surface_inputs(root: &Path) -> Result<(Vec<u8>, Vec<u8>), String> {
 }
 
 /// The firmware's scenario table (layout in `firmware/src/scenario.rs`): the setup and the
-/// per-tick hand targets `viewer::sim::run_device` uses, as the f32 values its loop takes.
+/// per-tick hand targets `host::sim::run_device` uses, as the f32 values its loop takes.
 fn scenario_table(trajectory: &Trajectory, ticks: usize) -> Result<Vec<u8>, String> {
     let xy = |p: [f64; 3]| [p[0] as f32, p[1] as f32];
     let mut out = Vec::with_capacity(64 + 8 * ticks);
@@ -466,7 +466,7 @@ fn telemetry_frames(stream: &[u8]) -> Result<Vec<Telemetry>, String> {
 }
 
 /// Compares the firmware's telemetry (the frames its UART sent, in `serial`) tick by tick with
-/// the host's run of the same scenario (`viewer::sim::run_device`, the code behind
+/// the host's run of the same scenario (`host::sim::run_device`, the code behind
 /// `viewer sim --device`): the same code on the same f32 inputs, so the goal is identical
 /// frames. Returns the result lines: the number of identical frames and, per field, the
 /// largest difference; fails when a frame is missing or a discrete field (mode, cause,

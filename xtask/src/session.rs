@@ -16,7 +16,7 @@ use device::protocol::{ErrorCode, Message, SceneChunk, Status, Telemetry, crc32,
 use device::safety::Faults;
 use friction::{FrictionMaterial, Mode};
 use nurbs::Vec2;
-use viewer::scene::Scene;
+use scene::Scene;
 
 /// How long a reply may take (real time: QEMU runs without -icount here, so its clock is the
 /// host's).
@@ -182,12 +182,12 @@ impl Host {
 
 /// The wire scene of object 0 of `scene` with `material` (the app's own upload).
 fn wire_scene(scene: &Scene, material: FrictionMaterial) -> Result<Vec<u8>, String> {
-    let material = viewer::scene::Material::from_friction(material)
-        .map_err(|e| format!("session: material: {e}"))?;
+    let material =
+        scene::Material::from_friction(material).map_err(|e| format!("session: material: {e}"))?;
     let scene = scene
         .with_material(0, material)
         .map_err(|e| format!("session: {e}"))?;
-    viewer::upload::wire_scene(&scene, 0).map_err(|e| format!("session: wire scene: {e}"))
+    host::upload::wire_scene(&scene, 0).map_err(|e| format!("session: wire scene: {e}"))
 }
 
 /// The modes of `t` in order, repeats collapsed.
@@ -230,16 +230,18 @@ fn start(elf: &Path, address: &str, wait: bool, what: &str) -> Result<Qemu, Stri
     Ok(Qemu(child))
 }
 
-/// The desktop app's device link (`viewer gui --device tcp:HOST:PORT`, through the app's
-/// state, no window) against the emulated board, as a user would start it: the board boots
-/// first (`cargo xtask qemu --serve`), then the app connects. The app's own setup clears the
-/// boot fault, calibrates, uploads thesis-2d and enables the forces; the device's status must
-/// then report exactly that scene's CRC with the forces on. The mouse (the hand's target)
-/// goes 4 mm into the right arc: the device must render contact (stuck, a normal force)
-/// without a fault.
+/// The desktop app's device link (`viewer gui --device tcp:HOST:PORT`): the host of a device
+/// behind a link that the app's state drives ([`host::remote`]), without the GUI, against the
+/// emulated board, as a user would start it: the board boots first (`cargo xtask qemu
+/// --serve`), then the host connects. Its setup clears the boot fault, calibrates and enables
+/// the forces; the scene goes as the app sends it (a `Swap` of thesis-2d, uploaded); the
+/// device's status must then report exactly that scene's CRC with the forces on. The hand's
+/// target goes 4 mm into the right arc: the device must render contact (stuck, a normal
+/// force) without a fault. (The app's own wiring of this thread is tested against the
+/// simulated device on a pseudo-terminal in `crates/viewer/tests/device_link.rs`.)
 pub fn app(elf: &Path, root: &Path) -> Result<Vec<String>, String> {
-    use viewer::devices::Target;
-    use viewer::gui::state::AppState;
+    use host::devices::Target;
+    use host::haptic::{Command, LinkEvent, Reply, Sample, Session};
     let address = free_address()?;
     let _qemu = start(elf, &address, false, "the desktop app's link")?;
     // The board is up once QEMU listens (its emulation runs without waiting for a client);
@@ -254,75 +256,127 @@ pub fn app(elf: &Path, root: &Path) -> Result<Vec<String>, String> {
     std::thread::sleep(Duration::from_millis(500));
     let scene_path = root.join("scenes").join("thesis-2d.json");
     let scene = Scene::load(&scene_path).map_err(|e| format!("{}: {e}", scene_path.display()))?;
-    let wire = viewer::upload::wire_scene(&scene, 0).map_err(|e| format!("app: {e}"))?;
-    let mut state =
-        AppState::new("thesis-2d", scene, true, None).map_err(|e| format!("app: {e}"))?;
-    state.connect(Target::Tcp(address.clone()));
-    let wait = |state: &mut AppState, what: &str, done: &dyn Fn(&AppState) -> bool| {
-        let since = Instant::now();
-        while !done(state) {
-            if let Some(reason) = &state.link.lost {
-                return Err(format!("app: link lost waiting for {what}: {reason}"));
+    let wire = host::upload::wire_scene(&scene, 0).map_err(|e| format!("app: {e}"))?;
+    let session = Session::new(scene).map_err(|e| format!("app: {e}"))?;
+    let target = Target::Tcp(address.clone());
+    let link = host::remote::spawn(
+        format!("tcp {address}"),
+        move || host::devices::open(&target),
+        true,
+        None,
+    )
+    .map_err(|e| format!("app: cannot start the link's thread: {e}"))?;
+    let above = Vec2::new(0.01, 0.11);
+    link.send(Command::HandTarget(above));
+    link.send(Command::Swap(Box::new(session)));
+
+    // What the app's state keeps of the link: the newest status and sample, the history.
+    let mut status = None;
+    let mut hello = None;
+    let mut history: Vec<Sample> = Vec::new();
+    let poll = |status: &mut Option<device::protocol::Status>,
+                hello: &mut Option<device::protocol::Hello>,
+                history: &mut Vec<Sample>|
+     -> Result<(), String> {
+        for reply in link.drain_replies() {
+            match reply {
+                Reply::Link(LinkEvent::Connected { hello: h, .. }) => *hello = Some(h),
+                Reply::Link(LinkEvent::Status(s)) => *status = Some(s),
+                Reply::Link(LinkEvent::Lost(reason)) => {
+                    return Err(format!("app: link lost: {reason}"));
+                }
+                Reply::Link(LinkEvent::Refused { what, reason }) => {
+                    return Err(format!("app: the device refused {what}: {reason}"));
+                }
+                _ => {}
             }
-            if since.elapsed() > Duration::from_secs(20) {
-                return Err(format!("app: no {what} within 20 s; link {:?}", state.link));
-            }
-            std::thread::sleep(Duration::from_millis(10));
-            state.poll();
         }
-        Ok(since.elapsed())
+        link.drain_samples(|s| history.push(s));
+        Ok(())
     };
     let crc = crc32(&wire);
-    let setup = wait(&mut state, "upload and forces on", &|s| {
-        s.link
-            .status
-            .is_some_and(|st| st.scene_crc32 == crc && st.forces_enabled && st.calibrated)
-    })?;
-    let hello = state.link.hello.ok_or("app: no hello")?;
+    let since = Instant::now();
+    while !status.is_some_and(|st: device::protocol::Status| {
+        st.scene_crc32 == crc && st.forces_enabled && st.calibrated
+    }) {
+        if since.elapsed() > Duration::from_secs(20) {
+            return Err(format!(
+                "app: no upload and forces on within 20 s; status {status:?}"
+            ));
+        }
+        std::thread::sleep(Duration::from_millis(10));
+        poll(&mut status, &mut hello, &mut history)?;
+    }
+    let setup = since.elapsed();
+    let firmware = format!("{:?}", hello.as_ref().ok_or("app: no hello")?.software);
     // Above the arcs, then 4 mm into the right arc at 41.4° (see `run`).
     let centre = Vec2::new(-0.02, 0.06);
     let a = 41.4_f32.to_radians();
     let inside = centre + Vec2::new(a.cos(), a.sin()) * 0.036;
     let steps = 50;
-    let above = Vec2::new(0.01, 0.11);
     for i in 0..=steps {
-        state.set_hand_target(above + (inside - above) * (i as f32 / steps as f32));
+        link.send(Command::HandTarget(
+            above + (inside - above) * (i as f32 / steps as f32),
+        ));
         std::thread::sleep(Duration::from_millis(10));
-        state.poll();
+        poll(&mut status, &mut hello, &mut history)?;
     }
-    let contact = wait(&mut state, "contact", &|s| {
-        s.latest()
-            .is_some_and(|l| l.tick.mode == Mode::Stuck && l.tick.normal_force_n > 0.5)
-    })?;
-    let last = state.latest().ok_or("app: no telemetry")?.tick;
+    let since = Instant::now();
+    while !history
+        .last()
+        .is_some_and(|l| l.tick.mode == Mode::Stuck && l.tick.normal_force_n > 0.5)
+    {
+        if since.elapsed() > Duration::from_secs(20) {
+            return Err("app: no contact within 20 s".to_owned());
+        }
+        std::thread::sleep(Duration::from_millis(10));
+        poll(&mut status, &mut hello, &mut history)?;
+    }
+    let contact = since.elapsed();
+    let last = history.last().ok_or("app: no telemetry")?.tick;
     let faults = last.device.map_or(0, |d| d.faults);
-    let (lost, bad, rtt_us) = state.link_quality().unwrap_or_default();
+    let c = link.counters();
+    let (lost, bad, rtt_us) = (
+        c.link_lost_frames
+            .load(std::sync::atomic::Ordering::Relaxed),
+        c.link_bad_frames.load(std::sync::atomic::Ordering::Relaxed),
+        c.link_rtt_us.load(std::sync::atomic::Ordering::Relaxed),
+    );
     if faults != 0 {
-        let first = state
-            .history
+        let first = history
             .iter()
             .position(|s| s.tick.device.is_some_and(|d| d.faults & !0x8 != 0));
-        let around: Vec<String> =
-            first
-                .map(|i| {
-                    state.history.iter().skip(i.saturating_sub(3)).take(6).map(|s| {
-                    format!("t={:.4} hip=({:.5},{:.5}) target=({:.5},{:.5}) mode={:?} faults={:#x}",
-                        s.tick.t_s, s.tick.hip.x, s.tick.hip.y, s.hand_target.x, s.hand_target.y,
-                        s.tick.mode, s.tick.device.map_or(0, |d| d.faults))
-                }).collect()
-                })
-                .unwrap_or_default();
+        let around: Vec<String> = first
+            .map(|i| {
+                history
+                    .iter()
+                    .skip(i.saturating_sub(3))
+                    .take(6)
+                    .map(|s| {
+                        format!(
+                            "t={:.4} hip=({:.5},{:.5}) target=({:.5},{:.5}) mode={:?} faults={:#x}",
+                            s.tick.t_s,
+                            s.tick.hip.x,
+                            s.tick.hip.y,
+                            s.hand_target.x,
+                            s.hand_target.y,
+                            s.tick.mode,
+                            s.tick.device.map_or(0, |d| d.faults)
+                        )
+                    })
+                    .collect()
+            })
+            .unwrap_or_default();
         return Err(format!(
             "app: faults {faults:#x} in contact; first at {first:?} of {}:\n{}",
-            state.history.len(),
+            history.len(),
             around.join("\n")
         ));
     }
-    state.shutdown();
+    drop(link);
     Ok(vec![format!(
-        "app link firmware={:?} setup_ms={} contact_ms={} normal_n={:.3} depth_mm={:.3} \
+        "app link firmware={firmware} setup_ms={} contact_ms={} normal_n={:.3} depth_mm={:.3} \
          frames_lost={lost} corrupt={bad} rtt_us={rtt_us}",
-        hello.software,
         setup.as_millis(),
         contact.as_millis(),
         last.normal_force_n,

@@ -138,15 +138,15 @@ pub struct GuiArgs {
 
 /// The device of `viewer gui --device`: `None` for the simulated pantograph in the app.
 #[derive(Clone, Debug, Default, PartialEq, Eq)]
-pub struct GuiDevice(pub Option<crate::devices::Target>);
+pub struct GuiDevice(pub Option<host::devices::Target>);
 
 fn gui_device(text: &str) -> Result<GuiDevice, String> {
     parse_gui_device(text).map(GuiDevice)
 }
 
 /// Parses a `--device` of `viewer gui`.
-pub fn parse_gui_device(text: &str) -> Result<Option<crate::devices::Target>, String> {
-    use crate::devices::Target;
+pub fn parse_gui_device(text: &str) -> Result<Option<host::devices::Target>, String> {
+    use host::devices::Target;
     let choices = "sim (the simulated pantograph in the app), hid (the first USB HID board), \
                    serial:PATH (a board on a serial port) or tcp:HOST:PORT (the firmware under \
                    QEMU: cargo xtask qemu --serve HOST:PORT)";
@@ -511,9 +511,9 @@ fn hand_stiffness(text: &str) -> Result<f64, String> {
 
 fn tick_rate(text: &str) -> Result<f64, String> {
     match text.trim().parse::<f64>() {
-        Ok(r) => crate::sim::check_rate(r)
+        Ok(r) => host::sim::check_rate(r)
             .map(|()| r)
-            .map_err(|_| crate::sim::rate_rule()),
+            .map_err(|_| host::sim::rate_rule()),
         Err(e) => Err(format!("{e}")),
     }
 }
@@ -553,7 +553,7 @@ mod tests {
         };
         assert_eq!(args.scene, Some(PathBuf::from("s.json")));
         assert_eq!(args.record, Some(PathBuf::from("r.csv")));
-        use crate::devices::Target;
+        use host::devices::Target;
         for (text, target) in [
             ("hid", Target::Hid),
             ("serial:/dev/ttyACM0", Target::Serial("/dev/ttyACM0".into())),

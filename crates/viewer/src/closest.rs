@@ -15,7 +15,7 @@ use serde::Serialize;
 use tracker::{BezierSplit, GlobalConfig, closest_point};
 
 use crate::eval::{Answer, EvalError, Finite, answer_lines, parse_query, write_answer};
-use crate::scene::Object;
+use scene::Object;
 
 /// One answer.
 #[derive(Clone, Debug, PartialEq, Serialize)]
@@ -141,7 +141,7 @@ pub fn run<R: BufRead, W: Write>(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::scene::{Patch, Scene};
+    use scene::{Patch, Scene};
 
     /// A 30 mm circle around (0, 0.09), as in `scenes/examples.json`, and a unit sphere.
     const SCENE: &str = r#"{"format": "scene/1", "objects": [
@@ -228,7 +228,7 @@ mod tests {
         let circle = arc(c, e1 * r, e2 * r, 0.0, std::f32::consts::TAU).expect("circle");
         let (s0, s1) = (Vec3::new(0.1, 0.0, -0.02), Vec3::new(0.1, 0.0, 0.02));
         let segment = line(s0, s1).expect("segment");
-        let material = crate::scene::Material::new(1000.0, 0.0, 0.5, 0.4).expect("material");
+        let material = scene::Material::new(1000.0, 0.0, 0.5, 0.4).expect("material");
         let wire = Object::new(
             "wire",
             material,

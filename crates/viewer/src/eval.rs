@@ -16,7 +16,7 @@ use std::io::{self, BufRead, Write};
 use nurbs::{Curve, Point, Surface};
 use serde::Serialize;
 
-use crate::scene::Patch;
+use scene::Patch;
 
 /// A curve evaluated at `u` (see [`nurbs::Curve::frame`]).
 #[derive(Clone, Debug, PartialEq, Serialize)]

@@ -6,6 +6,8 @@ use std::process::ExitCode;
 
 use anyhow::{Context, Result, anyhow};
 use clap::Parser;
+use host::sim::{self, Trajectory};
+use scene::{Patch, Scene};
 use viewer::cli::{
     Cli, ClosestArgs, Command, EXIT_BAD_INPUT, EXIT_BAD_SETUP, EvalArgs, GuiArgs, PatchSelection,
     PlotArgs, SimArgs,
@@ -14,8 +16,6 @@ use viewer::closest;
 use viewer::eval::{self, EvalError};
 use viewer::output::AtomicFile;
 use viewer::plot;
-use viewer::scene::{Patch, Scene};
-use viewer::sim::{self, Trajectory};
 
 fn main() -> ExitCode {
     match Cli::parse().command {
@@ -67,7 +67,7 @@ fn gui_command(args: &GuiArgs) -> ExitCode {
         return fail(&e, EXIT_BAD_SETUP);
     }
     if let Some(path) = &args.mesh
-        && let Err(e) = viewer::mesh::load_obj(path).context("invalid mesh")
+        && let Err(e) = scene::mesh::load_obj(path).context("invalid mesh")
     {
         return fail(&e, EXIT_BAD_SETUP);
     }
@@ -107,7 +107,7 @@ fn gui_command(_: &GuiArgs) -> ExitCode {
 }
 
 fn plot_command(args: &PlotArgs) -> ExitCode {
-    let log = match viewer::runlog::read(&args.log) {
+    let log = match host::runlog::read(&args.log) {
         Ok(log) => log,
         Err(e) => return fail(&anyhow::Error::new(e), EXIT_BAD_SETUP),
     };
@@ -303,7 +303,7 @@ fn device_command(command: &viewer::cli::DeviceCommand) -> ExitCode {
     use viewer::devices;
     match command {
         DeviceCommand::List => {
-            let (found, problems) = devices::find_devices();
+            let (found, problems) = host::devices::find_devices();
             for p in problems {
                 eprintln!("device list: {p}");
             }
@@ -363,8 +363,9 @@ fn device_sim_pty(_: &viewer::cli::SimPtyArgs) -> ExitCode {
 }
 
 fn device_monitor(args: &viewer::cli::MonitorArgs) -> ExitCode {
+    use host::devices::Target;
     use std::time::Duration;
-    use viewer::devices::{self, Target};
+    use viewer::devices;
     let target = match (&args.port, &args.tcp, args.hid, args.sim) {
         (Some(path), _, _, _) => Target::Serial(path.to_string_lossy().into_owned()),
         (None, Some(address), _, _) => Target::Tcp(address.clone()),
@@ -377,11 +378,11 @@ fn device_monitor(args: &viewer::cli::MonitorArgs) -> ExitCode {
             return fail(&e, EXIT_BAD_SETUP);
         }
     };
-    let mut opened = match devices::open(&target).with_context(|| format!("cannot open {target:?}"))
-    {
-        Ok(opened) => opened,
-        Err(e) => return fail(&e, EXIT_BAD_SETUP),
-    };
+    let mut opened =
+        match host::devices::open(&target).with_context(|| format!("cannot open {target:?}")) {
+            Ok(opened) => opened,
+            Err(e) => return fail(&e, EXIT_BAD_SETUP),
+        };
     let [a, b, c] = opened.hello.software;
     eprintln!(
         "device monitor: connected to {target:?}: firmware {a}.{b}.{c}, scene capacity {} bytes",

@@ -14,8 +14,8 @@ use plotters::coord::types::RangedCoordf64;
 use plotters::prelude::*;
 use plotters::style::{FontStyle, register_font};
 
-use crate::scene::Space;
-use crate::sim::{Run, Tick};
+use host::sim::{Run, Tick};
+use scene::Space;
 
 /// Default image size (pixels).
 pub const DEFAULT_SIZE: (u32, u32) = (1400, 900);

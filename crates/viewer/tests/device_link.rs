@@ -9,10 +9,10 @@ use std::time::{Duration, Instant};
 use device::host::{Link, LinkError, SimConfig, SimLink};
 use device::protocol::{Frame, Message, Telemetry, crc32};
 use device::safety::Faults;
+use host::devices::Opened;
 use nurbs::Vec2;
-use viewer::devices::Opened;
+use scene::Scene;
 use viewer::gui::state::{AppState, DeviceChoice};
-use viewer::scene::Scene;
 
 /// How long a test waits for something that takes milliseconds (a loaded machine is slow;
 /// nothing here is timed).
@@ -107,7 +107,7 @@ fn linked() -> (AppState, Arc<AtomicBool>, Arc<Mutex<Vec<Telemetry>>>) {
 fn a_linked_device_gets_the_scene_and_renders_it() {
     let (mut state, _cut, _) = linked();
     assert_eq!(state.device, DeviceChoice::Linked("pullable".into()));
-    let wire = viewer::upload::wire_scene(&thesis_2d(), 0).expect("wire");
+    let wire = host::upload::wire_scene(&thesis_2d(), 0).expect("wire");
     wait_for(&mut state, "the uploaded scene and the forces", |s| {
         s.link
             .status
@@ -192,8 +192,8 @@ fn the_serial_path_over_a_pseudo_terminal() {
         })
     };
     let mut state = AppState::new("thesis-2d", thesis_2d(), true, None).expect("app");
-    state.connect(viewer::devices::Target::Serial(path.clone()));
-    let wire = viewer::upload::wire_scene(&thesis_2d(), 0).expect("wire");
+    state.connect(host::devices::Target::Serial(path.clone()));
+    let wire = host::upload::wire_scene(&thesis_2d(), 0).expect("wire");
     wait_for(&mut state, "the uploaded scene", |s| {
         s.link
             .status

@@ -4,8 +4,8 @@
 
 use nurbs::Vec2;
 use proptest::prelude::*;
-use viewer::edit::{self, PointRef};
-use viewer::scene::{Object, Patch, Scene};
+use scene::edit::{self, PointRef};
+use scene::{Object, Patch, Scene};
 
 fn scene(name: &str) -> Scene {
     let json = match name {

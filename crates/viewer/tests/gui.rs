@@ -55,7 +55,7 @@ fn press_and_slide(state: &mut AppState) {
 
 /// Whether a tick's normal force is K · depth with K = 1000 N/m to within what the GO's offset
 /// from the CP on thesis-2d's 40 mm arcs allows, `K |GO − CP|² / 2R`, and f32 rounding.
-fn penalty_within_curvature(t: &viewer::sim::Tick) -> bool {
+fn penalty_within_curvature(t: &host::sim::Tick) -> bool {
     let s = (t.go - t.cp).length();
     (t.normal_force_n - 1000.0 * t.depth_m).abs() <= 1000.0 * s * s / (2.0 * 0.04) + 1e-5
 }
@@ -357,7 +357,7 @@ fn snapshot_whole_window_while_sliding() {
 #[test]
 fn a_press_far_from_the_handle_moves_the_hand_at_a_bounded_speed() {
     let mut state = stepped();
-    let start = viewer::haptic::START_HIP;
+    let start = host::haptic::START_HIP;
     let far = Vec2::new(0.03, 0.08); // 42 mm away, in free space beside the arch
     assert!(state.set_hand_target(far));
     state.step(1);
@@ -384,7 +384,7 @@ fn a_press_far_from_the_handle_moves_the_hand_at_a_bounded_speed() {
 
 /// The middle control point of thesis-2d's right arc, P_1 = (0.02, 0.0831), weight
 /// cos 30° = 0.866: the arc's centre (−0.02, 0.06) sees it at 30°, halfway along the arc.
-const MIDDLE: viewer::edit::PointRef = viewer::edit::PointRef {
+const MIDDLE: scene::edit::PointRef = scene::edit::PointRef {
     object: 0,
     patch: 0,
     index: 1,
@@ -539,7 +539,7 @@ fn invalid_edits_leave_the_scene_and_undo_redo_round_trip() {
     assert!(state.undo());
     assert!(state.undo());
     // The geometry of each step (the material is the editor's throughout).
-    let patches = |s: &viewer::scene::Scene| s.objects()[0].patches().to_vec();
+    let patches = |s: &scene::Scene| s.objects()[0].patches().to_vec();
     assert_eq!(patches(&state.scene.model), patches(&weighted));
     assert!(state.redo());
     assert_eq!(patches(&state.scene.model), patches(&refined));
@@ -593,7 +593,7 @@ fn dragging_a_handle_with_the_pointer_and_undoing_with_the_keyboard() {
     let s = &h.state().state;
     assert_eq!(s.edit.error, None);
     assert_eq!(s.edit.selected, Some(MIDDLE));
-    assert_eq!(s.hand_target, viewer::haptic::START_HIP, "the hand stayed");
+    assert_eq!(s.hand_target, host::haptic::START_HIP, "the hand stayed");
     let expected = view.device_of(rect, to);
     let (moved, _) = viewer::gui::editing::control_point(&s.scene.model, MIDDLE).expect("P_1");
     // Stored as (w·P, w): an ulp or two of the 0.09 m coordinates.
@@ -712,8 +712,8 @@ fn the_weight_field_sets_the_weight_and_shows_a_refusal() {
 // ----- the 3-D view, the spatial hand and meshes -----
 
 use nurbs::Vec3;
+use scene::{Material, Object, Patch, Scene};
 use viewer::gui::view3d::{self, Camera3d};
-use viewer::scene::{Material, Object, Patch, Scene};
 
 /// The apex of thesis-3d's bicubic bump. Its control net is linear in x and y (x from −0.04
 /// to 0.04, y from 0.06 to 0.12, evenly spaced) with the four inner points raised 12 mm, so

@@ -3,8 +3,8 @@
 use std::path::PathBuf;
 
 use nurbs::Vec2;
+use scene::{Scene, Space};
 use viewer::gui::state::{AppState, HISTORY_S};
-use viewer::scene::{Scene, Space};
 
 /// A fresh temporary directory for one test, removed on drop.
 struct Temp(PathBuf);
@@ -39,7 +39,7 @@ fn recorded_run(dir: &Temp) -> (AppState, PathBuf) {
 fn write_log(state: &AppState, path: &std::path::Path, space: Space) {
     let device = space == Space::Planar;
     let mut out = Vec::new();
-    viewer::sim::write_csv_header(&mut out, space, device).expect("header");
+    host::sim::write_csv_header(&mut out, space, device).expect("header");
     for s in &state.history {
         s.tick.write_csv_row(&mut out, space, device).expect("row");
     }

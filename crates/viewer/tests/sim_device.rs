@@ -7,9 +7,9 @@ use std::process::{Command, Output};
 use device::kinematics::Pantograph;
 use device::spec::DeviceSpec;
 use friction::Mode;
+use host::sim::{self, DEVICE_COLUMNS, SimParams, Trajectory};
 use nurbs::Vec2;
-use viewer::scene::{Scene, Space};
-use viewer::sim::{self, DEVICE_COLUMNS, SimParams, Trajectory};
+use scene::{Scene, Space};
 
 fn scenes(name: &str) -> String {
     let path = PathBuf::from(env!("CARGO_MANIFEST_DIR"))

@@ -1,6 +1,6 @@
 //! Editing the scene from the 2-D view: the selection, the drag of a control point, the
 //! undo history, and the [`AppState`] methods the view (and tests) call. Every edit is one of
-//! the pure operations of [`crate::edit`] on the scene being rendered, applied through one
+//! the pure operations of [`scene::edit`] on the scene being rendered, applied through one
 //! method, [`AppState::apply_edit`], which swaps the edited scene in as opening a scene does
 //! (the hand, the arm and the forces' switch stay) but keeps the running material (a material
 //! changed in the editor stays) and the view. An edit that fails leaves the running scene and
@@ -9,8 +9,8 @@
 use nurbs::Vec2;
 
 use super::state::{AppState, SceneView};
-use crate::edit::{self, EditError, History, PointRef};
-use crate::scene::{Material, Patch, Scene};
+use scene::edit::{self, EditError, History, PointRef};
+use scene::{Material, Patch, Scene};
 
 /// The editing state of the 2-D view.
 #[derive(Debug, Default)]

@@ -1,6 +1,6 @@
 //! The desktop app (`viewer gui`, and `viewer` alone): egui on eframe's wgpu renderer.
 //!
-//! Rerun-style: the haptic loop runs on its own thread ([`crate::haptic::LoopThread`]) and
+//! Rerun-style: the haptic loop runs on its own thread ([`host::haptic::LoopThread`]) and
 //! the UI reads what it sends, never waiting for it; [`state::AppState`] holds everything
 //! apart from the drawing, so tests drive it without a window, and the panels below are
 //! small functions named by what they show (`*_ui`), each snapshot-tested with
@@ -21,10 +21,11 @@ use egui::{Color32, RichText};
 use egui_plot::{Corner, Legend, Line, Plot, PlotPoints, Span};
 use friction::{FrictionMaterial, Mode, ModelKind, Stribeck};
 
-use crate::haptic::Recorder;
-use crate::scene::Scene;
-use crate::trajectory::Trajectory;
-use state::{AppState, BUNDLED};
+use host::haptic::Recorder;
+use host::trajectory::Trajectory;
+use scene::Scene;
+use scene::bundled::BUNDLED;
+use state::AppState;
 use view::{View2d, mode_colour, view_2d_ui};
 use view3d::{Camera3d, view_3d_ui};
 
@@ -115,7 +116,7 @@ impl ViewerUi {
 /// TCP, a board over USB HID or serial), connect, calibrate, and what the link reports
 /// (firmware, calibration, scene, quality, why it was lost).
 pub fn device_ui(ui: &mut egui::Ui, state: &mut AppState) {
-    use crate::devices::Target;
+    use host::devices::Target;
     use state::DeviceChoice;
     ui.heading("Device");
     match &state.device {
@@ -225,7 +226,7 @@ pub fn device_ui(ui: &mut egui::Ui, state: &mut AppState) {
 /// felt is marked, and a click on another planar one (2-D) or one with surfaces (3-D) renders
 /// that one.
 pub fn objects_ui(ui: &mut egui::Ui, state: &mut AppState) {
-    use crate::scene::{Patch, Space};
+    use scene::{Patch, Space};
     ui.heading("Objects");
     if let Some(spatial) = state.spatial.as_ref().filter(|s| s.is_opened_mesh()) {
         // The scene model behind a mesh is the idle placeholder: show the mesh alone.
@@ -372,10 +373,10 @@ pub fn replay_ui(ui: &mut egui::Ui, state: &mut AppState) {
     let label = r.label.clone();
     // A log drawn in the other view shows where it can: the log does not name its scene.
     let elsewhere = match (r.space, state.spatial.is_some()) {
-        (crate::scene::Space::Spatial, false) => Some(
+        (scene::Space::Spatial, false) => Some(
             "a 3-D log in the 2-D view: its x and y only; open its scene of surfaces to see it in 3-D",
         ),
-        (crate::scene::Space::Planar, true) => {
+        (scene::Space::Planar, true) => {
             Some("a 2-D log in the 3-D view: in the plane z = 0; open its planar scene")
         }
         _ => None,
@@ -848,7 +849,7 @@ pub struct GuiOptions {
     /// Move the hand along the thesis's 2-D path, forth and back, as a drag would.
     pub demo: bool,
     /// The device behind a link to drive; the simulated pantograph in the app when `None`.
-    pub device: Option<crate::devices::Target>,
+    pub device: Option<host::devices::Target>,
     /// An OBJ mesh to open instead of the scene.
     pub mesh: Option<PathBuf>,
 }
@@ -1019,7 +1020,10 @@ pub fn run(options: GuiOptions) -> anyhow::Result<Summary> {
     let mut ui = ViewerUi::new(state);
     ui.recording = options.record.clone();
     let demo = if options.demo {
-        Some(Trajectory::parse(state::DEMO_PATH, "scenes/thesis-2d.csv")?)
+        Some(Trajectory::parse(
+            scene::bundled::THESIS_2D_PATH_CSV,
+            "scenes/thesis-2d.csv",
+        )?)
     } else {
         None
     };
@@ -1067,7 +1071,7 @@ pub fn run(options: GuiOptions) -> anyhow::Result<Summary> {
                 format!(
                     " and {} ticks of the 3-D view to {}",
                     r.spatial_rows,
-                    crate::haptic::spatial_log_path(path).display()
+                    host::haptic::spatial_log_path(path).display()
                 )
             } else {
                 String::new()

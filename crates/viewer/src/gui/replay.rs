@@ -5,10 +5,10 @@
 
 use std::path::Path;
 
-use crate::haptic::Sample;
-use crate::runlog::{self, RunLogError};
-use crate::scene::Space;
-use crate::sim::Tick;
+use host::haptic::Sample;
+use host::runlog::{self, RunLogError};
+use host::sim::Tick;
+use scene::Space;
 
 use super::state::HISTORY_S;
 

@@ -1,5 +1,5 @@
 //! The app's state for a scene without planar objects: the 3-D view's geometry, the spatial
-//! hand's loop ([`crate::haptic3d`]) and the choice between feeling the NURBS object and its
+//! hand's loop ([`host::haptic3d`]) and the choice between feeling the NURBS object and its
 //! tessellation (the polygonal baseline) at a chordal tolerance, and the OBJ export.
 
 use std::path::Path;
@@ -9,12 +9,10 @@ use nurbs::Vec3;
 use tracker::TriMesh;
 
 use super::view3d::Scene3d;
-use crate::haptic::{RecordTx, Reply, Sample};
-use crate::haptic3d::{
-    self, Command3d, SpatialBackend, SpatialLoop, SpatialSession, check_mesh, tessellate_object,
-};
-use crate::mesh::{self, ObjMesh};
-use crate::scene::{Scene, Space};
+use host::haptic::{RecordTx, Reply, Sample};
+use host::haptic3d::{self, Command3d, SpatialBackend, SpatialLoop, SpatialSession, check_mesh};
+use scene::mesh::{self, ObjMesh};
+use scene::{Scene, Space, tessellate_object};
 
 /// The chordal tolerance the mesh representation starts with (m).
 pub const DEFAULT_TOLERANCE_M: f32 = 1e-3;
@@ -294,6 +292,6 @@ fn view_corners(view: &Scene3d) -> Vec<Vec3> {
 
 /// Whether the spatial hand can feel `object`: a spatial object with surfaces (the spatial
 /// loop feels surfaces; spatial curves are drawn only).
-pub fn can_be_felt(object: &crate::scene::Object) -> bool {
+pub fn can_be_felt(object: &scene::Object) -> bool {
     object.space() == Space::Spatial && object.surface_views().is_some_and(|s| !s.is_empty())
 }

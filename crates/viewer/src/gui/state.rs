@@ -16,12 +16,13 @@ use nurbs::Vec2;
 use super::editing::EditState;
 use super::replay::Replay;
 use super::spatial::SpatialState;
-use crate::devices::{self, Target};
-use crate::haptic::{
+use host::devices::{self, Target};
+use host::haptic::{
     self, Command, HapticLoop, LinkEvent, LoopThread, MaterialChangeError, RecordTx, Reply,
     START_HIP, Sample, Session,
 };
-use crate::scene::{Material, Patch, Scene, Space};
+use scene::bundled::BUNDLED;
+use scene::{Material, Patch, Scene, Space};
 
 /// Seconds of telemetry the plots show.
 pub const HISTORY_S: f64 = 5.0;
@@ -31,39 +32,6 @@ pub const JITTER_WINDOW: usize = 1000;
 pub const FRAME_WINDOW: usize = 120;
 /// Points per curve patch drawn in the 2-D view (for display only).
 pub const CURVE_SAMPLES: usize = 256;
-
-/// A scene that ships with the program.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct Bundled {
-    /// Short name (the file's stem).
-    pub name: &'static str,
-    /// The `scene/1` JSON.
-    pub json: &'static str,
-}
-
-/// The bundled scenes, `scenes/*.json`, embedded so that the binary runs from any directory.
-pub const BUNDLED: &[Bundled] = &[
-    Bundled {
-        name: "thesis-2d",
-        json: include_str!("../../../../scenes/thesis-2d.json"),
-    },
-    Bundled {
-        name: "thesis-3d",
-        json: include_str!("../../../../scenes/thesis-3d.json"),
-    },
-    Bundled {
-        name: "examples",
-        json: include_str!("../../../../scenes/examples.json"),
-    },
-    Bundled {
-        name: "torus",
-        json: include_str!("../../../../scenes/torus.json"),
-    },
-];
-
-/// The thesis's 2-D hand path (`scenes/thesis-2d.csv`), which `--demo` plays as the hand's
-/// target, as `viewer sim --device` does.
-pub const DEMO_PATH: &str = include_str!("../../../../scenes/thesis-2d.csv");
 
 /// One object as the 2-D view draws it.
 #[derive(Clone, Debug, PartialEq)]
@@ -334,7 +302,7 @@ enum Backend {
 pub enum DeviceChoice {
     /// The simulated pantograph in this process (the loop on the app's own thread).
     Simulated,
-    /// A device behind a link ([`crate::remote`]): its name (`tcp 127.0.0.1:7000`, …).
+    /// A device behind a link ([`host::remote`]): its name (`tcp 127.0.0.1:7000`, …).
     Linked(String),
 }
 
@@ -707,7 +675,7 @@ impl AppState {
         open: impl FnOnce() -> Result<devices::Opened, device::host::LinkError> + Send + 'static,
         setup: bool,
     ) {
-        match crate::remote::spawn(device.clone(), open, setup, self.record.clone()) {
+        match host::remote::spawn(device.clone(), open, setup, self.record.clone()) {
             Ok(thread) => {
                 self.backend = Backend::Thread(thread);
                 self.device = DeviceChoice::Linked(device);
@@ -785,7 +753,7 @@ impl AppState {
             (DeviceChoice::Simulated, _) => self
                 .scene
                 .rendered
-                .and_then(|i| crate::upload::wire_scene(&self.scene.model, i).ok())
+                .and_then(|i| host::upload::wire_scene(&self.scene.model, i).ok())
                 .map(|w| device::protocol::crc32(&w)),
         }
     }
@@ -1080,7 +1048,7 @@ impl AppState {
     /// running scene.
     pub fn open_obj(&mut self, path: &Path) {
         let label = path.display().to_string();
-        let opened = crate::mesh::load_obj(path)
+        let opened = scene::mesh::load_obj(path)
             .map_err(anyhow::Error::from)
             .and_then(|obj| {
                 let material = FrictionMaterial::default();

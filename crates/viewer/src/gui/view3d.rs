@@ -25,7 +25,7 @@ use tracker::TriMesh;
 use super::spatial::SpatialState;
 use super::state::AppState;
 use super::view::mode_colour;
-use crate::scene::{Patch, Scene};
+use scene::{Patch, Scene};
 
 /// Chordal tolerance of the display tessellation (m): display only, finer than any haptic
 /// tessellation the slider offers.
@@ -793,7 +793,7 @@ fn draw_hand(
     rect: Rect,
     camera: &Camera3d,
     spatial: &SpatialState,
-    latest: Option<&crate::haptic::Sample>,
+    latest: Option<&host::haptic::Sample>,
 ) {
     let at = |p: Vec3| camera.project(rect, p);
     let blue = Color32::from_rgb(40, 110, 200);
@@ -870,7 +870,7 @@ fn draw_legend(
     painter: &egui::Painter,
     rect: Rect,
     spatial: &SpatialState,
-    latest: Option<&crate::haptic::Sample>,
+    latest: Option<&host::haptic::Sample>,
     installed: bool,
 ) {
     let font = FontId::proportional(13.0);

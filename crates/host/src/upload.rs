@@ -13,7 +13,7 @@ use device::protocol::{
 };
 use device::session::{DeviceState, Event, Session};
 
-use crate::scene::Scene;
+use scene::Scene;
 
 /// Scene capacity of the simulated device (bytes), as the host simulator's and the emulated
 /// board's receivers.

@@ -16,8 +16,8 @@ use tracker::{Contact, Feature, Penalty, Shell, TriMesh};
 use crate::haptic::{
     LoopThread, MAX_HAND_SPEED_M_PER_S, MaterialChangeError, RATE_HZ, Reply, Sample, Steppable,
 };
-use crate::scene::{Material, Scene, Space};
 use crate::sim::{self, SimError, Tick};
+use scene::{Material, Scene, Space};
 
 /// Most triangles a mesh the loop renders may have: the baseline scans every triangle each
 /// tick, measured at 30 to 42 ns a triangle in the test profile on the project's 2-core
@@ -174,7 +174,7 @@ pub fn start_hip(points: impl IntoIterator<Item = Vec3>) -> Vec3 {
 
 /// The control points of object `object` of `scene` (dehomogenised).
 pub fn control_points(scene: &Scene, object: usize) -> Vec<Vec3> {
-    use crate::scene::Patch;
+    use scene::Patch;
     let Some(o) = scene.object(object) else {
         return Vec::new();
     };
@@ -560,25 +560,10 @@ impl SpatialBackend {
     }
 }
 
-/// Joins tessellations of every surface of object `object` of `scene` at the chordal
-/// tolerance `tol_m` into one mesh (for display, export and the polygonal baseline).
-pub fn tessellate_object(scene: &Scene, object: usize, tol_m: f32) -> Option<TriMesh> {
-    let surfaces = scene.object(object)?.surface_views()?;
-    let (mut vertices, mut params, mut triangles) = (Vec::new(), Vec::new(), Vec::new());
-    for s in &surfaces {
-        let m = TriMesh::tessellate(s, tol_m);
-        let base = vertices.len() as u32;
-        vertices.extend_from_slice(m.vertices());
-        params.extend_from_slice(m.params());
-        triangles.extend(m.triangles().iter().map(|t| t.map(|i| i + base)));
-    }
-    Some(TriMesh::from_triangles(vertices, params, &triangles))
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::scene::{Object, Patch};
+    use scene::{Object, Patch, tessellate_object};
 
     /// The plane z = 0 over x ∈ [−0.03, 0.03], y ∈ [0.06, 0.12] (normal +z), K = 1000 N/m,
     /// no damping, μ_s = 0.7, μ_d = 0.5.

@@ -8,8 +8,8 @@ use std::path::{Path, PathBuf};
 use friction::{FrictionMaterial, Mode, SwitchCause};
 use nurbs::Vec3;
 
-use crate::scene::Space;
 use crate::sim::{DEVICE_COLUMNS, DeviceSample, Run, Tick, csv_header};
+use scene::Space;
 
 /// A run log read back.
 #[derive(Clone, Debug, PartialEq)]
@@ -231,8 +231,8 @@ pub fn parse(text: &str, path: &Path) -> Result<RunLog, RunLogError> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::scene::Scene;
     use crate::sim::{self, Trajectory};
+    use scene::Scene;
 
     /// A `sim --device` run written and read back gives the same logged columns.
     #[test]

@@ -30,8 +30,8 @@ use friction::{FrictionMaterial, FrictionOutput, FrictionRenderer, Mode, SwitchC
 use nurbs::{Point, Vec2, Vec3};
 use tracker::{Chain, ChainError, Feature, Object as TrackedObject, Shell, ShellError};
 
-use crate::scene::{Scene, Space};
 pub use crate::trajectory::{Trajectory, TrajectoryError, TrajectoryProblem};
+use scene::{Scene, Space};
 
 /// Default tick rate of `sim` (Hz).
 pub const DEFAULT_RATE_HZ: f64 = 1000.0;

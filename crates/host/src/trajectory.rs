@@ -16,7 +16,7 @@
 
 use std::path::{Path, PathBuf};
 
-use crate::scene::Space;
+use scene::Space;
 
 /// A validated trajectory: at least two samples, strictly increasing finite times, finite
 /// positions (`z = 0` for planar ones).

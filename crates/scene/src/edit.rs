@@ -25,7 +25,7 @@ use std::collections::VecDeque;
 use nurbs::{CurveBuf, RefineError, Vec2};
 use tracker::JOIN_TOL_M;
 
-use crate::scene::{Material, Object, ObjectError, Patch, Scene};
+use crate::{Material, Object, ObjectError, Patch, Scene};
 
 /// A control point: object, patch and index in the patch's control polygon.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]

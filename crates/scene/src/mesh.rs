@@ -12,6 +12,8 @@ use std::path::{Path, PathBuf};
 use nurbs::Vec3;
 use tracker::TriMesh;
 
+use crate::Scene;
+
 /// Why an OBJ file could not be opened. The message names the file and, where the problem
 /// is on one line, the line.
 #[derive(Debug, thiserror::Error)]
@@ -254,6 +256,21 @@ pub fn save_obj(mesh: &TriMesh, name: &str, comment: &str, path: &Path) -> io::R
         .map_err(|e| io::Error::new(e.kind(), format!("{}: {e}", path.display())))?;
     write_obj(mesh, name, comment, file)
         .map_err(|e| io::Error::new(e.kind(), format!("{}: {e}", path.display())))
+}
+
+/// Joins tessellations of every surface of object `object` of `scene` at the chordal
+/// tolerance `tol_m` into one mesh (for display, export and the polygonal baseline).
+pub fn tessellate_object(scene: &Scene, object: usize, tol_m: f32) -> Option<TriMesh> {
+    let surfaces = scene.object(object)?.surface_views()?;
+    let (mut vertices, mut params, mut triangles) = (Vec::new(), Vec::new(), Vec::new());
+    for s in &surfaces {
+        let m = TriMesh::tessellate(s, tol_m);
+        let base = vertices.len() as u32;
+        vertices.extend_from_slice(m.vertices());
+        params.extend_from_slice(m.params());
+        triangles.extend(m.triangles().iter().map(|t| t.map(|i| i + base)));
+    }
+    Some(TriMesh::from_triangles(vertices, params, &triangles))
 }
 
 #[cfg(test)]

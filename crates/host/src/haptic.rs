@@ -33,9 +33,9 @@ use friction::FrictionMaterial;
 use nurbs::Vec2;
 use tracker::Chain;
 
-use crate::scene::{Material, MaterialError, Scene, Space};
 use crate::sim::{self, SimError, Tick};
 use crate::upload::{self, UploadError};
+use scene::{Material, MaterialError, Scene, Space};
 
 /// The loop's tick rate (Hz).
 pub const RATE_HZ: f64 = 1000.0;
