@@ -20,7 +20,8 @@ use device::host::cobs;
 use device::protocol::{Frame, Message, Telemetry, WireObject, WirePatch, encode_scene};
 use device::simulator::SimParams;
 use device::spec::DeviceSpec;
-use host::sim::{DEVICE_RAMP_TIME_S, end_stop_counts, run_device, validate_device};
+use host::sim::{run_device, validate_device};
+use host::tick::{DEVICE_RAMP_TIME_S, end_stop_counts};
 use host::trajectory::Trajectory;
 use scene::Scene;
 

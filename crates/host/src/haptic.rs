@@ -1,6 +1,6 @@
 //! The haptic loop behind the GUI: the simulated pantograph and the device's [`Controller`]
 //! on one planar object of a scene, stepped one tick at a time ([`HapticLoop::step`], the
-//! same [`sim::device_tick`] as `viewer sim --device`), driven by a virtual hand whose target
+//! same [`tick::device_tick`] as `viewer sim --device`), driven by a virtual hand whose target
 //! the UI moves.
 //!
 //! [`LoopThread`] runs a [`HapticLoop`] on its own thread at its tick rate. The UI talks to it
@@ -15,9 +15,7 @@
 //! Tests step a [`HapticLoop`] directly: no thread, no clock, the same ticks for the same
 //! inputs.
 
-use std::fs::File;
-use std::io::{self, BufWriter, Write};
-use std::path::{Path, PathBuf};
+use std::io;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::mpsc::{self, Receiver, Sender, SyncSender, TryRecvError, TrySendError};
@@ -33,7 +31,9 @@ use friction::FrictionMaterial;
 use nurbs::Vec2;
 use tracker::Chain;
 
-use crate::sim::{self, SimError, Tick};
+use crate::runlog::RecordTx;
+use crate::sim::SimError;
+use crate::tick::{self, Tick};
 use crate::upload::{self, UploadError};
 use scene::{Material, MaterialError, Scene, Space};
 
@@ -192,12 +192,12 @@ fn build_controller(choice: &SceneChoice) -> Result<Rendering<'_>, SessionError>
             let index = choice.object.unwrap_or(0);
             let chain = Chain::new(&curves).map_err(|error| SimError::Chain { index, error })?;
             let material = store.material(0).unwrap_or_default();
-            sim::device_controller(chain, material, RATE_HZ)?
+            tick::device_controller(chain, material, RATE_HZ)?
         }
         None => {
             let safety = device::safety::SafetyConfig {
                 period_s: (1.0 / RATE_HZ) as f32,
-                ramp_time_s: sim::DEVICE_RAMP_TIME_S,
+                ramp_time_s: tick::DEVICE_RAMP_TIME_S,
                 ..device::safety::SafetyConfig::default()
             };
             (
@@ -207,7 +207,7 @@ fn build_controller(choice: &SceneChoice) -> Result<Rendering<'_>, SessionError>
         }
     };
     controller
-        .calibrate(sim::end_stop_counts(&spec))
+        .calibrate(tick::end_stop_counts(&spec))
         .map_err(SimError::Controller)?;
     controller.set_forces_enabled(true);
     Ok(Rendering {
@@ -264,7 +264,7 @@ impl HapticLoop {
         })
     }
 
-    /// One tick (see [`sim::device_tick`]). An arm driven into a singular pose stays there; the
+    /// One tick (see [`tick::device_tick`]). An arm driven into a singular pose stays there; the
     /// tick is then recorded at the last pose and [`HapticLoop::last_error`] says why.
     pub fn step(&mut self) -> Tick {
         let target = self.hand.step(self.period_s);
@@ -274,7 +274,7 @@ impl HapticLoop {
         let period_s = self.period_s;
         let arm = &mut self.arm;
         let result = self.session.0.with_dependent_mut(|_, r| {
-            sim::device_tick(&mut r.controller, arm, t_s, now_us, target, period_s)
+            tick::device_tick(&mut r.controller, arm, t_s, now_us, target, period_s)
         });
         self.tick += 1;
         match result {
@@ -371,7 +371,7 @@ impl HapticLoop {
 
     /// Calibrates the controller on the simulated arm's end stops (where it was homed).
     pub fn calibrate(&mut self) {
-        let counts = sim::end_stop_counts(&DeviceSpec::default());
+        let counts = tick::end_stop_counts(&DeviceSpec::default());
         let result = self
             .session
             .0
@@ -763,194 +763,6 @@ fn run_paced<L: Steppable>(haptic: &mut L, ends: &LoopEnds<L::Command>) {
     }
 }
 
-/// Writes the ticks it receives to run logs (the columns of `viewer sim`), flushed at least
-/// once a second, completed when the loops stop: the planar loop's ticks to the path given
-/// (with the device's columns, as `viewer sim --device`), the spatial hand's to
-/// [`spatial_log_path`] of it (as `viewer sim` on a scene of surfaces), created at its first
-/// tick. Each log's time column runs on across loop restarts (a scene opened in 3-D, a device
-/// switch): a tick whose time is not after the last one written continues one period later,
-/// so a recording stays one run log with one rate.
-#[derive(Debug)]
-pub struct Recorder {
-    thread: Option<JoinHandle<io::Result<RecordSummary>>>,
-    path: PathBuf,
-}
-
-/// What a recording wrote.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub struct RecordSummary {
-    /// Rows written to the planar log.
-    pub rows: u64,
-    /// Rows written to the spatial log ([`spatial_log_path`]); 0 when there is none.
-    pub spatial_rows: u64,
-    /// Ticks skipped because a value was not finite (a run log never holds NaN or inf).
-    pub skipped: u64,
-}
-
-/// A loop's input to the [`Recorder`]: its ticks go to the run log of its space.
-#[derive(Clone, Debug)]
-pub struct RecordTx {
-    tx: SyncSender<(Space, Tick)>,
-    space: Space,
-}
-
-impl RecordTx {
-    /// The same recorder, for a loop whose ticks are of `space`.
-    pub fn for_space(&self, space: Space) -> Self {
-        RecordTx {
-            tx: self.tx.clone(),
-            space,
-        }
-    }
-
-    /// Hands `tick` to the recorder, waiting while its channel is full (never on a loop's
-    /// tick path: [`RecordTx::try_send`] is that one); false when it is gone.
-    pub fn send(&self, tick: Tick) -> bool {
-        self.tx.send((self.space, tick)).is_ok()
-    }
-
-    /// Hands `tick` to the recorder; false when its channel is full or it is gone.
-    pub fn try_send(&self, tick: Tick) -> bool {
-        self.tx.try_send((self.space, tick)).is_ok()
-    }
-}
-
-/// Where a recording to `path` writes the spatial hand's ticks: `RUN.csv` → `RUN.3d.csv`.
-pub fn spatial_log_path(path: &Path) -> PathBuf {
-    let stem = path.file_stem().unwrap_or_default().to_string_lossy();
-    let name = match path.extension() {
-        Some(ext) => format!("{stem}.3d.{}", ext.to_string_lossy()),
-        None => format!("{stem}.3d"),
-    };
-    path.with_file_name(name)
-}
-
-/// How often the recorder flushes at the latest.
-pub const FLUSH_PERIOD: Duration = Duration::from_millis(500);
-
-impl Recorder {
-    /// Creates `path` (writing its header) and starts the writer thread; returns it and the
-    /// planar loops' input (see [`RecordTx::for_space`] for the spatial hand's).
-    pub fn start(path: &Path) -> io::Result<(Self, RecordTx)> {
-        let planar = RunLog::create(path, Space::Planar)?;
-        let spatial_path = spatial_log_path(path);
-        let (tx, rx) = mpsc::sync_channel::<(Space, Tick)>(RECORD_CAPACITY);
-        let thread = std::thread::Builder::new()
-            .name("recorder".into())
-            .spawn(move || record(planar, &spatial_path, &rx))?;
-        Ok((
-            Recorder {
-                thread: Some(thread),
-                path: path.to_owned(),
-            },
-            RecordTx {
-                tx,
-                space: Space::Planar,
-            },
-        ))
-    }
-
-    /// Waits for the writer to finish (after the loops' senders are gone) and flushes.
-    pub fn finish(mut self) -> io::Result<RecordSummary> {
-        let path = self.path.clone();
-        match self.thread.take().map(JoinHandle::join) {
-            Some(Ok(result)) => {
-                result.map_err(|e| io::Error::new(e.kind(), format!("{}: {e}", path.display())))
-            }
-            Some(Err(_)) => Err(io::Error::other(format!(
-                "{}: the recorder thread panicked",
-                path.display()
-            ))),
-            None => Ok(RecordSummary::default()),
-        }
-    }
-}
-
-/// One run log being written.
-struct RunLog {
-    out: BufWriter<File>,
-    space: Space,
-    /// The time column of the last row written (s), and what is added to the loop's time.
-    last_t_s: Option<f64>,
-    offset_s: f64,
-}
-
-impl RunLog {
-    /// Creates `path` with the header of a log of `space` (the planar one with the device's
-    /// columns: the planar loop is the device's).
-    fn create(path: &Path, space: Space) -> io::Result<Self> {
-        let mut out = BufWriter::new(File::create(path)?);
-        sim::write_csv_header(&mut out, space, space == Space::Planar)?;
-        out.flush()?;
-        Ok(RunLog {
-            out,
-            space,
-            last_t_s: None,
-            offset_s: 0.0,
-        })
-    }
-
-    /// Writes `tick`, its time continued past the last row when the loop restarted.
-    fn write(&mut self, tick: &Tick) -> io::Result<()> {
-        let mut t_s = tick.t_s + self.offset_s;
-        if let Some(last) = self.last_t_s
-            && t_s <= last
-        {
-            self.offset_s = last + 1.0 / RATE_HZ - tick.t_s;
-            t_s = last + 1.0 / RATE_HZ;
-        }
-        self.last_t_s = Some(t_s);
-        Tick { t_s, ..*tick }.write_csv_row(&mut self.out, self.space, self.space == Space::Planar)
-    }
-
-    fn finish(mut self) -> io::Result<()> {
-        self.out.flush()?;
-        self.out
-            .into_inner()
-            .map_err(|e| e.into_error())?
-            .sync_all()
-    }
-}
-
-fn record(
-    mut planar: RunLog,
-    spatial_path: &Path,
-    rx: &Receiver<(Space, Tick)>,
-) -> io::Result<RecordSummary> {
-    let mut summary = RecordSummary::default();
-    let mut spatial: Option<RunLog> = None;
-    let mut flushed = Instant::now();
-    loop {
-        match rx.recv_timeout(FLUSH_PERIOD) {
-            Ok((_, tick)) if tick.non_finite_column().is_some() => summary.skipped += 1,
-            Ok((Space::Planar, tick)) => {
-                planar.write(&tick)?;
-                summary.rows += 1;
-            }
-            Ok((Space::Spatial, tick)) => {
-                let log = match &mut spatial {
-                    Some(log) => log,
-                    None => spatial.insert(RunLog::create(spatial_path, Space::Spatial)?),
-                };
-                log.write(&tick)?;
-                summary.spatial_rows += 1;
-            }
-            Err(mpsc::RecvTimeoutError::Timeout) => {}
-            Err(mpsc::RecvTimeoutError::Disconnected) => break,
-        }
-        if flushed.elapsed() >= FLUSH_PERIOD {
-            planar.out.flush()?;
-            if let Some(log) = &mut spatial {
-                log.out.flush()?;
-            }
-            flushed = Instant::now();
-        }
-    }
-    planar.finish()?;
-    spatial.map_or(Ok(()), RunLog::finish)?;
-    Ok(summary)
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -958,116 +770,6 @@ mod tests {
     fn thesis_2d() -> Scene {
         Scene::from_json_str(include_str!("../../../scenes/thesis-2d.json"))
             .unwrap_or_else(|e| panic!("{e}"))
-    }
-
-    /// The recorder writes the header of `sim --device` logs and one row per tick, readable
-    /// by `viewer plot`'s reader; rows reach the file while it runs (the flush period is
-    /// 0.5 s: polled for up to 10 s, so a loaded machine does not fail it), and all of them
-    /// when it finishes.
-    #[test]
-    fn recorder_writes_a_run_log_while_running_and_completes_it() {
-        let dir = std::env::temp_dir().join(format!("viewer-recorder-{}", std::process::id()));
-        std::fs::create_dir_all(&dir).expect("temp dir");
-        let path = dir.join("rec.csv");
-        let (recorder, tx) = Recorder::start(&path).expect("start");
-        let session = Session::new(thesis_2d()).expect("session");
-        let mut haptic = HapticLoop::new(session, START_HIP).expect("loop");
-        for _ in 0..300 {
-            assert!(tx.send(haptic.step()), "recorder alive");
-        }
-        let waited = Instant::now();
-        let rows = || std::fs::read_to_string(&path).map_or(0, |t| t.lines().count());
-        while rows() < 301 && waited.elapsed() < Duration::from_secs(10) {
-            std::thread::sleep(Duration::from_millis(20));
-        }
-        assert_eq!(rows(), 301, "flushed while running");
-        for _ in 0..200 {
-            assert!(tx.send(haptic.step()), "recorder alive");
-        }
-        drop(tx);
-        let summary = recorder.finish().expect("finish");
-        assert_eq!(
-            summary,
-            RecordSummary {
-                rows: 500,
-                ..RecordSummary::default()
-            }
-        );
-        assert!(
-            !spatial_log_path(&path).exists(),
-            "no spatial log without 3-D ticks"
-        );
-        let text = std::fs::read_to_string(&path).expect("read");
-        assert_eq!(
-            text.lines().next(),
-            Some(format!("{},{}", sim::csv_header(Space::Planar), sim::DEVICE_COLUMNS).as_str())
-        );
-        let log = crate::runlog::parse(&text, &path).unwrap_or_else(|e| panic!("{e}"));
-        assert_eq!(log.run.ticks.len(), 500);
-        assert_eq!(log.run.rate_hz, RATE_HZ);
-        let _ = std::fs::remove_dir_all(&dir);
-    }
-
-    /// A recording across loop restarts stays one run log of each space: the planar loop
-    /// restarted (as on a device switch, its clock back at 0) continues one period after its
-    /// last row, and the spatial hand's ticks go to `rec.3d.csv` with the spatial columns.
-    /// The reference is the tick period: every step of each log's time column is 1 ms (to
-    /// f64 rounding of sums of 1e-3, far below 1e-9 s). Without the continuation the planar
-    /// clock would step back at row 150, and the run log reader, which takes the rate from
-    /// the column's span, would read 300 rows over 0.149 s as 2 kHz.
-    #[test]
-    fn a_recording_continues_across_restarts_and_keeps_the_3d_ticks_apart() {
-        let dir = std::env::temp_dir().join(format!("viewer-rec3d-{}", std::process::id()));
-        std::fs::create_dir_all(&dir).expect("temp dir");
-        let path = dir.join("rec.csv");
-        let (recorder, tx) = Recorder::start(&path).expect("start");
-        let spatial_tx = tx.for_space(Space::Spatial);
-        for _ in 0..2 {
-            let session = Session::new(thesis_2d()).expect("session");
-            let mut haptic = HapticLoop::new(session, START_HIP).expect("loop");
-            for _ in 0..150 {
-                assert!(tx.send(haptic.step()), "recorder alive");
-            }
-        }
-        for i in 0..120 {
-            let mut tick = Tick::idle(i as f64 / RATE_HZ);
-            tick.hip = nurbs::Vec3::new(0.0, 0.09, 0.02 - i as f32 * 1e-4);
-            assert!(spatial_tx.send(tick), "recorder alive");
-        }
-        drop((tx, spatial_tx));
-        let summary = recorder.finish().expect("finish");
-        assert_eq!(
-            summary,
-            RecordSummary {
-                rows: 300,
-                spatial_rows: 120,
-                skipped: 0
-            }
-        );
-        let planar = std::fs::read_to_string(&path).expect("read");
-        let log = crate::runlog::parse(&planar, &path).unwrap_or_else(|e| panic!("{e}"));
-        assert_eq!((log.run.ticks.len(), log.run.rate_hz), (300, RATE_HZ));
-        let one_period = |ticks: &[Tick]| {
-            ticks
-                .windows(2)
-                .all(|w| (w[1].t_s - w[0].t_s - 1.0 / RATE_HZ).abs() < 1e-9)
-        };
-        assert!(one_period(&log.run.ticks));
-        let last = log.run.ticks.last().expect("rows").t_s;
-        assert!((last - 299.0 / RATE_HZ).abs() < 1e-9, "{last}");
-        let spatial_path = spatial_log_path(&path);
-        assert_eq!(spatial_path, dir.join("rec.3d.csv"));
-        let text = std::fs::read_to_string(&spatial_path).expect("read 3-D");
-        assert_eq!(
-            text.lines().next(),
-            Some(sim::csv_header(Space::Spatial).as_str())
-        );
-        let log = crate::runlog::parse(&text, &spatial_path).unwrap_or_else(|e| panic!("{e}"));
-        assert_eq!((log.run.ticks.len(), log.run.rate_hz), (120, RATE_HZ));
-        assert!(one_period(&log.run.ticks));
-        let hip = log.run.ticks[119].hip;
-        assert!((hip.z - (0.02 - 119.0 * 1e-4)).abs() < 1e-7, "{hip:?}");
-        let _ = std::fs::remove_dir_all(&dir);
     }
 
     /// The thread ticks on its own and answers commands; dropping it stops it. Polled for up

@@ -1,7 +1,7 @@
 //! The spatial hand behind the GUI's 3-D view: an impedance point (the HIP goes where the hand
 //! puts it, the force is only shown) on an object of surfaces, stepped one tick at a time at
 //! [`RATE_HZ`] by the same per-tick step as `viewer sim` on a spatial scene
-//! ([`sim::render_tick`]: the friction renderer on a [`Shell`]), or, on a mesh, by the
+//! ([`tick::render_tick`]: the friction renderer on a [`Shell`]), or, on a mesh, by the
 //! polygonal baseline of the thesis (§2.1.3, Fig. 2.1.2 (b)): the closest triangle of a
 //! [`TriMesh`] and the penalty `K·depth` along its face normal, without friction.
 //!
@@ -16,7 +16,8 @@ use tracker::{Contact, Feature, Penalty, Shell, TriMesh};
 use crate::haptic::{
     LoopThread, MAX_HAND_SPEED_M_PER_S, MaterialChangeError, RATE_HZ, Reply, Sample, Steppable,
 };
-use crate::sim::{self, SimError, Tick};
+use crate::sim::SimError;
+use crate::tick::{self, Tick};
 use scene::{Material, Scene, Space};
 
 /// Most triangles a mesh the loop renders may have: the baseline scans every triangle each
@@ -276,7 +277,7 @@ impl SpatialLoop {
             Some(mesh) => mesh_tick(mesh, &self.material, t_s, hip, velocity),
             None => self.session.0.with_dependent_mut(|_, d| match d {
                 Some(r) => {
-                    sim::render_tick(&mut r.renderer, &r.shell, t_s, hip, velocity, period_s)
+                    tick::render_tick(&mut r.renderer, &r.shell, t_s, hip, velocity, period_s)
                 }
                 None => free_tick(t_s, hip, velocity),
             }),
@@ -505,7 +506,7 @@ impl SpatialBackend {
     pub fn start(
         spatial: SpatialLoop,
         threaded: bool,
-        record: Option<crate::haptic::RecordTx>,
+        record: Option<crate::runlog::RecordTx>,
     ) -> std::io::Result<Self> {
         Ok(if threaded {
             SpatialBackend::Thread(LoopThread::spawn(spatial, record)?)

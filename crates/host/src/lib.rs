@@ -7,5 +7,6 @@ pub mod haptic3d;
 pub mod remote;
 pub mod runlog;
 pub mod sim;
+pub mod tick;
 pub mod trajectory;
 pub mod upload;

@@ -38,7 +38,7 @@ use tracker::Feature;
 
 use crate::devices::{HEARTBEAT_PERIOD, Opened};
 use crate::haptic::{Command, LinkEvent, LoopEnds, LoopThread, MaterialChangeError, Reply, Sample};
-use crate::sim::{DeviceSample, Tick};
+use crate::tick::{DeviceSample, Tick};
 
 /// A device silent this long is gone (telemetry comes every tick, so this is hundreds of
 /// frames).
@@ -64,7 +64,7 @@ pub fn spawn(
     device: String,
     open: impl FnOnce() -> Result<Opened, LinkError> + Send + 'static,
     setup: bool,
-    record: Option<crate::haptic::RecordTx>,
+    record: Option<crate::runlog::RecordTx>,
 ) -> std::io::Result<LoopThread> {
     LoopThread::spawn_with("device-link", record, move |ends| {
         let reason = match open() {

@@ -1,15 +1,25 @@
-//! Reading a run log back (`viewer plot`): the CSV [`Run::write_csv`] writes, from `sim` or
-//! from a GUI recording, into a [`Run`] whose ticks carry every logged column. What the log
-//! does not hold (velocities, normals, tangents, CP and GO parameters, the feature) is zero;
-//! [`RunLog::has_parameters`] is false.
+//! The run-log format, in one place: one CSV row per tick with the tick's internals. `viewer
+//! sim` writes a whole [`Run`] ([`Run::write_csv`]); the app records its loops while they run
+//! ([`Recorder`], fed by the loops through a bounded channel, flushed every
+//! [`FLUSH_PERIOD`]); `viewer plot` and the app's replay read a log back ([`read`]) into a
+//! [`Run`] whose ticks carry every logged column. What the log does not hold (velocities,
+//! normals, tangents, CP and GO parameters, the feature) is zero; [`RunLog::has_parameters`]
+//! is false.
 
+use std::fs::File;
+use std::io::{self, BufWriter, Write};
 use std::path::{Path, PathBuf};
+use std::sync::mpsc::{self, Receiver, SyncSender};
+use std::thread::JoinHandle;
+use std::time::{Duration, Instant};
 
 use friction::{FrictionMaterial, Mode, SwitchCause};
 use nurbs::Vec3;
-
-use crate::sim::{DEVICE_COLUMNS, DeviceSample, Run, Tick, csv_header};
 use scene::Space;
+
+use crate::haptic::{RATE_HZ, RECORD_CAPACITY};
+use crate::sim::Run;
+use crate::tick::{DeviceSample, Tick};
 
 /// A run log read back.
 #[derive(Clone, Debug, PartialEq)]
@@ -228,11 +238,363 @@ pub fn parse(text: &str, path: &Path) -> Result<RunLog, RunLogError> {
     })
 }
 
+// ---------------------------------------------------------------------------------------------
+// Writing.
+
+/// The columns a device run ([`run_device`]) appends to [`csv_header`]: the measured joint
+/// angles (rad), the joint torques (N·m) and the latched fault bits as a decimal number.
+pub const DEVICE_COLUMNS: &str = "theta1_rad,theta2_rad,tau1_nm,tau2_nm,faults";
+
+/// The run log's header: `t_s,hip_x,hip_y[,hip_z],cp_x,cp_y[,cp_z],go_x,go_y[,go_z],patch,mode,
+/// cause,depth_m,normal_force_n,friction_force_n,mu,psi,force_x,force_y[,force_z]` (the `_z` columns
+/// for spatial runs only).
+pub fn csv_header(space: Space) -> String {
+    let axes: &[&str] = match space {
+        Space::Planar => &["x", "y"],
+        Space::Spatial => &["x", "y", "z"],
+    };
+    let vector = |name: &str| {
+        axes.iter()
+            .map(|a| format!("{name}_{a}"))
+            .collect::<Vec<_>>()
+            .join(",")
+    };
+    format!(
+        "t_s,{},{},{},patch,mode,cause,depth_m,normal_force_n,friction_force_n,mu,psi,{}",
+        vector("hip"),
+        vector("cp"),
+        vector("go"),
+        vector("force")
+    )
+}
+
+/// Writes the run log's header line: [`csv_header`], followed by [`DEVICE_COLUMNS`] when
+/// `device`.
+pub fn write_csv_header(mut w: impl Write, space: Space, device: bool) -> io::Result<()> {
+    if device {
+        writeln!(w, "{},{DEVICE_COLUMNS}", csv_header(space))
+    } else {
+        writeln!(w, "{}", csv_header(space))
+    }
+}
+
+impl Tick {
+    /// The first run-log column of this tick with a NaN or an infinity, if any.
+    pub fn non_finite_column(&self) -> Option<&'static str> {
+        let k = self;
+        let d = k.device.unwrap_or(DeviceSample {
+            theta_rad: [0.0; 2],
+            tau_nm: [0.0; 2],
+            faults: 0,
+        });
+        let columns: [(&'static str, &[f32]); 11] = [
+            ("hip", &k.hip.to_array()),
+            ("cp", &k.cp.to_array()),
+            ("go", &k.go.to_array()),
+            ("depth_m", &[k.depth_m]),
+            ("normal_force_n", &[k.normal_force_n]),
+            ("friction_force_n", &[k.friction_force_n]),
+            ("mu", &[k.mu]),
+            ("psi", &[k.psi]),
+            ("force", &k.force.to_array()),
+            ("theta_rad", &d.theta_rad),
+            ("tau_nm", &d.tau_nm),
+        ];
+        if !k.t_s.is_finite() {
+            return Some("t_s");
+        }
+        columns
+            .into_iter()
+            .find(|(_, v)| !v.iter().all(|x| x.is_finite()))
+            .map(|(name, _)| name)
+    }
+
+    /// Writes this tick as one run-log row (see [`Run::write_csv`]); with `device`, the
+    /// [`DEVICE_COLUMNS`] too (0 without a [`DeviceSample`]). Does not check finiteness
+    /// ([`Tick::non_finite_column`]).
+    pub fn write_csv_row(&self, mut w: impl Write, space: Space, device: bool) -> io::Result<()> {
+        let k = self;
+        let dim = space.dim();
+        write!(w, "{}", k.t_s)?;
+        for v in [k.hip, k.cp, k.go] {
+            for x in &v.to_array()[..dim] {
+                write!(w, ",{x:?}")?;
+            }
+        }
+        let patch = k.patch.map_or(-1, |p| p as i64);
+        write!(
+            w,
+            ",{patch},{},{},{:?},{:?},{:?},{:?},{:?}",
+            k.mode.name(),
+            k.cause.name(),
+            k.depth_m.max(0.0),
+            k.normal_force_n,
+            k.friction_force_n,
+            k.mu,
+            k.psi
+        )?;
+        for x in &k.force.to_array()[..dim] {
+            write!(w, ",{x:?}")?;
+        }
+        if device {
+            let d = k.device.unwrap_or(DeviceSample {
+                theta_rad: [0.0; 2],
+                tau_nm: [0.0; 2],
+                faults: 0,
+            });
+            write!(
+                w,
+                ",{:?},{:?},{:?},{:?},{}",
+                d.theta_rad[0], d.theta_rad[1], d.tau_nm[0], d.tau_nm[1], d.faults
+            )?;
+        }
+        writeln!(w)
+    }
+}
+
+impl Run {
+    /// Writes the run log: [`csv_header`], then one row per tick. `patch` is −1 when free,
+    /// `mode` one of `free`, `stuck`, `transition`, `slip`, `cause` why the mode last changed
+    /// ([`SwitchCause::name`]), `psi` the CP tracker's projection error Ψ, `depth_m` the penetration depth
+    /// clamped at 0 (so 0 when free). A device run (its first tick has a [`DeviceSample`])
+    /// appends [`DEVICE_COLUMNS`] (0 in a tick without a sample).
+    ///
+    /// A run with a non-finite value in any column is not written (an `InvalidData` error
+    /// naming the tick and column): a run log never holds `NaN` or `inf`.
+    pub fn write_csv(&self, out: impl Write) -> io::Result<()> {
+        if let Some((i, column)) = self.first_non_finite() {
+            return Err(io::Error::new(
+                io::ErrorKind::InvalidData,
+                format!(
+                    "tick {i} (t = {} s): {column} is not finite; nothing written",
+                    self.ticks[i].t_s
+                ),
+            ));
+        }
+        let mut w = io::BufWriter::new(out);
+        let device = self.is_device_run();
+        write_csv_header(&mut w, self.space, device)?;
+        for k in &self.ticks {
+            k.write_csv_row(&mut w, self.space, device)?;
+        }
+        w.flush()
+    }
+
+    /// The first tick and run-log column with a NaN or an infinity.
+    fn first_non_finite(&self) -> Option<(usize, &'static str)> {
+        self.ticks
+            .iter()
+            .enumerate()
+            .find_map(|(i, k)| k.non_finite_column().map(|c| (i, c)))
+    }
+
+    /// Whether this is a closed-loop run of the device ([`run_device`]): its ticks carry a
+    /// [`DeviceSample`].
+    pub fn is_device_run(&self) -> bool {
+        self.ticks.first().is_some_and(|k| k.device.is_some())
+    }
+}
+
+/// Writes the ticks it receives to run logs (the columns of `viewer sim`), flushed at least
+/// once a second, completed when the loops stop: the planar loop's ticks to the path given
+/// (with the device's columns, as `viewer sim --device`), the spatial hand's to
+/// [`spatial_log_path`] of it (as `viewer sim` on a scene of surfaces), created at its first
+/// tick. Each log's time column runs on across loop restarts (a scene opened in 3-D, a device
+/// switch): a tick whose time is not after the last one written continues one period later,
+/// so a recording stays one run log with one rate.
+#[derive(Debug)]
+pub struct Recorder {
+    thread: Option<JoinHandle<io::Result<RecordSummary>>>,
+    path: PathBuf,
+}
+
+/// What a recording wrote.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct RecordSummary {
+    /// Rows written to the planar log.
+    pub rows: u64,
+    /// Rows written to the spatial log ([`spatial_log_path`]); 0 when there is none.
+    pub spatial_rows: u64,
+    /// Ticks skipped because a value was not finite (a run log never holds NaN or inf).
+    pub skipped: u64,
+}
+
+/// A loop's input to the [`Recorder`]: its ticks go to the run log of its space.
+#[derive(Clone, Debug)]
+pub struct RecordTx {
+    tx: SyncSender<(Space, Tick)>,
+    space: Space,
+}
+
+impl RecordTx {
+    /// The same recorder, for a loop whose ticks are of `space`.
+    pub fn for_space(&self, space: Space) -> Self {
+        RecordTx {
+            tx: self.tx.clone(),
+            space,
+        }
+    }
+
+    /// Hands `tick` to the recorder, waiting while its channel is full (never on a loop's
+    /// tick path: [`RecordTx::try_send`] is that one); false when it is gone.
+    pub fn send(&self, tick: Tick) -> bool {
+        self.tx.send((self.space, tick)).is_ok()
+    }
+
+    /// Hands `tick` to the recorder; false when its channel is full or it is gone.
+    pub fn try_send(&self, tick: Tick) -> bool {
+        self.tx.try_send((self.space, tick)).is_ok()
+    }
+}
+
+/// Where a recording to `path` writes the spatial hand's ticks: `RUN.csv` → `RUN.3d.csv`.
+pub fn spatial_log_path(path: &Path) -> PathBuf {
+    let stem = path.file_stem().unwrap_or_default().to_string_lossy();
+    let name = match path.extension() {
+        Some(ext) => format!("{stem}.3d.{}", ext.to_string_lossy()),
+        None => format!("{stem}.3d"),
+    };
+    path.with_file_name(name)
+}
+
+/// How often the recorder flushes at the latest.
+pub const FLUSH_PERIOD: Duration = Duration::from_millis(500);
+
+impl Recorder {
+    /// Creates `path` (writing its header) and starts the writer thread; returns it and the
+    /// planar loops' input (see [`RecordTx::for_space`] for the spatial hand's).
+    pub fn start(path: &Path) -> io::Result<(Self, RecordTx)> {
+        let planar = LogWriter::create(path, Space::Planar)?;
+        let spatial_path = spatial_log_path(path);
+        let (tx, rx) = mpsc::sync_channel::<(Space, Tick)>(RECORD_CAPACITY);
+        let thread = std::thread::Builder::new()
+            .name("recorder".into())
+            .spawn(move || record(planar, &spatial_path, &rx))?;
+        Ok((
+            Recorder {
+                thread: Some(thread),
+                path: path.to_owned(),
+            },
+            RecordTx {
+                tx,
+                space: Space::Planar,
+            },
+        ))
+    }
+
+    /// Waits for the writer to finish (after the loops' senders are gone) and flushes.
+    pub fn finish(mut self) -> io::Result<RecordSummary> {
+        let path = self.path.clone();
+        match self.thread.take().map(JoinHandle::join) {
+            Some(Ok(result)) => {
+                result.map_err(|e| io::Error::new(e.kind(), format!("{}: {e}", path.display())))
+            }
+            Some(Err(_)) => Err(io::Error::other(format!(
+                "{}: the recorder thread panicked",
+                path.display()
+            ))),
+            None => Ok(RecordSummary::default()),
+        }
+    }
+}
+
+/// One run log being written by the [`Recorder`].
+struct LogWriter {
+    out: BufWriter<File>,
+    space: Space,
+    /// The time column of the last row written (s), and what is added to the loop's time.
+    last_t_s: Option<f64>,
+    offset_s: f64,
+}
+
+impl LogWriter {
+    /// Creates `path` with the header of a log of `space` (the planar one with the device's
+    /// columns: the planar loop is the device's).
+    fn create(path: &Path, space: Space) -> io::Result<Self> {
+        let mut out = BufWriter::new(File::create(path)?);
+        write_csv_header(&mut out, space, space == Space::Planar)?;
+        out.flush()?;
+        Ok(LogWriter {
+            out,
+            space,
+            last_t_s: None,
+            offset_s: 0.0,
+        })
+    }
+
+    /// Writes `tick`, its time continued past the last row when the loop restarted.
+    fn write(&mut self, tick: &Tick) -> io::Result<()> {
+        let mut t_s = tick.t_s + self.offset_s;
+        if let Some(last) = self.last_t_s
+            && t_s <= last
+        {
+            self.offset_s = last + 1.0 / RATE_HZ - tick.t_s;
+            t_s = last + 1.0 / RATE_HZ;
+        }
+        self.last_t_s = Some(t_s);
+        Tick { t_s, ..*tick }.write_csv_row(&mut self.out, self.space, self.space == Space::Planar)
+    }
+
+    fn finish(mut self) -> io::Result<()> {
+        self.out.flush()?;
+        self.out
+            .into_inner()
+            .map_err(|e| e.into_error())?
+            .sync_all()
+    }
+}
+
+fn record(
+    mut planar: LogWriter,
+    spatial_path: &Path,
+    rx: &Receiver<(Space, Tick)>,
+) -> io::Result<RecordSummary> {
+    let mut summary = RecordSummary::default();
+    let mut spatial: Option<LogWriter> = None;
+    let mut flushed = Instant::now();
+    loop {
+        match rx.recv_timeout(FLUSH_PERIOD) {
+            Ok((_, tick)) if tick.non_finite_column().is_some() => summary.skipped += 1,
+            Ok((Space::Planar, tick)) => {
+                planar.write(&tick)?;
+                summary.rows += 1;
+            }
+            Ok((Space::Spatial, tick)) => {
+                let log = match &mut spatial {
+                    Some(log) => log,
+                    None => spatial.insert(LogWriter::create(spatial_path, Space::Spatial)?),
+                };
+                log.write(&tick)?;
+                summary.spatial_rows += 1;
+            }
+            Err(mpsc::RecvTimeoutError::Timeout) => {}
+            Err(mpsc::RecvTimeoutError::Disconnected) => break,
+        }
+        if flushed.elapsed() >= FLUSH_PERIOD {
+            planar.out.flush()?;
+            if let Some(log) = &mut spatial {
+                log.out.flush()?;
+            }
+            flushed = Instant::now();
+        }
+    }
+    planar.finish()?;
+    spatial.map_or(Ok(()), LogWriter::finish)?;
+    Ok(summary)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::haptic::{HapticLoop, START_HIP, Session};
     use crate::sim::{self, Trajectory};
     use scene::Scene;
+
+    fn thesis_2d() -> Scene {
+        scene::Bundled::find("thesis-2d")
+            .and_then(|b| b.scene().ok())
+            .expect("the bundled thesis-2d")
+    }
 
     /// A `sim --device` run written and read back gives the same logged columns.
     #[test]
@@ -296,5 +658,115 @@ mod tests {
         );
         let e = parse(&format!("{header}\n"), path).expect_err("empty");
         assert!(e.to_string().contains("no rows"), "{e}");
+    }
+
+    /// The recorder writes the header of `sim --device` logs and one row per tick, readable
+    /// by `viewer plot`'s reader; rows reach the file while it runs (the flush period is
+    /// 0.5 s: polled for up to 10 s, so a loaded machine does not fail it), and all of them
+    /// when it finishes.
+    #[test]
+    fn recorder_writes_a_run_log_while_running_and_completes_it() {
+        let dir = std::env::temp_dir().join(format!("viewer-recorder-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).expect("temp dir");
+        let path = dir.join("rec.csv");
+        let (recorder, tx) = Recorder::start(&path).expect("start");
+        let session = Session::new(thesis_2d()).expect("session");
+        let mut haptic = HapticLoop::new(session, START_HIP).expect("loop");
+        for _ in 0..300 {
+            assert!(tx.send(haptic.step()), "recorder alive");
+        }
+        let waited = Instant::now();
+        let rows = || std::fs::read_to_string(&path).map_or(0, |t| t.lines().count());
+        while rows() < 301 && waited.elapsed() < Duration::from_secs(10) {
+            std::thread::sleep(Duration::from_millis(20));
+        }
+        assert_eq!(rows(), 301, "flushed while running");
+        for _ in 0..200 {
+            assert!(tx.send(haptic.step()), "recorder alive");
+        }
+        drop(tx);
+        let summary = recorder.finish().expect("finish");
+        assert_eq!(
+            summary,
+            RecordSummary {
+                rows: 500,
+                ..RecordSummary::default()
+            }
+        );
+        assert!(
+            !spatial_log_path(&path).exists(),
+            "no spatial log without 3-D ticks"
+        );
+        let text = std::fs::read_to_string(&path).expect("read");
+        assert_eq!(
+            text.lines().next(),
+            Some(format!("{},{}", csv_header(Space::Planar), DEVICE_COLUMNS).as_str())
+        );
+        let log = crate::runlog::parse(&text, &path).unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(log.run.ticks.len(), 500);
+        assert_eq!(log.run.rate_hz, RATE_HZ);
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    /// A recording across loop restarts stays one run log of each space: the planar loop
+    /// restarted (as on a device switch, its clock back at 0) continues one period after its
+    /// last row, and the spatial hand's ticks go to `rec.3d.csv` with the spatial columns.
+    /// The reference is the tick period: every step of each log's time column is 1 ms (to
+    /// f64 rounding of sums of 1e-3, far below 1e-9 s). Without the continuation the planar
+    /// clock would step back at row 150, and the run log reader, which takes the rate from
+    /// the column's span, would read 300 rows over 0.149 s as 2 kHz.
+    #[test]
+    fn a_recording_continues_across_restarts_and_keeps_the_3d_ticks_apart() {
+        let dir = std::env::temp_dir().join(format!("viewer-rec3d-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).expect("temp dir");
+        let path = dir.join("rec.csv");
+        let (recorder, tx) = Recorder::start(&path).expect("start");
+        let spatial_tx = tx.for_space(Space::Spatial);
+        for _ in 0..2 {
+            let session = Session::new(thesis_2d()).expect("session");
+            let mut haptic = HapticLoop::new(session, START_HIP).expect("loop");
+            for _ in 0..150 {
+                assert!(tx.send(haptic.step()), "recorder alive");
+            }
+        }
+        for i in 0..120 {
+            let mut tick = Tick::idle(i as f64 / RATE_HZ);
+            tick.hip = nurbs::Vec3::new(0.0, 0.09, 0.02 - i as f32 * 1e-4);
+            assert!(spatial_tx.send(tick), "recorder alive");
+        }
+        drop((tx, spatial_tx));
+        let summary = recorder.finish().expect("finish");
+        assert_eq!(
+            summary,
+            RecordSummary {
+                rows: 300,
+                spatial_rows: 120,
+                skipped: 0
+            }
+        );
+        let planar = std::fs::read_to_string(&path).expect("read");
+        let log = crate::runlog::parse(&planar, &path).unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!((log.run.ticks.len(), log.run.rate_hz), (300, RATE_HZ));
+        let one_period = |ticks: &[Tick]| {
+            ticks
+                .windows(2)
+                .all(|w| (w[1].t_s - w[0].t_s - 1.0 / RATE_HZ).abs() < 1e-9)
+        };
+        assert!(one_period(&log.run.ticks));
+        let last = log.run.ticks.last().expect("rows").t_s;
+        assert!((last - 299.0 / RATE_HZ).abs() < 1e-9, "{last}");
+        let spatial_path = spatial_log_path(&path);
+        assert_eq!(spatial_path, dir.join("rec.3d.csv"));
+        let text = std::fs::read_to_string(&spatial_path).expect("read 3-D");
+        assert_eq!(
+            text.lines().next(),
+            Some(csv_header(Space::Spatial).as_str())
+        );
+        let log = crate::runlog::parse(&text, &spatial_path).unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!((log.run.ticks.len(), log.run.rate_hz), (120, RATE_HZ));
+        assert!(one_period(&log.run.ticks));
+        let hip = log.run.ticks[119].hip;
+        assert!((hip.z - (0.02 - 119.0 * 1e-4)).abs() < 1e-7, "{hip:?}");
+        let _ = std::fs::remove_dir_all(&dir);
     }
 }

@@ -17,19 +17,18 @@
 //! [`Run::write_csv`] writes the run log: one row per tick, columns [`csv_header`], followed
 //! by [`DEVICE_COLUMNS`] for device runs.
 
-use std::io::{self, Write};
-
-use device::controller::{Controller, ControllerError, TickOutput};
+use device::controller::ControllerError;
 use device::kinematics::KinematicsError;
 use device::protocol::Telemetry;
-use device::safety::SafetyConfig;
 pub use device::simulator::SimParams;
 use device::simulator::{SimulatedPantograph, SimulatorError};
 use device::spec::DeviceSpec;
-use friction::{FrictionMaterial, FrictionOutput, FrictionRenderer, Mode, SwitchCause};
-use nurbs::{Point, Vec2, Vec3};
-use tracker::{Chain, ChainError, Feature, Object as TrackedObject, Shell, ShellError};
+use friction::{FrictionMaterial, FrictionRenderer};
+use tracker::{Chain, ChainError, Object as TrackedObject, Shell, ShellError};
 
+use crate::tick::{
+    Tick, device_controller, device_tick, end_stop_counts, point, render_tick, vec2,
+};
 pub use crate::trajectory::{Trajectory, TrajectoryError, TrajectoryProblem};
 use scene::{Scene, Space};
 
@@ -38,114 +37,6 @@ pub const DEFAULT_RATE_HZ: f64 = 1000.0;
 
 /// Largest number of ticks of one run (about 2 GB of records; 2.8 h at 1 kHz).
 pub const MAX_TICKS: usize = 10_000_000;
-
-/// What one tick of the pipeline produced. Vectors are in the device frame, `z = 0` in a
-/// planar run.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Tick {
-    /// Time (s).
-    pub t_s: f64,
-    /// HIP position (m).
-    pub hip: Vec3,
-    /// HIP velocity fed to the renderer (m/s): backward difference of the sampled HIP.
-    pub hip_velocity: Vec3,
-    /// Closest point (CP) on the object (m).
-    pub cp: Vec3,
-    /// God-object (GO) (m): the point of application of the force; equal to the CP except
-    /// while stuck or in transition.
-    pub go: Vec3,
-    /// The active patch (the CP tracker's patch) while in contact, `None` when free.
-    pub patch: Option<usize>,
-    /// The active feature of the CP tracker (patch, vertex, edge or corner).
-    pub feature: Feature,
-    /// Friction mode after the tick.
-    pub mode: Mode,
-    /// Why the mode last changed (this tick or earlier).
-    pub cause: SwitchCause,
-    /// Signed penetration depth at the CP (m): positive inside, negative outside. The CSV's
-    /// `depth_m` is this clamped at 0.
-    pub depth_m: f32,
-    /// Normal force (N), ≥ 0.
-    pub normal_force_n: f32,
-    /// Friction force (N), signed along [`Tick::tangent`].
-    pub friction_force_n: f32,
-    /// Friction coefficient in use (0 when free).
-    pub mu: f32,
-    /// The CP tracker's projection error Ψ (thesis eq. 2.8; `[Ψ_u]` on curves).
-    pub psi: f32,
-    /// Unit normal at the point of application.
-    pub normal: Vec3,
-    /// Unit tangent at the point of application, the sign reference of
-    /// [`Tick::friction_force_n`]: along increasing `u` on curves; on surfaces along `u` or
-    /// `v`, whichever the friction lies closer to ([`FrictionOutput::tangent`]).
-    pub tangent: Vec3,
-    /// Friction force vector (N).
-    pub friction: Vec3,
-    /// Total force on the HIP (N): normal plus friction.
-    pub force: Vec3,
-    /// Patch of the CP tracker (also when free).
-    pub cp_patch: usize,
-    /// First parameter (`u`) of the CP on [`Tick::cp_patch`].
-    pub cp_param: f32,
-    /// Parameters of the CP (`[u, 0]` on curves).
-    pub cp_params: [f32; 2],
-    /// Patch of the GO.
-    pub go_patch: usize,
-    /// First parameter (`u`) of the GO on [`Tick::go_patch`].
-    pub go_param: f32,
-    /// Parameters of the GO (`[u, 0]` on curves).
-    pub go_params: [f32; 2],
-    /// What the device did this tick, in a [`run_device`] run; `None` in a prescribed-HIP
-    /// run.
-    pub device: Option<DeviceSample>,
-}
-
-impl Tick {
-    /// A tick at `t_s` that rendered nothing: free, every vector and value zero, the HIP at
-    /// the origin, no device sample.
-    pub fn idle(t_s: f64) -> Self {
-        Tick {
-            t_s,
-            hip: Vec3::ZERO,
-            hip_velocity: Vec3::ZERO,
-            cp: Vec3::ZERO,
-            go: Vec3::ZERO,
-            patch: None,
-            feature: Feature::Patch(0),
-            mode: Mode::Free,
-            cause: SwitchCause::None,
-            depth_m: 0.0,
-            normal_force_n: 0.0,
-            friction_force_n: 0.0,
-            mu: 0.0,
-            psi: 0.0,
-            normal: Vec3::ZERO,
-            tangent: Vec3::ZERO,
-            friction: Vec3::ZERO,
-            force: Vec3::ZERO,
-            cp_patch: 0,
-            cp_param: 0.0,
-            cp_params: [0.0; 2],
-            go_patch: 0,
-            go_param: 0.0,
-            go_params: [0.0; 2],
-            device: None,
-        }
-    }
-}
-
-/// The device side of one closed-loop tick.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct DeviceSample {
-    /// Joint angles the controller measured from the encoder counts (rad); 0 when it could
-    /// not (uncalibrated or unassembled).
-    pub theta_rad: [f32; 2],
-    /// Joint torques the motor currents produce (N·m): `Jᵀ F` of [`Tick::force`] at
-    /// [`DeviceSample::theta_rad`], unless a current limit scaled them down.
-    pub tau_nm: [f32; 2],
-    /// The latched fault bits ([`device::safety::Faults`]); 0 when none.
-    pub faults: u16,
-}
 
 /// A whole simulation.
 #[derive(Clone, Debug, PartialEq)]
@@ -415,21 +306,6 @@ fn simulate<O: TrackedObject>(
     ticks
 }
 
-/// One tick of a prescribed-HIP run, the step of [`run`] and of the GUI's spatial hand
-/// (`haptic3d`): the renderer turns the HIP and its velocity into a force, recorded as a
-/// [`Tick`] whose patch indices name the scene's patches.
-pub fn render_tick<O: TrackedObject>(
-    renderer: &mut FrictionRenderer<O>,
-    object: &O,
-    t_s: f64,
-    hip: O::P,
-    hip_velocity: O::P,
-    period_s: f32,
-) -> Tick {
-    let out = renderer.tick(object, hip, hip_velocity, period_s);
-    in_source_patches(record(t_s, hip, hip_velocity, &out), object)
-}
-
 /// A closed-loop run ([`run_device`]).
 #[derive(Clone, Debug, PartialEq)]
 pub struct DeviceRun {
@@ -442,10 +318,6 @@ pub struct DeviceRun {
     /// firmware under QEMU is compared with it frame by frame by `cargo xtask qemu`).
     pub telemetry: Vec<Telemetry>,
 }
-
-/// Ramp-in of the force after it is enabled (s): short, so that a trajectory that starts
-/// close to the object still feels it.
-pub const DEVICE_RAMP_TIME_S: f32 = 0.02;
 
 /// Checks everything [`run_device`] checks before its first tick, without running it; returns
 /// the number of ticks.
@@ -491,32 +363,12 @@ fn with_chain<R>(
     f(chain)
 }
 
-/// The default device at `rate_hz` with `chain` and `material` loaded, the passivity
-/// controller on only when the material needs it (returned as the flag).
-pub(crate) fn device_controller<'a>(
-    chain: Chain<'a>,
-    material: FrictionMaterial,
-    rate_hz: f64,
-) -> Result<(Controller<Chain<'a>>, bool), SimError> {
-    let safety = SafetyConfig {
-        period_s: (1.0 / rate_hz) as f32,
-        ramp_time_s: DEVICE_RAMP_TIME_S,
-        ..SafetyConfig::default()
-    };
-    let mut controller: Controller<Chain<'a>> =
-        Controller::new(DeviceSpec::default(), safety).map_err(SimError::Controller)?;
-    let passivity_control = controller
-        .load_scene_as_needed(chain, material, true)
-        .map_err(SimError::Controller)?;
-    Ok((controller, passivity_control))
-}
-
 /// The closed loop: object `object` of `scene` (planar curves only) on the default
 /// [`DeviceSpec`] at `rate_hz`, the virtual hand's target moving along `trajectory` and
 /// holding the handle with the grip of `hand`.
 ///
 /// The controller calibrates on the end stops, enables forces (ramping in over
-/// [`DEVICE_RAMP_TIME_S`]), gets a heartbeat every tick and renders the object's material,
+/// [`DEVICE_RAMP_TIME_S`](crate::tick::DEVICE_RAMP_TIME_S)), gets a heartbeat every tick and renders the object's material,
 /// with the passivity controller on when the material is stiffer than the device renders
 /// passively ([`DeviceRun::passivity_control`]); a material stiffer than the device renders
 /// even with it is refused ([`ControllerError::BeyondDevice`], naming the limit). Each tick
@@ -576,274 +428,12 @@ pub fn run_device(
     })
 }
 
-/// One closed-loop tick, the step of [`run_device`] and of the GUI's haptic loop: a heartbeat,
-/// one controller tick on the simulated encoders at `now_us` (the device clock), the
-/// acquisition a scene load asks for (between ticks, as a board's lower-priority task:
-/// `device::controller`, "Acquisition is not the tick's"), then the simulated pantograph moves
-/// for `period_s` under the controller's currents and the virtual hand pulling towards
-/// `hand_target`. Returns the tick's record, with the handle's true HIP before the move (patch
-/// indices naming the scene's patches), and its telemetry frame. An arm driven into a singular
-/// pose is [`SimError::Arm`]; it stays where it was.
-pub fn device_tick<O: TrackedObject<P = Vec2>>(
-    controller: &mut Controller<O>,
-    arm: &mut SimulatedPantograph,
-    t_s: f64,
-    now_us: u64,
-    hand_target: Vec2,
-    period_s: f32,
-) -> Result<(Tick, Telemetry), SimError> {
-    let (hip, hip_velocity) = arm.hip().map_err(|error| SimError::Arm { t_s, error })?;
-    controller.heartbeat();
-    let out = controller.tick(arm.encoder_counts(), now_us);
-    controller.acquire_now();
-    let tick = device_record(t_s, hip, hip_velocity, &out);
-    let tick = match controller.object() {
-        Some(object) => in_source_patches(tick, object),
-        None => tick,
-    };
-    arm.step(out.currents_a, hand_target, period_s)
-        .map_err(|error| SimError::Arm { t_s, error })?;
-    Ok((tick, out.telemetry))
-}
-
-/// The raw counts the encoders of `spec` read with both joints resting on their end stops:
-/// what [`run_device`] calibrates on (and the firmware's QEMU run, through `cargo xtask qemu`);
-/// [`DeviceSpec::end_stop_counts`].
-pub fn end_stop_counts(spec: &DeviceSpec) -> [i32; 2] {
-    spec.end_stop_counts()
-}
-
-/// The tick with its patch indices naming the scene's patches: the tracker splits patches at
-/// interior corners and creases into pieces that share their source's parameters.
-fn in_source_patches<O: TrackedObject>(mut tick: Tick, object: &O) -> Tick {
-    tick.patch = tick.patch.map(|p| object.source_patch(p));
-    tick.cp_patch = object.source_patch(tick.cp_patch);
-    tick.go_patch = object.source_patch(tick.go_patch);
-    tick
-}
-
-fn vec2(xyz: [f64; 3]) -> Vec2 {
-    Vec2::new(xyz[0] as f32, xyz[1] as f32)
-}
-
-fn device_record(t_s: f64, hip: Vec2, hip_velocity: Vec2, out: &TickOutput) -> Tick {
-    let mut tick = match &out.render {
-        Some(render) => record(t_s, hip, hip_velocity, render),
-        None => Tick {
-            hip: vec3(hip),
-            hip_velocity: vec3(hip_velocity),
-            ..Tick::idle(t_s)
-        },
-    };
-    tick.force = vec3(out.telemetry.force_n);
-    tick.device = Some(DeviceSample {
-        theta_rad: out.joint_angles_rad.unwrap_or([0.0; 2]),
-        tau_nm: out.joint_torques_nm,
-        faults: out.telemetry.faults,
-    });
-    tick
-}
-
-fn record<P: Point>(t_s: f64, hip: P, hip_velocity: P, out: &FrictionOutput<P>) -> Tick {
-    let c = &out.contact;
-    Tick {
-        t_s,
-        hip: vec3(hip),
-        hip_velocity: vec3(hip_velocity),
-        cp: vec3(c.point),
-        go: vec3(out.go),
-        patch: (out.mode != Mode::Free).then_some(c.patch as usize),
-        feature: c.feature,
-        mode: out.mode,
-        cause: out.cause,
-        depth_m: c.depth,
-        normal_force_n: out.normal_force_n,
-        friction_force_n: out.friction_force_n,
-        mu: out.mu,
-        psi: out.psi,
-        normal: vec3(out.normal),
-        tangent: vec3(out.tangent),
-        friction: vec3(out.friction),
-        force: vec3(out.total),
-        cp_patch: c.patch as usize,
-        cp_param: c.params[0],
-        cp_params: c.params,
-        go_patch: out.go_patch as usize,
-        go_param: out.go_params[0],
-        go_params: out.go_params,
-        device: None,
-    }
-}
-
-/// The first `P::DIM` coordinates, rounded to the loop's `f32`.
-fn point<P: Point>(xyz: [f64; 3]) -> P {
-    let c = xyz.map(|v| v as f32);
-    P::from_coords(&c[..P::DIM]).unwrap_or(P::ZERO)
-}
-
-fn vec3<P: Point>(p: P) -> Vec3 {
-    let c = p.as_slice();
-    let at = |i: usize| c.get(i).copied().unwrap_or(0.0);
-    Vec3::new(at(0), at(1), at(2))
-}
-
-/// The columns a device run ([`run_device`]) appends to [`csv_header`]: the measured joint
-/// angles (rad), the joint torques (N·m) and the latched fault bits as a decimal number.
-pub const DEVICE_COLUMNS: &str = "theta1_rad,theta2_rad,tau1_nm,tau2_nm,faults";
-
-/// The run log's header: `t_s,hip_x,hip_y[,hip_z],cp_x,cp_y[,cp_z],go_x,go_y[,go_z],patch,mode,
-/// cause,depth_m,normal_force_n,friction_force_n,mu,psi,force_x,force_y[,force_z]` (the `_z` columns
-/// for spatial runs only).
-pub fn csv_header(space: Space) -> String {
-    let axes: &[&str] = match space {
-        Space::Planar => &["x", "y"],
-        Space::Spatial => &["x", "y", "z"],
-    };
-    let vector = |name: &str| {
-        axes.iter()
-            .map(|a| format!("{name}_{a}"))
-            .collect::<Vec<_>>()
-            .join(",")
-    };
-    format!(
-        "t_s,{},{},{},patch,mode,cause,depth_m,normal_force_n,friction_force_n,mu,psi,{}",
-        vector("hip"),
-        vector("cp"),
-        vector("go"),
-        vector("force")
-    )
-}
-
-/// Writes the run log's header line: [`csv_header`], followed by [`DEVICE_COLUMNS`] when
-/// `device`.
-pub fn write_csv_header(mut w: impl Write, space: Space, device: bool) -> io::Result<()> {
-    if device {
-        writeln!(w, "{},{DEVICE_COLUMNS}", csv_header(space))
-    } else {
-        writeln!(w, "{}", csv_header(space))
-    }
-}
-
-impl Tick {
-    /// The first run-log column of this tick with a NaN or an infinity, if any.
-    pub fn non_finite_column(&self) -> Option<&'static str> {
-        let k = self;
-        let d = k.device.unwrap_or(DeviceSample {
-            theta_rad: [0.0; 2],
-            tau_nm: [0.0; 2],
-            faults: 0,
-        });
-        let columns: [(&'static str, &[f32]); 11] = [
-            ("hip", &k.hip.to_array()),
-            ("cp", &k.cp.to_array()),
-            ("go", &k.go.to_array()),
-            ("depth_m", &[k.depth_m]),
-            ("normal_force_n", &[k.normal_force_n]),
-            ("friction_force_n", &[k.friction_force_n]),
-            ("mu", &[k.mu]),
-            ("psi", &[k.psi]),
-            ("force", &k.force.to_array()),
-            ("theta_rad", &d.theta_rad),
-            ("tau_nm", &d.tau_nm),
-        ];
-        if !k.t_s.is_finite() {
-            return Some("t_s");
-        }
-        columns
-            .into_iter()
-            .find(|(_, v)| !v.iter().all(|x| x.is_finite()))
-            .map(|(name, _)| name)
-    }
-
-    /// Writes this tick as one run-log row (see [`Run::write_csv`]); with `device`, the
-    /// [`DEVICE_COLUMNS`] too (0 without a [`DeviceSample`]). Does not check finiteness
-    /// ([`Tick::non_finite_column`]).
-    pub fn write_csv_row(&self, mut w: impl Write, space: Space, device: bool) -> io::Result<()> {
-        let k = self;
-        let dim = space.dim();
-        write!(w, "{}", k.t_s)?;
-        for v in [k.hip, k.cp, k.go] {
-            for x in &v.to_array()[..dim] {
-                write!(w, ",{x:?}")?;
-            }
-        }
-        let patch = k.patch.map_or(-1, |p| p as i64);
-        write!(
-            w,
-            ",{patch},{},{},{:?},{:?},{:?},{:?},{:?}",
-            k.mode.name(),
-            k.cause.name(),
-            k.depth_m.max(0.0),
-            k.normal_force_n,
-            k.friction_force_n,
-            k.mu,
-            k.psi
-        )?;
-        for x in &k.force.to_array()[..dim] {
-            write!(w, ",{x:?}")?;
-        }
-        if device {
-            let d = k.device.unwrap_or(DeviceSample {
-                theta_rad: [0.0; 2],
-                tau_nm: [0.0; 2],
-                faults: 0,
-            });
-            write!(
-                w,
-                ",{:?},{:?},{:?},{:?},{}",
-                d.theta_rad[0], d.theta_rad[1], d.tau_nm[0], d.tau_nm[1], d.faults
-            )?;
-        }
-        writeln!(w)
-    }
-}
-
-impl Run {
-    /// Writes the run log: [`csv_header`], then one row per tick. `patch` is −1 when free,
-    /// `mode` one of `free`, `stuck`, `transition`, `slip`, `cause` why the mode last changed
-    /// ([`SwitchCause::name`]), `psi` the CP tracker's projection error Ψ, `depth_m` the penetration depth
-    /// clamped at 0 (so 0 when free). A device run (its first tick has a [`DeviceSample`])
-    /// appends [`DEVICE_COLUMNS`] (0 in a tick without a sample).
-    ///
-    /// A run with a non-finite value in any column is not written (an `InvalidData` error
-    /// naming the tick and column): a run log never holds `NaN` or `inf`.
-    pub fn write_csv(&self, out: impl Write) -> io::Result<()> {
-        if let Some((i, column)) = self.first_non_finite() {
-            return Err(io::Error::new(
-                io::ErrorKind::InvalidData,
-                format!(
-                    "tick {i} (t = {} s): {column} is not finite; nothing written",
-                    self.ticks[i].t_s
-                ),
-            ));
-        }
-        let mut w = io::BufWriter::new(out);
-        let device = self.is_device_run();
-        write_csv_header(&mut w, self.space, device)?;
-        for k in &self.ticks {
-            k.write_csv_row(&mut w, self.space, device)?;
-        }
-        w.flush()
-    }
-
-    /// The first tick and run-log column with a NaN or an infinity.
-    fn first_non_finite(&self) -> Option<(usize, &'static str)> {
-        self.ticks
-            .iter()
-            .enumerate()
-            .find_map(|(i, k)| k.non_finite_column().map(|c| (i, c)))
-    }
-
-    /// Whether this is a closed-loop run of the device ([`run_device`]): its ticks carry a
-    /// [`DeviceSample`].
-    pub fn is_device_run(&self) -> bool {
-        self.ticks.first().is_some_and(|k| k.device.is_some())
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::runlog::csv_header;
+    use friction::Mode;
+    use nurbs::Vec3;
 
     /// Object 0, a flat floor: the line y = 0.08 drawn from x = 0.05 to −0.05, so that its
     /// outward normal `t × k̂` points up (+y). K = 1000 N/m, μ_s = 0.7, μ_d = 0.5, no damping.

@@ -14,7 +14,8 @@ use plotters::coord::types::RangedCoordf64;
 use plotters::prelude::*;
 use plotters::style::{FontStyle, register_font};
 
-use host::sim::{Run, Tick};
+use host::sim::Run;
+use host::tick::Tick;
 use scene::Space;
 
 /// Default image size (pixels).

@@ -55,7 +55,7 @@ fn press_and_slide(state: &mut AppState) {
 
 /// Whether a tick's normal force is K · depth with K = 1000 N/m to within what the GO's offset
 /// from the CP on thesis-2d's 40 mm arcs allows, `K |GO − CP|² / 2R`, and f32 rounding.
-fn penalty_within_curvature(t: &host::sim::Tick) -> bool {
+fn penalty_within_curvature(t: &host::tick::Tick) -> bool {
     let s = (t.go - t.cp).length();
     (t.normal_force_n - 1000.0 * t.depth_m).abs() <= 1000.0 * s * s / (2.0 * 0.04) + 1e-5
 }

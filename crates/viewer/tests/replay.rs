@@ -39,7 +39,7 @@ fn recorded_run(dir: &Temp) -> (AppState, PathBuf) {
 fn write_log(state: &AppState, path: &std::path::Path, space: Space) {
     let device = space == Space::Planar;
     let mut out = Vec::new();
-    host::sim::write_csv_header(&mut out, space, device).expect("header");
+    host::runlog::write_csv_header(&mut out, space, device).expect("header");
     for s in &state.history {
         s.tick.write_csv_row(&mut out, space, device).expect("row");
     }

@@ -7,7 +7,8 @@ use std::process::{Command, Output};
 use device::kinematics::Pantograph;
 use device::spec::DeviceSpec;
 use friction::Mode;
-use host::sim::{self, DEVICE_COLUMNS, SimParams, Trajectory};
+use host::runlog::{DEVICE_COLUMNS, csv_header};
+use host::sim::{self, SimParams, Trajectory};
 use nurbs::Vec2;
 use scene::{Scene, Space};
 
@@ -105,7 +106,7 @@ fn thesis_2d_closed_loop() {
     let lines: Vec<&str> = text.lines().collect();
     assert_eq!(
         lines[0],
-        format!("{},{DEVICE_COLUMNS}", sim::csv_header(Space::Planar))
+        format!("{},{DEVICE_COLUMNS}", csv_header(Space::Planar))
     );
     assert!(
         lines[0].ends_with(",force_x,force_y,theta1_rad,theta2_rad,tau1_nm,tau2_nm,faults"),

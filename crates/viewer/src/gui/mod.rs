@@ -21,7 +21,7 @@ use egui::{Color32, RichText};
 use egui_plot::{Corner, Legend, Line, Plot, PlotPoints, Span};
 use friction::{FrictionMaterial, Mode, ModelKind, Stribeck};
 
-use host::haptic::Recorder;
+use host::runlog::Recorder;
 use host::trajectory::Trajectory;
 use scene::Scene;
 use scene::bundled::BUNDLED;
@@ -1071,7 +1071,7 @@ pub fn run(options: GuiOptions) -> anyhow::Result<Summary> {
                 format!(
                     " and {} ticks of the 3-D view to {}",
                     r.spatial_rows,
-                    host::haptic::spatial_log_path(path).display()
+                    host::runlog::spatial_log_path(path).display()
                 )
             } else {
                 String::new()

@@ -7,7 +7,7 @@ use std::path::Path;
 
 use host::haptic::Sample;
 use host::runlog::{self, RunLogError};
-use host::sim::Tick;
+use host::tick::Tick;
 use scene::Space;
 
 use super::state::HISTORY_S;

@@ -9,8 +9,9 @@ use nurbs::Vec3;
 use tracker::TriMesh;
 
 use super::view3d::Scene3d;
-use host::haptic::{RecordTx, Reply, Sample};
+use host::haptic::{Reply, Sample};
 use host::haptic3d::{self, Command3d, SpatialBackend, SpatialLoop, SpatialSession, check_mesh};
+use host::runlog::RecordTx;
 use scene::mesh::{self, ObjMesh};
 use scene::{Scene, Space, tessellate_object};
 

@@ -18,9 +18,10 @@ use super::replay::Replay;
 use super::spatial::SpatialState;
 use host::devices::{self, Target};
 use host::haptic::{
-    self, Command, HapticLoop, LinkEvent, LoopThread, MaterialChangeError, RecordTx, Reply,
-    START_HIP, Sample, Session,
+    self, Command, HapticLoop, LinkEvent, LoopThread, MaterialChangeError, Reply, START_HIP,
+    Sample, Session,
 };
+use host::runlog::RecordTx;
 use scene::bundled::BUNDLED;
 use scene::{Material, Patch, Scene, Space};
 

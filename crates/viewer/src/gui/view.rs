@@ -29,7 +29,7 @@ pub const REGION_RAY_PX: f32 = 70.0;
 
 /// One line on a tick, as the 2-D and 3-D views print it over the scene: the mode, the
 /// normal, friction and total force, and the depth.
-pub fn tick_summary(k: &host::sim::Tick) -> String {
+pub fn tick_summary(k: &host::tick::Tick) -> String {
     format!(
         "{}  F_N {:.2} N  F_T {:+.2} N  |F| {:.2} N  depth {:.2} mm",
         k.mode.name(),
