@@ -354,7 +354,7 @@ impl<O: Object<P = Vec2>> Controller<O> {
             acquisition.state,
         ));
         scene.request_hip = None;
-        self.safety.notify_scene_swap();
+        self.safety.restart_ramp_and_observer();
         true
     }
 
@@ -378,7 +378,7 @@ impl<O: Object<P = Vec2>> Controller<O> {
         passivity_control: bool,
     ) -> Result<(), ControllerError> {
         let (k, b) = (material.stiffness_n_per_m, material.damping_ns_per_m);
-        if let Err(e) = self.safety.check_material(k, b) {
+        if let Err(e) = self.safety.check_passivity(k, b) {
             if !passivity_control {
                 return Err(ControllerError::Passivity(e));
             }
@@ -387,7 +387,7 @@ impl<O: Object<P = Vec2>> Controller<O> {
                 .map_err(ControllerError::BeyondDevice)?;
         }
         self.safety.set_passivity_control(passivity_control);
-        self.safety.notify_scene_swap();
+        self.safety.restart_ramp_and_observer();
         Ok(())
     }
 
@@ -448,7 +448,7 @@ impl<O: Object<P = Vec2>> Controller<O> {
     /// Enables or disables force output (enabling starts the ramp-in).
     pub fn set_forces_enabled(&mut self, enabled: bool) {
         if enabled && !self.forces_enabled {
-            self.safety.notify_scene_swap();
+            self.safety.restart_ramp_and_observer();
         }
         self.forces_enabled = enabled;
     }
@@ -462,7 +462,7 @@ impl<O: Object<P = Vec2>> Controller<O> {
         } else {
             Faults::empty()
         };
-        self.safety.clear_faults_except_ended(ended)
+        self.safety.clear_faults_including_ended(ended)
     }
 
     /// The latched faults.
