@@ -139,10 +139,6 @@ enum SceneState<O: Object<P = Vec2>> {
     Rendering { renderer: FrictionRenderer<O> },
 }
 
-impl<O: Object<P = Vec2>> SceneState<O> {
-    const AWAITING: Self = SceneState::AwaitingAcquisition { request_hip: None };
-}
-
 /// What an acquisition searches from: the HIP of the last tick and the scene it is for.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct AcquisitionRequest {
@@ -270,7 +266,7 @@ impl<O: Object<P = Vec2>> Controller<O> {
             object,
             material,
             generation: self.bump_generation(),
-            state: SceneState::AWAITING,
+            state: SceneState::AwaitingAcquisition { request_hip: None },
         });
         Ok(())
     }
@@ -325,7 +321,7 @@ impl<O: Object<P = Vec2>> Controller<O> {
         if let Some(scene) = self.scene.as_mut() {
             scene.material = material;
             scene.generation = generation;
-            scene.state = SceneState::AWAITING;
+            scene.state = SceneState::AwaitingAcquisition { request_hip: None };
         }
         Ok(())
     }
