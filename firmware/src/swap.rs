@@ -195,13 +195,21 @@ impl<T> TickScenes<T> {
     }
 }
 
+/// Loads object 0 of `store`. Not inlined, so that its frame (the chain it builds) and the
+/// tick's do not add up on the stack.
+#[inline(never)]
+fn load<const K: usize, const C: usize, const S: usize>(
+    app: &mut App<'static>,
+    store: &'static SceneStore<K, C, S>,
+) -> Result<(), AppError> {
+    app.load(store, 0)
+}
+
 impl<const K: usize, const C: usize, const S: usize> TickScenes<SceneStore<K, C, S>> {
     /// At a tick boundary with no job out: takes the next committed store from `next` (`None`:
     /// nothing to do) and loads object 0 of it into `app` (the renderer then waits for its
     /// acquisition). Does nothing, not even call `next`, while a job is out, so that the swap
-    /// (which builds a chain) never waits on a job's store. Not inlined, so that the load's
-    /// frame (the chain it builds) and the tick's do not add up on the stack.
-    #[inline(never)]
+    /// (which builds a chain) never waits on a job's store.
     pub fn swap_in(
         &mut self,
         app: &mut App<'static>,
@@ -211,7 +219,7 @@ impl<const K: usize, const C: usize, const S: usize> TickScenes<SceneStore<K, C,
             return None;
         }
         let new = next()?.publish();
-        match app.load(new.get(), 0) {
+        match load(app, new.get()) {
             Ok(()) => {
                 let freed = self.active.replace(new).map(|old| {
                     #[allow(unsafe_code)]
