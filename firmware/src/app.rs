@@ -1,15 +1,18 @@
 //! The board-independent app: builds the controller on a validated scene exactly as the
 //! host's `viewer sim --device` does (`viewer::sim::run_device`), and runs one tick against a
 //! [`Board`]. The board binary and the QEMU binary share it, so the emulated run exercises the
-//! code the board runs.
+//! code the board runs. The board's acquisition job ([`AcquisitionJob`], [`run_job`]), which
+//! runs the same search as [`App::acquire`] in another task, is here too.
 
-use device::controller::{Controller, ControllerError, TickOutput};
+use device::controller::{
+    Acquisition, AcquisitionRequest, Controller, ControllerError, TickOutput, acquire,
+};
 use device::protocol::{ErrorCode, Frame, MAX_FRAME, Message, SceneStore};
 use device::safety::SafetyConfig;
 use device::session::Command;
 use device::spec::DeviceSpec;
 use nurbs::{Curve, Vec2};
-use tracker::{Chain, ChainError, MAX_CHAIN_CURVES};
+use tracker::{Chain, ChainError, MAX_CHAIN_CURVES, Object};
 
 use crate::board::Board;
 
@@ -240,4 +243,52 @@ pub fn curves<'s, const K: usize, const C: usize, const S: usize>(
         *c = store.curve(object, p).ok_or(AppError::NotPlanar(object))?;
     }
     Ok((curves, n))
+}
+
+/// The result of the global closest-point search on a chain, for
+/// `Controller::complete_acquisition`.
+pub type ChainAcquisition = Acquisition<<Chain<'static> as Object>::State>;
+
+/// What a board's tick asks its acquisition task for: the global closest-point search on
+/// object 0 of the store it renders, from the request's HIP. Made only by
+/// [`TickScenes::lend_job`](crate::swap::TickScenes::lend_job), which counts the store as
+/// read until the job's [`JobDone`] comes back.
+#[derive(Debug)]
+pub struct AcquisitionJob<T: 'static> {
+    store: &'static T,
+    request: AcquisitionRequest,
+}
+
+impl<T> AcquisitionJob<T> {
+    pub(crate) fn new(store: &'static T, request: AcquisitionRequest) -> Self {
+        AcquisitionJob { store, request }
+    }
+}
+
+/// A finished [`AcquisitionJob`]: made only by [`run_job`], after the search stopped reading
+/// the job's store (so handing it back to the tick ends the job's hold on the store).
+#[derive(Debug)]
+pub struct JobDone {
+    pub(crate) acquisition: Option<ChainAcquisition>,
+}
+
+/// Runs one job: the job's object rebuilt from its store (the same chain as the controller's,
+/// see [`chain`]) and the global search on it. The result is `None` when the object could not
+/// be built (not expected: the tick loaded it); either way the job is over. Not inlined, so
+/// that its frame (a chain and the search) exists only while it runs.
+#[inline(never)]
+pub fn run_job<const K: usize, const C: usize, const S: usize>(
+    job: AcquisitionJob<SceneStore<K, C, S>>,
+) -> JobDone {
+    let search = || {
+        let (curves, n) = curves(job.store, 0).ok()?;
+        // Borrowed in place: no copy of the chain on the stack.
+        match &Chain::new(curves.get(..n)?) {
+            Ok(chain) => Some(acquire(chain, job.request)),
+            Err(_) => None,
+        }
+    };
+    JobDone {
+        acquisition: search(),
+    }
 }

@@ -13,14 +13,25 @@
 //! - [`Staging::publish`] turns it into a [`Published`] token, which hands out `&'static`
 //!   shared references ([`Published::get`]) and no `&mut`;
 //! - [`Published::reclaim`] (the `unsafe` step) turns it back into a [`Staging`]; its caller
-//!   promises that every reference [`Published::get`] gave out is dead. The board's tick calls
-//!   it only after the controller dropped its views (a new scene was loaded in its place) and
-//!   no other task holds one (no acquisition on that store is in flight).
+//!   promises that every reference [`Published::get`] gave out is dead.
 //!
 //! So a half is either written through its one `Staging` or read through `&T`s, never both.
+//!
+//! The tick's side of it is [`TickScenes`]: the link task sends it committed stores as
+//! `Staging` tokens; it publishes one, loads it into the [`App`] and hands back the store the
+//! app rendered before (or the new one, when the app refused it) as a `Staging` again; it lends
+//! the rendered store to one acquisition job at a time ([`AcquisitionJob`], [`JobDone`]). It
+//! calls `reclaim` only where the views are provably gone: after a load replaced the
+//! controller's scene, or after a load that failed (which keeps no view), and never while a
+//! job is out.
 
 use core::cell::UnsafeCell;
 use core::sync::atomic::{AtomicBool, Ordering};
+
+use device::controller::AcquisitionRequest;
+use device::protocol::SceneStore;
+
+use crate::app::{AcquisitionJob, App, AppError, ChainAcquisition, JobDone};
 
 /// Two stores and the flag that they were split into tokens.
 pub struct SceneBuffers<T> {
@@ -138,5 +149,134 @@ impl<T> Published<T> {
     #[allow(unsafe_code)]
     pub unsafe fn reclaim(self) -> Staging<T> {
         Staging { half: self.half }
+    }
+}
+
+/// The tick's side of the scene hand-over: the store it renders (published) and whether an
+/// acquisition job reads it.
+#[derive(Debug)]
+pub struct TickScenes<T: 'static> {
+    active: Option<Published<T>>,
+    job_out: bool,
+}
+
+/// What [`TickScenes::swap_in`] did.
+#[derive(Debug)]
+pub struct Swapped<T: 'static> {
+    /// The load's result; on error the scene before stays rendered.
+    pub loaded: Result<(), AppError>,
+    /// The store to hand back to the link task: the one rendered before the load, or the new
+    /// one when the load failed; `None` after the first load.
+    pub freed: Option<Staging<T>>,
+}
+
+impl<T> TickScenes<T> {
+    /// No store rendered, no job out.
+    ///
+    /// # Safety
+    ///
+    /// The views of the stores the [`App`] given to [`TickScenes::swap_in`] is built on stay
+    /// in that app's controller: the caller never copies a view out of it (a `tracker::Chain`
+    /// from `App::controller`) to keep beyond the tick, nor loads that app with a store
+    /// taken elsewhere from these halves. With that, a load that replaces the controller's
+    /// scene ends every view of the store before, and the only other reader is the job this
+    /// type counts.
+    #[allow(unsafe_code)]
+    pub const unsafe fn new() -> Self {
+        TickScenes {
+            active: None,
+            job_out: false,
+        }
+    }
+
+    /// Whether an acquisition job reads the rendered store (its [`JobDone`] not back yet).
+    pub fn job_out(&self) -> bool {
+        self.job_out
+    }
+}
+
+/// Loads object 0 of `store`. Not inlined, so that its frame (the chain it builds) and the
+/// tick's do not add up on the stack.
+#[inline(never)]
+fn load<const K: usize, const C: usize, const S: usize>(
+    app: &mut App<'static>,
+    store: &'static SceneStore<K, C, S>,
+) -> Result<(), AppError> {
+    app.load(store, 0)
+}
+
+impl<const K: usize, const C: usize, const S: usize> TickScenes<SceneStore<K, C, S>> {
+    /// At a tick boundary with no job out: takes the next committed store from `next` (`None`:
+    /// nothing to do) and loads object 0 of it into `app` (the renderer then waits for its
+    /// acquisition). Does nothing, not even call `next`, while a job is out, so that the swap
+    /// (which builds a chain) never waits on a job's store.
+    pub fn swap_in(
+        &mut self,
+        app: &mut App<'static>,
+        next: impl FnOnce() -> Option<Staging<SceneStore<K, C, S>>>,
+    ) -> Option<Swapped<SceneStore<K, C, S>>> {
+        if self.job_out {
+            return None;
+        }
+        let new = next()?.publish();
+        match load(app, new.get()) {
+            Ok(()) => {
+                let freed = self.active.replace(new).map(|old| {
+                    #[allow(unsafe_code)]
+                    // SAFETY: the load replaced the controller's scene, dropping its views of
+                    // `old` (`new`'s now); no job reads `old` (`job_out` is false); `new` was
+                    // the half's only other `get` and went to the app; and the caller keeps no
+                    // copy of a view (`new`'s contract).
+                    unsafe {
+                        old.reclaim()
+                    }
+                });
+                Some(Swapped {
+                    loaded: Ok(()),
+                    freed,
+                })
+            }
+            Err(e) => {
+                #[allow(unsafe_code)]
+                // SAFETY: `App::load` keeps no view of a store it refuses (the chain it built
+                // is dropped, the controller's scene is the one before), and the `get` above was
+                // the only one of this half since it was published here.
+                let staging = unsafe { new.reclaim() };
+                Some(Swapped {
+                    loaded: Err(e),
+                    freed: Some(staging),
+                })
+            }
+        }
+    }
+
+    /// The acquisition job for the controller's `request` on the rendered store, when there
+    /// is a request and a store and no job is out; from now on the job is out. Give it to
+    /// [`run_job`](crate::app::run_job) and its result to [`TickScenes::job_done`], or, if it
+    /// could not be sent, back to [`TickScenes::job_refused`].
+    pub fn lend_job(
+        &mut self,
+        request: Option<AcquisitionRequest>,
+    ) -> Option<AcquisitionJob<SceneStore<K, C, S>>> {
+        if self.job_out {
+            return None;
+        }
+        let (request, active) = (request?, self.active.as_ref()?);
+        self.job_out = true;
+        Some(AcquisitionJob::new(active.get(), request))
+    }
+
+    /// A job [`TickScenes::lend_job`] gave that was never sent: no job is out.
+    pub fn job_refused(&mut self, job: AcquisitionJob<SceneStore<K, C, S>>) {
+        // Taking the job by value is the proof that no task holds it.
+        let _ = job;
+        self.job_out = false;
+    }
+
+    /// The lent job is over: its acquisition, for `Controller::complete_acquisition` (`None`
+    /// when the job's object could not be built).
+    pub fn job_done(&mut self, done: JobDone) -> Option<ChainAcquisition> {
+        self.job_out = false;
+        done.acquisition
     }
 }

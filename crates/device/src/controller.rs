@@ -116,17 +116,27 @@ pub struct TickOutput {
     pub render: Option<FrictionOutput<Vec2>>,
 }
 
-/// The loaded scene: the object, its material and the renderer's state for that object.
+/// The loaded scene: the object, its material and where its renderer is.
 #[derive(Debug)]
 struct Scene<O: Object<P = Vec2>> {
     object: O,
     material: FrictionMaterial,
-    /// Built from an [`Acquisition`] (it needs the closest point to start tracking).
-    renderer: Option<FrictionRenderer<O>>,
     /// Which load or material this scene is (see [`AcquisitionRequest::generation`]).
     generation: u32,
-    /// The HIP of the last tick with a pose while the renderer waits for its acquisition.
-    request_hip: Option<Vec2>,
+    state: SceneState<O>,
+}
+
+/// Where a loaded scene's renderer is: waiting for the acquisition that starts it, or
+/// rendering. (The object stays in [`Scene`]: a chain is a few KiB, and moving it from one
+/// variant to the other would copy it on the tick's stack.)
+#[derive(Debug)]
+enum SceneState<O: Object<P = Vec2>> {
+    /// No renderer yet: the tick renders no force and publishes an [`AcquisitionRequest`]
+    /// from `request_hip`, the HIP of the last tick with a pose (`None` before one).
+    AwaitingAcquisition { request_hip: Option<Vec2> },
+    /// The renderer, built from an [`Acquisition`] (it needs the closest point to start
+    /// tracking).
+    Rendering { renderer: FrictionRenderer<O> },
 }
 
 /// What an acquisition searches from: the HIP of the last tick and the scene it is for.
@@ -255,9 +265,8 @@ impl<O: Object<P = Vec2>> Controller<O> {
         self.scene = Some(Scene {
             object,
             material,
-            renderer: None,
             generation: self.bump_generation(),
-            request_hip: None,
+            state: SceneState::AwaitingAcquisition { request_hip: None },
         });
         Ok(())
     }
@@ -311,9 +320,8 @@ impl<O: Object<P = Vec2>> Controller<O> {
         let generation = self.bump_generation();
         if let Some(scene) = self.scene.as_mut() {
             scene.material = material;
-            scene.renderer = None;
             scene.generation = generation;
-            scene.request_hip = None;
+            scene.state = SceneState::AwaitingAcquisition { request_hip: None };
         }
         Ok(())
     }
@@ -329,13 +337,16 @@ impl<O: Object<P = Vec2>> Controller<O> {
     /// renders no force meanwhile. See the module docs.
     pub fn acquisition_request(&self) -> Option<AcquisitionRequest> {
         let scene = self.scene.as_ref()?;
-        if scene.renderer.is_some() {
-            return None;
+        match scene.state {
+            SceneState::AwaitingAcquisition {
+                request_hip: Some(hip_m),
+            } => Some(AcquisitionRequest {
+                hip_m,
+                generation: scene.generation,
+            }),
+            SceneState::AwaitingAcquisition { request_hip: None }
+            | SceneState::Rendering { .. } => None,
         }
-        Some(AcquisitionRequest {
-            hip_m: scene.request_hip?,
-            generation: scene.generation,
-        })
     }
 
     /// Starts the renderer from `acquisition` (one frame evaluation, no search), the force
@@ -345,16 +356,19 @@ impl<O: Object<P = Vec2>> Controller<O> {
         let Some(scene) = self.scene.as_mut() else {
             return false;
         };
-        if scene.renderer.is_some() || scene.generation != acquisition.generation {
+        if matches!(scene.state, SceneState::Rendering { .. })
+            || scene.generation != acquisition.generation
+        {
             return false;
         }
-        scene.renderer = Some(FrictionRenderer::from_tracking(
-            &scene.object,
-            scene.material,
-            acquisition.state,
-        ));
-        scene.request_hip = None;
-        self.safety.notify_scene_swap();
+        scene.state = SceneState::Rendering {
+            renderer: FrictionRenderer::from_tracking(
+                &scene.object,
+                scene.material,
+                acquisition.state,
+            ),
+        };
+        self.safety.restart_ramp_and_observer();
         true
     }
 
@@ -378,7 +392,7 @@ impl<O: Object<P = Vec2>> Controller<O> {
         passivity_control: bool,
     ) -> Result<(), ControllerError> {
         let (k, b) = (material.stiffness_n_per_m, material.damping_ns_per_m);
-        if let Err(e) = self.safety.check_material(k, b) {
+        if let Err(e) = self.safety.check_passivity(k, b) {
             if !passivity_control {
                 return Err(ControllerError::Passivity(e));
             }
@@ -387,7 +401,7 @@ impl<O: Object<P = Vec2>> Controller<O> {
                 .map_err(ControllerError::BeyondDevice)?;
         }
         self.safety.set_passivity_control(passivity_control);
-        self.safety.notify_scene_swap();
+        self.safety.restart_ramp_and_observer();
         Ok(())
     }
 
@@ -448,7 +462,7 @@ impl<O: Object<P = Vec2>> Controller<O> {
     /// Enables or disables force output (enabling starts the ramp-in).
     pub fn set_forces_enabled(&mut self, enabled: bool) {
         if enabled && !self.forces_enabled {
-            self.safety.notify_scene_swap();
+            self.safety.restart_ramp_and_observer();
         }
         self.forces_enabled = enabled;
     }
@@ -462,7 +476,7 @@ impl<O: Object<P = Vec2>> Controller<O> {
         } else {
             Faults::empty()
         };
-        self.safety.clear_faults_except_ended(ended)
+        self.safety.clear_faults_including_ended(ended)
     }
 
     /// The latched faults.
@@ -522,8 +536,7 @@ impl<O: Object<P = Vec2>> Controller<O> {
         let mut render = None;
         let scene = self.scene.as_mut().filter(|_| state.is_some());
         if let Some(Scene {
-            renderer: None,
-            request_hip,
+            state: SceneState::AwaitingAcquisition { request_hip },
             ..
         }) = scene
         {
@@ -531,7 +544,7 @@ impl<O: Object<P = Vec2>> Controller<O> {
             *request_hip = Some(hip);
         } else if let Some(Scene {
             object,
-            renderer: Some(renderer),
+            state: SceneState::Rendering { renderer },
             ..
         }) = scene
         {

@@ -1,6 +1,7 @@
 #![doc = include_str!("../README.md")]
 #![cfg_attr(not(feature = "std"), no_std)]
 #![warn(missing_docs)]
+pub mod board_io;
 pub mod controller;
 pub mod error;
 #[cfg(feature = "std")]

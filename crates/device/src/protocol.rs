@@ -138,6 +138,30 @@ pub const USB_VID: u16 = 0x1209;
 /// not unique; replace it with an allocated one before boards leave the lab.
 pub const USB_PID: u16 = 0x0001;
 
+/// The board's USB HID report descriptor: one vendor-defined collection with a 64-byte
+/// ([`MAX_FRAME`]) input and a 64-byte output report and no report ids, so every report is one
+/// frame. The board's firmware presents it; the host's `HidLink` (`device::host`, feature
+/// `std`) relies on it (it writes report id 0 before each frame and reads bare frames).
+#[rustfmt::skip]
+pub const REPORT_DESCRIPTOR: &[u8] = &[
+    0x06, 0x00, 0xFF, // Usage Page (vendor defined 0xFF00)
+    0x09, 0x01,       // Usage (1)
+    0xA1, 0x01,       // Collection (application)
+    0x09, 0x02,       //   Usage (2)
+    0x15, 0x00,       //   Logical minimum (0)
+    0x26, 0xFF, 0x00, //   Logical maximum (255)
+    0x75, 0x08,       //   Report size (8 bits)
+    0x95, 0x40,       //   Report count (64)
+    0x81, 0x02,       //   Input (data, variable, absolute)
+    0x09, 0x03,       //   Usage (3)
+    0x15, 0x00,       //   Logical minimum (0)
+    0x26, 0xFF, 0x00, //   Logical maximum (255)
+    0x75, 0x08,       //   Report size (8 bits)
+    0x95, 0x40,       //   Report count (64)
+    0x91, 0x02,       //   Output (data, variable, absolute)
+    0xC0,             // End collection
+];
+
 /// The messages that upload `scene`: a begin, chunks of up to [`MAX_CHUNK`] bytes, a commit.
 /// Scenes longer than `u32::MAX` bytes are not representable; the receiver's capacity is far
 /// smaller anyway.

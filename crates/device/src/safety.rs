@@ -1,31 +1,39 @@
 //! The per-tick safety layer between the renderer and the motors.
 //!
 //! [`Safety::apply`] runs once per haptic tick on the force the renderer asks for and returns
-//! the force that may reach the motors. The rules, in order of authority:
+//! the force that may reach the motors. In the order `apply` takes them (a later step never
+//! undoes an earlier one):
 //!
-//! 1. **Numbers**: any non-finite value anywhere in the [`SafetyInput`] gives zero force and
-//!    latches [`Faults::NUMERIC`].
-//! 2. **Shaping** (flags, not faults): a ramp-in after forces come on (enable, calibration,
-//!    cleared faults) or after [`Safety::notify_scene_swap`], so a HIP already inside an
-//!    object feels the force grow from zero instead of a kick; saturation to the device's
-//!    force limit; a force rate limit.
-//! 3. **Motion**: HIP speed above the limit latches [`Faults::VELOCITY`]; a joint step larger
-//!    than the device can physically make in one tick, or encoder counts that no pose of the
-//!    mechanism gives ([`SafetyInput::pose_valid`]), latch [`Faults::ENCODER`].
-//! 4. **Host**: a heartbeat age above the timeout latches [`Faults::WATCHDOG`] on the first
-//!    tick past it. The age is an integer interval in microseconds
-//!    ([`SafetyInput::heartbeat_age_us`]), never a difference of absolute float times.
-//! 5. **Device**: the HIP outside the workspace box latches [`Faults::WORKSPACE`]; a
-//!    first-order thermal model per motor derates the force linearly and then latches
-//!    [`Faults::THERMAL`].
+//! 1. **Passivity observer**: the energy of the interval that just ended is accounted first,
+//!    whatever happens to the force after (see [`Safety::observed_energy_j`]).
+//! 2. **Faults**, every condition evaluated on every tick and latched:
+//!    - *numbers*: any non-finite value anywhere in the [`SafetyInput`] latches
+//!      [`Faults::NUMERIC`];
+//!    - *thermal*: a first-order thermal model per motor (run whether forces are on or off,
+//!      so the motors cool while off) latches [`Faults::THERMAL`] at its trip threshold;
+//!    - *encoder*: a joint step larger than the device can physically make in one tick, or
+//!      calibrated encoder counts that no pose of the mechanism gives
+//!      ([`SafetyInput::pose_valid`]), latch [`Faults::ENCODER`];
+//!    - *motion* (only with a pose): HIP speed above the limit latches [`Faults::VELOCITY`],
+//!      the HIP outside the workspace box [`Faults::WORKSPACE`];
+//!    - *host*: a heartbeat age above the timeout latches [`Faults::WATCHDOG`] on the first
+//!      tick past it. The age is an integer interval in microseconds
+//!      ([`SafetyInput::heartbeat_age_us`]), never a difference of absolute float times.
+//! 3. **Gate**: zero force while any fault is latched, while forces are disabled, while the
+//!    device is not calibrated or has no pose.
+//! 4. **Shaping** (flags, not faults), in this order: the ramp-in after forces come on
+//!    (enable, calibration, cleared faults) or after [`Safety::restart_ramp_and_observer`]
+//!    (a scene load, a material change, an acquisition, forces enabled), so a HIP already
+//!    inside an object feels the force grow from zero instead of a kick; free space (below)
+//!    gets exactly zero; the passivity controller's damper; the thermal derating; saturation
+//!    to the device's force limit; the force rate limit; a last non-finite guard that cuts
+//!    the force and latches [`Faults::NUMERIC`].
 //!
-//! Forces are off while any fault is latched, while forces are disabled, while the device
-//! is not calibrated or has no pose. Free space (the renderer asks for exactly zero: its
-//! penalty force is unilateral, zero only out of contact) gets zero force, with no damper
-//! and no rate-limited tail, so that the mechanism's own damping is all a user feels there.
-//! Switching off is immediate (not rate-limited); switching back on starts
-//! the ramp-in, whose first tick outputs zero and which reaches the full force after
-//! `ramp_time_s`. Faults stay latched until [`Safety::clear_faults`], which clears only
+//! Free space (the renderer asks for exactly zero: its penalty force is unilateral, zero
+//! only out of contact) gets zero force, with no damper and no rate-limited tail, so that the
+//! mechanism's own damping is all a user feels there. Switching off is immediate (not
+//! rate-limited); switching back on starts the ramp-in, whose first tick outputs zero and
+//! which reaches the full force after `ramp_time_s`. Faults stay latched until [`Safety::clear_faults`], which clears only
 //! the causes whose condition is gone.
 //!
 //! Passivity has two parts: [`check_passivity`], the sampled-data bound a scene loader applies
@@ -604,21 +612,24 @@ impl Safety {
     /// below the *derate* threshold, not just below trip (thermal). Forces come back with a
     /// ramp-in.
     pub fn clear_faults(&mut self) -> Faults {
-        self.clear_faults_except_ended(Faults::empty())
+        self.clear_faults_including_ended(Faults::empty())
     }
 
-    /// [`clear_faults`](Self::clear_faults), also clearing the causes in `ended`: conditions
-    /// the caller knows are gone since the most recent [`apply`](Self::apply) (a heartbeat
-    /// received since clears [`Faults::WATCHDOG`]). A condition still there trips again at
-    /// the next tick.
-    pub fn clear_faults_except_ended(&mut self, ended: Faults) -> Faults {
+    /// [`clear_faults`](Self::clear_faults), and also clears the causes in `ended` even when
+    /// their condition was present at the most recent [`apply`](Self::apply): conditions the
+    /// caller knows are gone since (a heartbeat received since clears [`Faults::WATCHDOG`]).
+    /// A condition still there trips again at the next tick.
+    pub fn clear_faults_including_ended(&mut self, ended: Faults) -> Faults {
         self.latched = self.latched & self.present & !ended;
         self.latched
     }
 
-    /// Restarts the ramp-in (the new scene may put the HIP inside an object) and resets the
-    /// passivity observer (the stored energy belonged to the old scene).
-    pub fn notify_scene_swap(&mut self) {
+    /// Restarts the ramp-in (the force grows from zero again: a new scene or material, or a
+    /// renderer that just started, may put the HIP inside an object) and resets the
+    /// passivity observer's energy (it belonged to what was rendered before). The controller
+    /// calls it on a scene load, a material change, a completed acquisition and when forces
+    /// are enabled.
+    pub fn restart_ramp_and_observer(&mut self) {
         self.ramp_ticks = 0;
         self.energy_j = 0.0;
     }
@@ -663,8 +674,10 @@ impl Safety {
         self.thermal
     }
 
-    /// [`check_passivity`] with this device's period and physical damping.
-    pub fn check_material(
+    /// The sampled-data passivity bound, [`check_passivity`] (the free function), for a wall
+    /// of this stiffness and damping with this device's period and physical damping; no other
+    /// property of a material is checked here.
+    pub fn check_passivity(
         &self,
         stiffness_n_per_m: f32,
         damping_n_s_per_m: f32,

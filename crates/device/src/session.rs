@@ -99,6 +99,28 @@ impl DeviceState {
         }
     }
 }
+impl DeviceState {
+    /// The state without its software version in one word, for a device that hands it from
+    /// one task to another through an atomic (a board's tick to its link task): the fault
+    /// bits in bits 0–15, forces enabled in bit 16, calibrated in bit 17.
+    pub fn to_word(&self) -> u32 {
+        u32::from(self.faults)
+            | (u32::from(self.forces_enabled) << 16)
+            | (u32::from(self.calibrated) << 17)
+    }
+
+    /// The state of `software` whose other fields [`DeviceState::to_word`] packed into `word`
+    /// (bits 18–31 are ignored).
+    pub fn from_word(software: [u8; 3], word: u32) -> Self {
+        DeviceState {
+            software,
+            forces_enabled: word & (1 << 16) != 0,
+            calibrated: word & (1 << 17) != 0,
+            faults: word as u16,
+        }
+    }
+}
+
 /// What the caller must do after [`Session::handle`].
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Event {

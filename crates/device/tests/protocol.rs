@@ -1409,3 +1409,55 @@ fn a_frame_sent_behind_a_refused_one_goes_through() {
     assert_eq!(nack.code, ErrorCode::SequenceGap);
     assert_eq!(nack.expected_seq, heartbeat_seq.wrapping_add(1));
 }
+
+/// The report descriptor read as the USB HID 1.11 spec defines its short items (§6.2.2.2:
+/// a prefix byte with the tag in bits 7–2 and the data size 0, 1, 2 or 4 bytes in bits 1–0):
+/// one input and one output report of exactly one frame each, no report id (the host's
+/// `HidLink` writes id 0 before a frame and reads bare frames), every collection closed.
+#[test]
+fn report_descriptor_declares_one_frame_each_way_without_report_ids() {
+    // Item tags with their size bits cleared (HID 1.11 §6.2.2.4–7).
+    const INPUT: u8 = 0x80;
+    const OUTPUT: u8 = 0x90;
+    const COLLECTION: u8 = 0xA0;
+    const END_COLLECTION: u8 = 0xC0;
+    const REPORT_SIZE: u8 = 0x74;
+    const REPORT_ID: u8 = 0x84;
+    const REPORT_COUNT: u8 = 0x94;
+    let (mut size_bits, mut count) = (0u32, 0u32);
+    let (mut input_bits, mut output_bits, mut depth) = (Vec::new(), Vec::new(), 0i32);
+    let mut at = 0;
+    while at < REPORT_DESCRIPTOR.len() {
+        let prefix = REPORT_DESCRIPTOR[at];
+        let len = [0, 1, 2, 4][usize::from(prefix & 3)];
+        let data = &REPORT_DESCRIPTOR[at + 1..at + 1 + len];
+        let value = data
+            .iter()
+            .rev()
+            .fold(0u32, |v, b| (v << 8) | u32::from(*b));
+        match prefix & 0xFC {
+            REPORT_SIZE => size_bits = value,
+            REPORT_COUNT => count = value,
+            REPORT_ID => panic!("report id {value}: HidLink sends unnumbered reports"),
+            INPUT => input_bits.push(size_bits * count),
+            OUTPUT => output_bits.push(size_bits * count),
+            COLLECTION => depth += 1,
+            END_COLLECTION => depth -= 1,
+            _ => {}
+        }
+        assert!(
+            depth >= 0,
+            "end collection without a collection at byte {at}"
+        );
+        at += 1 + len;
+    }
+    assert_eq!(
+        at,
+        REPORT_DESCRIPTOR.len(),
+        "the last item runs past the end"
+    );
+    assert_eq!(depth, 0, "a collection is not closed");
+    let frame_bits = 8 * MAX_FRAME as u32;
+    assert_eq!(input_bits, [frame_bits], "one input report of one frame");
+    assert_eq!(output_bits, [frame_bits], "one output report of one frame");
+}

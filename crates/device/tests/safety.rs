@@ -266,7 +266,7 @@ fn ramp_in_after_scene_swap_with_hip_inside() {
         assert_eq!(safety.apply(&tick(Vec2::ZERO)).force_n, Vec2::ZERO);
     }
     // The new scene puts an object around the HIP: the renderer asks for 3 N at once.
-    safety.notify_scene_swap();
+    safety.restart_ramp_and_observer();
     let f = Vec2::new(0.0, 3.0);
     let ramp_ticks = (ramp_s / T).round() as usize;
     for k in 0..=ramp_ticks + 5 {
@@ -531,8 +531,8 @@ fn passivity_bound_matches_hand_computed_limits() {
     ));
     assert!(check_passivity(-1.0, 0.0, 1e-3, 0.5).is_err());
     let safety = Safety::new(SafetyConfig::default()).unwrap();
-    assert!(safety.check_material(999.0, 0.0).is_ok());
-    assert!(safety.check_material(1001.0, 0.0).is_err());
+    assert!(safety.check_passivity(999.0, 0.0).is_ok());
+    assert!(safety.check_passivity(1001.0, 0.0).is_err());
 }
 
 /// The sampled-spring scenario: the HIP is driven along x = A sin(ωt) (an ideal velocity

@@ -137,3 +137,39 @@ fn refusals_are_nacked_and_noted_for_the_status() {
     s.note_error(ErrorCode::BadMaterial);
     assert_eq!(s.status(STATE).last_error, ErrorCode::BadMaterial as u8);
 }
+
+/// A board's tick hands its state to the link task as one word: every state survives the
+/// trip (all 2¹⁶ fault patterns with each pair of flags), and the layout is the documented
+/// one (faults in bits 0–15, forces enabled bit 16, calibrated bit 17), written out by hand.
+#[test]
+fn device_state_survives_its_word_and_the_word_has_the_documented_layout() {
+    let software = [1, 2, 3];
+    for faults in 0..=u16::MAX {
+        for (forces_enabled, calibrated) in
+            [(false, false), (true, false), (false, true), (true, true)]
+        {
+            let state = DeviceState {
+                software,
+                forces_enabled,
+                calibrated,
+                faults,
+            };
+            assert_eq!(DeviceState::from_word(software, state.to_word()), state);
+        }
+    }
+    let state = |forces_enabled, calibrated, faults| DeviceState {
+        software,
+        forces_enabled,
+        calibrated,
+        faults,
+    };
+    assert_eq!(state(false, false, 0).to_word(), 0);
+    assert_eq!(state(true, false, 0xA5A5).to_word(), 0x0001_A5A5);
+    assert_eq!(state(false, true, 0x0008).to_word(), 0x0002_0008);
+    assert_eq!(state(true, true, 0xFFFF).to_word(), 0x0003_FFFF);
+    // Bits above 17 carry nothing.
+    assert_eq!(
+        DeviceState::from_word(software, 0xFFFC_0000),
+        state(false, false, 0)
+    );
+}

@@ -1,4 +1,6 @@
-//! USB HID transport: one frame per 64-byte report.
+//! USB HID transport: one frame per 64-byte report, as the board's report descriptor
+//! ([`REPORT_DESCRIPTOR`](crate::protocol::REPORT_DESCRIPTOR), shared with the firmware)
+//! declares them.
 
 use std::ffi::CString;
 use std::time::{Duration, Instant};

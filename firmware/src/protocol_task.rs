@@ -1,0 +1,201 @@
+//! The board's protocol task, its lowest priority: host frames through the session (whose
+//! receiver validates an upload into the staging store), commands and committed stores to the
+//! tick, replies to USB; and the acquisition jobs the tick hands out. Both build chains (the
+//! validation, the search's object), so they run in one task, one after the other, and their
+//! stack frames never add up.
+//!
+//! The tick and this task share lock-free single-producer single-consumer queues
+//! (`heapless::spsc`, the lengths below) and [`TickShared`]'s atomics, nothing else, so nothing
+//! here can delay a tick.
+
+use core::sync::atomic::{AtomicBool, AtomicU8, AtomicU32, Ordering};
+
+use device::protocol::{ErrorCode, MAX_FRAME, Message, SceneError, SceneFault, SceneStore};
+use device::session::{Command, DeviceState, Event, Session};
+use heapless::spsc::{Consumer, Producer};
+
+use crate::app::{AcquisitionJob, JobDone, run_job};
+use crate::swap::Staging;
+
+/// One USB HID report: one protocol frame, zero-padded.
+pub type Report = [u8; MAX_FRAME];
+
+/// Queue sizes (heapless' spsc holds one less than its size): commands to the tick.
+pub const COMMANDS: usize = 8;
+/// Telemetry frames from the tick to USB.
+pub const FRAMES: usize = 4;
+/// Host reports waiting for the protocol task.
+pub const REPORTS: usize = 4;
+/// The protocol task's replies waiting for USB.
+pub const REPLIES: usize = 4;
+/// Committed and freed stores: both can be in flight at once, so neither queue overflows.
+pub const STORES: usize = 3;
+/// Acquisition jobs and their results: one at a time.
+pub const JOBS: usize = 2;
+
+/// What the tick and the protocol task share besides the queues.
+#[derive(Debug)]
+pub struct TickShared {
+    /// The tick's [`DeviceState`] for the status replies ([`DeviceState::to_word`]).
+    status: AtomicU32,
+    /// A committed store waits for the tick (set here before it is queued, cleared by the
+    /// tick once it swapped it in or refused it). No other upload is validated meanwhile, so
+    /// the tick's swap (which builds a chain) and the validation (which builds one too) never
+    /// preempt each other: their stack frames do not add up.
+    commit_pending: AtomicBool,
+    /// Why the tick refused the last command (an [`ErrorCode`], 0 for none), for the next
+    /// status.
+    command_error: AtomicU8,
+}
+
+impl TickShared {
+    /// Nothing pending, no error, the state all zero (uncalibrated, forces off, no fault).
+    pub const fn new() -> Self {
+        TickShared {
+            status: AtomicU32::new(0),
+            commit_pending: AtomicBool::new(false),
+            command_error: AtomicU8::new(0),
+        }
+    }
+
+    /// The tick's state after its tick (its software version is not shared).
+    pub fn set_state(&self, state: &DeviceState) {
+        self.status.store(state.to_word(), Ordering::Release);
+    }
+
+    /// The tick swapped the pending commit in, or refused it.
+    pub fn commit_done(&self) {
+        self.commit_pending.store(false, Ordering::Release);
+    }
+
+    /// The tick refused a command.
+    pub fn command_refused(&self, code: ErrorCode) {
+        self.command_error.store(code as u8, Ordering::Release);
+    }
+}
+
+impl Default for TickShared {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+/// What [`Protocol::step`] did.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Step {
+    /// Nothing was waiting.
+    Idle,
+    /// Ran an acquisition job.
+    Acquired,
+    /// Handled a host report; its replies are queued for USB.
+    Received,
+}
+
+/// The protocol task's state: a session with scene capacity `N` validating into stores `T`.
+pub struct Protocol<const N: usize, T: 'static> {
+    /// The device side of the link.
+    pub session: &'static mut Session<N>,
+    /// What the tick shares with this task.
+    pub shared: &'static TickShared,
+    /// The store the next commit is validated into; `None` while both are with the tick.
+    pub staging: Option<Staging<T>>,
+    /// Host reports from USB.
+    pub reports: Consumer<'static, Report, REPORTS>,
+    /// Replies to USB.
+    pub replies: Producer<'static, Message, REPLIES>,
+    /// Commands to the tick.
+    pub commands: Producer<'static, Command, COMMANDS>,
+    /// Committed stores to the tick.
+    pub commits: Producer<'static, Staging<T>, STORES>,
+    /// Stores the tick is done with.
+    pub freed: Consumer<'static, Staging<T>, STORES>,
+    /// Acquisition jobs from the tick.
+    pub jobs: Consumer<'static, AcquisitionJob<T>, JOBS>,
+    /// Their results to the tick.
+    pub results: Producer<'static, JobDone, JOBS>,
+}
+
+impl<const N: usize, T> core::fmt::Debug for Protocol<N, T> {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.debug_struct("Protocol")
+            .field("staging", &self.staging)
+            .finish_non_exhaustive()
+    }
+}
+
+impl<const N: usize, const K: usize, const C: usize, const S: usize>
+    Protocol<N, SceneStore<K, C, S>>
+{
+    /// Handles what is waiting: an acquisition job first, else one host report.
+    pub fn step(&mut self) -> Step {
+        if let Some(job) = self.jobs.dequeue() {
+            // Room is certain: one job at a time.
+            let _ = self.results.enqueue(run_job(job));
+            return Step::Acquired;
+        }
+        if let Some(report) = self.reports.dequeue() {
+            self.receive(&report);
+            return Step::Received;
+        }
+        Step::Idle
+    }
+
+    /// Handles one host report. Not inlined (nor is [`run_job`]), so that the task's own
+    /// frame stays small and the big frames (the validation's, the search's) exist only while
+    /// they run: the tick's swap never stacks on them (see [`TickShared`],
+    /// `TickScenes::swap_in`).
+    #[inline(never)]
+    fn receive(&mut self, bytes: &[u8]) {
+        if self.staging.is_none() {
+            self.staging = self.freed.dequeue();
+        }
+        let staging = &mut self.staging;
+        let pending = self.shared.commit_pending.load(Ordering::Acquire);
+        let mut validate = |scene: &[u8]| match staging.as_mut() {
+            Some(store) if !pending => store.get_mut().decode(scene),
+            // The previous commit is not swapped in yet (both stores are with the tick, or
+            // the tick is about to swap): refused for now, the upload stays and its commit
+            // may be sent again.
+            _ => Err(SceneError {
+                object: None,
+                patch: None,
+                fault: SceneFault::Capacity,
+            }),
+        };
+        if let Some(code) = ErrorCode::from_u8(self.shared.command_error.swap(0, Ordering::AcqRel))
+        {
+            self.session.note_error(code);
+        }
+        let state = DeviceState::from_word(
+            crate::software_version(),
+            self.shared.status.load(Ordering::Acquire),
+        );
+        let replies = &mut self.replies;
+        let event = self
+            .session
+            .handle(bytes, &mut validate, state, &mut |m: &Message| {
+                // Dropped when the replies queue is full (the host sends faster than it reads):
+                // it sees the missing acks.
+                let _ = replies.enqueue(*m);
+            });
+        match event {
+            Event::SceneCommitted => {
+                // The queue has room for both stores, so it is always ready here.
+                if self.commits.ready()
+                    && let Some(store) = self.staging.take()
+                {
+                    self.shared.commit_pending.store(true, Ordering::Release);
+                    let _ = self.commits.enqueue(store);
+                }
+            }
+            // A board's session refuses hand targets (no virtual hand here).
+            Event::HandTarget(_) | Event::None => {}
+            Event::Command(command) => {
+                if self.commands.enqueue(command).is_err() {
+                    // The tick takes every command each tick; a full queue means a flood.
+                    self.session.note_error(ErrorCode::UnexpectedMessage);
+                }
+            }
+        }
+    }
+}
