@@ -46,7 +46,7 @@
 //! stiffness N/m, bristle damping N·s/m, Stribeck speed m/s — then Stribeck tag u8 (0 linear,
 //! 1 power, 2 smoothstep), exponent u8 (≥ 1 for power, else 0), model u8 (0 stick–slip,
 //! 1 Coulomb–viscous, 2 Karnopp, 3 Dahl, 4 LuGre). Decoding validates the `scene/1` ranges
-//! ([`material_valid`]).
+//! ([`friction::FrictionMaterial::validate`], the rules the scene loader applies too).
 //!
 //! Telemetry (57 bytes, so the frame is exactly 64):
 //!
@@ -128,7 +128,7 @@ pub use scene::{
 };
 #[cfg(feature = "std")]
 pub use scene::{WireObject, WirePatch, encode_scene};
-pub use wire::{MATERIAL_LEN, material_valid};
+pub use wire::MATERIAL_LEN;
 
 /// USB vendor id of the board (its HID interface carries the frames, one per 64-byte report):
 /// pid.codes' open-source vendor id. A placeholder until the project has a product id of its

@@ -6,5 +6,5 @@ mod material;
 pub mod models;
 mod render;
 
-pub use material::{FrictionMaterial, ModelKind, Stribeck};
+pub use material::{FrictionMaterial, MaterialError, ModelKind, Stribeck};
 pub use render::{FrictionOutput, FrictionRenderer, Mode, SwitchCause, cp_config};

@@ -118,6 +118,122 @@ impl FrictionMaterial {
     }
 }
 
+/// Why a material is invalid; the message starts with `material.<field>`, the field's name in
+/// the `scene/1` format.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum MaterialError {
+    /// A value is negative or not finite.
+    Range {
+        /// The field.
+        field: &'static str,
+        /// The value given.
+        value: f32,
+    },
+    /// A value that must be strictly positive is not, or is not finite.
+    Positive {
+        /// The field.
+        field: &'static str,
+        /// The value given.
+        value: f32,
+    },
+    /// The exponent of `stribeck: {"power": n}` is not an integer in 1..=255 (as written in
+    /// a file, hence `f64`).
+    Exponent {
+        /// The value given.
+        value: f64,
+    },
+    /// Dynamic friction exceeds static friction.
+    FrictionOrder {
+        /// Static friction coefficient.
+        mu_static: f32,
+        /// Dynamic friction coefficient.
+        mu_dynamic: f32,
+    },
+}
+
+impl MaterialError {
+    /// The field at fault.
+    pub fn field(&self) -> &'static str {
+        match self {
+            MaterialError::Range { field, .. } | MaterialError::Positive { field, .. } => field,
+            MaterialError::Exponent { .. } => "stribeck",
+            MaterialError::FrictionOrder { .. } => "mu_dynamic",
+        }
+    }
+}
+
+impl core::fmt::Display for MaterialError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        match *self {
+            MaterialError::Range { field, value } => {
+                write!(f, "material.{field}: {value} must be finite and >= 0")
+            }
+            MaterialError::Positive { field, value } => {
+                write!(f, "material.{field}: {value} must be finite and > 0")
+            }
+            MaterialError::Exponent { value } => write!(
+                f,
+                "material.stribeck.power: {value} must be an integer from 1 to 255"
+            ),
+            MaterialError::FrictionOrder {
+                mu_static,
+                mu_dynamic,
+            } => write!(
+                f,
+                "material.mu_dynamic: {mu_dynamic} is larger than mu_static ({mu_static}); \
+                 dynamic friction must not exceed static friction"
+            ),
+        }
+    }
+}
+
+impl core::error::Error for MaterialError {}
+
+impl FrictionMaterial {
+    /// The one set of material rules, applied by the scene loader, the app's material editor
+    /// and the device to an uploaded material: every value finite; stiffness, damping, μs, μd,
+    /// stop speed, viscous, Karnopp band and bristle damping ≥ 0; transition time, convergence
+    /// tolerance, bristle stiffness and Stribeck speed > 0; μd ≤ μs; a Stribeck power exponent
+    /// ≥ 1. The first field at fault, in the format's order.
+    pub fn validate(&self) -> Result<(), MaterialError> {
+        let non_negative = |field, value: f32| {
+            if value.is_finite() && value >= 0.0 {
+                Ok(())
+            } else {
+                Err(MaterialError::Range { field, value })
+            }
+        };
+        let positive = |field, value: f32| {
+            if value.is_finite() && value > 0.0 {
+                Ok(())
+            } else {
+                Err(MaterialError::Positive { field, value })
+            }
+        };
+        non_negative("stiffness_n_per_m", self.stiffness_n_per_m)?;
+        non_negative("damping_ns_per_m", self.damping_ns_per_m)?;
+        non_negative("mu_static", self.mu_static)?;
+        non_negative("mu_dynamic", self.mu_dynamic)?;
+        if self.mu_dynamic > self.mu_static {
+            return Err(MaterialError::FrictionOrder {
+                mu_static: self.mu_static,
+                mu_dynamic: self.mu_dynamic,
+            });
+        }
+        if let Stribeck::Power { exponent: 0 } = self.stribeck {
+            return Err(MaterialError::Exponent { value: 0.0 });
+        }
+        positive("transition_time_s", self.transition_time_s)?;
+        positive("converge_tol_m", self.converge_tol_m)?;
+        non_negative("stop_speed_m_per_s", self.stop_speed_m_per_s)?;
+        non_negative("viscous_ns_per_m", self.viscous_ns_per_m)?;
+        non_negative("karnopp_band_m_per_s", self.karnopp_band_m_per_s)?;
+        positive("bristle_stiffness_n_per_m", self.bristle_stiffness_n_per_m)?;
+        non_negative("bristle_damping_ns_per_m", self.bristle_damping_ns_per_m)?;
+        positive("stribeck_speed_m_per_s", self.stribeck_speed_m_per_s)
+    }
+}
+
 impl Default for FrictionMaterial {
     /// The thesis's simulation material: K = 1000 N/m, μ_s = 0.7, μ_d = 0.5.
     fn default() -> Self {

@@ -12,7 +12,10 @@ pub use mesh::tessellate_object;
 
 use std::path::PathBuf;
 
-use friction::{FrictionMaterial, Stribeck};
+use friction::FrictionMaterial;
+/// An invalid material value ([`FrictionMaterial::validate`], the one set of rules the device
+/// applies to an uploaded material too). The message starts with `material.<field>`.
+pub use friction::MaterialError;
 use nurbs::{Curve, CurveBuf, NurbsError, Surface, SurfaceBuf, Vec2, Vec3};
 use tracker::{Chain, ChainError, Shell, ShellError};
 
@@ -179,55 +182,6 @@ pub enum PatchError {
     /// The curve or surface is invalid (its message starts with the field).
     #[error(transparent)]
     Nurbs(#[from] NurbsError),
-}
-
-/// An invalid material value. The message starts with `material.<field>`.
-#[derive(Clone, Copy, Debug, PartialEq, thiserror::Error)]
-pub enum MaterialError {
-    /// A value is negative or not finite.
-    #[error("material.{field}: {value} must be finite and >= 0")]
-    Range {
-        /// The field.
-        field: &'static str,
-        /// The value given.
-        value: f32,
-    },
-    /// A value that must be strictly positive is not, or is not finite.
-    #[error("material.{field}: {value} must be finite and > 0")]
-    Positive {
-        /// The field.
-        field: &'static str,
-        /// The value given.
-        value: f32,
-    },
-    /// The exponent of `stribeck: {"power": n}` is not an integer in 1..=255.
-    #[error("material.stribeck.power: {value} must be an integer from 1 to 255")]
-    Exponent {
-        /// The value given.
-        value: f64,
-    },
-    /// Dynamic friction exceeds static friction.
-    #[error(
-        "material.mu_dynamic: {mu_dynamic} is larger than mu_static ({mu_static}); \
-         dynamic friction must not exceed static friction"
-    )]
-    FrictionOrder {
-        /// Static friction coefficient.
-        mu_static: f32,
-        /// Dynamic friction coefficient.
-        mu_dynamic: f32,
-    },
-}
-
-impl MaterialError {
-    /// The field at fault.
-    pub fn field(&self) -> &'static str {
-        match self {
-            MaterialError::Range { field, .. } | MaterialError::Positive { field, .. } => field,
-            MaterialError::Exponent { .. } => "stribeck",
-            MaterialError::FrictionOrder { .. } => "mu_dynamic",
-        }
-    }
 }
 
 impl Scene {
@@ -404,31 +358,7 @@ impl Material {
 
     /// Validates every field of a friction material (ranges in the module docs).
     pub fn from_friction(m: FrictionMaterial) -> Result<Self, MaterialError> {
-        for (field, value) in [
-            ("stiffness_n_per_m", m.stiffness_n_per_m),
-            ("damping_ns_per_m", m.damping_ns_per_m),
-            ("mu_static", m.mu_static),
-            ("mu_dynamic", m.mu_dynamic),
-        ] {
-            non_negative(field, value)?;
-        }
-        if m.mu_dynamic > m.mu_static {
-            return Err(MaterialError::FrictionOrder {
-                mu_static: m.mu_static,
-                mu_dynamic: m.mu_dynamic,
-            });
-        }
-        if let Stribeck::Power { exponent: 0 } = m.stribeck {
-            return Err(MaterialError::Exponent { value: 0.0 });
-        }
-        positive("transition_time_s", m.transition_time_s)?;
-        positive("converge_tol_m", m.converge_tol_m)?;
-        non_negative("stop_speed_m_per_s", m.stop_speed_m_per_s)?;
-        non_negative("viscous_ns_per_m", m.viscous_ns_per_m)?;
-        non_negative("karnopp_band_m_per_s", m.karnopp_band_m_per_s)?;
-        positive("bristle_stiffness_n_per_m", m.bristle_stiffness_n_per_m)?;
-        non_negative("bristle_damping_ns_per_m", m.bristle_damping_ns_per_m)?;
-        positive("stribeck_speed_m_per_s", m.stribeck_speed_m_per_s)?;
+        m.validate()?;
         Ok(Material { friction: m })
     }
 
@@ -455,22 +385,6 @@ impl Material {
     /// Dynamic (sliding) friction coefficient, at most [`Material::mu_static`].
     pub fn mu_dynamic(&self) -> f32 {
         self.friction.mu_dynamic
-    }
-}
-
-fn non_negative(field: &'static str, value: f32) -> Result<(), MaterialError> {
-    if value.is_finite() && value >= 0.0 {
-        Ok(())
-    } else {
-        Err(MaterialError::Range { field, value })
-    }
-}
-
-fn positive(field: &'static str, value: f32) -> Result<(), MaterialError> {
-    if value.is_finite() && value > 0.0 {
-        Ok(())
-    } else {
-        Err(MaterialError::Positive { field, value })
     }
 }
 

@@ -194,40 +194,6 @@ pub(crate) fn get_material(r: &mut Reader<'_>) -> Result<FrictionMaterial, Error
         stribeck,
         model,
     };
-    if material_valid(&m) {
-        Ok(m)
-    } else {
-        Err(ErrorCode::BadMaterial)
-    }
-}
-
-/// The ranges of the `scene/1` material (see the viewer's scene module): every value finite;
-/// stiffness, damping, μs, μd, stop speed, viscous, Karnopp band and bristle damping ≥ 0;
-/// transition time, convergence tolerance, bristle stiffness and Stribeck speed > 0;
-/// μd ≤ μs; a Stribeck power exponent ≥ 1.
-pub fn material_valid(m: &FrictionMaterial) -> bool {
-    let non_negative = |v: f32| v.is_finite() && v >= 0.0;
-    let positive = |v: f32| v.is_finite() && v > 0.0;
-    [
-        m.stiffness_n_per_m,
-        m.damping_ns_per_m,
-        m.mu_static,
-        m.mu_dynamic,
-        m.stop_speed_m_per_s,
-        m.viscous_ns_per_m,
-        m.karnopp_band_m_per_s,
-        m.bristle_damping_ns_per_m,
-    ]
-    .into_iter()
-    .all(non_negative)
-        && [
-            m.transition_time_s,
-            m.converge_tol_m,
-            m.bristle_stiffness_n_per_m,
-            m.stribeck_speed_m_per_s,
-        ]
-        .into_iter()
-        .all(positive)
-        && m.mu_dynamic <= m.mu_static
-        && !matches!(m.stribeck, Stribeck::Power { exponent: 0 })
+    m.validate().map_err(|_| ErrorCode::BadMaterial)?;
+    Ok(m)
 }
