@@ -1,4 +1,5 @@
 //! The app's scene tree and material editor, through its state (no window).
+#![cfg(feature = "gui")]
 
 use friction::{ModelKind, Stribeck};
 use viewer::gui::state::AppState;
@@ -147,4 +148,45 @@ fn the_bundled_torus_is_felt_in_the_3d_view() {
     assert!((k.normal_force_n - 2.0).abs() < 1e-3, "{k:?}");
     assert!((k.normal - radial).length() < 1e-3, "{:?}", k.normal);
     assert!((k.depth_m - 0.002).abs() < 1e-6, "{}", k.depth_m);
+}
+
+/// The Objects panel's wiring: opening the examples' bump and clicking *Render this one*
+/// feels it in 3-D (the planar device idle); the circle's button brings the 2-D view back.
+/// The force that follows is checked in `another_object_of_the_scene_can_be_rendered`.
+#[test]
+fn the_objects_panel_renders_the_bump_in_3d_and_a_curve_in_2d() {
+    use eframe::egui;
+    use egui_kittest::Harness;
+    use egui_kittest::kittest::Queryable;
+    use viewer::gui::ViewerUi;
+    let state = AppState::stepped("examples").unwrap_or_else(|e| panic!("{e:#}"));
+    let mut h = Harness::builder()
+        .with_size(egui::Vec2::new(300.0, 600.0))
+        .build_ui_state(
+            |ui, v: &mut ViewerUi| viewer::gui::objects_ui(ui, &mut v.state),
+            ViewerUi::new(state),
+        );
+    // Opens the object's header (and closes `close`'s), clicks its button, lets the loop
+    // take the swap.
+    let render = |h: &mut Harness<'_, ViewerUi>, open: &str, close: Option<&str>| {
+        if let Some(close) = close {
+            h.get_by_label(close).click();
+        }
+        h.get_by_label(open).click();
+        h.run_steps(2);
+        h.get_by_label("Render this one").click();
+        h.run_steps(2);
+        h.state_mut().state.step(1);
+        h.run_steps(1);
+    };
+    h.run_steps(2);
+    render(&mut h, "2: bump", None);
+    let s = &h.state().state;
+    assert_eq!(s.scene_error, None);
+    assert!(s.spatial.is_some(), "the 3-D view");
+    assert_eq!((s.felt_object(), s.scene.rendered), (Some(2), None));
+    render(&mut h, "1: circle", Some("(rendered) 2: bump"));
+    let s = &h.state().state;
+    assert!(s.spatial.is_none(), "back in 2-D");
+    assert_eq!((s.felt_object(), s.scene.rendered), (Some(1), Some(1)));
 }

@@ -119,6 +119,56 @@ fn circle_points_lie_on_the_circle() {
     );
 }
 
+/// scenes/examples.json, object 0: the cubic wave (knots 0 0 0 0 ½ 1 1 1 1), against the
+/// file's data evaluated in f64 by the Cox–de Boor recursion (testkit's, Piegl & Tiller eq.
+/// 2.5), its derivative against finite differences of that reference.
+#[test]
+fn cubic_matches_cox_de_boor() {
+    let knots = [0.0, 0.0, 0.0, 0.0, 0.5, 1.0, 1.0, 1.0, 1.0];
+    let points = [
+        [-0.04, 0.08],
+        [-0.02, 0.12],
+        [0.0, 0.07],
+        [0.02, 0.12],
+        [0.04, 0.08],
+    ];
+    let reference = |u: f64| {
+        let mut p = [0.0; 2];
+        for (i, cp) in points.iter().enumerate() {
+            let n = testkit::cox_de_boor(&knots, 3, i, u);
+            p[0] += n * cp[0];
+            p[1] += n * cp[1];
+        }
+        p
+    };
+    let us = [0.0, 0.1, 0.3, 0.5, 0.55, 0.9, 1.0];
+    let input: String = us.iter().map(|u| format!("{u}\n")).collect();
+    let out = viewer(&["eval", &examples(), "--object", "0"], &input);
+    assert_eq!(out.status.code(), Some(0), "{}", stderr(&out));
+    let lines = stdout_lines(&out);
+    assert_eq!(lines.len(), us.len());
+    for (line, &u) in lines.iter().zip(&us) {
+        let p = vector(&line["p"]);
+        let want = reference(u);
+        assert!(
+            (p[0] - want[0]).abs() < 1e-6 && (p[1] - want[1]).abs() < 1e-6,
+            "u = {u}: {p:?} vs {want:?}"
+        );
+        // One-sided differences at the ends, central inside.
+        let h = 1e-5;
+        let (a, b) = ((u - h).max(0.0), (u + h).min(1.0));
+        let (pa, pb) = (reference(a), reference(b));
+        let du = vector(&line["du"]);
+        for k in 0..2 {
+            let fd = (pb[k] - pa[k]) / (b - a);
+            assert!(
+                (du[k] - fd).abs() < 1e-3 * (1.0 + fd.abs()),
+                "u = {u}: du {du:?}"
+            );
+        }
+    }
+}
+
 #[test]
 fn surface_matches_the_bezier_closed_form() {
     // scenes/examples.json, object 2: a bicubic Bézier patch with evenly spaced x (along u)
@@ -204,6 +254,18 @@ fn out_of_domain_exits_1_and_reports_the_domain() {
     let err = stderr(&out);
     assert!(
         err.contains("line 2 (\"0.5 1.25\"): v = 1.25 is outside the domain [0, 1]"),
+        "{err}"
+    );
+    // Comment lines count in the numbering; the lines before the bad one are answered.
+    let out = viewer(
+        &["eval", &examples(), "--object", "2"],
+        "0 0\n# c\n1 1\n1 -1\n0 0\n",
+    );
+    assert_eq!(out.status.code(), Some(1));
+    assert_eq!(stdout_lines(&out).len(), 2);
+    let err = stderr(&out);
+    assert!(
+        err.contains("line 4 (\"1 -1\"): v = -1 is outside the domain [0, 1]"),
         "{err}"
     );
     let out = viewer(&["eval", &examples()], "inf\n");

@@ -8,6 +8,14 @@ fn examples() -> String {
     path.to_str().expect("UTF-8 path").to_owned()
 }
 
+/// A bundled scene's file (or trajectory) in `scenes/`.
+fn scenes(name: &str) -> String {
+    let path = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .join("../../scenes")
+        .join(name);
+    path.to_str().expect("UTF-8 path").to_owned()
+}
+
 fn viewer(args: &[&str]) -> Output {
     Command::new(env!("CARGO_BIN_EXE_viewer"))
         .args(args)
@@ -482,4 +490,55 @@ fn numbers_the_f32_loop_cannot_use_exit_2() {
         assert!(!err.contains("panicked"), "{err}");
         assert!(!Path::new(&out).exists(), "{extra:?}");
     }
+}
+
+/// `sim --device` on thesis-2d: the run log of the closed loop (the device columns after the
+/// planar ones, one row a tick, no fault), the plot and the messages; a surface is refused.
+/// The closed loop's physics is `crates/host/tests/run_device.rs`.
+#[test]
+fn device_command() {
+    let dir = TempDir::new("device");
+    let (out, png) = (dir.path("run.csv"), dir.path("run.png"));
+    let result = viewer(&[
+        "sim",
+        &scenes("thesis-2d.json"),
+        "--device",
+        "--trajectory",
+        &scenes("thesis-2d.csv"),
+        "--out",
+        &out,
+        "--plot",
+        &png,
+    ]);
+    let err = stderr(&result);
+    assert_eq!(result.status.code(), Some(0), "{err}");
+    assert!(err.contains("passivity controller is on"), "{err}");
+    assert!(err.contains("sim: 100% (2521/2521 ticks)"), "{err}");
+    let text = std::fs::read_to_string(&out).expect("run log");
+    let lines: Vec<&str> = text.lines().collect();
+    assert_eq!(
+        lines[0],
+        "t_s,hip_x,hip_y,cp_x,cp_y,go_x,go_y,patch,mode,cause,depth_m,normal_force_n,\
+         friction_force_n,mu,psi,force_x,force_y,theta1_rad,theta2_rad,tau1_nm,tau2_nm,\
+         faults"
+    );
+    assert_eq!(lines.len(), 1 + 2521);
+    assert!(lines[1..].iter().all(|l| l.split(',').count() == 22));
+    // The faults column: none latched.
+    assert!(lines[1..].iter().all(|l| l.ends_with(",0")));
+    let png_bytes = std::fs::read(&png).expect("plot");
+    assert!(png_bytes.starts_with(b"\x89PNG"));
+
+    let surface = viewer(&[
+        "sim",
+        &scenes("thesis-3d.json"),
+        "--device",
+        "--trajectory",
+        &scenes("thesis-3d.csv"),
+        "--out",
+        &out,
+    ]);
+    let err = stderr(&surface);
+    assert_eq!(surface.status.code(), Some(2), "{err}");
+    assert!(err.contains("2-DoF planar device"), "{err}");
 }
