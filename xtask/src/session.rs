@@ -267,7 +267,7 @@ pub fn app(elf: &Path, root: &Path) -> Result<Vec<String>, String> {
     )
     .map_err(|e| format!("app: cannot start the link's thread: {e}"))?;
     let above = Vec2::new(0.01, 0.11);
-    link.send(Command::HandTarget(above));
+    link.send(Command::HandTarget(above.extend(0.0)));
     link.send(Command::Swap(Box::new(session)));
 
     // What the app's state keeps of the link: the newest status and sample, the history.
@@ -316,7 +316,7 @@ pub fn app(elf: &Path, root: &Path) -> Result<Vec<String>, String> {
     let steps = 50;
     for i in 0..=steps {
         link.send(Command::HandTarget(
-            above + (inside - above) * (i as f32 / steps as f32),
+            (above + (inside - above) * (i as f32 / steps as f32)).extend(0.0),
         ));
         std::thread::sleep(Duration::from_millis(10));
         poll(&mut status, &mut hello, &mut history)?;

@@ -3,7 +3,12 @@
 //! same [`tick::device_tick`] as `viewer sim --device`), driven by a virtual hand whose target
 //! the UI moves.
 //!
-//! [`LoopThread`] runs a [`HapticLoop`] on its own thread at its tick rate. The UI talks to it
+//! Every loop the app runs (this one, the spatial hand of [`crate::haptic3d`], the host of a
+//! device behind a link in [`crate::remote`]) takes the same [`Command`] and answers with the
+//! same [`Reply`] and [`Sample`]; a loop is [`Steppable`], and [`Backend`] runs any of them on
+//! its own thread ([`LoopThread`]) or steps it in place (tests).
+//!
+//! [`LoopThread`] runs a [`Steppable`] loop on its own thread at its tick rate. The UI talks to it
 //! through channels only and never waits for it: commands (hand target, material, scene swap,
 //! forces, clear faults) go through a bounded channel the loop drains at every tick boundary
 //! (a full channel drops the command and counts it); every tick goes back as a [`Sample`]
@@ -12,9 +17,10 @@
 //! are rare). With `--record` a third consumer, the [`Recorder`] thread, gets every tick
 //! through its own bounded channel and writes the run log.
 //!
-//! Tests step a [`HapticLoop`] directly: no thread, no clock, the same ticks for the same
-//! inputs.
+//! Tests step a loop in place ([`Backend::Stepped`], or a [`HapticLoop`] directly): no thread,
+//! no clock, the same ticks for the same inputs.
 
+use std::fmt;
 use std::io;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
@@ -28,9 +34,10 @@ use device::safety::Faults;
 use device::simulator::{SimParams, SimulatedPantograph, VirtualHand};
 use device::spec::DeviceSpec;
 use friction::FrictionMaterial;
-use nurbs::Vec2;
-use tracker::Chain;
+use nurbs::{Vec2, Vec3};
+use tracker::{Chain, TriMesh};
 
+use crate::haptic3d::MeshError;
 use crate::runlog::RecordTx;
 use crate::sim::SimError;
 use crate::tick::{self, Tick};
@@ -399,22 +406,43 @@ fn material_of(session: &Session) -> Option<FrictionMaterial> {
         .map(|o| o.material().friction_material())
 }
 
-/// What the UI asks of the loop.
+/// What the UI asks of a loop: one command type for every loop, generic over the session a
+/// loop swaps in (`S`: [`Session`] for the planar device and the host of a device behind a
+/// link, [`crate::haptic3d::SpatialSession`] for the spatial hand). A loop answers a command
+/// it does not support with [`Reply::Unsupported`] and changes nothing.
 #[derive(Debug)]
-pub enum Command {
-    /// Move the hand's target (m).
-    HandTarget(Vec2),
+pub enum Command<S = Session> {
+    /// Move the hand's target (m, device frame); a planar loop takes x and y.
+    HandTarget(Vec3),
     /// Set the rendered object's material ([`HapticLoop::set_material`]).
     SetMaterial(FrictionMaterial),
-    /// Render another scene ([`HapticLoop::swap_session`]); built by the UI, swapped in at a
+    /// Render another session ([`HapticLoop::swap_session`]); built by the UI, swapped in at a
     /// tick boundary.
-    Swap(Box<Session>),
+    Swap(Box<S>),
+    /// Render this mesh instead of the session's object (the polygonal baseline), or the
+    /// object again (`None`). The spatial hand only.
+    Mesh(Option<Box<TriMesh>>),
     /// Enable or disable the forces.
     Forces(bool),
     /// Clear the latched faults.
     ClearFaults,
-    /// Calibrate against the end stops (the simulated arm is homed at once).
+    /// Calibrate against the end stops (the simulated arm is homed at once). The device only.
     Calibrate,
+}
+
+impl<S> Command<S> {
+    /// What the command asks, as [`Reply::Unsupported`] names it.
+    pub fn name(&self) -> &'static str {
+        match self {
+            Command::HandTarget(_) => "the hand's target",
+            Command::SetMaterial(_) => "the material",
+            Command::Swap(_) => "the scene swap",
+            Command::Mesh(_) => "a mesh",
+            Command::Forces(_) => "forces on/off",
+            Command::ClearFaults => "clearing the faults",
+            Command::Calibrate => "the calibration",
+        }
+    }
 }
 
 /// What the loop answers.
@@ -426,6 +454,11 @@ pub enum Reply {
     Swapped,
     /// Faults still latched after a [`Command::ClearFaults`].
     FaultsCleared(Faults),
+    /// The result of a [`Command::Mesh`]: a mesh the loop cannot scan in a tick is refused
+    /// and the running rendering stays.
+    Mesh(Result<(), MeshError>),
+    /// The loop does not support the command ([`Command::name`]); nothing changed.
+    Unsupported(&'static str),
     /// What a device behind a link said or did ([`crate::remote`]).
     Link(LinkEvent),
 }
@@ -513,22 +546,43 @@ pub fn raise_priority() -> bool {
     }
 }
 
-/// A loop [`LoopThread`] runs: the planar [`HapticLoop`], or the spatial hand of
-/// [`crate::haptic3d`]. One tick at a time, commands applied between ticks.
+/// A loop [`LoopThread`] and [`Backend`] run: the planar [`HapticLoop`], or the spatial hand
+/// of [`crate::haptic3d`]. One tick at a time, commands applied between ticks.
 pub trait Steppable: Send + 'static {
-    /// What the UI asks of it.
-    type Command: Send + 'static;
-    /// Applies one command; the reply, if it has one.
-    fn apply(&mut self, command: Self::Command) -> Option<Reply>;
+    /// What [`Command::Swap`] swaps in.
+    type Session: fmt::Debug + Send + 'static;
+    /// Applies one command; the reply, if it has one. Every command gets an answer or a
+    /// documented no-op: one the loop does not support is [`Reply::Unsupported`].
+    fn apply(&mut self, command: Command<Self::Session>) -> Option<Reply>;
     /// Runs one tick; its sample without a period (the thread adds it).
     fn step_sample(&mut self) -> Sample;
 }
 
 impl Steppable for HapticLoop {
-    type Command = Command;
+    type Session = Session;
 
     fn apply(&mut self, command: Command) -> Option<Reply> {
-        apply(self, command)
+        match command {
+            Command::HandTarget(t) => {
+                self.set_hand_target(Vec2::new(t.x, t.y));
+                None
+            }
+            Command::SetMaterial(m) => Some(Reply::Material(self.set_material(m))),
+            Command::Swap(session) => {
+                self.swap_session(*session);
+                Some(Reply::Swapped)
+            }
+            Command::Mesh(_) => Some(Reply::Unsupported(command.name())),
+            Command::Forces(on) => {
+                self.set_forces_enabled(on);
+                None
+            }
+            Command::ClearFaults => Some(Reply::FaultsCleared(self.clear_faults())),
+            Command::Calibrate => {
+                self.calibrate();
+                None
+            }
+        }
     }
 
     fn step_sample(&mut self) -> Sample {
@@ -543,11 +597,11 @@ impl Steppable for HapticLoop {
 }
 
 /// A [`HapticLoop`] (or another [`Steppable`], or the host of a device behind a link) on its
-/// own thread, ticking in real time at [`RATE_HZ`], taking commands of type `C`. Dropping it
-/// stops the thread (and, with it, the recorder's input).
+/// own thread, ticking in real time at [`RATE_HZ`], taking [`Command`]s that swap in sessions
+/// of type `S`. Dropping it stops the thread (and, with it, the recorder's input).
 #[derive(Debug)]
-pub struct LoopThread<C: Send + 'static = Command> {
-    commands: SyncSender<C>,
+pub struct LoopThread<S: Send + 'static = Session> {
+    commands: SyncSender<Command<S>>,
     samples: Receiver<Sample>,
     replies: Receiver<Reply>,
     counters: Arc<LoopCounters>,
@@ -555,10 +609,10 @@ pub struct LoopThread<C: Send + 'static = Command> {
     thread: Option<JoinHandle<()>>,
 }
 
-impl<C: Send + 'static> LoopThread<C> {
+impl<S: Send + 'static> LoopThread<S> {
     /// Starts `haptic` on a thread named `haptic-loop`; every tick also goes to `record`
     /// when given.
-    pub fn spawn<L: Steppable<Command = C>>(
+    pub fn spawn<L: Steppable<Session = S>>(
         mut haptic: L,
         record: Option<RecordTx>,
     ) -> io::Result<Self> {
@@ -575,7 +629,7 @@ impl<C: Send + 'static> LoopThread<C> {
     pub fn spawn_with(
         name: &str,
         record: Option<RecordTx>,
-        body: impl FnOnce(LoopEnds<C>) + Send + 'static,
+        body: impl FnOnce(LoopEnds<S>) + Send + 'static,
     ) -> io::Result<Self> {
         let (commands, command_rx) = mpsc::sync_channel(COMMAND_CAPACITY);
         let (sample_tx, samples) = mpsc::sync_channel(TELEMETRY_CAPACITY);
@@ -604,7 +658,7 @@ impl<C: Send + 'static> LoopThread<C> {
     }
 
     /// Sends a command without waiting; a full channel drops it (counted) and returns false.
-    pub fn send(&self, command: C) -> bool {
+    pub fn send(&self, command: Command<S>) -> bool {
         match self.commands.try_send(command) {
             Ok(()) => true,
             Err(TrySendError::Full(_) | TrySendError::Disconnected(_)) => {
@@ -639,7 +693,7 @@ impl<C: Send + 'static> LoopThread<C> {
     }
 }
 
-impl<C: Send + 'static> Drop for LoopThread<C> {
+impl<S: Send + 'static> Drop for LoopThread<S> {
     fn drop(&mut self) {
         self.stop.store(true, Ordering::Relaxed);
         if let Some(thread) = self.thread.take() {
@@ -648,35 +702,11 @@ impl<C: Send + 'static> Drop for LoopThread<C> {
     }
 }
 
-/// Applies one command to `haptic`; the reply, if it has one.
-pub fn apply(haptic: &mut HapticLoop, command: Command) -> Option<Reply> {
-    match command {
-        Command::HandTarget(t) => {
-            haptic.set_hand_target(t);
-            None
-        }
-        Command::SetMaterial(m) => Some(Reply::Material(haptic.set_material(m))),
-        Command::Swap(session) => {
-            haptic.swap_session(*session);
-            Some(Reply::Swapped)
-        }
-        Command::Forces(on) => {
-            haptic.set_forces_enabled(on);
-            None
-        }
-        Command::ClearFaults => Some(Reply::FaultsCleared(haptic.clear_faults())),
-        Command::Calibrate => {
-            haptic.calibrate();
-            None
-        }
-    }
-}
-
 /// The loop thread's ends of its channels.
 #[derive(Debug)]
-pub struct LoopEnds<C = Command> {
+pub struct LoopEnds<S = Session> {
     /// Commands from the UI.
-    pub commands: Receiver<C>,
+    pub commands: Receiver<Command<S>>,
     samples: SyncSender<Sample>,
     /// Replies to the UI.
     pub replies: Sender<Reply>,
@@ -686,7 +716,7 @@ pub struct LoopEnds<C = Command> {
     stop: Arc<AtomicBool>,
 }
 
-impl<C> LoopEnds<C> {
+impl<S> LoopEnds<S> {
     /// Whether the UI asked the thread to stop.
     pub fn stopping(&self) -> bool {
         self.stop.load(Ordering::Relaxed)
@@ -725,7 +755,7 @@ impl<C> LoopEnds<C> {
 /// to the UI and the recorder (dropped, and counted, when their channels are full), then a
 /// sleep until the next tick is due on an absolute schedule (so lateness does not
 /// accumulate; more than 100 ms behind, after a suspend, the schedule restarts).
-fn run_paced<L: Steppable>(haptic: &mut L, ends: &LoopEnds<L::Command>) {
+fn run_paced<L: Steppable>(haptic: &mut L, ends: &LoopEnds<L::Session>) {
     let period = Duration::from_secs_f64(1.0 / RATE_HZ);
     let mut epoch = Instant::now();
     let mut since_epoch: u32 = 0;
@@ -763,6 +793,138 @@ fn run_paced<L: Steppable>(haptic: &mut L, ends: &LoopEnds<L::Command>) {
     }
 }
 
+/// How the app runs a loop: on its own thread in real time, or stepped in place (tests: no
+/// thread, no clock). The planar app state and the spatial hand both hold one; a device
+/// behind a link is a [`Backend::Thread`] of [`HapticLoop`]'s commands too
+/// ([`crate::remote::spawn`]).
+pub enum Backend<L: Steppable> {
+    /// On its own thread in real time.
+    Thread(LoopThread<L::Session>),
+    /// Here, one tick per [`Backend::step`].
+    Stepped(Box<L>),
+    /// Stopped ([`Backend::stop`]): commands are dropped, nothing ticks.
+    Stopped,
+}
+
+impl<L: Steppable + fmt::Debug> fmt::Debug for Backend<L> {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Backend::Thread(t) => f.debug_tuple("Thread").field(t).finish(),
+            Backend::Stepped(l) => f.debug_tuple("Stepped").field(l).finish(),
+            Backend::Stopped => f.write_str("Stopped"),
+        }
+    }
+}
+
+/// What became of a command given to a [`Backend`].
+#[derive(Debug)]
+pub enum Sent {
+    /// Queued for the loop's thread; its reply, if any, comes through [`Backend::drain`].
+    Queued,
+    /// Applied at once by the stepped loop; its reply, if it has one.
+    Applied(Option<Reply>),
+    /// Dropped: the thread's channel was full (counted in
+    /// [`LoopCounters::dropped_commands`]), or the loop is stopped.
+    Dropped,
+}
+
+impl Sent {
+    /// Whether the loop took the command (queued or applied).
+    pub fn taken(&self) -> bool {
+        !matches!(self, Sent::Dropped)
+    }
+
+    /// The reply of a stepped loop.
+    pub fn reply(self) -> Option<Reply> {
+        match self {
+            Sent::Applied(reply) => reply,
+            Sent::Queued | Sent::Dropped => None,
+        }
+    }
+}
+
+impl<L: Steppable> Backend<L> {
+    /// `haptic` on its thread (`threaded`; every tick also to `record`) or stepped in place.
+    pub fn start(haptic: L, threaded: bool, record: Option<RecordTx>) -> io::Result<Self> {
+        Ok(if threaded {
+            Backend::Thread(LoopThread::spawn(haptic, record)?)
+        } else {
+            Backend::Stepped(Box::new(haptic))
+        })
+    }
+
+    /// Sends the command to the thread without waiting, or applies it to the stepped loop.
+    pub fn command(&mut self, command: Command<L::Session>) -> Sent {
+        match self {
+            Backend::Thread(t) => {
+                if t.send(command) {
+                    Sent::Queued
+                } else {
+                    Sent::Dropped
+                }
+            }
+            Backend::Stepped(l) => Sent::Applied(l.apply(command)),
+            Backend::Stopped => Sent::Dropped,
+        }
+    }
+
+    /// Runs `n` ticks of a stepped loop (none otherwise); their samples.
+    pub fn step(&mut self, n: usize) -> Vec<Sample> {
+        match self {
+            Backend::Stepped(l) => (0..n).map(|_| l.step_sample()).collect(),
+            Backend::Thread(_) | Backend::Stopped => Vec::new(),
+        }
+    }
+
+    /// What the thread sent since the last call, without waiting: samples and replies
+    /// (nothing for a stepped or stopped loop, whose replies come back at once).
+    pub fn drain(&self) -> (Vec<Sample>, Vec<Reply>) {
+        match self {
+            Backend::Thread(t) => {
+                let mut samples = Vec::new();
+                t.drain_samples(|s| samples.push(s));
+                (samples, t.drain_replies())
+            }
+            Backend::Stepped(_) | Backend::Stopped => (Vec::new(), Vec::new()),
+        }
+    }
+
+    /// The stepped loop (tests).
+    pub fn stepped(&self) -> Option<&L> {
+        match self {
+            Backend::Stepped(l) => Some(l),
+            Backend::Thread(_) | Backend::Stopped => None,
+        }
+    }
+
+    /// The thread's counters, when threaded.
+    pub fn counters(&self) -> Option<&LoopCounters> {
+        match self {
+            Backend::Thread(t) => Some(t.counters()),
+            Backend::Stepped(_) | Backend::Stopped => None,
+        }
+    }
+
+    /// Whether the loop runs on its own thread.
+    pub fn is_threaded(&self) -> bool {
+        matches!(self, Backend::Thread(_))
+    }
+
+    /// Whether the loop is running: its thread is alive, or it is stepped in place.
+    pub fn is_running(&self) -> bool {
+        match self {
+            Backend::Thread(t) => t.is_running(),
+            Backend::Stepped(_) => true,
+            Backend::Stopped => false,
+        }
+    }
+
+    /// Stops the loop (joins its thread; the recorder's input closes with it).
+    pub fn stop(&mut self) {
+        *self = Backend::Stopped;
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -779,7 +941,7 @@ mod tests {
         let session = Session::new(thesis_2d()).expect("session");
         let haptic = HapticLoop::new(session, START_HIP).expect("loop");
         let thread = LoopThread::spawn(haptic, None).expect("spawn");
-        assert!(thread.send(Command::HandTarget(Vec2::new(0.0, 0.105))));
+        assert!(thread.send(Command::HandTarget(Vec3::new(0.0, 0.105, 0.0))));
         let bad = FrictionMaterial {
             mu_dynamic: 0.9,
             ..FrictionMaterial::default()
@@ -811,5 +973,29 @@ mod tests {
         assert!(thread.is_running());
         assert!(thread.counters().ticks.load(Ordering::Relaxed) >= 50);
         drop(thread);
+    }
+
+    /// A stepped backend applies a command at once and answers it, a command the loop does
+    /// not support included (nothing changes); a stopped one drops commands and runs no tick.
+    #[test]
+    fn a_stepped_backend_answers_every_command() {
+        let session = Session::new(thesis_2d()).expect("session");
+        let haptic = HapticLoop::new(session, START_HIP).expect("loop");
+        let mut backend = Backend::start(haptic, false, None).expect("start");
+        assert!(!backend.is_threaded() && backend.is_running());
+        let sent = backend.command(Command::Mesh(None));
+        assert!(matches!(
+            sent,
+            Sent::Applied(Some(Reply::Unsupported("a mesh")))
+        ));
+        let sent = backend.command(Command::HandTarget(Vec3::new(0.0, 0.105, 0.5)));
+        assert!(matches!(sent, Sent::Applied(None)));
+        assert_eq!(backend.step(3).len(), 3);
+        assert_eq!(backend.stepped().map(HapticLoop::ticks), Some(3));
+        assert!(backend.counters().is_none());
+        backend.stop();
+        assert!(!backend.is_running());
+        assert!(!backend.command(Command::ClearFaults).taken());
+        assert!(backend.step(1).is_empty());
     }
 }

@@ -5,16 +5,17 @@
 //! polygonal baseline of the thesis (§2.1.3, Fig. 2.1.2 (b)): the closest triangle of a
 //! [`TriMesh`] and the penalty `K·depth` along its face normal, without friction.
 //!
-//! The loop runs on the thread of [`crate::haptic::LoopThread`] (it is a
-//! [`Steppable`]); its commands are [`Command3d`], its replies and samples those of the planar
-//! loop ([`Reply`], [`Sample`]). Tests step a [`SpatialLoop`] directly.
+//! The loop runs on the thread of [`crate::haptic::LoopThread`], or stepped in place, through
+//! the same [`crate::haptic::Backend`] as the planar loop (it is a [`Steppable`]); its
+//! commands, replies and samples are the planar loop's ([`Command`], [`Reply`], [`Sample`]),
+//! swapping in a [`SpatialSession`]. Tests step a [`SpatialLoop`] directly.
 
 use friction::{FrictionMaterial, FrictionRenderer, Mode};
 use nurbs::{Vec2, Vec3};
 use tracker::{Contact, Feature, Penalty, Shell, TriMesh};
 
 use crate::haptic::{
-    LoopThread, MAX_HAND_SPEED_M_PER_S, MaterialChangeError, RATE_HZ, Reply, Sample, Steppable,
+    Command, MAX_HAND_SPEED_M_PER_S, MaterialChangeError, RATE_HZ, Reply, Sample, Steppable,
 };
 use crate::sim::SimError;
 use crate::tick::{self, Tick};
@@ -431,51 +432,32 @@ fn free_tick(t_s: f64, hip: Vec3, hip_velocity: Vec3) -> Tick {
     }
 }
 
-/// What the UI asks of the spatial loop.
-#[derive(Debug)]
-pub enum Command3d {
-    /// Move the hand (m).
-    HandTarget(Vec3),
-    /// Render this mesh instead of the NURBS object, or the NURBS object again (`None`).
-    Mesh(Option<Box<TriMesh>>),
-    /// Set the material ([`SpatialLoop::set_material`]).
-    SetMaterial(FrictionMaterial),
-    /// Render another object ([`SpatialLoop::swap`]), built by the UI.
-    Swap(Box<SpatialSession>),
-    /// Enable or disable the forces.
-    Forces(bool),
-}
-
-/// Applies one command to `spatial`; the reply, if it has one: [`Reply::Swapped`] once a
-/// mesh or a session took effect (a mesh the loop refuses gets none; the UI checks meshes with
-/// [`check_mesh`] before sending them).
-pub fn apply(spatial: &mut SpatialLoop, command: Command3d) -> Option<Reply> {
-    match command {
-        Command3d::HandTarget(t) => {
-            spatial.set_hand_target(t);
-            None
-        }
-        Command3d::Mesh(mesh) => spatial
-            .set_mesh(mesh.map(|m| *m))
-            .is_ok()
-            .then_some(Reply::Swapped),
-        Command3d::SetMaterial(m) => Some(Reply::Material(spatial.set_material(m))),
-        Command3d::Swap(session) => {
-            spatial.swap(*session);
-            Some(Reply::Swapped)
-        }
-        Command3d::Forces(on) => {
-            spatial.set_forces_enabled(on);
-            None
-        }
-    }
-}
-
 impl Steppable for SpatialLoop {
-    type Command = Command3d;
+    type Session = SpatialSession;
 
-    fn apply(&mut self, command: Command3d) -> Option<Reply> {
-        apply(self, command)
+    /// Every command: the hand, the material, a session, a mesh ([`Reply::Mesh`]: refused when
+    /// [`check_mesh`] refuses it, the UI checks before sending), the forces; clearing faults
+    /// answers that none are latched (the spatial hand has no safety layer); calibrating is
+    /// [`Reply::Unsupported`] (there is no arm).
+    fn apply(&mut self, command: Command<SpatialSession>) -> Option<Reply> {
+        match command {
+            Command::HandTarget(t) => {
+                self.set_hand_target(t);
+                None
+            }
+            Command::SetMaterial(m) => Some(Reply::Material(self.set_material(m))),
+            Command::Swap(session) => {
+                self.swap(*session);
+                Some(Reply::Swapped)
+            }
+            Command::Mesh(mesh) => Some(Reply::Mesh(self.set_mesh(mesh.map(|m| *m)))),
+            Command::Forces(on) => {
+                self.set_forces_enabled(on);
+                None
+            }
+            Command::ClearFaults => Some(Reply::FaultsCleared(device::safety::Faults::empty())),
+            Command::Calibrate => Some(Reply::Unsupported(command.name())),
+        }
     }
 
     /// The sample's `hand_target` is the hand's command projected on the plane (x, y); the
@@ -488,75 +470,6 @@ impl Steppable for SpatialLoop {
             hand_target: Vec2::new(c.x, c.y),
             period_us: None,
             forces_enabled: self.forces_enabled,
-        }
-    }
-}
-
-/// How the spatial loop runs: on its own thread, or stepped in place (tests).
-#[derive(Debug)]
-pub enum SpatialBackend {
-    /// On its own thread in real time.
-    Thread(LoopThread<Command3d>),
-    /// Here, one tick per [`SpatialBackend::step`].
-    Stepped(Box<SpatialLoop>),
-}
-
-impl SpatialBackend {
-    /// `spatial` on its thread (`threaded`, ticks also to `record`) or stepped in place.
-    pub fn start(
-        spatial: SpatialLoop,
-        threaded: bool,
-        record: Option<crate::runlog::RecordTx>,
-    ) -> std::io::Result<Self> {
-        Ok(if threaded {
-            SpatialBackend::Thread(LoopThread::spawn(spatial, record)?)
-        } else {
-            SpatialBackend::Stepped(Box::new(spatial))
-        })
-    }
-
-    /// Sends (or, stepped, applies) a command; false when a full channel dropped it. The
-    /// reply of a stepped loop comes back at once.
-    pub fn command(&mut self, command: Command3d) -> (bool, Option<Reply>) {
-        match self {
-            SpatialBackend::Thread(t) => (t.send(command), None),
-            SpatialBackend::Stepped(s) => (true, apply(s, command)),
-        }
-    }
-
-    /// Runs `n` ticks of a stepped loop (none for a threaded one); their samples.
-    pub fn step(&mut self, n: usize) -> Vec<Sample> {
-        match self {
-            SpatialBackend::Thread(_) => Vec::new(),
-            SpatialBackend::Stepped(s) => (0..n).map(|_| s.step_sample()).collect(),
-        }
-    }
-
-    /// What a threaded loop sent since the last call: samples and replies.
-    pub fn drain(&self) -> (Vec<Sample>, Vec<Reply>) {
-        match self {
-            SpatialBackend::Thread(t) => {
-                let mut samples = Vec::new();
-                t.drain_samples(|s| samples.push(s));
-                (samples, t.drain_replies())
-            }
-            SpatialBackend::Stepped(_) => (Vec::new(), Vec::new()),
-        }
-    }
-
-    /// The stepped loop, for tests.
-    pub fn stepped(&self) -> Option<&SpatialLoop> {
-        match self {
-            SpatialBackend::Thread(_) => None,
-            SpatialBackend::Stepped(s) => Some(s),
-        }
-    }
-
-    /// The thread's counters, when threaded.
-    pub fn counters(&self) -> Option<&crate::haptic::LoopCounters> {
-        match self {
-            SpatialBackend::Thread(t) => Some(t.counters()),
-            SpatialBackend::Stepped(_) => None,
         }
     }
 }
@@ -674,13 +587,14 @@ mod tests {
         let scene = floor();
         let start = start_hip(control_points(&scene, 0));
         let session = SpatialSession::nurbs(scene, 0, start).expect("session");
-        let thread = LoopThread::spawn(SpatialLoop::new(session, start), None).expect("spawn");
+        let thread = crate::haptic::LoopThread::spawn(SpatialLoop::new(session, start), None)
+            .expect("spawn");
         let softer = FrictionMaterial {
             stiffness_n_per_m: 500.0,
             ..FrictionMaterial::default()
         };
-        assert!(thread.send(Command3d::SetMaterial(softer)));
-        assert!(thread.send(Command3d::HandTarget(Vec3::new(start.x, start.y, -0.002))));
+        assert!(thread.send(Command::SetMaterial(softer)));
+        assert!(thread.send(Command::HandTarget(Vec3::new(start.x, start.y, -0.002))));
         let waited = Instant::now();
         let (mut last, mut replies) = (None, Vec::new());
         while waited.elapsed() < Duration::from_secs(10) {
@@ -725,5 +639,36 @@ mod tests {
             }
         );
         assert!(!spatial.renders_mesh());
+    }
+
+    /// Through the app's backend, stepped: clearing faults answers that none are latched,
+    /// calibrating is unsupported (no arm), a mesh too big for a tick is refused by its reply
+    /// and the NURBS object stays.
+    #[test]
+    fn the_spatial_loop_answers_every_command() {
+        use crate::haptic::{Backend, Sent};
+        use device::safety::Faults;
+        let scene = floor();
+        let start = start_hip(control_points(&scene, 0));
+        let session = SpatialSession::nurbs(scene, 0, start).expect("session");
+        let mut backend =
+            Backend::start(SpatialLoop::new(session, start), false, None).expect("start");
+        let sent = backend.command(Command::ClearFaults);
+        assert!(
+            matches!(sent, Sent::Applied(Some(Reply::FaultsCleared(f))) if f == Faults::empty())
+        );
+        let sent = backend.command(Command::Calibrate);
+        assert!(matches!(
+            sent,
+            Sent::Applied(Some(Reply::Unsupported("the calibration")))
+        ));
+        let empty = TriMesh::from_triangles(Vec::new(), Vec::new(), &[]);
+        let sent = backend.command(Command::Mesh(Some(Box::new(empty))));
+        assert!(matches!(
+            sent,
+            Sent::Applied(Some(Reply::Mesh(Err(MeshError::Empty))))
+        ));
+        assert!(backend.stepped().is_some_and(|s| !s.renders_mesh()));
+        assert_eq!(backend.step(2).len(), 2);
     }
 }

@@ -198,7 +198,7 @@ impl Host {
     fn turn(&mut self, ends: &LoopEnds) -> Result<(), String> {
         loop {
             match ends.commands.try_recv() {
-                Ok(c) => self.command(c).map_err(|e| self.lost(&e))?,
+                Ok(c) => self.command(ends, c).map_err(|e| self.lost(&e))?,
                 Err(TryRecvError::Empty) => break,
                 Err(TryRecvError::Disconnected) => return Err("the app closed".into()),
             }
@@ -308,9 +308,9 @@ impl Host {
         format!("{}: {e}", self.device)
     }
 
-    fn command(&mut self, command: Command) -> Result<(), LinkError> {
+    fn command(&mut self, ends: &LoopEnds, command: Command) -> Result<(), LinkError> {
         match command {
-            Command::HandTarget(t) => self.hand_command = Some(t),
+            Command::HandTarget(t) => self.hand_command = Some(Vec2::new(t.x, t.y)),
             Command::SetMaterial(m) => self.request(
                 Message::SetMaterial {
                     object: 0,
@@ -350,6 +350,8 @@ impl Host {
                 Purpose::ClearFaults,
             ),
             Command::Calibrate => self.request(Message::Calibrate, Purpose::Calibrate),
+            // The device renders NURBS objects through the protocol; a mesh is the app's.
+            Command::Mesh(_) => ends.reply(Reply::Unsupported(command.name())),
         }
         Ok(())
     }

@@ -834,6 +834,9 @@ pub fn status_bar_ui(ui: &mut egui::Ui, state: &mut AppState, recording: Option<
         if let Some(e) = state.arm_error() {
             ui.colored_label(Color32::from_rgb(190, 30, 30), e);
         }
+        if let Some(e) = &state.loop_refused {
+            ui.colored_label(Color32::from_rgb(190, 30, 30), e);
+        }
     });
 }
 

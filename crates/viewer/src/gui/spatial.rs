@@ -9,8 +9,8 @@ use nurbs::Vec3;
 use tracker::TriMesh;
 
 use super::view3d::Scene3d;
-use host::haptic::{Reply, Sample};
-use host::haptic3d::{self, Command3d, SpatialBackend, SpatialLoop, SpatialSession, check_mesh};
+use host::haptic::{Backend, Command, Reply, Sample};
+use host::haptic3d::{self, SpatialLoop, SpatialSession, check_mesh};
 use host::runlog::RecordTx;
 use scene::mesh::{self, ObjMesh};
 use scene::{Scene, Space, tessellate_object};
@@ -22,7 +22,7 @@ pub const DEFAULT_TOLERANCE_M: f32 = 1e-3;
 #[derive(Debug)]
 pub struct SpatialState {
     /// The spatial hand's loop; `None` when the scene has nothing to feel (only curves).
-    backend: Option<SpatialBackend>,
+    backend: Option<Backend<SpatialLoop>>,
     /// The NURBS scene and the index of the object felt (none for an opened mesh).
     source: Option<(Scene, usize)>,
     /// The material the loop was last given.
@@ -65,10 +65,7 @@ impl SpatialState {
                 let start = haptic3d::start_hip(haptic3d::control_points(scene, i));
                 let session = SpatialSession::nurbs(scene.clone(), i, start)?;
                 let spatial = SpatialLoop::new(session, start);
-                (
-                    Some(SpatialBackend::start(spatial, threaded, record)?),
-                    start,
-                )
+                (Some(Backend::start(spatial, threaded, record)?), start)
             }
             None => (None, haptic3d::start_hip(view_corners(&view))),
         };
@@ -108,7 +105,7 @@ impl SpatialState {
             .set_mesh(Some(obj.mesh))
             .map_err(|e| anyhow::anyhow!("{label}: {e}"))?;
         Ok(SpatialState {
-            backend: Some(SpatialBackend::start(spatial, threaded, record)?),
+            backend: Some(Backend::start(spatial, threaded, record)?),
             material,
             source: None,
             view,
@@ -149,31 +146,30 @@ impl SpatialState {
         self.backend.is_some()
     }
 
-    fn command(&mut self, command: Command3d) -> Option<Reply> {
-        let backend = self.backend.as_mut()?;
-        let (sent, reply) = backend.command(command);
-        if !sent {
+    fn command(&mut self, command: Command<SpatialSession>) -> Option<Reply> {
+        let sent = self.backend.as_mut()?.command(command);
+        if !sent.taken() {
             self.message = Some("the spatial loop's queue is full: command dropped".into());
         }
-        reply
+        sent.reply()
     }
 
     /// Moves the hand (m); non-finite targets are ignored.
     pub fn set_target(&mut self, target: Vec3) {
         if target.is_finite() {
             self.target = target;
-            self.command(Command3d::HandTarget(target));
+            self.command(Command::HandTarget(target));
         }
     }
 
     /// Enables or disables the forces.
     pub fn set_forces(&mut self, on: bool) {
-        self.command(Command3d::Forces(on));
+        self.command(Command::Forces(on));
     }
 
     /// Sets the material (validated by the loop); the reply, for a stepped loop.
     pub fn set_material(&mut self, material: FrictionMaterial) -> Option<Reply> {
-        let reply = self.command(Command3d::SetMaterial(material));
+        let reply = self.command(Command::SetMaterial(material));
         if let Some(Reply::Material(Ok(m))) = &reply {
             self.material = *m;
         }
@@ -198,7 +194,7 @@ impl SpatialState {
             self.mesh_triangles = None;
             self.view.set_faceted(None);
             self.message = None;
-            self.command(Command3d::Mesh(None));
+            self.command(Command::Mesh(None));
             return;
         }
         let Some(mesh) = self.tessellation() else {
@@ -212,7 +208,7 @@ impl SpatialState {
         self.render_mesh = true;
         self.mesh_triangles = Some(mesh.triangles().len());
         self.message = None;
-        self.command(Command3d::Mesh(Some(Box::new(mesh))));
+        self.command(Command::Mesh(Some(Box::new(mesh))));
     }
 
     /// Sets the chordal tolerance (m, clamped to 0.01–10 mm); a mesh being felt is
@@ -263,12 +259,12 @@ impl SpatialState {
     pub fn drain(&self) -> (Vec<Sample>, Vec<Reply>) {
         self.backend
             .as_ref()
-            .map_or_else(|| (Vec::new(), Vec::new()), SpatialBackend::drain)
+            .map_or_else(|| (Vec::new(), Vec::new()), Backend::drain)
     }
 
     /// The loop, when stepped (tests).
     pub fn stepped(&self) -> Option<&SpatialLoop> {
-        self.backend.as_ref().and_then(SpatialBackend::stepped)
+        self.backend.as_ref().and_then(Backend::stepped)
     }
 
     /// Samples and commands the spatial loop's channels dropped.
@@ -276,7 +272,7 @@ impl SpatialState {
         use std::sync::atomic::Ordering;
         self.backend
             .as_ref()
-            .and_then(SpatialBackend::counters)
+            .and_then(Backend::counters)
             .map_or((0, 0), |c| {
                 (
                     c.dropped_samples.load(Ordering::Relaxed),

@@ -18,8 +18,8 @@ use super::replay::Replay;
 use super::spatial::SpatialState;
 use host::devices::{self, Target};
 use host::haptic::{
-    self, Command, HapticLoop, LinkEvent, LoopThread, MaterialChangeError, Reply, START_HIP,
-    Sample, Session,
+    self, Backend, Command, HapticLoop, LinkEvent, MaterialChangeError, Reply, START_HIP, Sample,
+    Session,
 };
 use host::runlog::RecordTx;
 use scene::bundled::BUNDLED;
@@ -287,17 +287,6 @@ pub struct Switch {
     pub cause: SwitchCause,
 }
 
-/// How the loop runs.
-#[derive(Debug)]
-enum Backend {
-    /// On its own thread in real time.
-    Thread(LoopThread),
-    /// Here, one tick per [`AppState::step`] (tests: no thread, no clock).
-    Stepped(Box<HapticLoop>),
-    /// Stopped ([`AppState::shutdown`]).
-    Stopped,
-}
-
 /// Which device the app drives.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub enum DeviceChoice {
@@ -354,7 +343,10 @@ struct PendingScene {
 /// The whole state of the app.
 #[derive(Debug)]
 pub struct AppState {
-    backend: Backend,
+    /// The planar loop: on its thread (the simulator, or the host of a device behind a link),
+    /// stepped in place (tests: one tick per [`AppState::step`]), or stopped
+    /// ([`AppState::shutdown`]).
+    backend: Backend<HapticLoop>,
     /// The device the app drives.
     pub device: DeviceChoice,
     /// The link to it (default for the simulated one).
@@ -407,6 +399,9 @@ pub struct AppState {
     pub faults_after_clear: Option<Faults>,
     /// Samples received in all.
     pub received: u64,
+    /// A command the loop answered it does not support ([`Reply::Unsupported`]); the app
+    /// sends none, so this shows a bug.
+    pub loop_refused: Option<String>,
     /// Editing in the 2-D view: selection, drag, undo history.
     pub edit: EditState,
     /// The 3-D view and the spatial hand, for a scene without planar objects (or an opened
@@ -440,11 +435,7 @@ impl AppState {
         let running_material = haptic
             .material()
             .or_else(|| spatial.as_ref().and_then(SpatialState::material));
-        let backend = if threaded {
-            Backend::Thread(LoopThread::spawn(haptic, record.clone())?)
-        } else {
-            Backend::Stepped(Box::new(haptic))
-        };
+        let backend = Backend::start(haptic, threaded, record.clone())?;
         Ok(AppState {
             backend,
             device: DeviceChoice::Simulated,
@@ -473,6 +464,7 @@ impl AppState {
             forces_requested: true,
             faults_after_clear: None,
             received: 0,
+            loop_refused: None,
             edit: EditState::default(),
             spatial,
         })
@@ -490,20 +482,18 @@ impl AppState {
 
     /// Whether the loop runs on its own thread (real time).
     pub fn is_threaded(&self) -> bool {
-        matches!(self.backend, Backend::Thread(_))
+        self.backend.is_threaded()
     }
 
+    /// Gives `command` to the planar loop (a stepped loop's reply is taken in at once);
+    /// false when it was dropped.
     pub(super) fn command(&mut self, command: Command) -> bool {
-        match &mut self.backend {
-            Backend::Thread(t) => t.send(command),
-            Backend::Stepped(h) => {
-                if let Some(reply) = haptic::apply(h, command) {
-                    self.on_reply(reply);
-                }
-                true
-            }
-            Backend::Stopped => false,
+        let sent = self.backend.command(command);
+        let taken = sent.taken();
+        if let Some(reply) = sent.reply() {
+            self.on_reply(reply);
         }
+        taken
     }
 
     /// Runs `n` ticks of a stepped loop (nothing for a threaded one), then takes in their
@@ -515,30 +505,14 @@ impl AppState {
             }
             return;
         }
-        let mut samples = Vec::new();
-        if let Backend::Stepped(h) = &mut self.backend {
-            for _ in 0..n {
-                let tick = h.step();
-                samples.push(Sample {
-                    tick,
-                    hand_target: h.hand_target(),
-                    period_us: None,
-                    forces_enabled: h.forces_enabled(),
-                });
-            }
-        }
-        for s in samples {
+        for s in self.backend.step(n) {
             self.take(s);
         }
     }
 
     /// Takes in what the loop sent since the last call (never waits).
     pub fn poll(&mut self) {
-        let (mut samples, mut replies) = (Vec::new(), Vec::new());
-        if let Backend::Thread(t) = &self.backend {
-            t.drain_samples(|s| samples.push(s));
-            replies = t.drain_replies();
-        }
+        let (mut samples, mut replies) = self.backend.drain();
         if let Some(spatial) = &self.spatial {
             // The planar loop renders nothing meanwhile: its ticks are not shown.
             let (spatial_samples, spatial_replies) = spatial.drain();
@@ -608,6 +582,15 @@ impl AppState {
                 }
             }
             Reply::FaultsCleared(f) => self.faults_after_clear = Some(f),
+            Reply::Mesh(Ok(())) => {}
+            Reply::Mesh(Err(e)) => {
+                if let Some(spatial) = &mut self.spatial {
+                    spatial.message = Some(format!("{e}; the hand still feels the NURBS surface"));
+                }
+            }
+            Reply::Unsupported(what) => {
+                self.loop_refused = Some(format!("the haptic loop does not support {what}"));
+            }
             Reply::Link(event) => self.on_link(event),
         }
     }
@@ -678,12 +661,13 @@ impl AppState {
     ) {
         match host::remote::spawn(device.clone(), open, setup, self.record.clone()) {
             Ok(thread) => {
+                // The device's host takes the planar loop's commands: the same backend.
                 self.backend = Backend::Thread(thread);
                 self.device = DeviceChoice::Linked(device);
                 self.link = LinkState::default();
                 self.forces_requested = setup;
                 // The virtual hand of a simulated plant goes where the app's hand is.
-                self.command(Command::HandTarget(self.hand_target));
+                self.command(Command::HandTarget(self.hand_target.extend(0.0)));
                 self.history.clear();
                 self.recent_periods.clear();
                 self.jitter = JitterStats::default();
@@ -700,10 +684,10 @@ impl AppState {
         let rebuilt = Session::new(self.scene.model.clone())
             .map_err(anyhow::Error::from)
             .and_then(|s| Ok(HapticLoop::new(s, START_HIP)?))
-            .and_then(|h| Ok(LoopThread::spawn(h, self.record.clone())?));
+            .and_then(|h| Ok(Backend::start(h, true, self.record.clone())?));
         match rebuilt {
-            Ok(thread) => {
-                self.backend = Backend::Thread(thread);
+            Ok(backend) => {
+                self.backend = backend;
                 self.device = DeviceChoice::Simulated;
                 self.link = LinkState::default();
                 self.forces_requested = true;
@@ -730,15 +714,12 @@ impl AppState {
     /// The link's quality: frames lost and corrupt on the way, and the newest heartbeat's
     /// round trip (µs); `None` for the simulator in the app.
     pub fn link_quality(&self) -> Option<(u64, u64, u64)> {
-        match (&self.device, &self.backend) {
-            (DeviceChoice::Linked(_), Backend::Thread(t)) => {
-                let c = t.counters();
-                Some((
-                    c.link_lost_frames.load(Ordering::Relaxed),
-                    c.link_bad_frames.load(Ordering::Relaxed),
-                    c.link_rtt_us.load(Ordering::Relaxed),
-                ))
-            }
+        match (&self.device, self.backend.counters()) {
+            (DeviceChoice::Linked(_), Some(c)) => Some((
+                c.link_lost_frames.load(Ordering::Relaxed),
+                c.link_bad_frames.load(Ordering::Relaxed),
+                c.link_rtt_us.load(Ordering::Relaxed),
+            )),
             _ => None,
         }
     }
@@ -746,8 +727,8 @@ impl AppState {
     /// The CRC-32 of the scene the device has active: the simulator's own receiver's in the
     /// app, the newest status's for a device behind a link; `None` before there is one.
     pub fn device_scene_crc32(&self) -> Option<u32> {
-        match (&self.device, &self.backend) {
-            (DeviceChoice::Simulated, Backend::Stepped(h)) => h.session().scene_crc32(),
+        match (&self.device, self.backend.stepped()) {
+            (DeviceChoice::Simulated, Some(h)) => h.session().scene_crc32(),
             (DeviceChoice::Linked(_), _) => self.link.status.map(|s| s.scene_crc32),
             // The threaded simulator's session lives on its thread; the scene it took is
             // the one shown.
@@ -836,7 +817,7 @@ impl AppState {
             return false;
         }
         self.hand_target = target;
-        self.command(Command::HandTarget(target))
+        self.command(Command::HandTarget(target.extend(0.0)))
     }
 
     /// Applies the material editor's values: validated field by field here (the message names
@@ -979,10 +960,11 @@ impl AppState {
             edited,
             spatial,
         };
-        match &self.backend {
+        if self.backend.stepped().is_some() {
             // A stepped loop has already answered (in `command`).
-            Backend::Stepped(_) => self.show_scene(pending),
-            Backend::Thread(_) | Backend::Stopped => self.pending = Some(pending),
+            self.show_scene(pending);
+        } else {
+            self.pending = Some(pending);
         }
         Ok(())
     }
@@ -1152,43 +1134,34 @@ impl AppState {
     /// Samples the UI channel dropped, commands dropped, and ticks the recorder dropped.
     pub fn dropped(&self) -> (u64, u64, u64) {
         let (samples, commands) = self.spatial.as_ref().map_or((0, 0), SpatialState::dropped);
-        let (s, c, r) = match &self.backend {
-            Backend::Thread(t) => {
-                let c = t.counters();
-                (
-                    c.dropped_samples.load(Ordering::Relaxed),
-                    c.dropped_commands.load(Ordering::Relaxed),
-                    c.dropped_records.load(Ordering::Relaxed),
-                )
-            }
-            Backend::Stepped(_) | Backend::Stopped => (0, 0, 0),
-        };
+        let (s, c, r) = self.backend.counters().map_or((0, 0, 0), |c| {
+            (
+                c.dropped_samples.load(Ordering::Relaxed),
+                c.dropped_commands.load(Ordering::Relaxed),
+                c.dropped_records.load(Ordering::Relaxed),
+            )
+        });
         (s + samples, c + commands, r)
     }
 
     /// Why the arm could not move on some tick, if that happened (stepped loops only).
     pub fn arm_error(&self) -> Option<String> {
-        match &self.backend {
-            Backend::Stepped(h) => h.last_error().map(str::to_owned),
-            Backend::Thread(_) | Backend::Stopped => None,
-        }
+        self.backend
+            .stepped()
+            .and_then(HapticLoop::last_error)
+            .map(str::to_owned)
     }
 
     /// Whether the loop thread runs with real-time scheduling.
     pub fn loop_realtime(&self) -> bool {
-        match &self.backend {
-            Backend::Thread(t) => t.counters().realtime.load(Ordering::Relaxed),
-            Backend::Stepped(_) | Backend::Stopped => false,
-        }
+        self.backend
+            .counters()
+            .is_some_and(|c| c.realtime.load(Ordering::Relaxed))
     }
 
     /// Whether the loop thread is running (always true for a stepped loop).
     pub fn loop_running(&self) -> bool {
-        match &self.backend {
-            Backend::Thread(t) => t.is_running(),
-            Backend::Stepped(_) => true,
-            Backend::Stopped => false,
-        }
+        self.backend.is_running()
     }
 
     /// The recorder's input for the spatial hand (its ticks go to the 3-D run log).
@@ -1198,7 +1171,7 @@ impl AppState {
 
     /// Stops the loop (joins its thread); the recorder's input closes with it.
     pub fn shutdown(&mut self) {
-        self.backend = Backend::Stopped;
+        self.backend.stop();
         self.record = None;
         self.spatial = None;
     }
