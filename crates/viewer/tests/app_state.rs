@@ -31,11 +31,11 @@ fn another_object_of_the_scene_can_be_rendered() {
     assert_eq!(state.scene.rendered, Some(1));
     assert_eq!(state.felt_object(), Some(1));
     assert_eq!(state.running_material, Some(material(&state, 1)));
-    assert_eq!(state.scene_error, None);
+    assert_eq!(state.files.error, None);
 
     state.render_object(2);
     state.step(1);
-    assert_eq!(state.scene_error, None);
+    assert_eq!(state.files.error, None);
     assert_eq!(state.scene.rendered, None, "the planar device idles");
     assert_eq!(state.felt_object(), Some(2));
     assert!(state.spatial.as_ref().is_some_and(|s| s.has_loop()));
@@ -74,18 +74,18 @@ fn go(state: &mut AppState, to: nurbs::Vec3) {
 #[test]
 fn the_model_and_the_stribeck_shape_are_editable() {
     let mut state = AppState::stepped("thesis-2d").unwrap_or_else(|e| panic!("{e:#}"));
-    state.edited_material.model = ModelKind::Karnopp;
-    state.edited_material.viscous_ns_per_m = 0.5;
-    state.edited_material.stribeck = Stribeck::Power { exponent: 3 };
+    state.materials.edited.model = ModelKind::Karnopp;
+    state.materials.edited.viscous_ns_per_m = 0.5;
+    state.materials.edited.stribeck = Stribeck::Power { exponent: 3 };
     state.apply_material();
     state.step(1);
     let running = state.running_material.expect("running");
     assert_eq!(running.model, ModelKind::Karnopp);
     assert_eq!(running.stribeck, Stribeck::Power { exponent: 3 });
     assert_eq!(running.viscous_ns_per_m, 0.5);
-    state.edited_material.stribeck = Stribeck::Power { exponent: 0 };
+    state.materials.edited.stribeck = Stribeck::Power { exponent: 0 };
     state.apply_material();
-    let e = state.material_error.clone().expect("refused");
+    let e = state.materials.error.clone().expect("refused");
     assert!(e.contains("exponent") || e.contains("stribeck"), "{e}");
     assert_eq!(
         state.running_material.map(|m| m.stribeck),

@@ -9,7 +9,7 @@ use egui_kittest::Harness;
 use friction::Mode;
 use nurbs::Vec2;
 use viewer::gui::state::AppState;
-use viewer::gui::{ViewerUi, materials_ui, telemetry_ui, view};
+use viewer::gui::{ViewerUi, view};
 
 /// The right arc of thesis-2d: centre (−0.02, 0.06), radius 0.04, from 0° (at (0.02, 0.06))
 /// to 60° (the apex (0, 0.0946)); the object lies inside the circle.
@@ -158,18 +158,18 @@ fn an_invalid_material_is_refused_and_the_old_one_keeps_running() {
     let mut state = stepped();
     press(&mut state);
     // μ_d above μ_s: refused by the material's own validation, naming the field.
-    state.edited_material.mu_dynamic = 0.9;
+    state.materials.edited.mu_dynamic = 0.9;
     state.apply_material();
-    let e = state.material_error.clone().expect("refused");
+    let e = state.materials.error.clone().expect("refused");
     assert!(
         e.starts_with("material.mu_dynamic: 0.9 is larger than mu_static"),
         "{e}"
     );
     // A stiffness beyond the device: refused by the device's controller, naming the limit.
     state.revert_material();
-    state.edited_material.stiffness_n_per_m = 1e6;
+    state.materials.edited.stiffness_n_per_m = 1e6;
     state.apply_material();
-    let e = state.material_error.clone().expect("refused");
+    let e = state.materials.error.clone().expect("refused");
     assert!(
         e.contains("stiffness 1000000.0 N/m is beyond what this device renders"),
         "{e}"
@@ -188,9 +188,9 @@ fn an_invalid_material_is_refused_and_the_old_one_keeps_running() {
 
     // A valid one takes effect at once: μ_d = 0.3 in the next slip.
     state.revert_material();
-    state.edited_material.mu_dynamic = 0.3;
+    state.materials.edited.mu_dynamic = 0.3;
     state.apply_material();
-    assert_eq!(state.material_error, None);
+    assert_eq!(state.materials.error, None);
     assert_eq!(state.running_material.map(|m| m.mu_dynamic), Some(0.3));
     slide(&mut state, 0.03, 55.0, 30.0, 1000);
     let slips: Vec<f32> = state
@@ -212,7 +212,7 @@ fn an_invalid_scene_leaves_the_running_one_and_surfaces_render_nothing() {
     let mut state = stepped();
     press(&mut state);
     state.open_text("broken", r#"{ "format": "scene/1", "objects": [] }"#);
-    let e = state.scene_error.clone().expect("refused");
+    let e = state.files.error.clone().expect("refused");
     assert!(
         e.starts_with("broken: ") && e.ends_with("the running scene is unchanged"),
         "{e}"
@@ -225,19 +225,19 @@ fn an_invalid_scene_leaves_the_running_one_and_surfaces_render_nothing() {
     // thesis-3d is a surface: the planar device renders nothing, the spatial hand takes
     // over (from free space above the bump), and the material editor edits its material.
     state.open_bundled("thesis-3d");
-    assert_eq!(state.scene_error, None);
+    assert_eq!(state.files.error, None);
     assert!(!state.scene.is_planar());
     state.step(200);
     let k = state.latest().expect("ticks").tick;
     assert_eq!((k.mode, k.force), (Mode::Free, nurbs::Vec3::ZERO), "{k:?}");
     assert_eq!(state.running_material.map(|m| m.mu_dynamic), Some(0.5));
-    state.edited_material.mu_dynamic = 0.1;
+    state.materials.edited.mu_dynamic = 0.1;
     state.apply_material();
-    assert_eq!(state.material_error, None);
+    assert_eq!(state.materials.error, None);
     assert_eq!(state.running_material.map(|m| m.mu_dynamic), Some(0.1));
-    state.edited_material.mu_dynamic = 0.9;
+    state.materials.edited.mu_dynamic = 0.9;
     state.apply_material();
-    assert!(state.material_error.is_some());
+    assert!(state.materials.error.is_some());
     assert_eq!(state.running_material.map(|m| m.mu_dynamic), Some(0.1));
 
     // And back: the arc is felt again from where the hand is.
@@ -303,7 +303,7 @@ fn snapshot_telemetry_after_a_scripted_run() {
     let mut state = stepped();
     press_and_slide(&mut state);
     let mut h = harness([440.0, 820.0], ViewerUi::new(state), |ui, v| {
-        telemetry_ui(ui, &v.state);
+        v.telemetry_ui(ui);
     });
     h.run_steps(2);
     h.snapshot("telemetry_after_scripted_run");
@@ -312,10 +312,10 @@ fn snapshot_telemetry_after_a_scripted_run() {
 #[test]
 fn snapshot_invalid_material_error() {
     let mut state = stepped();
-    state.edited_material.mu_dynamic = 0.9;
+    state.materials.edited.mu_dynamic = 0.9;
     state.apply_material();
     let mut h = harness([300.0, 420.0], ViewerUi::new(state), |ui, v| {
-        materials_ui(ui, &mut v.state);
+        v.materials_ui(ui);
     });
     h.run_steps(2);
     h.snapshot("material_invalid_mu_dynamic");
@@ -330,14 +330,14 @@ fn snapshot_invalid_scene_error() {
         serde_json::from_str(include_str!("../../../scenes/thesis-2d.json")).expect("JSON");
     scene["objects"][0]["patches"][1]["weights"][1] = serde_json::json!(-0.5);
     state.open_text("bent.json", &scene.to_string());
-    let e = state.scene_error.clone().expect("refused");
+    let e = state.files.error.clone().expect("refused");
     assert!(
         e.contains("bent.json") && e.contains("patch 1") && e.contains("weights"),
         "{e}"
     );
     assert_eq!(state.scene.label, "thesis-2d");
     let mut h = harness([1000.0, 80.0], ViewerUi::new(state), |ui, v| {
-        viewer::gui::scenes_ui(ui, &mut v.state);
+        v.scenes_ui(ui);
     });
     h.run_steps(2);
     h.snapshot("scene_invalid_weight");
@@ -516,9 +516,9 @@ fn invalid_edits_leave_the_scene_and_undo_redo_round_trip() {
     assert_eq!(state.edit.history.depth(), (0, 0));
 
     // A material changed in the editor, then three edits.
-    state.edited_material.mu_dynamic = 0.4;
+    state.materials.edited.mu_dynamic = 0.4;
     state.apply_material();
-    assert_eq!(state.material_error, None);
+    assert_eq!(state.materials.error, None);
     assert!(state.set_point_weight(MIDDLE, 2.0));
     let weighted = state.scene.model.clone();
     assert!(state.insert_knot_at_selected());
@@ -650,7 +650,7 @@ fn the_objects_panel_renders_the_bump_in_3d_and_a_curve_in_2d() {
     let mut h = Harness::builder()
         .with_size(egui::Vec2::new(300.0, 600.0))
         .build_ui_state(
-            |ui, v: &mut ViewerUi| viewer::gui::objects_ui(ui, &mut v.state),
+            |ui, v: &mut ViewerUi| v.objects_ui(ui),
             ViewerUi::new(state),
         );
     // Opens the object's header (and closes `close`'s), clicks its button, lets the loop
@@ -669,7 +669,7 @@ fn the_objects_panel_renders_the_bump_in_3d_and_a_curve_in_2d() {
     h.run_steps(2);
     render(&mut h, "2: bump", None);
     let s = &h.state().state;
-    assert_eq!(s.scene_error, None);
+    assert_eq!(s.files.error, None);
     assert!(s.spatial.is_some(), "the 3-D view");
     assert_eq!((s.felt_object(), s.scene.rendered), (Some(2), None));
     render(&mut h, "1: circle", Some("(rendered) 2: bump"));
@@ -853,7 +853,7 @@ fn slide_over_cylinder(state: &mut AppState) -> Vec<Vec3> {
 fn the_mesh_normal_jumps_across_edges_and_the_nurbs_normal_does_not() {
     let mut state = stepped_3d();
     state.open_scene("cylinder", cylinder_scene());
-    assert_eq!(state.scene_error, None);
+    assert_eq!(state.files.error, None);
     // atan2 of sine and cosine: acos near 1 in f32 cannot resolve less than 0.35 mrad.
     let angle = |a: Vec3, b: Vec3| a.cross(b).length().atan2(a.dot(b));
 
@@ -982,7 +982,7 @@ fn obj_export_round_trips_and_lies_on_the_surface() {
     }
     // And the app opens it as a mesh, felt with the baseline.
     state.open_obj(&path);
-    assert_eq!(state.scene_error, None);
+    assert_eq!(state.files.error, None);
     let spatial = state.spatial.as_mut().expect("3-D");
     assert!(spatial.stepped().is_some_and(|s| s.renders_mesh()));
     assert_eq!(spatial.mesh_triangles, Some(mesh.triangles().len()));
@@ -998,7 +998,7 @@ fn obj_export_round_trips_and_lies_on_the_surface() {
     // the idle planar loop holds is not what the user sees).
     let saved = dir.join("saved.json");
     state.save_scene(&saved);
-    let e = state.scene_error.clone().expect("refused");
+    let e = state.files.error.clone().expect("refused");
     assert!(
         e.contains("is a mesh") && e.contains("nothing was written"),
         "{e}"
@@ -1017,7 +1017,7 @@ fn an_invalid_obj_is_refused_naming_the_line() {
     let path = dir.join("bad.obj");
     std::fs::write(&path, "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 7\n").expect("write");
     state.open_obj(&path);
-    let e = state.scene_error.clone().expect("refused");
+    let e = state.files.error.clone().expect("refused");
     assert!(
         e.starts_with(&format!(
             "{}:4: face corner \"7\": vertex 7 does not exist",

@@ -56,7 +56,7 @@ fn scrubbing_shows_the_logged_ticks() {
     let logged: Vec<_> = live.history.iter().map(|s| s.tick).collect();
     let mut state = AppState::stepped("thesis-2d").unwrap_or_else(|e| panic!("{e:#}"));
     state.open_replay(&path);
-    assert_eq!(state.replay_error, None);
+    assert_eq!(state.replay_panel.error, None);
     let (start, end) = state.replay.as_ref().expect("replaying").span();
     assert_eq!((start, end), (logged[0].t_s, logged[logged.len() - 1].t_s));
     for k in [0, 1, 700, 1500, 2999] {
@@ -126,7 +126,7 @@ fn a_bad_run_log_is_refused_and_changes_nothing() {
     state.step(10);
     let before = state.history.len();
     state.open_replay(&bad);
-    let e = state.replay_error.clone().expect("an error");
+    let e = state.replay_panel.error.clone().expect("an error");
     assert!(e.contains("bad.csv") && e.contains("line 4"), "{e}");
     assert!(state.replay.is_none());
     assert_eq!(state.history.len(), before);
@@ -138,12 +138,12 @@ fn a_bad_run_log_is_refused_and_changes_nothing() {
 fn a_saved_scene_opens_again() {
     let dir = Temp::new("save");
     let mut state = AppState::stepped("thesis-2d").unwrap_or_else(|e| panic!("{e:#}"));
-    state.edited_material.stiffness_n_per_m = 800.0;
+    state.materials.edited.stiffness_n_per_m = 800.0;
     state.apply_material();
     state.step(1);
     let path = dir.0.join("saved.json");
     state.save_scene(&path);
-    assert_eq!(state.scene_error, None);
+    assert_eq!(state.files.error, None);
     let saved = Scene::load(&path).unwrap_or_else(|e| panic!("{e}"));
     assert_eq!(saved.objects().len(), state.scene.model.objects().len());
     assert_eq!(
@@ -154,7 +154,7 @@ fn a_saved_scene_opens_again() {
     assert_eq!(saved.objects()[0].patches().len(), 2);
     // An unwritable path is an error naming it; nothing else changes.
     state.save_scene(&dir.0.join("no-such-dir").join("x.json"));
-    let e = state.scene_error.clone().expect("an error");
+    let e = state.files.error.clone().expect("an error");
     assert!(e.contains("no-such-dir"), "{e}");
 }
 
@@ -171,7 +171,7 @@ fn a_3d_log_replays_as_3d() {
     write_log(&live, &path, Space::Spatial);
     let mut state = AppState::stepped("torus").unwrap_or_else(|e| panic!("{e:#}"));
     state.open_replay(&path);
-    assert_eq!(state.replay_error, None);
+    assert_eq!(state.replay_panel.error, None);
     assert_eq!(state.replay.as_ref().map(|r| r.space), Some(Space::Spatial));
     let last = live.history.back().expect("ticks").tick;
     state.seek_replay(last.t_s);

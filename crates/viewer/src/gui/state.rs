@@ -1,6 +1,8 @@
-//! The app's state, apart from the drawing: the haptic loop (on its thread, or stepped in
-//! place for tests), the telemetry history, the scene as drawn, the material editor and the
-//! measurements. Everything the panels show is read from here, and everything they do goes
+//! The app's state, apart from the drawing: what the panels share (the haptic loop's
+//! backend, on its thread or stepped in place for tests; the running scene; the telemetry
+//! history and the measurements; the link to a device; the replay), and the panels that keep
+//! form state ([`super::panels`]: device, scene file, replay, material; the edit panel's
+//! [`EditState`]). Everything the panels show is read from here, and everything they do goes
 //! through its methods, so a test drives the app by calling them, without a window.
 
 use std::collections::VecDeque;
@@ -14,6 +16,7 @@ use friction::{FrictionMaterial, Mode, SwitchCause};
 use nurbs::Vec2;
 
 use super::editing::EditState;
+use super::panels::{DevicePanel, FilePanel, MaterialPanel, ReplayPanel};
 use super::replay::Replay;
 use super::spatial::SpatialState;
 use host::devices::{self, Target};
@@ -311,24 +314,6 @@ pub struct LinkState {
     pub refused: Option<String>,
 }
 
-/// The device panel's fields.
-#[derive(Clone, Debug, PartialEq, Eq)]
-pub struct DeviceForm {
-    /// The emulated board's address (`cargo xtask qemu --serve HOST:PORT`).
-    pub tcp: String,
-    /// A board's serial port.
-    pub serial: String,
-}
-
-impl Default for DeviceForm {
-    fn default() -> Self {
-        DeviceForm {
-            tcp: "127.0.0.1:7878".into(),
-            serial: "/dev/ttyACM0".into(),
-        }
-    }
-}
-
 /// A scene sent to the loop, shown once the loop (or the device) took it.
 #[derive(Debug)]
 struct PendingScene {
@@ -351,18 +336,10 @@ pub struct AppState {
     pub device: DeviceChoice,
     /// The link to it (default for the simulated one).
     pub link: LinkState,
-    /// The device panel's fields.
-    pub device_form: DeviceForm,
     pending: Option<PendingScene>,
     /// The run log being replayed, if one is: the views and plots show it instead of the
     /// live loop.
     pub replay: Option<Replay>,
-    /// Where the scene was last saved, as a message.
-    pub scene_saved: Option<String>,
-    /// Why the last run log could not be replayed.
-    pub replay_error: Option<String>,
-    /// The path typed into the replay field.
-    pub replay_path: String,
     /// The recorder's input, handed to every loop the app starts.
     record: Option<RecordTx>,
     /// The scene being rendered.
@@ -381,14 +358,6 @@ pub struct AppState {
     pub switches: VecDeque<Switch>,
     /// The material the loop renders.
     pub running_material: Option<FrictionMaterial>,
-    /// The material editor's values.
-    pub edited_material: FrictionMaterial,
-    /// Why the edited material was not applied.
-    pub material_error: Option<String>,
-    /// Why the last scene could not be opened.
-    pub scene_error: Option<String>,
-    /// The path typed into the open-scene field.
-    pub scene_path: String,
     /// The hand's target as last set (m).
     pub hand_target: Vec2,
     /// Whether the user is dragging the hand.
@@ -402,7 +371,15 @@ pub struct AppState {
     /// A command the loop answered it does not support ([`Reply::Unsupported`]); the app
     /// sends none, so this shows a bug.
     pub loop_refused: Option<String>,
-    /// Editing in the 2-D view: selection, drag, undo history.
+    /// The device panel: the fields naming a link.
+    pub device_panel: DevicePanel,
+    /// The scene panel: the file path, why the last scene was refused, where it was saved.
+    pub files: FilePanel,
+    /// The replay panel: the run log's path, why the last one could not be replayed.
+    pub replay_panel: ReplayPanel,
+    /// The material panel: the editor's values, why they were refused.
+    pub materials: MaterialPanel,
+    /// The edit panel and the 2-D view's editing: selection, drag, undo history.
     pub edit: EditState,
     /// The 3-D view and the spatial hand, for a scene without planar objects (or an opened
     /// mesh); while it is there the telemetry is the spatial loop's.
@@ -440,12 +417,8 @@ impl AppState {
             backend,
             device: DeviceChoice::Simulated,
             link: LinkState::default(),
-            device_form: DeviceForm::default(),
             pending: None,
             replay: None,
-            replay_error: None,
-            scene_saved: None,
-            replay_path: String::new(),
             record,
             scene: view,
             reach: Reach::of_default_device(),
@@ -455,16 +428,16 @@ impl AppState {
             frames: VecDeque::new(),
             switches: VecDeque::new(),
             running_material,
-            edited_material: running_material.unwrap_or_default(),
-            material_error: None,
-            scene_error: None,
-            scene_path: String::new(),
             hand_target: START_HIP,
             dragging: false,
             forces_requested: true,
             faults_after_clear: None,
             received: 0,
             loop_refused: None,
+            device_panel: DevicePanel::default(),
+            files: FilePanel::default(),
+            replay_panel: ReplayPanel::default(),
+            materials: MaterialPanel::new(running_material),
             edit: EditState::default(),
             spatial,
         })
@@ -573,9 +546,9 @@ impl AppState {
         match reply {
             Reply::Material(Ok(m)) => {
                 self.running_material = Some(m);
-                self.material_error = None;
+                self.materials.error = None;
             }
-            Reply::Material(Err(e)) => self.material_error = Some(e.to_string()),
+            Reply::Material(Err(e)) => self.materials.error = Some(e.to_string()),
             Reply::Swapped => {
                 if let Some(p) = self.pending.take() {
                     self.show_scene(p);
@@ -611,7 +584,7 @@ impl AppState {
                 if what == "the scene upload"
                     && let Some(p) = self.pending.take()
                 {
-                    self.scene_error = Some(format!(
+                    self.files.error = Some(format!(
                         "{}: {message}; the running scene is unchanged",
                         p.view.label
                     ));
@@ -629,14 +602,14 @@ impl AppState {
     fn show_scene(&mut self, p: PendingScene) {
         self.spatial = p.spatial;
         self.scene = p.view;
-        self.scene_error = None;
+        self.files.error = None;
         self.running_material = p.material;
         if p.edited {
             self.edit.keep_valid_selection(&self.scene.model);
         } else {
             self.edit.reset();
-            self.edited_material = p.material.unwrap_or_default();
-            self.material_error = None;
+            self.materials.edited = p.material.unwrap_or_default();
+            self.materials.error = None;
         }
     }
 
@@ -695,7 +668,7 @@ impl AppState {
                 self.recent_periods.clear();
                 self.jitter = JitterStats::default();
             }
-            Err(e) => self.scene_error = Some(format!("cannot restart the simulator: {e}")),
+            Err(e) => self.files.error = Some(format!("cannot restart the simulator: {e}")),
         }
     }
 
@@ -747,15 +720,15 @@ impl AppState {
 
     /// Replays the run log at `path` in the views and plots (the live loop runs on behind
     /// it, unseen); an unreadable or invalid log leaves everything as it was and
-    /// [`AppState::replay_error`] names the line at fault.
+    /// [`ReplayPanel::error`] names the line at fault.
     pub fn open_replay(&mut self, path: &Path) {
         match Replay::open(path) {
             Ok(r) => {
                 self.replay = Some(r);
-                self.replay_error = None;
+                self.replay_panel.error = None;
                 self.refresh_replay();
             }
-            Err(e) => self.replay_error = Some(e.to_string()),
+            Err(e) => self.replay_panel.error = Some(e.to_string()),
         }
     }
 
@@ -771,6 +744,19 @@ impl AppState {
         if let Some(r) = &mut self.replay {
             r.seek(t_s);
             self.refresh_replay();
+        }
+    }
+
+    /// Plays or pauses the replay at `speed` (× real time) and moves its cursor to `cursor_s`
+    /// when that differs from where it is (the replay panel's controls).
+    pub fn steer_replay(&mut self, playing: bool, speed: f64, cursor_s: f64) {
+        let Some(r) = &mut self.replay else {
+            return;
+        };
+        r.playing = playing;
+        r.speed = speed;
+        if r.cursor() != cursor_s {
+            self.seek_replay(cursor_s);
         }
     }
 
@@ -822,11 +808,11 @@ impl AppState {
 
     /// Applies the material editor's values: validated field by field here (the message names
     /// the field), then by the device's controller in the loop. On error the running material
-    /// stays and [`AppState::material_error`] says why.
+    /// stays and [`MaterialPanel::error`] says why.
     pub fn apply_material(&mut self) {
-        let m = self.edited_material;
+        let m = self.materials.edited;
         if let Err(e) = Material::from_friction(m) {
-            self.material_error = Some(MaterialChangeError::Invalid(e).to_string());
+            self.materials.error = Some(MaterialChangeError::Invalid(e).to_string());
             return;
         }
         if let Some(spatial) = self.spatial.as_mut().filter(|s| s.has_loop()) {
@@ -836,11 +822,11 @@ impl AppState {
             return;
         }
         if self.scene.rendered.is_none() {
-            self.material_error = Some(MaterialChangeError::NoObject.to_string());
+            self.materials.error = Some(MaterialChangeError::NoObject.to_string());
             return;
         }
         if !self.command(Command::SetMaterial(m)) {
-            self.material_error =
+            self.materials.error =
                 Some("the haptic loop did not take the material (its queue is full)".into());
         }
     }
@@ -848,16 +834,16 @@ impl AppState {
     /// Resets the editor to the running material.
     pub fn revert_material(&mut self) {
         if let Some(m) = self.running_material {
-            self.edited_material = m;
+            self.materials.edited = m;
         }
-        self.material_error = None;
+        self.materials.error = None;
     }
 
     /// Opens the bundled scene `name`.
     pub fn open_bundled(&mut self, name: &str) {
         match BUNDLED.iter().find(|b| b.name == name) {
             Some(b) => self.open_text(b.name, b.json),
-            None => self.scene_error = Some(format!("no bundled scene {name:?}")),
+            None => self.files.error = Some(format!("no bundled scene {name:?}")),
         }
     }
 
@@ -865,7 +851,7 @@ impl AppState {
     pub fn open_path(&mut self, path: &Path) {
         match Scene::load(path) {
             Ok(scene) => self.open_scene(&path.display().to_string(), scene),
-            Err(e) => self.scene_error = Some(format!("{e}; the running scene is unchanged")),
+            Err(e) => self.files.error = Some(format!("{e}; the running scene is unchanged")),
         }
     }
 
@@ -874,7 +860,7 @@ impl AppState {
         match Scene::from_json_str(json) {
             Ok(scene) => self.open_scene(label, scene),
             Err(e) => {
-                self.scene_error = Some(format!("{label}: {e}; the running scene is unchanged"));
+                self.files.error = Some(format!("{label}: {e}; the running scene is unchanged"));
             }
         }
     }
@@ -896,7 +882,7 @@ impl AppState {
     }
 
     /// Renders `scene` from the next tick when the device accepts it; otherwise the running
-    /// scene stays and [`AppState::scene_error`] says why.
+    /// scene stays and [`FilePanel::error`] says why.
     pub fn open_scene(&mut self, label: &str, scene: Scene) {
         self.open_scene_object(label, scene, None);
     }
@@ -904,7 +890,7 @@ impl AppState {
     /// [`AppState::open_scene`] rendering object `object` (the first planar one when `None`).
     fn open_scene_object(&mut self, label: &str, scene: Scene, object: Option<usize>) {
         if let Err(e) = self.swap(label, scene, object, false) {
-            self.scene_error = Some(e);
+            self.files.error = Some(e);
         }
     }
 
@@ -989,8 +975,8 @@ impl AppState {
             .as_ref()
             .is_some_and(SpatialState::is_opened_mesh)
         {
-            self.scene_saved = None;
-            self.scene_error = Some(format!(
+            self.files.saved = None;
+            self.files.error = Some(format!(
                 "{} is a mesh and scene/1 holds NURBS objects only: nothing was written to {}",
                 self.scene.label,
                 path.display()
@@ -1006,12 +992,12 @@ impl AppState {
         let text = scene.to_json_string();
         match std::fs::write(path, text) {
             Ok(()) => {
-                self.scene_saved = Some(format!("saved {}", path.display()));
-                self.scene_error = None;
+                self.files.saved = Some(format!("saved {}", path.display()));
+                self.files.error = None;
             }
             Err(e) => {
-                self.scene_saved = None;
-                self.scene_error = Some(format!("cannot save {}: {e}", path.display()));
+                self.files.saved = None;
+                self.files.error = Some(format!("cannot save {}: {e}", path.display()));
             }
         }
     }
@@ -1049,7 +1035,7 @@ impl AppState {
                 s
             }
             Err(e) => {
-                self.scene_error = Some(format!("{e:#}; the running scene is unchanged"));
+                self.files.error = Some(format!("{e:#}; the running scene is unchanged"));
                 return;
             }
         };
@@ -1081,10 +1067,10 @@ impl AppState {
             },
         };
         self.running_material = spatial.material();
-        self.edited_material = self.running_material.unwrap_or_default();
+        self.materials.edited = self.running_material.unwrap_or_default();
         self.spatial = Some(spatial);
-        self.scene_error = None;
-        self.material_error = None;
+        self.files.error = None;
+        self.materials.error = None;
     }
 
     /// Clears the latched faults whose condition is gone.
