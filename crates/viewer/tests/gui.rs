@@ -67,7 +67,7 @@ fn stepped() -> AppState {
 /// The modes the telemetry went through, consecutive repeats collapsed.
 fn mode_sequence(state: &AppState) -> Vec<Mode> {
     let mut seq: Vec<Mode> = Vec::new();
-    for s in &state.history {
+    for s in &state.telemetry.history {
         if seq.last() != Some(&s.tick.mode) {
             seq.push(s.tick.mode);
         }
@@ -109,15 +109,16 @@ fn dragging_into_and_along_the_curve_sticks_then_slips() {
         seq,
         [Mode::Free, Mode::Stuck, Mode::Transition, Mode::Slip],
         "{:?}",
-        state.switches
+        state.telemetry.switches
     );
     assert!(
         state
+            .telemetry
             .switches
             .iter()
             .any(|s| s.from == Mode::Stuck && s.to == Mode::Transition),
         "{:?}",
-        state.switches
+        state.telemetry.switches
     );
     // In slip μ = μ_d = 0.5 and the friction lies in its cone, |F_T| <= μ_d F_N (up to the
     // renderer's slack in its cone test, 1e-5 relative, and f32 rounding of the spring). The GO slides only when the spring
@@ -125,6 +126,7 @@ fn dragging_into_and_along_the_curve_sticks_then_slips() {
     // drags at a steady 13 mm/s, so the median load is within 10 % of the cone (the first
     // slip tick, which ends the transition with μ a little above μ_d, is left out).
     let slipping: Vec<_> = state
+        .telemetry
         .history
         .iter()
         .map(|s| s.tick)
@@ -146,6 +148,7 @@ fn dragging_into_and_along_the_curve_sticks_then_slips() {
     // The device's force stays within its 3 N limit and no fault latched.
     assert!(
         state
+            .telemetry
             .history
             .iter()
             .all(|s| s.tick.force.length() <= 3.0 + 1e-4)
@@ -194,6 +197,7 @@ fn an_invalid_material_is_refused_and_the_old_one_keeps_running() {
     assert_eq!(state.running_material.map(|m| m.mu_dynamic), Some(0.3));
     slide(&mut state, 0.03, 55.0, 30.0, 1000);
     let slips: Vec<f32> = state
+        .telemetry
         .history
         .iter()
         .rev()
@@ -373,6 +377,7 @@ fn a_press_far_from_the_handle_moves_the_hand_at_a_bounded_speed() {
     assert_eq!(state.latest().expect("ticks").hand_target, far);
     assert!(state.faults().is_empty(), "{:?}", state.faults());
     let fastest = state
+        .telemetry
         .history
         .iter()
         .map(|s| s.tick.hip_velocity.length())
@@ -783,7 +788,7 @@ fn the_spatial_hand_pressed_d_into_the_bump_feels_k_d() {
     );
     assert!((k.cp - APEX).length() < 1e-6, "{k:?}");
     // Before the hand reached the surface nothing was felt.
-    assert_eq!(state.history[0].tick.mode, Mode::Free);
+    assert_eq!(state.telemetry.history[0].tick.mode, Mode::Free);
 
     // Sliding 10 mm along y stays on the bump (its height there from the closed form) and
     // keeps the force within the friction cone.
@@ -821,7 +826,7 @@ const SLIDE_RAD: f32 = 0.9;
 fn slide_over_cylinder(state: &mut AppState) -> Vec<Vec3> {
     move_hand(state, around(0.0, 0.019), 400);
     state.step(100);
-    let first = state.history.len();
+    let first = state.telemetry.history.len();
     for i in 1..=1000 {
         let a = SLIDE_RAD * i as f32 / 1000.0;
         state
@@ -832,6 +837,7 @@ fn slide_over_cylinder(state: &mut AppState) -> Vec<Vec3> {
         state.step(1);
     }
     state
+        .telemetry
         .history
         .iter()
         .skip(first)

@@ -12,6 +12,7 @@ pub mod panels;
 pub mod replay;
 pub mod spatial;
 pub mod state;
+pub mod telemetry;
 pub mod view;
 pub mod view3d;
 
@@ -297,7 +298,7 @@ impl eframe::App for ViewerApp {
         self.last_frame = Some(begun);
         let ui_ms = begun.elapsed().as_secs_f32() * 1e3;
         if let Some(interval) = interval {
-            self.ui.state.record_frame(interval, ui_ms);
+            self.ui.state.telemetry.record_frame(interval, ui_ms);
             self.intervals.push(interval);
         }
         self.ui_total_ms += f64::from(ui_ms);
@@ -322,7 +323,7 @@ impl eframe::App for ViewerApp {
                 [((intervals.len() as f32 * 0.95).ceil() as usize).clamp(1, intervals.len()) - 1];
             (mean, p95)
         });
-        let j = &self.ui.state.jitter;
+        let j = &self.ui.state.telemetry.jitter;
         let tick_us = j.mean_period_us().map(|mean| {
             (
                 mean,
@@ -337,7 +338,7 @@ impl eframe::App for ViewerApp {
             realtime: self.ui.state.loop_realtime(),
             tick_us,
             dropped: self.ui.state.dropped().0,
-            received: self.ui.state.received,
+            received: self.ui.state.telemetry.received,
         };
         if let Ok(mut s) = self.summary.lock() {
             *s = summary;

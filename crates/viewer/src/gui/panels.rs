@@ -689,6 +689,7 @@ impl TelemetryPanel {
             ui.end_row();
         });
         let switches: Vec<String> = state
+            .telemetry
             .switches
             .iter()
             .rev()
@@ -711,9 +712,10 @@ impl TelemetryPanel {
         }
 
         let t_now = k.t_s;
-        let step = (state.history.len() / PLOT_POINTS).max(1);
+        let step = (state.telemetry.history.len() / PLOT_POINTS).max(1);
         let series = |f: &dyn Fn(&AppState, usize) -> f64| -> PlotPoints<'static> {
             state
+                .telemetry
                 .history
                 .iter()
                 .enumerate()
@@ -721,7 +723,7 @@ impl TelemetryPanel {
                 .map(|(i, s)| [s.tick.t_s - t_now, f(state, i)])
                 .collect()
         };
-        let at = |st: &AppState, i: usize| st.history[i].tick;
+        let at = |st: &AppState, i: usize| st.telemetry.history[i].tick;
         let link = egui::Id::unique("telemetry-time");
         let plot = |name: &str, height: f32| {
             Plot::new(name.to_owned())
@@ -784,6 +786,7 @@ impl TelemetryPanel {
         if state.is_threaded() {
             plot("period", 80.0).include_y(1000.0).show(ui, |p| {
                 let points: PlotPoints<'static> = state
+                    .telemetry
                     .history
                     .iter()
                     .step_by(step)
@@ -800,7 +803,7 @@ impl TelemetryPanel {
 /// The mode bands of the history, in plot time (s before the newest tick).
 fn mode_spans(state: &AppState, t_now: f64) -> Vec<(Mode, f64, f64)> {
     let mut spans: Vec<(Mode, f64, f64)> = Vec::new();
-    for s in &state.history {
+    for s in &state.telemetry.history {
         let t = s.tick.t_s - t_now;
         match spans.last_mut() {
             Some((mode, _, to)) if *mode == s.tick.mode => *to = t,
@@ -873,7 +876,7 @@ impl StatusBar {
                 ui.label(format!("still present: {}", names.join(", ")));
             }
             ui.separator();
-            match state.recent_jitter() {
+            match state.telemetry.recent_jitter() {
                 Some((mean, max, p99)) => {
                     let priority = if state.loop_realtime() {
                         "real-time"
@@ -889,7 +892,7 @@ impl StatusBar {
                 }
             }
             ui.separator();
-            if let Some((mean, max, ui_ms)) = state.frame_stats() {
+            if let Some((mean, max, ui_ms)) = state.telemetry.frame_stats() {
                 ui.label(format!(
                     "frame {mean:.1} ms (max {max:.1}), UI {ui_ms:.1} ms"
                 ));

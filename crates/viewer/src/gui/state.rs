@@ -5,35 +5,30 @@
 //! [`EditState`]). Everything the panels show is read from here, and everything they do goes
 //! through its methods, so a test drives the app by calling them, without a window.
 
-use std::collections::VecDeque;
 use std::path::Path;
 use std::sync::atomic::Ordering;
 
 use device::kinematics::Pantograph;
 use device::safety::{Faults, SafetyConfig};
 use device::spec::{DeviceSpec, WorkspaceBox};
-use friction::{FrictionMaterial, Mode, SwitchCause};
+use friction::FrictionMaterial;
 use nurbs::Vec2;
 
 use super::editing::EditState;
 use super::panels::{DevicePanel, FilePanel, MaterialPanel, ReplayPanel};
 use super::replay::Replay;
 use super::spatial::SpatialState;
+use super::telemetry::Telemetry;
 use host::devices::{self, Target};
 use host::haptic::{
-    self, Backend, Command, HapticLoop, LinkEvent, MaterialChangeError, Reply, START_HIP, Sample,
-    Session,
+    Backend, Command, HapticLoop, LinkEvent, MaterialChangeError, Reply, START_HIP, Sample, Session,
 };
 use host::runlog::RecordTx;
 use scene::bundled::BUNDLED;
 use scene::{Material, Patch, Scene, Space};
 
-/// Seconds of telemetry the plots show.
-pub const HISTORY_S: f64 = 5.0;
-/// Samples in the tick-jitter statistics window (1 s at 1 kHz).
-pub const JITTER_WINDOW: usize = 1000;
-/// Frames in the frame-time statistics window.
-pub const FRAME_WINDOW: usize = 120;
+pub use super::telemetry::{FRAME_WINDOW, HISTORY_S, JITTER_WINDOW};
+
 /// Points per curve patch drawn in the 2-D view (for display only).
 pub const CURVE_SAMPLES: usize = 256;
 
@@ -230,66 +225,6 @@ fn reachable(arm: &Pantograph, spec: &DeviceSpec, p: Vec2) -> bool {
         .is_ok_and(|j| j.condition_number() <= spec.max_condition_number)
 }
 
-/// Running statistics of the loop's tick period.
-#[derive(Clone, Debug, Default, PartialEq)]
-pub struct JitterStats {
-    /// Periods seen (µs).
-    pub count: u64,
-    sum_us: f64,
-    /// Largest |period − 1 ms| seen (µs).
-    pub max_abs_us: f32,
-    /// Histogram of |period − 1 ms| in 10 µs bins (the last bin: 10 ms and more).
-    bins: Vec<u64>,
-}
-
-impl JitterStats {
-    fn add(&mut self, period_us: f32) {
-        if self.bins.is_empty() {
-            self.bins = vec![0; 1001];
-        }
-        let jitter = (period_us - 1e6 / haptic::RATE_HZ as f32).abs();
-        self.count += 1;
-        self.sum_us += f64::from(period_us);
-        self.max_abs_us = self.max_abs_us.max(jitter);
-        let bin = ((jitter / 10.0) as usize).min(self.bins.len() - 1);
-        self.bins[bin] += 1;
-    }
-
-    /// Mean period (µs).
-    pub fn mean_period_us(&self) -> Option<f64> {
-        (self.count > 0).then(|| self.sum_us / self.count as f64)
-    }
-
-    /// The `q`-quantile of |period − 1 ms| (µs), to the 10 µs bin above it.
-    pub fn quantile_us(&self, q: f64) -> Option<f32> {
-        if self.count == 0 {
-            return None;
-        }
-        let want = (q * self.count as f64).ceil() as u64;
-        let mut seen = 0;
-        for (i, n) in self.bins.iter().enumerate() {
-            seen += n;
-            if seen >= want {
-                return Some((i as f32 + 1.0) * 10.0);
-            }
-        }
-        Some(self.max_abs_us)
-    }
-}
-
-/// A change of friction mode seen in the telemetry.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Switch {
-    /// When (s, loop time).
-    pub t_s: f64,
-    /// From.
-    pub from: Mode,
-    /// To.
-    pub to: Mode,
-    /// Why.
-    pub cause: SwitchCause,
-}
-
 /// Which device the app drives.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub enum DeviceChoice {
@@ -346,16 +281,9 @@ pub struct AppState {
     pub scene: SceneView,
     /// The device's reach.
     pub reach: Reach,
-    /// The last [`HISTORY_S`] seconds of telemetry.
-    pub history: VecDeque<Sample>,
-    /// Recent tick periods (µs), for the jitter shown live.
-    pub recent_periods: VecDeque<f32>,
-    /// Tick-period statistics since the start.
-    pub jitter: JitterStats,
-    /// Recent frame intervals (ms) and the time the UI spent per frame (ms).
-    pub frames: VecDeque<(f32, f32)>,
-    /// The mode switches seen, newest last (at most 64).
-    pub switches: VecDeque<Switch>,
+    /// The telemetry: the last [`HISTORY_S`] seconds of samples (the live loop's, or the
+    /// replay's), the mode switches, the tick and frame statistics.
+    pub telemetry: Telemetry,
     /// The material the loop renders.
     pub running_material: Option<FrictionMaterial>,
     /// The hand's target as last set (m).
@@ -366,8 +294,6 @@ pub struct AppState {
     pub forces_requested: bool,
     /// Faults still latched after the last clear, if one was asked for.
     pub faults_after_clear: Option<Faults>,
-    /// Samples received in all.
-    pub received: u64,
     /// A command the loop answered it does not support ([`Reply::Unsupported`]); the app
     /// sends none, so this shows a bug.
     pub loop_refused: Option<String>,
@@ -422,17 +348,12 @@ impl AppState {
             record,
             scene: view,
             reach: Reach::of_default_device(),
-            history: VecDeque::new(),
-            recent_periods: VecDeque::new(),
-            jitter: JitterStats::default(),
-            frames: VecDeque::new(),
-            switches: VecDeque::new(),
+            telemetry: Telemetry::default(),
             running_material,
             hand_target: START_HIP,
             dragging: false,
             forces_requested: true,
             faults_after_clear: None,
-            received: 0,
             loop_refused: None,
             device_panel: DevicePanel::default(),
             files: FilePanel::default(),
@@ -501,45 +422,12 @@ impl AppState {
     }
 
     fn take(&mut self, s: Sample) {
-        self.received += 1;
+        self.telemetry.received += 1;
         if self.replay.is_some() {
             // The live loop runs on behind a replay; its ticks are not shown.
             return;
         }
-        if let Some(p) = s.period_us {
-            self.jitter.add(p);
-            if self.recent_periods.len() == JITTER_WINDOW {
-                self.recent_periods.pop_front();
-            }
-            self.recent_periods.push_back(p);
-        }
-        self.push_history(s);
-    }
-
-    /// Appends `s` to the history (noting a mode switch) and drops what is older than
-    /// [`HISTORY_S`].
-    fn push_history(&mut self, s: Sample) {
-        if let Some(last) = self.history.back()
-            && last.tick.mode != s.tick.mode
-        {
-            if self.switches.len() == 64 {
-                self.switches.pop_front();
-            }
-            self.switches.push_back(Switch {
-                t_s: s.tick.t_s,
-                from: last.tick.mode,
-                to: s.tick.mode,
-                cause: s.tick.cause,
-            });
-        }
-        self.history.push_back(s);
-        while let Some(first) = self.history.front() {
-            if s.tick.t_s - first.tick.t_s > HISTORY_S {
-                self.history.pop_front();
-            } else {
-                break;
-            }
-        }
+        self.telemetry.take(s);
     }
 
     fn on_reply(&mut self, reply: Reply) {
@@ -641,9 +529,7 @@ impl AppState {
                 self.forces_requested = setup;
                 // The virtual hand of a simulated plant goes where the app's hand is.
                 self.command(Command::HandTarget(self.hand_target.extend(0.0)));
-                self.history.clear();
-                self.recent_periods.clear();
-                self.jitter = JitterStats::default();
+                self.telemetry.restart();
                 let scene = self.scene.model.clone();
                 let label = self.scene.label.clone();
                 self.open_scene(&label, scene);
@@ -664,9 +550,7 @@ impl AppState {
                 self.device = DeviceChoice::Simulated;
                 self.link = LinkState::default();
                 self.forces_requested = true;
-                self.history.clear();
-                self.recent_periods.clear();
-                self.jitter = JitterStats::default();
+                self.telemetry.restart();
             }
             Err(e) => self.files.error = Some(format!("cannot restart the simulator: {e}")),
         }
@@ -735,8 +619,7 @@ impl AppState {
     /// Back to the live loop.
     pub fn close_replay(&mut self) {
         self.replay = None;
-        self.history.clear();
-        self.switches.clear();
+        self.telemetry.clear_history();
     }
 
     /// Moves the replay's cursor to `t_s` (s, the log's time).
@@ -774,17 +657,16 @@ impl AppState {
         let Some(r) = self.replay.take() else {
             return;
         };
-        self.history.clear();
-        self.switches.clear();
+        self.telemetry.clear_history();
         for s in r.window() {
-            self.push_history(s);
+            self.telemetry.push(s);
         }
         self.replay = Some(r);
     }
 
     /// The newest sample.
     pub fn latest(&self) -> Option<&Sample> {
-        self.history.back()
+        self.telemetry.latest()
     }
 
     /// The latched faults in the newest sample.
@@ -1078,45 +960,6 @@ impl AppState {
         self.command(Command::ClearFaults);
     }
 
-    /// Records one frame: the interval since the previous one and the UI's own time (ms).
-    pub fn record_frame(&mut self, interval_ms: f32, ui_ms: f32) {
-        if self.frames.len() == FRAME_WINDOW {
-            self.frames.pop_front();
-        }
-        self.frames.push_back((interval_ms, ui_ms));
-    }
-
-    /// Mean and largest recent frame interval (ms), and the mean UI time (ms).
-    pub fn frame_stats(&self) -> Option<(f32, f32, f32)> {
-        if self.frames.is_empty() {
-            return None;
-        }
-        let n = self.frames.len() as f32;
-        let mean = self.frames.iter().map(|f| f.0).sum::<f32>() / n;
-        let max = self.frames.iter().map(|f| f.0).fold(0.0, f32::max);
-        let ui = self.frames.iter().map(|f| f.1).sum::<f32>() / n;
-        Some((mean, max, ui))
-    }
-
-    /// Mean recent tick period and largest and 99th-percentile |period − 1 ms| (µs), over
-    /// the last [`JITTER_WINDOW`] ticks received.
-    pub fn recent_jitter(&self) -> Option<(f32, f32, f32)> {
-        if self.recent_periods.is_empty() {
-            return None;
-        }
-        let nominal = 1e6 / haptic::RATE_HZ as f32;
-        let n = self.recent_periods.len();
-        let mean = self.recent_periods.iter().sum::<f32>() / n as f32;
-        let mut dev: Vec<f32> = self
-            .recent_periods
-            .iter()
-            .map(|p| (p - nominal).abs())
-            .collect();
-        dev.sort_by(f32::total_cmp);
-        let p99 = dev[((n as f32 * 0.99).ceil() as usize).clamp(1, n) - 1];
-        Some((mean, dev[n - 1], p99))
-    }
-
     /// Samples the UI channel dropped, commands dropped, and ticks the recorder dropped.
     pub fn dropped(&self) -> (u64, u64, u64) {
         let (samples, commands) = self.spatial.as_ref().map_or((0, 0), SpatialState::dropped);
@@ -1202,22 +1045,5 @@ mod tests {
             let planar = !matches!(b.name, "thesis-3d" | "torus");
             assert_eq!(session.object().is_some(), planar, "{}", b.name);
         }
-    }
-
-    /// The jitter statistics: quantiles to the 10 µs bin above, the largest exactly.
-    #[test]
-    fn jitter_statistics() {
-        let mut j = JitterStats::default();
-        for p in [1000.0, 1004.0, 996.0, 1025.0, 1300.0] {
-            j.add(p);
-        }
-        assert_eq!(j.count, 5);
-        assert_eq!(j.max_abs_us, 300.0);
-        assert_eq!(j.mean_period_us(), Some(1065.0));
-        // |jitter| = 0, 4, 4, 25, 300: the median in the first bin (0-10 µs), the 80 %
-        // quantile in the 20-30 µs bin, the largest in the 300-310 µs bin.
-        assert_eq!(j.quantile_us(0.5), Some(10.0));
-        assert_eq!(j.quantile_us(0.8), Some(30.0));
-        assert_eq!(j.quantile_us(1.0), Some(310.0));
     }
 }
