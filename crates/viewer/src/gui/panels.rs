@@ -920,3 +920,98 @@ impl StatusBar {
         action
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use egui_kittest::Harness;
+    use egui_kittest::kittest::Queryable;
+
+    /// What the scene panel asks when `button` is clicked with `path` typed: the panel does
+    /// nothing itself, the app does the action.
+    fn file_action(path: &str, button: &str) -> Option<FileAction> {
+        let mut panel = FilePanel {
+            path: path.into(),
+            ..FilePanel::default()
+        };
+        let mut asked = None;
+        {
+            let mut h = Harness::new_ui(|ui| {
+                ui.horizontal_wrapped(|ui| {
+                    if let Some(a) = panel.ui(ui, "thesis-2d") {
+                        asked = Some(a);
+                    }
+                });
+            });
+            h.get_by_label(button).click();
+            h.run();
+        }
+        assert_eq!(panel.path, path, "the typed path stays");
+        asked
+    }
+
+    #[test]
+    fn the_file_panel_asks_for_what_was_clicked() {
+        let scene = PathBuf::from("scenes/mine.json");
+        assert_eq!(
+            file_action("scenes/mine.json", "Open"),
+            Some(FileAction::OpenScene(scene.clone()))
+        );
+        assert_eq!(
+            file_action("scenes/mine.json", "Save"),
+            Some(FileAction::Save(scene))
+        );
+        // A path ending in .obj opens as a mesh, through Open as through Open OBJ….
+        let mesh = PathBuf::from("pyramid.OBJ");
+        assert_eq!(
+            file_action("pyramid.OBJ", "Open"),
+            Some(FileAction::OpenObj(mesh.clone()))
+        );
+        assert_eq!(
+            file_action("pyramid.OBJ", "Open OBJ…"),
+            Some(FileAction::OpenObj(mesh))
+        );
+        assert_eq!(
+            file_action("", "examples"),
+            Some(FileAction::OpenBundled("examples"))
+        );
+        // No path, nothing to open or save.
+        assert_eq!(file_action("  ", "Save"), None);
+    }
+
+    /// The replay's controls: Play asks to play from where the cursor is, Back to live asks
+    /// to close the replay; without a replay nothing is drawn or asked.
+    #[test]
+    fn the_replay_controls_ask_to_steer_or_close() {
+        let ticks = (0..3)
+            .map(|i| host::tick::Tick::idle(f64::from(i) * 1e-3))
+            .collect();
+        let replay = Replay::of("run.csv".into(), ticks);
+        let controls = |button: &str| {
+            let mut panel = ReplayPanel::default();
+            let mut asked = None;
+            {
+                let mut h = Harness::new_ui(|ui| {
+                    if let Some(a) = panel.controls_ui(ui, Some(&replay), false) {
+                        asked = Some(a);
+                    }
+                });
+                h.get_by_label(button).click();
+                h.run();
+            }
+            asked
+        };
+        assert_eq!(
+            controls("Play"),
+            Some(ReplayAction::Steer {
+                playing: true,
+                speed: 1.0,
+                cursor_s: 0.0
+            })
+        );
+        assert_eq!(controls("Back to live"), Some(ReplayAction::Live));
+        let mut panel = ReplayPanel::default();
+        let mut h = Harness::new_ui(|ui| assert_eq!(panel.controls_ui(ui, None, false), None));
+        h.run();
+    }
+}
