@@ -271,6 +271,7 @@ pub struct AppState {
     pub device: DeviceChoice,
     /// The link to it (default for the simulated one).
     pub link: LinkState,
+    /// A scene sent to a threaded loop, shown once the loop (or the device) took it.
     pending: Option<PendingScene>,
     /// The run log being replayed, if one is: the views and plots show it instead of the
     /// live loop.
