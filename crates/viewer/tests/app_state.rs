@@ -32,11 +32,11 @@ fn another_object_of_the_scene_can_be_rendered() {
     assert_eq!(state.scene.rendered, Some(1));
     assert_eq!(state.felt_object(), Some(1));
     assert_eq!(state.running_material, Some(material(&state, 1)));
-    assert_eq!(state.scene_error, None);
+    assert_eq!(state.files.error, None);
 
     state.render_object(2);
     state.step(1);
-    assert_eq!(state.scene_error, None);
+    assert_eq!(state.files.error, None);
     assert_eq!(state.scene.rendered, None, "the planar device idles");
     assert_eq!(state.felt_object(), Some(2));
     assert!(state.spatial.as_ref().is_some_and(|s| s.has_loop()));
@@ -75,18 +75,18 @@ fn go(state: &mut AppState, to: nurbs::Vec3) {
 #[test]
 fn the_model_and_the_stribeck_shape_are_editable() {
     let mut state = AppState::stepped("thesis-2d").unwrap_or_else(|e| panic!("{e:#}"));
-    state.edited_material.model = ModelKind::Karnopp;
-    state.edited_material.viscous_ns_per_m = 0.5;
-    state.edited_material.stribeck = Stribeck::Power { exponent: 3 };
+    state.materials.edited.model = ModelKind::Karnopp;
+    state.materials.edited.viscous_ns_per_m = 0.5;
+    state.materials.edited.stribeck = Stribeck::Power { exponent: 3 };
     state.apply_material();
     state.step(1);
     let running = state.running_material.expect("running");
     assert_eq!(running.model, ModelKind::Karnopp);
     assert_eq!(running.stribeck, Stribeck::Power { exponent: 3 });
     assert_eq!(running.viscous_ns_per_m, 0.5);
-    state.edited_material.stribeck = Stribeck::Power { exponent: 0 };
+    state.materials.edited.stribeck = Stribeck::Power { exponent: 0 };
     state.apply_material();
-    let e = state.material_error.clone().expect("refused");
+    let e = state.materials.error.clone().expect("refused");
     assert!(e.contains("exponent") || e.contains("stribeck"), "{e}");
     assert_eq!(
         state.running_material.map(|m| m.stribeck),
@@ -163,7 +163,7 @@ fn the_objects_panel_renders_the_bump_in_3d_and_a_curve_in_2d() {
     let mut h = Harness::builder()
         .with_size(egui::Vec2::new(300.0, 600.0))
         .build_ui_state(
-            |ui, v: &mut ViewerUi| viewer::gui::objects_ui(ui, &mut v.state),
+            |ui, v: &mut ViewerUi| v.objects_ui(ui),
             ViewerUi::new(state),
         );
     // Opens the object's header (and closes `close`'s), clicks its button, lets the loop
@@ -182,7 +182,7 @@ fn the_objects_panel_renders_the_bump_in_3d_and_a_curve_in_2d() {
     h.run_steps(2);
     render(&mut h, "2: bump", None);
     let s = &h.state().state;
-    assert_eq!(s.scene_error, None);
+    assert_eq!(s.files.error, None);
     assert!(s.spatial.is_some(), "the 3-D view");
     assert_eq!((s.felt_object(), s.scene.rendered), (Some(2), None));
     render(&mut h, "1: circle", Some("(rendered) 2: bump"));

@@ -116,9 +116,9 @@ fn invalid_edits_leave_the_scene_and_undo_redo_round_trip() {
     assert_eq!(state.edit.history.depth(), (0, 0));
 
     // A material changed in the editor, then three edits.
-    state.edited_material.mu_dynamic = 0.4;
+    state.materials.edited.mu_dynamic = 0.4;
     state.apply_material();
-    assert_eq!(state.material_error, None);
+    assert_eq!(state.materials.error, None);
     assert!(state.set_point_weight(MIDDLE, 2.0));
     let weighted = state.scene.model.clone();
     assert!(state.insert_knot_at_selected());

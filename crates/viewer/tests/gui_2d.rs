@@ -43,15 +43,16 @@ fn dragging_into_and_along_the_curve_sticks_then_slips() {
         seq,
         [Mode::Free, Mode::Stuck, Mode::Transition, Mode::Slip],
         "{:?}",
-        state.switches
+        state.telemetry.switches
     );
     assert!(
         state
+            .telemetry
             .switches
             .iter()
             .any(|s| s.from == Mode::Stuck && s.to == Mode::Transition),
         "{:?}",
-        state.switches
+        state.telemetry.switches
     );
     // In slip μ = μ_d = 0.5 and the friction lies in its cone, |F_T| <= μ_d F_N (up to the
     // renderer's slack in its cone test, 1e-5 relative, and f32 rounding of the spring). The GO slides only when the spring
@@ -59,6 +60,7 @@ fn dragging_into_and_along_the_curve_sticks_then_slips() {
     // drags at a steady 13 mm/s, so the median load is within 10 % of the cone (the first
     // slip tick, which ends the transition with μ a little above μ_d, is left out).
     let slipping: Vec<_> = state
+        .telemetry
         .history
         .iter()
         .map(|s| s.tick)
@@ -80,6 +82,7 @@ fn dragging_into_and_along_the_curve_sticks_then_slips() {
     // The device's force stays within its 3 N limit and no fault latched.
     assert!(
         state
+            .telemetry
             .history
             .iter()
             .all(|s| s.tick.force.length() <= 3.0 + 1e-4)
@@ -92,18 +95,18 @@ fn an_invalid_material_is_refused_and_the_old_one_keeps_running() {
     let mut state = stepped();
     press(&mut state);
     // μ_d above μ_s: refused by the material's own validation, naming the field.
-    state.edited_material.mu_dynamic = 0.9;
+    state.materials.edited.mu_dynamic = 0.9;
     state.apply_material();
-    let e = state.material_error.clone().expect("refused");
+    let e = state.materials.error.clone().expect("refused");
     assert!(
         e.starts_with("material.mu_dynamic: 0.9 is larger than mu_static"),
         "{e}"
     );
     // A stiffness beyond the device: refused by the device's controller, naming the limit.
     state.revert_material();
-    state.edited_material.stiffness_n_per_m = 1e6;
+    state.materials.edited.stiffness_n_per_m = 1e6;
     state.apply_material();
-    let e = state.material_error.clone().expect("refused");
+    let e = state.materials.error.clone().expect("refused");
     assert!(
         e.contains("stiffness 1000000.0 N/m is beyond what this device renders"),
         "{e}"
@@ -122,12 +125,13 @@ fn an_invalid_material_is_refused_and_the_old_one_keeps_running() {
 
     // A valid one takes effect at once: μ_d = 0.3 in the next slip.
     state.revert_material();
-    state.edited_material.mu_dynamic = 0.3;
+    state.materials.edited.mu_dynamic = 0.3;
     state.apply_material();
-    assert_eq!(state.material_error, None);
+    assert_eq!(state.materials.error, None);
     assert_eq!(state.running_material.map(|m| m.mu_dynamic), Some(0.3));
     slide(&mut state, 0.03, 55.0, 30.0, 1000);
     let slips: Vec<f32> = state
+        .telemetry
         .history
         .iter()
         .rev()
@@ -146,7 +150,7 @@ fn an_invalid_scene_leaves_the_running_one_and_surfaces_render_nothing() {
     let mut state = stepped();
     press(&mut state);
     state.open_text("broken", r#"{ "format": "scene/1", "objects": [] }"#);
-    let e = state.scene_error.clone().expect("refused");
+    let e = state.files.error.clone().expect("refused");
     assert!(
         e.starts_with("broken: ") && e.ends_with("the running scene is unchanged"),
         "{e}"
@@ -159,19 +163,19 @@ fn an_invalid_scene_leaves_the_running_one_and_surfaces_render_nothing() {
     // thesis-3d is a surface: the planar device renders nothing, the spatial hand takes
     // over (from free space above the bump), and the material editor edits its material.
     state.open_bundled("thesis-3d");
-    assert_eq!(state.scene_error, None);
+    assert_eq!(state.files.error, None);
     assert!(!state.scene.is_planar());
     state.step(200);
     let k = state.latest().expect("ticks").tick;
     assert_eq!((k.mode, k.force), (Mode::Free, nurbs::Vec3::ZERO), "{k:?}");
     assert_eq!(state.running_material.map(|m| m.mu_dynamic), Some(0.5));
-    state.edited_material.mu_dynamic = 0.1;
+    state.materials.edited.mu_dynamic = 0.1;
     state.apply_material();
-    assert_eq!(state.material_error, None);
+    assert_eq!(state.materials.error, None);
     assert_eq!(state.running_material.map(|m| m.mu_dynamic), Some(0.1));
-    state.edited_material.mu_dynamic = 0.9;
+    state.materials.edited.mu_dynamic = 0.9;
     state.apply_material();
-    assert!(state.material_error.is_some());
+    assert!(state.materials.error.is_some());
     assert_eq!(state.running_material.map(|m| m.mu_dynamic), Some(0.1));
 
     // And back: the arc is felt again from where the hand is.
@@ -228,6 +232,7 @@ fn a_press_far_from_the_handle_moves_the_hand_at_a_bounded_speed() {
     assert_eq!(state.latest().expect("ticks").hand_target, far);
     assert!(state.faults().is_empty(), "{:?}", state.faults());
     let fastest = state
+        .telemetry
         .history
         .iter()
         .map(|s| s.tick.hip_velocity.length())

@@ -40,7 +40,7 @@ fn write_log(state: &AppState, path: &std::path::Path, space: Space) {
     let device = space == Space::Planar;
     let mut out = Vec::new();
     host::runlog::write_csv_header(&mut out, space, device).expect("header");
-    for s in &state.history {
+    for s in &state.telemetry.history {
         s.tick.write_csv_row(&mut out, space, device).expect("row");
     }
     std::fs::write(path, out).expect("write");
@@ -53,10 +53,10 @@ fn write_log(state: &AppState, path: &std::path::Path, space: Space) {
 fn scrubbing_shows_the_logged_ticks() {
     let dir = Temp::new("scrub");
     let (live, path) = recorded_run(&dir);
-    let logged: Vec<_> = live.history.iter().map(|s| s.tick).collect();
+    let logged: Vec<_> = live.telemetry.history.iter().map(|s| s.tick).collect();
     let mut state = AppState::stepped("thesis-2d").unwrap_or_else(|e| panic!("{e:#}"));
     state.open_replay(&path);
-    assert_eq!(state.replay_error, None);
+    assert_eq!(state.replay_panel.error, None);
     let (start, end) = state.replay.as_ref().expect("replaying").span();
     assert_eq!((start, end), (logged[0].t_s, logged[logged.len() - 1].t_s));
     for k in [0, 1, 700, 1500, 2999] {
@@ -68,10 +68,10 @@ fn scrubbing_shows_the_logged_ticks() {
         assert_eq!(shown.hip, logged[k].hip);
         assert_eq!(shown.normal_force_n, logged[k].normal_force_n);
         assert_eq!(shown.force, logged[k].force);
-        let first = state.history.front().expect("window").tick.t_s;
+        let first = state.telemetry.history.front().expect("window").tick.t_s;
         assert!(logged[k].t_s - first <= HISTORY_S);
         assert_eq!(
-            state.history.len(),
+            state.telemetry.history.len(),
             k + 1,
             "3 s < the 5 s window: all so far"
         );
@@ -82,7 +82,7 @@ fn scrubbing_shows_the_logged_ticks() {
     // The live loop's hand does not move while replaying.
     assert!(!state.set_hand_target(Vec2::new(0.0, 0.1)));
     state.close_replay();
-    assert!(state.replay.is_none() && state.history.is_empty());
+    assert!(state.replay.is_none() && state.telemetry.history.is_empty());
 }
 
 /// Playing advances the cursor by the real time times the speed, and pauses at the end.
@@ -124,12 +124,12 @@ fn a_bad_run_log_is_refused_and_changes_nothing() {
     std::fs::write(&bad, lines.join("\n")).expect("write");
     let mut state = AppState::stepped("thesis-2d").unwrap_or_else(|e| panic!("{e:#}"));
     state.step(10);
-    let before = state.history.len();
+    let before = state.telemetry.history.len();
     state.open_replay(&bad);
-    let e = state.replay_error.clone().expect("an error");
+    let e = state.replay_panel.error.clone().expect("an error");
     assert!(e.contains("bad.csv") && e.contains("line 4"), "{e}");
     assert!(state.replay.is_none());
-    assert_eq!(state.history.len(), before);
+    assert_eq!(state.telemetry.history.len(), before);
 }
 
 /// Save writes the running scene, with the running material, as a scene file that opens
@@ -138,12 +138,12 @@ fn a_bad_run_log_is_refused_and_changes_nothing() {
 fn a_saved_scene_opens_again() {
     let dir = Temp::new("save");
     let mut state = AppState::stepped("thesis-2d").unwrap_or_else(|e| panic!("{e:#}"));
-    state.edited_material.stiffness_n_per_m = 800.0;
+    state.materials.edited.stiffness_n_per_m = 800.0;
     state.apply_material();
     state.step(1);
     let path = dir.0.join("saved.json");
     state.save_scene(&path);
-    assert_eq!(state.scene_error, None);
+    assert_eq!(state.files.error, None);
     let saved = Scene::load(&path).unwrap_or_else(|e| panic!("{e}"));
     assert_eq!(saved.objects().len(), state.scene.model.objects().len());
     assert_eq!(
@@ -154,7 +154,7 @@ fn a_saved_scene_opens_again() {
     assert_eq!(saved.objects()[0].patches().len(), 2);
     // An unwritable path is an error naming it; nothing else changes.
     state.save_scene(&dir.0.join("no-such-dir").join("x.json"));
-    let e = state.scene_error.clone().expect("an error");
+    let e = state.files.error.clone().expect("an error");
     assert!(e.contains("no-such-dir"), "{e}");
 }
 
@@ -171,9 +171,9 @@ fn a_3d_log_replays_as_3d() {
     write_log(&live, &path, Space::Spatial);
     let mut state = AppState::stepped("torus").unwrap_or_else(|e| panic!("{e:#}"));
     state.open_replay(&path);
-    assert_eq!(state.replay_error, None);
+    assert_eq!(state.replay_panel.error, None);
     assert_eq!(state.replay.as_ref().map(|r| r.space), Some(Space::Spatial));
-    let last = live.history.back().expect("ticks").tick;
+    let last = live.telemetry.history.back().expect("ticks").tick;
     state.seek_replay(last.t_s);
     assert_eq!(state.latest().expect("a tick").tick.hip, last.hip);
     let (_, planar) = recorded_run(&dir);

@@ -8,7 +8,7 @@ mod common;
 use common::{
     MIDDLE, harness, harness_3d, outward, press, press_and_slide, press_apex, stepped, stepped_3d,
 };
-use viewer::gui::{ViewerUi, materials_ui, telemetry_ui, view};
+use viewer::gui::{ViewerUi, view};
 
 #[test]
 fn snapshot_2d_view_pressed_into_the_curve() {
@@ -26,7 +26,7 @@ fn snapshot_telemetry_after_a_scripted_run() {
     let mut state = stepped();
     press_and_slide(&mut state);
     let mut h = harness([440.0, 820.0], ViewerUi::new(state), |ui, v| {
-        telemetry_ui(ui, &v.state);
+        v.telemetry_ui(ui);
     });
     h.run_steps(2);
     h.snapshot("telemetry_after_scripted_run");
@@ -35,10 +35,10 @@ fn snapshot_telemetry_after_a_scripted_run() {
 #[test]
 fn snapshot_invalid_material_error() {
     let mut state = stepped();
-    state.edited_material.mu_dynamic = 0.9;
+    state.materials.edited.mu_dynamic = 0.9;
     state.apply_material();
     let mut h = harness([300.0, 420.0], ViewerUi::new(state), |ui, v| {
-        materials_ui(ui, &mut v.state);
+        v.materials_ui(ui);
     });
     h.run_steps(2);
     h.snapshot("material_invalid_mu_dynamic");
@@ -53,14 +53,14 @@ fn snapshot_invalid_scene_error() {
         serde_json::from_str(include_str!("../../../scenes/thesis-2d.json")).expect("JSON");
     scene["objects"][0]["patches"][1]["weights"][1] = serde_json::json!(-0.5);
     state.open_text("bent.json", &scene.to_string());
-    let e = state.scene_error.clone().expect("refused");
+    let e = state.files.error.clone().expect("refused");
     assert!(
         e.contains("bent.json") && e.contains("patch 1") && e.contains("weights"),
         "{e}"
     );
     assert_eq!(state.scene.label, "thesis-2d");
     let mut h = harness([1000.0, 80.0], ViewerUi::new(state), |ui, v| {
-        viewer::gui::scenes_ui(ui, &mut v.state);
+        v.scenes_ui(ui);
     });
     h.run_steps(2);
     h.snapshot("scene_invalid_weight");

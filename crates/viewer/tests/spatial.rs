@@ -47,7 +47,7 @@ fn the_spatial_hand_pressed_d_into_the_bump_feels_k_d() {
     );
     assert!((k.cp - APEX).length() < 1e-6, "{k:?}");
     // Before the hand reached the surface nothing was felt.
-    assert_eq!(state.history[0].tick.mode, Mode::Free);
+    assert_eq!(state.telemetry.history[0].tick.mode, Mode::Free);
 
     // Sliding 10 mm along y stays on the bump (its height there from the closed form) and
     // keeps the force within the friction cone.
@@ -85,7 +85,7 @@ const SLIDE_RAD: f32 = 0.9;
 fn slide_over_cylinder(state: &mut AppState) -> Vec<Vec3> {
     move_hand(state, around(0.0, 0.019), 400);
     state.step(100);
-    let first = state.history.len();
+    let first = state.telemetry.history.len();
     for i in 1..=1000 {
         let a = SLIDE_RAD * i as f32 / 1000.0;
         state
@@ -96,6 +96,7 @@ fn slide_over_cylinder(state: &mut AppState) -> Vec<Vec3> {
         state.step(1);
     }
     state
+        .telemetry
         .history
         .iter()
         .skip(first)
@@ -117,7 +118,7 @@ fn slide_over_cylinder(state: &mut AppState) -> Vec<Vec3> {
 fn the_mesh_normal_jumps_across_edges_and_the_nurbs_normal_does_not() {
     let mut state = stepped_3d();
     state.open_scene("cylinder", cylinder_scene());
-    assert_eq!(state.scene_error, None);
+    assert_eq!(state.files.error, None);
     // atan2 of sine and cosine: acos near 1 in f32 cannot resolve less than 0.35 mrad.
     let angle = |a: Vec3, b: Vec3| a.cross(b).length().atan2(a.dot(b));
 
@@ -241,7 +242,7 @@ fn an_exported_obj_opens_as_a_mesh_felt_through_the_baseline() {
     );
     // And the app opens it as a mesh, felt with the baseline.
     state.open_obj(&path);
-    assert_eq!(state.scene_error, None);
+    assert_eq!(state.files.error, None);
     let spatial = state.spatial.as_mut().expect("3-D");
     assert!(spatial.stepped().is_some_and(|s| s.renders_mesh()));
     assert_eq!(spatial.mesh_triangles, Some(mesh.triangles().len()));
@@ -257,7 +258,7 @@ fn an_exported_obj_opens_as_a_mesh_felt_through_the_baseline() {
     // the idle planar loop holds is not what the user sees).
     let saved = dir.join("saved.json");
     state.save_scene(&saved);
-    let e = state.scene_error.clone().expect("refused");
+    let e = state.files.error.clone().expect("refused");
     assert!(
         e.contains("is a mesh") && e.contains("nothing was written"),
         "{e}"
@@ -276,7 +277,7 @@ fn an_invalid_obj_is_refused_naming_the_line() {
     let path = dir.join("bad.obj");
     std::fs::write(&path, "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 7\n").expect("write");
     state.open_obj(&path);
-    let e = state.scene_error.clone().expect("refused");
+    let e = state.files.error.clone().expect("refused");
     assert!(
         e.starts_with(&format!(
             "{}:4: face corner \"7\": vertex 7 does not exist",

@@ -4,15 +4,18 @@
 //! method, [`AppState::apply_edit`], which swaps the edited scene in as opening a scene does
 //! (the hand, the arm and the forces' switch stay) but keeps the running material (a material
 //! changed in the editor stays) and the view. An edit that fails leaves the running scene and
-//! says why in [`EditState::error`].
+//! says why in [`EditState::error`]. [`EditState`] is also the edit panel (its [`EditState::ui`]
+//! over the 2-D view), whose buttons come back as an [`EditAction`].
 
+use eframe::egui;
+use egui::Color32;
 use nurbs::Vec2;
 
 use super::state::{AppState, SceneView};
 use scene::edit::{self, EditError, History, PointRef};
 use scene::{Material, Patch, Scene};
 
-/// The editing state of the 2-D view.
+/// The editing state of the 2-D view, and the edit panel's.
 #[derive(Debug, Default)]
 pub struct EditState {
     /// Edit mode: control points are handles.
@@ -68,6 +71,120 @@ impl EditState {
     }
 }
 
+/// What the edit panel asks ([`AppState::edit_action`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum EditAction {
+    /// Set a control point's weight ([`AppState::set_point_weight`]).
+    SetWeight(PointRef, f64),
+    /// [`AppState::insert_knot_at_selected`].
+    InsertKnot,
+    /// [`AppState::split_at_selected`].
+    Split,
+    /// [`AppState::join_selected_with_next`].
+    JoinNext,
+    /// [`AppState::undo`].
+    Undo,
+    /// [`AppState::redo`].
+    Redo,
+}
+
+impl EditState {
+    /// The edit panel over the 2-D view of `scene`: the selected point (position, weight),
+    /// the edit buttons, the history and the last error; what was asked.
+    pub fn ui(&mut self, ui: &mut egui::Ui, scene: &Scene) -> Option<EditAction> {
+        let mut action = None;
+        egui::Frame::group(ui.style())
+            .fill(Color32::from_rgba_unmultiplied(255, 255, 255, 235))
+            .show(ui, |ui| {
+                ui.set_width(280.0);
+                ui.label(egui::RichText::new("Edit").strong());
+                let selected = self.selected;
+                let point = selected.and_then(|at| control_point(scene, at));
+                match (selected, point) {
+                    (Some(at), Some((p, w))) => {
+                        ui.label(format!(
+                            "object {}, patch {}, point {}: ({:.2}, {:.2}) mm",
+                            at.object,
+                            at.patch,
+                            at.index,
+                            p.x * 1e3,
+                            p.y * 1e3
+                        ));
+                        ui.horizontal(|ui| {
+                            let name = ui.label("weight");
+                            let draft = self.weight_draft.get_or_insert(f64::from(w));
+                            let r = ui
+                                .add(
+                                    egui::DragValue::new(draft)
+                                        .speed(0.01)
+                                        .max_decimals(4)
+                                        .update_while_editing(false),
+                                )
+                                .labelled_by(name.id);
+                            let done = r.drag_stopped() || (r.changed() && !r.dragged());
+                            if done && let Some(weight) = self.weight_draft.take() {
+                                action = Some(EditAction::SetWeight(at, weight));
+                            }
+                        });
+                    }
+                    _ => {
+                        ui.label("press a control point to select it, drag it to move it");
+                    }
+                }
+                ui.horizontal(|ui| {
+                    let some = selected.is_some();
+                    if ui
+                        .add_enabled(some, egui::Button::new("insert knot"))
+                        .on_hover_text("at the selected point's parameter (its Greville abscissa)")
+                        .clicked()
+                    {
+                        action = Some(EditAction::InsertKnot);
+                    }
+                    if ui
+                        .add_enabled(some, egui::Button::new("split"))
+                        .on_hover_text("the patch in two at the selected point's parameter")
+                        .clicked()
+                    {
+                        action = Some(EditAction::Split);
+                    }
+                    if ui
+                        .add_enabled(some, egui::Button::new("join next"))
+                        .on_hover_text("the selected point's patch with the next one")
+                        .clicked()
+                    {
+                        action = Some(EditAction::JoinNext);
+                    }
+                });
+                ui.horizontal(|ui| {
+                    let (undo, redo) = self.history.depth();
+                    if ui
+                        .add_enabled(undo > 0, egui::Button::new(format!("undo ({undo})")))
+                        .on_hover_text("Ctrl+Z")
+                        .clicked()
+                    {
+                        action = Some(EditAction::Undo);
+                    }
+                    if ui
+                        .add_enabled(redo > 0, egui::Button::new(format!("redo ({redo})")))
+                        .on_hover_text("Ctrl+Shift+Z")
+                        .clicked()
+                    {
+                        action = Some(EditAction::Redo);
+                    }
+                });
+                if let Some(last) = &self.last {
+                    ui.label(
+                        egui::RichText::new(format!("last: {last}")).color(Color32::from_gray(90)),
+                    );
+                }
+                if let Some(e) = &self.error {
+                    ui.colored_label(Color32::from_rgb(190, 30, 30), e);
+                }
+            });
+        action
+    }
+}
+
 /// Cartesian position and weight of control point `at` of `scene`, when it is one of a planar
 /// curve.
 pub fn control_point(scene: &Scene, at: PointRef) -> Option<(Vec2, f32)> {
@@ -78,6 +195,18 @@ pub fn control_point(scene: &Scene, at: PointRef) -> Option<(Vec2, f32)> {
 }
 
 impl AppState {
+    /// Does what the edit panel asked; whether an edit was applied.
+    pub fn edit_action(&mut self, action: EditAction) -> bool {
+        match action {
+            EditAction::SetWeight(at, weight) => self.set_point_weight(at, weight),
+            EditAction::InsertKnot => self.insert_knot_at_selected(),
+            EditAction::Split => self.split_at_selected(),
+            EditAction::JoinNext => self.join_selected_with_next(),
+            EditAction::Undo => self.undo(),
+            EditAction::Redo => self.redo(),
+        }
+    }
+
     /// Renders `scene`, the result of an edit labelled `label`, from the next tick, and records
     /// the scene before it for undo. The running material is kept (written into the edited
     /// object when the editor changed it), the view is not refitted. When the device refuses

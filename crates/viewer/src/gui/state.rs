@@ -1,36 +1,34 @@
-//! The app's state, apart from the drawing: the haptic loop (on its thread, or stepped in
-//! place for tests), the telemetry history, the scene as drawn, the material editor and the
-//! measurements. Everything the panels show is read from here, and everything they do goes
+//! The app's state, apart from the drawing: what the panels share (the haptic loop's
+//! backend, on its thread or stepped in place for tests; the running scene; the telemetry
+//! history and the measurements; the link to a device; the replay), and the panels that keep
+//! form state ([`super::panels`]: device, scene file, replay, material; the edit panel's
+//! [`EditState`]). Everything the panels show is read from here, and everything they do goes
 //! through its methods, so a test drives the app by calling them, without a window.
 
-use std::collections::VecDeque;
 use std::path::Path;
 use std::sync::atomic::Ordering;
 
 use device::kinematics::Pantograph;
 use device::safety::{Faults, SafetyConfig};
 use device::spec::{DeviceSpec, WorkspaceBox};
-use friction::{FrictionMaterial, Mode, SwitchCause};
+use friction::FrictionMaterial;
 use nurbs::Vec2;
 
 use super::editing::EditState;
+use super::panels::{DevicePanel, FilePanel, MaterialPanel, ReplayPanel};
 use super::replay::Replay;
 use super::spatial::SpatialState;
+use super::telemetry::Telemetry;
 use host::devices::{self, Target};
 use host::haptic::{
-    self, Backend, Command, HapticLoop, LinkEvent, MaterialChangeError, Reply, START_HIP, Sample,
-    Session,
+    Backend, Command, HapticLoop, LinkEvent, MaterialChangeError, Reply, START_HIP, Sample, Session,
 };
 use host::runlog::RecordTx;
 use scene::bundled::BUNDLED;
 use scene::{Material, Patch, Scene, Space};
 
-/// Seconds of telemetry the plots show.
-pub const HISTORY_S: f64 = 5.0;
-/// Samples in the tick-jitter statistics window (1 s at 1 kHz).
-pub const JITTER_WINDOW: usize = 1000;
-/// Frames in the frame-time statistics window.
-pub const FRAME_WINDOW: usize = 120;
+pub use super::telemetry::{FRAME_WINDOW, HISTORY_S, JITTER_WINDOW};
+
 /// Points per curve patch drawn in the 2-D view (for display only).
 pub const CURVE_SAMPLES: usize = 256;
 
@@ -227,66 +225,6 @@ fn reachable(arm: &Pantograph, spec: &DeviceSpec, p: Vec2) -> bool {
         .is_ok_and(|j| j.condition_number() <= spec.max_condition_number)
 }
 
-/// Running statistics of the loop's tick period.
-#[derive(Clone, Debug, Default, PartialEq)]
-pub struct JitterStats {
-    /// Periods seen (µs).
-    pub count: u64,
-    sum_us: f64,
-    /// Largest |period − 1 ms| seen (µs).
-    pub max_abs_us: f32,
-    /// Histogram of |period − 1 ms| in 10 µs bins (the last bin: 10 ms and more).
-    bins: Vec<u64>,
-}
-
-impl JitterStats {
-    fn add(&mut self, period_us: f32) {
-        if self.bins.is_empty() {
-            self.bins = vec![0; 1001];
-        }
-        let jitter = (period_us - 1e6 / haptic::RATE_HZ as f32).abs();
-        self.count += 1;
-        self.sum_us += f64::from(period_us);
-        self.max_abs_us = self.max_abs_us.max(jitter);
-        let bin = ((jitter / 10.0) as usize).min(self.bins.len() - 1);
-        self.bins[bin] += 1;
-    }
-
-    /// Mean period (µs).
-    pub fn mean_period_us(&self) -> Option<f64> {
-        (self.count > 0).then(|| self.sum_us / self.count as f64)
-    }
-
-    /// The `q`-quantile of |period − 1 ms| (µs), to the 10 µs bin above it.
-    pub fn quantile_us(&self, q: f64) -> Option<f32> {
-        if self.count == 0 {
-            return None;
-        }
-        let want = (q * self.count as f64).ceil() as u64;
-        let mut seen = 0;
-        for (i, n) in self.bins.iter().enumerate() {
-            seen += n;
-            if seen >= want {
-                return Some((i as f32 + 1.0) * 10.0);
-            }
-        }
-        Some(self.max_abs_us)
-    }
-}
-
-/// A change of friction mode seen in the telemetry.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Switch {
-    /// When (s, loop time).
-    pub t_s: f64,
-    /// From.
-    pub from: Mode,
-    /// To.
-    pub to: Mode,
-    /// Why.
-    pub cause: SwitchCause,
-}
-
 /// Which device the app drives.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub enum DeviceChoice {
@@ -311,24 +249,6 @@ pub struct LinkState {
     pub refused: Option<String>,
 }
 
-/// The device panel's fields.
-#[derive(Clone, Debug, PartialEq, Eq)]
-pub struct DeviceForm {
-    /// The emulated board's address (`cargo xtask qemu --serve HOST:PORT`).
-    pub tcp: String,
-    /// A board's serial port.
-    pub serial: String,
-}
-
-impl Default for DeviceForm {
-    fn default() -> Self {
-        DeviceForm {
-            tcp: "127.0.0.1:7878".into(),
-            serial: "/dev/ttyACM0".into(),
-        }
-    }
-}
-
 /// A scene sent to the loop, shown once the loop (or the device) took it.
 #[derive(Debug)]
 struct PendingScene {
@@ -351,44 +271,22 @@ pub struct AppState {
     pub device: DeviceChoice,
     /// The link to it (default for the simulated one).
     pub link: LinkState,
-    /// The device panel's fields.
-    pub device_form: DeviceForm,
+    /// A scene sent to a threaded loop, shown once the loop (or the device) took it.
     pending: Option<PendingScene>,
     /// The run log being replayed, if one is: the views and plots show it instead of the
     /// live loop.
     pub replay: Option<Replay>,
-    /// Where the scene was last saved, as a message.
-    pub scene_saved: Option<String>,
-    /// Why the last run log could not be replayed.
-    pub replay_error: Option<String>,
-    /// The path typed into the replay field.
-    pub replay_path: String,
     /// The recorder's input, handed to every loop the app starts.
     record: Option<RecordTx>,
     /// The scene being rendered.
     pub scene: SceneView,
     /// The device's reach.
     pub reach: Reach,
-    /// The last [`HISTORY_S`] seconds of telemetry.
-    pub history: VecDeque<Sample>,
-    /// Recent tick periods (µs), for the jitter shown live.
-    pub recent_periods: VecDeque<f32>,
-    /// Tick-period statistics since the start.
-    pub jitter: JitterStats,
-    /// Recent frame intervals (ms) and the time the UI spent per frame (ms).
-    pub frames: VecDeque<(f32, f32)>,
-    /// The mode switches seen, newest last (at most 64).
-    pub switches: VecDeque<Switch>,
+    /// The telemetry: the last [`HISTORY_S`] seconds of samples (the live loop's, or the
+    /// replay's), the mode switches, the tick and frame statistics.
+    pub telemetry: Telemetry,
     /// The material the loop renders.
     pub running_material: Option<FrictionMaterial>,
-    /// The material editor's values.
-    pub edited_material: FrictionMaterial,
-    /// Why the edited material was not applied.
-    pub material_error: Option<String>,
-    /// Why the last scene could not be opened.
-    pub scene_error: Option<String>,
-    /// The path typed into the open-scene field.
-    pub scene_path: String,
     /// The hand's target as last set (m).
     pub hand_target: Vec2,
     /// Whether the user is dragging the hand.
@@ -397,12 +295,18 @@ pub struct AppState {
     pub forces_requested: bool,
     /// Faults still latched after the last clear, if one was asked for.
     pub faults_after_clear: Option<Faults>,
-    /// Samples received in all.
-    pub received: u64,
     /// A command the loop answered it does not support ([`Reply::Unsupported`]); the app
     /// sends none, so this shows a bug.
     pub loop_refused: Option<String>,
-    /// Editing in the 2-D view: selection, drag, undo history.
+    /// The device panel: the fields naming a link.
+    pub device_panel: DevicePanel,
+    /// The scene panel: the file path, why the last scene was refused, where it was saved.
+    pub files: FilePanel,
+    /// The replay panel: the run log's path, why the last one could not be replayed.
+    pub replay_panel: ReplayPanel,
+    /// The material panel: the editor's values, why they were refused.
+    pub materials: MaterialPanel,
+    /// The edit panel and the 2-D view's editing: selection, drag, undo history.
     pub edit: EditState,
     /// The 3-D view and the spatial hand, for a scene without planar objects (or an opened
     /// mesh); while it is there the telemetry is the spatial loop's.
@@ -440,31 +344,22 @@ impl AppState {
             backend,
             device: DeviceChoice::Simulated,
             link: LinkState::default(),
-            device_form: DeviceForm::default(),
             pending: None,
             replay: None,
-            replay_error: None,
-            scene_saved: None,
-            replay_path: String::new(),
             record,
             scene: view,
             reach: Reach::of_default_device(),
-            history: VecDeque::new(),
-            recent_periods: VecDeque::new(),
-            jitter: JitterStats::default(),
-            frames: VecDeque::new(),
-            switches: VecDeque::new(),
+            telemetry: Telemetry::default(),
             running_material,
-            edited_material: running_material.unwrap_or_default(),
-            material_error: None,
-            scene_error: None,
-            scene_path: String::new(),
             hand_target: START_HIP,
             dragging: false,
             forces_requested: true,
             faults_after_clear: None,
-            received: 0,
             loop_refused: None,
+            device_panel: DevicePanel::default(),
+            files: FilePanel::default(),
+            replay_panel: ReplayPanel::default(),
+            materials: MaterialPanel::new(running_material),
             edit: EditState::default(),
             spatial,
         })
@@ -528,54 +423,21 @@ impl AppState {
     }
 
     fn take(&mut self, s: Sample) {
-        self.received += 1;
+        self.telemetry.received += 1;
         if self.replay.is_some() {
             // The live loop runs on behind a replay; its ticks are not shown.
             return;
         }
-        if let Some(p) = s.period_us {
-            self.jitter.add(p);
-            if self.recent_periods.len() == JITTER_WINDOW {
-                self.recent_periods.pop_front();
-            }
-            self.recent_periods.push_back(p);
-        }
-        self.push_history(s);
-    }
-
-    /// Appends `s` to the history (noting a mode switch) and drops what is older than
-    /// [`HISTORY_S`].
-    fn push_history(&mut self, s: Sample) {
-        if let Some(last) = self.history.back()
-            && last.tick.mode != s.tick.mode
-        {
-            if self.switches.len() == 64 {
-                self.switches.pop_front();
-            }
-            self.switches.push_back(Switch {
-                t_s: s.tick.t_s,
-                from: last.tick.mode,
-                to: s.tick.mode,
-                cause: s.tick.cause,
-            });
-        }
-        self.history.push_back(s);
-        while let Some(first) = self.history.front() {
-            if s.tick.t_s - first.tick.t_s > HISTORY_S {
-                self.history.pop_front();
-            } else {
-                break;
-            }
-        }
+        self.telemetry.take(s);
     }
 
     fn on_reply(&mut self, reply: Reply) {
         match reply {
             Reply::Material(Ok(m)) => {
                 self.running_material = Some(m);
-                self.material_error = None;
+                self.materials.error = None;
             }
-            Reply::Material(Err(e)) => self.material_error = Some(e.to_string()),
+            Reply::Material(Err(e)) => self.materials.error = Some(e.to_string()),
             Reply::Swapped => {
                 if let Some(p) = self.pending.take() {
                     self.show_scene(p);
@@ -611,7 +473,7 @@ impl AppState {
                 if what == "the scene upload"
                     && let Some(p) = self.pending.take()
                 {
-                    self.scene_error = Some(format!(
+                    self.files.error = Some(format!(
                         "{}: {message}; the running scene is unchanged",
                         p.view.label
                     ));
@@ -629,14 +491,14 @@ impl AppState {
     fn show_scene(&mut self, p: PendingScene) {
         self.spatial = p.spatial;
         self.scene = p.view;
-        self.scene_error = None;
+        self.files.error = None;
         self.running_material = p.material;
         if p.edited {
             self.edit.keep_valid_selection(&self.scene.model);
         } else {
             self.edit.reset();
-            self.edited_material = p.material.unwrap_or_default();
-            self.material_error = None;
+            self.materials.edited = p.material.unwrap_or_default();
+            self.materials.error = None;
         }
     }
 
@@ -668,9 +530,7 @@ impl AppState {
                 self.forces_requested = setup;
                 // The virtual hand of a simulated plant goes where the app's hand is.
                 self.command(Command::HandTarget(self.hand_target.extend(0.0)));
-                self.history.clear();
-                self.recent_periods.clear();
-                self.jitter = JitterStats::default();
+                self.telemetry.restart();
                 let scene = self.scene.model.clone();
                 let label = self.scene.label.clone();
                 self.open_scene(&label, scene);
@@ -691,11 +551,9 @@ impl AppState {
                 self.device = DeviceChoice::Simulated;
                 self.link = LinkState::default();
                 self.forces_requested = true;
-                self.history.clear();
-                self.recent_periods.clear();
-                self.jitter = JitterStats::default();
+                self.telemetry.restart();
             }
-            Err(e) => self.scene_error = Some(format!("cannot restart the simulator: {e}")),
+            Err(e) => self.files.error = Some(format!("cannot restart the simulator: {e}")),
         }
     }
 
@@ -747,23 +605,22 @@ impl AppState {
 
     /// Replays the run log at `path` in the views and plots (the live loop runs on behind
     /// it, unseen); an unreadable or invalid log leaves everything as it was and
-    /// [`AppState::replay_error`] names the line at fault.
+    /// [`ReplayPanel::error`] names the line at fault.
     pub fn open_replay(&mut self, path: &Path) {
         match Replay::open(path) {
             Ok(r) => {
                 self.replay = Some(r);
-                self.replay_error = None;
+                self.replay_panel.error = None;
                 self.refresh_replay();
             }
-            Err(e) => self.replay_error = Some(e.to_string()),
+            Err(e) => self.replay_panel.error = Some(e.to_string()),
         }
     }
 
     /// Back to the live loop.
     pub fn close_replay(&mut self) {
         self.replay = None;
-        self.history.clear();
-        self.switches.clear();
+        self.telemetry.clear_history();
     }
 
     /// Moves the replay's cursor to `t_s` (s, the log's time).
@@ -771,6 +628,19 @@ impl AppState {
         if let Some(r) = &mut self.replay {
             r.seek(t_s);
             self.refresh_replay();
+        }
+    }
+
+    /// Plays or pauses the replay at `speed` (× real time) and moves its cursor to `cursor_s`
+    /// when that differs from where it is (the replay panel's controls).
+    pub fn steer_replay(&mut self, playing: bool, speed: f64, cursor_s: f64) {
+        let Some(r) = &mut self.replay else {
+            return;
+        };
+        r.playing = playing;
+        r.speed = speed;
+        if r.cursor() != cursor_s {
+            self.seek_replay(cursor_s);
         }
     }
 
@@ -788,17 +658,16 @@ impl AppState {
         let Some(r) = self.replay.take() else {
             return;
         };
-        self.history.clear();
-        self.switches.clear();
+        self.telemetry.clear_history();
         for s in r.window() {
-            self.push_history(s);
+            self.telemetry.push(s);
         }
         self.replay = Some(r);
     }
 
     /// The newest sample.
     pub fn latest(&self) -> Option<&Sample> {
-        self.history.back()
+        self.telemetry.latest()
     }
 
     /// The latched faults in the newest sample.
@@ -822,11 +691,11 @@ impl AppState {
 
     /// Applies the material editor's values: validated field by field here (the message names
     /// the field), then by the device's controller in the loop. On error the running material
-    /// stays and [`AppState::material_error`] says why.
+    /// stays and [`MaterialPanel::error`] says why.
     pub fn apply_material(&mut self) {
-        let m = self.edited_material;
+        let m = self.materials.edited;
         if let Err(e) = Material::from_friction(m) {
-            self.material_error = Some(MaterialChangeError::Invalid(e).to_string());
+            self.materials.error = Some(MaterialChangeError::Invalid(e).to_string());
             return;
         }
         if let Some(spatial) = self.spatial.as_mut().filter(|s| s.has_loop()) {
@@ -836,11 +705,11 @@ impl AppState {
             return;
         }
         if self.scene.rendered.is_none() {
-            self.material_error = Some(MaterialChangeError::NoObject.to_string());
+            self.materials.error = Some(MaterialChangeError::NoObject.to_string());
             return;
         }
         if !self.command(Command::SetMaterial(m)) {
-            self.material_error =
+            self.materials.error =
                 Some("the haptic loop did not take the material (its queue is full)".into());
         }
     }
@@ -848,16 +717,16 @@ impl AppState {
     /// Resets the editor to the running material.
     pub fn revert_material(&mut self) {
         if let Some(m) = self.running_material {
-            self.edited_material = m;
+            self.materials.edited = m;
         }
-        self.material_error = None;
+        self.materials.error = None;
     }
 
     /// Opens the bundled scene `name`.
     pub fn open_bundled(&mut self, name: &str) {
         match BUNDLED.iter().find(|b| b.name == name) {
             Some(b) => self.open_text(b.name, b.json),
-            None => self.scene_error = Some(format!("no bundled scene {name:?}")),
+            None => self.files.error = Some(format!("no bundled scene {name:?}")),
         }
     }
 
@@ -865,7 +734,7 @@ impl AppState {
     pub fn open_path(&mut self, path: &Path) {
         match Scene::load(path) {
             Ok(scene) => self.open_scene(&path.display().to_string(), scene),
-            Err(e) => self.scene_error = Some(format!("{e}; the running scene is unchanged")),
+            Err(e) => self.files.error = Some(format!("{e}; the running scene is unchanged")),
         }
     }
 
@@ -874,7 +743,7 @@ impl AppState {
         match Scene::from_json_str(json) {
             Ok(scene) => self.open_scene(label, scene),
             Err(e) => {
-                self.scene_error = Some(format!("{label}: {e}; the running scene is unchanged"));
+                self.files.error = Some(format!("{label}: {e}; the running scene is unchanged"));
             }
         }
     }
@@ -896,7 +765,7 @@ impl AppState {
     }
 
     /// Renders `scene` from the next tick when the device accepts it; otherwise the running
-    /// scene stays and [`AppState::scene_error`] says why.
+    /// scene stays and [`FilePanel::error`] says why.
     pub fn open_scene(&mut self, label: &str, scene: Scene) {
         self.open_scene_object(label, scene, None);
     }
@@ -904,7 +773,7 @@ impl AppState {
     /// [`AppState::open_scene`] rendering object `object` (the first planar one when `None`).
     fn open_scene_object(&mut self, label: &str, scene: Scene, object: Option<usize>) {
         if let Err(e) = self.swap(label, scene, object, false) {
-            self.scene_error = Some(e);
+            self.files.error = Some(e);
         }
     }
 
@@ -989,8 +858,8 @@ impl AppState {
             .as_ref()
             .is_some_and(SpatialState::is_opened_mesh)
         {
-            self.scene_saved = None;
-            self.scene_error = Some(format!(
+            self.files.saved = None;
+            self.files.error = Some(format!(
                 "{} is a mesh and scene/1 holds NURBS objects only: nothing was written to {}",
                 self.scene.label,
                 path.display()
@@ -1006,12 +875,12 @@ impl AppState {
         let text = scene.to_json_string();
         match std::fs::write(path, text) {
             Ok(()) => {
-                self.scene_saved = Some(format!("saved {}", path.display()));
-                self.scene_error = None;
+                self.files.saved = Some(format!("saved {}", path.display()));
+                self.files.error = None;
             }
             Err(e) => {
-                self.scene_saved = None;
-                self.scene_error = Some(format!("cannot save {}: {e}", path.display()));
+                self.files.saved = None;
+                self.files.error = Some(format!("cannot save {}: {e}", path.display()));
             }
         }
     }
@@ -1049,7 +918,7 @@ impl AppState {
                 s
             }
             Err(e) => {
-                self.scene_error = Some(format!("{e:#}; the running scene is unchanged"));
+                self.files.error = Some(format!("{e:#}; the running scene is unchanged"));
                 return;
             }
         };
@@ -1081,54 +950,15 @@ impl AppState {
             },
         };
         self.running_material = spatial.material();
-        self.edited_material = self.running_material.unwrap_or_default();
+        self.materials.edited = self.running_material.unwrap_or_default();
         self.spatial = Some(spatial);
-        self.scene_error = None;
-        self.material_error = None;
+        self.files.error = None;
+        self.materials.error = None;
     }
 
     /// Clears the latched faults whose condition is gone.
     pub fn clear_faults(&mut self) {
         self.command(Command::ClearFaults);
-    }
-
-    /// Records one frame: the interval since the previous one and the UI's own time (ms).
-    pub fn record_frame(&mut self, interval_ms: f32, ui_ms: f32) {
-        if self.frames.len() == FRAME_WINDOW {
-            self.frames.pop_front();
-        }
-        self.frames.push_back((interval_ms, ui_ms));
-    }
-
-    /// Mean and largest recent frame interval (ms), and the mean UI time (ms).
-    pub fn frame_stats(&self) -> Option<(f32, f32, f32)> {
-        if self.frames.is_empty() {
-            return None;
-        }
-        let n = self.frames.len() as f32;
-        let mean = self.frames.iter().map(|f| f.0).sum::<f32>() / n;
-        let max = self.frames.iter().map(|f| f.0).fold(0.0, f32::max);
-        let ui = self.frames.iter().map(|f| f.1).sum::<f32>() / n;
-        Some((mean, max, ui))
-    }
-
-    /// Mean recent tick period and largest and 99th-percentile |period − 1 ms| (µs), over
-    /// the last [`JITTER_WINDOW`] ticks received.
-    pub fn recent_jitter(&self) -> Option<(f32, f32, f32)> {
-        if self.recent_periods.is_empty() {
-            return None;
-        }
-        let nominal = 1e6 / haptic::RATE_HZ as f32;
-        let n = self.recent_periods.len();
-        let mean = self.recent_periods.iter().sum::<f32>() / n as f32;
-        let mut dev: Vec<f32> = self
-            .recent_periods
-            .iter()
-            .map(|p| (p - nominal).abs())
-            .collect();
-        dev.sort_by(f32::total_cmp);
-        let p99 = dev[((n as f32 * 0.99).ceil() as usize).clamp(1, n) - 1];
-        Some((mean, dev[n - 1], p99))
     }
 
     /// Samples the UI channel dropped, commands dropped, and ticks the recorder dropped.
@@ -1216,22 +1046,5 @@ mod tests {
             let planar = !matches!(b.name, "thesis-3d" | "torus");
             assert_eq!(session.object().is_some(), planar, "{}", b.name);
         }
-    }
-
-    /// The jitter statistics: quantiles to the 10 µs bin above, the largest exactly.
-    #[test]
-    fn jitter_statistics() {
-        let mut j = JitterStats::default();
-        for p in [1000.0, 1004.0, 996.0, 1025.0, 1300.0] {
-            j.add(p);
-        }
-        assert_eq!(j.count, 5);
-        assert_eq!(j.max_abs_us, 300.0);
-        assert_eq!(j.mean_period_us(), Some(1065.0));
-        // |jitter| = 0, 4, 4, 25, 300: the median in the first bin (0-10 µs), the 80 %
-        // quantile in the 20-30 µs bin, the largest in the 300-310 µs bin.
-        assert_eq!(j.quantile_us(0.5), Some(10.0));
-        assert_eq!(j.quantile_us(0.8), Some(30.0));
-        assert_eq!(j.quantile_us(1.0), Some(310.0));
     }
 }

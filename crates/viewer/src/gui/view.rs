@@ -217,7 +217,9 @@ pub fn view_2d_ui(ui: &mut egui::Ui, state: &mut AppState, view: &mut View2d) {
             EVec2::new(294.0, 240.0),
         );
         ui.scope_builder(egui::UiBuilder::new().max_rect(panel), |ui| {
-            edit_panel_ui(ui, state);
+            if let Some(action) = state.edit.ui(ui, &state.scene.model) {
+                state.edit_action(action);
+            }
         });
     }
 }
@@ -274,97 +276,6 @@ fn edit_input(
             state.undo();
         }
     }
-}
-
-/// The selected point (position, weight), the edit buttons, the history and the last error.
-pub fn edit_panel_ui(ui: &mut egui::Ui, state: &mut AppState) {
-    egui::Frame::group(ui.style())
-        .fill(Color32::from_rgba_unmultiplied(255, 255, 255, 235))
-        .show(ui, |ui| {
-            ui.set_width(280.0);
-            ui.label(egui::RichText::new("Edit").strong());
-            let selected = state.edit.selected;
-            match (selected, state.selected_point()) {
-                (Some(at), Some((p, w))) => {
-                    ui.label(format!(
-                        "object {}, patch {}, point {}: ({:.2}, {:.2}) mm",
-                        at.object,
-                        at.patch,
-                        at.index,
-                        p.x * 1e3,
-                        p.y * 1e3
-                    ));
-                    ui.horizontal(|ui| {
-                        let name = ui.label("weight");
-                        let draft = state.edit.weight_draft.get_or_insert(f64::from(w));
-                        let r = ui
-                            .add(
-                                egui::DragValue::new(draft)
-                                    .speed(0.01)
-                                    .max_decimals(4)
-                                    .update_while_editing(false),
-                            )
-                            .labelled_by(name.id);
-                        let done = r.drag_stopped() || (r.changed() && !r.dragged());
-                        if done && let Some(weight) = state.edit.weight_draft.take() {
-                            state.set_point_weight(at, weight);
-                        }
-                    });
-                }
-                _ => {
-                    ui.label("press a control point to select it, drag it to move it");
-                }
-            }
-            ui.horizontal(|ui| {
-                let some = selected.is_some();
-                if ui
-                    .add_enabled(some, egui::Button::new("insert knot"))
-                    .on_hover_text("at the selected point's parameter (its Greville abscissa)")
-                    .clicked()
-                {
-                    state.insert_knot_at_selected();
-                }
-                if ui
-                    .add_enabled(some, egui::Button::new("split"))
-                    .on_hover_text("the patch in two at the selected point's parameter")
-                    .clicked()
-                {
-                    state.split_at_selected();
-                }
-                if ui
-                    .add_enabled(some, egui::Button::new("join next"))
-                    .on_hover_text("the selected point's patch with the next one")
-                    .clicked()
-                {
-                    state.join_selected_with_next();
-                }
-            });
-            ui.horizontal(|ui| {
-                let (undo, redo) = state.edit.history.depth();
-                if ui
-                    .add_enabled(undo > 0, egui::Button::new(format!("undo ({undo})")))
-                    .on_hover_text("Ctrl+Z")
-                    .clicked()
-                {
-                    state.undo();
-                }
-                if ui
-                    .add_enabled(redo > 0, egui::Button::new(format!("redo ({redo})")))
-                    .on_hover_text("Ctrl+Shift+Z")
-                    .clicked()
-                {
-                    state.redo();
-                }
-            });
-            if let Some(last) = &state.edit.last {
-                ui.label(
-                    egui::RichText::new(format!("last: {last}")).color(Color32::from_gray(90)),
-                );
-            }
-            if let Some(e) = &state.edit.error {
-                ui.colored_label(Color32::from_rgb(190, 30, 30), e);
-            }
-        });
 }
 
 fn draw_regions(painter: &egui::Painter, rect: Rect, view: &View2d, state: &AppState) {

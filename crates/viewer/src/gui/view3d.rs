@@ -726,7 +726,7 @@ pub fn view_3d_ui(ui: &mut egui::Ui, state: &mut AppState, camera: &mut Camera3d
         painter.add(egui_wgpu::Callback::new_paint_callback(rect, draw));
     }
     let painter = painter.with_clip_rect(rect);
-    let latest = state.history.back().copied();
+    let latest = state.latest().copied();
     let spatial = state.spatial.as_ref();
     if let Some(spatial) = spatial {
         draw_hand(&painter, rect, camera, spatial, latest.as_ref());

@@ -76,7 +76,7 @@ pub fn penalty_within_curvature(t: &host::tick::Tick) -> bool {
 /// The modes the telemetry went through, consecutive repeats collapsed.
 pub fn mode_sequence(state: &AppState) -> Vec<Mode> {
     let mut seq: Vec<Mode> = Vec::new();
-    for s in &state.history {
+    for s in &state.telemetry.history {
         if seq.last() != Some(&s.tick.mode) {
             seq.push(s.tick.mode);
         }
