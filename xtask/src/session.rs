@@ -240,8 +240,9 @@ fn start(elf: &Path, address: &str, wait: bool, what: &str) -> Result<Qemu, Stri
 /// force) without a fault. (The app's own wiring of this thread is tested against the
 /// simulated device on a pseudo-terminal in `crates/viewer/tests/device_link.rs`.)
 pub fn app(elf: &Path, root: &Path) -> Result<Vec<String>, String> {
+    use host::backend::{Command, LinkEvent, Reply, Sample};
     use host::devices::Target;
-    use host::haptic::{Command, LinkEvent, Reply, Sample, Session};
+    use host::planar::Session;
     let address = free_address()?;
     let _qemu = start(elf, &address, false, "the desktop app's link")?;
     // The board is up once QEMU listens (its emulation runs without waiting for a client);

@@ -36,8 +36,9 @@ use friction::Mode;
 use nurbs::{Vec2, Vec3};
 use tracker::Feature;
 
+use crate::backend::{Command, LinkEvent, LoopEnds, LoopThread, Reply, Sample};
 use crate::devices::{HEARTBEAT_PERIOD, Opened};
-use crate::haptic::{Command, LinkEvent, LoopEnds, LoopThread, MaterialChangeError, Reply, Sample};
+use crate::planar::MaterialChangeError;
 use crate::tick::{DeviceSample, Tick};
 
 /// A device silent this long is gone (telemetry comes every tick, so this is hundreds of

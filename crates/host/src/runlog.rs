@@ -17,7 +17,7 @@ use friction::{FrictionMaterial, Mode, SwitchCause};
 use nurbs::Vec3;
 use scene::Space;
 
-use crate::haptic::{RATE_HZ, RECORD_CAPACITY};
+use crate::backend::{RATE_HZ, RECORD_CAPACITY};
 use crate::sim::Run;
 use crate::tick::{DeviceSample, Tick};
 
@@ -241,7 +241,7 @@ pub fn parse(text: &str, path: &Path) -> Result<RunLog, RunLogError> {
 // ---------------------------------------------------------------------------------------------
 // Writing.
 
-/// The columns a device run ([`run_device`]) appends to [`csv_header`]: the measured joint
+/// The columns a device run ([`run_device`](crate::sim::run_device)) appends to [`csv_header`]: the measured joint
 /// angles (rad), the joint torques (N·m) and the latched fault bits as a decimal number.
 pub const DEVICE_COLUMNS: &str = "theta1_rad,theta2_rad,tau1_nm,tau2_nm,faults";
 
@@ -388,7 +388,7 @@ impl Run {
             .find_map(|(i, k)| k.non_finite_column().map(|c| (i, c)))
     }
 
-    /// Whether this is a closed-loop run of the device ([`run_device`]): its ticks carry a
+    /// Whether this is a closed-loop run of the device ([`run_device`](crate::sim::run_device)): its ticks carry a
     /// [`DeviceSample`].
     pub fn is_device_run(&self) -> bool {
         self.ticks.first().is_some_and(|k| k.device.is_some())
@@ -586,7 +586,7 @@ fn record(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::haptic::{HapticLoop, START_HIP, Session};
+    use crate::planar::{HapticLoop, START_HIP, Session};
     use crate::sim::{self, Trajectory};
     use scene::Scene;
 

@@ -4,18 +4,18 @@
 //!
 //! Each tick `i` at `t = t₀ + i / rate`: the HIP is the trajectory interpolated at `t`, its
 //! velocity the backward difference of the sampled HIP (zero at the first tick), and one
-//! [`FrictionRenderer`] for the object turns them into a [`FrictionOutput`], recorded as a
+//! [`FrictionRenderer`] for the object turns them into a [`FrictionOutput`](friction::FrictionOutput), recorded as a
 //! [`Tick`]. Planar trajectories drive a chain of planar curves ([`tracker::Chain`]), spatial
 //! ones a shell of surfaces ([`tracker::Shell`]); [`Tick`] stores both as `Vec3` with `z = 0`
 //! for planar runs.
 //!
 //! [`run_device`] closes the loop through the device instead: the trajectory moves the target
 //! of a virtual hand that holds the handle of a [`SimulatedPantograph`], and the device's own
-//! [`Controller`] (encoder counts → kinematics → tracker → friction → safety → Jᵀ F → motor
-//! currents) pushes back. Its ticks carry a [`DeviceSample`] as well.
+//! [`Controller`](device::controller::Controller) (encoder counts → kinematics → tracker → friction → safety → Jᵀ F → motor
+//! currents) pushes back. Its ticks carry a [`DeviceSample`](crate::tick::DeviceSample) as well.
 //!
-//! [`Run::write_csv`] writes the run log: one row per tick, columns [`csv_header`], followed
-//! by [`DEVICE_COLUMNS`] for device runs.
+//! [`Run::write_csv`] writes the run log: one row per tick, columns [`csv_header`](crate::runlog::csv_header), followed
+//! by [`DEVICE_COLUMNS`](crate::runlog::DEVICE_COLUMNS) for device runs.
 
 use device::controller::ControllerError;
 use device::kinematics::KinematicsError;
@@ -309,7 +309,7 @@ fn simulate<O: TrackedObject>(
 /// A closed-loop run ([`run_device`]).
 #[derive(Clone, Debug, PartialEq)]
 pub struct DeviceRun {
-    /// The ticks, each with its [`DeviceSample`].
+    /// The ticks, each with its [`DeviceSample`](crate::tick::DeviceSample).
     pub run: Run,
     /// Whether the material is stiffer than the device renders passively at this rate, so
     /// that the controller renders it with the time-domain passivity controller on.

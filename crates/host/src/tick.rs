@@ -71,7 +71,7 @@ pub struct Tick {
     pub go_param: f32,
     /// Parameters of the GO (`[u, 0]` on curves).
     pub go_params: [f32; 2],
-    /// What the device did this tick, in a [`run_device`] run; `None` in a prescribed-HIP
+    /// What the device did this tick, in a [`run_device`](crate::sim::run_device) run; `None` in a prescribed-HIP
     /// run.
     pub device: Option<DeviceSample>,
 }
@@ -123,7 +123,7 @@ pub struct DeviceSample {
     pub faults: u16,
 }
 
-/// One tick of a prescribed-HIP run, the step of [`run`] and of the GUI's spatial hand
+/// One tick of a prescribed-HIP run, the step of [`run`](crate::sim::run) and of the GUI's spatial hand
 /// (`haptic3d`): the renderer turns the HIP and its velocity into a force, recorded as a
 /// [`Tick`] whose patch indices name the scene's patches.
 pub fn render_tick<O: TrackedObject>(
@@ -162,7 +162,7 @@ pub fn device_controller<'a>(
     Ok((controller, passivity_control))
 }
 
-/// One closed-loop tick, the step of [`run_device`] and of the GUI's haptic loop: a heartbeat,
+/// One closed-loop tick, the step of [`run_device`](crate::sim::run_device) and of the GUI's haptic loop: a heartbeat,
 /// one controller tick on the simulated encoders at `now_us` (the device clock), the
 /// acquisition a scene load asks for (between ticks, as a board's lower-priority task:
 /// `device::controller`, "Acquisition is not the tick's"), then the simulated pantograph moves
@@ -193,7 +193,7 @@ pub fn device_tick<O: TrackedObject<P = Vec2>>(
 }
 
 /// The raw counts the encoders of `spec` read with both joints resting on their end stops:
-/// what [`run_device`] calibrates on (and the firmware's QEMU run, through `cargo xtask qemu`);
+/// what [`run_device`](crate::sim::run_device) calibrates on (and the firmware's QEMU run, through `cargo xtask qemu`);
 /// [`DeviceSpec::end_stop_counts`].
 pub fn end_stop_counts(spec: &DeviceSpec) -> [i32; 2] {
     spec.end_stop_counts()

@@ -193,7 +193,7 @@ fn dragging_a_handle_with_the_pointer_and_undoing_with_the_keyboard() {
     let s = &h.state().state;
     assert_eq!(s.edit.error, None);
     assert_eq!(s.edit.selected, Some(MIDDLE));
-    assert_eq!(s.hand_target, host::haptic::START_HIP, "the hand stayed");
+    assert_eq!(s.hand_target, host::planar::START_HIP, "the hand stayed");
     let expected = view.device_of(rect, to);
     let (moved, _) = viewer::gui::editing::control_point(&s.scene.model, MIDDLE).expect("P_1");
     // Stored as (w·P, w): an ulp or two of the 0.09 m coordinates.

@@ -216,7 +216,7 @@ fn pulling_the_handle_out_of_the_safety_box_latches_a_fault_until_cleared() {
 #[test]
 fn a_press_far_from_the_handle_moves_the_hand_at_a_bounded_speed() {
     let mut state = stepped();
-    let start = host::haptic::START_HIP;
+    let start = host::planar::START_HIP;
     let far = Vec2::new(0.03, 0.08); // 42 mm away, in free space beside the arch
     assert!(state.set_hand_target(far));
     state.step(1);

@@ -1,6 +1,6 @@
 //! The desktop app (`viewer gui`, and `viewer` alone): egui on eframe's wgpu renderer.
 //!
-//! Rerun-style: the haptic loop runs on its own thread ([`host::haptic::Backend`]) and the
+//! Rerun-style: the haptic loop runs on its own thread ([`host::backend::Backend`]) and the
 //! UI reads what it sends, never waiting for it; [`state::AppState`] holds everything apart
 //! from the drawing, so tests drive it without a window. Each panel is a struct of
 //! [`panels`] (egui's demo app) that owns its form state and draws itself; [`ViewerUi`] lays

@@ -5,7 +5,7 @@
 
 use std::path::Path;
 
-use host::haptic::Sample;
+use host::backend::Sample;
 use host::runlog::{self, RunLogError};
 use host::tick::Tick;
 use scene::Space;

@@ -1,5 +1,5 @@
 //! The app's state for a scene without planar objects: the 3-D view's geometry, the spatial
-//! hand's loop ([`host::haptic3d`]) and the choice between feeling the NURBS object and its
+//! hand's loop ([`host::spatial`]) and the choice between feeling the NURBS object and its
 //! tessellation (the polygonal baseline) at a chordal tolerance, and the OBJ export.
 
 use std::path::Path;
@@ -9,9 +9,9 @@ use nurbs::Vec3;
 use tracker::TriMesh;
 
 use super::view3d::Scene3d;
-use host::haptic::{Backend, Command, Reply, Sample};
-use host::haptic3d::{self, SpatialLoop, SpatialSession, check_mesh};
+use host::backend::{Backend, Command, Reply, Sample};
 use host::runlog::RecordTx;
+use host::spatial::{self, SpatialLoop, SpatialSession, check_mesh};
 use scene::mesh::{self, ObjMesh};
 use scene::{Scene, Space, tessellate_object};
 
@@ -62,12 +62,12 @@ impl SpatialState {
         let view = Scene3d::new(label, scene, object);
         let (backend, start) = match object {
             Some(i) => {
-                let start = haptic3d::start_hip(haptic3d::control_points(scene, i));
+                let start = spatial::start_hip(spatial::control_points(scene, i));
                 let session = SpatialSession::nurbs(scene.clone(), i, start)?;
                 let spatial = SpatialLoop::new(session, start);
                 (Some(Backend::start(spatial, threaded, record)?), start)
             }
-            None => (None, haptic3d::start_hip(view_corners(&view))),
+            None => (None, spatial::start_hip(view_corners(&view))),
         };
         let material = object
             .and_then(|i| scene.object(i))
@@ -98,7 +98,7 @@ impl SpatialState {
     ) -> anyhow::Result<Self> {
         check_mesh(&obj.mesh).map_err(|e| anyhow::anyhow!("{label}: {e}"))?;
         let view = Scene3d::of_mesh(label, &obj.name, &obj.mesh);
-        let start = haptic3d::start_hip(obj.mesh.vertices().iter().copied());
+        let start = spatial::start_hip(obj.mesh.vertices().iter().copied());
         let triangles = obj.mesh.triangles().len();
         let mut spatial = SpatialLoop::new(SpatialSession::mesh(&obj.name, material), start);
         spatial

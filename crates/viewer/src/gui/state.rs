@@ -19,10 +19,9 @@ use super::panels::{DevicePanel, FilePanel, MaterialPanel, ReplayPanel};
 use super::replay::Replay;
 use super::spatial::SpatialState;
 use super::telemetry::Telemetry;
+use host::backend::{Backend, Command, LinkEvent, Reply, Sample};
 use host::devices::{self, Target};
-use host::haptic::{
-    Backend, Command, HapticLoop, LinkEvent, MaterialChangeError, Reply, START_HIP, Sample, Session,
-};
+use host::planar::{HapticLoop, MaterialChangeError, START_HIP, Session};
 use host::runlog::RecordTx;
 use scene::bundled::BUNDLED;
 use scene::{Material, Patch, Scene, Space};

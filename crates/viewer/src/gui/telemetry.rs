@@ -5,7 +5,7 @@
 use std::collections::VecDeque;
 
 use friction::{Mode, SwitchCause};
-use host::haptic::{self, Sample};
+use host::backend::{self, Sample};
 
 /// Seconds of telemetry the plots show.
 pub const HISTORY_S: f64 = 5.0;
@@ -115,7 +115,7 @@ impl Telemetry {
         if self.recent_periods.is_empty() {
             return None;
         }
-        let nominal = 1e6 / haptic::RATE_HZ as f32;
+        let nominal = 1e6 / backend::RATE_HZ as f32;
         let n = self.recent_periods.len();
         let mean = self.recent_periods.iter().sum::<f32>() / n as f32;
         let mut dev: Vec<f32> = self
@@ -146,7 +146,7 @@ impl JitterStats {
         if self.bins.is_empty() {
             self.bins = vec![0; 1001];
         }
-        let jitter = (period_us - 1e6 / haptic::RATE_HZ as f32).abs();
+        let jitter = (period_us - 1e6 / backend::RATE_HZ as f32).abs();
         self.count += 1;
         self.sum_us += f64::from(period_us);
         self.max_abs_us = self.max_abs_us.max(jitter);

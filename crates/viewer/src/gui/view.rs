@@ -361,7 +361,7 @@ fn draw_handles(painter: &egui::Painter, rect: Rect, view: &View2d, state: &AppS
 }
 
 fn haptic_start() -> Vec2 {
-    host::haptic::START_HIP
+    host::planar::START_HIP
 }
 
 fn draw_reach(painter: &egui::Painter, rect: Rect, view: &View2d, state: &AppState) {

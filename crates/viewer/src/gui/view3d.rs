@@ -793,7 +793,7 @@ fn draw_hand(
     rect: Rect,
     camera: &Camera3d,
     spatial: &SpatialState,
-    latest: Option<&host::haptic::Sample>,
+    latest: Option<&host::backend::Sample>,
 ) {
     let at = |p: Vec3| camera.project(rect, p);
     let blue = Color32::from_rgb(40, 110, 200);
@@ -870,7 +870,7 @@ fn draw_legend(
     painter: &egui::Painter,
     rect: Rect,
     spatial: &SpatialState,
-    latest: Option<&host::haptic::Sample>,
+    latest: Option<&host::backend::Sample>,
     installed: bool,
 ) {
     let font = FontId::proportional(13.0);

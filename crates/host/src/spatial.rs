@@ -5,8 +5,8 @@
 //! polygonal baseline of the thesis (§2.1.3, Fig. 2.1.2 (b)): the closest triangle of a
 //! [`TriMesh`] and the penalty `K·depth` along its face normal, without friction.
 //!
-//! The loop runs on the thread of [`crate::haptic::LoopThread`], or stepped in place, through
-//! the same [`crate::haptic::Backend`] as the planar loop (it is a [`Steppable`]); its
+//! The loop runs on the thread of [`crate::backend::LoopThread`], or stepped in place, through
+//! the same [`crate::backend::Backend`] as the planar loop (it is a [`Steppable`]); its
 //! commands, replies and samples are the planar loop's ([`Command`], [`Reply`], [`Sample`]),
 //! swapping in a [`SpatialSession`]. Tests step a [`SpatialLoop`] directly.
 
@@ -14,9 +14,8 @@ use friction::{FrictionMaterial, FrictionRenderer, Mode};
 use nurbs::{Vec2, Vec3};
 use tracker::{Contact, Feature, Penalty, Shell, TriMesh};
 
-use crate::haptic::{
-    Command, MAX_HAND_SPEED_M_PER_S, MaterialChangeError, RATE_HZ, Reply, Sample, Steppable,
-};
+use crate::backend::{Command, RATE_HZ, Reply, Sample, Steppable};
+use crate::planar::{MAX_HAND_SPEED_M_PER_S, MaterialChangeError};
 use crate::sim::SimError;
 use crate::tick::{self, Tick};
 use scene::{Material, Scene, Space};
@@ -587,7 +586,7 @@ mod tests {
         let scene = floor();
         let start = start_hip(control_points(&scene, 0));
         let session = SpatialSession::nurbs(scene, 0, start).expect("session");
-        let thread = crate::haptic::LoopThread::spawn(SpatialLoop::new(session, start), None)
+        let thread = crate::backend::LoopThread::spawn(SpatialLoop::new(session, start), None)
             .expect("spawn");
         let softer = FrictionMaterial {
             stiffness_n_per_m: 500.0,
@@ -646,7 +645,7 @@ mod tests {
     /// and the NURBS object stays.
     #[test]
     fn the_spatial_loop_answers_every_command() {
-        use crate::haptic::{Backend, Sent};
+        use crate::backend::{Backend, Sent};
         use device::safety::Faults;
         let scene = floor();
         let start = start_hip(control_points(&scene, 0));

@@ -1,0 +1,411 @@
+//! The planar loop the app runs on the simulated pantograph: the device's [`Controller`] on
+//! one planar object of a scene, stepped one tick at a time ([`HapticLoop::step`], the same
+//! [`tick::device_tick`] as `viewer sim --device`), driven by a virtual hand whose target the
+//! UI moves. The scene reaches it as the device's upload ([`Session`]): the in-process
+//! simulator decodes it with the device's own receiver, as a board would. It runs on a
+//! [`Backend`](crate::backend::Backend) like every loop the app drives.
+
+use device::controller::{Controller, ControllerError};
+use device::protocol::SceneStore;
+use device::safety::Faults;
+use device::simulator::{SimParams, SimulatedPantograph, VirtualHand};
+use device::spec::DeviceSpec;
+use friction::FrictionMaterial;
+use nurbs::Vec2;
+use tracker::Chain;
+
+use crate::backend::{Command, RATE_HZ, Reply, Sample, Steppable};
+use crate::sim::SimError;
+use crate::tick::{self, Tick};
+use crate::upload::{self, UploadError};
+use scene::{Material, MaterialError, Scene, Space};
+
+/// Where the handle (and the hand's target) starts: in the middle of the default device's
+/// workspace, above the bundled planar scenes.
+pub const START_HIP: Vec2 = Vec2::new(0.0, 0.11);
+
+/// The fastest the virtual hand's target follows its command (m/s): the simulated
+/// plant's ([`device::simulator::VirtualHand`]).
+pub const MAX_HAND_SPEED_M_PER_S: f32 = device::simulator::MAX_HAND_SPEED_M_PER_S;
+
+/// A scene the loop renders: the scene, the index of the object the device renders (the
+/// first planar one; `None` when the scene has none), and the controller built for it.
+pub struct Session(SessionCell);
+
+/// The controller of a [`Session`], borrowing the scene's curves.
+#[derive(Debug)]
+struct Rendering<'a> {
+    controller: Controller<Chain<'a>>,
+    passivity_control: bool,
+}
+
+self_cell::self_cell!(
+    struct SessionCell {
+        owner: SceneChoice,
+        // The controller's state names the object type (`Controller<Chain<'a>>` is not
+        // covariant in 'a): it is reached through closures only.
+        #[not_covariant]
+        dependent: Rendering,
+    }
+);
+
+/// The owner of a [`Session`]: the scene, the object chosen, and that object as the device
+/// received it (its wire scene, the store the device decoded it into, the CRC it reports).
+#[derive(Debug)]
+struct SceneChoice {
+    scene: Scene,
+    object: Option<usize>,
+    received: Option<Received>,
+}
+
+/// An object as the device received it ([`upload::receive`]).
+#[derive(Debug)]
+struct Received {
+    wire: Vec<u8>,
+    store: Box<SceneStore>,
+    crc32: u32,
+}
+
+impl std::fmt::Debug for Session {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Session")
+            .field("object", &self.object())
+            .field("passivity_control", &self.passivity_control())
+            .finish_non_exhaustive()
+    }
+}
+
+/// Why a scene cannot be rendered.
+#[derive(Debug, thiserror::Error)]
+pub enum SessionError {
+    /// The controller or the chain refused the object.
+    #[error("{0}")]
+    Sim(#[from] SimError),
+    /// The device refused its upload.
+    #[error("{0}")]
+    Upload(#[from] UploadError),
+}
+
+impl Session {
+    /// The default device at [`RATE_HZ`], calibrated on its end stops, forces enabled, with
+    /// the first object of planar curves of `scene` loaded (none when it has none: the
+    /// pantograph is planar, so a scene of surfaces renders nothing). The controller's own
+    /// checks apply: a material stiffer than the device renders is refused, naming the limit.
+    pub fn new(scene: Scene) -> Result<Self, SessionError> {
+        let object = scene
+            .objects()
+            .iter()
+            .position(|o| o.space() == Space::Planar);
+        Self::with_object(scene, object)
+    }
+
+    /// [`Session::new`] with object `object` (which must be planar), or none. The object
+    /// reaches the controller as a board's would: its wire scene ([`upload::wire_scene`])
+    /// goes frame by frame through the device's receiver ([`upload::receive`]), and the
+    /// controller renders the store the device decoded.
+    pub fn with_object(scene: Scene, object: Option<usize>) -> Result<Self, SessionError> {
+        let received = match object {
+            Some(index) => {
+                let wire = upload::wire_scene(&scene, index)?;
+                let (store, crc32) = upload::receive(&wire)?;
+                Some(Received { wire, store, crc32 })
+            }
+            None => None,
+        };
+        let choice = SceneChoice {
+            scene,
+            object,
+            received,
+        };
+        let cell = SessionCell::try_new(choice, build_controller)?;
+        Ok(Session(cell))
+    }
+
+    /// The scene.
+    pub fn scene(&self) -> &Scene {
+        &self.0.borrow_owner().scene
+    }
+
+    /// The index of the object the device renders, if any.
+    pub fn object(&self) -> Option<usize> {
+        self.0.borrow_owner().object
+    }
+
+    /// The wire scene the device received (the rendered object alone), if it renders one:
+    /// what an upload to a board carries.
+    pub fn wire(&self) -> Option<&[u8]> {
+        self.0
+            .borrow_owner()
+            .received
+            .as_ref()
+            .map(|r| r.wire.as_slice())
+    }
+
+    /// The CRC-32 the device reports for its active scene (`Status::scene_crc32`), if it
+    /// renders one.
+    pub fn scene_crc32(&self) -> Option<u32> {
+        self.0.borrow_owner().received.as_ref().map(|r| r.crc32)
+    }
+
+    /// Whether the controller renders the material with the passivity controller on (the
+    /// material is stiffer than the device renders passively at [`RATE_HZ`]).
+    pub fn passivity_control(&self) -> bool {
+        self.0.with_dependent(|_, r| r.passivity_control)
+    }
+}
+
+fn build_controller(choice: &SceneChoice) -> Result<Rendering<'_>, SessionError> {
+    let spec = DeviceSpec::default();
+    let (mut controller, passivity_control) = match &choice.received {
+        Some(received) => {
+            let store = &received.store;
+            let curves: Vec<_> = (0..store.patch_count(0).unwrap_or(0))
+                .filter_map(|p| store.curve(0, p))
+                .collect();
+            let index = choice.object.unwrap_or(0);
+            let chain = Chain::new(&curves).map_err(|error| SimError::Chain { index, error })?;
+            let material = store.material(0).unwrap_or_default();
+            tick::device_controller(chain, material, RATE_HZ)?
+        }
+        None => {
+            let safety = device::safety::SafetyConfig {
+                period_s: (1.0 / RATE_HZ) as f32,
+                ramp_time_s: tick::DEVICE_RAMP_TIME_S,
+                ..device::safety::SafetyConfig::default()
+            };
+            (
+                Controller::new(spec, safety).map_err(SimError::Controller)?,
+                false,
+            )
+        }
+    };
+    controller
+        .calibrate(tick::end_stop_counts(&spec))
+        .map_err(SimError::Controller)?;
+    controller.set_forces_enabled(true);
+    Ok(Rendering {
+        controller,
+        passivity_control,
+    })
+}
+
+/// Why a material was not applied. The running material is unchanged.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum MaterialChangeError {
+    /// A value is out of its range (the message names the field).
+    #[error("{0}")]
+    Invalid(#[from] MaterialError),
+    /// The device's controller refused it (a stiffness beyond the device; the message names
+    /// the limit).
+    #[error("device controller: {0}")]
+    Controller(ControllerError),
+    /// The scene has no object the device renders.
+    #[error("the scene has no object of planar curves for the device to render")]
+    NoObject,
+    /// The device behind the link refused it (its reason).
+    #[error("the device refused the material: {0}")]
+    Device(String),
+}
+
+/// The loop's state: the session, the simulated arm and the hand. Stepped one tick at a time.
+#[derive(Debug)]
+pub struct HapticLoop {
+    session: Session,
+    material: Option<FrictionMaterial>,
+    arm: SimulatedPantograph,
+    hand: VirtualHand,
+    tick: u64,
+    period_s: f32,
+    last_error: Option<String>,
+}
+
+impl HapticLoop {
+    /// A loop on `session` with the handle at rest at `start_hip`, held by the default
+    /// relaxed hand of `viewer sim --device` ([`SimParams::default`], 300 N/m).
+    pub fn new(session: Session, start_hip: Vec2) -> Result<Self, SessionError> {
+        let arm = SimulatedPantograph::new(DeviceSpec::default(), SimParams::default(), start_hip)
+            .map_err(SimError::Simulator)?;
+        let material = material_of(&session);
+        Ok(HapticLoop {
+            session,
+            material,
+            arm,
+            hand: VirtualHand::at(start_hip),
+            tick: 0,
+            period_s: (1.0 / RATE_HZ) as f32,
+            last_error: None,
+        })
+    }
+
+    /// One tick (see [`tick::device_tick`]). An arm driven into a singular pose stays there; the
+    /// tick is then recorded at the last pose and [`HapticLoop::last_error`] says why.
+    pub fn step(&mut self) -> Tick {
+        let target = self.hand.step(self.period_s);
+        let t_s = self.tick as f64 / RATE_HZ;
+        // The device clock: integer microseconds, as a board's timer.
+        let now_us = (self.tick as f64 * 1e6 / RATE_HZ).round() as u64;
+        let period_s = self.period_s;
+        let arm = &mut self.arm;
+        let result = self.session.0.with_dependent_mut(|_, r| {
+            tick::device_tick(&mut r.controller, arm, t_s, now_us, target, period_s)
+        });
+        self.tick += 1;
+        match result {
+            Ok((tick, _)) => tick,
+            Err(e) => {
+                self.last_error = Some(e.to_string());
+                let hip = self.arm.hip().map(|(p, _)| p).unwrap_or(target);
+                Tick {
+                    hip: nurbs::Vec3::new(hip.x, hip.y, 0.0),
+                    ..Tick::idle(t_s)
+                }
+            }
+        }
+    }
+
+    /// Commands the virtual hand's target (m, device frame): from the next tick it moves
+    /// there at up to [`MAX_HAND_SPEED_M_PER_S`]; a non-finite target is ignored.
+    pub fn set_hand_target(&mut self, target: Vec2) {
+        self.hand.command(target);
+    }
+
+    /// The hand's target (where it is on its way to the command).
+    pub fn hand_target(&self) -> Vec2 {
+        self.hand.target()
+    }
+
+    /// Ticks so far.
+    pub fn ticks(&self) -> u64 {
+        self.tick
+    }
+
+    /// Validates `material` (every field, then the controller's own check) and, when both
+    /// accept it, renders the object with it from the next tick (the renderer restarts, the
+    /// force ramps in). On error the running material stays.
+    pub fn set_material(
+        &mut self,
+        material: FrictionMaterial,
+    ) -> Result<FrictionMaterial, MaterialChangeError> {
+        Material::from_friction(material)?;
+        if self.session.object().is_none() {
+            return Err(MaterialChangeError::NoObject);
+        }
+        self.session.0.with_dependent_mut(|_, r| {
+            let passivity = r
+                .controller
+                .set_material_as_needed(material, true)
+                .map_err(MaterialChangeError::Controller)?;
+            r.passivity_control = passivity;
+            Ok::<(), MaterialChangeError>(())
+        })?;
+        self.material = Some(material);
+        Ok(material)
+    }
+
+    /// The material the loop renders, if it renders an object.
+    pub fn material(&self) -> Option<FrictionMaterial> {
+        self.material
+    }
+
+    /// Renders `session` from the next tick; the arm, the hand and the forces' switch stay
+    /// as they are.
+    pub fn swap_session(&mut self, session: Session) {
+        let forces = self.forces_enabled();
+        self.material = material_of(&session);
+        self.session = session;
+        self.set_forces_enabled(forces);
+    }
+
+    /// The session.
+    pub fn session(&self) -> &Session {
+        &self.session
+    }
+
+    /// Enables or disables the forces.
+    pub fn set_forces_enabled(&mut self, enabled: bool) {
+        self.session
+            .0
+            .with_dependent_mut(|_, r| r.controller.set_forces_enabled(enabled));
+    }
+
+    /// Whether forces are enabled.
+    pub fn forces_enabled(&self) -> bool {
+        self.session
+            .0
+            .with_dependent(|_, r| r.controller.forces_enabled())
+    }
+
+    /// Clears the latched faults whose condition is gone; returns those still latched.
+    pub fn clear_faults(&mut self) -> Faults {
+        self.session
+            .0
+            .with_dependent_mut(|_, r| r.controller.clear_faults())
+    }
+
+    /// Calibrates the controller on the simulated arm's end stops (where it was homed).
+    pub fn calibrate(&mut self) {
+        let counts = tick::end_stop_counts(&DeviceSpec::default());
+        let result = self
+            .session
+            .0
+            .with_dependent_mut(|_, r| r.controller.calibrate(counts));
+        if let Err(e) = result {
+            self.last_error = Some(e.to_string());
+        }
+    }
+
+    /// The latched faults.
+    pub fn faults(&self) -> Faults {
+        self.session.0.with_dependent(|_, r| r.controller.faults())
+    }
+
+    /// Why the last tick could not move the arm, if it could not.
+    pub fn last_error(&self) -> Option<&str> {
+        self.last_error.as_deref()
+    }
+}
+
+fn material_of(session: &Session) -> Option<FrictionMaterial> {
+    session
+        .object()
+        .and_then(|i| session.scene().object(i))
+        .map(|o| o.material().friction_material())
+}
+
+impl Steppable for HapticLoop {
+    type Session = Session;
+
+    fn apply(&mut self, command: Command) -> Option<Reply> {
+        match command {
+            Command::HandTarget(t) => {
+                self.set_hand_target(Vec2::new(t.x, t.y));
+                None
+            }
+            Command::SetMaterial(m) => Some(Reply::Material(self.set_material(m))),
+            Command::Swap(session) => {
+                self.swap_session(*session);
+                Some(Reply::Swapped)
+            }
+            Command::Mesh(_) => Some(Reply::Unsupported(command.name())),
+            Command::Forces(on) => {
+                self.set_forces_enabled(on);
+                None
+            }
+            Command::ClearFaults => Some(Reply::FaultsCleared(self.clear_faults())),
+            Command::Calibrate => {
+                self.calibrate();
+                None
+            }
+        }
+    }
+
+    fn step_sample(&mut self) -> Sample {
+        let tick = self.step();
+        Sample {
+            tick,
+            hand_target: self.hand_target(),
+            period_us: None,
+            forces_enabled: self.forces_enabled(),
+        }
+    }
+}
