@@ -12,6 +12,7 @@
 //!   (`--quit-after-frames`) and must exit with status 0; its last line (frames, frame time,
 //!   tick period and jitter) is printed.
 
+use std::path::Path;
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
@@ -76,17 +77,24 @@ pub(crate) fn ensure_packages() -> Result<(), String> {
 }
 
 /// Runs the viewer's real window under Xvfb and checks that it closes itself with status 0.
-pub(crate) fn window_test(cargo: &str) -> Result<(), String> {
+/// `viewer` is the binary `cargo test --workspace` built (for the CLI tests): running it
+/// directly needs no second build. (`cargo run -p viewer` would rebuild the whole GUI stack:
+/// no other package depends on the app, so the test build's feature set, unified with the
+/// viewer's dev-dependencies, is the only one built; that rebuild took most of the window
+/// test's 180 s.)
+pub(crate) fn window_test(viewer: &Path) -> Result<(), String> {
+    if !viewer.is_file() {
+        return Err(format!(
+            "{}: the viewer binary the tests build is missing",
+            viewer.display()
+        ));
+    }
+    let viewer = viewer.to_string_lossy();
     let args = [
         "-a",
         "-s",
         "-screen 0 1600x1000x24",
-        cargo,
-        "run",
-        "--quiet",
-        "-p",
-        "viewer",
-        "--",
+        &viewer,
         "gui",
         "--demo",
         "--quit-after-frames",

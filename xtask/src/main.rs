@@ -119,7 +119,11 @@ fn ci() -> Result<(), String> {
             CI_ENV,
         )?;
     }
-    gui::window_test(&cargo)?;
+    gui::window_test(
+        &host_target_dir(&qemu::workspace_root()?)
+            .join("debug")
+            .join("viewer"),
+    )?;
     qemu::check_firmware(&cargo)?;
     board::check_board(&cargo)?;
     // The firmware under QEMU: the thesis-2d scenario in the emulated MCU compared frame by
@@ -138,14 +142,19 @@ pub(crate) const CI_ENV: &[(&str, &str)] = &[("CARGO_INCREMENTAL", "0")];
 /// cargo's registry (0.75 GB), QEMU and Mesa need room beside them.
 const CI_DISK_WANTED_GB: f64 = 6.0;
 
+/// The workspace's own target folder: `$CARGO_TARGET_DIR` when set, else `ROOT/target`.
+fn host_target_dir(root: &std::path::Path) -> std::path::PathBuf {
+    env::var_os("CARGO_TARGET_DIR")
+        .map(std::path::PathBuf::from)
+        .unwrap_or_else(|| root.join("target"))
+}
+
 /// Prints the free disk where the build goes and the size of the target folders, and warns
 /// when there is less than `warn_below_gb`: a build that runs out of
 /// disk fails with a compiler panic that does not say why.
 fn report_disk(stage: &str, warn_below_gb: Option<f64>) -> Result<(), String> {
     let root = qemu::workspace_root()?;
-    let target = env::var_os("CARGO_TARGET_DIR")
-        .map(std::path::PathBuf::from)
-        .unwrap_or_else(|| root.join("target"));
+    let target = host_target_dir(&root);
     let free_kb = output("df", &["-Pk", &root.to_string_lossy()])
         .ok()
         .and_then(|out| {
