@@ -528,13 +528,7 @@ impl<L: Steppable> Backend<L> {
 mod tests {
     use super::*;
     use crate::planar::{HapticLoop, START_HIP};
-    use scene::Scene;
-
-    fn thesis_2d() -> Scene {
-        scene::Bundled::find("thesis-2d")
-            .and_then(|b| b.scene().ok())
-            .expect("the bundled thesis-2d")
-    }
+    use crate::test_scenes::thesis_2d;
 
     /// The thread ticks on its own and answers commands; dropping it stops it. Polled for up
     /// to 10 s of wall time (a loaded machine may be slow; nothing here is timed).

@@ -11,3 +11,16 @@ pub mod spatial;
 pub mod tick;
 pub mod trajectory;
 pub mod upload;
+
+/// What the unit tests of several modules share.
+#[cfg(test)]
+pub(crate) mod test_scenes {
+    use scene::{Bundled, Scene};
+
+    /// The bundled thesis-2d scene (two arcs meeting at a vertex).
+    pub(crate) fn thesis_2d() -> Scene {
+        Bundled::find("thesis-2d")
+            .and_then(|b| b.scene().ok())
+            .expect("the bundled thesis-2d")
+    }
+}

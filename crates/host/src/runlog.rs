@@ -588,13 +588,8 @@ mod tests {
     use super::*;
     use crate::planar::{HapticLoop, START_HIP, Session};
     use crate::sim::{self, Trajectory};
+    use crate::test_scenes::thesis_2d;
     use scene::Scene;
-
-    fn thesis_2d() -> Scene {
-        scene::Bundled::find("thesis-2d")
-            .and_then(|b| b.scene().ok())
-            .expect("the bundled thesis-2d")
-    }
 
     /// A `sim --device` run written and read back gives the same logged columns.
     #[test]

@@ -117,12 +117,8 @@ pub fn receive(wire: &[u8]) -> Result<(Box<SceneStore>, u32), UploadError> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::test_scenes::thesis_2d;
     use device::protocol::crc32;
-
-    fn thesis_2d() -> Scene {
-        Scene::from_json_str(include_str!("../../../scenes/thesis-2d.json"))
-            .unwrap_or_else(|e| panic!("{e}"))
-    }
 
     /// The store the device decodes holds the scene's curves exactly (the wire carries f32,
     /// the scene's type: no rounding) and its material; the CRC is the upload's.

@@ -5,12 +5,12 @@
 
 mod common;
 
-use common::{MIDDLE, drag, on_arc, outward, stepped};
+use common::{MIDDLE, drag, on_arc, outward, stepped, view_2d_harness};
 use eframe::egui;
 use egui_kittest::Harness;
 use friction::Mode;
 use nurbs::Vec2;
-use viewer::gui::{ViewerUi, view};
+use viewer::gui::ViewerUi;
 
 /// Press the hand into the right arc at 30°, where P_1 pulls hardest, move P_1 outward by δ
 /// and see the force follow.
@@ -166,12 +166,7 @@ fn dragging_a_handle_with_the_pointer_and_undoing_with_the_keyboard() {
     state.edit.enabled = true;
     let original = state.scene.model.clone();
     let (p1, _) = viewer::gui::editing::control_point(&state.scene.model, MIDDLE).expect("P_1");
-    let mut h = Harness::builder()
-        .with_size(egui::Vec2::new(800.0, 600.0))
-        .build_ui_state(
-            |ui, v: &mut ViewerUi| view::view_2d_ui(ui, &mut v.state, &mut v.view),
-            ViewerUi::new(state),
-        );
+    let mut h = view_2d_harness(state);
     h.run_steps(2);
     let view = h.state().view;
     let rect = view.last_rect.expect("drawn");
@@ -220,12 +215,7 @@ fn the_weight_field_sets_the_weight_and_shows_a_refusal() {
     let mut state = stepped();
     state.edit.enabled = true;
     state.select_point(Some(MIDDLE));
-    let mut h = Harness::builder()
-        .with_size(egui::Vec2::new(800.0, 600.0))
-        .build_ui_state(
-            |ui, v: &mut ViewerUi| view::view_2d_ui(ui, &mut v.state, &mut v.view),
-            ViewerUi::new(state),
-        );
+    let mut h = view_2d_harness(state);
     h.run_steps(2);
     let weight = |h: &Harness<'_, ViewerUi>| {
         viewer::gui::editing::control_point(&h.state().state.scene.model, MIDDLE)

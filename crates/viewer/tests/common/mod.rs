@@ -8,9 +8,9 @@ use eframe::egui;
 use egui_kittest::Harness;
 use friction::Mode;
 use nurbs::{Vec2, Vec3};
-use viewer::gui::ViewerUi;
 use viewer::gui::state::AppState;
 use viewer::gui::view3d::{self, Camera3d};
+use viewer::gui::{ViewerUi, view};
 
 // ----- thesis-2d through the planar device -----
 
@@ -153,6 +153,16 @@ pub fn harness<'a>(
         .with_theme(egui::Theme::Light)
         .wgpu()
         .build_ui_state(show, ui)
+}
+
+/// A harness on the 2-D view alone, not rendered (pointer and keyboard input only).
+pub fn view_2d_harness<'a>(state: AppState) -> Harness<'a, ViewerUi> {
+    Harness::builder()
+        .with_size(egui::Vec2::new(800.0, 600.0))
+        .build_ui_state(
+            |ui, v: &mut ViewerUi| view::view_2d_ui(ui, &mut v.state, &mut v.view),
+            ViewerUi::new(state),
+        )
 }
 
 /// A harness on the 3-D view with its wgpu pipelines installed.
