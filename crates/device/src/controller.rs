@@ -48,7 +48,9 @@ use tracker::Object;
 
 use crate::kinematics::Pantograph;
 use crate::protocol::Telemetry;
-use crate::safety::{ConfigError, Faults, PassivityError, Safety, SafetyConfig, SafetyInput};
+use crate::safety::{
+    Bound, ConfigError, Faults, PassivityConfig, PassivityError, Safety, SafetyConfig, SafetyInput,
+};
 use crate::spec::{Calibration, CalibrationError, DeviceSpec, SpecError};
 
 /// Why a controller could not be built or a command was refused.
@@ -58,13 +60,14 @@ pub enum ControllerError {
     Spec(SpecError),
     /// The safety limits are invalid.
     Safety(ConfigError),
-    /// The material is stiffer than the device renders passively at this rate and the
-    /// passivity controller is off.
+    /// The material fails the device's sampled-data passivity bound at this rate and the
+    /// passivity controller is off ([`crate::safety::check_wall`]).
     Passivity(PassivityError),
     /// Calibration failed.
     Calibration(CalibrationError),
-    /// The material is stiffer than the device renders even with the passivity controller
-    /// on (see [`Safety::check_renderable`](crate::safety::Safety::check_renderable)).
+    /// The material is beyond what the device renders even with the passivity controller on:
+    /// the quantisation bound, or stiffer than the controller is demonstrated to
+    /// ([`crate::safety::check_wall`]).
     BeyondDevice(PassivityError),
     /// A material was set with no scene loaded.
     NoScene,
@@ -75,22 +78,8 @@ impl core::fmt::Display for ControllerError {
         match self {
             ControllerError::Spec(e) => write!(f, "device description: {e}"),
             ControllerError::Safety(e) => write!(f, "safety limits: {e}"),
-            ControllerError::Passivity(e) => write!(
-                f,
-                "{e} (enable the passivity controller to render it anyway)"
-            ),
+            ControllerError::Passivity(e) | ControllerError::BeyondDevice(e) => write!(f, "{e}"),
             ControllerError::Calibration(e) => write!(f, "calibration: {e}"),
-            ControllerError::BeyondDevice(PassivityError::TooStiff {
-                stiffness_n_per_m,
-                max_stiffness_n_per_m,
-            }) => write!(
-                f,
-                "stiffness {stiffness_n_per_m:.1} N/m is beyond what this device renders, even \
-                 with the passivity controller: the limit is {max_stiffness_n_per_m:.1} N/m \
-                 (b + b_grip > K T / 2 + |B|, the device's and a relaxed grip's damping); \
-                 lower the stiffness or raise the tick rate"
-            ),
-            ControllerError::BeyondDevice(e) => write!(f, "{e}"),
             ControllerError::NoScene => write!(f, "no scene loaded: load an object first"),
         }
     }
@@ -198,7 +187,7 @@ impl<O: Object<P = Vec2>> Controller<O> {
     pub fn new(spec: DeviceSpec, safety: SafetyConfig) -> Result<Self, ControllerError> {
         let arm = spec.validate().map_err(ControllerError::Spec)?;
         safety.validate().map_err(ControllerError::Safety)?;
-        let config = Self::effective_limits(&spec, safety);
+        let config = Self::effective_limits(&spec, safety)?;
         let safety = Safety::new(config).map_err(ControllerError::Safety)?;
         Ok(Controller {
             spec,
@@ -219,12 +208,20 @@ impl<O: Object<P = Vec2>> Controller<O> {
     }
 
     /// `safety` with its force and speed limits lowered to the device's (both validated).
-    fn effective_limits(spec: &DeviceSpec, safety: SafetyConfig) -> SafetyConfig {
-        SafetyConfig {
+    fn effective_limits(
+        spec: &DeviceSpec,
+        safety: SafetyConfig,
+    ) -> Result<SafetyConfig, ControllerError> {
+        let device = spec.at_handle().map_err(ControllerError::Spec)?;
+        Ok(SafetyConfig {
+            passivity: PassivityConfig {
+                device,
+                ..safety.passivity
+            },
             max_force_n: safety.max_force_n.min(spec.max_force_n),
             max_velocity_m_per_s: safety.max_velocity_m_per_s.min(spec.max_velocity_m_per_s),
             ..safety
-        }
+        })
     }
 
     /// The limits the safety layer enforces: the configuration given to
@@ -269,6 +266,27 @@ impl<O: Object<P = Vec2>> Controller<O> {
             state: SceneState::AwaitingAcquisition { request_hip: None },
         });
         Ok(())
+    }
+
+    /// [`Controller::load_scene`] without the acceptance: any valid stiffness renders, with the
+    /// passivity controller as asked. For measuring where walls stop being stable (the
+    /// Z-width on a simulated plant, `host::zwidth`), never for a hand on a real device; host
+    /// builds only.
+    #[cfg(feature = "std")]
+    pub fn load_scene_for_measurement(
+        &mut self,
+        object: O,
+        material: FrictionMaterial,
+        passivity_control: bool,
+    ) {
+        self.safety.set_passivity_control(passivity_control);
+        self.safety.restart_ramp_and_observer();
+        self.scene = Some(Scene {
+            object,
+            material,
+            generation: self.bump_generation(),
+            state: SceneState::AwaitingAcquisition { request_hip: None },
+        });
     }
 
     /// [`Controller::load_scene`] with the passivity controller on only where the material
@@ -392,12 +410,22 @@ impl<O: Object<P = Vec2>> Controller<O> {
         passivity_control: bool,
     ) -> Result<(), ControllerError> {
         let (k, b) = (material.stiffness_n_per_m, material.damping_ns_per_m);
-        if let Err(e) = self.safety.check_passivity(k, b) {
+        if let Err(e) = self.safety.check_wall(k, b, false) {
+            let beyond_controller = |e| match e {
+                PassivityError::TooStiff {
+                    bound: Bound::Quantisation,
+                    ..
+                } => true,
+                _ => false,
+            };
+            if beyond_controller(e) {
+                return Err(ControllerError::BeyondDevice(e));
+            }
             if !passivity_control {
                 return Err(ControllerError::Passivity(e));
             }
             self.safety
-                .check_renderable(k, b)
+                .check_wall(k, b, true)
                 .map_err(ControllerError::BeyondDevice)?;
         }
         self.safety.set_passivity_control(passivity_control);

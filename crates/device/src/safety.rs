@@ -49,6 +49,8 @@
 
 use core::fmt;
 
+pub use crate::spec::AtHandle;
+
 use crate::math;
 use nurbs::Vec2;
 
@@ -85,8 +87,8 @@ bitflags::bitflags! {
         const RAMPING = 1 << 2;
         /// The thermal model is derating the force.
         const DERATING = 1 << 3;
-        /// The passivity controller added damping.
-        const DAMPING = 1 << 4;
+        /// The passivity controller limited the force to the energy the contact holds.
+        const ENERGY_LIMITED = 1 << 4;
     }
 }
 
@@ -139,7 +141,7 @@ bit_names!(Flags {
     RATE_LIMITED => "rate-limited",
     RAMPING => "ramping",
     DERATING => "derating",
-    DAMPING => "damping",
+    ENERGY_LIMITED => "energy",
 });
 
 pub use crate::spec::WorkspaceBox;
@@ -185,36 +187,144 @@ impl Default for ThermalConfig {
     }
 }
 
-/// Parameters of the sampled-data passivity check and the passivity observer/controller.
+/// What a wall's acceptance counts on, and the passivity controller's parameters.
+///
+/// # Which walls a device renders
+///
+/// A material of stiffness K and damping B is accepted at period T when both bounds hold
+/// ([`check_wall`]), each from the mechanism's own figures at the worst pose
+/// ([`DeviceSpec::at_handle`](crate::spec::DeviceSpec::at_handle)), never from a hand:
+///
+/// 1. **Sampled-data passivity** (Colgate & Schenkel; thesis eq. 1.1), `b > K T / 2 + |B|`,
+///    with `b` the device's viscous damping plus its Coulomb friction `f_c` counted as the
+///    damping it is at least up to the impact speed `v`, `f_c |ẋ| ≥ (f_c / v) ẋ²` for
+///    `|ẋ| ≤ v`: `K < 2 (b + f_c / v − |B|) / T`. (The zero-order hold's energy leak grows
+///    as `K T ẋ² / 2`; dry friction absorbs `f_c |ẋ|`, so it covers the leak up to that speed.)
+/// 2. **Quantisation** (Abbott & Okamura 2005): `K ≤ 2 f_c / Δ`, Δ the handle's motion per
+///    encoder count. A higher rate does not raise it.
+///
+/// With the passivity controller on, a wall that fails the first bound is still accepted up to
+/// [`PassivityConfig::controller_stiffness_n_per_m`] and
+/// [`PassivityConfig::controller_damping_ns_per_m`]: how far the controller is *demonstrated*
+/// to keep walls stable with a released handle, a light fingertip and a grip, at 1 and
+/// 10 kHz, through the simulated pantograph (the test `tests/tests/zwidth.rs` runs exactly
+/// that cell and fails if it is not). The quantisation bound holds either way.
+///
+/// # The passivity controller: an energy tank
+///
+/// The observer (Hannaford & Ryu 2002) sums the work the user does on the rendered
+/// environment, `E −= F · Δx` with F the force that acted over the displacement Δx (the held
+/// force, [`PassivityConfig::output_delay_ticks`] late). The controller lets the force do on
+/// the user at most the energy E holds: the next period's work, predicted from the last
+/// displacement, is scaled down to E, and while the tank is empty the force grows only as the
+/// user pushes in. A contact thus gives back at most what it received, so a released handle
+/// leaves a wall no faster than it came. The tank is emptied in free space (a penalty wall at
+/// zero depth stores nothing).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct PassivityConfig {
-    /// The mechanism's physical damping b, N·s/m (thesis eq. 1.1).
-    pub device_damping_n_s_per_m: f32,
-    /// Floor on the speed in the controller's α = −E / (T |v|²), m/s, so it never divides by
-    /// zero at rest.
-    pub min_speed_m_per_s: f32,
-    /// Cap on the controller's damping α, N·s/m. A rendered damper is itself subject to
-    /// eq. 1.1, so an unbounded α chatters on velocity noise.
-    pub max_damping_n_s_per_m: f32,
-    /// The damping a relaxed grip adds at the handle, N·s/m: the most the passivity
-    /// controller may count on. With it on, a wall is rendered only while eq. 1.1 holds for
-    /// the device and the grip together, `b + b_grip > K T / 2 + |B|`
-    /// ([`Safety::check_renderable`]); a stiffer wall is active unless the hand damps more
-    /// than a relaxed grip, and closed through the simulated pantograph it bounces (the
-    /// stiffness sweep in `tests/tests/closed_loop.rs`): the observer's damper, acting on
-    /// velocity quantised by the encoders, does not stop that.
-    pub grip_damping_n_s_per_m: f32,
+    /// The mechanism's damping, Coulomb friction and resolution at the handle, at its worst
+    /// pose. [`Controller::new`](crate::controller::Controller::new) sets them from the
+    /// device description; the default is the default pantograph's.
+    pub device: AtHandle,
+    /// The fastest impact the passivity bound covers, m/s (the dry friction's equivalent
+    /// damping is `f_c / v` up to this speed).
+    pub impact_speed_m_per_s: f32,
+    /// The stiffness up to which the passivity controller is demonstrated (N/m).
+    pub controller_stiffness_n_per_m: f32,
+    /// The wall damping |B| up to which the passivity controller is demonstrated (N·s/m).
+    pub controller_damping_ns_per_m: f32,
+    /// Ticks between a tick's force and the motors producing it: 0 when the output is set
+    /// within the tick, 1 when it takes effect at the next (the simulated pantograph's
+    /// [`SimParams::command_delay`](crate::simulator::SimParams::command_delay)). The
+    /// observer pairs each displacement with the force that acted over it.
+    pub output_delay_ticks: u32,
 }
 
 impl Default for PassivityConfig {
     fn default() -> Self {
         Self {
-            device_damping_n_s_per_m: 0.5,
-            min_speed_m_per_s: 1e-3,
-            max_damping_n_s_per_m: 50.0,
-            // The low end of a human grip's damping on a stylus (a few N·s/m), and the
-            // simulated pantograph's default hand.
-            grip_damping_n_s_per_m: 2.0,
+            device: DEFAULT_AT_HANDLE,
+            impact_speed_m_per_s: 0.1,
+            controller_stiffness_n_per_m: CONTROLLER_STIFFNESS_N_PER_M,
+            controller_damping_ns_per_m: CONTROLLER_DAMPING_NS_PER_M,
+            output_delay_ticks: 1,
+        }
+    }
+}
+
+/// The default pantograph's figures at the handle, as
+/// [`DeviceSpec::at_handle`](crate::spec::DeviceSpec::at_handle) computes them (a unit test
+/// checks they agree to 0.1 %).
+const DEFAULT_AT_HANDLE: AtHandle = AtHandle {
+    damping_n_s_per_m: 3.2757e-3,
+    coulomb_n: 1.7170e-2,
+    resolution_m: 1.9592e-5,
+};
+
+/// The stiffness the passivity controller is demonstrated to: released handle, fingertip and
+/// grip all stable at 1 and 10 kHz (`tests/tests/zwidth.rs`).
+pub const CONTROLLER_STIFFNESS_N_PER_M: f32 = 1000.0;
+/// The wall damping the passivity controller is demonstrated to (same test).
+pub const CONTROLLER_DAMPING_NS_PER_M: f32 = 1.0;
+
+/// The standard tick rates a refusal suggests (Hz).
+pub const RATES_HZ: [u32; 4] = [1_000, 2_000, 5_000, 10_000];
+
+/// Which of the bounds of [`PassivityConfig`] refused a wall.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Bound {
+    /// The sampled-data passivity bound with the device's own damping and friction.
+    Passivity,
+    /// The encoder quantisation bound.
+    Quantisation,
+    /// Beyond what the passivity controller is demonstrated to.
+    Controller,
+}
+
+/// The largest stiffness each bound of [`PassivityConfig`] accepts for a wall damping B at a
+/// period T.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct WallLimits {
+    /// `2 (b + f_c / v − |B|) / T`, clamped at 0 (N/m).
+    pub passive_n_per_m: f32,
+    /// `2 f_c / Δ` (N/m).
+    pub quantisation_n_per_m: f32,
+    /// With the passivity controller: the demonstrated stiffness when |B| is within the
+    /// demonstrated damping, else 0 (N/m).
+    pub controller_n_per_m: f32,
+}
+
+impl WallLimits {
+    /// The bounds for wall damping `damping_ns_per_m` at `period_s`.
+    pub fn new(passivity: &PassivityConfig, damping_ns_per_m: f32, period_s: f32) -> Self {
+        let d = &passivity.device;
+        let b = d.damping_n_s_per_m + d.coulomb_n / passivity.impact_speed_m_per_s;
+        let damping = libm::fabsf(damping_ns_per_m);
+        let controller_n_per_m = if damping <= passivity.controller_damping_ns_per_m {
+            passivity.controller_stiffness_n_per_m
+        } else {
+            0.0
+        };
+        WallLimits {
+            passive_n_per_m: (2.0 * (b - damping) / period_s).max(0.0),
+            quantisation_n_per_m: 2.0 * d.coulomb_n / d.resolution_m,
+            controller_n_per_m,
+        }
+    }
+
+    /// The largest stiffness accepted, with or without the passivity controller, and the
+    /// bound that sets it.
+    pub fn max(&self, controller: bool) -> (f32, Bound) {
+        let (rate_limited, bound) = if controller && self.controller_n_per_m > self.passive_n_per_m
+        {
+            (self.controller_n_per_m, Bound::Controller)
+        } else {
+            (self.passive_n_per_m, Bound::Passivity)
+        };
+        if self.quantisation_n_per_m < rate_limited {
+            (self.quantisation_n_per_m, Bound::Quantisation)
+        } else {
+            (rate_limited, bound)
         }
     }
 }
@@ -334,8 +444,12 @@ impl SafetyConfig {
             (self.thermal.peak_current_a, "thermal.peak_current_a"),
             (self.thermal.time_constant_s, "thermal.time_constant_s"),
             (
-                self.passivity.min_speed_m_per_s,
-                "passivity.min_speed_m_per_s",
+                self.passivity.impact_speed_m_per_s,
+                "passivity.impact_speed_m_per_s",
+            ),
+            (
+                self.passivity.device.resolution_m,
+                "passivity.device.resolution_m",
             ),
         ];
         for (value, field) in positive {
@@ -346,16 +460,20 @@ impl SafetyConfig {
         let non_negative = [
             (self.ramp_time_s, "ramp_time_s"),
             (
-                self.passivity.device_damping_n_s_per_m,
-                "passivity.device_damping_n_s_per_m",
+                self.passivity.device.damping_n_s_per_m,
+                "passivity.device.damping_n_s_per_m",
             ),
             (
-                self.passivity.max_damping_n_s_per_m,
-                "passivity.max_damping_n_s_per_m",
+                self.passivity.device.coulomb_n,
+                "passivity.device.coulomb_n",
             ),
             (
-                self.passivity.grip_damping_n_s_per_m,
-                "passivity.grip_damping_n_s_per_m",
+                self.passivity.controller_stiffness_n_per_m,
+                "passivity.controller_stiffness_n_per_m",
+            ),
+            (
+                self.passivity.controller_damping_ns_per_m,
+                "passivity.controller_damping_ns_per_m",
             ),
         ];
         for (value, field) in non_negative {
@@ -446,82 +564,135 @@ impl SafetyOutput {
     };
 }
 
-/// A material that the sampled-data passivity bound rejects, or bad arguments.
+/// A wall the bounds of [`PassivityConfig`] refuse, or bad arguments.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum PassivityError {
-    /// `b > K T / 2 + |B|` fails: the stiffness is above the largest renderable one.
+    /// The stiffness is above the largest accepted one.
     TooStiff {
         /// The stiffness asked for, N/m.
         stiffness_n_per_m: f32,
-        /// The largest stiffness that passes, `2 (b − |B|) / T`, N/m (0 when `|B| ≥ b`).
+        /// The wall damping asked for, N·s/m.
+        damping_ns_per_m: f32,
+        /// The largest stiffness accepted, N/m.
         max_stiffness_n_per_m: f32,
+        /// The bound that sets it.
+        bound: Bound,
+        /// The tick period, s.
+        period_s: f32,
+        /// The figures the bounds used.
+        passivity: PassivityConfig,
+        /// The lowest of [`RATES_HZ`] at which the wall is accepted (with the same passivity
+        /// controller setting), if any.
+        renders_at_hz: Option<u32>,
     },
-    /// An argument is non-finite or out of range (stiffness < 0, period ≤ 0, b < 0).
+    /// An argument is non-finite or out of range (stiffness < 0, period ≤ 0).
     InvalidParameter(&'static str),
 }
 
 impl fmt::Display for PassivityError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        match self {
-            Self::TooStiff {
-                stiffness_n_per_m,
-                max_stiffness_n_per_m,
-            } => write!(
+        let Self::TooStiff {
+            stiffness_n_per_m: k,
+            damping_ns_per_m: damping,
+            max_stiffness_n_per_m: max,
+            bound,
+            period_s,
+            passivity: p,
+            renders_at_hz,
+        } = self
+        else {
+            if let Self::InvalidParameter(name) = self {
+                write!(f, "wall check: invalid {name}")?;
+            }
+            return Ok(());
+        };
+        let d = &p.device;
+        let rate_hz = 1.0 / period_s;
+        write!(
+            f,
+            "stiffness {k:.0} N/m is beyond what this device renders at {rate_hz:.0} Hz: "
+        )?;
+        match bound {
+            Bound::Passivity => write!(
                 f,
-                "stiffness {stiffness_n_per_m:.1} N/m is not passive on this device: the limit is \
-                 {max_stiffness_n_per_m:.1} N/m (b > K T / 2 + |B|); lower it or enable the \
-                 passivity controller"
-            ),
-            Self::InvalidParameter(name) => write!(f, "passivity check: invalid {name}"),
+                "the sampled-data passivity bound K < 2 (b + f_c/v - |B|) / T is {max:.0} N/m \
+                 (the device's own damping b = {:.4} N·s/m and Coulomb friction f_c = {:.4} N \
+                 counted up to v = {} m/s, |B| = {} N·s/m); raise the tick rate or the \
+                 device's damping, lower K, or enable the passivity controller",
+                d.damping_n_s_per_m,
+                d.coulomb_n,
+                p.impact_speed_m_per_s,
+                libm::fabsf(*damping),
+            )?,
+            Bound::Quantisation => write!(
+                f,
+                "the encoder quantisation bound K <= 2 f_c / Δ is {max:.0} N/m (f_c = {:.4} N, \
+                 Δ = {:.1} µm per count); it does not depend on the rate: a finer encoder or \
+                 more device friction raises it",
+                d.coulomb_n,
+                d.resolution_m * 1e6,
+            )?,
+            Bound::Controller => write!(
+                f,
+                "the passivity controller is demonstrated up to K = {:.0} N/m with |B| <= {} \
+                 N·s/m, so the limit is {max:.0} N/m; raise the tick rate or lower K",
+                p.controller_stiffness_n_per_m, p.controller_damping_ns_per_m,
+            )?,
+        }
+        match renders_at_hz {
+            Some(hz) => write!(f, "; it renders at {hz} Hz"),
+            None => Ok(()),
         }
     }
 }
 
 impl core::error::Error for PassivityError {}
 
-/// Largest stiffness a sampled-data spring–damper can render passively,
-/// `K_max = 2 (b − |B|) / T` (thesis eq. 1.1 solved for K), clamped at 0.
-pub fn max_passive_stiffness(
-    damping_n_s_per_m: f32,
-    period_s: f32,
-    device_damping_n_s_per_m: f32,
-) -> f32 {
-    (2.0 * (device_damping_n_s_per_m - libm::fabsf(damping_n_s_per_m)) / period_s).max(0.0)
-}
-
-/// Thesis eq. (1.1), after Colgate & Schenkel: a virtual wall of stiffness K and damping B
-/// sampled at period T with zero-order hold on a device of physical damping b is passive iff
-/// `b > K T / 2 + |B|`. The error carries the limit `2 (b − |B|) / T` for the scene loader's
-/// message.
-pub fn check_passivity(
+/// Whether a wall of stiffness K and damping B is accepted at `period_s` by the bounds of
+/// `passivity` (see [`PassivityConfig`]), with or without the passivity controller. The
+/// refusal names the bound, its numbers and the lowest standard rate that renders the wall.
+pub fn check_wall(
     stiffness_n_per_m: f32,
-    damping_n_s_per_m: f32,
+    damping_ns_per_m: f32,
     period_s: f32,
-    device_damping_n_s_per_m: f32,
+    passivity: &PassivityConfig,
+    controller: bool,
 ) -> Result<(), PassivityError> {
     if !(stiffness_n_per_m.is_finite() && stiffness_n_per_m >= 0.0) {
         return Err(PassivityError::InvalidParameter("stiffness"));
     }
-    if !damping_n_s_per_m.is_finite() {
+    if !damping_ns_per_m.is_finite() {
         return Err(PassivityError::InvalidParameter("damping"));
     }
     if !(period_s.is_finite() && period_s > 0.0) {
         return Err(PassivityError::InvalidParameter("period"));
     }
-    if !(device_damping_n_s_per_m.is_finite() && device_damping_n_s_per_m >= 0.0) {
-        return Err(PassivityError::InvalidParameter("device damping"));
+    let accepted = |period_s: f32| {
+        let (max, bound) = WallLimits::new(passivity, damping_ns_per_m, period_s).max(controller);
+        // Strict below the passivity bound (an open inequality; K = 0 with |B| = b is
+        // marginal), inclusive at the others.
+        let ok = match bound {
+            Bound::Passivity => stiffness_n_per_m < max,
+            Bound::Quantisation | Bound::Controller => stiffness_n_per_m <= max,
+        };
+        (ok, max, bound)
+    };
+    let (ok, max, bound) = accepted(period_s);
+    if ok {
+        return Ok(());
     }
-    let max_stiffness_n_per_m =
-        max_passive_stiffness(damping_n_s_per_m, period_s, device_damping_n_s_per_m);
-    // Strict: the bound is an open inequality, and K = 0 with |B| = b is marginal.
-    if stiffness_n_per_m < max_stiffness_n_per_m {
-        Ok(())
-    } else {
-        Err(PassivityError::TooStiff {
-            stiffness_n_per_m,
-            max_stiffness_n_per_m,
-        })
-    }
+    let renders_at_hz = RATES_HZ
+        .into_iter()
+        .find(|hz| 1.0 / (*hz as f32) < period_s && accepted(1.0 / *hz as f32).0);
+    Err(PassivityError::TooStiff {
+        stiffness_n_per_m,
+        damping_ns_per_m,
+        max_stiffness_n_per_m: max,
+        bound,
+        period_s,
+        passivity: *passivity,
+        renders_at_hz,
+    })
 }
 
 /// The safety layer's state. One per device; [`Safety::apply`] once per tick.
@@ -536,8 +707,6 @@ pub struct Safety {
     thermal_gain: f32,
     inv_continuous_sq: f32,
     inv_derate_span: f32,
-    min_speed_sq: f32,
-    inv_period_s: f32,
     heartbeat_timeout_us: u64,
 
     latched: Faults,
@@ -546,7 +715,13 @@ pub struct Safety {
     forces_on: bool,
     ramp_ticks: u32,
     last_force_n: Vec2,
+    /// The force of the tick before `last_force_n`.
+    previous_force_n: Vec2,
     last_position_m: Option<Vec2>,
+    /// The HIP's displacement over the last period (zero without two poses).
+    last_step_m: Vec2,
+    /// The tank ran dry in this contact and the user has not pushed in since.
+    drained: bool,
     thermal: [f32; 2],
     energy_j: f32,
     passivity_control: bool,
@@ -559,7 +734,6 @@ impl Safety {
         config.validate()?;
         let th = config.thermal;
         let ramp_step = (config.ramp_time_s > 0.0).then(|| config.period_s / config.ramp_time_s);
-        let min_speed_sq = config.passivity.min_speed_m_per_s * config.passivity.min_speed_m_per_s;
         Ok(Self {
             max_force_sq: config.max_force_n * config.max_force_n,
             max_force_step_n: config.max_force_rate_n_per_s * config.period_s,
@@ -568,8 +742,6 @@ impl Safety {
             thermal_gain: -libm::expm1f(-config.period_s / th.time_constant_s),
             inv_continuous_sq: 1.0 / (th.continuous_current_a * th.continuous_current_a),
             inv_derate_span: 1.0 / (th.trip_threshold - th.derate_threshold),
-            min_speed_sq,
-            inv_period_s: 1.0 / config.period_s,
             heartbeat_timeout_us: config.heartbeat_timeout_us(),
             config,
             latched: Faults::empty(),
@@ -577,7 +749,10 @@ impl Safety {
             forces_on: false,
             ramp_ticks: 0,
             last_force_n: Vec2::ZERO,
+            previous_force_n: Vec2::ZERO,
             last_position_m: None,
+            last_step_m: Vec2::ZERO,
+            drained: false,
             thermal: [0.0; 2],
             energy_j: 0.0,
             passivity_control: false,
@@ -632,22 +807,22 @@ impl Safety {
     pub fn restart_ramp_and_observer(&mut self) {
         self.ramp_ticks = 0;
         self.energy_j = 0.0;
+        self.drained = false;
     }
 
-    /// Whether the device renders a wall of this stiffness and damping at all, with the
-    /// passivity controller on: [`check_passivity`] with the device's damping plus
-    /// [`PassivityConfig::grip_damping_n_s_per_m`]. The error carries that limit.
-    pub fn check_renderable(
+    /// [`check_wall`] at this layer's period with its passivity figures.
+    pub fn check_wall(
         &self,
         stiffness_n_per_m: f32,
-        damping_n_s_per_m: f32,
+        damping_ns_per_m: f32,
+        controller: bool,
     ) -> Result<(), PassivityError> {
-        let p = &self.config.passivity;
-        check_passivity(
+        check_wall(
             stiffness_n_per_m,
-            damping_n_s_per_m,
+            damping_ns_per_m,
             self.config.period_s,
-            p.device_damping_n_s_per_m + p.grip_damping_n_s_per_m,
+            &self.config.passivity,
+            controller,
         )
     }
 
@@ -672,22 +847,6 @@ impl Safety {
     /// Each motor's normalised thermal state θ (1 = steady state at continuous current).
     pub fn thermal_state(&self) -> [f32; 2] {
         self.thermal
-    }
-
-    /// The sampled-data passivity bound, [`check_passivity`] (the free function), for a wall
-    /// of this stiffness and damping with this device's period and physical damping; no other
-    /// property of a material is checked here.
-    pub fn check_passivity(
-        &self,
-        stiffness_n_per_m: f32,
-        damping_n_s_per_m: f32,
-    ) -> Result<(), PassivityError> {
-        check_passivity(
-            stiffness_n_per_m,
-            damping_n_s_per_m,
-            self.config.period_s,
-            self.config.passivity.device_damping_n_s_per_m,
-        )
     }
 
     /// One tick: evaluates every condition, latches faults, and shapes the renderer's force.
@@ -752,7 +911,7 @@ impl Safety {
 
         if !(finite && self.latched.is_empty() && input.forces_enabled && pose_known) {
             self.forces_on = false;
-            self.last_force_n = Vec2::ZERO;
+            self.hold(Vec2::ZERO);
             return SafetyOutput {
                 faults: self.latched,
                 ..SafetyOutput::OFF
@@ -762,6 +921,7 @@ impl Safety {
             self.forces_on = true;
             self.ramp_ticks = 0;
             self.energy_j = 0.0;
+            self.drained = false;
         }
 
         let mut flags = Flags::empty();
@@ -773,14 +933,15 @@ impl Safety {
             flags |= Flags::RAMPING;
             self.ramp_ticks = self.ramp_ticks.saturating_add(1);
         }
-        // Free space: the renderer asks for nothing, so nothing is applied (no damper, no
-        // rate-limited tail: the mechanism's own damping is all the user feels), and the
+        // Free space: the renderer asks for nothing, so nothing is applied (no rate-limited
+        // tail: the mechanism's own damping is all the user feels), and the
         // rendered environment, a penalty spring at zero depth, stores no energy, so the
-        // observer starts the next contact from zero instead of damping free motion for
-        // energy the last contact delivered.
+        // tank starts the next contact from zero instead of holding back a new contact for
+        // energy the last one delivered.
         if input.force_n == Vec2::ZERO {
-            self.last_force_n = Vec2::ZERO;
+            self.hold(Vec2::ZERO);
             self.energy_j = 0.0;
+            self.drained = false;
             return SafetyOutput {
                 force_n: Vec2::ZERO,
                 flags,
@@ -789,19 +950,15 @@ impl Safety {
         }
         let mut force = input.force_n * ramp;
 
-        // Hannaford & Ryu 2002: a variable damper dissipates the energy the observer found
-        // the environment to have generated, α = −E / (T |v|²), with a floor on |v|².
-        if self.passivity_control && self.energy_j < 0.0 {
-            let v = input.hip_velocity_m_per_s;
-            let speed_sq = math::max(self.min_speed_sq, v.length_squared());
-            let alpha = math::min(
-                cfg.passivity.max_damping_n_s_per_m,
-                -self.energy_j * self.inv_period_s / speed_sq,
-            );
-            force -= v * alpha;
-            flags |= Flags::DAMPING;
+        if self.passivity_control {
+            let limited = self.limit_to_energy(force);
+            if limited != force {
+                force = limited;
+                flags |= Flags::ENERGY_LIMITED;
+            }
         }
 
+        let cfg = &self.config;
         if theta > cfg.thermal.derate_threshold {
             let scale =
                 ((cfg.thermal.trip_threshold - theta) * self.inv_derate_span).clamp(0.0, 1.0);
@@ -824,13 +981,13 @@ impl Safety {
             // Unreachable for a valid config; kept so no path can send NaN to the motors.
             self.latched |= Faults::NUMERIC;
             self.forces_on = false;
-            self.last_force_n = Vec2::ZERO;
+            self.hold(Vec2::ZERO);
             return SafetyOutput {
                 faults: self.latched,
                 ..SafetyOutput::OFF
             };
         }
-        self.last_force_n = force;
+        self.hold(force);
         SafetyOutput {
             force_n: force,
             flags,
@@ -851,14 +1008,69 @@ impl Safety {
             self.last_position_m = None;
             return;
         }
-        if let Some(previous) = self.last_position_m
-            && self.last_force_n != Vec2::ZERO
-        {
-            let work_on_user_j = self.last_force_n.dot(position - previous);
-            let energy = self.energy_j - work_on_user_j;
-            self.energy_j = if energy.is_finite() { energy } else { 0.0 };
+        if let Some(previous) = self.last_position_m {
+            let step = position - previous;
+            // The force that acted over the interval: this tick's, or on a board whose output
+            // lags a tick (`PassivityConfig::output_delay_ticks`), the one before.
+            let acting = if self.config.passivity.output_delay_ticks > 0 {
+                self.previous_force_n
+            } else {
+                self.last_force_n
+            };
+            let work_on_user_j = acting.dot(step);
+            if work_on_user_j != 0.0 {
+                let energy = self.energy_j - work_on_user_j;
+                self.energy_j = if energy.is_finite() { energy } else { 0.0 };
+            }
+            self.last_step_m = step;
+        } else {
+            self.last_step_m = Vec2::ZERO;
         }
         self.last_position_m = Some(position);
+    }
+}
+
+impl Safety {
+    /// Records the force this tick holds until the next.
+    fn hold(&mut self, force: Vec2) {
+        self.previous_force_n = self.last_force_n;
+        self.last_force_n = force;
+    }
+
+    /// The energy tank (see [`PassivityConfig`]): `force` as far as the contact's energy pays
+    /// for it. The work it would do on the user over the next period is predicted from the
+    /// last displacement, `W = F · Δx`; when `W` exceeds the energy the user has put in, `E`,
+    /// the force is scaled to `E / W` of itself (to zero when the tank is empty). And while the
+    /// tank has run dry the force grows only once the user pushes into it again (the last
+    /// displacement against the force, `W < 0`): a handle at rest inside a wall that has already given back
+    /// what it received gets no new push (which would be a pulse, then a cut, then a pulse).
+    fn limit_to_energy(&mut self, force: Vec2) -> Vec2 {
+        // With an output delay the force held now still acts over the next period: its work is
+        // already spent.
+        let pending_j = if self.config.passivity.output_delay_ticks > 0 {
+            math::max(0.0, self.last_force_n.dot(self.last_step_m))
+        } else {
+            0.0
+        };
+        let budget_j = math::max(self.energy_j - pending_j, 0.0);
+        let mut limited = force;
+        let predicted_j = force.dot(self.last_step_m);
+        if predicted_j > budget_j {
+            limited = force * (budget_j / predicted_j);
+            self.drained = true;
+        } else if predicted_j < 0.0 {
+            // The user pushes in: the tank fills again.
+            self.drained = false;
+        }
+        if self.drained {
+            let last_sq = self.last_force_n.length_squared();
+            let now_sq = limited.length_squared();
+            if now_sq > last_sq {
+                // |F| ≤ |F_prev|: scale by √(last/now), one square root, only here.
+                limited *= math::sqrt(last_sq / now_sq);
+            }
+        }
+        limited
     }
 }
 

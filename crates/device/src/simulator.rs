@@ -6,13 +6,26 @@
 //!
 //! Joint space, `θ = (θ₁, θ₂)`:
 //!
-//! `M(θ) θ̈ = τ_motor − B θ̇ + J(θ)ᵀ F_hand`, with `M(θ) = I_r 𝟙 + m_h JᵀJ`,
+//! `M(θ) θ̈ = τ_motor − B θ̇ − τ_c sign(θ̇) + J(θ)ᵀ F_hand`, with `M(θ) = I_r 𝟙 + m_h JᵀJ`,
 //!
 //! where `I_r` is each motor's rotor inertia reflected through the capstan (`n² I_rotor`,
-//! which dominates the light links), `m_h` the mass of the handle at the HIP, `B` the
-//! identified joint damping of the device description, `τ_motor = n k_t I` and
-//! `F_hand = k_h (target − x) − b_h ẋ`. Integrated with semi-implicit Euler at
+//! which dominates the light links), `m_h` the mass of the handle at the HIP, `B` and `τ_c`
+//! the joint damping and Coulomb friction of the device description, `τ_motor = n k_t I`
+//! (the current clamped to the motor's limit: torque saturation) and
+//! `F_hand = k_h (target − x) − b_h ẋ` while a hand holds the handle (zero once it is
+//! [released](SimulatedPantograph::release)). Integrated with semi-implicit Euler at
 //! [`SimParams::substeps`] steps per call, so the plant runs faster than the controller.
+//!
+//! What makes a sampled wall active is all here: the currents of one call are held over the
+//! whole call (zero-order hold) and, with [`SimParams::command_delay`], applied one call
+//! late (the board computes a tick's currents from counts read at its start); the encoders
+//! quantise the angles ([`SimulatedPantograph::encoder_counts`]).
+//!
+//! Coulomb friction is applied per joint as an impulse that may stop the joint but never
+//! reverse it: with `ω'` the joint rate after the other torques over a substep `h`, the rate
+//! becomes `ω' − sign(ω') τ_c h / M_ii`, or 0 (stuck) when that would change its sign. (The
+//! diagonal mass is used for the friction impulse; the off-diagonal `m_h JᵀJ` is small beside
+//! `I_r`.)
 
 use nurbs::Vec2;
 
@@ -32,11 +45,15 @@ pub struct SimParams {
     pub hand_damping_ns_per_m: f32,
     /// Integration steps per call of [`SimulatedPantograph::step`].
     pub substeps: u32,
+    /// The motors apply the currents of the previous call of [`SimulatedPantograph::step`]
+    /// (one tick of computation delay), not those of this one.
+    pub command_delay: bool,
 }
 
 impl Default for SimParams {
     /// A desktop pantograph held by a relaxed hand: rotor 3·10⁻⁶ kg·m² through 10:1
-    /// (3·10⁻⁴ kg·m² at the joint), a 20 g handle, a 300 N/m, 2 N·s/m grip, 10 substeps.
+    /// (3·10⁻⁴ kg·m² at the joint), a 20 g handle, a 300 N/m, 2 N·s/m grip, 10 substeps, one
+    /// tick of command delay.
     fn default() -> Self {
         SimParams {
             reflected_inertia_kg_m2: 3e-4,
@@ -44,6 +61,19 @@ impl Default for SimParams {
             hand_stiffness_n_per_m: 300.0,
             hand_damping_ns_per_m: 2.0,
             substeps: 10,
+            command_delay: true,
+        }
+    }
+}
+
+impl SimParams {
+    /// The default plant touched by a light fingertip instead of a grip: 100 N/m, 0.1 N·s/m
+    /// (a fingertip pad resting on the handle; its damping a twentieth of a relaxed grip's).
+    pub fn fingertip() -> Self {
+        SimParams {
+            hand_stiffness_n_per_m: 100.0,
+            hand_damping_ns_per_m: 0.1,
+            ..SimParams::default()
         }
     }
 }
@@ -135,6 +165,9 @@ pub struct SimulatedPantograph {
     params: SimParams,
     theta_rad: [f32; 2],
     omega_rad_per_s: [f32; 2],
+    /// The currents the motors apply during the next call (with a command delay).
+    pending_currents_a: [f32; 2],
+    held: bool,
 }
 
 impl SimulatedPantograph {
@@ -167,7 +200,25 @@ impl SimulatedPantograph {
             params,
             theta_rad,
             omega_rad_per_s: [0.0; 2],
+            pending_currents_a: [0.0; 2],
+            held: true,
         })
+    }
+
+    /// The hand lets go: from now on nobody holds the handle (its own mass, the device's own
+    /// friction and damping, and the motors).
+    pub fn release(&mut self) {
+        self.held = false;
+    }
+
+    /// Whether a hand holds the handle.
+    pub fn is_held(&self) -> bool {
+        self.held
+    }
+
+    /// The simulation's parameters.
+    pub fn params(&self) -> &SimParams {
+        &self.params
     }
 
     /// Joint angles (rad).
@@ -234,6 +285,11 @@ impl SimulatedPantograph {
         dt_s: f32,
     ) -> Result<(), KinematicsError> {
         let h = dt_s / self.params.substeps as f32;
+        let motor_currents_a = if self.params.command_delay {
+            core::mem::replace(&mut self.pending_currents_a, motor_currents_a)
+        } else {
+            motor_currents_a
+        };
         let s = &self.spec;
         let tau_motor = [0, 1].map(|i| {
             let limit = s.current_limit_a[i];
@@ -251,8 +307,12 @@ impl SimulatedPantograph {
             let config = self.arm.configuration(self.theta_rad)?;
             let j = self.arm.jacobian_at(&config)?;
             let v = j.velocity(self.omega_rad_per_s);
-            let hand = (hand_target - config.hip_in_device) * self.params.hand_stiffness_n_per_m
-                - v * self.params.hand_damping_ns_per_m;
+            let hand = if self.held {
+                (hand_target - config.hip_in_device) * self.params.hand_stiffness_n_per_m
+                    - v * self.params.hand_damping_ns_per_m
+            } else {
+                Vec2::ZERO
+            };
             // Velocity-product term m_h Jᵀ (J̇ θ̇): J̇ θ̇ = d/ds J(θ + s θ̇) θ̇, a forward difference
             // over 10⁻³ rad along θ̇.
             let w = self.omega_rad_per_s;
@@ -281,7 +341,13 @@ impl SimulatedPantograph {
                 (m[0][0] * rhs[1] - m[1][0] * rhs[0]) / det,
             ];
             for i in 0..2 {
-                self.omega_rad_per_s[i] += acc[i] * h;
+                let free = self.omega_rad_per_s[i] + acc[i] * h;
+                let stop = s.joint_coulomb_nm[i] * h / m[i][i];
+                self.omega_rad_per_s[i] = if free.abs() <= stop {
+                    0.0
+                } else {
+                    free - stop.copysign(free)
+                };
                 self.theta_rad[i] += self.omega_rad_per_s[i] * h;
             }
         }

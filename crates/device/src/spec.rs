@@ -109,8 +109,12 @@ pub struct DeviceSpec {
     pub max_velocity_m_per_s: f32,
     /// The box the device guarantees to reach, well-conditioned and inside the end stops.
     pub workspace: WorkspaceBox,
-    /// Identified viscous damping at each joint (N·m·s/rad), non-negative.
+    /// Identified viscous damping at each joint (N·m·s/rad), non-negative
+    /// ([`DeviceSpec::at_handle`] maps it to the handle).
     pub joint_damping_nms_per_rad: [f32; 2],
+    /// Identified Coulomb (dry) friction torque at each joint (N·m), non-negative: motor
+    /// brushes and bearings seen through the capstan.
+    pub joint_coulomb_nm: [f32; 2],
     /// Joint angle at each outer end stop (rad): the left arm cannot turn counterclockwise
     /// beyond `end_stop_rad[0]`, the right arm not clockwise beyond `end_stop_rad[1]`.
     pub end_stop_rad: [f32; 2],
@@ -141,6 +145,8 @@ impl Default for DeviceSpec {
                 max_in_device: Vec2::new(0.05, 0.13),
             },
             joint_damping_nms_per_rad: [1.0e-4, 1.0e-4],
+            // 0.3 mN·m at the motor (a small brushed motor's friction torque) through 10:1.
+            joint_coulomb_nm: [3.0e-3, 3.0e-3],
             end_stop_rad: [1.25 * PI, -0.25 * PI],
         }
     }
@@ -180,18 +186,27 @@ impl DeviceSpec {
                 ["current_limit_a[0]", "current_limit_a[1]"][i],
                 self.current_limit_a[i],
             )?;
-            let field = [
-                "joint_damping_nms_per_rad[0]",
-                "joint_damping_nms_per_rad[1]",
-            ][i];
-            let damping = self.joint_damping_nms_per_rad[i];
-            finite(field, damping)?;
-            if damping < 0.0 {
-                return Err(SpecError::OutOfRange {
-                    field,
-                    value: damping,
-                    requirement: "non-negative",
-                });
+            for (field, value) in [
+                (
+                    [
+                        "joint_damping_nms_per_rad[0]",
+                        "joint_damping_nms_per_rad[1]",
+                    ][i],
+                    self.joint_damping_nms_per_rad[i],
+                ),
+                (
+                    ["joint_coulomb_nm[0]", "joint_coulomb_nm[1]"][i],
+                    self.joint_coulomb_nm[i],
+                ),
+            ] {
+                finite(field, value)?;
+                if value < 0.0 {
+                    return Err(SpecError::OutOfRange {
+                        field,
+                        value,
+                        requirement: "non-negative",
+                    });
+                }
             }
             finite(
                 ["end_stop_rad[0]", "end_stop_rad[1]"][i],
@@ -256,6 +271,61 @@ impl DeviceSpec {
             }
         }
         Ok(pantograph)
+    }
+
+    /// What the mechanism itself does at the handle, at the worst pose of the guaranteed
+    /// workspace (the 11 × 11 grid [`DeviceSpec::validate`] checks): the figures the
+    /// acceptance of a wall counts on ([`crate::safety::check_wall`]). Setup, not the tick
+    /// (square roots, f64 inside). See [`AtHandle`].
+    pub fn at_handle(&self) -> Result<AtHandle, SpecError> {
+        let pantograph = self.validate()?;
+        let lo = self.workspace.min_in_device;
+        let step = (self.workspace.max_in_device - lo) / (WORKSPACE_GRID - 1) as f32;
+        let count_rad = self.counts_per_joint_rad().map(|c| 1.0 / f64::from(c));
+        let mut worst = AtHandle {
+            damping_n_s_per_m: f32::INFINITY,
+            coulomb_n: f32::INFINITY,
+            resolution_m: 0.0,
+        };
+        for i in 0..WORKSPACE_GRID {
+            for j in 0..WORKSPACE_GRID {
+                let p = lo + Vec2::new(i as f32 * step.x, j as f32 * step.y);
+                // `validate` reached every grid point, so these succeed.
+                let jac = pantograph
+                    .inverse(p)
+                    .and_then(|theta| pantograph.jacobian(theta))
+                    .map_err(|cause| SpecError::UnreachableWorkspace {
+                        point_in_device: p,
+                        cause,
+                    })?;
+                let m = jac.m.map(|row| row.map(f64::from));
+                let det = m[0][0] * m[1][1] - m[0][1] * m[1][0];
+                // J⁻¹: joint rates per handle velocity.
+                let inv = [
+                    [m[1][1] / det, -m[0][1] / det],
+                    [-m[1][0] / det, m[0][0] / det],
+                ];
+                let scaled = |w: [f64; 2]| {
+                    [
+                        [w[0] * inv[0][0], w[0] * inv[0][1]],
+                        [w[1] * inv[1][0], w[1] * inv[1][1]],
+                    ]
+                };
+                let b = self
+                    .joint_damping_nms_per_rad
+                    .map(|b| libm::sqrt(f64::from(b)));
+                let damping = min_singular_value(scaled(b));
+                let coulomb = min_singular_value(scaled(self.joint_coulomb_nm.map(f64::from)));
+                let step_m = (0..2).fold(0.0f64, |acc, k| {
+                    let column = libm::hypot(m[0][k], m[1][k]);
+                    acc.max(column * count_rad[k])
+                });
+                worst.damping_n_s_per_m = worst.damping_n_s_per_m.min((damping * damping) as f32);
+                worst.coulomb_n = worst.coulomb_n.min(coulomb as f32);
+                worst.resolution_m = worst.resolution_m.max(step_m as f32);
+            }
+        }
+        Ok(worst)
     }
 
     /// Encoder counts per joint radian, `N · n / 2π`.
@@ -337,6 +407,40 @@ impl DeviceSpec {
             saturated,
             scale,
         })
+    }
+}
+
+/// The mechanism's own damping, friction and resolution seen at the handle, each at the worst
+/// pose of the guaranteed workspace ([`DeviceSpec::at_handle`]).
+///
+/// With `J` the Jacobian (handle velocity per joint rate), the joints' viscous damping
+/// `diag(b)` acts at the handle as `J⁻ᵀ diag(b) J⁻¹`, whose smallest eigenvalue is the least
+/// damping any direction of motion meets. The joints' Coulomb torques `τ_c` resist a handle
+/// velocity `v` with the power `Σ τ_ci |(J⁻¹v)_i| ≥ ‖diag(τ_c) J⁻¹ v‖₂`, so the least friction
+/// force along any direction is at least the smallest singular value of `diag(τ_c) J⁻¹`.
+/// One encoder count of joint `i` moves the handle by `|J e_i| · 2π / (N n)`: the largest of
+/// those is the position quantum Δ.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct AtHandle {
+    /// Least viscous damping at the handle, N·s/m (the `b` of thesis eq. 1.1).
+    pub damping_n_s_per_m: f32,
+    /// Least Coulomb friction force at the handle, N (the `f_c` of Abbott & Okamura 2005).
+    pub coulomb_n: f32,
+    /// Largest handle displacement of one encoder count, m (their Δ).
+    pub resolution_m: f32,
+}
+
+/// Smallest singular value of a 2 × 2 matrix: `σ²_min = (s − √(s² − 4 det²)) / 2`,
+/// `s = ‖A‖²_F`, computed as `2 det² / (s + √(s² − 4 det²))` to avoid cancellation.
+fn min_singular_value(a: [[f64; 2]; 2]) -> f64 {
+    let s = a[0][0] * a[0][0] + a[0][1] * a[0][1] + a[1][0] * a[1][0] + a[1][1] * a[1][1];
+    let det = a[0][0] * a[1][1] - a[0][1] * a[1][0];
+    let root = libm::sqrt((s * s - 4.0 * det * det).max(0.0));
+    let sum = s + root;
+    if sum > 0.0 {
+        libm::sqrt(2.0 * det * det / sum)
+    } else {
+        0.0
     }
 }
 

@@ -11,6 +11,7 @@ pub mod spatial;
 pub mod tick;
 pub mod trajectory;
 pub mod upload;
+pub mod zwidth;
 
 /// What the unit tests of several modules share.
 #[cfg(test)]
