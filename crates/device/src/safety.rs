@@ -265,7 +265,7 @@ const DEFAULT_AT_HANDLE: AtHandle = AtHandle {
 /// grip all stable at 1 and 10 kHz (`tests/tests/zwidth.rs`).
 pub const CONTROLLER_STIFFNESS_N_PER_M: f32 = 1000.0;
 /// The wall damping the passivity controller is demonstrated to (same test).
-pub const CONTROLLER_DAMPING_NS_PER_M: f32 = 1.0;
+pub const CONTROLLER_DAMPING_NS_PER_M: f32 = 0.5;
 
 /// The standard tick rates a refusal suggests (Hz).
 pub const RATES_HZ: [u32; 4] = [1_000, 2_000, 5_000, 10_000];

@@ -182,9 +182,9 @@ pub fn impact_on(spec: DeviceSpec, cell: &Impact) -> Result<Outcome, SimError> {
     let mut contact_at: Option<usize> = None;
     let mut impact_energy = 0.0f32;
     let mut max_energy = 0.0f32;
-    let mut final_energy = 0.0f32;
+    let mut final_energy;
     let mut forces: Vec<f32> = Vec::with_capacity(settle_ticks + 1);
-    let mut last_force = 0.0f32;
+    let mut last_force;
     let mut tick = 0usize;
     loop {
         let (hip, _) = arm.hip().map_err(|error| SimError::Arm {
@@ -215,12 +215,6 @@ pub fn impact_on(spec: DeviceSpec, cell: &Impact) -> Result<Outcome, SimError> {
         let out = controller.tick(arm.encoder_counts(), tick as u64 * period_us);
         controller.acquire_now();
         last_force = out.telemetry.force_n.length();
-        if std::env::var_os("ZW_DEBUG").is_some() && tick % 10 == 0 {
-            eprintln!(
-                "{tick} y={:.5} F={:?} faults={} mode={:?}",
-                hip.y, out.telemetry.force_n, out.telemetry.faults, out.telemetry.mode
-            );
-        }
         arm.step(out.currents_a, Vec2::new(0.0, hand_y), period_s)
             .map_err(|error| SimError::Arm {
                 t_s: tick as f64 * t,
@@ -260,55 +254,70 @@ pub fn impact_on(spec: DeviceSpec, cell: &Impact) -> Result<Outcome, SimError> {
     })
 }
 
-#[cfg(test)]
-mod tests {
-    use super::*;
+/// One cell of a sweep with its outcome.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Cell {
+    /// What was run.
+    pub impact: Impact,
+    /// What it did.
+    pub outcome: Outcome,
+}
 
-    #[test]
-    #[ignore]
-    fn explore() {
-        for rate in [1000.0, 10_000.0] {
-            for hand in [Hand::Released, Hand::Finger, Hand::Grip] {
-                for pc in [true] {
-                    for k in [
-                        100.0, 200.0, 300.0, 500.0, 700.0, 1000.0, 1500.0, 2000.0, 3000.0, 5000.0,
-                    ] {
-                        let o = impact(&Impact {
-                            rate_hz: rate,
-                            stiffness_n_per_m: k,
-                            damping_ns_per_m: bb,
-                            speed_m_per_s: 0.1,
-                            hand,
-                            passivity_control: pc,
-                        })
-                        .unwrap();
-                        println!(
-                            "{rate} {} pc={pc} K={k} B={bb}: stable={} ripple={:.4} E={:.3} contact={} v={:.4} F={:.3}",
-                            hand.name(),
-                            o.stable,
-                            o.ripple_n,
-                            o.energy_ratio,
-                            o.in_contact_at_end,
-                            o.final_speed_m_per_s,
-                            o.final_force_n
-                        );
-                    }
-                }
-            }
+/// Every (K, B) of `stiffnesses` × `dampings` at `rate_hz` for `hand`, with and without the
+/// passivity controller (`controller`), on the default pantograph; `progress(done, total)`
+/// after each cell.
+pub fn sweep(
+    rate_hz: f64,
+    hand: Hand,
+    stiffnesses: &[f32],
+    dampings: &[f32],
+    controller: bool,
+    speed_m_per_s: f32,
+    mut progress: impl FnMut(usize, usize),
+) -> Result<Vec<Cell>, SimError> {
+    let total = stiffnesses.len() * dampings.len();
+    let mut cells = Vec::with_capacity(total);
+    for &damping_ns_per_m in dampings {
+        for &stiffness_n_per_m in stiffnesses {
+            let impact = Impact {
+                rate_hz,
+                stiffness_n_per_m,
+                damping_ns_per_m,
+                speed_m_per_s,
+                hand,
+                passivity_control: controller,
+            };
+            let outcome = self::impact(&impact)?;
+            cells.push(Cell { impact, outcome });
+            progress(cells.len(), total);
         }
     }
+    Ok(cells)
 }
-#[test]
-#[ignore]
-fn one() {
-    let o = impact(&Impact {
-        rate_hz: 1000.0,
-        stiffness_n_per_m: 100.0,
-        damping_ns_per_m: 0.0,
-        speed_m_per_s: 0.1,
-        hand: Hand::Released,
-        passivity_control: false,
-    })
-    .unwrap();
-    println!("{o:?}");
+
+/// The CSV header of [`write_csv`].
+pub const CSV_HEADER: &str = "rate_hz,hand,controller,stiffness_n_per_m,damping_ns_per_m,speed_m_per_s,stable,ripple_n,energy_ratio,in_contact_at_end,final_force_n";
+
+/// The cells as CSV, one row per cell under [`CSV_HEADER`].
+pub fn write_csv(cells: &[Cell], mut out: impl std::io::Write) -> std::io::Result<()> {
+    writeln!(out, "{CSV_HEADER}")?;
+    for c in cells {
+        let (i, o) = (&c.impact, &c.outcome);
+        writeln!(
+            out,
+            "{},{},{},{},{},{},{},{},{},{},{}",
+            i.rate_hz,
+            i.hand.name(),
+            i.passivity_control,
+            i.stiffness_n_per_m,
+            i.damping_ns_per_m,
+            i.speed_m_per_s,
+            o.stable,
+            o.ripple_n,
+            o.energy_ratio,
+            o.in_contact_at_end,
+            o.final_force_n
+        )?;
+    }
+    Ok(())
 }
