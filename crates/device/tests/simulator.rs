@@ -20,6 +20,7 @@ fn start() -> Vec2 {
 fn energy_is_conserved_without_dissipation() {
     let spec = DeviceSpec {
         joint_damping_nms_per_rad: [f32::MIN_POSITIVE; 2],
+        joint_coulomb_nm: [0.0; 2],
         ..DeviceSpec::default()
     };
     let params = SimParams {
@@ -48,11 +49,18 @@ fn energy_is_conserved_without_dissipation() {
     );
 }
 
+/// A mechanism without dry friction.
+fn frictionless() -> DeviceSpec {
+    DeviceSpec {
+        joint_coulomb_nm: [0.0; 2],
+        ..DeviceSpec::default()
+    }
+}
+
 /// With damping and no motor force the hand brings the HIP to its target.
 #[test]
 fn hand_pulls_the_handle_to_its_target() {
-    let mut sim =
-        SimulatedPantograph::new(DeviceSpec::default(), SimParams::default(), start()).unwrap();
+    let mut sim = SimulatedPantograph::new(frictionless(), SimParams::default(), start()).unwrap();
     let target = Vec2::new(-0.02, 0.11);
     for _ in 0..3000 {
         sim.step([0.0; 2], target, DT).unwrap();
@@ -68,7 +76,7 @@ fn hand_pulls_the_handle_to_its_target() {
 /// torque → acceleration.
 #[test]
 fn motor_force_balances_the_hand() {
-    let spec = DeviceSpec::default();
+    let spec = frictionless();
     let params = SimParams::default();
     let mut sim = SimulatedPantograph::new(spec, params, start()).unwrap();
     let arm = spec.validate().unwrap();
@@ -85,6 +93,39 @@ fn motor_force_balances_the_hand() {
     let (x, _) = sim.hip().unwrap();
     let expected = target + force / params.hand_stiffness_n_per_m;
     assert!((x - expected).length() < 2e-5, "{x:?} vs {expected:?}");
+}
+
+/// Coulomb friction at the joints: a hand whose pull needs at most half the friction torque
+/// at each joint (τ = Jᵀ F) leaves the handle exactly where it is; twice the friction torque
+/// moves it, and it comes to rest short of the hand's target by no more than the friction
+/// can hold, |x − target| ≤ ‖J⁻ᵀ τ_c‖ / k_h.
+#[test]
+fn coulomb_friction_holds_a_weak_pull_and_yields_to_a_strong_one() {
+    let spec = DeviceSpec::default();
+    let params = SimParams::default();
+    let arm = spec.validate().unwrap();
+    let theta = arm.inverse(start()).unwrap();
+    let direction = Vec2::new(0.6, 0.8);
+    let tau_unit = arm.joint_torques(theta, direction).unwrap();
+    // The force along `direction` whose larger joint torque is the friction torque.
+    let f_c = spec.joint_coulomb_nm[0] / tau_unit[0].abs().max(tau_unit[1].abs());
+    for (scale, moves) in [(0.5, false), (2.0, true)] {
+        let mut sim = SimulatedPantograph::new(spec, params, start()).unwrap();
+        let target = start() + direction * (scale * f_c / params.hand_stiffness_n_per_m);
+        for _ in 0..500 {
+            sim.step([0.0; 2], target, DT).unwrap();
+        }
+        let moved = sim.joint_angles() != theta;
+        assert_eq!(moved, moves, "pull {scale} × friction");
+        if moves {
+            let (x, v) = sim.hip().unwrap();
+            assert!(v.length() < 1e-6, "at rest: {v:?}");
+            // Held short of the target by at most the friction's reach along both joints.
+            let hold = 2.0 * f_c / params.hand_stiffness_n_per_m;
+            assert!((x - target).length() <= hold, "{x:?} vs {target:?}");
+            assert!((x - start()).length() > 0.0);
+        }
+    }
 }
 
 /// Encoders read whole counts: the angle from the counts is within one count of the true

@@ -53,6 +53,63 @@ pub enum Command {
     /// Draw a run log (from `sim --out` or `gui --record`) as a PNG, as `sim --plot` does.
     #[command(after_long_help = PLOT_AFTER)]
     Plot(PlotArgs),
+    /// Sweep wall stiffness and damping through the simulated pantograph: which walls stay
+    /// stable (the Z-width), with and without the passivity controller.
+    #[command(after_long_help = ZWIDTH_AFTER)]
+    Zwidth(ZwidthArgs),
+}
+
+const ZWIDTH_AFTER: &str = "\
+Each cell is an impact at --speed (default 0.1 m/s) on a straight frictionless wall, then 0.6 s \
+of hold, on the device's own controller closed through the simulated pantograph (zero-order \
+hold, a tick of delay, encoder quantisation, the device's Coulomb friction and damping, torque \
+saturation). --hand grip keeps a relaxed grip pushing 1 mm into the wall, --hand finger a light \
+fingertip (100 N/m, 0.1 N·s/m), --hand released lets go 1 mm before the wall. A cell is stable \
+when the force over the last 0.2 s varies by at most one encoder count's worth (K Δ) and a \
+released handle leaves with no more kinetic energy than it brought. The grid is K = 100 … \
+10,000 N/m (13 values) × B = 0 … 2 N·s/m (6), with the controller off and on. The CSV has \
+one row per cell; the PNG draws the device's passivity bound 2 (b + f_c/v − B)/T and its \
+quantisation bound 2 f_c/Δ over the cells.";
+
+/// `viewer zwidth` arguments.
+#[derive(Debug, Args)]
+pub struct ZwidthArgs {
+    /// Tick rate (Hz).
+    #[arg(long, default_value_t = 10_000.0, value_name = "HZ", value_parser = rate)]
+    pub rate_hz: f64,
+    /// Who holds the handle: grip, finger or released.
+    #[arg(long, default_value = "released", value_name = "HAND")]
+    pub hand: host::zwidth::Hand,
+    /// Impact speed (m/s).
+    #[arg(long, default_value_t = 0.1, value_name = "M_PER_S", value_parser = speed)]
+    pub speed: f32,
+    /// Where to write the cells (CSV).
+    #[arg(long, value_name = "ZW.csv")]
+    pub out: PathBuf,
+    /// Where to draw the figure (PNG).
+    #[arg(long, value_name = "ZW.png")]
+    pub plot: Option<PathBuf>,
+}
+
+fn rate(text: &str) -> Result<f64, String> {
+    let hz: f64 = text
+        .parse()
+        .map_err(|_| format!("{text:?} is not a number"))?;
+    host::sim::check_rate(hz).map_err(|e| e.to_string())?;
+    Ok(hz)
+}
+
+fn speed(text: &str) -> Result<f32, String> {
+    let v: f32 = text
+        .parse()
+        .map_err(|_| format!("{text:?} is not a number"))?;
+    if v.is_finite() && v > 0.0 && v <= 0.3 {
+        Ok(v)
+    } else {
+        Err(format!(
+            "{v} m/s: the impact speed must be in (0, 0.3] m/s, the fastest the simulated hand moves"
+        ))
+    }
 }
 
 const GUI_ABOUT: &str = "\

@@ -10,3 +10,4 @@ pub mod gui;
 pub mod output;
 pub mod plot;
 pub mod stribeck;
+pub mod zwidth;
