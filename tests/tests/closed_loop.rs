@@ -77,8 +77,10 @@ fn closed_loop(
         ..object.material().friction_material()
     };
     // As `sim --device`: the passivity controller only for what is not passive without it.
-    if let Err(ControllerError::Passivity(_)) = controller.load_scene(chain, material, false) {
-        controller.load_scene(chain, material, true)?;
+    match controller.load_scene(chain, material, false) {
+        Ok(()) => {}
+        Err(ControllerError::Passivity(_)) => controller.load_scene(chain, material, true)?,
+        Err(e) => return Err(e),
     }
     let stops = spec.end_stop_counts();
     controller.calibrate(stops).unwrap();
@@ -221,7 +223,11 @@ fn stiffness_sweep_renders_or_refuses_and_never_chatters() {
                             renders_at_hz,
                             ..
                         }) => {
-                            assert!((max_stiffness_n_per_m - limit).abs() < 1e-2, "{label}");
+                            // The default's figures are rounded to 5 digits (1e-4 relative).
+                            assert!(
+                                (max_stiffness_n_per_m - limit).abs() < 1e-4 * limit,
+                                "{label}"
+                            );
                             assert_eq!(refused_by, bound, "{label}");
                             // 1500 N/m at 1 kHz: 5 kHz's passivity bound (≈ 1750 N/m) takes it.
                             let expected = (rate_hz == 1e3).then_some(5000);
@@ -293,9 +299,17 @@ fn a_released_handle_is_pushed_out_once_and_gains_no_energy() {
             most <= stored,
             "{label}: {most} J of motion from {stored} J stored"
         );
-        // Out of the arc by the end: the wall did push it.
+        // Pushed out: at the end it is out of the arc, or at rest where the wall's force no
+        // longer beats the device's dry friction (a few hundredths of a newton: K d ≤ 0.05 N,
+        // d ≤ 0.17 mm at 300 N/m, against the 2 mm it started at).
         let end = samples.last().unwrap();
-        assert!((end.hip - centre).length() > 0.04, "{label}: {:?}", end.hip);
+        let depth_end = (0.04 - (end.hip - centre).length()).max(0.0);
+        assert!(
+            depth_end == 0.0 || (k * depth_end <= 0.05 && end.kinetic_j < 1e-12),
+            "{label}: {depth_end} m deep at {:?}, {} J",
+            end.hip,
+            end.kinetic_j
+        );
         println!(
             "released, {label}: {:.1} µJ of motion from {:.1} µJ",
             most * 1e6,

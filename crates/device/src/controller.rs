@@ -280,6 +280,7 @@ impl<O: Object<P = Vec2>> Controller<O> {
         passivity_control: bool,
     ) {
         self.safety.set_passivity_control(passivity_control);
+        self.safety.set_wall_stiffness(material.stiffness_n_per_m);
         self.safety.restart_ramp_and_observer();
         self.scene = Some(Scene {
             object,
@@ -429,6 +430,7 @@ impl<O: Object<P = Vec2>> Controller<O> {
                 .map_err(ControllerError::BeyondDevice)?;
         }
         self.safety.set_passivity_control(passivity_control);
+        self.safety.set_wall_stiffness(material.stiffness_n_per_m);
         self.safety.restart_ramp_and_observer();
         Ok(())
     }

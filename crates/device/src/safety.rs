@@ -722,6 +722,10 @@ pub struct Safety {
     last_step_m: Vec2,
     /// The tank ran dry in this contact and the user has not pushed in since.
     drained: bool,
+    /// The rendered wall's stiffness (N/m), for the tank's opening balance; 0 when unknown.
+    wall_stiffness_n_per_m: f32,
+    /// The tank has not been opened in this contact yet.
+    contact_new: bool,
     thermal: [f32; 2],
     energy_j: f32,
     passivity_control: bool,
@@ -753,6 +757,8 @@ impl Safety {
             last_position_m: None,
             last_step_m: Vec2::ZERO,
             drained: false,
+            wall_stiffness_n_per_m: 0.0,
+            contact_new: true,
             thermal: [0.0; 2],
             energy_j: 0.0,
             passivity_control: false,
@@ -808,6 +814,7 @@ impl Safety {
         self.ramp_ticks = 0;
         self.energy_j = 0.0;
         self.drained = false;
+        self.contact_new = true;
     }
 
     /// [`check_wall`] at this layer's period with its passivity figures.
@@ -824,6 +831,18 @@ impl Safety {
             &self.config.passivity,
             controller,
         )
+    }
+
+    /// The stiffness of the wall being rendered (N/m): a contact's tank opens with the energy
+    /// a spring of this stiffness stores at the contact's first force, `|F|² / 2K` (zero for
+    /// a contact entered from outside, `½ K d²` for a handle that starts a depth d inside, so
+    /// the wall may push it out). 0 or non-finite: the tank opens empty.
+    pub fn set_wall_stiffness(&mut self, stiffness_n_per_m: f32) {
+        self.wall_stiffness_n_per_m = if stiffness_n_per_m.is_finite() && stiffness_n_per_m > 0.0 {
+            stiffness_n_per_m
+        } else {
+            0.0
+        };
     }
 
     /// Turns the passivity controller on or off (per scene: on for scenes whose materials
@@ -922,6 +941,7 @@ impl Safety {
             self.ramp_ticks = 0;
             self.energy_j = 0.0;
             self.drained = false;
+            self.contact_new = true;
         }
 
         let mut flags = Flags::empty();
@@ -942,6 +962,7 @@ impl Safety {
             self.hold(Vec2::ZERO);
             self.energy_j = 0.0;
             self.drained = false;
+            self.contact_new = true;
             return SafetyOutput {
                 force_n: Vec2::ZERO,
                 flags,
@@ -950,6 +971,14 @@ impl Safety {
         }
         let mut force = input.force_n * ramp;
 
+        if self.contact_new {
+            self.contact_new = false;
+            if self.wall_stiffness_n_per_m > 0.0 {
+                // The spring's stored energy at the requested (not yet ramped) force.
+                let requested = input.force_n.length_squared();
+                self.energy_j = requested / (2.0 * self.wall_stiffness_n_per_m);
+            }
+        }
         if self.passivity_control {
             let limited = self.limit_to_energy(force);
             if limited != force {

@@ -620,3 +620,54 @@ impl Calibration {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The safety layer's default figures are the default pantograph's, to 0.1 %.
+    #[test]
+    fn the_safety_default_is_the_default_pantograph_at_the_handle() {
+        let computed = DeviceSpec::default().at_handle().unwrap();
+        let default = crate::safety::PassivityConfig::default().device;
+        for (a, b) in [
+            (computed.damping_n_s_per_m, default.damping_n_s_per_m),
+            (computed.coulomb_n, default.coulomb_n),
+            (computed.resolution_m, default.resolution_m),
+        ] {
+            assert!((a - b).abs() <= 1e-3 * a, "{a} vs {b}");
+        }
+    }
+
+    /// The figures against a hand computation at one pose: with the grid's worst pose the
+    /// damping is at most, and the resolution at least, what the centre of the workspace
+    /// gives, `b_j / σ_max(J)²` and `max_i |J e_i| · 2π/(N n)` there.
+    #[test]
+    fn worst_pose_figures_bound_the_centre_pose() {
+        let spec = DeviceSpec::default();
+        let figures = spec.at_handle().unwrap();
+        let arm = spec.validate().unwrap();
+        let centre = (spec.workspace.min_in_device + spec.workspace.max_in_device) * 0.5;
+        let j = arm.jacobian(arm.inverse(centre).unwrap()).unwrap().m;
+        let m = j.map(|r| r.map(f64::from));
+        // σ_max² = largest eigenvalue of JᵀJ.
+        let a = m[0][0] * m[0][0] + m[1][0] * m[1][0];
+        let d = m[0][1] * m[0][1] + m[1][1] * m[1][1];
+        let c = m[0][0] * m[0][1] + m[1][0] * m[1][1];
+        let sigma_max_sq = (a + d) / 2.0 + (((a - d) / 2.0).powi(2) + c * c).sqrt();
+        let b_centre = 1e-4 / sigma_max_sq;
+        assert!(f64::from(figures.damping_n_s_per_m) <= b_centre * 1.0001);
+        // The damping bound is tight to a small factor across this workspace (κ ≤ 6).
+        assert!(f64::from(figures.damping_n_s_per_m) > b_centre / 10.0);
+        let count = std::f64::consts::TAU / (4096.0 * 10.0);
+        let step = a.sqrt().max(d.sqrt()) * count;
+        assert!(f64::from(figures.resolution_m) >= step * 0.9999);
+        // The range: 12–25 µm per count at the handle.
+        assert!(
+            (12e-6..25e-6).contains(&figures.resolution_m),
+            "{figures:?}"
+        );
+        // Coulomb: τ_c / σ_max at the centre bounds the worst pose from above.
+        assert!(f64::from(figures.coulomb_n) <= 3e-3 / sigma_max_sq.sqrt() * 1.0001);
+    }
+}

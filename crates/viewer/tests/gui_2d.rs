@@ -108,7 +108,7 @@ fn an_invalid_material_is_refused_and_the_old_one_keeps_running() {
     state.apply_material();
     let e = state.materials.error.clone().expect("refused");
     assert!(
-        e.contains("stiffness 1000000.0 N/m is beyond what this device renders"),
+        e.contains("stiffness 1000000 N/m is beyond what this device renders"),
         "{e}"
     );
     let running = state.running_material.expect("running");
