@@ -587,7 +587,11 @@ mod tests {
         let sent = backend.command(Command::HandTarget(Vec3::new(0.0, 0.105, 0.5)));
         assert!(matches!(sent, Sent::Applied(None)));
         assert_eq!(backend.step(3).len(), 3);
-        assert_eq!(backend.stepped().map(HapticLoop::ticks), Some(3));
+        // Each step is ten device ticks (10 kHz under a 1 kHz loop).
+        assert_eq!(
+            backend.stepped().map(HapticLoop::ticks),
+            Some(3 * u64::from(crate::planar::TICKS_PER_STEP))
+        );
         assert!(backend.counters().is_none());
         backend.stop();
         assert!(!backend.is_running());

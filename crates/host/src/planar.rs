@@ -15,6 +15,12 @@ use nurbs::Vec2;
 use tracker::Chain;
 
 use crate::backend::{Command, RATE_HZ, Reply, Sample, Steppable};
+
+/// The device's tick rate in the loop (Hz): the board's. The loop thread wakes at
+/// [`RATE_HZ`] and runs [`TICKS_PER_STEP`] device ticks per wake.
+pub const DEVICE_RATE_HZ: f64 = 10_000.0;
+/// Device ticks per step of the loop (per 1 ms wake).
+pub const TICKS_PER_STEP: u32 = (DEVICE_RATE_HZ / RATE_HZ) as u32;
 use crate::sim::SimError;
 use crate::tick::{self, Tick};
 use crate::upload::{self, UploadError};
@@ -87,7 +93,7 @@ pub enum SessionError {
 }
 
 impl Session {
-    /// The default device at [`RATE_HZ`], calibrated on its end stops, forces enabled, with
+    /// The default device at [`DEVICE_RATE_HZ`], calibrated on its end stops, forces enabled, with
     /// the first object of planar curves of `scene` loaded (none when it has none: the
     /// pantograph is planar, so a scene of surfaces renders nothing). The controller's own
     /// checks apply: a material stiffer than the device renders is refused, naming the limit.
@@ -148,7 +154,7 @@ impl Session {
     }
 
     /// Whether the controller renders the material with the passivity controller on (the
-    /// material is stiffer than the device renders passively at [`RATE_HZ`]).
+    /// material is stiffer than the device renders passively at [`DEVICE_RATE_HZ`]).
     pub fn passivity_control(&self) -> bool {
         self.0.with_dependent(|_, r| r.passivity_control)
     }
@@ -165,11 +171,11 @@ fn build_controller(choice: &SceneChoice) -> Result<Rendering<'_>, SessionError>
             let index = choice.object.unwrap_or(0);
             let chain = Chain::new(&curves).map_err(|error| SimError::Chain { index, error })?;
             let material = store.material(0).unwrap_or_default();
-            tick::device_controller(chain, material, RATE_HZ)?
+            tick::device_controller(chain, material, DEVICE_RATE_HZ)?
         }
         None => {
             let safety = device::safety::SafetyConfig {
-                period_s: (1.0 / RATE_HZ) as f32,
+                period_s: (1.0 / DEVICE_RATE_HZ) as f32,
                 ramp_time_s: tick::DEVICE_RAMP_TIME_S,
                 ..device::safety::SafetyConfig::default()
             };
@@ -232,18 +238,29 @@ impl HapticLoop {
             arm,
             hand: VirtualHand::at(start_hip),
             tick: 0,
-            period_s: (1.0 / RATE_HZ) as f32,
+            period_s: (1.0 / DEVICE_RATE_HZ) as f32,
             last_error: None,
         })
     }
 
-    /// One tick (see [`tick::device_tick`]). An arm driven into a singular pose stays there; the
-    /// tick is then recorded at the last pose and [`HapticLoop::last_error`] says why.
+    /// One step of the loop: [`TICKS_PER_STEP`] device ticks at [`DEVICE_RATE_HZ`] (see
+    /// [`HapticLoop::device_tick`]); returns the last one's record, so the UI and the
+    /// recorder get one record per millisecond, evenly spaced.
     pub fn step(&mut self) -> Tick {
+        for _ in 1..TICKS_PER_STEP {
+            self.device_tick();
+        }
+        self.device_tick()
+    }
+
+    /// One device tick (see [`tick::device_tick`]). An arm driven into a singular pose stays
+    /// there; the tick is then recorded at the last pose and [`HapticLoop::last_error`] says
+    /// why.
+    pub fn device_tick(&mut self) -> Tick {
         let target = self.hand.step(self.period_s);
-        let t_s = self.tick as f64 / RATE_HZ;
+        let t_s = self.tick as f64 / DEVICE_RATE_HZ;
         // The device clock: integer microseconds, as a board's timer.
-        let now_us = (self.tick as f64 * 1e6 / RATE_HZ).round() as u64;
+        let now_us = (self.tick as f64 * 1e6 / DEVICE_RATE_HZ).round() as u64;
         let period_s = self.period_s;
         let arm = &mut self.arm;
         let result = self.session.0.with_dependent_mut(|_, r| {
@@ -274,7 +291,7 @@ impl HapticLoop {
         self.hand.target()
     }
 
-    /// Ticks so far.
+    /// Device ticks so far (at [`DEVICE_RATE_HZ`]).
     pub fn ticks(&self) -> u64 {
         self.tick
     }

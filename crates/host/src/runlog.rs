@@ -748,8 +748,16 @@ mod tests {
                 .all(|w| (w[1].t_s - w[0].t_s - 1.0 / RATE_HZ).abs() < 1e-9)
         };
         assert!(one_period(&log.run.ticks));
+        // The first row is the first step's last device tick, 0.9 ms in (10 kHz under 1 kHz).
+        let first = log.run.ticks[0].t_s;
+        let device_period = 1.0 / crate::planar::DEVICE_RATE_HZ;
+        let ticks_per_step = f64::from(crate::planar::TICKS_PER_STEP);
+        assert!(
+            (first - (ticks_per_step - 1.0) * device_period).abs() < 1e-9,
+            "{first}"
+        );
         let last = log.run.ticks.last().expect("rows").t_s;
-        assert!((last - 299.0 / RATE_HZ).abs() < 1e-9, "{last}");
+        assert!((last - first - 299.0 / RATE_HZ).abs() < 1e-9, "{last}");
         let spatial_path = spatial_log_path(&path);
         assert_eq!(spatial_path, dir.join("rec.3d.csv"));
         let text = std::fs::read_to_string(&spatial_path).expect("read 3-D");

@@ -29,14 +29,27 @@ use viewer::gui::ViewerUi;
 /// by s with the target fixed makes d_t grow by s: ΔF_N = K k_h / (K + k_h) · s = 230.8 N/m
 /// · 0.464 δ (a handle held rigidly would see K·s; the relaxed hand yields).
 ///
-/// Tolerance: the simulated arm has no friction, so the rest is exact up to the encoders,
-/// through which the controller sees the handle: 4096 counts/rev behind 10:1 capstans are
-/// 2π/40960 = 153 µrad per count at a joint, about 12 µm at the handle through the 80 mm
-/// proximal links, so a measured depth is within half of that, ±6 µm, and its penalty force
-/// within ±6 mN (K = 1000 N/m). After 1.5 s the hand (2 N·s/m) has settled far below that.
-/// Each measurement is then within 8 mN of its prediction, their difference within 16 mN
-/// (4 % of the 0.43 N expected; a rigidly held handle would see K·s = 1.86 N, an unchanged
-/// scene nothing).
+/// Tolerance: the encoders, through which the controller sees the handle: 4096 counts/rev
+/// behind 10:1 capstans are 2π/40960 = 153 µrad per count at a joint, about 12 µm at the
+/// handle through the 80 mm proximal links, so a measured depth is within half of that,
+/// ±6 µm, and its penalty force within ±6 mN (K = 1000 N/m); and the mechanism's dry
+/// friction, which holds the handle at rest wherever the net of the two springs along the
+/// normal is below what the joints' Coulomb torques τ_c hold, F_fr = τ_c / max_i |(Jᵀ n)_i|:
+/// the depth is then off by up to F_fr / (K + k_h), the normal force by K / (K + k_h) · F_fr
+/// (about 0.04 N here). Each measurement is within that plus 8 mN of its prediction, their
+/// difference within twice that (a rigidly held handle would see K·s = 1.86 N more, an
+/// unchanged scene nothing).
+/// The largest force along the tick's normal that the joints' dry friction holds at rest:
+/// `τ_c / max_i |(Jᵀ n)_i|` at the tick's joint angles.
+fn friction_hold_n(tick: &host::tick::Tick) -> f32 {
+    let spec = device::spec::DeviceSpec::default();
+    let arm = spec.validate().expect("default spec");
+    let theta = tick.device.expect("device sample").theta_rad;
+    let n = Vec2::new(tick.normal.x, tick.normal.y);
+    let tau = arm.joint_torques(theta, n).expect("pose");
+    spec.joint_coulomb_nm[0] / tau[0].abs().max(tau[1].abs())
+}
+
 #[test]
 fn dragging_a_control_point_changes_the_scene_and_the_force_follows() {
     let mut state = stepped();
@@ -48,8 +61,9 @@ fn dragging_a_control_point_changes_the_scene_and_the_force_follows() {
     let before = state.latest().expect("ticks").tick;
     assert_ne!(before.mode, Mode::Free, "{before:?}");
     let series = 1000.0 * 300.0 / 1300.0;
+    let tolerance = friction_hold_n(&before) * 1000.0 / 1300.0 + 0.008;
     assert!(
-        (before.normal_force_n - series * 0.006).abs() < 0.008,
+        (before.normal_force_n - series * 0.006).abs() < tolerance,
         "{before:?}"
     );
 
@@ -89,11 +103,17 @@ fn dragging_a_control_point_changes_the_scene_and_the_force_follows() {
     let expected = series * r1 * delta;
     let grew = after.normal_force_n - before.normal_force_n;
     assert!(
-        (grew - expected).abs() < 0.016,
+        (grew - expected).abs() < 2.0 * tolerance,
         "F_N grew by {grew} N, expected {expected} N ({before:?} → {after:?})"
     );
-    // Still the penalty of the new surface.
-    assert!((after.normal_force_n - 1000.0 * after.depth_m).abs() < 1e-5);
+    // Still the penalty of the new surface: K times the depth below it, to within the
+    // encoders' and the stick spring's share (the god-object sits a few tens of µm from the
+    // closest point while stuck: tens of mN), against K·s = 1.86 N had the force stayed with
+    // the old surface.
+    assert!(
+        (after.normal_force_n - 1000.0 * after.depth_m).abs() < 0.05 * 1000.0 * delta,
+        "{after:?}"
+    );
     assert!(state.faults().is_empty(), "{:?}", state.faults());
 }
 
