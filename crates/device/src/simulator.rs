@@ -21,11 +21,10 @@
 //! late (the board computes a tick's currents from counts read at its start); the encoders
 //! quantise the angles ([`SimulatedPantograph::encoder_counts`]).
 //!
-//! Coulomb friction is applied per joint as an impulse that may stop the joint but never
-//! reverse it: with `ω'` the joint rate after the other torques over a substep `h`, the rate
-//! becomes `ω' − sign(ω') τ_c h / M_ii`, or 0 (stuck) when that would change its sign. (The
-//! diagonal mass is used for the friction impulse; the off-diagonal `m_h JᵀJ` is small beside
-//! `I_r`.)
+//! Coulomb friction is applied as an impulse that may stop a joint but never reverse it: with
+//! `ω'` the joint rates after the other torques over a substep `h`, the rates become
+//! `ω' − h M⁻¹ τ_c sign(ω')`, and a joint whose rate that would change in sign stops (stuck)
+//! instead.
 
 use nurbs::Vec2;
 
@@ -340,14 +339,24 @@ impl SimulatedPantograph {
                 (m[1][1] * rhs[0] - m[0][1] * rhs[1]) / det,
                 (m[0][0] * rhs[1] - m[1][0] * rhs[0]) / det,
             ];
-            for i in 0..2 {
-                let free = self.omega_rad_per_s[i] + acc[i] * h;
-                let stop = s.joint_coulomb_nm[i] * h / m[i][i];
-                self.omega_rad_per_s[i] = if free.abs() <= stop {
+            // The rates after the other torques, then the friction torques' impulse through
+            // the same mass matrix, −h M⁻¹ τ_c sign(ω'); a joint the impulse would reverse
+            // stops instead.
+            let free = [0, 1].map(|i| self.omega_rad_per_s[i] + acc[i] * h);
+            let tau_c = [0, 1].map(|i| {
+                if free[i] == 0.0 {
                     0.0
                 } else {
-                    free - stop.copysign(free)
-                };
+                    s.joint_coulomb_nm[i].copysign(free[i])
+                }
+            });
+            let slow = [
+                (m[1][1] * tau_c[0] - m[0][1] * tau_c[1]) / det * h,
+                (m[0][0] * tau_c[1] - m[1][0] * tau_c[0]) / det * h,
+            ];
+            for i in 0..2 {
+                let after = free[i] - slow[i];
+                self.omega_rad_per_s[i] = if after * free[i] <= 0.0 { 0.0 } else { after };
                 self.theta_rad[i] += self.omega_rad_per_s[i] * h;
             }
         }

@@ -3,6 +3,7 @@
 
 pub mod backend;
 pub mod devices;
+pub mod identify;
 pub mod planar;
 pub mod remote;
 pub mod runlog;
