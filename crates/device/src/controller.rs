@@ -103,8 +103,7 @@ impl core::error::Error for ControllerError {}
 /// [`Controller::tick_into`] writes it in place (every field, every tick), so a board keeps one
 /// and the tick copies nothing out: returned by value from a tick that is not inlined into its
 /// caller, the output was built in a temporary and copied twice (about 1,000 instructions a
-/// tick on the Cortex-M4F). The telemetry frame comes first, so that it starts at the
-/// struct's 4-byte alignment.
+/// tick on the Cortex-M4F).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct TickOutput {
     /// The tick's telemetry frame.
