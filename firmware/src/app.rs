@@ -11,6 +11,7 @@ use device::protocol::{ErrorCode, Frame, MAX_FRAME, Message, SceneStore};
 use device::safety::SafetyConfig;
 use device::session::Command;
 use device::spec::DeviceSpec;
+use device::telemetry::TelemetryDecimator;
 use nurbs::{Curve, Vec2};
 use tracker::{Chain, ChainError, MAX_CHAIN_CURVES, Object};
 
@@ -50,6 +51,10 @@ impl core::fmt::Display for AppError {
 pub struct App<'s> {
     controller: Controller<Chain<'s>>,
     seq: u16,
+    /// The tick's output, written in place by every tick (`Controller::tick_into`).
+    out: TickOutput,
+    /// The ticks' telemetry folded into one frame per millisecond.
+    decimator: TelemetryDecimator,
 }
 
 /// The app between two scenes: the controller without a scene (calibration, faults, forces and
@@ -59,6 +64,7 @@ pub struct App<'s> {
 pub struct Parked {
     controller: Controller<Chain<'static>>,
     seq: u16,
+    decimator: TelemetryDecimator,
 }
 
 impl Parked {
@@ -73,11 +79,16 @@ impl Parked {
     }
 
     /// The default [`DeviceSpec`] with the safety limits `safety` (its period is the tick's);
-    /// no scene.
+    /// no scene. Telemetry goes out once per millisecond
+    /// ([`TelemetryDecimator::for_period_s`] of the period).
     pub fn with_safety(safety: SafetyConfig) -> Result<Self, AppError> {
         let controller =
             Controller::new(DeviceSpec::default(), safety).map_err(AppError::Controller)?;
-        Ok(Parked { controller, seq: 0 })
+        Ok(Parked {
+            controller,
+            seq: 0,
+            decimator: TelemetryDecimator::for_period_s(safety.period_s),
+        })
     }
 
     /// The app with object `object` of `store` loaded. As the host's simulator does, a
@@ -100,6 +111,8 @@ impl Parked {
         App {
             controller: self.controller.rebind(),
             seq: self.seq,
+            out: TickOutput::IDLE,
+            decimator: self.decimator,
         }
     }
 }
@@ -155,6 +168,7 @@ impl<'s> App<'s> {
         Parked {
             controller: self.controller.rebind(),
             seq: self.seq,
+            decimator: self.decimator,
         }
     }
 
@@ -192,25 +206,48 @@ impl<'s> App<'s> {
         self.controller.acquire_now()
     }
 
-    /// One haptic tick: encoders and clock from the board, [`Controller::tick`] (bracketed by
-    /// [`Board::around_tick`]), the latched faults, currents and driver enable to the board,
-    /// the telemetry frame to the link when the board wants one ([`Board::wants_frame`]).
-    pub fn tick<B: Board>(&mut self, board: &mut B) -> TickOutput {
+    /// One haptic tick: encoders and clock from the board, [`Controller::tick_into`] on the
+    /// app's own output (bracketed by [`Board::around_tick`]), the latched faults, currents
+    /// and driver enable to the board, then the tick's telemetry into the decimator, which
+    /// sends the window's frame to the link once per millisecond (see `device::telemetry`).
+    /// Returns the tick's output (its own telemetry frame, not the decimated one).
+    pub fn tick<B: Board>(&mut self, board: &mut B) -> &TickOutput {
         let counts = board.encoder_counts();
         let now_us = board.now_us();
-        let controller = &mut self.controller;
-        let mut out = board.around_tick(|| controller.tick(counts, now_us));
-        board.set_faults(out.telemetry.faults);
+        let (controller, out) = (&mut self.controller, &mut self.out);
+        board.around_tick(|| controller_tick(controller, counts, now_us, out));
+        board.set_faults(self.out.telemetry.faults);
         board.set_driver_enabled(self.controller.forces_enabled());
-        board.set_motor_currents(out.currents_a);
+        board.set_motor_currents(self.out.currents_a);
         if let Some(us) = board.last_tick_us() {
-            out.telemetry.tick_us = us;
+            self.out.telemetry.tick_us = us;
         }
-        if board.wants_frame() {
-            self.send(board, &Message::Telemetry(out.telemetry));
+        if let Some(frame) = self.decimator.push(&self.out.telemetry) {
+            let message = Message::Telemetry(*frame);
+            self.send(board, &message);
         }
-        out
+        &self.out
     }
+
+    /// Ticks per telemetry frame.
+    pub fn ticks_per_frame(&self) -> u32 {
+        self.decimator.ticks_per_frame()
+    }
+}
+
+/// [`Controller::tick_into`], inlined into [`App::tick`] (its one caller, as LTO would anyway)
+/// unless the feature `tick-not-inlined` asks for an ordinary call: the QEMU build that
+/// measures the tick as a function of its own, so that its budget is shown to hold without
+/// LTO's inlining.
+#[cfg_attr(feature = "tick-not-inlined", inline(never))]
+#[cfg_attr(not(feature = "tick-not-inlined"), inline(always))]
+fn controller_tick(
+    controller: &mut Controller<Chain<'_>>,
+    counts: [i32; 2],
+    now_us: u64,
+    out: &mut TickOutput,
+) {
+    controller.tick_into(counts, now_us, out);
 }
 
 /// Object `object` of `store` as a chain of planar curves: the object [`App::new`] and

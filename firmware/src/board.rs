@@ -34,14 +34,6 @@ pub trait Board {
     /// Takes received link bytes into `buf`, returns how many (0 when none are waiting).
     fn link_receive(&mut self, buf: &mut [u8]) -> usize;
 
-    /// Whether this tick's telemetry frame is wanted (asked once per tick, after the currents
-    /// were set): a board whose link carries fewer frames than it runs ticks (USB HID: one per
-    /// millisecond) says no on the other ticks, and the frame is not even built. The default
-    /// wants every one.
-    fn wants_frame(&mut self) -> bool {
-        true
-    }
-
     /// The duration of the last [`Board::around_tick`] in µs, for the telemetry's
     /// `tick_us`, when the board measures it; the default `None` leaves the field 0.
     fn last_tick_us(&mut self) -> Option<u16> {

@@ -52,10 +52,11 @@ fn main() -> ExitCode {
                  \x20     size (flash <= 128 KiB, RAM <= 32 KiB with a stack reserve), then\n\
                  \x20     `qemu` below\n\
                  qemu  install qemu-system-arm when missing, build firmware/ (release, LTO) at\n\
-                 \x20     each opt-level (default 3), run the thesis-2d scenario on QEMU's\n\
-                 \x20     netduinoplus2 with -icount shift=5, compare its telemetry frames\n\
-                 \x20     (its UART) tick by tick with the host's run, print instructions\n\
-                 \x20     per tick and the ELF's text/data/bss"
+                 \x20     each opt-level (default 3), run the thesis-2d scenario at 10 kHz on\n\
+                 \x20     QEMU's netduinoplus2 with -icount shift=5, compare its telemetry\n\
+                 \x20     frames (its UART, 1 kHz) with the host's run, print instructions\n\
+                 \x20     per tick (inlined and not; budgets enforced), the CPU load and the\n\
+                 \x20     ELF's text/data/bss"
             );
             ExitCode::from(2)
         }

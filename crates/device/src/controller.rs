@@ -88,12 +88,17 @@ impl core::fmt::Display for ControllerError {
 impl core::error::Error for ControllerError {}
 
 /// What one tick commands.
+///
+/// [`Controller::tick_into`] writes it in place (every field, every tick), so a board keeps one
+/// and the tick copies nothing out: returned by value from a tick that is not inlined into its
+/// caller, the output was built in a temporary and copied twice (about 1,000 instructions a
+/// tick on the Cortex-M4F).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct TickOutput {
-    /// Motor currents (A), within the device's limits; zero while forces are off.
-    pub currents_a: [f32; 2],
     /// The tick's telemetry frame.
     pub telemetry: Telemetry,
+    /// Motor currents (A), within the device's limits; zero while forces are off.
+    pub currents_a: [f32; 2],
     /// The joint angles (rad) the tick measured, `None` before calibration or in an
     /// unassembled pose.
     pub joint_angles_rad: Option<[f32; 2]>,
@@ -103,6 +108,40 @@ pub struct TickOutput {
     pub joint_torques_nm: [f32; 2],
     /// The renderer's output before the safety layer, `None` without a scene or a pose.
     pub render: Option<FrictionOutput<Vec2>>,
+}
+
+impl TickOutput {
+    /// An output of no tick: zero currents and torques, no pose, no render, a telemetry frame
+    /// at time 0 that is all zeros, free, no feature and no fault. The initial value of the
+    /// buffer [`Controller::tick_into`] writes.
+    pub const IDLE: TickOutput = TickOutput {
+        telemetry: Telemetry {
+            time_us: 0,
+            hip_m: Vec2::ZERO,
+            cp_m: Vec2::ZERO,
+            go_m: Vec2::ZERO,
+            force_normal_n: 0.0,
+            force_friction_n: 0.0,
+            force_n: Vec2::ZERO,
+            psi: 0.0,
+            mu_e4: 0,
+            tick_us: 0,
+            faults: 0,
+            feature: None,
+            mode: Mode::Free,
+            cause: SwitchCause::None,
+        },
+        currents_a: [0.0; 2],
+        joint_angles_rad: None,
+        joint_torques_nm: [0.0; 2],
+        render: None,
+    };
+}
+
+impl Default for TickOutput {
+    fn default() -> Self {
+        TickOutput::IDLE
+    }
 }
 
 /// The loaded scene: the object, its material and where its renderer is.
@@ -515,28 +554,22 @@ impl<O: Object<P = Vec2>> Controller<O> {
     }
 
     /// One tick at `now_us` (the board's monotonic clock, µs; see the module docs) on the
-    /// raw encoder `counts`. Total: any counts and any clock reading give finite currents
-    /// within the limits; every path goes through the safety layer.
+    /// raw encoder `counts`, returned by value: [`Controller::tick_into`] into a fresh
+    /// [`TickOutput`], for host loops and tests. A board calls `tick_into` on a buffer it
+    /// keeps, which copies nothing.
     pub fn tick(&mut self, counts: [i32; 2], now_us: u64) -> TickOutput {
+        let mut out = TickOutput::IDLE;
+        self.tick_into(counts, now_us, &mut out);
+        out
+    }
+
+    /// One tick at `now_us` (the board's monotonic clock, µs; see the module docs) on the
+    /// raw encoder `counts`, its output written into `out`: every field of it, whatever it
+    /// held before. Total: any counts and any clock reading give finite currents within the
+    /// limits; every path goes through the safety layer.
+    pub fn tick_into(&mut self, counts: [i32; 2], now_us: u64, out: &mut TickOutput) {
         let t = self.period_s;
         let heartbeat_age_us = self.heartbeat_age_us(now_us);
-        let mut telemetry = Telemetry {
-            // Documented to wrap: the clock modulo 2³².
-            time_us: now_us as u32,
-            hip_m: Vec2::ZERO,
-            cp_m: Vec2::ZERO,
-            go_m: Vec2::ZERO,
-            force_normal_n: 0.0,
-            force_friction_n: 0.0,
-            force_n: Vec2::ZERO,
-            psi: 0.0,
-            mu_e4: 0,
-            tick_us: 0,
-            faults: self.safety.faults().bits(),
-            feature: None,
-            mode: Mode::Free,
-            cause: SwitchCause::None,
-        };
         // Kinematics. Uncalibrated counts have no pose (forces are off then); calibrated
         // counts that no pose of the mechanism gives are an encoder fault for the safety
         // layer, which then latches it and cuts the force, and the last good pose is kept
@@ -559,37 +592,52 @@ impl<O: Object<P = Vec2>> Controller<O> {
         if let Some(config) = &state {
             self.previous = Some((config.joints_rad, config.hip_in_device));
         }
-        telemetry.hip_m = hip;
 
-        // Rendering, on the loaded object only.
+        // Rendering, on the loaded object only. The frame's rendering fields are written on
+        // both paths (the buffer holds the previous tick's).
+        let telemetry = &mut out.telemetry;
+        // Documented to wrap: the clock modulo 2³².
+        telemetry.time_us = now_us as u32;
+        telemetry.hip_m = hip;
+        telemetry.tick_us = 0;
         let mut force = Vec2::ZERO;
-        let mut render = None;
         let scene = self.scene.as_mut().filter(|_| state.is_some());
         if let Some(Scene {
-            state: SceneState::AwaitingAcquisition { request_hip },
-            ..
-        }) = scene
-        {
-            // Until an acquisition starts the renderer: no force, a request (module docs).
-            *request_hip = Some(hip);
-        } else if let Some(Scene {
             object,
             state: SceneState::Rendering { renderer },
             ..
         }) = scene
         {
-            let out = renderer.tick(object, hip, velocity, t);
-            force = out.total;
-            telemetry.cp_m = out.contact.point;
-            telemetry.go_m = out.go;
-            telemetry.force_normal_n = out.normal_force_n;
-            telemetry.force_friction_n = out.friction_force_n;
-            telemetry.psi = out.psi;
-            telemetry.mu_e4 = Telemetry::quantize_mu(out.mu);
-            telemetry.feature = (out.mode != Mode::Free).then_some(out.contact.feature);
-            telemetry.mode = out.mode;
-            telemetry.cause = out.cause;
-            render = Some(out);
+            let render = out.render.insert(renderer.tick(object, hip, velocity, t));
+            force = render.total;
+            telemetry.cp_m = render.contact.point;
+            telemetry.go_m = render.go;
+            telemetry.force_normal_n = render.normal_force_n;
+            telemetry.force_friction_n = render.friction_force_n;
+            telemetry.psi = render.psi;
+            telemetry.mu_e4 = Telemetry::quantize_mu(render.mu);
+            telemetry.feature = (render.mode != Mode::Free).then_some(render.contact.feature);
+            telemetry.mode = render.mode;
+            telemetry.cause = render.cause;
+        } else {
+            if let Some(Scene {
+                state: SceneState::AwaitingAcquisition { request_hip },
+                ..
+            }) = scene
+            {
+                // Until an acquisition starts the renderer: no force, a request (module docs).
+                *request_hip = Some(hip);
+            }
+            out.render = None;
+            telemetry.cp_m = Vec2::ZERO;
+            telemetry.go_m = Vec2::ZERO;
+            telemetry.force_normal_n = 0.0;
+            telemetry.force_friction_n = 0.0;
+            telemetry.psi = 0.0;
+            telemetry.mu_e4 = 0;
+            telemetry.feature = None;
+            telemetry.mode = Mode::Free;
+            telemetry.cause = SwitchCause::None;
         }
 
         // Safety, every tick, then Jᵀ F → currents.
@@ -613,13 +661,9 @@ impl<O: Object<P = Vec2>> Controller<O> {
         });
         let (currents_a, joint_torques_nm) = command.unwrap_or(([0.0; 2], [0.0; 2]));
         self.last_currents_a = currents_a;
-        TickOutput {
-            currents_a,
-            telemetry,
-            joint_angles_rad: state.map(|config| config.joints_rad),
-            joint_torques_nm,
-            render,
-        }
+        out.currents_a = currents_a;
+        out.joint_angles_rad = state.map(|config| config.joints_rad);
+        out.joint_torques_nm = joint_torques_nm;
     }
 
     /// Stamps a pending heartbeat with `now_us` and returns the heartbeat's age, µs: the

@@ -14,3 +14,4 @@ pub mod safety;
 pub mod session;
 pub mod simulator;
 pub mod spec;
+pub mod telemetry;

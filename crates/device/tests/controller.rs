@@ -606,3 +606,78 @@ fn the_tick_renders_nothing_until_an_acquisition_starts_it_and_a_stale_one_is_re
         }
     }
 }
+
+/// [`Controller::tick_into`] writes every field of its buffer: a buffer reused across ticks,
+/// starting from another controller's rendering output (a force, a render, a feature), holds
+/// exactly what [`Controller::tick`] returns fresh on a twin controller, tick by tick, through
+/// no pose (uncalibrated), a pose awaiting its acquisition, contact, free space, an encoder
+/// fault (no pose again) and a material change (awaiting again).
+#[test]
+fn tick_into_overwrites_everything_a_fresh_tick_gives() {
+    let arcs = arcs();
+    let views = [arcs[0].view(), arcs[1].view()];
+    let chain = Chain::new(&views).unwrap();
+    let spec = DeviceSpec::default();
+    let (mut pressed, counts, now) = pressing(chain, 0);
+    let mut buffer = tick(&mut pressed, counts, now);
+    assert!(buffer.render.is_some() && buffer.telemetry.force_n.length() > 1.0);
+
+    let mut fresh: Controller<Chain<'_>> = Controller::new(spec, safety()).unwrap();
+    let mut reused: Controller<Chain<'_>> = Controller::new(spec, safety()).unwrap();
+    let inside = counts_at(spec, Vec2::new(0.0125, 0.075));
+    let outside = counts_at(spec, Vec2::new(0.0, 0.06));
+    // Counts no pose gives (both joints a half turn away): an encoder fault once calibrated.
+    let unreachable = counts_of_joints(spec, [0.0, PI]);
+    #[derive(Clone, Copy)]
+    enum Setup {
+        Nothing,
+        Start,
+        ClearFaults,
+        NewMaterial,
+    }
+    let phases = [
+        (Setup::Nothing, inside, 3),
+        (Setup::Start, inside, 60),
+        (Setup::Nothing, outside, 20),
+        (Setup::Nothing, inside, 20),
+        (Setup::Nothing, unreachable, 2),
+        (Setup::ClearFaults, inside, 5),
+        (Setup::NewMaterial, inside, 1),
+    ];
+    let mut now = 0;
+    let mut ticks = 0;
+    let mut faulted = false;
+    for (setup, counts, n) in phases {
+        for c in [&mut fresh, &mut reused] {
+            match setup {
+                Setup::Nothing => {}
+                Setup::Start => {
+                    c.calibrate(spec.end_stop_counts()).unwrap();
+                    c.set_forces_enabled(true);
+                    c.load_scene(chain, material(), true).unwrap();
+                }
+                Setup::ClearFaults => {
+                    c.clear_faults();
+                }
+                Setup::NewMaterial => c.set_material(material(), true).unwrap(),
+            }
+        }
+        for _ in 0..n {
+            fresh.heartbeat();
+            reused.heartbeat();
+            let expected = fresh.tick(counts, now);
+            reused.tick_into(counts, now, &mut buffer);
+            assert_eq!(buffer, expected, "tick {ticks}");
+            faulted |= buffer.telemetry.faults != 0;
+            fresh.acquire_now();
+            reused.acquire_now();
+            now += PERIOD_US;
+            ticks += 1;
+        }
+    }
+    assert_eq!(ticks, 111);
+    // The run went through the states it claims: a fault latched; after the material change
+    // the renderer awaits its acquisition (no render, a pose).
+    assert!(faulted);
+    assert!(buffer.render.is_none() && buffer.joint_angles_rad.is_some());
+}

@@ -23,6 +23,7 @@ use device::protocol::Telemetry;
 pub use device::simulator::SimParams;
 use device::simulator::{SimulatedPantograph, SimulatorError};
 use device::spec::DeviceSpec;
+use device::telemetry::TelemetryDecimator;
 use friction::{FrictionMaterial, FrictionRenderer};
 use tracker::{Chain, ChainError, Object as TrackedObject, Shell, ShellError};
 
@@ -314,8 +315,10 @@ pub struct DeviceRun {
     /// Whether the material is stiffer than the device renders passively at this rate, so
     /// that the controller renders it with the time-domain passivity controller on.
     pub passivity_control: bool,
-    /// Every tick's telemetry frame, as the controller made it (what a board sends; the
-    /// firmware under QEMU is compared with it frame by frame by `cargo xtask qemu`).
+    /// The telemetry frames a board sends: the ticks' frames as the controller made them,
+    /// folded by `device::telemetry::TelemetryDecimator` into one per millisecond (every
+    /// tick's at 1 kHz and below; a last window shorter than a millisecond sends none). The
+    /// firmware under QEMU is compared with them frame by frame by `cargo xtask qemu`.
     pub telemetry: Vec<Telemetry>,
 }
 
@@ -401,7 +404,9 @@ pub fn run_device(
         let mut arm =
             SimulatedPantograph::new(spec, hand, vec2(start)).map_err(SimError::Simulator)?;
         let mut ticks = Vec::with_capacity(n);
-        let mut telemetry = Vec::with_capacity(n);
+        // The board's decimator, on the same period (firmware::app).
+        let mut decimator = TelemetryDecimator::for_period_s(period_s);
+        let mut telemetry = Vec::with_capacity(n / decimator.ticks_per_frame() as usize + 1);
         for i in 0..n {
             let t_s = trajectory.tick_time_s(i, rate_hz);
             // The device clock: integer microseconds since the start, as a board's timer.
@@ -410,7 +415,7 @@ pub fn run_device(
             let (tick, frame) =
                 device_tick(&mut controller, &mut arm, t_s, now_us, target, period_s)?;
             ticks.push(tick);
-            telemetry.push(frame);
+            telemetry.extend(decimator.push(&frame).copied());
             progress(i + 1, n);
         }
         Ok(DeviceRun {

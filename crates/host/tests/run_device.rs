@@ -182,3 +182,70 @@ fn surfaces_are_refused() {
     assert!(matches!(e, sim::SimError::Surface { index: 0, .. }), "{e}");
     assert!(e.to_string().contains("2-DoF"), "{e}");
 }
+
+/// At 10 kHz the run's telemetry is what a board sends: one frame per millisecond (10 ticks),
+/// each the frame of its window's tick with the largest |F| (ties to the latest), with the
+/// OR of the window's faults, and a friction state that changes whenever the window's
+/// (mode, cause) left the one the previous frame reported. Checked against the run's own
+/// per-tick records (`Tick`), not the decimator.
+#[test]
+fn thesis_2d_at_10_khz_sends_one_folded_frame_per_millisecond() {
+    let scene = Scene::load(scenes("thesis-2d.json")).expect("scene");
+    let trajectory = Trajectory::load(scenes("thesis-2d.csv")).expect("trajectory");
+    let result = sim::run_device(
+        &scene,
+        0,
+        &trajectory,
+        10_000.0,
+        SimParams::default(),
+        |_, _| {},
+    )
+    .expect("closed loop runs");
+    let ticks = &result.run.ticks;
+    // 2.52 s at 10 kHz, both ends included; the last, partial millisecond sends nothing.
+    assert_eq!(ticks.len(), 25_201);
+    assert_eq!(result.telemetry.len(), 2520);
+    let mut reported = (Mode::Free, friction::SwitchCause::None);
+    let mut switched_windows = 0;
+    for (k, frame) in result.telemetry.iter().enumerate() {
+        let window = &ticks[10 * k..10 * k + 10];
+        // The peak: |F|² in f32 as the device compares it, the latest of equal ones.
+        let force_sq = |i: usize| {
+            let f = window[i].force;
+            f.x * f.x + f.y * f.y
+        };
+        let peak = (0..10).fold(0, |best, i| {
+            if force_sq(i) >= force_sq(best) {
+                i
+            } else {
+                best
+            }
+        });
+        let at = 10 * k + peak;
+        // The device clock is whole microseconds, 100 per tick.
+        assert_eq!(frame.time_us as usize, at * 100, "frame {k}");
+        assert_eq!(
+            (frame.force_n.x, frame.force_n.y),
+            (ticks[at].force.x, ticks[at].force.y),
+            "frame {k}"
+        );
+        let faults = window
+            .iter()
+            .fold(0, |f, t| f | t.device.map_or(0, |d| d.faults));
+        assert_eq!(frame.faults, faults, "frame {k}");
+        let state = (frame.mode, frame.cause);
+        let last = window[9];
+        if (last.mode, last.cause) != reported {
+            assert_eq!(state, (last.mode, last.cause), "frame {k}: the state now");
+        }
+        if window.iter().any(|t| (t.mode, t.cause) != reported) {
+            assert_ne!(state, reported, "frame {k}: a switch in the window shows");
+            switched_windows += 1;
+        } else {
+            assert_eq!(state, reported, "frame {k}: no switch, no change");
+        }
+        reported = state;
+    }
+    // The scenario sticks, slips and sticks again: several windows switch.
+    assert!(switched_windows >= 6, "{switched_windows} windows switched");
+}

@@ -2,10 +2,11 @@
 //!
 //! Tasks, highest priority first (nothing of a lower priority can delay a tick):
 //!
-//! 3. `tick` — TIM5's update interrupt, 1 kHz (features `tick-2khz`, `tick-5khz`,
-//!    `tick-10khz`): feeds the watchdog, swaps in a committed scene, applies the link's
-//!    commands, runs one [`App::tick`] on the encoders and the clock, drives PWM, directions
-//!    and driver enable, and queues one telemetry frame per millisecond for USB. Never waits,
+//! 3. `tick` — TIM5's update interrupt, 10 kHz (features `tick-1khz`, `tick-2khz`,
+//!    `tick-5khz` for slower ticks): feeds the watchdog, swaps in a committed scene, applies
+//!    the link's commands, runs one [`App::tick`] on the encoders and the clock, drives PWM,
+//!    directions and driver enable, and queues one telemetry frame per millisecond for USB
+//!    (the app folds the millisecond's ticks into it, `device::telemetry`). Never waits,
 //!    allocates, logs or panics; it shares nothing with lower priorities but lock-free
 //!    single-producer single-consumer queues and atomics.
 //! 2. `usb` — the OTG_FS interrupt (and pended by the tick every millisecond): USB HID
@@ -30,7 +31,6 @@
 #![no_main]
 
 use device::board_io::{Extend16, LedPattern, pwm_duty};
-use device::controller::TickOutput;
 use device::protocol::{MAX_FRAME, Message, REPORT_DESCRIPTOR, SceneStore};
 use device::session::{Command, DeviceState, Session};
 use firmware::app::{AcquisitionJob, App, JobDone, Parked};
@@ -49,24 +49,25 @@ use stm32f4xx_hal::timer::{CounterHz, Event, Flag, PwmChannel};
 use stm32f4xx_hal::watchdog::IndependentWatchdog;
 
 #[cfg(any(
+    all(feature = "tick-1khz", feature = "tick-2khz"),
+    all(feature = "tick-1khz", feature = "tick-5khz"),
     all(feature = "tick-2khz", feature = "tick-5khz"),
-    all(feature = "tick-2khz", feature = "tick-10khz"),
-    all(feature = "tick-5khz", feature = "tick-10khz"),
 ))]
-compile_error!("choose at most one of the features tick-2khz, tick-5khz, tick-10khz");
+compile_error!("choose at most one of the features tick-1khz, tick-2khz, tick-5khz");
 
-/// The haptic tick's rate (Hz).
-const TICK_HZ: u32 = if cfg!(feature = "tick-10khz") {
-    10_000
-} else if cfg!(feature = "tick-5khz") {
-    5_000
+/// The haptic tick's rate (Hz): 10 kHz unless a feature asks for less.
+const TICK_HZ: u32 = if cfg!(feature = "tick-1khz") {
+    1_000
 } else if cfg!(feature = "tick-2khz") {
     2_000
+} else if cfg!(feature = "tick-5khz") {
+    5_000
 } else {
-    1_000
+    10_000
 };
-/// Ticks per telemetry frame: one frame per millisecond, USB HID's IN report rate.
-const TICKS_PER_FRAME: u32 = TICK_HZ / 1_000;
+/// Ticks per millisecond: the LED's clock (its patterns are in ms). Telemetry is one frame
+/// per millisecond too, the app's decimator derives that from the period.
+const TICKS_PER_MS: u32 = TICK_HZ / 1_000;
 /// The safety layer's ramp-in after forces are enabled or a scene is swapped (s): the
 /// safety layer's default, half a second on the hand. (The host's simulator and the QEMU
 /// device ramp in over 0.02 s, to keep their runs short.)
@@ -160,8 +161,6 @@ struct Hw {
     faults: u16,
     tick_start: u32,
     last_tick_us: u16,
-    /// Ticks since the last telemetry frame.
-    since_frame: u32,
     frames: heapless::spsc::Producer<'static, Report, FRAMES>,
     /// Frames dropped because USB had not taken the previous ones.
     frames_dropped: u32,
@@ -219,16 +218,6 @@ impl Board for Hw {
         0
     }
 
-    fn wants_frame(&mut self) -> bool {
-        self.since_frame += 1;
-        if self.since_frame >= TICKS_PER_FRAME {
-            self.since_frame = 0;
-            true
-        } else {
-            false
-        }
-    }
-
     fn last_tick_us(&mut self) -> Option<u16> {
         Some(self.last_tick_us)
     }
@@ -251,7 +240,7 @@ struct Led {
 impl Led {
     fn update(&mut self, pattern: LedPattern) {
         self.ticks = self.ticks.wrapping_add(1);
-        let on = pattern.lit(self.ticks / TICKS_PER_FRAME);
+        let on = pattern.lit(self.ticks / TICKS_PER_MS);
         // Active low.
         self.pin.set_state((!on).into());
     }
@@ -521,7 +510,6 @@ mod app {
             faults: 0,
             tick_start: 0,
             last_tick_us: 0,
-            since_frame: 0,
             frames,
             frames_dropped: 0,
         };
@@ -593,7 +581,7 @@ mod app {
             }
         }
 
-        let out = run_tick(l.app, l.hw);
+        let faults = run_tick(l.app, l.hw);
         let controller = l.app.controller();
         // The renderer waits for its acquisition: one job at a time to the protocol task.
         if let Some(job) = l.scenes.lend_job(controller.acquisition_request())
@@ -605,7 +593,7 @@ mod app {
             software: [0; 3],
             forces_enabled: controller.forces_enabled(),
             calibrated: controller.is_calibrated(),
-            faults: out.telemetry.faults,
+            faults,
         };
         SHARED.set_state(&state);
         let driving = state.forces_enabled && state.faults == 0;
@@ -639,11 +627,11 @@ mod app {
     }
 }
 
-/// One [`App::tick`]; not inlined, so that its frame and the swap's (`TickScenes::swap_in`,
-/// which builds a chain) do not add up on the stack.
+/// One [`App::tick`], returning the tick's latched faults; not inlined, so that its frame and
+/// the swap's (`TickScenes::swap_in`, which builds a chain) do not add up on the stack.
 #[inline(never)]
-fn run_tick(app: &mut App<'static>, hw: &mut Hw) -> TickOutput {
-    app.tick(hw)
+fn run_tick(app: &mut App<'static>, hw: &mut Hw) -> u16 {
+    app.tick(hw).telemetry.faults
 }
 
 /// Puts the motors off with raw register writes that cannot fail: the driver enable pin

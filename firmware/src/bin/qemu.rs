@@ -592,14 +592,19 @@ fn main() -> ! {
             Err(ref e) => fail(format_args!("tick {i}: instruction count: {e:?}")),
         };
         #[cfg(feature = "stages")]
-        shadow.stages(&mut board.meter, counts, &out, n, i);
+        shadow.stages(&mut board.meter, counts, out, n, i);
+        let (rendered, mode, faults) = (
+            out.render.is_some(),
+            out.telemetry.mode,
+            out.telemetry.faults,
+        );
         all.add(n, i);
         if i == 0 {
             first = n;
         } else {
             after_first.add(n, i);
         }
-        if out.render.is_some() && first_rendered.is_none() {
+        if rendered && first_rendered.is_none() {
             first_rendered = Some(n);
         }
         // The global search that starts the renderer, between ticks (the board runs it in its
@@ -611,8 +616,8 @@ fn main() -> ! {
                 Err(e) => fail(format_args!("tick {i}: acquisition count: {e:?}")),
             }
         }
-        by_mode[mode_index(out.telemetry.mode)].add(n, i);
-        if out.telemetry.faults != 0 {
+        by_mode[mode_index(mode)].add(n, i);
+        if faults != 0 {
             fault_ticks += 1;
         }
         let target = match scenario.target(i) {
@@ -667,15 +672,18 @@ fn main() -> ! {
         );
     }
     hprintln!(
-        "run scene={} ticks={} fault_ticks={} frames_sent={} last_hip_m={},{}",
+        "run scene={} rate_hz={} ticks={} ticks_per_frame={} fault_ticks={} frames_sent={} \
+         last_hip_m={},{}",
         name,
+        scenario.rate_hz,
         all.n,
+        app.ticks_per_frame(),
         fault_ticks,
         board.sim.frames_sent,
         last_hip.x,
         last_hip.y
     );
-    surface_run(&mut board.meter);
+    surface_run(&mut board.meter, scenario.rate_hz);
     let (bottom, top) = stack_region();
     hprintln!(
         "stack peak_bytes={} region_bytes={} painted_bytes={}",
@@ -689,10 +697,14 @@ fn main() -> ! {
 }
 
 /// The friction renderer alone (the planar pantograph cannot reach a surface) on object 0 of
-/// [`SURFACE_SCENE`], the HIP on [`SURFACE_PATH`]: every `FrictionRenderer::tick` counted, and
-/// the global search that starts it counted alone.
+/// [`SURFACE_SCENE`], the HIP on [`SURFACE_PATH`] at the loop's rate `rate_hz`: every
+/// `FrictionRenderer::tick` counted, and the global search that starts it counted alone.
+/// The path is sampled at its own rate (1 kHz: a table at 10 kHz would not fit the flash);
+/// between two samples the HIP moves on the straight line, `rate_hz / path rate` ticks per
+/// sample (the path is piecewise linear in (u, v, height), so the chord is within
+/// micrometres of it over 1 ms).
 #[inline(never)]
-fn surface_run(meter: &mut Meter) {
+fn surface_run(meter: &mut Meter, rate_hz: f64) {
     let path = match HipPath::parse(SURFACE_PATH) {
         Ok(p) => p,
         Err(e) => fail(format_args!("surface path: {e}")),
@@ -723,21 +735,27 @@ fn surface_run(meter: &mut Meter) {
     let Some(material) = store.material(0) else {
         fail(format_args!("scene {name}: no material"));
     };
-    let t = (1.0 / path.rate_hz) as f32;
-    let hip0 = match path.point(0) {
+    let per_point = (libm::round(rate_hz / path.rate_hz) as usize).max(1);
+    let t = (1.0 / (path.rate_hz * per_point as f64)) as f32;
+    let point = |i: usize| match path.point(i) {
         Ok(p) => p,
         Err(e) => fail(format_args!("{e}")),
     };
+    let hip0 = point(0);
     let overhead = meter.overhead;
     let (mut renderer, search) =
         meter.instructions(|| FrictionRenderer::new(&shell, material, hip0));
     let mut all = Stats::default();
     let mut by_mode = [Stats::default(); 4];
     let mut previous = hip0;
-    for i in 0..path.ticks() {
-        let hip = match path.point(i) {
-            Ok(p) => p,
-            Err(e) => fail(format_args!("{e}")),
+    let ticks = path.ticks().saturating_sub(1) * per_point + 1;
+    for i in 0..ticks {
+        let (k, j) = (i / per_point, i % per_point);
+        let hip = if j == 0 {
+            point(k)
+        } else {
+            let (a, b) = (point(k), point(k + 1));
+            a + (b - a) * (j as f32 / per_point as f32)
         };
         let velocity = (hip - previous) * (1.0 / t);
         previous = hip;
@@ -749,6 +767,13 @@ fn surface_run(meter: &mut Meter) {
         all.add(n, i);
         by_mode[mode_index(out.mode)].add(n, i);
     }
+    hprintln!(
+        "run scene={} rate_hz={} ticks={} path_rate_hz={}",
+        name,
+        rate_hz,
+        all.n,
+        path.rate_hz
+    );
     hprintln!(
         "instructions_acquisition scene={} count={:?}",
         name,

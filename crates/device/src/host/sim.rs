@@ -4,7 +4,8 @@
 //! The thread plays the firmware: at every tick it handles the frames the host sent
 //! ([`SceneReceiver`] for sequence numbers and scene uploads), runs one controller tick on
 //! the simulated encoders, steps the simulated arm with the commanded currents and the
-//! virtual hand, and sends one telemetry frame. Every accepted frame is acked (rejected ones
+//! virtual hand, and sends telemetry as a board does: one frame per millisecond, every tick's
+//! at 1 kHz, the ticks folded into it at a faster rate (`crate::telemetry`). Every accepted frame is acked (rejected ones
 //! nacked); a hello is also answered with the device's hello, a heartbeat with a status.
 //!
 //! The thread owns the decoded [`SceneStore`]; the controller holds the chain, a view of it,
@@ -30,6 +31,7 @@ use crate::safety::SafetyConfig;
 use crate::session::{DeviceState, Event, Session};
 use crate::simulator::{SimParams, SimulatedPantograph, VirtualHand};
 use crate::spec::DeviceSpec;
+use crate::telemetry::TelemetryDecimator;
 
 /// Scene capacity of the simulated device (bytes), as the firmware's receiver.
 const SCENE_CAPACITY: usize = 8192;
@@ -111,6 +113,7 @@ impl SimLink {
                     seq: Sequencer::default(),
                     tick: 0,
                     started: Instant::now(),
+                    decimator: TelemetryDecimator::for_period_s(config.safety.period_s),
                 };
                 device.run(controller);
             })?;
@@ -264,6 +267,8 @@ struct SimDevice {
     seq: Sequencer,
     tick: u64,
     started: Instant,
+    /// The ticks' telemetry, one frame per millisecond as a board sends it.
+    decimator: TelemetryDecimator,
 }
 
 /// The first object's curves, when it is a planar chain.
@@ -327,8 +332,11 @@ impl SimDevice {
             out.telemetry.tick_us = u16::try_from(begun.elapsed().as_micros()).unwrap_or(u16::MAX);
             // The global search after a swap, outside the tick as on the board.
             controller.acquire_now();
-            if self.emit(&Message::Telemetry(out.telemetry)).is_err() {
-                return EpochEnd::Stop;
+            if let Some(frame) = self.decimator.push(&out.telemetry) {
+                let message = Message::Telemetry(*frame);
+                if self.emit(&message).is_err() {
+                    return EpochEnd::Stop;
+                }
             }
             self.tick += 1;
             if self.config.paced {
