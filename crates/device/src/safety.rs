@@ -63,7 +63,8 @@ bitflags::bitflags! {
         const NUMERIC = 1 << 0;
         /// HIP speed above [`SafetyConfig::max_velocity_m_per_s`].
         const VELOCITY = 1 << 1;
-        /// A joint step larger than [`SafetyConfig::max_joint_step_rad`] in one tick, or
+        /// A joint step larger than [`SafetyConfig::max_joint_rate_rad_per_s`] times the
+        /// period in one tick, or
         /// encoder counts that no pose of the mechanism gives.
         const ENCODER = 1 << 2;
         /// No host heartbeat for longer than [`SafetyConfig::heartbeat_timeout_s`].
@@ -263,7 +264,7 @@ const DEFAULT_AT_HANDLE: AtHandle = AtHandle {
 
 /// The stiffness the passivity controller is demonstrated to: released handle, fingertip and
 /// grip all stable at 1 and 10 kHz (`tests/tests/zwidth.rs`).
-pub const CONTROLLER_STIFFNESS_N_PER_M: f32 = 1000.0;
+pub const CONTROLLER_STIFFNESS_N_PER_M: f32 = 3000.0;
 /// The wall damping the passivity controller is demonstrated to (same test).
 pub const CONTROLLER_DAMPING_NS_PER_M: f32 = 0.5;
 
@@ -342,8 +343,11 @@ pub struct SafetyConfig {
     pub ramp_time_s: f32,
     /// Largest HIP speed, m/s, before the velocity fault.
     pub max_velocity_m_per_s: f32,
-    /// Largest plausible joint-angle change in one tick, rad; more is an encoder glitch.
-    pub max_joint_step_rad: f32,
+    /// Largest plausible joint rate, rad/s: a joint-angle change of more than this times the
+    /// period in one tick is an encoder glitch. (A rate, so that it means the same at any tick
+    /// rate; the default, 50 rad/s, is 0.05 rad per millisecond, and the 1 m/s velocity fault
+    /// comes first: it is about 10–20 rad/s at the joints.)
+    pub max_joint_rate_rad_per_s: f32,
     /// Host heartbeat timeout, s (default 100 ms); the watchdog compares it, rounded to
     /// whole microseconds once ([`SafetyConfig::heartbeat_timeout_us`]), with integer
     /// intervals.
@@ -367,7 +371,7 @@ impl Default for SafetyConfig {
             max_force_rate_n_per_s: 2000.0,
             ramp_time_s: 0.5,
             max_velocity_m_per_s: 1.0,
-            max_joint_step_rad: 0.05,
+            max_joint_rate_rad_per_s: 50.0,
             heartbeat_timeout_s: 0.1,
             workspace: WorkspaceBox {
                 min_in_device: Vec2::new(-0.06, 0.04),
@@ -435,7 +439,7 @@ impl SafetyConfig {
             (self.max_force_n, "max_force_n"),
             (self.max_force_rate_n_per_s, "max_force_rate_n_per_s"),
             (self.max_velocity_m_per_s, "max_velocity_m_per_s"),
-            (self.max_joint_step_rad, "max_joint_step_rad"),
+            (self.max_joint_rate_rad_per_s, "max_joint_rate_rad_per_s"),
             (self.heartbeat_timeout_s, "heartbeat_timeout_s"),
             (
                 self.thermal.continuous_current_a,
@@ -702,6 +706,7 @@ pub struct Safety {
     // Derived once from the config so the tick only multiplies and compares.
     max_force_sq: f32,
     max_force_step_n: f32,
+    max_joint_step_rad: f32,
     ramp_step: Option<f32>,
     max_speed_sq: f32,
     thermal_gain: f32,
@@ -724,7 +729,9 @@ pub struct Safety {
     drained: bool,
     /// The rendered wall's stiffness (N/m), for the tank's opening balance; 0 when unknown.
     wall_stiffness_n_per_m: f32,
-    /// The tank has not been opened in this contact yet.
+    /// Rendering (re)started since the last free-space tick (a scene load, a material
+    /// change, an acquisition, forces on): the next contact force opens the tank with the
+    /// spring's stored energy, as the handle may already be inside.
     contact_new: bool,
     thermal: [f32; 2],
     energy_j: f32,
@@ -741,6 +748,7 @@ impl Safety {
         Ok(Self {
             max_force_sq: config.max_force_n * config.max_force_n,
             max_force_step_n: config.max_force_rate_n_per_s * config.period_s,
+            max_joint_step_rad: config.max_joint_rate_rad_per_s * config.period_s,
             ramp_step,
             max_speed_sq: config.max_velocity_m_per_s * config.max_velocity_m_per_s,
             thermal_gain: -libm::expm1f(-config.period_s / th.time_constant_s),
@@ -833,10 +841,11 @@ impl Safety {
         )
     }
 
-    /// The stiffness of the wall being rendered (N/m): a contact's tank opens with the energy
-    /// a spring of this stiffness stores at the contact's first force, `|F|² / 2K` (zero for
-    /// a contact entered from outside, `½ K d²` for a handle that starts a depth d inside, so
-    /// the wall may push it out). 0 or non-finite: the tank opens empty.
+    /// The stiffness of the wall being rendered (N/m): when rendering (re)starts with the
+    /// handle inside (a scene load, a material change, forces on), the tank opens with the
+    /// energy a spring of this stiffness stores at the first force, `|F|² / 2K = ½ K d²`, so
+    /// the wall may push the handle out. A contact entered from free space opens empty (the
+    /// user's work pushing in fills it). 0 or non-finite: the tank always opens empty.
     pub fn set_wall_stiffness(&mut self, stiffness_n_per_m: f32) {
         self.wall_stiffness_n_per_m = if stiffness_n_per_m.is_finite() && stiffness_n_per_m > 0.0 {
             stiffness_n_per_m
@@ -901,7 +910,7 @@ impl Safety {
         if input
             .joint_step_rad
             .iter()
-            .any(|s| libm::fabsf(*s) > cfg.max_joint_step_rad)
+            .any(|s| libm::fabsf(*s) > self.max_joint_step_rad)
         {
             trip |= Faults::ENCODER;
         }
@@ -962,7 +971,10 @@ impl Safety {
             self.hold(Vec2::ZERO);
             self.energy_j = 0.0;
             self.drained = false;
-            self.contact_new = true;
+            // A contact entered from here opens with an empty tank: the user's work pushing
+            // in is what fills it (a sampled wall that was at zero force over the entering
+            // tick received none).
+            self.contact_new = false;
             return SafetyOutput {
                 force_n: Vec2::ZERO,
                 flags,
@@ -1068,11 +1080,13 @@ impl Safety {
 
     /// The energy tank (see [`PassivityConfig`]): `force` as far as the contact's energy pays
     /// for it. The work it would do on the user over the next period is predicted from the
-    /// last displacement, `W = F · Δx`; when `W` exceeds the energy the user has put in, `E`,
-    /// the force is scaled to `E / W` of itself (to zero when the tank is empty). And while the
-    /// tank has run dry the force grows only once the user pushes into it again (the last
-    /// displacement against the force, `W < 0`): a handle at rest inside a wall that has already given back
-    /// what it received gets no new push (which would be a pulse, then a cut, then a pulse).
+    /// last displacement, `W = F · Δx`; when `W` exceeds the energy the user has put in, `E`
+    /// (less what the force already held will still do, with an output delay), the force is
+    /// scaled to `E / W` of itself (to zero when the tank is empty). Once the tank has run dry
+    /// the force grows back only as a spring of the wall's stiffness would from where it
+    /// stands, by K per metre the user pushes in (a handle at rest inside a wall that has
+    /// already given back what it received gets no new push, which would be a pulse, then a
+    /// cut, then a pulse), until it meets the wall's own force again.
     fn limit_to_energy(&mut self, force: Vec2) -> Vec2 {
         // With an output delay the force held now still acts over the next period: its work is
         // already spent.
@@ -1087,16 +1101,24 @@ impl Safety {
         if predicted_j > budget_j {
             limited = force * (budget_j / predicted_j);
             self.drained = true;
-        } else if predicted_j < 0.0 {
-            // The user pushes in: the tank fills again.
-            self.drained = false;
         }
         if self.drained {
-            let last_sq = self.last_force_n.length_squared();
-            let now_sq = limited.length_squared();
-            if now_sq > last_sq {
-                // |F| ≤ |F_prev|: scale by √(last/now), one square root, only here.
-                limited *= math::sqrt(last_sq / now_sq);
+            // |F| grows back only as a spring of the wall's stiffness would from where it is:
+            // by K per metre the user pushes in against it (zero when the handle rests or
+            // moves out). Square roots only here, in the drained state.
+            let now = math::sqrt(limited.length_squared());
+            let pushed_in_m = if now > 0.0 {
+                math::max(0.0, -limited.dot(self.last_step_m) / now)
+            } else {
+                0.0
+            };
+            let cap = math::sqrt(self.last_force_n.length_squared())
+                + self.wall_stiffness_n_per_m * pushed_in_m;
+            if now > cap {
+                limited *= cap / now;
+            } else if limited == force {
+                // Caught up with the wall: the tank governs alone again.
+                self.drained = false;
             }
         }
         limited

@@ -22,7 +22,7 @@
 
 use device::controller::Controller;
 use device::safety::SafetyConfig;
-use device::simulator::{SimParams, SimulatedPantograph};
+use device::simulator::SimulatedPantograph;
 use device::spec::DeviceSpec;
 use friction::FrictionMaterial;
 use nurbs::{Vec2, construct};
@@ -42,50 +42,7 @@ const START_GAP_M: f32 = 0.015;
 /// releasing hand lets go (m).
 const HAND_MARGIN_M: f32 = 0.001;
 
-/// Who holds the handle.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub enum Hand {
-    /// A relaxed grip (the simulator's default hand: 300 N/m, 2 N·s/m).
-    Grip,
-    /// A light fingertip ([`SimParams::fingertip`]: 100 N/m, 0.1 N·s/m).
-    Finger,
-    /// Nobody, from just before the impact.
-    Released,
-}
-
-impl Hand {
-    /// The plant's parameters for this hand (a released handle starts gripped).
-    pub fn params(self) -> SimParams {
-        match self {
-            Hand::Grip | Hand::Released => SimParams::default(),
-            Hand::Finger => SimParams::fingertip(),
-        }
-    }
-
-    /// `grip`, `finger` or `released`.
-    pub fn name(self) -> &'static str {
-        match self {
-            Hand::Grip => "grip",
-            Hand::Finger => "finger",
-            Hand::Released => "released",
-        }
-    }
-}
-
-impl std::str::FromStr for Hand {
-    type Err = String;
-
-    fn from_str(s: &str) -> Result<Self, Self::Err> {
-        match s {
-            "grip" => Ok(Hand::Grip),
-            "finger" => Ok(Hand::Finger),
-            "released" => Ok(Hand::Released),
-            other => Err(format!(
-                "unknown hand {other:?}: expected grip, finger or released"
-            )),
-        }
-    }
-}
+pub use crate::sim::Hand;
 
 /// One cell of the sweep.
 #[derive(Clone, Copy, Debug, PartialEq)]

@@ -476,16 +476,22 @@ With --device five more columns follow:
                              4 encoder, 8 watchdog, 16 workspace, 32 thermal; 0 when none
 
 Closed loop (--device): instead of the HIP, the trajectory moves the target of a virtual
-hand (a spring-damper, --hand-stiffness) that holds the handle of a simulated pantograph
-(the default device: rigid-body dynamics, encoder quantisation, current limits). The
-device's controller calibrates on the end stops, enables forces (20 ms ramp-in), gets a
-heartbeat every tick and renders the object's material; a material stiffer than the device
-renders passively at the tick rate is rendered with the passivity controller on (a note on
-standard error says so), up to what the device renders with a relaxed grip's damping added
-(b + b_grip > K T/2 + |B|: 5000 N/m at 1 kHz for an undamped material); a stiffer one is
-refused (exit 2, naming the limit). The force is the device's: at most 3 N, and none in
-free space. The hip_ columns are the handle's actual position, force_ the
-force after the safety layer. Only objects of planar curves (the pantograph is 2-DoF).
+hand that holds the handle of a simulated pantograph (the default device: rigid-body
+dynamics, the joints' damping and Coulomb friction, encoder quantisation, current limits, a
+tick of output delay), at the board's 10 kHz unless --rate-hz says otherwise. --hand grip (a
+relaxed grip, 300 N/m and 2 N s/m; --hand-stiffness changes its spring), finger (a light
+fingertip, 100 N/m, 0.1 N s/m) or released:T (the grip lets go at T s: nobody holds the
+handle after). The device's controller calibrates on the end stops, enables forces (20 ms
+ramp-in), gets a heartbeat every tick and renders the object's material if the device
+renders it: the sampled-data passivity bound with the device's own damping and dry friction,
+K < 2 (b + f_c/v - |B|)/T, and the encoder quantisation bound K <= 2 f_c/Delta (for the
+default device about 350 N/m at 1 kHz, 1750 N/m at 10 kHz); past the first, the passivity
+controller (an energy tank) renders it, as far as it is demonstrated (3000 N/m, |B| <= 0.5
+N s/m; a note on standard error says so); past the quantisation bound, or the controller's,
+it is refused (exit 2, naming the bound, its numbers and a rate that renders it, if any).
+The force is the device's: at most 3 N, and none in free space. The hip_ columns are the
+handle's actual position, force_ the force after the safety layer. Only objects of planar
+curves (the pantograph is 2-DoF).
 
 Plot (--plot, PNG): normal, friction and total force magnitude against time over coloured
 bands of the mode (top), the CP and GO parameters against time (bottom); with --device also
@@ -524,15 +530,15 @@ pub struct SimArgs {
     /// Also draw the run into this PNG file.
     #[arg(long, value_name = "RUN.png")]
     pub plot: Option<PathBuf>,
-    /// Tick rate in Hz (finite, > 0).
+    /// Tick rate in Hz (finite, > 0); the default is 1000, or with --device the board's
+    /// 10000.
     #[arg(
-        long,
+        long = "rate-hz",
         value_name = "HZ",
-        default_value_t = 1000.0,
         value_parser = tick_rate,
         allow_negative_numbers = true
     )]
-    pub rate_hz: f64,
+    pub rate_hz_given: Option<f64>,
     /// Index of the object in the scene's `objects` array, from 0.
     #[arg(long, value_name = "I", default_value_t = 0)]
     pub object: usize,
@@ -540,16 +546,43 @@ pub struct SimArgs {
     /// trajectory moves the virtual hand's target (see below).
     #[arg(long)]
     pub device: bool,
-    /// With --device: the virtual hand's grip stiffness in N/m (finite, > 0).
+    /// With --device: who holds the handle: grip (a relaxed grip, 300 N/m, 2 N·s/m), finger
+    /// (a light fingertip, 100 N/m, 0.1 N·s/m) or released:T (the grip lets go at T s).
+    #[arg(
+        long,
+        value_name = "HAND",
+        default_value = "grip",
+        value_parser = host::sim::DeviceHand::parse,
+        requires = "device"
+    )]
+    pub hand: host::sim::DeviceHand,
+    /// With --device: the virtual hand's stiffness in N/m (finite, > 0), in place of the
+    /// hand model's own.
     #[arg(
         long,
         value_name = "N_PER_M",
-        default_value_t = 300.0,
         value_parser = hand_stiffness,
         allow_negative_numbers = true,
         requires = "device"
     )]
-    pub hand_stiffness: f64,
+    pub hand_stiffness: Option<f64>,
+}
+
+impl SimArgs {
+    /// The tick rate: the one given, else 1 kHz, or the board's 10 kHz with --device.
+    pub fn rate_hz(&self) -> f64 {
+        self.rate_hz_given
+            .unwrap_or(if self.device { 10_000.0 } else { 1000.0 })
+    }
+
+    /// The hand of a --device run: the model, with --hand-stiffness in place of its own.
+    pub fn device_hand(&self) -> host::sim::DeviceHand {
+        let mut hand = self.hand;
+        if let Some(k) = self.hand_stiffness {
+            hand.params.hand_stiffness_n_per_m = k as f32;
+        }
+        hand
+    }
 }
 
 fn hand_stiffness(text: &str) -> Result<f64, String> {
@@ -696,7 +729,7 @@ mod tests {
         assert_eq!(args.scene, PathBuf::from("s.json"));
         assert_eq!(args.trajectory, PathBuf::from("t.csv"));
         assert_eq!(args.out, PathBuf::from("r.csv"));
-        assert_eq!((args.plot, args.rate_hz, args.object), (None, 1000.0, 0));
+        assert_eq!((args.plot, args.rate_hz(), args.object), (None, 1000.0, 0));
         let cli = Cli::try_parse_from([
             "viewer",
             "sim",
@@ -717,7 +750,7 @@ mod tests {
             panic!("sim")
         };
         assert_eq!(args.plot, Some(PathBuf::from("r.png")));
-        assert_eq!((args.rate_hz, args.object), (2500.0, 2));
+        assert_eq!((args.rate_hz(), args.object), (2500.0, 2));
         for bad in ["0", "-5", "inf", "NaN", "fast"] {
             let e = Cli::try_parse_from([
                 "viewer",
@@ -758,12 +791,35 @@ mod tests {
             panic!("sim")
         };
         assert!(args.device);
-        assert_eq!(args.hand_stiffness, 800.0);
+        assert_eq!(args.device_hand().params.hand_stiffness_n_per_m, 800.0);
         let cli = Cli::try_parse_from(base.iter().chain(&["--device"])).expect("valid");
         let Some(Command::Sim(args)) = cli.command else {
             panic!("sim")
         };
-        assert_eq!(args.hand_stiffness, 300.0);
+        assert_eq!(args.device_hand().params.hand_stiffness_n_per_m, 300.0);
+        assert_eq!(args.device_hand().release_at_s, None);
+        // The board's rate by default in the closed loop.
+        assert_eq!(args.rate_hz(), 10_000.0);
+        for (given, stiffness, release) in [
+            ("finger", 100.0, None),
+            ("grip", 300.0, None),
+            ("released:0.5", 300.0, Some(0.5)),
+        ] {
+            let cli = Cli::try_parse_from(base.iter().chain(&["--device", "--hand", given]))
+                .expect(given);
+            let Some(Command::Sim(args)) = cli.command else {
+                panic!("sim")
+            };
+            let hand = args.device_hand();
+            assert_eq!(hand.params.hand_stiffness_n_per_m, stiffness, "{given}");
+            assert_eq!(hand.release_at_s, release, "{given}");
+        }
+        for bad in ["released", "released:-1", "released:soon", "fist"] {
+            let e = Cli::try_parse_from(base.iter().chain(&["--device", "--hand", bad]))
+                .expect_err(bad);
+            assert!(e.to_string().contains("--hand"), "{bad}: {e}");
+        }
+        assert!(Cli::try_parse_from(base.iter().chain(&["--hand", "finger"])).is_err());
         // The grip only means something in the closed loop.
         assert!(Cli::try_parse_from(base.iter().chain(&["--hand-stiffness", "800"])).is_err());
         for bad in ["0", "-1", "inf"] {

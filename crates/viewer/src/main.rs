@@ -224,9 +224,9 @@ fn sim_command(args: &SimArgs) -> ExitCode {
         Err(e) => return fail(&e, EXIT_BAD_SETUP),
     };
     let checked = if args.device {
-        sim::validate_device(&scene, args.object, &trajectory, args.rate_hz)
+        sim::validate_device(&scene, args.object, &trajectory, args.rate_hz())
     } else {
-        sim::validate(&scene, args.object, &trajectory, args.rate_hz)
+        sim::validate(&scene, args.object, &trajectory, args.rate_hz())
     };
     if let Err(e) = checked {
         return fail(&anyhow::Error::new(e), EXIT_BAD_SETUP);
@@ -262,17 +262,14 @@ fn sim_command(args: &SimArgs) -> ExitCode {
             eprintln!("sim: {:>3}% ({done}/{total} ticks)", tenths * 10);
         }
     };
+    let rate_hz = args.rate_hz();
     let result = if args.device {
-        let hand = sim::SimParams {
-            hand_stiffness_n_per_m: args.hand_stiffness as f32,
-            ..sim::SimParams::default()
-        };
         sim::run_device(
             &scene,
             args.object,
             &trajectory,
-            args.rate_hz,
-            hand,
+            rate_hz,
+            args.device_hand(),
             progress,
         )
         .map(|device_run| {
@@ -281,13 +278,13 @@ fn sim_command(args: &SimArgs) -> ExitCode {
                 eprintln!(
                     "sim: note: K = {} N/m with b = {} N·s/m exceeds what the device renders \
                      passively at {} Hz; the passivity controller is on",
-                    m.stiffness_n_per_m, m.damping_ns_per_m, args.rate_hz
+                    m.stiffness_n_per_m, m.damping_ns_per_m, rate_hz
                 );
             }
             device_run.run
         })
     } else {
-        sim::run(&scene, args.object, &trajectory, args.rate_hz, progress)
+        sim::run(&scene, args.object, &trajectory, args.rate_hz(), progress)
     };
     let run = match result {
         Ok(run) => run,
