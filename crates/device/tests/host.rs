@@ -244,11 +244,21 @@ fn sim_link_renders_the_uploaded_scene_and_trips_the_watchdog() {
     assert!(pressed > 500, "{pressed} ticks in contact");
     let last = contact.last().unwrap();
     assert!(last.force_n.length() > 0.5, "{last:?}");
-    // Telemetry time advances one period per tick.
-    let dt_us = contact
+    // One frame per millisecond of 10 kHz ticks: each frame is one tick of its millisecond
+    // (the one with the largest force), so consecutive frames are a whole number of 100 µs
+    // periods apart, between one period and two milliseconds less one period, and n frames
+    // span (n − 1) ms to within 0.9 ms.
+    let dt_us: Vec<u32> = contact
         .windows(2)
-        .map(|w| w[1].time_us.wrapping_sub(w[0].time_us));
-    assert!(dt_us.into_iter().all(|d| (999..=1001).contains(&d)));
+        .map(|w| w[1].time_us.wrapping_sub(w[0].time_us))
+        .collect();
+    assert!(
+        dt_us.iter().all(|d| d % 100 == 0 && (100..=1900).contains(d)),
+        "{dt_us:?}"
+    );
+    let span: u32 = dt_us.iter().sum();
+    let expected = (contact.len() as u32 - 1) * 1000;
+    assert!(span.abs_diff(expected) <= 900, "{span} µs for {expected} µs");
 
     // The host stops: the watchdog trips and the force drops to zero.
     let silent = run(&mut link, 300, false);

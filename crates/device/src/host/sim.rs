@@ -59,12 +59,15 @@ pub struct SimConfig {
 }
 
 impl Default for SimConfig {
-    /// The default pantograph at 1 kHz with the default limits, held by a firm hand
-    /// (2000 N/m, 5 N·s/m) at (0, 0.09) m, paced, passivity controller on.
+    /// The default pantograph at the board's 10 kHz with the default limits, held by a firm
+    /// hand (2000 N/m, 5 N·s/m) at (0, 0.09) m, paced, passivity controller on.
     fn default() -> Self {
         SimConfig {
             spec: DeviceSpec::default(),
-            safety: SafetyConfig::default(),
+            safety: SafetyConfig {
+                period_s: 1e-4,
+                ..SafetyConfig::default()
+            },
             params: SimParams {
                 hand_stiffness_n_per_m: 2000.0,
                 hand_damping_ns_per_m: 5.0,
@@ -339,7 +342,11 @@ impl SimDevice {
                 }
             }
             self.tick += 1;
-            if self.config.paced {
+            // Paced per telemetry frame (1 ms), not per tick: the thread wakes once a
+            // millisecond and runs that millisecond's ticks, as the app's loop does.
+            if self.config.paced
+                && self.tick % u64::from(self.decimator.ticks_per_frame()) == 0
+            {
                 let due =
                     self.started + Duration::from_secs_f64(self.tick as f64 * f64::from(period_s));
                 let now = Instant::now();
