@@ -210,6 +210,17 @@ impl SimulatedPantograph {
         self.held = false;
     }
 
+    /// A hand takes the handle (again) with this spring and damper (N/m, N·s/m); values that
+    /// are not finite and > 0 leave the hand as it was.
+    pub fn grip(&mut self, hand_stiffness_n_per_m: f32, hand_damping_ns_per_m: f32) {
+        let valid = |v: f32| v.is_finite() && v > 0.0;
+        if valid(hand_stiffness_n_per_m) && valid(hand_damping_ns_per_m) {
+            self.params.hand_stiffness_n_per_m = hand_stiffness_n_per_m;
+            self.params.hand_damping_ns_per_m = hand_damping_ns_per_m;
+            self.held = true;
+        }
+    }
+
     /// Whether a hand holds the handle.
     pub fn is_held(&self) -> bool {
         self.held

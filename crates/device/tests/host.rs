@@ -253,12 +253,17 @@ fn sim_link_renders_the_uploaded_scene_and_trips_the_watchdog() {
         .map(|w| w[1].time_us.wrapping_sub(w[0].time_us))
         .collect();
     assert!(
-        dt_us.iter().all(|d| d % 100 == 0 && (100..=1900).contains(d)),
+        dt_us
+            .iter()
+            .all(|d| d % 100 == 0 && (100..=1900).contains(d)),
         "{dt_us:?}"
     );
     let span: u32 = dt_us.iter().sum();
     let expected = (contact.len() as u32 - 1) * 1000;
-    assert!(span.abs_diff(expected) <= 900, "{span} µs for {expected} µs");
+    assert!(
+        span.abs_diff(expected) <= 900,
+        "{span} µs for {expected} µs"
+    );
 
     // The host stops: the watchdog trips and the force drops to zero.
     let silent = run(&mut link, 300, false);

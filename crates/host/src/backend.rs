@@ -65,6 +65,9 @@ pub enum Command<S = Session> {
     ClearFaults,
     /// Calibrate against the end stops (the simulated arm is homed at once). The device only.
     Calibrate,
+    /// Who holds the simulated pantograph's handle (a released hand lets go at once). The
+    /// simulated device in the app only.
+    Hand(crate::sim::Hand),
 }
 
 impl<S> Command<S> {
@@ -78,6 +81,7 @@ impl<S> Command<S> {
             Command::Forces(_) => "forces on/off",
             Command::ClearFaults => "clearing the faults",
             Command::Calibrate => "the calibration",
+            Command::Hand(_) => "the hand model",
         }
     }
 }

@@ -286,6 +286,24 @@ impl HapticLoop {
         self.hand.command(target);
     }
 
+    /// Who holds the handle from the next tick: a grip or a fingertip takes it (at its
+    /// current target), a released hand lets go.
+    pub fn set_hand(&mut self, hand: crate::sim::Hand) {
+        match hand {
+            crate::sim::Hand::Released => self.arm.release(),
+            held => {
+                let p = held.params();
+                self.arm
+                    .grip(p.hand_stiffness_n_per_m, p.hand_damping_ns_per_m);
+            }
+        }
+    }
+
+    /// Whether a hand holds the simulated handle.
+    pub fn hand_held(&self) -> bool {
+        self.arm.is_held()
+    }
+
     /// The hand's target (where it is on its way to the command).
     pub fn hand_target(&self) -> Vec2 {
         self.hand.target()
@@ -411,6 +429,10 @@ impl Steppable for HapticLoop {
             Command::ClearFaults => Some(Reply::FaultsCleared(self.clear_faults())),
             Command::Calibrate => {
                 self.calibrate();
+                None
+            }
+            Command::Hand(hand) => {
+                self.set_hand(hand);
                 None
             }
         }

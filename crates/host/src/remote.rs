@@ -351,8 +351,9 @@ impl Host {
                 Purpose::ClearFaults,
             ),
             Command::Calibrate => self.request(Message::Calibrate, Purpose::Calibrate),
-            // The device renders NURBS objects through the protocol; a mesh is the app's.
-            Command::Mesh(_) => ends.reply(Reply::Unsupported(command.name())),
+            // The device renders NURBS objects through the protocol; a mesh is the app's. The
+            // hand on a board's handle is a person's.
+            Command::Mesh(_) | Command::Hand(_) => ends.reply(Reply::Unsupported(command.name())),
         }
         Ok(())
     }

@@ -163,7 +163,7 @@ pub enum SimError {
 }
 
 /// Who holds the simulated pantograph's handle: the models of a user's hand.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Hand {
     /// A relaxed grip (the simulator's default hand: 300 N/m, 2 N·s/m).
     Grip,

@@ -455,7 +455,7 @@ impl Steppable for SpatialLoop {
                 None
             }
             Command::ClearFaults => Some(Reply::FaultsCleared(device::safety::Faults::empty())),
-            Command::Calibrate => Some(Reply::Unsupported(command.name())),
+            Command::Calibrate | Command::Hand(_) => Some(Reply::Unsupported(command.name())),
         }
     }
 

@@ -237,3 +237,43 @@ fn a_press_far_from_the_handle_moves_the_hand_at_a_bounded_speed() {
         .fold(0.0, f32::max);
     assert!(fastest < 1.0, "handle at {fastest} m/s");
 }
+
+/// Letting go while pressing 2.3 mm into thesis-2d's arc (K = 1000 N/m, 2.3 N): the wall
+/// pushes the handle out once, from what it stored (at most ½ K d² ≈ 2.7 mJ), and the handle
+/// comes to rest on the device's own friction (0.017 N at worst: the 2.7 mJ carry it a long
+/// way): the force never reverses, once out it stays out (no second contact), and at the end
+/// nothing acts.
+#[test]
+fn a_released_handle_is_pushed_out_once_and_comes_to_rest() {
+    let mut state = stepped();
+    press(&mut state);
+    let pressed = state.latest().expect("ticks").tick;
+    assert!(pressed.normal_force_n > 2.0, "{pressed:?}");
+    state.set_hand(host::sim::Hand::Released);
+    assert_eq!(state.hand, host::sim::Hand::Released);
+    state.step(600);
+    let after: Vec<_> = state
+        .telemetry
+        .history
+        .iter()
+        .filter(|s| s.tick.t_s > pressed.t_s)
+        .map(|s| s.tick)
+        .collect();
+    assert!(after.len() >= 590, "{}", after.len());
+    let first = pressed.force;
+    assert!(
+        after.iter().all(|t| t.force.dot(first) >= 0.0),
+        "the force reversed"
+    );
+    let left = after
+        .iter()
+        .position(|t| t.mode == Mode::Free)
+        .expect("pushed out");
+    assert!(
+        after[left..].iter().all(|t| t.mode == Mode::Free),
+        "came back into contact"
+    );
+    let end = after.last().expect("ticks");
+    assert_eq!(end.force, nurbs::Vec3::ZERO);
+    assert_eq!(end.hip_velocity, nurbs::Vec3::ZERO, "at rest: {end:?}");
+}

@@ -117,9 +117,10 @@ impl ViewerUi {
     /// The device panel: the device driven, the choice of another, what the link reports.
     pub fn device_ui(&mut self, ui: &mut egui::Ui) {
         let s = &mut self.state;
-        match s.device_panel.choice_ui(ui, &s.device) {
+        match s.device_panel.choice_ui(ui, &s.device, s.hand) {
             Some(DeviceAction::Simulated) => s.use_simulated(),
             Some(DeviceAction::Connect(target)) => s.connect(target),
+            Some(DeviceAction::Hand(hand)) => s.set_hand(hand),
             None => {}
         }
         if s.device_panel.link_ui(ui, s) {

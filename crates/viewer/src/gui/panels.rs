@@ -55,15 +55,52 @@ pub enum DeviceAction {
     Simulated,
     /// Drive a device behind a link ([`AppState::connect`]).
     Connect(Target),
+    /// Who holds the simulated handle ([`AppState::set_hand`]).
+    Hand(host::sim::Hand),
 }
 
 impl DevicePanel {
     /// The device driven and the choice of another; the one clicked, if one was.
-    pub fn choice_ui(&mut self, ui: &mut egui::Ui, device: &DeviceChoice) -> Option<DeviceAction> {
+    pub fn choice_ui(
+        &mut self,
+        ui: &mut egui::Ui,
+        device: &DeviceChoice,
+        hand: host::sim::Hand,
+    ) -> Option<DeviceAction> {
         ui.heading("Device");
+        let mut chosen = None;
         match device {
             DeviceChoice::Simulated => {
-                ui.label("simulated pantograph (in the app)");
+                ui.label("simulated pantograph (in the app), 10 kHz");
+                ui.horizontal(|ui| {
+                    ui.label("hand:");
+                    for (option, text, hover) in [
+                        (
+                            host::sim::Hand::Grip,
+                            "grip",
+                            "a relaxed grip: 300 N/m, 2 N·s/m",
+                        ),
+                        (
+                            host::sim::Hand::Finger,
+                            "fingertip",
+                            "a light fingertip: 100 N/m, 0.1 N·s/m",
+                        ),
+                        (
+                            host::sim::Hand::Released,
+                            "released",
+                            "nobody holds the handle: its own mass, the device's friction",
+                        ),
+                    ] {
+                        if ui
+                            .selectable_label(hand == option, text)
+                            .on_hover_text(hover)
+                            .clicked()
+                            && hand != option
+                        {
+                            chosen = Some(DeviceAction::Hand(option));
+                        }
+                    }
+                });
             }
             DeviceChoice::Linked(name) => {
                 ui.label(format!("linked: {name}"));
@@ -103,7 +140,7 @@ impl DevicePanel {
                     .labelled_by(serial.id);
                 ui.end_row();
             });
-        connect
+        connect.or(chosen)
     }
 
     /// What the link reports (firmware, calibration, scene, quality, why it was lost) and the

@@ -288,6 +288,8 @@ pub struct AppState {
     pub running_material: Option<FrictionMaterial>,
     /// The hand's target as last set (m).
     pub hand_target: Vec2,
+    /// Who holds the simulated handle, as last set.
+    pub hand: host::sim::Hand,
     /// Whether the user is dragging the hand.
     pub dragging: bool,
     /// Forces on, as last asked.
@@ -342,6 +344,7 @@ impl AppState {
         Ok(AppState {
             backend,
             device: DeviceChoice::Simulated,
+            hand: host::sim::Hand::Grip,
             link: LinkState::default(),
             pending: None,
             replay: None,
@@ -548,6 +551,7 @@ impl AppState {
             Ok(backend) => {
                 self.backend = backend;
                 self.device = DeviceChoice::Simulated;
+                self.hand = host::sim::Hand::Grip;
                 self.link = LinkState::default();
                 self.forces_requested = true;
                 self.telemetry.restart();
@@ -600,6 +604,17 @@ impl AppState {
     /// Calibrates the device (a board must sit at its end stops).
     pub fn calibrate(&mut self) {
         self.command(Command::Calibrate);
+    }
+
+    /// Who holds the simulated pantograph's handle: a grip, a light fingertip, or nobody
+    /// (released: the handle goes on under its own mass, the device's friction and the
+    /// rendered force). The simulated device in the app only; a board's handle is in a
+    /// person's hand.
+    pub fn set_hand(&mut self, hand: host::sim::Hand) {
+        if self.device == DeviceChoice::Simulated {
+            self.hand = hand;
+            self.command(Command::Hand(hand));
+        }
     }
 
     /// Replays the run log at `path` in the views and plots (the live loop runs on behind
