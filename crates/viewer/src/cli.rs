@@ -57,6 +57,57 @@ pub enum Command {
     /// stable (the Z-width), with and without the passivity controller.
     #[command(after_long_help = ZWIDTH_AFTER)]
     Zwidth(ZwidthArgs),
+    /// Measure the pantograph's own damping and Coulomb friction at the joints (on the
+    /// simulated pantograph) and the walls they let it render.
+    #[command(after_long_help = IDENTIFY_AFTER)]
+    Identify(IdentifyArgs),
+}
+
+const IDENTIFY_AFTER: &str = "\
+Nobody holds the handle; both motors apply square waves of torque (8 and 7 mN m, half-periods \
+of 150 and 210 ms) for 6 s at 10 kHz, and the encoders are read every tick. Joint rates and \
+accelerations come from quadratics fitted over 20 ms of the quantised angles; per joint, \
+torque = M theta'' + b theta' + tau_c sign(theta') (with the mass matrix, its change with the \
+pose and the velocity products) is solved by least squares. The run is on the simulated \
+pantograph, whose true damping and friction are the device description's, or the values \
+given with --damping and --coulomb: the output compares them. Then it prints what the \
+identified values mean at the handle (the worst pose of the workspace) and the stiffest \
+wall accepted at 1 and 10 kHz, with and without the passivity controller.
+
+A board is not identified through the protocol yet: that needs a message that lets the \
+host drive the motors' torques directly.";
+
+/// `viewer identify` arguments.
+#[derive(Debug, Args)]
+pub struct IdentifyArgs {
+    /// The simulated joints' true viscous damping (N m s/rad), both joints.
+    #[arg(
+        long,
+        value_name = "NMS_PER_RAD",
+        value_parser = non_negative,
+        allow_negative_numbers = true
+    )]
+    pub damping: Option<f32>,
+    /// The simulated joints' true Coulomb friction torque (N m), both joints.
+    #[arg(
+        long,
+        value_name = "NM",
+        value_parser = non_negative,
+        allow_negative_numbers = true
+    )]
+    pub coulomb: Option<f32>,
+}
+
+fn non_negative(text: &str) -> Result<f32, String> {
+    let v: f32 = text
+        .trim()
+        .parse()
+        .map_err(|_| format!("{text:?} is not a number"))?;
+    if v.is_finite() && v >= 0.0 {
+        Ok(v)
+    } else {
+        Err(format!("{v} must be finite and >= 0"))
+    }
 }
 
 const ZWIDTH_AFTER: &str = "\

@@ -27,7 +27,69 @@ fn main() -> ExitCode {
         Some(Command::Closest(args)) => closest_command(&args),
         Some(Command::Device(command)) => device_command(&command),
         Some(Command::Zwidth(args)) => zwidth_command(&args),
+        Some(Command::Identify(args)) => identify_command(&args),
     }
+}
+
+fn identify_command(args: &viewer::cli::IdentifyArgs) -> ExitCode {
+    use device::safety::{PassivityConfig, SafetyConfig, WallLimits};
+    use device::spec::DeviceSpec;
+    use host::identify::{Excitation, identify_simulated};
+    let default = DeviceSpec::default();
+    let truth = DeviceSpec {
+        joint_damping_nms_per_rad: args
+            .damping
+            .map_or(default.joint_damping_nms_per_rad, |b| [b; 2]),
+        joint_coulomb_nm: args.coulomb.map_or(default.joint_coulomb_nm, |c| [c; 2]),
+        ..default
+    };
+    let found = match identify_simulated(
+        truth,
+        device::simulator::SimParams::default(),
+        nurbs::Vec2::new(0.0, 0.09),
+        &Excitation::default(),
+    ) {
+        Ok(found) => found,
+        Err(e) => return fail(&anyhow::Error::new(e).context("identify"), EXIT_BAD_SETUP),
+    };
+    for i in 0..2 {
+        println!(
+            "joint {}: damping {:.3e} N m s/rad (simulator {:.3e}), Coulomb {:.3e} N m \
+             (simulator {:.3e}), {} samples",
+            i + 1,
+            found.damping_nms_per_rad[i],
+            truth.joint_damping_nms_per_rad[i],
+            found.coulomb_nm[i],
+            truth.joint_coulomb_nm[i],
+            found.samples[i]
+        );
+    }
+    let identified = found.apply(&truth);
+    let at_handle = match identified.at_handle() {
+        Ok(h) => h,
+        Err(e) => return fail(&anyhow!("the identified description: {e}"), EXIT_BAD_SETUP),
+    };
+    println!(
+        "at the handle (worst pose): damping {:.4} N s/m, Coulomb friction {:.4} N, {:.1} um per count",
+        at_handle.damping_n_s_per_m,
+        at_handle.coulomb_n,
+        at_handle.resolution_m * 1e6
+    );
+    let passivity = PassivityConfig {
+        device: at_handle,
+        ..SafetyConfig::default().passivity
+    };
+    for rate_hz in [1000.0f32, 10_000.0] {
+        let limits = WallLimits::new(&passivity, 0.0, 1.0 / rate_hz);
+        let (alone, _) = limits.max(false);
+        let (with, _) = limits.max(true);
+        println!(
+            "{rate_hz:.0} Hz: walls up to {alone:.0} N/m (passivity {:.0}, quantisation {:.0}), \
+             {with:.0} N/m with the passivity controller (B = 0)",
+            limits.passive_n_per_m, limits.quantisation_n_per_m
+        );
+    }
+    ExitCode::SUCCESS
 }
 
 fn zwidth_command(args: &viewer::cli::ZwidthArgs) -> ExitCode {

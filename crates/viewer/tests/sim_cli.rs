@@ -580,3 +580,75 @@ fn device_command() {
     assert_eq!(surface.status.code(), Some(2), "{err}");
     assert!(err.contains("2-DoF planar device"), "{err}");
 }
+
+/// `viewer zwidth`: the sweep's CSV (13 stiffnesses × 6 dampings, with and without the
+/// passivity controller), the figure, and the largest stable K printed; bad arguments are
+/// refused naming the flag.
+#[test]
+fn zwidth_command() {
+    let dir = TempDir::new("zwidth");
+    let (out, png) = (dir.path("zw.csv"), dir.path("zw.png"));
+    let result = viewer(&[
+        "zwidth", "--hand", "released", "--out", &out, "--plot", &png,
+    ]);
+    let err = stderr(&result);
+    assert_eq!(result.status.code(), Some(0), "{err}");
+    let text = std::fs::read_to_string(&out).expect("csv");
+    let lines: Vec<&str> = text.lines().collect();
+    assert_eq!(lines[0], host::zwidth::CSV_HEADER);
+    assert_eq!(lines.len(), 1 + 2 * 13 * 6);
+    assert!(lines[1..].iter().all(|l| l.starts_with("10000,released,")));
+    // At the board's rate, the soft walls are stable with or without the controller.
+    assert!(
+        lines[1..]
+            .iter()
+            .any(|l| l.contains(",false,100,0,") && l.contains(",true,"))
+    );
+    assert!(std::fs::read(&png).expect("png").starts_with(b"\x89PNG"));
+    let stdout = String::from_utf8_lossy(&result.stdout);
+    assert!(
+        stdout.contains("controller off: stable up to K ="),
+        "{stdout}"
+    );
+    for (bad, flag) in [
+        (&["--rate-hz", "0"][..], "--rate-hz"),
+        (&["--hand", "fist"][..], "--hand"),
+        (&["--speed", "2"][..], "--speed"),
+    ] {
+        let mut args = vec!["zwidth", "--out", &out];
+        args.extend_from_slice(bad);
+        let result = viewer(&args);
+        assert_eq!(result.status.code(), Some(2), "{bad:?}");
+        assert!(
+            stderr(&result).contains(flag),
+            "{bad:?}: {}",
+            stderr(&result)
+        );
+    }
+}
+
+/// `viewer identify` finds the simulated joints' damping and friction within 10 % (given
+/// values, not the defaults, so nothing is copied) and prints the walls they allow.
+#[test]
+fn identify_command() {
+    let result = viewer(&["identify", "--damping", "4e-4", "--coulomb", "2e-3"]);
+    assert_eq!(result.status.code(), Some(0), "{}", stderr(&result));
+    let stdout = String::from_utf8_lossy(&result.stdout);
+    for joint in ["joint 1:", "joint 2:"] {
+        let line = stdout
+            .lines()
+            .find(|l| l.starts_with(joint))
+            .unwrap_or_else(|| panic!("{stdout}"));
+        let number = |after: &str| -> f64 {
+            let rest = &line[line.find(after).expect(after) + after.len()..];
+            rest.split_whitespace().next().unwrap().parse().unwrap()
+        };
+        let (b, c) = (number("damping "), number("Coulomb "));
+        assert!((b - 4e-4).abs() < 0.1 * 4e-4, "{line}");
+        assert!((c - 2e-3).abs() < 0.1 * 2e-3, "{line}");
+    }
+    assert!(stdout.contains("10000 Hz: walls up to"), "{stdout}");
+    let bad = viewer(&["identify", "--damping", "-1"]);
+    assert_eq!(bad.status.code(), Some(2));
+    assert!(stderr(&bad).contains("--damping"), "{}", stderr(&bad));
+}
