@@ -44,13 +44,14 @@ fn draw(
     let period_s = (1.0 / rate_hz) as f32;
     let panels = root.split_evenly((1, 2));
     let b_max = DAMPINGS.iter().copied().fold(0.0, f32::max) as f64 * 1.05;
+    let speed = cells.first().map_or(0.0, |c| c.impact.speed_m_per_s);
     for (panel, controller) in panels.iter().zip([false, true]) {
         let title = format!(
-            "{rate_hz} Hz, {hand}, passivity controller {}",
+            "{rate_hz} Hz, {hand} handle, impact {speed} m/s, passivity controller {}",
             if controller { "on" } else { "off" }
         );
         let mut chart = ChartBuilder::on(panel)
-            .caption(title, (FONT, 22))
+            .caption(title, (FONT, 18))
             .margin(16)
             .x_label_area_size(40)
             .y_label_area_size(60)
@@ -96,6 +97,7 @@ fn draw(
         }
         chart
             .configure_series_labels()
+            .position(SeriesLabelPosition::LowerRight)
             .background_style(WHITE.mix(0.8))
             .border_style(BLACK)
             .label_font((FONT, 14))
