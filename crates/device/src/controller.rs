@@ -451,14 +451,14 @@ impl<O: Object<P = Vec2>> Controller<O> {
     ) -> Result<(), ControllerError> {
         let (k, b) = (material.stiffness_n_per_m, material.damping_ns_per_m);
         if let Err(e) = self.safety.check_wall(k, b, false) {
-            let beyond_controller = |e| match e {
+            // No controller lifts the quantisation bound: the tank sees only quantised motion.
+            if matches!(
+                e,
                 PassivityError::TooStiff {
                     bound: Bound::Quantisation,
                     ..
-                } => true,
-                _ => false,
-            };
-            if beyond_controller(e) {
+                }
+            ) {
                 return Err(ControllerError::BeyondDevice(e));
             }
             if !passivity_control {

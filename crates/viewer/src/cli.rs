@@ -165,7 +165,7 @@ fn speed(text: &str) -> Result<f32, String> {
 
 const GUI_ABOUT: &str = "\
 The desktop app: the haptic loop (tracking, Voronoi feature switching, stick-slip friction, \
-the device's safety layer) runs at 1 kHz on its own thread on a simulated pantograph, held by \
+the device's safety layer) runs at the board's 10 kHz on its own thread on a simulated pantograph, held by \
 a virtual hand that follows the mouse. Press and drag in the 2-D view to move the hand; the \
 rendered force pushes the handle back, so sticking, breakaway and slipping show as you move.";
 
@@ -780,7 +780,8 @@ mod tests {
         assert_eq!(args.scene, PathBuf::from("s.json"));
         assert_eq!(args.trajectory, PathBuf::from("t.csv"));
         assert_eq!(args.out, PathBuf::from("r.csv"));
-        assert_eq!((args.plot, args.rate_hz(), args.object), (None, 1000.0, 0));
+        assert_eq!((args.rate_hz(), args.object), (1000.0, 0));
+        assert_eq!(args.plot, None);
         let cli = Cli::try_parse_from([
             "viewer",
             "sim",

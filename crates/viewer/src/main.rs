@@ -98,7 +98,7 @@ fn zwidth_command(args: &viewer::cli::ZwidthArgs) -> ExitCode {
     let mut cells = Vec::new();
     for controller in [false, true] {
         let progress = |done: usize, total: usize| {
-            if done % 13 == 0 || done == total {
+            if done.is_multiple_of(13) || done == total {
                 eprintln!(
                     "zwidth: controller {}: {done}/{total} cells",
                     if controller { "on" } else { "off" }

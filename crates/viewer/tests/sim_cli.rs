@@ -641,7 +641,10 @@ fn identify_command() {
             .unwrap_or_else(|| panic!("{stdout}"));
         let number = |after: &str| -> f64 {
             let rest = &line[line.find(after).expect(after) + after.len()..];
-            rest.split_whitespace().next().unwrap().parse().unwrap()
+            rest.split_whitespace()
+                .next()
+                .and_then(|n| n.parse().ok())
+                .unwrap_or_else(|| panic!("a number after {after:?} in {line}"))
         };
         let (b, c) = (number("damping "), number("Coulomb "));
         assert!((b - 4e-4).abs() < 0.1 * 4e-4, "{line}");

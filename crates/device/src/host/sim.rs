@@ -344,7 +344,11 @@ impl SimDevice {
             self.tick += 1;
             // Paced per telemetry frame (1 ms), not per tick: the thread wakes once a
             // millisecond and runs that millisecond's ticks, as the app's loop does.
-            if self.config.paced && self.tick % u64::from(self.decimator.ticks_per_frame()) == 0 {
+            if self.config.paced
+                && self
+                    .tick
+                    .is_multiple_of(u64::from(self.decimator.ticks_per_frame()))
+            {
                 let due =
                     self.started + Duration::from_secs_f64(self.tick as f64 * f64::from(period_s));
                 let now = Instant::now();
