@@ -71,6 +71,9 @@ pub enum ControllerError {
     BeyondDevice(PassivityError),
     /// A material was set with no scene loaded.
     NoScene,
+    /// An identification run was refused: the device is not calibrated, or a torque is
+    /// beyond what its motors give at their current limit (the field names which).
+    Excitation(&'static str),
 }
 
 impl core::fmt::Display for ControllerError {
@@ -81,6 +84,7 @@ impl core::fmt::Display for ControllerError {
             ControllerError::Passivity(e) | ControllerError::BeyondDevice(e) => write!(f, "{e}"),
             ControllerError::Calibration(e) => write!(f, "calibration: {e}"),
             ControllerError::NoScene => write!(f, "no scene loaded: load an object first"),
+            ControllerError::Excitation(why) => write!(f, "identification run refused: {why}"),
         }
     }
 }
@@ -142,6 +146,42 @@ impl Default for TickOutput {
     fn default() -> Self {
         TickOutput::IDLE
     }
+}
+
+/// An identification run ([`Controller::excite`]): instead of rendering, the motors apply
+/// square waves of joint torque, `±torque_nm[i]` flipping every `half_period_us[i]`, for
+/// `duration_us`, starting positive at the first tick after the command. The telemetry shows
+/// the motion (the HIP) and the force at the handle, `F = J⁻ᵀ τ`, from which a host recovers
+/// the torques (`host::identify`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Excitation {
+    /// Square-wave amplitude per joint (N·m).
+    pub torque_nm: [f32; 2],
+    /// Half-period per joint (µs, > 0).
+    pub half_period_us: [u32; 2],
+    /// Length of the run (µs, > 0).
+    pub duration_us: u64,
+}
+
+impl Excitation {
+    /// The joint torques `elapsed_us` into the run.
+    pub fn torques_at(&self, elapsed_us: u64) -> [f32; 2] {
+        [0, 1].map(|i| {
+            let half = u64::from(self.half_period_us[i].max(1));
+            if (elapsed_us / half) % 2 == 0 {
+                self.torque_nm[i]
+            } else {
+                -self.torque_nm[i]
+            }
+        })
+    }
+}
+
+/// A run in progress: what, and the clock reading of its first tick.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct ExcitationRun {
+    excitation: Excitation,
+    started_us: Option<u64>,
 }
 
 /// The loaded scene: the object, its material and where its renderer is.
@@ -217,6 +257,8 @@ pub struct Controller<O: Object<P = Vec2>> {
     last_currents_a: [f32; 2],
     /// The generation the next scene or material gets.
     next_generation: u32,
+    /// An identification run, while one lasts.
+    excitation: Option<ExcitationRun>,
 }
 
 impl<O: Object<P = Vec2>> Controller<O> {
@@ -243,6 +285,7 @@ impl<O: Object<P = Vec2>> Controller<O> {
             previous: None,
             last_currents_a: [0.0; 2],
             next_generation: 0,
+            excitation: None,
         })
     }
 
@@ -494,6 +537,7 @@ impl<O: Object<P = Vec2>> Controller<O> {
             previous: self.previous,
             last_currents_a: self.last_currents_a,
             next_generation: self.next_generation,
+            excitation: self.excitation,
         }
     }
 
@@ -521,6 +565,55 @@ impl<O: Object<P = Vec2>> Controller<O> {
     pub fn unload_scene(&mut self) {
         self.scene = None;
         self.bump_generation();
+    }
+
+    /// Starts an identification run from the next tick (see [`Excitation`]): the renderer
+    /// stops (it starts again from a fresh acquisition when the run ends), and the safety
+    /// layer applies every fault, its saturation and its rate limit, but no ramp-in and no
+    /// energy tank. Refused when not calibrated or when a torque is not finite or beyond the
+    /// motor's torque at its current limit. Forces must be on for anything to move.
+    pub fn excite(&mut self, excitation: Excitation) -> Result<(), ControllerError> {
+        if !self.calibration.is_calibrated() {
+            return Err(ControllerError::Excitation("not calibrated"));
+        }
+        for i in 0..2 {
+            let s = &self.spec;
+            let most =
+                s.current_limit_a[i] * s.torque_constant_nm_per_a[i] * s.transmission_ratio[i];
+            let tau = excitation.torque_nm[i];
+            if !(tau.is_finite() && libm::fabsf(tau) <= most) {
+                return Err(ControllerError::Excitation(
+                    [
+                        "torque_nm[0] beyond the motor",
+                        "torque_nm[1] beyond the motor",
+                    ][i],
+                ));
+            }
+        }
+        if excitation.half_period_us.contains(&0) || excitation.duration_us == 0 {
+            return Err(ControllerError::Excitation("zero period or duration"));
+        }
+        self.excitation = Some(ExcitationRun {
+            excitation,
+            started_us: None,
+        });
+        self.reacquire();
+        Ok(())
+    }
+
+    /// Whether an identification run is in progress.
+    pub fn exciting(&self) -> bool {
+        self.excitation.is_some()
+    }
+
+    /// Restarts the renderer from a fresh acquisition (the HIP moved without it).
+    fn reacquire(&mut self) {
+        let generation = self.bump_generation();
+        if let Some(scene) = self.scene.as_mut() {
+            scene.generation = generation;
+            scene.state = SceneState::AwaitingAcquisition { request_hip: None };
+        }
+        self.safety.restart_ramp_and_observer();
     }
 
     /// Records a host heartbeat; the next tick stamps it with its own clock reading.
@@ -595,13 +688,44 @@ impl<O: Object<P = Vec2>> Controller<O> {
 
         // Rendering, on the loaded object only. The frame's rendering fields are written on
         // both paths (the buffer holds the previous tick's).
+        // An identification run replaces the rendering: the joint torques of its square waves,
+        // as the force at the handle that gives them, F = J⁻ᵀ τ.
+        let mut excitation_force = None;
+        if let Some(run) = self.excitation.as_mut() {
+            let started = *run.started_us.get_or_insert(now_us);
+            let elapsed = now_us.wrapping_sub(started);
+            if elapsed >= run.excitation.duration_us {
+                self.excitation = None;
+                self.reacquire();
+            } else {
+                let tau = run.excitation.torques_at(elapsed);
+                excitation_force = Some(
+                    state
+                        .as_ref()
+                        .and_then(|config| self.arm.jacobian_at(config).ok())
+                        .map_or(Vec2::ZERO, |j| {
+                            let m = j.m;
+                            let det = j.determinant();
+                            // Jᵀ F = τ solved by Cramer's rule (a well-conditioned J: the
+                            // pose passed the kinematics' condition check).
+                            Vec2::new(
+                                (m[1][1] * tau[0] - m[1][0] * tau[1]) / det,
+                                (m[0][0] * tau[1] - m[0][1] * tau[0]) / det,
+                            )
+                        }),
+                );
+            }
+        }
         let telemetry = &mut out.telemetry;
         // Documented to wrap: the clock modulo 2³².
         telemetry.time_us = now_us as u32;
         telemetry.hip_m = hip;
         telemetry.tick_us = 0;
-        let mut force = Vec2::ZERO;
-        let scene = self.scene.as_mut().filter(|_| state.is_some());
+        let mut force = excitation_force.unwrap_or(Vec2::ZERO);
+        let scene = self
+            .scene
+            .as_mut()
+            .filter(|_| state.is_some() && excitation_force.is_none());
         if let Some(Scene {
             object,
             state: SceneState::Rendering { renderer },
@@ -651,6 +775,7 @@ impl<O: Object<P = Vec2>> Controller<O> {
             forces_enabled: self.forces_enabled,
             calibrated: self.calibration.is_calibrated(),
             pose_valid: state.is_some(),
+            identification: excitation_force.is_some(),
         });
         telemetry.faults = safe.faults.bits();
         telemetry.force_n = safe.force_n;

@@ -535,6 +535,10 @@ pub struct SafetyInput {
     /// the position, velocity and joint step are meaningless and [`Faults::ENCODER`]
     /// latches.
     pub pose_valid: bool,
+    /// The force is an identification run's excitation, not a wall's: no ramp-in and no
+    /// energy tank (the run must apply the torques it was asked for); every fault, the
+    /// derating, the saturation and the rate limit apply as always.
+    pub identification: bool,
 }
 
 impl SafetyInput {
@@ -981,6 +985,7 @@ impl Safety {
                 faults: self.latched,
             };
         }
+        let ramp = if input.identification { 1.0 } else { ramp };
         let mut force = input.force_n * ramp;
 
         if self.contact_new {
@@ -991,7 +996,7 @@ impl Safety {
                 self.energy_j = requested / (2.0 * self.wall_stiffness_n_per_m);
             }
         }
-        if self.passivity_control {
+        if self.passivity_control && !input.identification {
             let limited = self.limit_to_energy(force);
             if limited != force {
                 force = limited;

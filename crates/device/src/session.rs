@@ -15,7 +15,7 @@ use friction::FrictionMaterial;
 use nurbs::Vec2;
 use tracker::Object;
 
-use crate::controller::{Controller, ControllerError};
+use crate::controller::{Controller, ControllerError, Excitation};
 use crate::protocol::{
     ErrorCode, Hello, MAX_PAYLOAD, Message, SceneReceiver, SceneValidator, Status,
 };
@@ -35,6 +35,8 @@ pub enum Command {
     Calibrate,
     /// Clear the latched faults whose condition is gone.
     ClearFaults,
+    /// Start an identification run ([`Controller::excite`]).
+    Excite(Excitation),
 }
 
 impl Command {
@@ -59,6 +61,11 @@ impl Command {
             }
             Command::ClearFaults => {
                 controller.clear_faults();
+            }
+            Command::Excite(excitation) => {
+                controller
+                    .excite(excitation)
+                    .map_err(|_| ErrorCode::BadField)?;
             }
             Command::SetMaterial(material) => {
                 // Without a scene there is nothing to set (the next upload brings its own).
@@ -230,6 +237,17 @@ impl<const N: usize> Session<N> {
             Message::Calibrate => return Event::Command(Command::Calibrate),
             Message::ClearFaults { .. } => return Event::Command(Command::ClearFaults),
             Message::HandTarget { target_m } => return Event::HandTarget(target_m),
+            Message::Excite {
+                torque_nm,
+                half_period_ms,
+                duration_ms,
+            } => {
+                return Event::Command(Command::Excite(Excitation {
+                    torque_nm,
+                    half_period_us: half_period_ms.map(|ms| u32::from(ms) * 1000),
+                    duration_us: u64::from(duration_ms) * 1000,
+                }));
+            }
             _ => {}
         }
         Event::None

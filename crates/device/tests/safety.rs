@@ -35,6 +35,7 @@ fn tick(force_n: Vec2) -> SafetyInput {
         forces_enabled: true,
         calibrated: true,
         pose_valid: true,
+        identification: false,
     }
 }
 
@@ -764,6 +765,7 @@ prop_compose! {
         forces_enabled in prop::bool::weighted(0.9),
         calibrated in prop::bool::weighted(0.9),
         clear in prop::bool::weighted(0.3),
+        identification in prop::bool::weighted(0.1),
     ) -> (SafetyInput, bool) {
         (SafetyInput {
             force_n: force,
@@ -775,6 +777,7 @@ prop_compose! {
             forces_enabled,
             calibrated,
             pose_valid,
+            identification,
         }, clear)
     }
 }

@@ -26,6 +26,10 @@
 //! (`joint_damping_nms_per_rad`, `joint_coulomb_nm`), so the routine is checked against them
 //! (`tests`); [`IdentifiedJoints::apply`] writes the result into a description.
 
+use std::time::{Duration, Instant};
+
+use device::host::{Link, LinkError};
+use device::protocol::{Frame, Message};
 use device::simulator::{SimParams, SimulatedPantograph};
 use device::spec::DeviceSpec;
 use nurbs::Vec2;
@@ -66,6 +70,12 @@ pub enum IdentifyError {
     /// The simulated plant refused to start or moved into a singular pose.
     #[error("simulated pantograph: {0}")]
     Plant(String),
+    /// The link failed, or the device refused a request.
+    #[error("link: {0}")]
+    Link(#[from] LinkError),
+    /// The device did not run the excitation (not calibrated, forces held off by a fault).
+    #[error("the device did not start the run: {0}")]
+    NotStarted(String),
     /// Too few usable samples, or an excitation that does not separate the unknowns.
     #[error("joint {joint}: {reason}")]
     Fit {
@@ -146,6 +156,128 @@ pub fn identify_simulated(
     fit(&angles, &applied, dt)
 }
 
+/// Frames per local fit of a run through a link (40 ms at one frame per millisecond: the
+/// frames are ten times sparser than the ticks, so the window is twice the tick fit's).
+pub const LINK_WINDOW: usize = 41;
+
+/// Runs the experiment on a device behind `link` (calibrated, no scene needed): clears the
+/// faults, enables the forces, sends [`Message::Excite`] and records the telemetry (one frame
+/// per millisecond) for the run, keeping the watchdog fed; then disables the forces and
+/// fits. The joint angles come from each frame's HIP by `spec`'s inverse kinematics, the
+/// torques that acted from its force, `τ = Jᵀ F` (the force the safety layer let through,
+/// so a saturated or rate-limited tick counts as what it was); the segments of constant
+/// excitation from the torques' signs.
+pub fn identify_link(
+    link: &mut dyn Link,
+    spec: &DeviceSpec,
+    excitation: &Excitation,
+) -> Result<IdentifiedJoints, IdentifyError> {
+    let timeout = Duration::from_secs(1);
+    let arm = spec
+        .pantograph()
+        .map_err(|e| IdentifyError::Plant(e.to_string()))?;
+    // A heartbeat before each request: a device that had none for its timeout has tripped
+    // its watchdog, which the heartbeat ends and the clear then clears.
+    let alive = |link: &mut dyn Link, message: &Message| -> Result<(), LinkError> {
+        link.send(&Message::Heartbeat { uptime_ms: 0 })?;
+        link.request(message, timeout)
+    };
+    alive(link, &Message::ClearFaults { mask: u16::MAX })?;
+    alive(link, &Message::EnableForces)?;
+    let to_ms = |ticks: usize| {
+        u32::try_from((ticks as f64 * 1000.0 / excitation.rate_hz).round() as u64)
+            .unwrap_or(u32::MAX)
+    };
+    let duration_ms = to_ms(excitation.ticks).max(1);
+    let half_period_ms = excitation
+        .half_period_ticks
+        .map(|t| u16::try_from(to_ms(t)).unwrap_or(u16::MAX).max(1));
+    alive(
+        link,
+        &Message::Excite {
+            torque_nm: excitation.torque_nm.map(|t| t as f32),
+            half_period_ms,
+            duration_ms,
+        },
+    )?;
+    let started = Instant::now();
+    let wall_limit = Duration::from_millis(u64::from(duration_ms)) + Duration::from_secs(3);
+    let mut next_heartbeat = started;
+    // The device's own clock of the last heartbeat: a device that runs faster than real time
+    // (a simulation not paced) needs them by its time, not the host's.
+    let mut heartbeat_device_us: Option<u32> = None;
+    let mut frames: Vec<device::protocol::Telemetry> = Vec::new();
+    let mut first_us: Option<u32> = None;
+    let heartbeat = |link: &mut dyn Link, started: Instant| {
+        link.send(&Message::Heartbeat {
+            uptime_ms: u32::try_from(started.elapsed().as_millis()).unwrap_or(u32::MAX),
+        })
+    };
+    loop {
+        let now = Instant::now();
+        if now - started > wall_limit {
+            break;
+        }
+        if now >= next_heartbeat {
+            heartbeat(link, started)?;
+            next_heartbeat = now + Duration::from_millis(50);
+        }
+        let Some(Frame { message, .. }) = link.recv(Duration::from_millis(10))? else {
+            continue;
+        };
+        let Message::Telemetry(t) = message else {
+            continue;
+        };
+        // Every 20 ms of the device's time: a device running ahead of what the host has read
+        // (a simulation not paced, up to its 64-frame queue) still gets one within its
+        // 100 ms timeout.
+        if heartbeat_device_us.is_none_or(|h| t.time_us.wrapping_sub(h) >= 20_000) {
+            heartbeat(link, started)?;
+            heartbeat_device_us = Some(t.time_us);
+        }
+        if t.force_n == Vec2::ZERO {
+            // Not (or no longer) exciting: before the run starts, after it ends, or a fault.
+            if first_us.is_some_and(|f| t.time_us.wrapping_sub(f) / 1000 >= duration_ms) {
+                break;
+            }
+
+            continue;
+        }
+        first_us.get_or_insert(t.time_us);
+        frames.push(t);
+    }
+    let _ = link.request(&Message::DisableForces, timeout);
+    let Some(first) = first_us else {
+        return Err(IdentifyError::NotStarted(
+            "no frame with a force (is it calibrated, and are its faults clear?)".to_owned(),
+        ));
+    };
+    let mut times = Vec::with_capacity(frames.len());
+    let mut angles = Vec::with_capacity(frames.len());
+    let mut torques = Vec::with_capacity(frames.len());
+    let mut segments = Vec::with_capacity(frames.len());
+    let mut segment = 0usize;
+    let mut last_signs: Option<[bool; 2]> = None;
+    for t in &frames {
+        let Ok(theta) = arm.inverse(t.hip_m) else {
+            continue;
+        };
+        let Ok(tau) = arm.joint_torques(theta, t.force_n) else {
+            continue;
+        };
+        let signs = [tau[0] >= 0.0, tau[1] >= 0.0];
+        if last_signs.is_some_and(|s| s != signs) {
+            segment += 1;
+        }
+        last_signs = Some(signs);
+        times.push(f64::from(t.time_us.wrapping_sub(first)) * 1e-6);
+        angles.push(theta.map(f64::from));
+        torques.push(tau.map(f64::from));
+        segments.push(segment);
+    }
+    fit_samples(&times, &angles, &torques, &segments, LINK_WINDOW, 1)
+}
+
 /// The regression of the module docs on recorded joint angles (rad) and the torques (N·m)
 /// that acted over each tick of period `dt` (s).
 pub fn fit(
@@ -153,22 +285,58 @@ pub fn fit(
     torques: &[[f64; 2]],
     dt: f64,
 ) -> Result<IdentifiedJoints, IdentifyError> {
-    let half = WINDOW / 2;
+    let n = angles.len().min(torques.len());
+    let times: Vec<f64> = (0..n).map(|k| k as f64 * dt).collect();
+    // A new segment wherever the torque changes.
+    let mut segments = Vec::with_capacity(n);
+    let mut segment = 0usize;
+    for k in 0..n {
+        if k > 0 && torques[k] != torques[k - 1] {
+            segment += 1;
+        }
+        segments.push(segment);
+    }
+    fit_samples(&times, &angles[..n], &torques[..n], &segments, WINDOW, 10)
+}
+
+/// The regression on samples at `times` (s, increasing, not necessarily even), each with the
+/// joint angles, the torques acting and the segment of constant excitation it belongs to:
+/// windows of `window` samples within one segment, one every `stride` samples.
+pub fn fit_samples(
+    times: &[f64],
+    angles: &[[f64; 2]],
+    torques: &[[f64; 2]],
+    segments: &[usize],
+    window: usize,
+    stride: usize,
+) -> Result<IdentifiedJoints, IdentifyError> {
+    let half = window / 2;
     // Normal equations per joint, N unknowns.
     let mut ata = [[[0.0f64; N]; N]; 2];
     let mut atb = [[0.0f64; N]; 2];
     let mut samples = [0usize; 2];
-    let n = angles.len().min(torques.len());
+    let n = times
+        .len()
+        .min(angles.len())
+        .min(torques.len())
+        .min(segments.len());
     let mut centre = half;
     while centre + half < n {
-        let window = centre - half..=centre + half;
-        let steady = window.clone().all(|k| torques[k] == torques[centre]);
+        let range = centre - half..=centre + half;
+        let steady = range.clone().all(|k| segments[k] == segments[centre]);
         if steady {
-            let fits = [0, 1].map(|j| quadratic(&angles[centre - half..=centre + half], j, dt));
+            let fits = [0, 1].map(|j| {
+                quadratic(
+                    &times[centre - half..=centre + half],
+                    &angles[centre - half..=centre + half],
+                    j,
+                    times[centre],
+                )
+            });
             let (rates, accels) = ([fits[0].0, fits[1].0], [fits[0].1, fits[1].1]);
             // A joint whose rate crosses zero inside the window switches its friction there:
             // the acceleration jumps and the quadratic does not hold.
-            let span = half as f64 * dt;
+            let span = (times[centre + half] - times[centre - half]) / 2.0;
             let crossing = (0..2).any(|j| rates[j].abs() <= accels[j].abs() * span);
             for i in 0..2 {
                 if crossing || rates[i].abs() < MIN_RATE_RAD_PER_S {
@@ -198,7 +366,7 @@ pub fn fit(
                 samples[i] += 1;
             }
         }
-        centre += 10;
+        centre += stride.max(1);
     }
     let mut out = IdentifiedJoints {
         damping_nms_per_rad: [0.0; 2],
@@ -224,29 +392,36 @@ pub fn fit(
     Ok(out)
 }
 
-/// Rate and acceleration of joint `j` at the middle of `window` (period `dt`): the
-/// least-squares quadratic `a + b s + c s²` in centred time `s`, rate `b`, acceleration `2c`.
-fn quadratic(window: &[[f64; 2]], j: usize, dt: f64) -> (f64, f64, f64) {
-    let half = (window.len() / 2) as f64;
-    let (mut s0, mut s2, mut s4) = (0.0, 0.0, 0.0);
-    let (mut y0, mut y1, mut y2) = (0.0, 0.0, 0.0);
-    for (k, a) in window.iter().enumerate() {
-        let s = (k as f64 - half) * dt;
+/// Rate, acceleration and value of joint `j` at time `at` (s): the least-squares quadratic
+/// `a + b s + c s²` in `s = t − at` through the window's samples (at `times`), rate `b`,
+/// acceleration `2c`, value `a`.
+fn quadratic(times: &[f64], window: &[[f64; 2]], j: usize, at: f64) -> (f64, f64, f64) {
+    // Moments Σ s^p (p = 0..4) and Σ y s^p (p = 0..2).
+    let mut m = [0.0f64; 5];
+    let mut v = [0.0f64; 3];
+    for (t, a) in times.iter().zip(window) {
+        let s = t - at;
         let y = a[j];
-        s0 += 1.0;
-        s2 += s * s;
-        s4 += s * s * s * s;
-        y0 += y;
-        y1 += s * y;
-        y2 += s * s * y;
+        let mut p = 1.0;
+        for (k, mk) in m.iter_mut().enumerate() {
+            *mk += p;
+            if k < 3 {
+                v[k] += p * y;
+            }
+            p *= s;
+        }
     }
-    // Symmetric window: odd moments vanish, so b = Σ s y / Σ s², and (a, c) solve
-    // [s0 s2; s2 s4] [a; c] = [y0; y2].
-    let rate = y1 / s2;
-    let det = s0 * s4 - s2 * s2;
-    let c = (s0 * y2 - s2 * y0) / det;
-    let a = (s4 * y0 - s2 * y2) / det;
-    (rate, 2.0 * c, a)
+    // [m0 m1 m2; m1 m2 m3; m2 m3 m4] [a b c]ᵀ = v, by Cramer's rule.
+    let det3 = |c0: [f64; 3], c1: [f64; 3], c2: [f64; 3]| {
+        c0[0] * (c1[1] * c2[2] - c1[2] * c2[1]) - c1[0] * (c0[1] * c2[2] - c0[2] * c2[1])
+            + c2[0] * (c0[1] * c1[2] - c0[2] * c1[1])
+    };
+    let cols = [[m[0], m[1], m[2]], [m[1], m[2], m[3]], [m[2], m[3], m[4]]];
+    let d = det3(cols[0], cols[1], cols[2]);
+    let a = det3(v, cols[1], cols[2]) / d;
+    let b = det3(cols[0], v, cols[2]) / d;
+    let c = det3(cols[0], cols[1], v) / d;
+    (b, 2.0 * c, a)
 }
 
 /// Unknowns per joint: `M_i1, M_i2, b_i, τ_c,i` and the three velocity products of the
@@ -298,6 +473,27 @@ fn solve(mut a: [[f64; N]; N], mut b: [f64; N]) -> Option<[f64; N]> {
 mod tests {
     use super::*;
 
+    /// The quadratic fit is exact on a parabola sampled unevenly (as decimated telemetry is):
+    /// θ = 1 + 2 t + 3 t² has rate 2 + 6 t and acceleration 6.
+    #[test]
+    fn the_local_fit_is_exact_on_an_unevenly_sampled_parabola() {
+        let times: Vec<f64> = (0..21)
+            .map(|k| k as f64 * 1e-3 + if k % 3 == 0 { 4e-4 } else { 0.0 })
+            .collect();
+        let window: Vec<[f64; 2]> = times
+            .iter()
+            .map(|t| [0.0, 1.0 + 2.0 * t + 3.0 * t * t])
+            .collect();
+        let at = times[10];
+        let (rate, accel, value) = quadratic(&times, &window, 1, at);
+        assert!((rate - (2.0 + 6.0 * at)).abs() < 1e-8, "{rate}");
+        assert!((accel - 6.0).abs() < 1e-5, "{accel}");
+        assert!(
+            (value - (1.0 + 2.0 * at + 3.0 * at * at)).abs() < 1e-12,
+            "{value}"
+        );
+    }
+
     /// The quadratic fit is exact on a parabola: θ = 1 + 2 t + 3 t² has rate 2 + 6 t and
     /// acceleration 6.
     #[test]
@@ -309,8 +505,9 @@ mod tests {
                 [1.0 + 2.0 * t + 3.0 * t * t, 0.0]
             })
             .collect();
-        let (rate, accel, _) = quadratic(&window, 0, dt);
+        let times: Vec<f64> = (0..WINDOW).map(|k| k as f64 * dt).collect();
         let t_mid = (WINDOW / 2) as f64 * dt;
+        let (rate, accel, _) = quadratic(&times, &window, 0, t_mid);
         assert!((rate - (2.0 + 6.0 * t_mid)).abs() < 1e-9, "{rate}");
         assert!((accel - 6.0).abs() < 1e-6, "{accel}");
     }
@@ -332,6 +529,34 @@ mod tests {
         }
     }
 
+    /// Through a link: the in-process simulated device (the protocol's `Excite`, the device's
+    /// own controller at 10 kHz, one telemetry frame per millisecond). The friction within
+    /// 10 %; the damping, whose torque is 2–5 % of the excitation's and which the 1 kHz frames
+    /// (each the tick of its millisecond with the largest force, so their spacing jitters by
+    /// up to 0.9 ms) resolve less well than every tick, within 20 %: over ten runs (the
+    /// excitation starts at a random phase of the frames' millisecond) the error was 0–11 %,
+    /// the friction's 0–0.6 %.
+    #[test]
+    fn recovers_the_simulated_devices_damping_and_friction_through_a_link() {
+        use device::host::{SimConfig, SimLink};
+        let truth = DeviceSpec {
+            joint_damping_nms_per_rad: [2e-4, 2e-4],
+            ..DeviceSpec::default()
+        };
+        let mut link = SimLink::spawn(SimConfig {
+            spec: truth,
+            paced: false,
+            released: true,
+            ..SimConfig::default()
+        })
+        .expect("simulated device");
+        link.hello(Duration::from_secs(1)).expect("hello");
+        link.request(&Message::Calibrate, Duration::from_secs(1))
+            .expect("calibrated");
+        let found = identify_link(&mut link, &truth, &Excitation::default()).expect("identified");
+        check(&truth, &found, 0.2);
+    }
+
     fn recovers(truth: DeviceSpec) {
         let found = identify_simulated(
             truth,
@@ -340,6 +565,11 @@ mod tests {
             &Excitation::default(),
         )
         .expect("identified");
+        check(&truth, &found, 0.1);
+    }
+
+    /// The friction within 10 %, the damping within `damping_tolerance` (relative).
+    fn check(truth: &DeviceSpec, found: &IdentifiedJoints, damping_tolerance: f64) {
         for i in 0..2 {
             let b = f64::from(truth.joint_damping_nms_per_rad[i]);
             let c = f64::from(truth.joint_coulomb_nm[i]);

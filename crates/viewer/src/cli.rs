@@ -298,6 +298,38 @@ pub enum DeviceCommand {
     /// Serve the simulated pantograph on a pseudo-terminal, as a board on a serial port.
     #[command(after_long_help = DEVICE_SIM_PTY_AFTER)]
     SimPty(SimPtyArgs),
+    /// Measure a device's own joint damping and Coulomb friction through the protocol.
+    #[command(after_long_help = DEVICE_IDENTIFY_AFTER)]
+    Identify(DeviceIdentifyArgs),
+}
+
+const DEVICE_IDENTIFY_AFTER: &str = "\
+The device must be calibrated (hold the handle against its end stops and run the app's \
+Calibrate, or `--sim`, which calibrates itself) and nothing must touch the handle: it moves \
+by itself, a few degrees at each joint. The command clears the faults, enables the forces, \
+sends the protocol's Excite (square waves of joint torque, 8 and 7 mN m, half-periods of 150 \
+and 210 ms, for 6 s), records the telemetry (one frame per millisecond) with heartbeats, \
+disables the forces and fits the joints' damping and Coulomb friction as `viewer identify` \
+does, from each frame's HIP (joint angles by inverse kinematics) and force (torques, J^T F). \
+`--sim` runs the simulated device in this process with nobody holding its handle.
+
+Exit status: 0 identified, 2 the device could not be opened, refused or did not move.";
+
+/// `device identify` arguments.
+#[derive(Debug, Args)]
+pub struct DeviceIdentifyArgs {
+    /// Serial port of the board.
+    #[arg(long, value_name = "PATH", conflicts_with_all = ["hid", "sim", "tcp"])]
+    pub port: Option<PathBuf>,
+    /// A board over TCP, `HOST:PORT` (the firmware under QEMU).
+    #[arg(long, value_name = "HOST:PORT", conflicts_with_all = ["hid", "sim"])]
+    pub tcp: Option<String>,
+    /// The first USB HID board.
+    #[arg(long, conflicts_with = "sim")]
+    pub hid: bool,
+    /// The simulated pantograph in this process, its handle released.
+    #[arg(long)]
+    pub sim: bool,
 }
 
 const DEVICE_SIM_PTY_AFTER: &str = "\

@@ -31,8 +31,63 @@ fn main() -> ExitCode {
     }
 }
 
+fn device_identify(args: &viewer::cli::DeviceIdentifyArgs) -> ExitCode {
+    use device::host::{Link, SimConfig, SimLink};
+    use device::spec::DeviceSpec;
+    use host::devices::Target;
+    use std::time::Duration;
+    let spec = DeviceSpec::default();
+    let mut link: Box<dyn Link> = if args.sim {
+        let opened = SimLink::spawn(SimConfig {
+            paced: false,
+            released: true,
+            ..SimConfig::default()
+        })
+        .map_err(anyhow::Error::from)
+        .and_then(|mut sim| {
+            sim.hello(Duration::from_secs(1))?;
+            sim.request(
+                &device::protocol::Message::Calibrate,
+                Duration::from_secs(1),
+            )?;
+            Ok(sim)
+        });
+        match opened {
+            Ok(sim) => Box::new(sim),
+            Err(e) => return fail(&e.context("the simulated device"), EXIT_BAD_SETUP),
+        }
+    } else {
+        let target = match (&args.port, &args.tcp, args.hid) {
+            (Some(path), _, _) => Target::Serial(path.to_string_lossy().into_owned()),
+            (None, Some(address), _) => Target::Tcp(address.clone()),
+            (None, None, true) => Target::Hid,
+            (None, None, false) => {
+                let e = anyhow!(
+                    "device identify: choose a device with --port PATH, --tcp HOST:PORT, --hid or --sim"
+                );
+                return fail(&e, EXIT_BAD_SETUP);
+            }
+        };
+        match host::devices::open(&target).with_context(|| format!("cannot open {target:?}")) {
+            Ok(opened) => opened.link,
+            Err(e) => return fail(&e, EXIT_BAD_SETUP),
+        }
+    };
+    eprintln!("device identify: exciting the joints for 6 s; keep your hands off the handle");
+    match host::identify::identify_link(
+        link.as_mut(),
+        &spec,
+        &host::identify::Excitation::default(),
+    ) {
+        Ok(found) => print_identified(&found, &spec, None),
+        Err(e) => fail(
+            &anyhow::Error::new(e).context("device identify"),
+            EXIT_BAD_SETUP,
+        ),
+    }
+}
+
 fn identify_command(args: &viewer::cli::IdentifyArgs) -> ExitCode {
-    use device::safety::{PassivityConfig, SafetyConfig, WallLimits};
     use device::spec::DeviceSpec;
     use host::identify::{Excitation, identify_simulated};
     let default = DeviceSpec::default();
@@ -52,19 +107,33 @@ fn identify_command(args: &viewer::cli::IdentifyArgs) -> ExitCode {
         Ok(found) => found,
         Err(e) => return fail(&anyhow::Error::new(e).context("identify"), EXIT_BAD_SETUP),
     };
+    print_identified(&found, &truth, Some(&truth))
+}
+
+/// Prints what an identification found (against `truth` when it is known: a simulation),
+/// what it means at the handle and the walls it lets the device render.
+fn print_identified(
+    found: &host::identify::IdentifiedJoints,
+    spec: &device::spec::DeviceSpec,
+    truth: Option<&device::spec::DeviceSpec>,
+) -> ExitCode {
+    use device::safety::{PassivityConfig, SafetyConfig, WallLimits};
     for i in 0..2 {
+        let known = |value: f32| match truth {
+            Some(_) => format!(" (simulator {value:.3e})"),
+            None => String::new(),
+        };
         println!(
-            "joint {}: damping {:.3e} N m s/rad (simulator {:.3e}), Coulomb {:.3e} N m \
-             (simulator {:.3e}), {} samples",
+            "joint {}: damping {:.3e} N m s/rad{}, Coulomb {:.3e} N m{}, {} samples",
             i + 1,
             found.damping_nms_per_rad[i],
-            truth.joint_damping_nms_per_rad[i],
+            known(truth.map_or(0.0, |t| t.joint_damping_nms_per_rad[i])),
             found.coulomb_nm[i],
-            truth.joint_coulomb_nm[i],
+            known(truth.map_or(0.0, |t| t.joint_coulomb_nm[i])),
             found.samples[i]
         );
     }
-    let identified = found.apply(&truth);
+    let identified = found.apply(spec);
     let at_handle = match identified.at_handle() {
         Ok(h) => h,
         Err(e) => return fail(&anyhow!("the identified description: {e}"), EXIT_BAD_SETUP),
@@ -432,6 +501,7 @@ fn device_command(command: &viewer::cli::DeviceCommand) -> ExitCode {
             }
         }
         DeviceCommand::Monitor(args) => device_monitor(args),
+        DeviceCommand::Identify(args) => device_identify(args),
         DeviceCommand::SimPty(args) => device_sim_pty(args),
     }
 }

@@ -73,3 +73,36 @@ fn monitor_needs_a_device_and_a_valid_duration() {
         assert!(!err.contains("panicked"), "{err}");
     }
 }
+
+/// `device identify --sim`: the protocol's identification run on the simulated device (its
+/// handle released) finds the joints' Coulomb friction within 10 % of the description's
+/// 3 mN·m (the damping, a few per cent of the torque, is `host::identify`'s test); without a
+/// device it exits 2 naming the choices.
+#[test]
+fn identify_sim_measures_the_joints() {
+    let out = viewer(&["device", "identify", "--sim"]);
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert_eq!(
+        out.status.code(),
+        Some(0),
+        "{stdout}{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    for joint in ["joint 1:", "joint 2:"] {
+        let line = stdout
+            .lines()
+            .find(|l| l.starts_with(joint))
+            .unwrap_or_else(|| panic!("{stdout}"));
+        let coulomb: f64 = line
+            .split("Coulomb ")
+            .nth(1)
+            .and_then(|rest| rest.split_whitespace().next())
+            .and_then(|n| n.parse().ok())
+            .unwrap_or_else(|| panic!("{line}"));
+        assert!((coulomb - 3e-3).abs() < 3e-4, "{line}");
+    }
+    assert!(stdout.contains("10000 Hz: walls up to"), "{stdout}");
+    let none = viewer(&["device", "identify"]);
+    assert_eq!(none.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&none.stderr).contains("--sim"));
+}

@@ -56,6 +56,9 @@ pub struct SimConfig {
     /// Render materials stiffer than the device renders passively, with the passivity
     /// controller on (a board decides this in its firmware; the wire does not carry it).
     pub passivity_control: bool,
+    /// Nobody holds the handle (its own mass, the device's friction and the motors): an
+    /// identification run's plant. The hand's targets then move nothing.
+    pub released: bool,
 }
 
 impl Default for SimConfig {
@@ -76,6 +79,7 @@ impl Default for SimConfig {
             start_hip: Vec2::new(0.0, 0.09),
             paced: true,
             passivity_control: true,
+            released: false,
         }
     }
 }
@@ -99,7 +103,10 @@ impl SimLink {
     /// Starts the simulated device (uncalibrated, forces off, no scene).
     pub fn spawn(config: SimConfig) -> Result<Self, LinkError> {
         let controller: Controller<Chain<'static>> = Controller::new(config.spec, config.safety)?;
-        let arm = SimulatedPantograph::new(config.spec, config.params, config.start_hip)?;
+        let mut arm = SimulatedPantograph::new(config.spec, config.params, config.start_hip)?;
+        if config.released {
+            arm.release();
+        }
         let (to_device, commands) = mpsc::channel();
         let (frames, from_device) = mpsc::sync_channel(QUEUE);
         let thread = std::thread::Builder::new()

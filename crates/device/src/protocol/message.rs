@@ -55,6 +55,8 @@ pub enum MessageType {
     ClearFaults = 0x34,
     /// [`Message::HandTarget`].
     HandTarget = 0x35,
+    /// [`Message::Excite`].
+    Excite = 0x36,
     /// [`Message::Status`].
     Status = 0x40,
     /// [`Message::Telemetry`].
@@ -63,7 +65,7 @@ pub enum MessageType {
 
 impl MessageType {
     /// Every type.
-    pub const ALL: [MessageType; 15] = [
+    pub const ALL: [MessageType; 16] = [
         MessageType::Hello,
         MessageType::Heartbeat,
         MessageType::SceneBegin,
@@ -77,6 +79,7 @@ impl MessageType {
         MessageType::Calibrate,
         MessageType::ClearFaults,
         MessageType::HandTarget,
+        MessageType::Excite,
         MessageType::Status,
         MessageType::Telemetry,
     ];
@@ -100,6 +103,7 @@ impl MessageType {
             MessageType::EnableForces | MessageType::DisableForces | MessageType::Calibrate => 0,
             MessageType::ClearFaults => 2,
             MessageType::HandTarget => 8,
+            MessageType::Excite => 16,
             MessageType::Status => 18,
             MessageType::Telemetry => TELEMETRY_LEN,
         };
@@ -349,6 +353,18 @@ pub enum Message {
         /// The hand's target (finite, checked on decode).
         target_m: Vec2,
     },
+    /// → dev: an identification run ([`Excitation`](crate::controller::Excitation)): the
+    /// motors apply square waves of joint torque for a while instead of rendering; the
+    /// telemetry shows the motion and the force. Refused (status `last_error`) when the device
+    /// is not calibrated or the torque is beyond its motors.
+    Excite {
+        /// Square-wave amplitude per joint (N·m, finite, checked on decode).
+        torque_nm: [f32; 2],
+        /// Half-period per joint (ms, ≥ 1).
+        half_period_ms: [u16; 2],
+        /// How long the run lasts (ms, ≥ 1).
+        duration_ms: u32,
+    },
     /// → host: device state.
     Status(Status),
     /// → host: one haptic tick.
@@ -372,6 +388,7 @@ impl Message {
             Message::Calibrate => MessageType::Calibrate,
             Message::ClearFaults { .. } => MessageType::ClearFaults,
             Message::HandTarget { .. } => MessageType::HandTarget,
+            Message::Excite { .. } => MessageType::Excite,
             Message::Status(_) => MessageType::Status,
             Message::Telemetry(_) => MessageType::Telemetry,
         }
@@ -413,6 +430,17 @@ impl Message {
             Message::HandTarget { target_m } => {
                 w.f32(target_m.x);
                 w.f32(target_m.y);
+            }
+            Message::Excite {
+                torque_nm,
+                half_period_ms,
+                duration_ms,
+            } => {
+                w.f32(torque_nm[0]);
+                w.f32(torque_nm[1]);
+                w.u16(half_period_ms[0]);
+                w.u16(half_period_ms[1]);
+                w.u32(*duration_ms);
             }
             Message::Status(s) => {
                 w.u8(u8::from(s.forces_enabled) | (u8::from(s.calibrated) << 1));
@@ -498,6 +526,19 @@ impl Message {
             MessageType::HandTarget => Message::HandTarget {
                 target_m: Vec2::new(finite(r)?, finite(r)?),
             },
+            MessageType::Excite => {
+                let torque_nm = [finite(r)?, finite(r)?];
+                let half_period_ms = [r.u16().ok_or(short)?, r.u16().ok_or(short)?];
+                let duration_ms = r.u32().ok_or(short)?;
+                if half_period_ms.contains(&0) || duration_ms == 0 {
+                    return Err(ErrorCode::BadField);
+                }
+                Message::Excite {
+                    torque_nm,
+                    half_period_ms,
+                    duration_ms,
+                }
+            }
             MessageType::Status => {
                 let flags = r.u8().ok_or(short)?;
                 if flags & !0b11 != 0 {

@@ -165,7 +165,8 @@ impl<const N: usize> SceneReceiver<N> {
             | Message::EnableForces
             | Message::DisableForces
             | Message::Calibrate
-            | Message::ClearFaults { .. } => {}
+            | Message::ClearFaults { .. }
+            | Message::Excite { .. } => {}
         }
         Ok(())
     }
