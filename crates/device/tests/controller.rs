@@ -681,3 +681,69 @@ fn tick_into_overwrites_everything_a_fresh_tick_gives() {
     assert!(faulted);
     assert!(buffer.render.is_none() && buffer.joint_angles_rad.is_some());
 }
+
+/// An identification run: refused before calibration and beyond the motors' torque; then
+/// the tick commands exactly the square waves' joint torques (J^T F of the force it reports
+/// gives them back: the force is J^-T tau), flipping at each half-period, through no ramp-in
+/// (full amplitude on the first tick) while the scene waits; at the end the run stops, the
+/// force is zero and the renderer waits for a fresh acquisition. (No physics here: the
+/// encoders stand still; `host::identify` runs it on the simulated pantograph.)
+#[test]
+fn an_identification_run_commands_its_square_waves_then_hands_back_to_the_scene() {
+    use device::controller::{ControllerError, Excitation};
+    let spec = DeviceSpec::default();
+    let excitation = Excitation {
+        torque_nm: [0.008, -0.007],
+        half_period_us: [3_000, 5_000],
+        duration_us: 12_000,
+    };
+    let mut raw: Controller<Chain<'_>> = Controller::new(spec, safety()).unwrap();
+    assert!(matches!(
+        raw.excite(excitation),
+        Err(ControllerError::Excitation("not calibrated"))
+    ));
+    let curves = arcs();
+    let views = [curves[0].view(), curves[1].view()];
+    let chain = Chain::new(&views).unwrap();
+    let mut c = controller(spec, safety());
+    c.load_scene(chain, material(), true).unwrap();
+    // The motor's torque at its current limit: 2 A × 23.4 mN·m/A × 10 = 0.468 N·m.
+    let too_much = Excitation {
+        torque_nm: [0.5, 0.0],
+        ..excitation
+    };
+    assert!(matches!(
+        c.excite(too_much),
+        Err(ControllerError::Excitation("torque_nm[0] beyond the motor"))
+    ));
+    c.excite(excitation).unwrap();
+    assert!(c.exciting());
+    let counts = counts_at(spec, Vec2::new(0.0, 0.09));
+    let t0 = 5_000_000u64;
+    for k in 0..12u64 {
+        let out = tick(&mut c, counts, t0 + k * 1000);
+        let elapsed = k * 1000;
+        let expected = [0, 1].map(|i| {
+            let half = u64::from(excitation.half_period_us[i]);
+            excitation.torque_nm[i] * if (elapsed / half) % 2 == 0 { 1.0 } else { -1.0 }
+        });
+        // τ = Jᵀ F through f32 Cramer and back: a few ulps of the 10 mN·m torques.
+        for i in 0..2 {
+            assert!(
+                (out.joint_torques_nm[i] - expected[i]).abs() < 1e-6,
+                "tick {k}: {:?} vs {expected:?}",
+                out.joint_torques_nm
+            );
+        }
+        assert_eq!(out.telemetry.mode, friction::Mode::Free);
+        assert!(out.render.is_none(), "tick {k}: the scene is not rendered");
+    }
+    // 12 ms in: the run is over, the tick renders no force and asks for an acquisition
+    // (which the helper runs), and the next tick renders the scene again.
+    let out = tick(&mut c, counts, t0 + 12_000);
+    assert!(!c.exciting());
+    assert_eq!(out.telemetry.force_n, Vec2::ZERO);
+    assert!(out.render.is_none());
+    let out = tick(&mut c, counts, t0 + 13_000);
+    assert!(out.render.is_some(), "the renderer runs again");
+}

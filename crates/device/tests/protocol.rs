@@ -216,6 +216,16 @@ fn message() -> impl Strategy<Value = Message> {
             )),
         Just(Message::SceneCommit),
         vec2().prop_map(|target_m| Message::HandTarget { target_m }),
+        (
+            prop::array::uniform2(-1.0f32..1.0),
+            prop::array::uniform2(1u16..),
+            1u32..
+        )
+            .prop_map(|(torque_nm, half_period_ms, duration_ms)| Message::Excite {
+                torque_nm,
+                half_period_ms,
+                duration_ms
+            }),
         any::<u16>().prop_map(|seq| Message::Ack { seq }),
         (
             any::<u16>(),

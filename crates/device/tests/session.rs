@@ -99,6 +99,25 @@ fn each_accepted_frame_is_acked_and_asks_the_device_for_what_it_says() {
     let target = Vec2::new(0.01, 0.08);
     let (event, _) = handle(&mut s, 14, Message::HandTarget { target_m: target });
     assert_eq!(event, Event::HandTarget(target));
+    // An identification run: milliseconds on the wire, microseconds for the controller.
+    let (event, replies) = handle(
+        &mut s,
+        15,
+        Message::Excite {
+            torque_nm: [0.008, -0.007],
+            half_period_ms: [150, 210],
+            duration_ms: 6000,
+        },
+    );
+    assert_eq!(replies, [Message::Ack { seq: 15 }]);
+    assert_eq!(
+        event,
+        Event::Command(Command::Excite(device::controller::Excitation {
+            torque_nm: [0.008, -0.007],
+            half_period_us: [150_000, 210_000],
+            duration_us: 6_000_000,
+        }))
+    );
 }
 
 #[test]
