@@ -168,7 +168,7 @@ impl Excitation {
     pub fn torques_at(&self, elapsed_us: u64) -> [f32; 2] {
         [0, 1].map(|i| {
             let half = u64::from(self.half_period_us[i].max(1));
-            if (elapsed_us / half) % 2 == 0 {
+            if (elapsed_us / half).is_multiple_of(2) {
                 self.torque_nm[i]
             } else {
                 -self.torque_nm[i]

@@ -725,7 +725,12 @@ fn an_identification_run_commands_its_square_waves_then_hands_back_to_the_scene(
         let elapsed = k * 1000;
         let expected = [0, 1].map(|i| {
             let half = u64::from(excitation.half_period_us[i]);
-            excitation.torque_nm[i] * if (elapsed / half) % 2 == 0 { 1.0 } else { -1.0 }
+            excitation.torque_nm[i]
+                * if (elapsed / half).is_multiple_of(2) {
+                    1.0
+                } else {
+                    -1.0
+                }
         });
         // τ = Jᵀ F through f32 Cramer and back: a few ulps of the 10 mN·m torques.
         for i in 0..2 {
