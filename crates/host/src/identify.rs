@@ -586,7 +586,7 @@ mod tests {
                 found.samples[i]
             );
             assert!(
-                b_err < 0.1,
+                b_err < damping_tolerance,
                 "joint {i}: damping off by {:.1} %",
                 b_err * 100.0
             );
