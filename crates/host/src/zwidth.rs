@@ -5,9 +5,9 @@
 //! frictionless wall towards it at the impact speed, then
 //! - [`Hand::Grip`] and [`Hand::Finger`] keep pushing: the hand's target stops 1 mm inside the
 //!   wall and stays there (impact, then hold);
-//! - [`Hand::Released`] lets go 1 mm before the wall: the handle flies into it on its own
-//!   momentum, and nobody holds it afterwards (its own mass, the device's own friction and
-//!   damping, the motors).
+//! - [`Hand::Released`] lets go just before the wall (2 ms of travel, at most 1 mm): the
+//!   handle flies into it on its own momentum, and nobody holds it afterwards (its own mass,
+//!   the device's own friction and damping, the motors).
 //!
 //! The run continues for [`HOLD_S`] after the first contact, on the device's controller (the
 //! tick the board runs) closed through [`SimulatedPantograph`] (zero-order hold, one tick of
@@ -152,7 +152,10 @@ pub fn impact_on(spec: DeviceSpec, cell: &Impact) -> Result<Outcome, SimError> {
         if contact_at.is_none() && depth >= 0.0 {
             contact_at = Some(tick);
         }
-        if cell.hand == Hand::Released && arm.is_held() && depth >= -HAND_MARGIN_M {
+        // Let go just before the wall: within 2 ms of travel (at most 1 mm), so that a slow
+        // handle still reaches it against the device's dry friction.
+        let release_m = HAND_MARGIN_M.min(cell.speed_m_per_s * 2e-3);
+        if cell.hand == Hand::Released && arm.is_held() && depth >= -release_m {
             arm.release();
         }
         // Out of contact the handle's energy is all kinetic: compared with what it brought,
@@ -165,13 +168,15 @@ pub fn impact_on(spec: DeviceSpec, cell: &Impact) -> Result<Outcome, SimError> {
         if contact_at.is_some() && depth < 0.0 {
             max_energy = max_energy.max(kinetic);
         }
-        final_energy = kinetic + 0.5 * k * depth.max(0.0).powi(2);
         let hand_y = (f64::from(start.y) + f64::from(cell.speed_m_per_s) * tick as f64 * t)
             .min(f64::from(WALL_Y_M + HAND_MARGIN_M)) as f32;
         controller.heartbeat();
         let out = controller.tick(arm.encoder_counts(), tick as u64 * period_us);
         controller.acquire_now();
         last_force = out.telemetry.force_n.length();
+        // The energy the wall still holds is what its rendered force can give back, |F|²/2K
+        // (a tank that has run dry renders less than K d, and stores less).
+        final_energy = kinetic + last_force * last_force / (2.0 * k);
         arm.step(out.currents_a, Vec2::new(0.0, hand_y), period_s)
             .map_err(|error| SimError::Arm {
                 t_s: tick as f64 * t,

@@ -569,7 +569,7 @@ ramp-in), gets a heartbeat every tick and renders the object's material if the d
 renders it: the sampled-data passivity bound with the device's own damping and dry friction,
 K < 2 (b + f_c/v - |B|)/T, and the encoder quantisation bound K <= 2 f_c/Delta (for the
 default device about 350 N/m at 1 kHz, 1750 N/m at 10 kHz); past the first, the passivity
-controller (an energy tank) renders it, as far as it is demonstrated (3000 N/m, |B| <= 0.5
+controller (an energy tank) renders it, as far as it is demonstrated (1700 N/m, |B| <= 0.5
 N s/m; a note on standard error says so); past the quantisation bound, or the controller's,
 it is refused (exit 2, naming the bound, its numbers and a rate that renders it, if any).
 The force is the device's: at most 3 N, and none in free space. The hip_ columns are the
