@@ -248,7 +248,7 @@ fn stiffness_sweep_renders_or_refuses_and_never_chatters() {
 }
 
 /// A light fingertip on the handle (`SimParams::fingertip`: 100 N/m, 0.1 N·s/m, a twentieth
-/// of a relaxed grip's damping) traces thesis-2d with the scene's own material (K = 1000 N/m,
+/// of a relaxed grip's) traces thesis-2d with the scene's own material (K = 1000 N/m,
 /// friction) at the board's 10 kHz. The force never reverses, each of the trajectory's two
 /// entries is felt with at most two bounces, no force acts in free space, and the stick–slip
 /// sequence still happens.

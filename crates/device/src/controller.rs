@@ -328,12 +328,11 @@ impl<O: Object<P = Vec2>> Controller<O> {
 
     /// Makes `object` with `material` the scene from the next tick (call at a tick boundary,
     /// after the scene was received and validated); the renderer starts afresh on it and the
-    /// force ramps in. Rejects a stiffness the device cannot render passively unless
+    /// force ramps in. Rejects a wall past the device's sampled-data passivity bound unless
     /// `passivity_control` is on, in which case the time-domain passivity controller is
-    /// enabled for this scene; even then a stiffness beyond
-    /// [`Safety::check_renderable`](crate::safety::Safety::check_renderable) is refused
-    /// ([`ControllerError::BeyondDevice`], naming the limit). On error the previous scene
-    /// stays loaded.
+    /// enabled for this scene; even then a wall past the quantisation bound or what the
+    /// controller is demonstrated to is refused ([`ControllerError::BeyondDevice`], naming
+    /// the bound; [`crate::safety::check_wall`]). On error the previous scene stays loaded.
     pub fn load_scene(
         &mut self,
         object: O,

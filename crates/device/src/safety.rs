@@ -25,23 +25,25 @@
 //!    (enable, calibration, cleared faults) or after [`Safety::restart_ramp_and_observer`]
 //!    (a scene load, a material change, an acquisition, forces enabled), so a HIP already
 //!    inside an object feels the force grow from zero instead of a kick; free space (below)
-//!    gets exactly zero; the passivity controller's damper; the thermal derating; saturation
+//!    gets exactly zero; the passivity controller's energy tank; the thermal derating; saturation
 //!    to the device's force limit; the force rate limit; a last non-finite guard that cuts
 //!    the force and latches [`Faults::NUMERIC`].
 //!
 //! Free space (the renderer asks for exactly zero: its penalty force is unilateral, zero
-//! only out of contact) gets zero force, with no damper and no rate-limited tail, so that the
+//! only out of contact) gets zero force, with no rate-limited tail, so that the
 //! mechanism's own damping is all a user feels there. Switching off is immediate (not
 //! rate-limited); switching back on starts the ramp-in, whose first tick outputs zero and
 //! which reaches the full force after `ramp_time_s`. Faults stay latched until [`Safety::clear_faults`], which clears only
 //! the causes whose condition is gone.
 //!
-//! Passivity has two parts: [`check_passivity`], the sampled-data bound a scene loader applies
-//! to each material (thesis eq. 1.1), and a time-domain passivity observer/controller
-//! (Hannaford & Ryu 2002) enabled per scene with [`Safety::set_passivity_control`], for
-//! materials between that bound and [`Safety::check_renderable`] (the same bound with a
-//! relaxed grip's damping added); stiffer ones the device does not render at all. The
-//! observer's account is per contact: it restarts at zero in free space.
+//! Passivity has two parts: [`check_wall`], the bounds from the device's own figures a scene
+//! loader applies to each material (the sampled-data bound of thesis eq. 1.1 with the
+//! device's damping and dry friction, and the encoder quantisation bound; see
+//! [`PassivityConfig`]), and a time-domain passivity observer (Hannaford & Ryu 2002) with an
+//! energy tank for a controller, enabled per scene with [`Safety::set_passivity_control`], for
+//! materials past the first bound and within what the controller is demonstrated to; stiffer
+//! ones the device does not render at all. The observer's account is per contact: it
+//! restarts at zero in free space.
 //!
 //! Everything here is `f32`, allocation-free and total: no input makes `apply` panic or
 //! return a non-finite force. The tick path has no transcendental functions; a square root
@@ -865,7 +867,7 @@ impl Safety {
     }
 
     /// Turns the passivity controller on or off (per scene: on for scenes whose materials
-    /// fail [`check_passivity`]). The observer runs either way.
+    /// fail the passivity bound of [`check_wall`]). The observer runs either way.
     pub fn set_passivity_control(&mut self, enabled: bool) {
         self.passivity_control = enabled;
     }
