@@ -271,7 +271,7 @@ const DEFAULT_AT_HANDLE: AtHandle = AtHandle {
 /// contact, which the device's dry friction no longer absorbs.
 pub const CONTROLLER_STIFFNESS_N_PER_M: f32 = 1700.0;
 /// The wall damping the passivity controller is demonstrated to (same test).
-pub const CONTROLLER_DAMPING_NS_PER_M: f32 = 0.5;
+pub const CONTROLLER_DAMPING_NS_PER_M: f32 = 1.0;
 
 /// The standard tick rates a refusal suggests (Hz).
 pub const RATES_HZ: [u32; 4] = [1_000, 2_000, 5_000, 10_000];

@@ -125,7 +125,7 @@ quantisation bound 2 f_c/Δ over the cells.";
 /// `viewer zwidth` arguments.
 #[derive(Debug, Args)]
 pub struct ZwidthArgs {
-    /// Tick rate (Hz).
+    /// Tick rate (Hz), 100 to 100,000.
     #[arg(long, default_value_t = 10_000.0, value_name = "HZ", value_parser = rate)]
     pub rate_hz: f64,
     /// Who holds the handle: grip, finger or released.
@@ -147,6 +147,11 @@ fn rate(text: &str) -> Result<f64, String> {
         .parse()
         .map_err(|_| format!("{text:?} is not a number"))?;
     host::sim::check_rate(hz).map_err(|e| e.to_string())?;
+    // Each of the sweep's 156 cells runs about a second of device time: a rate past 100 kHz
+    // would run for hours, below 100 Hz the plant's 1 m/s limit is a step of 10 mm.
+    if !(100.0..=100_000.0).contains(&hz) {
+        return Err(format!("{hz} Hz: the sweep runs at 100 to 100,000 Hz"));
+    }
     Ok(hz)
 }
 
@@ -569,7 +574,7 @@ ramp-in), gets a heartbeat every tick and renders the object's material if the d
 renders it: the sampled-data passivity bound with the device's own damping and dry friction,
 K < 2 (b + f_c/v - |B|)/T, and the encoder quantisation bound K <= 2 f_c/Delta (for the
 default device about 350 N/m at 1 kHz, 1750 N/m at 10 kHz); past the first, the passivity
-controller (an energy tank) renders it, as far as it is demonstrated (1700 N/m, |B| <= 0.5
+controller (an energy tank) renders it, as far as it is demonstrated (1700 N/m, |B| <= 1
 N s/m; a note on standard error says so); past the quantisation bound, or the controller's,
 it is refused (exit 2, naming the bound, its numbers and a rate that renders it, if any).
 The force is the device's: at most 3 N, and none in free space. The hip_ columns are the
