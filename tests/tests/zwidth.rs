@@ -74,34 +74,3 @@ fn a_released_handle_finds_the_device_bound_and_the_tank_lifts_it() {
         );
     }
 }
-
-#[test]
-#[ignore]
-fn explore() {
-    for rate_hz in [1e3, 1e4] {
-        for hand in [Hand::Released, Hand::Finger, Hand::Grip] {
-            for speed in [0.1f32, 0.02] {
-                let mut line = format!("{rate_hz} {hand:?} {speed}:");
-                for (k, b) in [
-                    (1700.0f32, 1.0f32),
-                    (510.0, 1.0),
-                    (1700.0, 2.0),
-                    (510.0, 2.0),
-                ] {
-                    let cell = Impact {
-                        rate_hz,
-                        stiffness_n_per_m: k,
-                        damping_ns_per_m: b,
-                        speed_m_per_s: speed,
-                        hand,
-                        passivity_control: true,
-                    };
-                    let o = impact(&cell).unwrap();
-                    let verdict = if o.stable { "ok" } else { "X" };
-                    line += &format!(" {k}/{b}:{verdict}{:.3}/{:.2}", o.energy_ratio, o.ripple_n);
-                }
-                println!("{line}");
-            }
-        }
-    }
-}

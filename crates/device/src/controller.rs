@@ -268,7 +268,7 @@ impl<O: Object<P = Vec2>> Controller<O> {
     pub fn new(spec: DeviceSpec, safety: SafetyConfig) -> Result<Self, ControllerError> {
         let arm = spec.validate().map_err(ControllerError::Spec)?;
         safety.validate().map_err(ControllerError::Safety)?;
-        let config = Self::effective_limits(&spec, safety)?;
+        let config = Self::effective_limits(&spec, &arm, safety)?;
         let safety = Safety::new(config).map_err(ControllerError::Safety)?;
         Ok(Controller {
             spec,
@@ -289,12 +289,14 @@ impl<O: Object<P = Vec2>> Controller<O> {
         })
     }
 
-    /// `safety` with its force and speed limits lowered to the device's (both validated).
+    /// `safety` with its force and speed limits lowered to the device's (both validated) and
+    /// the passivity figures the device's own at the handle (`arm`: its validated kinematics).
     fn effective_limits(
         spec: &DeviceSpec,
+        arm: &Pantograph,
         safety: SafetyConfig,
     ) -> Result<SafetyConfig, ControllerError> {
-        let device = spec.at_handle().map_err(ControllerError::Spec)?;
+        let device = spec.at_handle_of(arm).map_err(ControllerError::Spec)?;
         Ok(SafetyConfig {
             passivity: PassivityConfig {
                 device,
@@ -340,13 +342,20 @@ impl<O: Object<P = Vec2>> Controller<O> {
         passivity_control: bool,
     ) -> Result<(), ControllerError> {
         self.accept_material(&material, passivity_control)?;
+        self.install_scene(object, material, passivity_control);
+        Ok(())
+    }
+
+    /// Makes `object` with `material` the scene (its renderer awaits an acquisition), with the
+    /// passivity controller as given: the material was accepted, or is measured.
+    fn install_scene(&mut self, object: O, material: FrictionMaterial, passivity_control: bool) {
+        self.use_material(&material, passivity_control);
         self.scene = Some(Scene {
             object,
             material,
             generation: self.bump_generation(),
             state: SceneState::AwaitingAcquisition { request_hip: None },
         });
-        Ok(())
     }
 
     /// [`Controller::load_scene`] without the acceptance: any valid stiffness renders, with the
@@ -360,15 +369,7 @@ impl<O: Object<P = Vec2>> Controller<O> {
         material: FrictionMaterial,
         passivity_control: bool,
     ) {
-        self.safety.set_passivity_control(passivity_control);
-        self.safety.set_wall_stiffness(material.stiffness_n_per_m);
-        self.safety.restart_ramp_and_observer();
-        self.scene = Some(Scene {
-            object,
-            material,
-            generation: self.bump_generation(),
-            state: SceneState::AwaitingAcquisition { request_hip: None },
-        });
+        self.install_scene(object, material, passivity_control);
     }
 
     /// [`Controller::load_scene`] with the passivity controller on only where the material
@@ -417,12 +418,11 @@ impl<O: Object<P = Vec2>> Controller<O> {
             return Err(ControllerError::NoScene);
         }
         self.accept_material(&material, passivity_control)?;
-        let generation = self.bump_generation();
+        self.use_material(&material, passivity_control);
         if let Some(scene) = self.scene.as_mut() {
             scene.material = material;
-            scene.generation = generation;
-            scene.state = SceneState::AwaitingAcquisition { request_hip: None };
         }
+        self.reacquire();
         Ok(())
     }
 
@@ -510,10 +510,15 @@ impl<O: Object<P = Vec2>> Controller<O> {
                 .check_wall(k, b, true)
                 .map_err(ControllerError::BeyondDevice)?;
         }
+        Ok(())
+    }
+
+    /// The safety layer set up for rendering `material`: the passivity controller on or off,
+    /// the tank's stiffness, the ramp and the observer restarted.
+    fn use_material(&mut self, material: &FrictionMaterial, passivity_control: bool) {
         self.safety.set_passivity_control(passivity_control);
         self.safety.set_wall_stiffness(material.stiffness_n_per_m);
         self.safety.restart_ramp_and_observer();
-        Ok(())
     }
 
     /// The same controller for another object type, without a scene (calibration, safety

@@ -278,7 +278,12 @@ impl DeviceSpec {
     /// acceptance of a wall counts on ([`crate::safety::check_wall`]). Setup, not the tick
     /// (square roots, f64 inside). See [`AtHandle`].
     pub fn at_handle(&self) -> Result<AtHandle, SpecError> {
-        let pantograph = self.validate()?;
+        self.at_handle_of(&self.validate()?)
+    }
+
+    /// [`DeviceSpec::at_handle`] with the kinematic model `validate` returned (not validated
+    /// again).
+    pub(crate) fn at_handle_of(&self, pantograph: &Pantograph) -> Result<AtHandle, SpecError> {
         let lo = self.workspace.min_in_device;
         let step = (self.workspace.max_in_device - lo) / (WORKSPACE_GRID - 1) as f32;
         let count_rad = self.counts_per_joint_rad().map(|c| 1.0 / f64::from(c));

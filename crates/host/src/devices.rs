@@ -97,23 +97,30 @@ pub struct Opened {
 
 /// Opens the link to `target` and says hello.
 pub fn open(target: &Target) -> Result<Opened, LinkError> {
-    let (mut link, hand): (Box<dyn Link>, _) = match target {
-        Target::Serial(path) => (Box::new(SerialLink::open(path)?), None),
-        Target::Tcp(address) => (
-            Box::new(TcpLink::connect(address, Duration::from_secs(2))?),
-            None,
-        ),
-        Target::Hid => (Box::new(HidLink::open_first()?), None),
-        Target::Sim => {
-            let sim = SimLink::spawn(SimConfig::default())?;
-            let hand = sim.hand()?;
-            (Box::new(sim), Some(hand))
-        }
+    let mut link: Box<dyn Link> = match target {
+        Target::Serial(path) => Box::new(SerialLink::open(path)?),
+        Target::Tcp(address) => Box::new(TcpLink::connect(address, Duration::from_secs(2))?),
+        Target::Hid => Box::new(HidLink::open_first()?),
+        Target::Sim => return open_sim(SimConfig::default()),
     };
     let hello = link.hello(Duration::from_secs(1))?;
-    if hand.is_some() {
-        // Homing is instant in simulation; without it the telemetry has no HIP.
-        link.request(&Message::Calibrate, Duration::from_secs(1))?;
-    }
-    Ok(Opened { link, hello, hand })
+    Ok(Opened {
+        link,
+        hello,
+        hand: None,
+    })
+}
+
+/// Starts the simulated pantograph of `config` in this process, says hello and calibrates it
+/// (homing is instant in simulation; without it the telemetry has no HIP).
+pub fn open_sim(config: SimConfig) -> Result<Opened, LinkError> {
+    let mut sim = SimLink::spawn(config)?;
+    let hand = sim.hand()?;
+    let hello = sim.hello(Duration::from_secs(1))?;
+    sim.request(&Message::Calibrate, Duration::from_secs(1))?;
+    Ok(Opened {
+        link: Box::new(sim),
+        hello,
+        hand: Some(hand),
+    })
 }

@@ -86,65 +86,43 @@ pub enum IdentifyError {
     },
 }
 
-/// The excitation: torque amplitudes (N·m) and half-periods (ticks) per joint.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Excitation {
-    /// Square-wave amplitude per joint (N·m), above the friction.
-    pub torque_nm: [f64; 2],
-    /// Half-period per joint (ticks).
-    pub half_period_ticks: [usize; 2],
-    /// Ticks in the run.
-    pub ticks: usize,
-    /// Tick rate (Hz).
-    pub rate_hz: f64,
-}
+pub use device::controller::Excitation;
 
-impl Default for Excitation {
-    /// 8 and 7 mN·m (between two and three times the default friction), half-periods of 150
-    /// and 210 ms, 6 s at 10 kHz: the joints move about 0.3 rad.
-    fn default() -> Self {
-        Excitation {
-            torque_nm: [0.008, 0.007],
-            half_period_ticks: [1500, 2100],
-            ticks: 60_000,
-            rate_hz: 10_000.0,
-        }
-    }
-}
+/// The identification's excitation: 8 and 7 mN·m (between two and three times the default
+/// friction), half-periods of 150 and 210 ms, for 6 s: the joints move about 0.3 rad.
+pub const EXCITATION: Excitation = Excitation {
+    torque_nm: [0.008, 0.007],
+    half_period_us: [150_000, 210_000],
+    duration_us: 6_000_000,
+};
 
 /// Runs the experiment on the simulated pantograph of description `truth` (its damping and
 /// friction are what is to be found) and plant `params`, the handle starting at rest at
-/// `start`, and identifies the joints.
+/// `start`, ticking at `rate_hz`, and identifies the joints.
 pub fn identify_simulated(
     truth: DeviceSpec,
     params: SimParams,
     start: Vec2,
     excitation: &Excitation,
+    rate_hz: f64,
 ) -> Result<IdentifiedJoints, IdentifyError> {
     let mut arm = SimulatedPantograph::new(truth, params, start)
         .map_err(|e| IdentifyError::Plant(e.to_string()))?;
     arm.release();
-    let dt = 1.0 / excitation.rate_hz;
+    let dt = 1.0 / rate_hz;
+    let ticks = (excitation.duration_us as f64 * 1e-6 * rate_hz) as usize;
     let motor_per_nm = [0, 1].map(|i| {
         f64::from(truth.motor_direction[i].sign())
             / f64::from(truth.transmission_ratio[i] * truth.torque_constant_nm_per_a[i])
     });
-    let torque_at = |k: usize| {
-        [0, 1].map(|i| {
-            let phase = (k / excitation.half_period_ticks[i]) % 2;
-            if phase == 0 {
-                excitation.torque_nm[i]
-            } else {
-                -excitation.torque_nm[i]
-            }
-        })
-    };
-    let mut angles = Vec::with_capacity(excitation.ticks);
-    let mut applied = Vec::with_capacity(excitation.ticks);
+    let mut angles = Vec::with_capacity(ticks);
+    let mut applied = Vec::with_capacity(ticks);
     let mut previous = [0.0f64; 2];
-    for k in 0..excitation.ticks {
+    for k in 0..ticks {
         angles.push(truth.joint_angles(arm.encoder_counts()).map(f64::from));
-        let tau = torque_at(k);
+        // The square waves as the device's controller runs them, at this tick's time.
+        let elapsed_us = (k as f64 * dt * 1e6).round() as u64;
+        let tau = excitation.torques_at(elapsed_us).map(f64::from);
         // The torque acting over this tick: this tick's command, or the last one's with a
         // command delay.
         applied.push(if params.command_delay { previous } else { tau });
@@ -184,18 +162,17 @@ pub fn identify_link(
     };
     alive(link, &Message::ClearFaults { mask: u16::MAX })?;
     alive(link, &Message::EnableForces)?;
-    let to_ms = |ticks: usize| {
-        u32::try_from((ticks as f64 * 1000.0 / excitation.rate_hz).round() as u64)
-            .unwrap_or(u32::MAX)
-    };
-    let duration_ms = to_ms(excitation.ticks).max(1);
+    // The wire carries milliseconds.
+    let duration_ms = u32::try_from(excitation.duration_us / 1000)
+        .unwrap_or(u32::MAX)
+        .max(1);
     let half_period_ms = excitation
-        .half_period_ticks
-        .map(|t| u16::try_from(to_ms(t)).unwrap_or(u16::MAX).max(1));
+        .half_period_us
+        .map(|us| u16::try_from(us / 1000).unwrap_or(u16::MAX).max(1));
     alive(
         link,
         &Message::Excite {
-            torque_nm: excitation.torque_nm.map(|t| t as f32),
+            torque_nm: excitation.torque_nm,
             half_period_ms,
             duration_ms,
         },
@@ -553,7 +530,7 @@ mod tests {
         link.hello(Duration::from_secs(1)).expect("hello");
         link.request(&Message::Calibrate, Duration::from_secs(1))
             .expect("calibrated");
-        let found = identify_link(&mut link, &truth, &Excitation::default()).expect("identified");
+        let found = identify_link(&mut link, &truth, &EXCITATION).expect("identified");
         check(&truth, &found, 0.2);
     }
 
@@ -562,7 +539,8 @@ mod tests {
             truth,
             SimParams::default(),
             Vec2::new(0.0, 0.09),
-            &Excitation::default(),
+            &EXCITATION,
+            10_000.0,
         )
         .expect("identified");
         check(&truth, &found, 0.1);

@@ -323,19 +323,46 @@ Exit status: 0 identified, 2 the device could not be opened, refused or did not 
 /// `device identify` arguments.
 #[derive(Debug, Args)]
 pub struct DeviceIdentifyArgs {
-    /// Serial port of the board.
+    /// Which device (with `--sim`, its handle released).
+    #[command(flatten)]
+    pub device: DeviceArgs,
+}
+
+/// The device a `device` subcommand talks to: exactly one of these.
+#[derive(Debug, Args)]
+pub struct DeviceArgs {
+    /// Serial port of the board (`/dev/ttyACM0`, `COM3`).
     #[arg(long, value_name = "PATH", conflicts_with_all = ["hid", "sim", "tcp"])]
     pub port: Option<PathBuf>,
-    /// A board over TCP, `HOST:PORT` (the firmware under QEMU).
+    /// A board over TCP, `HOST:PORT`: the firmware under QEMU (`cargo xtask qemu --serve
+    /// 127.0.0.1:PORT`), whose UART speaks the serial link's COBS framing.
     #[arg(long, value_name = "HOST:PORT", conflicts_with_all = ["hid", "sim"])]
     pub tcp: Option<String>,
     /// The first USB HID board.
     #[arg(long, conflicts_with = "sim")]
     pub hid: bool,
-    /// The simulated pantograph in this process, its handle released.
+    /// The simulated pantograph in this process (no hardware needed).
     #[arg(long)]
     pub sim: bool,
 }
+
+impl DeviceArgs {
+    /// The device chosen, `None` when none was.
+    pub fn target(&self) -> Option<host::devices::Target> {
+        use host::devices::Target;
+        match (&self.port, &self.tcp, self.hid, self.sim) {
+            (Some(path), ..) => Some(Target::Serial(path.to_string_lossy().into_owned())),
+            (None, Some(address), ..) => Some(Target::Tcp(address.clone())),
+            (None, None, true, _) => Some(Target::Hid),
+            (None, None, false, true) => Some(Target::Sim),
+            (None, None, false, false) => None,
+        }
+    }
+}
+
+/// What a `device` subcommand says when no device was chosen.
+pub const CHOOSE_A_DEVICE: &str =
+    "choose a device with --port PATH, --tcp HOST:PORT, --hid or --sim";
 
 const DEVICE_SIM_PTY_AFTER: &str = "\
 Opens a pseudo-terminal (Linux, macOS), prints its path (`/dev/pts/N`) on standard output \
@@ -396,19 +423,9 @@ Examples:
 /// Arguments of `device monitor`.
 #[derive(Debug, Args)]
 pub struct MonitorArgs {
-    /// Serial port of the board (`/dev/ttyACM0`, `COM3`).
-    #[arg(long, value_name = "PATH", conflicts_with_all = ["hid", "sim", "tcp"])]
-    pub port: Option<PathBuf>,
-    /// A board over TCP, `HOST:PORT`: the firmware under QEMU (`cargo xtask qemu --serve
-    /// 127.0.0.1:PORT`), whose UART speaks the serial link's COBS framing.
-    #[arg(long, value_name = "HOST:PORT", conflicts_with_all = ["hid", "sim"])]
-    pub tcp: Option<String>,
-    /// The first USB HID board.
-    #[arg(long, conflicts_with = "sim")]
-    pub hid: bool,
-    /// The simulated pantograph in this process (no hardware needed).
-    #[arg(long)]
-    pub sim: bool,
+    /// Which device.
+    #[command(flatten)]
+    pub device: DeviceArgs,
     /// Stop after this many seconds (finite, >= 0, at most u64::MAX s); without it, run
     /// until interrupted.
     #[arg(long, value_name = "S", value_parser = seconds, allow_negative_numbers = true)]

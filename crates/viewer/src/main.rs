@@ -32,53 +32,29 @@ fn main() -> ExitCode {
 }
 
 fn device_identify(args: &viewer::cli::DeviceIdentifyArgs) -> ExitCode {
-    use device::host::{Link, SimConfig, SimLink};
+    use device::host::SimConfig;
     use device::spec::DeviceSpec;
     use host::devices::Target;
-    use std::time::Duration;
     let spec = DeviceSpec::default();
-    let mut link: Box<dyn Link> = if args.sim {
-        let opened = SimLink::spawn(SimConfig {
+    let opened = match args.device.target() {
+        // Nobody holds the simulated handle, and it runs as fast as the host reads.
+        Some(Target::Sim) => host::devices::open_sim(SimConfig {
             paced: false,
             released: true,
             ..SimConfig::default()
         })
-        .map_err(anyhow::Error::from)
-        .and_then(|mut sim| {
-            sim.hello(Duration::from_secs(1))?;
-            sim.request(
-                &device::protocol::Message::Calibrate,
-                Duration::from_secs(1),
-            )?;
-            Ok(sim)
-        });
-        match opened {
-            Ok(sim) => Box::new(sim),
-            Err(e) => return fail(&e.context("the simulated device"), EXIT_BAD_SETUP),
+        .context("the simulated device"),
+        Some(target) => {
+            host::devices::open(&target).with_context(|| format!("cannot open {target:?}"))
         }
-    } else {
-        let target = match (&args.port, &args.tcp, args.hid) {
-            (Some(path), _, _) => Target::Serial(path.to_string_lossy().into_owned()),
-            (None, Some(address), _) => Target::Tcp(address.clone()),
-            (None, None, true) => Target::Hid,
-            (None, None, false) => {
-                let e = anyhow!(
-                    "device identify: choose a device with --port PATH, --tcp HOST:PORT, --hid or --sim"
-                );
-                return fail(&e, EXIT_BAD_SETUP);
-            }
-        };
-        match host::devices::open(&target).with_context(|| format!("cannot open {target:?}")) {
-            Ok(opened) => opened.link,
-            Err(e) => return fail(&e, EXIT_BAD_SETUP),
-        }
+        None => Err(anyhow!("device identify: {}", viewer::cli::CHOOSE_A_DEVICE)),
+    };
+    let mut link = match opened {
+        Ok(opened) => opened.link,
+        Err(e) => return fail(&e, EXIT_BAD_SETUP),
     };
     eprintln!("device identify: exciting the joints for 6 s; keep your hands off the handle");
-    match host::identify::identify_link(
-        link.as_mut(),
-        &spec,
-        &host::identify::Excitation::default(),
-    ) {
+    match host::identify::identify_link(link.as_mut(), &spec, &host::identify::EXCITATION) {
         Ok(found) => print_identified(&found, &spec, None),
         Err(e) => fail(
             &anyhow::Error::new(e).context("device identify"),
@@ -89,7 +65,7 @@ fn device_identify(args: &viewer::cli::DeviceIdentifyArgs) -> ExitCode {
 
 fn identify_command(args: &viewer::cli::IdentifyArgs) -> ExitCode {
     use device::spec::DeviceSpec;
-    use host::identify::{Excitation, identify_simulated};
+    use host::identify::{EXCITATION, identify_simulated};
     let default = DeviceSpec::default();
     let truth = DeviceSpec {
         joint_damping_nms_per_rad: args
@@ -102,7 +78,8 @@ fn identify_command(args: &viewer::cli::IdentifyArgs) -> ExitCode {
         truth,
         device::simulator::SimParams::default(),
         nurbs::Vec2::new(0.0, 0.09),
-        &Excitation::default(),
+        &EXCITATION,
+        10_000.0,
     ) {
         Ok(found) => found,
         Err(e) => return fail(&anyhow::Error::new(e).context("identify"), EXIT_BAD_SETUP),
@@ -551,20 +528,11 @@ fn device_sim_pty(_: &viewer::cli::SimPtyArgs) -> ExitCode {
 }
 
 fn device_monitor(args: &viewer::cli::MonitorArgs) -> ExitCode {
-    use host::devices::Target;
     use std::time::Duration;
     use viewer::devices;
-    let target = match (&args.port, &args.tcp, args.hid, args.sim) {
-        (Some(path), _, _, _) => Target::Serial(path.to_string_lossy().into_owned()),
-        (None, Some(address), _, _) => Target::Tcp(address.clone()),
-        (None, None, true, _) => Target::Hid,
-        (None, None, false, true) => Target::Sim,
-        (None, None, false, false) => {
-            let e = anyhow!(
-                "device monitor: choose a device with --port PATH, --tcp HOST:PORT, --hid or --sim"
-            );
-            return fail(&e, EXIT_BAD_SETUP);
-        }
+    let Some(target) = args.device.target() else {
+        let e = anyhow!("device monitor: {}", viewer::cli::CHOOSE_A_DEVICE);
+        return fail(&e, EXIT_BAD_SETUP);
     };
     let mut opened =
         match host::devices::open(&target).with_context(|| format!("cannot open {target:?}")) {

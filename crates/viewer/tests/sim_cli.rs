@@ -502,17 +502,22 @@ fn numbers_the_f32_loop_cannot_use_exit_2() {
 fn device_command() {
     let dir = TempDir::new("device");
     let (out, png) = (dir.path("run.csv"), dir.path("run.png"));
-    let result = viewer(&[
-        "sim",
-        &scenes("thesis-2d.json"),
-        "--device",
-        "--trajectory",
-        &scenes("thesis-2d.csv"),
-        "--out",
-        &out,
-        "--plot",
-        &png,
-    ]);
+    // `sim --device` on thesis-2d to `out`, with `extra` options.
+    let thesis_device = |extra: &[&str]| {
+        let (scene, trajectory) = (scenes("thesis-2d.json"), scenes("thesis-2d.csv"));
+        let mut args = vec![
+            "sim",
+            &scene,
+            "--device",
+            "--trajectory",
+            &trajectory,
+            "--out",
+            &out,
+        ];
+        args.extend_from_slice(extra);
+        viewer(&args)
+    };
+    let result = thesis_device(&["--plot", &png]);
     let err = stderr(&result);
     assert_eq!(result.status.code(), Some(0), "{err}");
     assert!(!err.contains("passivity controller is on"), "{err}");
@@ -537,21 +542,7 @@ fn device_command() {
         (&["--hand", "released:1.2"][..], 25201, false),
         (&["--hand", "finger"][..], 25201, false),
     ] {
-        let mut args = vec![
-            "sim",
-            &scenes("thesis-2d.json"),
-            "--device",
-            "--trajectory",
-            &scenes("thesis-2d.csv"),
-            "--out",
-            &out,
-        ]
-        .into_iter()
-        .map(str::to_owned)
-        .collect::<Vec<_>>();
-        args.extend(extra.iter().map(|s| (*s).to_owned()));
-        let refs: Vec<&str> = args.iter().map(String::as_str).collect();
-        let result = viewer(&refs);
+        let result = thesis_device(extra);
         let err = stderr(&result);
         assert_eq!(result.status.code(), Some(0), "{extra:?}: {err}");
         assert_eq!(
