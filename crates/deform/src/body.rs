@@ -1,0 +1,592 @@
+//! A deformable patch: its constant mass, damping and stiffness matrices, its state, the
+//! integrator and the static solve.
+
+use crate::DynamicsError;
+use crate::band::{Cholesky, SymBand};
+use crate::params::{Fixed, Params};
+use crate::shape::{Local, Shape};
+
+/// Generalised forces or displacements: one `[x, y, z]` per control point (`z = 0` for planar
+/// curves).
+pub type Nodes = Vec<[f64; 3]>;
+
+/// The energy of the motion about the rest shape.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Energy {
+    /// `½ ṗᵀ M ṗ` (J).
+    pub kinetic_j: f64,
+    /// `½ (p − p₀)ᵀ K (p − p₀)` (J).
+    pub elastic_j: f64,
+}
+
+impl Energy {
+    /// Kinetic plus elastic (J).
+    pub fn total_j(&self) -> f64 {
+        self.kinetic_j + self.elastic_j
+    }
+}
+
+/// A D-NURBS patch with frozen weights: `M p̈ + D ṗ + K (p − p₀) = f_p` (thesis eq. 4.9 with
+/// `p₀` the rest shape), `M = ∫ μ RRᵀ`, `D = ∫ γ RRᵀ`, `K = ∫ α R_s R_sᵀ + β R_ss R_ssᵀ`
+/// (curves; derivatives by arc length `s` of the rest shape) or their surface forms (the
+/// gradient and covariant Hessian in the rest shape's metric), assembled once by
+/// Gauss–Legendre quadrature over each knot span.
+#[derive(Clone, Debug)]
+pub struct Body {
+    shape: Shape,
+    params: Params,
+    rest: Nodes,
+    m: SymBand,
+    d: SymBand,
+    k: SymBand,
+    /// `∫ R_k ds` (or `dA`): the generalised force of a unit uniform load.
+    area: Vec<f64>,
+    /// Rest arc length (curves) or area (surfaces).
+    measure: f64,
+    fixed: Vec<bool>,
+    u: Nodes,
+    v: Nodes,
+    a: Nodes,
+    /// Whether `a` must be recomputed from the state before the next step.
+    a_stale: bool,
+    /// `K + (2/Δt) D + (4/Δt²) M` pinned at the fixed points, factored, for `Δt`.
+    newmark: Option<(f64, Cholesky)>,
+    scratch: [Nodes; 2],
+    local: Local,
+}
+
+impl Body {
+    /// The body of `shape` at rest at `rest` (its Cartesian control points) with `params`.
+    pub fn new(shape: Shape, rest: Nodes, params: Params) -> Result<Self, DynamicsError> {
+        params.validate()?;
+        let n = shape.n_points();
+        if rest.len() != n || n < 2 {
+            return Err(DynamicsError::PointCount {
+                expected: n,
+                found: rest.len(),
+            });
+        }
+        let fixed = fixed_mask(&shape, &params.fixed, n)?;
+        let b = shape.bandwidth();
+        let (mut m, mut k) = (SymBand::zeros(n, b), SymBand::zeros(n, b));
+        let mut area = vec![0.0; n];
+        let mut measure = 0.0;
+        let mut local = Local::default();
+        // Order p + 2 per direction: the mass integrand R Rᵀ·|C'| is a polynomial of degree
+        // 2p + (p − 1) on a straight polynomial curve (exact with ⌈(3p)/2⌉ ≤ p + 2 points for
+        // p ≤ 4) and close to one otherwise.
+        let order = shape.max_degree() + 2;
+        let surface = shape.is_surface();
+        for (params_uv, weight) in shape.quadrature(order) {
+            shape.eval(params_uv, &mut local);
+            let geometry = rest_geometry(&local, &rest);
+            let (dmeasure, grads) = if surface {
+                surface_terms(&geometry, &local, params_uv)?
+            } else {
+                curve_terms(&geometry, &local, params_uv)?
+            };
+            let w = weight * dmeasure;
+            measure += w;
+            for (x, &i) in local.index.iter().enumerate() {
+                area[i] += w * local.r[x];
+                for (y, &j) in local.index.iter().enumerate() {
+                    if j > i {
+                        continue;
+                    }
+                    m.add(i, j, w * local.r[x] * local.r[y]);
+                    let stretch = dot(&grads.first[x], &grads.first[y]);
+                    let bend = dot(&grads.second[x], &grads.second[y]);
+                    k.add(i, j, w * (params.tension * stretch + params.bending * bend));
+                }
+            }
+        }
+        let mass = SymBand::combine(&[(params.density, &m)]);
+        let damping = SymBand::combine(&[(params.damping, &m)]);
+        Ok(Body {
+            shape,
+            params,
+            rest,
+            m: mass,
+            d: damping,
+            k,
+            area,
+            measure,
+            fixed,
+            u: vec![[0.0; 3]; n],
+            v: vec![[0.0; 3]; n],
+            a: vec![[0.0; 3]; n],
+            a_stale: true,
+            newmark: None,
+            scratch: [vec![[0.0; 3]; n], vec![[0.0; 3]; n]],
+            local,
+        })
+    }
+
+    /// The rest shape's patch description.
+    pub fn shape(&self) -> &Shape {
+        &self.shape
+    }
+
+    /// The parameters.
+    pub fn params(&self) -> &Params {
+        &self.params
+    }
+
+    /// Number of control points.
+    pub fn n_points(&self) -> usize {
+        self.rest.len()
+    }
+
+    /// Rest arc length (m) of a curve or area (m²) of a surface.
+    pub fn measure(&self) -> f64 {
+        self.measure
+    }
+
+    /// Which control points are fixed.
+    pub fn fixed(&self) -> &[bool] {
+        &self.fixed
+    }
+
+    /// The rest shape's control points (they move when the object is plastic).
+    pub fn rest(&self) -> &[[f64; 3]] {
+        &self.rest
+    }
+
+    /// The displacement of every control point from the rest shape.
+    pub fn displacement(&self) -> &[[f64; 3]] {
+        &self.u
+    }
+
+    /// The control points' velocities.
+    pub fn velocity(&self) -> &[[f64; 3]] {
+        &self.v
+    }
+
+    /// The current control points.
+    pub fn points(&self) -> Nodes {
+        self.rest
+            .iter()
+            .zip(&self.u)
+            .map(|(p, u)| add(*p, *u))
+            .collect()
+    }
+
+    /// The mass matrix `M`.
+    pub fn mass(&self) -> &SymBand {
+        &self.m
+    }
+
+    /// The stiffness matrix `K`.
+    pub fn stiffness(&self) -> &SymBand {
+        &self.k
+    }
+
+    /// The point of the current shape at `params` (`[u, 0]` on curves).
+    pub fn point(&mut self, params: [f64; 2]) -> [f64; 3] {
+        self.shape.eval(params, &mut self.local);
+        let mut x = [0.0; 3];
+        for (m, &i) in self.local.index.iter().enumerate() {
+            x = add(x, scale(add(self.rest[i], self.u[i]), self.local.r[m]));
+        }
+        x
+    }
+
+    /// The displacement from the rest shape of the point at `params`.
+    pub fn displacement_at(&mut self, params: [f64; 2]) -> [f64; 3] {
+        self.shape.eval(params, &mut self.local);
+        let mut x = [0.0; 3];
+        for (m, &i) in self.local.index.iter().enumerate() {
+            x = add(x, scale(self.u[i], self.local.r[m]));
+        }
+        x
+    }
+
+    /// A load of zero.
+    pub fn zero_load(&self) -> Nodes {
+        vec![[0.0; 3]; self.n_points()]
+    }
+
+    /// Adds a force `force_n` (N) applied at `params` to `load`: `f_p += Jᵀ f` (thesis eq.
+    /// 4.8 for a point force).
+    pub fn add_point_force(&mut self, load: &mut [[f64; 3]], params: [f64; 2], force_n: [f64; 3]) {
+        self.shape.eval(params, &mut self.local);
+        for (m, &i) in self.local.index.iter().enumerate() {
+            if let Some(f) = load.get_mut(i) {
+                *f = add(*f, scale(force_n, self.local.r[m]));
+            }
+        }
+    }
+
+    /// Adds a uniform load `q` (N/m on curves, N/m² on surfaces, per rest length or area):
+    /// `f_p += ∫ Jᵀ q`.
+    pub fn add_uniform_load(&self, load: &mut [[f64; 3]], q: [f64; 3]) {
+        for (f, a) in load.iter_mut().zip(&self.area) {
+            *f = add(*f, scale(q, *a));
+        }
+    }
+
+    /// Back to rest: no displacement, no velocity.
+    pub fn reset(&mut self) {
+        self.u.iter_mut().for_each(|x| *x = [0.0; 3]);
+        self.v.iter_mut().for_each(|x| *x = [0.0; 3]);
+        self.a_stale = true;
+    }
+
+    /// The energy of the current motion.
+    pub fn energy(&self) -> Energy {
+        Energy {
+            kinetic_j: 0.5 * self.m.quadratic(&self.v),
+            elastic_j: 0.5 * self.k.quadratic(&self.u),
+        }
+    }
+
+    /// The equilibrium under `load`: `K (p − p₀) = f_p` on the free points, at rest.
+    /// [`DynamicsError::NotHeld`] when nothing holds the object against the load (too few
+    /// fixed points for its stiffness).
+    pub fn solve_static(&mut self, load: &[[f64; 3]]) -> Result<(), DynamicsError> {
+        check_load(load, self.n_points())?;
+        let mut k = self.k.clone();
+        self.pin(&mut k);
+        let chol = k.cholesky().map_err(|_| DynamicsError::NotHeld)?;
+        let mut x = load.to_vec();
+        self.zero_fixed(&mut x);
+        chol.solve(&mut x);
+        self.u = x;
+        self.v.iter_mut().for_each(|x| *x = [0.0; 3]);
+        self.a_stale = true;
+        Ok(())
+    }
+
+    /// One step of `dt_s` under `load` (the generalised force at the end of the step,
+    /// [`Body::add_point_force`]): Newmark's average acceleration (β = ¼, γ = ½), the
+    /// trapezoidal rule, which is unconditionally stable for the linear system and conserves
+    /// its energy exactly when undamped and unloaded. A plastic object's rest shape then
+    /// creeps towards the new shape.
+    pub fn step(&mut self, dt_s: f64, load: &[[f64; 3]]) -> Result<(), DynamicsError> {
+        if !(dt_s.is_finite() && dt_s > 0.0 && dt_s <= 1.0) {
+            return Err(DynamicsError::Step { dt_s });
+        }
+        check_load(load, self.n_points())?;
+        if self.a_stale {
+            self.initial_acceleration(load)?;
+        }
+        if self.newmark.as_ref().is_none_or(|(dt, _)| *dt != dt_s) {
+            let c = 4.0 / (dt_s * dt_s);
+            let mut eff = SymBand::combine(&[(1.0, &self.k), (2.0 / dt_s, &self.d), (c, &self.m)]);
+            self.pin(&mut eff);
+            let chol = eff.cholesky().map_err(|_| DynamicsError::Step { dt_s })?;
+            self.newmark = Some((dt_s, chol));
+        }
+        let Some((_, chol)) = &self.newmark else {
+            return Err(DynamicsError::Step { dt_s });
+        };
+        let c = 4.0 / (dt_s * dt_s);
+        let [s0, s1] = &mut self.scratch;
+        // rhs = f + M (c u + (4/Δt) v + a) + D ((2/Δt) u + v)
+        for i in 0..self.u.len() {
+            for j in 0..3 {
+                s0[i][j] = c * self.u[i][j] + 4.0 / dt_s * self.v[i][j] + self.a[i][j];
+            }
+        }
+        self.m.mul(s0, s1);
+        let mut rhs: Nodes = load
+            .iter()
+            .zip(s1.iter())
+            .map(|(f, x)| add(*f, *x))
+            .collect();
+        for i in 0..self.u.len() {
+            for j in 0..3 {
+                s0[i][j] = 2.0 / dt_s * self.u[i][j] + self.v[i][j];
+            }
+        }
+        self.d.mul(s0, s1);
+        for (r, x) in rhs.iter_mut().zip(s1.iter()) {
+            *r = add(*r, *x);
+        }
+        for (r, &f) in rhs.iter_mut().zip(&self.fixed) {
+            if f {
+                *r = [0.0; 3];
+            }
+        }
+        chol.solve(&mut rhs);
+        for i in 0..self.u.len() {
+            for j in 0..3 {
+                let a_new =
+                    c * (rhs[i][j] - self.u[i][j]) - 4.0 / dt_s * self.v[i][j] - self.a[i][j];
+                self.v[i][j] += 0.5 * dt_s * (self.a[i][j] + a_new);
+                self.a[i][j] = a_new;
+                self.u[i][j] = rhs[i][j];
+            }
+        }
+        if let Some(tau) = self.params.plastic_time_s {
+            let alpha = (dt_s / tau).min(1.0);
+            for (p, u) in self.rest.iter_mut().zip(self.u.iter_mut()) {
+                *p = add(*p, scale(*u, alpha));
+                *u = scale(*u, 1.0 - alpha);
+            }
+        }
+        Ok(())
+    }
+
+    /// `a = M⁻¹ (f − D v − K u)` on the free points.
+    fn initial_acceleration(&mut self, load: &[[f64; 3]]) -> Result<(), DynamicsError> {
+        let [s0, s1] = &mut self.scratch;
+        self.d.mul(&self.v, s0);
+        self.k.mul(&self.u, s1);
+        let mut a: Nodes = (0..self.u.len())
+            .map(|i| sub(sub(load[i], s0[i]), s1[i]))
+            .collect();
+        let mut m = self.m.clone();
+        self.pin(&mut m);
+        self.zero_fixed(&mut a);
+        m.cholesky()
+            .map_err(|_| DynamicsError::Degenerate)?
+            .solve(&mut a);
+        self.a = a;
+        self.a_stale = false;
+        Ok(())
+    }
+
+    /// The lowest natural frequency (Hz) of the undamped object about its rest shape: the
+    /// smallest `λ` of `K x = λ M x` on the free points by inverse iteration, `f = √λ / 2π`.
+    pub fn lowest_mode_hz(&self) -> Result<f64, DynamicsError> {
+        let n = self.n_points();
+        let mut k = self.k.clone();
+        self.pin(&mut k);
+        let chol = k.cholesky().map_err(|_| DynamicsError::NotHeld)?;
+        let mut x: Vec<[f64; 1]> = (0..n)
+            .map(|i| {
+                [if self.fixed[i] {
+                    0.0
+                } else {
+                    1.0 + (i % 3) as f64 * 0.1
+                }]
+            })
+            .collect();
+        let mut y = vec![[0.0; 1]; n];
+        let mut lambda = 0.0;
+        for _ in 0..500 {
+            self.m.mul(&x, &mut y);
+            for (yi, &f) in y.iter_mut().zip(&self.fixed) {
+                if f {
+                    *yi = [0.0];
+                }
+            }
+            chol.solve(&mut y);
+            let norm = self.m.quadratic(&y).sqrt();
+            if norm.is_nan() || norm <= 0.0 {
+                return Err(DynamicsError::NotHeld);
+            }
+            y.iter_mut().for_each(|v| v[0] /= norm);
+            let next = self.k.quadratic(&y);
+            std::mem::swap(&mut x, &mut y);
+            if (next - lambda).abs() <= 1e-15 * next {
+                lambda = next;
+                break;
+            }
+            lambda = next;
+        }
+        Ok(lambda.sqrt() / (2.0 * std::f64::consts::PI))
+    }
+
+    fn pin(&self, a: &mut SymBand) {
+        for (i, &f) in self.fixed.iter().enumerate() {
+            if f {
+                a.pin(i);
+            }
+        }
+    }
+
+    fn zero_fixed(&self, x: &mut [[f64; 3]]) {
+        for (xi, &f) in x.iter_mut().zip(&self.fixed) {
+            if f {
+                *xi = [0.0; 3];
+            }
+        }
+    }
+}
+
+fn check_load(load: &[[f64; 3]], n: usize) -> Result<(), DynamicsError> {
+    if load.len() != n {
+        return Err(DynamicsError::PointCount {
+            expected: n,
+            found: load.len(),
+        });
+    }
+    if load.iter().flatten().any(|x| !x.is_finite()) {
+        return Err(DynamicsError::Load);
+    }
+    Ok(())
+}
+
+fn fixed_mask(shape: &Shape, fixed: &Fixed, n: usize) -> Result<Vec<bool>, DynamicsError> {
+    let mut mask = vec![false; n];
+    match fixed {
+        Fixed::Edge => match shape {
+            Shape::Curve { .. } => {
+                mask[0] = true;
+                mask[n - 1] = true;
+            }
+            Shape::Surface { count_v, .. } => {
+                let nv = *count_v;
+                let nu = n / nv;
+                for i in 0..nu {
+                    for j in 0..nv {
+                        if i == 0 || j == 0 || i + 1 == nu || j + 1 == nv {
+                            mask[i * nv + j] = true;
+                        }
+                    }
+                }
+            }
+        },
+        Fixed::Points(list) => {
+            for &i in list {
+                let slot = mask
+                    .get_mut(i)
+                    .ok_or(DynamicsError::FixedIndex { index: i, count: n })?;
+                if *slot {
+                    return Err(DynamicsError::FixedTwice { index: i });
+                }
+                *slot = true;
+            }
+        }
+    }
+    Ok(mask)
+}
+
+/// Derivatives of the rest shape at a quadrature point: `[S, S_u, S_v, S_uu, S_uv, S_vv]`.
+fn rest_geometry(local: &Local, rest: &[[f64; 3]]) -> [[f64; 3]; 6] {
+    let mut g = [[0.0; 3]; 6];
+    for (m, &i) in local.index.iter().enumerate() {
+        let p = rest[i];
+        let c = [
+            local.r[m],
+            local.d1[m][0],
+            local.d1[m][1],
+            local.d2[m][0],
+            local.d2[m][1],
+            local.d2[m][2],
+        ];
+        for (gk, ck) in g.iter_mut().zip(c) {
+            *gk = add(*gk, scale(p, ck));
+        }
+    }
+    g
+}
+
+/// Per basis function, the quantities whose products make the stiffness: the gradient and
+/// the Hessian by the rest shape's arc length or metric, each flattened so that a dot
+/// product of two is the integrand's contraction.
+struct Grads {
+    first: Vec<Vec<f64>>,
+    second: Vec<Vec<f64>>,
+}
+
+/// Curves: `ds = g du` with `g = |C'|`, `d/ds = (1/g) d/du`,
+/// `d²/ds² = (1/g²) (d²/du² − (g'/g) d/du)`, `g' = C'·C''/g`.
+fn curve_terms(
+    geometry: &[[f64; 3]; 6],
+    local: &Local,
+    at: [f64; 2],
+) -> Result<(f64, Grads), DynamicsError> {
+    let (cu, cuu) = (geometry[1], geometry[3]);
+    let g = dot(&cu, &cu).sqrt();
+    if !(g > 0.0 && g.is_finite()) {
+        return Err(DynamicsError::ZeroSpeed { params: at });
+    }
+    let gp = dot(&cu, &cuu) / g;
+    let (first, second) = (0..local.r.len())
+        .map(|m| {
+            let (ru, ruu) = (local.d1[m][0], local.d2[m][0]);
+            (vec![ru / g], vec![(ruu - gp / g * ru) / (g * g)])
+        })
+        .unzip();
+    Ok((g, Grads { first, second }))
+}
+
+/// Surfaces: metric `G = [S_u·S_u, S_u·S_v; S_u·S_v, S_v·S_v]`, `dA = √det G du dv`; the
+/// membrane term `∇Rᵀ G⁻¹ ∇R`, the bending term the squared norm of the covariant Hessian
+/// `H_ab = R_ab − Γᶜ_ab R_c` (`Γᶜ_ab = Gᶜᵈ S_ab·S_d`) contracted with `G⁻¹` on both
+/// indices, `tr(G⁻¹ H G⁻¹ H')`. Flattened with `G⁻¹ = Lᵀ L`: `first = L ∇R` and
+/// `second = L H Lᵀ`, whose dot products are those contractions.
+fn surface_terms(
+    geometry: &[[f64; 3]; 6],
+    local: &Local,
+    at: [f64; 2],
+) -> Result<(f64, Grads), DynamicsError> {
+    let (su, sv) = (geometry[1], geometry[2]);
+    let (e, f, g) = (dot(&su, &su), dot(&su, &sv), dot(&sv, &sv));
+    let det = e * g - f * f;
+    if !(det > 0.0 && det.is_finite()) {
+        return Err(DynamicsError::ZeroSpeed { params: at });
+    }
+    let inv = [[g / det, -f / det], [-f / det, e / det]];
+    // L = Cᵀ with C the (lower) Cholesky factor of G⁻¹ = C Cᵀ.
+    let c00 = inv[0][0].sqrt();
+    let c10 = inv[1][0] / c00;
+    let c11 = (inv[1][1] - c10 * c10).max(0.0).sqrt();
+    let l = [[c00, c10], [0.0, c11]];
+    let tangents = [su, sv];
+    let seconds = [[geometry[3], geometry[4]], [geometry[4], geometry[5]]];
+    // Γᶜ_ab = Gᶜᵈ (S_ab · S_d)
+    let mut gamma = [[[0.0; 2]; 2]; 2];
+    for a in 0..2 {
+        for b in 0..2 {
+            let proj = [
+                dot(&seconds[a][b], &tangents[0]),
+                dot(&seconds[a][b], &tangents[1]),
+            ];
+            for c in 0..2 {
+                gamma[c][a][b] = inv[c][0] * proj[0] + inv[c][1] * proj[1];
+            }
+        }
+    }
+    let mut first = Vec::with_capacity(local.r.len());
+    let mut second = Vec::with_capacity(local.r.len());
+    for m in 0..local.r.len() {
+        let grad = local.d1[m];
+        let [ruu, ruv, rvv] = local.d2[m];
+        let raw = [[ruu, ruv], [ruv, rvv]];
+        let mut h = [[0.0; 2]; 2];
+        for a in 0..2 {
+            for b in 0..2 {
+                h[a][b] = raw[a][b] - gamma[0][a][b] * grad[0] - gamma[1][a][b] * grad[1];
+            }
+        }
+        first.push(
+            (0..2)
+                .map(|i| l[i][0] * grad[0] + l[i][1] * grad[1])
+                .collect(),
+        );
+        let mut lhl = Vec::with_capacity(4);
+        for i in 0..2 {
+            for j in 0..2 {
+                let mut s = 0.0;
+                for a in 0..2 {
+                    for b in 0..2 {
+                        s += l[i][a] * h[a][b] * l[j][b];
+                    }
+                }
+                lhl.push(s);
+            }
+        }
+        second.push(lhl);
+    }
+    Ok((det.sqrt(), Grads { first, second }))
+}
+
+fn dot(a: &[f64], b: &[f64]) -> f64 {
+    a.iter().zip(b).map(|(x, y)| x * y).sum()
+}
+
+fn add(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    [a[0] + b[0], a[1] + b[1], a[2] + b[2]]
+}
+
+fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
+}
+
+fn scale(a: [f64; 3], s: f64) -> [f64; 3] {
+    [a[0] * s, a[1] * s, a[2] * s]
+}
