@@ -8,6 +8,10 @@ sharp convex vertex, like Fig. 3.2.1(a), in the pantograph's workspace; the traj
 reproduces events 1-13 of thesis section 3.2.1.
 thesis-3d: a bicubic NURBS bump; the trajectory keeps u constant and moves along v with the
 stick / slip / stick / slip sequence of section 3.2.2 (Fig. 3.2.6-3.2.7).
+deformable: a taut string (a straight cubic of 12 control points, D-NURBS tension 5 N) and a
+drum skin (a flat 10 x 10 bicubic, membrane tension 50 N/m) that the hand pushes in
+(`viewer sim --deform`, `viewer deform`, the app's deform toggle); the trajectory presses the
+string's middle 4 mm past its rest shape, strokes along it and lets go.
 torus: an exact rational biquadratic torus (one 9 x 9 patch, no trajectory), to feel a closed
 curved surface in the viewer's 3-D view.
 """
@@ -190,6 +194,67 @@ def torus(center=(0.0, 0.09, 0.0), major=0.03, minor=0.01):
     }
 
 
+def clamped_uniform(p, n):
+    inner = n - p
+    return [0.0] * (p + 1) + [i / inner for i in range(1, inner)] + [1.0] * (p + 1)
+
+
+def greville(knots, p, n):
+    """Control points at the Greville abscissae make a straight patch's parametrisation
+    linear (uniform speed), so arc length and parameter agree."""
+    return [sum(knots[i + 1:i + p + 1]) / p for i in range(n)]
+
+
+def deformable():
+    n, length, y = 12, 0.08, 0.09
+    k = clamped_uniform(3, n)
+    string = {
+        "name": "taut string (D-NURBS, 5 N)",
+        "material": {"stiffness_n_per_m": 1000.0, "damping_ns_per_m": 0.0,
+                     "mu_static": 0.3, "mu_dynamic": 0.2},
+        "patches": [{
+            "degree": 3,
+            "knots": k,
+            "points": [[round(-length / 2 + length * g, 9), y] for g in greville(k, 3, n)],
+        }],
+        "dynamics": {"density_kg_per_m": 0.1, "damping_ns_per_m2": 10.0, "tension_n": 5.0,
+                     "bending_n_m2": 0.0, "fixed": "ends", "plastic": False},
+    }
+    m, side = 10, 0.1
+    kd = clamped_uniform(3, m)
+    g = greville(kd, 3, m)
+    drum = {
+        "name": "drum skin (D-NURBS, 50 N/m)",
+        "material": {"stiffness_n_per_m": 1000.0, "damping_ns_per_m": 0.0,
+                     "mu_static": 0.3, "mu_dynamic": 0.2},
+        "patches": [{
+            "degree": [3, 3],
+            "knots": [kd, kd],
+            "points": [[[round(-side / 2 + side * gu, 9), round(y - side / 2 + side * gv, 9), 0.0]
+                        for gv in g] for gu in g],
+        }],
+        "dynamics": {"density_kg_per_m2": 1.0, "damping_ns_per_m3": 100.0,
+                     "tension_n_per_m": 50.0, "bending_n_m": 0.0, "fixed": "boundary",
+                     "plastic": False},
+    }
+    scene = {"format": "scene/1", "objects": [string, drum]}
+
+    def line(a, b):
+        return lambda s: (a[0] + (b[0] - a[0]) * s, a[1] + (b[1] - a[1]) * s)
+
+    free, pressed = (0.0, y - 0.010), (0.0, y + 0.004)
+    side_point = (0.015, y + 0.004)
+    segs = [
+        (0.3, line(free, pressed)),  # press the middle 4 mm past the rest shape
+        (0.7, line(pressed, pressed)),  # hold: the string settles under the finger
+        (0.5, line(pressed, side_point)),  # stroke along it
+        (0.5, line(side_point, pressed)),
+        (0.3, line(pressed, free)),  # let go: the string springs back
+        (0.2, line(free, free)),
+    ]
+    return scene, segs
+
+
 def write(name, scene, segs):
     with open(os.path.join(HERE, f"{name}.json"), "w") as f:
         json.dump(scene, f, indent=1)
@@ -213,6 +278,7 @@ def write(name, scene, segs):
 if __name__ == "__main__":
     write("thesis-2d", *thesis_2d())
     write("thesis-3d", *thesis_3d())
+    write("deformable", *deformable())
     with open(os.path.join(HERE, "torus.json"), "w") as f:
         json.dump(torus(), f, indent=1)
         f.write("\n")

@@ -27,6 +27,10 @@ pub const BUNDLED: &[Bundled] = &[
         json: include_str!("../../../scenes/examples.json"),
     },
     Bundled {
+        name: "deformable",
+        json: include_str!("../../../scenes/deformable.json"),
+    },
+    Bundled {
         name: "torus",
         json: include_str!("../../../scenes/torus.json"),
     },

@@ -184,6 +184,7 @@ fn with_patches(
     let old = &scene.objects()[object];
     let material = material.unwrap_or(*old.material());
     let edited = Object::new(old.name(), material, patches)
+        .and_then(|o| o.with_dynamics(old.dynamics().cloned()))
         .map_err(|e| in_patch(scene, object, patch, EditErrorKind::Object(e)))?;
     let mut objects = scene.objects().to_vec();
     objects[object] = edited;

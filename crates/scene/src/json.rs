@@ -48,6 +48,23 @@
 //! | `bristle_damping_ns_per_m` | 0 | ≥ 0 |
 //! | `stribeck_speed_m_per_s` | 0.01 | > 0 |
 //!
+//! An object of one patch may carry a `"dynamics"` block, which makes it deformable (D-NURBS,
+//! crate `deform`); without one it is rigid. Its fields, per unit arc length (curves) or area
+//! (surfaces) of the rest shape, with the defaults of [`Params::CURVE`] / [`Params::SURFACE`]:
+//!
+//! | curve field | surface field | default (curve / surface) | valid |
+//! |---|---|---|---|
+//! | `density_kg_per_m` | `density_kg_per_m2` | 0.1 / 1 | > 0 |
+//! | `damping_ns_per_m2` | `damping_ns_per_m3` | 10 / 100 | ≥ 0 |
+//! | `tension_n` | `tension_n_per_m` | 5 / 50 | ≥ 0 |
+//! | `bending_n_m2` | `bending_n_m` | 0 / 0 | ≥ 0, tension + bending > 0 |
+//! | `fixed` | `fixed` | `"ends"` / `"boundary"` | that, or `[i, …]` / `[[i, j], …]` |
+//! | `plastic` | `plastic` | `false` | `true`: the rest shape follows the shape |
+//! | `plastic_time_s` | `plastic_time_s` | 0.1 (with `plastic`) | > 0 |
+//!
+//! All at most 10⁹. A field of the other kind (`tension_n_per_m` on a curve) is refused naming
+//! the right one.
+//!
 //! Every number must be finite and representable in `f32` (the loop's type). Control point
 //! coordinates lie within ±[`nurbs::MAX_COORDINATE`] (10⁶ m); weights are positive normal
 //! `f32`s, each at least [`nurbs::MIN_WEIGHT_RATIO`] (10⁻⁶) of its patch's largest weight:
@@ -68,8 +85,11 @@ use serde::Deserialize;
 use serde::de::{self, DeserializeOwned, Deserializer, SeqAccess, Visitor};
 use serde_json::{Map, Value, json};
 
+use deform::{DEFAULT_PLASTIC_TIME_S, Quantity};
+
 use crate::{
-    FORMAT, Material, MaterialError, Object, ObjectError, Patch, PatchError, Scene, SceneError,
+    FORMAT, Fixed, Material, MaterialError, Object, ObjectError, Params, Patch, PatchError, Scene,
+    SceneError,
 };
 
 impl Scene {
@@ -129,8 +149,109 @@ impl Object {
                 Patch::from_raw(p).map_err(|error| ObjectError::Patch { index, error })
             })
             .collect::<Result<Vec<_>, _>>()?;
-        Object::new(raw.name, material, patches)
+        let dynamics = match &raw.dynamics {
+            Some(d) => Some(dynamics_from_raw(d, &patches)?),
+            None => None,
+        };
+        Object::new(raw.name, material, patches)?.with_dynamics(dynamics)
     }
+}
+
+/// The `dynamics` block of an object whose patches are `patches`: the field names of its kind
+/// (a curve's `tension_n`, a surface's `tension_n_per_m`, …), absent fields the defaults of
+/// [`Params::default_for`], `fixed` as `"ends"`/`"boundary"` or indices.
+fn dynamics_from_raw(d: &RawDynamics, patches: &[Patch]) -> Result<Params, ObjectError> {
+    let err = |message: String| ObjectError::Dynamics { message };
+    let (surface, count_v, count) = match patches.first() {
+        Some(Patch::Surface(s)) => (true, s.counts().1, s.points().len()),
+        Some(Patch::Curve2(c)) => (false, 0, c.points().len()),
+        Some(Patch::Curve3(c)) => (false, 0, c.points().len()),
+        None => (false, 0, 0),
+    };
+    let kind = if surface { "surface" } else { "curve" };
+    // (value, the field of this kind, the other kind's field): a field of the other kind is
+    // refused naming the right one.
+    let pick = |mine: Option<F32>, theirs: Option<F32>, quantity: Quantity, default: f64| {
+        if theirs.is_some() {
+            return Err(err(format!(
+                "dynamics.{}: a field of a {}, but this object is a {kind} (use {})",
+                quantity.field(!surface),
+                if surface { "curve" } else { "surface" },
+                quantity.field(surface)
+            )));
+        }
+        Ok(mine.map_or(default, |v| f64::from(v.0)))
+    };
+    let (c, s) = (d, d);
+    let mine = |a: Option<F32>, b: Option<F32>| if surface { (b, a) } else { (a, b) };
+    let defaults = Params::default_for(surface);
+    let (m, t) = mine(c.density_kg_per_m, s.density_kg_per_m2);
+    let density = pick(m, t, Quantity::Density, defaults.density)?;
+    let (m, t) = mine(c.damping_ns_per_m2, s.damping_ns_per_m3);
+    let damping = pick(m, t, Quantity::Damping, defaults.damping)?;
+    let (m, t) = mine(c.tension_n, s.tension_n_per_m);
+    let tension = pick(m, t, Quantity::Tension, defaults.tension)?;
+    let (m, t) = mine(c.bending_n_m2, s.bending_n_m);
+    let bending = pick(m, t, Quantity::Bending, defaults.bending)?;
+    let edge = if surface { "boundary" } else { "ends" };
+    let fixed = match &d.fixed {
+        None => Fixed::Edge,
+        Some(Value::String(name)) if name == edge => Fixed::Edge,
+        Some(Value::Array(items)) => {
+            let mut list = Vec::with_capacity(items.len());
+            for (k, item) in items.iter().enumerate() {
+                let index = if surface {
+                    item.as_array()
+                        .filter(|ij| ij.len() == 2)
+                        .and_then(|ij| Some((ij[0].as_u64()?, ij[1].as_u64()?)))
+                        .and_then(|(i, j)| {
+                            let (i, j) = (usize::try_from(i).ok()?, usize::try_from(j).ok()?);
+                            (j < count_v && i < count / count_v.max(1)).then_some(i * count_v + j)
+                        })
+                } else {
+                    item.as_u64()
+                        .and_then(|i| usize::try_from(i).ok())
+                        .filter(|&i| i < count)
+                };
+                let what = if surface {
+                    format!(
+                        "an [i, j] pair of a control point (i < {}, j < {count_v})",
+                        count / count_v.max(1)
+                    )
+                } else {
+                    format!("a control point index below {count}")
+                };
+                list.push(
+                    index
+                        .ok_or_else(|| err(format!("dynamics.fixed[{k}]: {item} is not {what}")))?,
+                );
+            }
+            Fixed::Points(list)
+        }
+        Some(other) => {
+            let list = if surface { "[[i, j], …]" } else { "[i, …]" };
+            return Err(err(format!(
+                "dynamics.fixed: {other} is not \"{edge}\" or a list {list} of control points"
+            )));
+        }
+    };
+    let plastic_time_s = match (d.plastic, d.plastic_time_s) {
+        (Some(true), t) => Some(t.map_or(DEFAULT_PLASTIC_TIME_S, |v| f64::from(v.0))),
+        (_, Some(_)) => {
+            return Err(err(
+                "dynamics.plastic_time_s: given, but plastic is not true".to_owned(),
+            ));
+        }
+        _ => None,
+    };
+    Ok(Params {
+        density,
+        damping,
+        tension,
+        bending,
+        fixed,
+        plastic_time_s,
+    })
 }
 
 impl Material {
@@ -393,6 +514,37 @@ struct RawObject {
     name: String,
     material: RawMaterial,
     patches: Vec<RawPatch>,
+    #[serde(default)]
+    dynamics: Option<RawDynamics>,
+}
+
+/// Both kinds' fields: which apply follows from the patches, and a field of the other kind is
+/// refused by name.
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields, rename = "Dynamics")]
+struct RawDynamics {
+    #[serde(default)]
+    density_kg_per_m: Option<F32>,
+    #[serde(default)]
+    density_kg_per_m2: Option<F32>,
+    #[serde(default)]
+    damping_ns_per_m2: Option<F32>,
+    #[serde(default)]
+    damping_ns_per_m3: Option<F32>,
+    #[serde(default)]
+    tension_n: Option<F32>,
+    #[serde(default)]
+    tension_n_per_m: Option<F32>,
+    #[serde(default)]
+    bending_n_m2: Option<F32>,
+    #[serde(default)]
+    bending_n_m: Option<F32>,
+    #[serde(default)]
+    fixed: Option<Value>,
+    #[serde(default)]
+    plastic: Option<bool>,
+    #[serde(default)]
+    plastic_time_s: Option<F32>,
 }
 
 #[derive(Deserialize)]
@@ -673,11 +825,46 @@ fn patch(p: &Patch) -> Value {
 }
 
 fn object(o: &Object) -> Value {
-    json!({
+    let mut out = json!({
         "name": o.name(),
         "material": material(o.material()),
         "patches": o.patches().iter().map(patch).collect::<Vec<_>>(),
-    })
+    });
+    if let (Some(d), Value::Object(map)) = (o.dynamics(), &mut out) {
+        map.insert("dynamics".to_owned(), dynamics(d, o.patches()));
+    }
+    out
+}
+
+fn dynamics(d: &Params, patches: &[Patch]) -> Value {
+    let count_v = match patches.first() {
+        Some(Patch::Surface(s)) => Some(s.counts().1),
+        _ => None,
+    };
+    let surface = count_v.is_some();
+    let mut out = Map::new();
+    for (q, v) in [
+        (Quantity::Density, d.density),
+        (Quantity::Damping, d.damping),
+        (Quantity::Tension, d.tension),
+        (Quantity::Bending, d.bending),
+    ] {
+        out.insert(q.field(surface).to_owned(), num(v as f32));
+    }
+    let fixed = match (&d.fixed, count_v) {
+        (Fixed::Edge, None) => json!("ends"),
+        (Fixed::Edge, Some(_)) => json!("boundary"),
+        (Fixed::Points(list), None) => json!(list),
+        (Fixed::Points(list), Some(nv)) => {
+            json!(list.iter().map(|k| [k / nv, k % nv]).collect::<Vec<_>>())
+        }
+    };
+    out.insert("fixed".to_owned(), fixed);
+    out.insert("plastic".to_owned(), json!(d.plastic_time_s.is_some()));
+    if let Some(t) = d.plastic_time_s {
+        out.insert("plastic_time_s".to_owned(), num(t as f32));
+    }
+    Value::Object(out)
 }
 
 impl Scene {
@@ -699,13 +886,13 @@ impl Scene {
             .enumerate()
             .map(|(i, o)| {
                 if i == index {
-                    Object::new(o.name().to_owned(), material, o.patches().to_vec()).map_err(
-                        |error| SceneError::Object {
+                    Object::new(o.name().to_owned(), material, o.patches().to_vec())
+                        .and_then(|x| x.with_dynamics(o.dynamics().cloned()))
+                        .map_err(|error| SceneError::Object {
                             index: i,
                             name: o.name().to_owned(),
                             error,
-                        },
-                    )
+                        })
                 } else {
                     Ok(o.clone())
                 }
@@ -1543,5 +1730,115 @@ mod read_tests {
                 tracker::MAX_SHELL_PATCHES
             )
         );
+    }
+
+    /// The bundled deformable string reads its block with the curve's names, and the drum
+    /// with the surface's; both write back to the same parameters.
+    #[test]
+    fn dynamics_block_reads_and_round_trips() {
+        let scene = Scene::from_json_str(include_str!("../../../scenes/deformable.json"))
+            .unwrap_or_else(|e| panic!("{e}"));
+        let string = scene.objects()[0].dynamics().expect("deformable");
+        assert_eq!(
+            (string.density, string.tension, string.fixed.clone()),
+            (0.1f32 as f64, 5.0, Fixed::Edge)
+        );
+        let drum = scene.objects()[1].dynamics().expect("deformable");
+        assert_eq!((drum.density, drum.tension), (1.0, 50.0));
+        let back = Scene::from_json_str(&scene.to_json_string()).unwrap_or_else(|e| panic!("{e}"));
+        for (a, b) in scene.objects().iter().zip(back.objects()) {
+            assert_eq!(a.dynamics(), b.dynamics());
+        }
+    }
+
+    /// Absent fields take the documented defaults; fixed lists and plastic read as given.
+    #[test]
+    fn dynamics_defaults_and_lists() {
+        let text = include_str!("../../../scenes/deformable.json");
+        let start = text.find("\"dynamics\"").expect("block");
+        let end = start + text[start..].find('}').expect("end") + 1;
+        let with = |block: &str| {
+            let t = format!("{}\"dynamics\": {block}{}", &text[..start], &text[end..]);
+            Scene::from_json_str(&t).map(|s| s.objects()[0].dynamics().cloned())
+        };
+        let d = with("{}")
+            .unwrap_or_else(|e| panic!("{e}"))
+            .expect("deformable");
+        assert_eq!(d, Params::CURVE);
+        let d = with(r#"{"fixed": [0, 5, 11], "plastic": true}"#)
+            .unwrap_or_else(|e| panic!("{e}"))
+            .expect("deformable");
+        assert_eq!(d.fixed, Fixed::Points(vec![0, 5, 11]));
+        assert_eq!(d.plastic_time_s, Some(deform::DEFAULT_PLASTIC_TIME_S));
+        let message = |block: &str| match with(block) {
+            Ok(_) => panic!("{block} accepted"),
+            Err(e) => e.to_string(),
+        };
+        for (block, parts) in [
+            (
+                r#"{"tension_n": -1}"#,
+                &["object 0", "dynamics.tension_n", "-1"][..],
+            ),
+            (
+                r#"{"density_kg_per_m": 0}"#,
+                &["dynamics.density_kg_per_m", "positive"],
+            ),
+            (r#"{"tension_n": 0}"#, &["dynamics", "no stiffness"]),
+            (
+                r#"{"tension_n_per_m": 5}"#,
+                &["dynamics.tension_n_per_m", "use tension_n"],
+            ),
+            (
+                r#"{"fixed": [0, 12]}"#,
+                &["dynamics.fixed[1]", "12", "below 12"],
+            ),
+            (r#"{"fixed": [3, 3]}"#, &["dynamics.fixed", "3", "twice"]),
+            (r#"{"fixed": "boundary"}"#, &["dynamics.fixed", "\"ends\""]),
+            (
+                r#"{"plastic_time_s": 0.2}"#,
+                &["dynamics.plastic_time_s", "plastic"],
+            ),
+            (
+                r#"{"plastic": true, "plastic_time_s": 0}"#,
+                &["dynamics.plastic_time_s"],
+            ),
+            (r#"{"stiffness": 3}"#, &["dynamics", "stiffness"]),
+            (r#"{"tension_n": 1e40}"#, &["dynamics.tension_n", "f32"]),
+        ] {
+            assert_mentions(&message(block), parts);
+        }
+    }
+
+    /// A surface's fixed points are [i, j] pairs within its net; a multi-patch object cannot
+    /// deform.
+    #[test]
+    fn dynamics_of_surfaces_and_multi_patch_objects() {
+        let text = include_str!("../../../scenes/deformable.json");
+        let start = text.rfind("\"dynamics\"").expect("block");
+        let end = start + text[start..].find('}').expect("end") + 1;
+        let with = |block: &str| {
+            let t = format!("{}\"dynamics\": {block}{}", &text[..start], &text[end..]);
+            Scene::from_json_str(&t).map(|s| s.objects()[1].dynamics().cloned())
+        };
+        let d = with(r#"{"fixed": [[0, 0], [9, 9]]}"#).unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(d.expect("deformable").fixed, Fixed::Points(vec![0, 99]));
+        let e = with(r#"{"fixed": [[0, 10]]}"#)
+            .expect_err("refused")
+            .to_string();
+        assert_mentions(&e, &["object 1", "dynamics.fixed[0]", "[0,10]", "j < 10"]);
+        let e = with(r#"{"tension_n": 5}"#)
+            .expect_err("refused")
+            .to_string();
+        assert_mentions(
+            &e,
+            &["dynamics.tension_n", "surface", "use tension_n_per_m"],
+        );
+        let two = include_str!("../../../scenes/thesis-2d.json").replacen(
+            "\"patches\"",
+            "\"dynamics\": {}, \"patches\"",
+            1,
+        );
+        let e = Scene::from_json_str(&two).expect_err("refused").to_string();
+        assert_mentions(&e, &["dynamics", "one patch", "has 2"]);
     }
 }

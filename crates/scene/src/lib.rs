@@ -19,6 +19,9 @@ pub use friction::MaterialError;
 use nurbs::{Curve, CurveBuf, NurbsError, Surface, SurfaceBuf, Vec2, Vec3};
 use tracker::{Chain, ChainError, Shell, ShellError};
 
+use deform::Shape;
+pub use deform::{Body, DynamicsError, Fixed, Params};
+
 /// The value of the `format` field this module reads.
 pub const FORMAT: &str = "scene/1";
 
@@ -34,6 +37,8 @@ pub struct Object {
     name: String,
     material: Material,
     patches: Vec<Patch>,
+    /// D-NURBS parameters when the object deforms ([`Object::with_dynamics`]).
+    dynamics: Option<Params>,
 }
 
 /// Contact and friction material of an object: a validated
@@ -166,6 +171,12 @@ pub enum ObjectError {
     /// The surfaces do not form a valid shell (its message starts with the field).
     #[error(transparent)]
     Shell(#[from] ShellError),
+    /// An invalid `dynamics` block (the message starts with `dynamics` and names the field).
+    #[error("{message}")]
+    Dynamics {
+        /// What is wrong, e.g. `dynamics.tension_n: -1 is not a non-negative number …`.
+        message: String,
+    },
 }
 
 /// An error in one patch.
@@ -219,9 +230,55 @@ impl Object {
             name: name.into(),
             material,
             patches,
+            dynamics: None,
         };
         object.check_topology()?;
         Ok(object)
+    }
+
+    /// The object made deformable with `dynamics` (or rigid with `None`), checked: one patch
+    /// only, fixed points that exist, valid parameters and a rest shape whose arc length or
+    /// area is defined everywhere.
+    pub fn with_dynamics(mut self, dynamics: Option<Params>) -> Result<Self, ObjectError> {
+        self.dynamics = dynamics;
+        if let Some(Err(e)) = self.body() {
+            let surface = matches!(self.patches[0], Patch::Surface(_));
+            let message = match e {
+                DynamicsError::Param { .. } => format!("dynamics.{}", e.message(surface)),
+                DynamicsError::FixedIndex { .. } | DynamicsError::FixedTwice { .. } => {
+                    format!("dynamics.{e}")
+                }
+                e => format!("dynamics: {e}"),
+            };
+            return Err(ObjectError::Dynamics { message });
+        }
+        if self.dynamics.is_some() && self.patches.len() != 1 {
+            return Err(ObjectError::Dynamics {
+                message: format!(
+                    "dynamics: only an object of one patch deforms, this one has {} (joined \
+                     patches would have to share their end points as they move)",
+                    self.patches.len()
+                ),
+            });
+        }
+        Ok(self)
+    }
+
+    /// The D-NURBS parameters, when the object deforms.
+    pub fn dynamics(&self) -> Option<&Params> {
+        self.dynamics.as_ref()
+    }
+
+    /// The deformable body of a deformable object (its first patch at rest), `None` when the
+    /// object is rigid.
+    pub fn body(&self) -> Option<Result<Body, DynamicsError>> {
+        let params = self.dynamics.clone()?;
+        let (shape, rest) = match &self.patches[0] {
+            Patch::Curve2(c) => Shape::of_curve2(c),
+            Patch::Curve3(c) => Shape::of_curve3(c),
+            Patch::Surface(s) => Shape::of_surface(s),
+        };
+        Some(Body::new(shape, rest, params))
     }
 
     /// Name (free text, not necessarily unique).
