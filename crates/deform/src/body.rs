@@ -26,6 +26,24 @@ impl Energy {
     }
 }
 
+/// A spring between a point of the object and an anchor (a penalty contact: the HIP pressing
+/// on the object), included implicitly in a step ([`Body::step_coupled`]): its force on the
+/// object `k P (anchor − x(params))`, `P` the projector on `normal` (or the identity when
+/// `None`), acts at the end of the step with the object's new shape. A stiff contact on a
+/// light object stepped explicitly (its force from the shape before the step) gains energy
+/// every step and throws the object off; implicit, the pair is the trapezoidal rule's again.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Coupling {
+    /// Where on the object (`[u, 0]` on curves).
+    pub params: [f64; 2],
+    /// Where the spring's other end is (m).
+    pub anchor: [f64; 3],
+    /// Its stiffness (N/m).
+    pub stiffness: f64,
+    /// The one direction it acts along (unit), or every direction when `None`.
+    pub normal: Option<[f64; 3]>,
+}
+
 /// A D-NURBS patch with frozen weights: `M p̈ + D ṗ + K (p − p₀) = f_p` (thesis eq. 4.9 with
 /// `p₀` the rest shape), `M = ∫ μ RRᵀ`, `D = ∫ γ RRᵀ`, `K = ∫ α R_s R_sᵀ + β R_ss R_ssᵀ`
 /// (curves; derivatives by arc length `s` of the rest shape) or their surface forms (the
@@ -47,8 +65,8 @@ pub struct Body {
     u: Nodes,
     v: Nodes,
     a: Nodes,
-    /// Whether `a` must be recomputed from the state before the next step.
-    a_stale: bool,
+    /// `M` pinned at the fixed points, factored.
+    mass_factor: Option<Cholesky>,
     /// `K + (2/Δt) D + (4/Δt²) M` pinned at the fixed points, factored, for `Δt`.
     newmark: Option<(f64, Cholesky)>,
     scratch: [Nodes; 2],
@@ -115,7 +133,7 @@ impl Body {
             u: vec![[0.0; 3]; n],
             v: vec![[0.0; 3]; n],
             a: vec![[0.0; 3]; n],
-            a_stale: true,
+            mass_factor: None,
             newmark: None,
             scratch: [vec![[0.0; 3]; n], vec![[0.0; 3]; n]],
             local,
@@ -229,7 +247,6 @@ impl Body {
     pub fn reset(&mut self) {
         self.u.iter_mut().for_each(|x| *x = [0.0; 3]);
         self.v.iter_mut().for_each(|x| *x = [0.0; 3]);
-        self.a_stale = true;
     }
 
     /// The energy of the current motion.
@@ -249,27 +266,48 @@ impl Body {
         self.pin(&mut k);
         let chol = k.cholesky().map_err(|_| DynamicsError::NotHeld)?;
         let mut x = load.to_vec();
-        self.zero_fixed(&mut x);
+        zero_fixed(&self.fixed, &mut x);
         chol.solve(&mut x);
         self.u = x;
         self.v.iter_mut().for_each(|x| *x = [0.0; 3]);
-        self.a_stale = true;
         Ok(())
     }
 
     /// One step of `dt_s` under `load` (the generalised force at the end of the step,
     /// [`Body::add_point_force`]): Newmark's average acceleration (β = ¼, γ = ½), the
     /// trapezoidal rule, which is unconditionally stable for the linear system and conserves
-    /// its energy exactly when undamped and unloaded. A plastic object's rest shape then
+    /// its energy exactly when undamped and unloaded. The present acceleration is computed
+    /// from the present state under this step's forces (one solve with `M`), so a load that
+    /// changes between steps is a force, never a kick. A plastic object's rest shape then
     /// creeps towards the new shape.
     pub fn step(&mut self, dt_s: f64, load: &[[f64; 3]]) -> Result<(), DynamicsError> {
+        self.step_coupled(dt_s, load, None)
+    }
+
+    /// The force (N) `coupling` exerts on the object in its current shape.
+    pub fn coupling_force(&mut self, coupling: &Coupling) -> [f64; 3] {
+        let x = self.point(coupling.params);
+        let pull = sub(coupling.anchor, x);
+        let along = match coupling.normal {
+            Some(n) => scale(n, dot(&n, &pull)),
+            None => pull,
+        };
+        scale(along, coupling.stiffness)
+    }
+
+    /// [`Body::step`] with `coupling`'s spring acting too, implicitly: `(K_eff + k Jᵀ P J)`
+    /// solved by the Woodbury identity on the factored `K_eff` (one solve per direction of
+    /// `P`, a 3 × 3 system at most), so the factorisation is still made once per step size.
+    pub fn step_coupled(
+        &mut self,
+        dt_s: f64,
+        load: &[[f64; 3]],
+        coupling: Option<&Coupling>,
+    ) -> Result<(), DynamicsError> {
         if !(dt_s.is_finite() && dt_s > 0.0 && dt_s <= 1.0) {
             return Err(DynamicsError::Step { dt_s });
         }
         check_load(load, self.n_points())?;
-        if self.a_stale {
-            self.initial_acceleration(load)?;
-        }
         if self.newmark.as_ref().is_none_or(|(dt, _)| *dt != dt_s) {
             let c = 4.0 / (dt_s * dt_s);
             let mut eff = SymBand::combine(&[(1.0, &self.k), (2.0 / dt_s, &self.d), (c, &self.m)]);
@@ -277,12 +315,62 @@ impl Body {
             let chol = eff.cholesky().map_err(|_| DynamicsError::Step { dt_s })?;
             self.newmark = Some((dt_s, chol));
         }
-        let Some((_, chol)) = &self.newmark else {
+        if self.mass_factor.is_none() {
+            let mut m = self.m.clone();
+            self.pin(&mut m);
+            self.mass_factor = Some(m.cholesky().map_err(|_| DynamicsError::Degenerate)?);
+        }
+        // The coupling's columns `J ⊗ e_j` (zero at fixed points) and the constant parts of
+        // its force, `k e_j·(anchor − x₀(params))` (x₀ the rest shape's point): its force
+        // on the shape `u` is `Σ_j col_j (c_j − k col_j·u)`.
+        let mut columns: Vec<Nodes> = Vec::new();
+        let mut pulls: Vec<f64> = Vec::new();
+        let mut k_c = 0.0;
+        if let Some(c) = coupling.filter(|c| c.stiffness > 0.0 && c.stiffness.is_finite()) {
+            k_c = c.stiffness;
+            self.shape.eval(c.params, &mut self.local);
+            let mut x0 = [0.0; 3];
+            for (m, &i) in self.local.index.iter().enumerate() {
+                x0 = add(x0, scale(self.rest[i], self.local.r[m]));
+            }
+            let axes: Vec<[f64; 3]> = match c.normal {
+                Some(n) => vec![n],
+                None => vec![[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]],
+            };
+            let pull = sub(c.anchor, x0);
+            for e in axes {
+                let mut col = vec![[0.0; 3]; self.u.len()];
+                for (m, &i) in self.local.index.iter().enumerate() {
+                    if !self.fixed[i] {
+                        col[i] = scale(e, self.local.r[m]);
+                    }
+                }
+                pulls.push(k_c * dot(&e, &pull));
+                columns.push(col);
+            }
+        }
+        let (Some((_, chol)), Some(mass)) = (&self.newmark, &self.mass_factor) else {
             return Err(DynamicsError::Step { dt_s });
         };
-        let c = 4.0 / (dt_s * dt_s);
         let [s0, s1] = &mut self.scratch;
-        // rhs = f + M (c u + (4/Δt) v + a) + D ((2/Δt) u + v)
+        // The acceleration of the present state under this step's forces, `a = M⁻¹ (f − D v
+        // − K u)`: consistent with the forces, so that a load or a contact that starts now
+        // enters the trapezoidal rule as a force, not as a kick of stale acceleration.
+        self.d.mul(&self.v, s0);
+        self.k.mul(&self.u, s1);
+        for i in 0..self.u.len() {
+            self.a[i] = sub(sub(load[i], s0[i]), s1[i]);
+        }
+        for (col, pull) in columns.iter().zip(&pulls) {
+            let along = pull - k_c * node_dot(col, &self.u);
+            for (a, x) in self.a.iter_mut().zip(col) {
+                *a = add(*a, scale(*x, along));
+            }
+        }
+        zero_fixed(&self.fixed, &mut self.a);
+        mass.solve(&mut self.a);
+        // rhs = f + M (c u + (4/Δt) v + a) + D ((2/Δt) u + v) + Σ_j col_j c_j
+        let c = 4.0 / (dt_s * dt_s);
         for i in 0..self.u.len() {
             for j in 0..3 {
                 s0[i][j] = c * self.u[i][j] + 4.0 / dt_s * self.v[i][j] + self.a[i][j];
@@ -303,18 +391,20 @@ impl Body {
         for (r, x) in rhs.iter_mut().zip(s1.iter()) {
             *r = add(*r, *x);
         }
-        for (r, &f) in rhs.iter_mut().zip(&self.fixed) {
-            if f {
-                *r = [0.0; 3];
+        for (col, pull) in columns.iter().zip(&pulls) {
+            for (r, x) in rhs.iter_mut().zip(col) {
+                *r = add(*r, scale(*x, *pull));
             }
         }
+        zero_fixed(&self.fixed, &mut rhs);
         chol.solve(&mut rhs);
+        if !columns.is_empty() {
+            woodbury(chol, k_c, &mut columns, &mut rhs);
+        }
+        // Trapezoidal velocity: v₁ = 2 (u₁ − u₀)/Δt − v₀.
         for i in 0..self.u.len() {
             for j in 0..3 {
-                let a_new =
-                    c * (rhs[i][j] - self.u[i][j]) - 4.0 / dt_s * self.v[i][j] - self.a[i][j];
-                self.v[i][j] += 0.5 * dt_s * (self.a[i][j] + a_new);
-                self.a[i][j] = a_new;
+                self.v[i][j] = 2.0 / dt_s * (rhs[i][j] - self.u[i][j]) - self.v[i][j];
                 self.u[i][j] = rhs[i][j];
             }
         }
@@ -325,25 +415,6 @@ impl Body {
                 *u = scale(*u, 1.0 - alpha);
             }
         }
-        Ok(())
-    }
-
-    /// `a = M⁻¹ (f − D v − K u)` on the free points.
-    fn initial_acceleration(&mut self, load: &[[f64; 3]]) -> Result<(), DynamicsError> {
-        let [s0, s1] = &mut self.scratch;
-        self.d.mul(&self.v, s0);
-        self.k.mul(&self.u, s1);
-        let mut a: Nodes = (0..self.u.len())
-            .map(|i| sub(sub(load[i], s0[i]), s1[i]))
-            .collect();
-        let mut m = self.m.clone();
-        self.pin(&mut m);
-        self.zero_fixed(&mut a);
-        m.cholesky()
-            .map_err(|_| DynamicsError::Degenerate)?
-            .solve(&mut a);
-        self.a = a;
-        self.a_stale = false;
         Ok(())
     }
 
@@ -396,14 +467,66 @@ impl Body {
             }
         }
     }
+}
 
-    fn zero_fixed(&self, x: &mut [[f64; 3]]) {
-        for (xi, &f) in x.iter_mut().zip(&self.fixed) {
-            if f {
-                *xi = [0.0; 3];
-            }
+/// `y ← (A + k U Uᵀ)⁻¹ b` from `y = A⁻¹ b`: `y − Z (I/k + Uᵀ Z)⁻¹ Uᵀ y` with `Z = A⁻¹ U`
+/// (the Woodbury identity), for the up to three columns of `U`.
+fn woodbury(chol: &Cholesky, k: f64, columns: &mut [Nodes], y: &mut [[f64; 3]]) {
+    let r = columns.len();
+    let dots = node_dot;
+    let uty: Vec<f64> = columns.iter().map(|u| dots(u, y)).collect();
+    let mut z: Vec<Nodes> = columns.to_vec();
+    for col in &mut z {
+        chol.solve(col);
+    }
+    let mut s = [[0.0; 3]; 3];
+    for i in 0..r {
+        for j in 0..r {
+            s[i][j] = dots(&columns[i], &z[j]) + if i == j { 1.0 / k } else { 0.0 };
         }
     }
+    let coef = solve_small(&s, &uty, r);
+    for (j, zj) in z.iter().enumerate() {
+        for (yi, zi) in y.iter_mut().zip(zj) {
+            *yi = sub(*yi, scale(*zi, coef[j]));
+        }
+    }
+}
+
+/// Solves the symmetric positive definite `r × r` (r ≤ 3) system `s x = b` by Gaussian
+/// elimination.
+fn solve_small(s: &[[f64; 3]; 3], b: &[f64], r: usize) -> [f64; 3] {
+    let mut a = *s;
+    let mut x = [0.0; 3];
+    x[..r].copy_from_slice(&b[..r]);
+    for c in 0..r {
+        for row in c + 1..r {
+            let f = a[row][c] / a[c][c];
+            for k in c..r {
+                a[row][k] -= f * a[c][k];
+            }
+            x[row] -= f * x[c];
+        }
+    }
+    for c in (0..r).rev() {
+        for k in c + 1..r {
+            x[c] -= a[c][k] * x[k];
+        }
+        x[c] /= a[c][c];
+    }
+    x
+}
+
+fn zero_fixed(fixed: &[bool], x: &mut [[f64; 3]]) {
+    for (xi, &f) in x.iter_mut().zip(fixed) {
+        if f {
+            *xi = [0.0; 3];
+        }
+    }
+}
+
+fn node_dot(a: &[[f64; 3]], b: &[[f64; 3]]) -> f64 {
+    a.iter().zip(b).map(|(x, y)| dot(x, y)).sum()
 }
 
 fn check_load(load: &[[f64; 3]], n: usize) -> Result<(), DynamicsError> {

@@ -6,7 +6,7 @@ mod body;
 mod params;
 pub mod shape;
 
-pub use body::{Body, Energy, Nodes};
+pub use body::{Body, Coupling, Energy, Nodes};
 pub use params::{DEFAULT_PLASTIC_TIME_S, Fixed, MAX_PARAM, Params, Quantity};
 pub use shape::Shape;
 

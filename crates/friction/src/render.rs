@@ -371,6 +371,46 @@ impl<O: Object> FrictionRenderer<O> {
         }
     }
 
+    /// The same renderer for another object type with the same tracking state and space: a
+    /// host that rebuilds its object's views (a deformable object whose control points moved,
+    /// or views of new storage) carries the renderer over unchanged (its CP tracker, GO,
+    /// mode and friction law), which holds no borrow of the object.
+    pub fn rebind<O2: Object<P = O::P, State = O::State>>(self) -> FrictionRenderer<O2> {
+        FrictionRenderer {
+            material: self.material,
+            cp: self.cp,
+            go: self.go,
+            go_patch: self.go_patch,
+            go_params: self.go_params,
+            go_frame: self.go_frame,
+            mode: self.mode,
+            cause: self.cause,
+            law: self.law,
+            slip_speed: self.slip_speed,
+            progress: self.progress,
+            prev_cp: self.prev_cp,
+            prev_hip: self.prev_hip,
+            prev_normal_force: self.prev_normal_force,
+        }
+    }
+
+    /// Where the GO sits on `object`: the point of its patch at its parameters (the material
+    /// point of the object the GO is attached to).
+    pub fn go_anchor(&self, object: &O) -> O::P {
+        object.frame(self.go_patch, self.go_params).point
+    }
+
+    /// The object moved under the renderer (a deformable object's new shape): the GO moves
+    /// with the point of the object it sits on, `anchor` being where that point was
+    /// ([`FrictionRenderer::go_anchor`] on the old shape). A stuck contact stays stuck to the
+    /// same material point and its normal force follows the surface; without this the GO
+    /// would stay where the surface was.
+    pub fn follow(&mut self, object: &O, anchor: O::P) {
+        let delta = self.go_anchor(object) - anchor;
+        self.go += delta;
+        self.go_frame.point += delta;
+    }
+
     /// Current mode.
     pub fn mode(&self) -> Mode {
         self.mode

@@ -2,6 +2,7 @@
 #![warn(missing_docs)]
 
 pub mod backend;
+pub mod deform;
 pub mod devices;
 pub mod identify;
 pub mod planar;

@@ -517,6 +517,7 @@ pub fn tick_of(t: &Telemetry, t_s: f64) -> Tick {
         tangent: v3(tangent),
         friction: v3(friction),
         force: v3(t.force_n),
+        deform: None,
         device: Some(DeviceSample {
             theta_rad: [0.0; 2],
             tau_nm: [0.0; 2],

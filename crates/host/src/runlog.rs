@@ -82,22 +82,19 @@ pub fn read(path: &Path) -> Result<RunLog, RunLogError> {
 pub fn parse(text: &str, path: &Path) -> Result<RunLog, RunLogError> {
     let mut lines = text.lines();
     let header = lines.next().unwrap_or("").trim();
-    let (space, device) = [Space::Planar, Space::Spatial]
+    let (space, extra) = [Space::Planar, Space::Spatial]
         .into_iter()
-        .flat_map(|space| [(space, false), (space, true)])
-        .find(|&(space, device)| {
-            let base = csv_header(space);
-            if device {
-                header == format!("{base},{DEVICE_COLUMNS}")
-            } else {
-                header == base
-            }
+        .flat_map(|space| {
+            [(false, false), (true, false), (false, true), (true, true)]
+                .map(|(device, deform)| (space, Columns { device, deform }))
         })
+        .find(|&(space, extra)| header == full_header(space, extra))
         .ok_or_else(|| RunLogError::Header {
             path: path.to_owned(),
         })?;
+    let device = extra.device;
     let dim = space.dim();
-    let columns = 1 + 4 * dim + 8 + if device { 5 } else { 0 };
+    let columns = 1 + 4 * dim + 8 + if device { 5 } else { 0 } + if extra.deform { dim } else { 0 };
     let mut ticks = Vec::new();
     for (i, line) in lines.enumerate() {
         let n = i + 2;
@@ -183,6 +180,11 @@ pub fn parse(text: &str, path: &Path) -> Result<RunLog, RunLogError> {
         } else {
             None
         };
+        let deform = if extra.deform {
+            Some(vector(c + 8 + dim + if device { 5 } else { 0 })?)
+        } else {
+            None
+        };
         ticks.push(Tick {
             t_s,
             hip,
@@ -209,6 +211,7 @@ pub fn parse(text: &str, path: &Path) -> Result<RunLog, RunLogError> {
             go_param: 0.0,
             go_params: [0.0; 2],
             device: sample,
+            deform,
         });
     }
     if ticks.is_empty() {
@@ -268,14 +271,41 @@ pub fn csv_header(space: Space) -> String {
     )
 }
 
-/// Writes the run log's header line: [`csv_header`], followed by [`DEVICE_COLUMNS`] when
-/// `device`.
-pub fn write_csv_header(mut w: impl Write, space: Space, device: bool) -> io::Result<()> {
-    if device {
-        writeln!(w, "{},{DEVICE_COLUMNS}", csv_header(space))
-    } else {
-        writeln!(w, "{}", csv_header(space))
+/// The columns a deformable-object run (`viewer sim --deform`) appends: the object's
+/// displacement from its rest shape at the CP (m), `deform_x,deform_y[,deform_z]`.
+pub fn deform_columns(space: Space) -> String {
+    ["x", "y", "z"][..space.dim()]
+        .iter()
+        .map(|a| format!("deform_{a}"))
+        .collect::<Vec<_>>()
+        .join(",")
+}
+
+/// Which columns a run log has beyond [`csv_header`]'s.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Columns {
+    /// [`DEVICE_COLUMNS`] (a closed-loop run of the device).
+    pub device: bool,
+    /// [`deform_columns`] (a run with a deformable object).
+    pub deform: bool,
+}
+
+/// The whole header line's text for `space` with `extra` columns.
+fn full_header(space: Space, extra: Columns) -> String {
+    let mut header = csv_header(space);
+    if extra.device {
+        header = format!("{header},{DEVICE_COLUMNS}");
     }
+    if extra.deform {
+        header = format!("{header},{}", deform_columns(space));
+    }
+    header
+}
+
+/// Writes the run log's header line: [`csv_header`], followed by [`DEVICE_COLUMNS`] and
+/// [`deform_columns`] as `extra` says.
+pub fn write_csv_header(mut w: impl Write, space: Space, extra: Columns) -> io::Result<()> {
+    writeln!(w, "{}", full_header(space, extra))
 }
 
 impl Tick {
@@ -287,7 +317,7 @@ impl Tick {
             tau_nm: [0.0; 2],
             faults: 0,
         });
-        let columns: [(&'static str, &[f32]); 11] = [
+        let columns: [(&'static str, &[f32]); 12] = [
             ("hip", &k.hip.to_array()),
             ("cp", &k.cp.to_array()),
             ("go", &k.go.to_array()),
@@ -299,6 +329,7 @@ impl Tick {
             ("force", &k.force.to_array()),
             ("theta_rad", &d.theta_rad),
             ("tau_nm", &d.tau_nm),
+            ("deform", &k.deform.unwrap_or(Vec3::ZERO).to_array()),
         ];
         if !k.t_s.is_finite() {
             return Some("t_s");
@@ -309,10 +340,10 @@ impl Tick {
             .map(|(name, _)| name)
     }
 
-    /// Writes this tick as one run-log row (see [`Run::write_csv`]); with `device`, the
-    /// [`DEVICE_COLUMNS`] too (0 without a [`DeviceSample`]). Does not check finiteness
-    /// ([`Tick::non_finite_column`]).
-    pub fn write_csv_row(&self, mut w: impl Write, space: Space, device: bool) -> io::Result<()> {
+    /// Writes this tick as one run-log row (see [`Run::write_csv`]); the `extra` columns too
+    /// ([`DEVICE_COLUMNS`], 0 without a [`DeviceSample`]; [`deform_columns`], 0 without a
+    /// displacement). Does not check finiteness ([`Tick::non_finite_column`]).
+    pub fn write_csv_row(&self, mut w: impl Write, space: Space, extra: Columns) -> io::Result<()> {
         let k = self;
         let dim = space.dim();
         write!(w, "{}", k.t_s)?;
@@ -336,7 +367,7 @@ impl Tick {
         for x in &k.force.to_array()[..dim] {
             write!(w, ",{x:?}")?;
         }
-        if device {
+        if extra.device {
             let d = k.device.unwrap_or(DeviceSample {
                 theta_rad: [0.0; 2],
                 tau_nm: [0.0; 2],
@@ -347,6 +378,11 @@ impl Tick {
                 ",{:?},{:?},{:?},{:?},{}",
                 d.theta_rad[0], d.theta_rad[1], d.tau_nm[0], d.tau_nm[1], d.faults
             )?;
+        }
+        if extra.deform {
+            for x in &k.deform.unwrap_or(Vec3::ZERO).to_array()[..dim] {
+                write!(w, ",{x:?}")?;
+            }
         }
         writeln!(w)
     }
@@ -372,10 +408,13 @@ impl Run {
             ));
         }
         let mut w = io::BufWriter::new(out);
-        let device = self.is_device_run();
-        write_csv_header(&mut w, self.space, device)?;
+        let extra = Columns {
+            device: self.is_device_run(),
+            deform: self.ticks.first().is_some_and(|k| k.deform.is_some()),
+        };
+        write_csv_header(&mut w, self.space, extra)?;
         for k in &self.ticks {
-            k.write_csv_row(&mut w, self.space, device)?;
+            k.write_csv_row(&mut w, self.space, extra)?;
         }
         w.flush()
     }
@@ -508,11 +547,19 @@ struct LogWriter {
 }
 
 impl LogWriter {
+    /// A recording's columns: the planar loop is the device's (with its columns).
+    fn columns(space: Space) -> Columns {
+        Columns {
+            device: space == Space::Planar,
+            deform: false,
+        }
+    }
+
     /// Creates `path` with the header of a log of `space` (the planar one with the device's
     /// columns: the planar loop is the device's).
     fn create(path: &Path, space: Space) -> io::Result<Self> {
         let mut out = BufWriter::new(File::create(path)?);
-        write_csv_header(&mut out, space, space == Space::Planar)?;
+        write_csv_header(&mut out, space, Self::columns(space))?;
         out.flush()?;
         Ok(LogWriter {
             out,
@@ -532,7 +579,7 @@ impl LogWriter {
             t_s = last + 1.0 / RATE_HZ;
         }
         self.last_t_s = Some(t_s);
-        Tick { t_s, ..*tick }.write_csv_row(&mut self.out, self.space, self.space == Space::Planar)
+        Tick { t_s, ..*tick }.write_csv_row(&mut self.out, self.space, Self::columns(self.space))
     }
 
     fn finish(mut self) -> io::Result<()> {

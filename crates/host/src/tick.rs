@@ -74,6 +74,9 @@ pub struct Tick {
     /// What the device did this tick, in a [`run_device`](crate::sim::run_device) run; `None` in a prescribed-HIP
     /// run.
     pub device: Option<DeviceSample>,
+    /// The deformable object's displacement from its rest shape at the CP (m), in a run
+    /// with a deformable object ([`crate::deform`]); `None` otherwise.
+    pub deform: Option<Vec3>,
 }
 
 impl Tick {
@@ -106,6 +109,7 @@ impl Tick {
             go_param: 0.0,
             go_params: [0.0; 2],
             device: None,
+            deform: None,
         }
     }
 }
@@ -258,6 +262,7 @@ fn record<P: Point>(t_s: f64, hip: P, hip_velocity: P, out: &FrictionOutput<P>) 
         go_param: out.go_params[0],
         go_params: out.go_params,
         device: None,
+        deform: None,
     }
 }
 

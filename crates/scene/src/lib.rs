@@ -16,7 +16,7 @@ use friction::FrictionMaterial;
 /// An invalid material value ([`FrictionMaterial::validate`], the one set of rules the device
 /// applies to an uploaded material too). The message starts with `material.<field>`.
 pub use friction::MaterialError;
-use nurbs::{Curve, CurveBuf, NurbsError, Surface, SurfaceBuf, Vec2, Vec3};
+use nurbs::{Curve, CurveBuf, NurbsError, Point, Surface, SurfaceBuf, Vec2, Vec3};
 use tracker::{Chain, ChainError, Shell, ShellError};
 
 use deform::Shape;
@@ -264,6 +264,58 @@ impl Object {
         Ok(self)
     }
 
+    /// The object with its first patch's Cartesian control points moved to `points` (weights,
+    /// knots, material and dynamics kept): the shape of a deformable object at one instant,
+    /// validated as any object is.
+    pub fn reshaped(&self, points: &[[f64; 3]]) -> Result<Object, ObjectError> {
+        let expected = match &self.patches[0] {
+            Patch::Curve2(c) => c.points().len(),
+            Patch::Curve3(c) => c.points().len(),
+            Patch::Surface(s) => s.points().len(),
+        };
+        if points.len() != expected {
+            return Err(ObjectError::Patch {
+                index: 0,
+                error: PatchError::Shape {
+                    field: "points".to_owned(),
+                    problem: format!("{} control points for a patch of {expected}", points.len()),
+                },
+            });
+        }
+        let f = |p: &[f64; 3]| p.map(|x| x as f32);
+        let patch = match &self.patches[0] {
+            Patch::Curve2(c) => {
+                reshape_curve(c, points, |p| Vec2::new(f(p)[0], f(p)[1])).map(Patch::Curve2)
+            }
+            Patch::Curve3(c) => reshape_curve(c, points, |p| Vec3::from(f(p))).map(Patch::Curve3),
+            Patch::Surface(s) => {
+                let hom = s
+                    .points()
+                    .iter()
+                    .zip(points)
+                    .map(|(h, p)| Vec3::from(f(p)).weighted(h.w))
+                    .collect();
+                let (ku, kv) = s.knots();
+                SurfaceBuf::new(s.degree(), (ku.to_vec(), kv.to_vec()), s.counts().1, hom)
+                    .map(Patch::Surface)
+            }
+        }
+        .map_err(|e| ObjectError::Patch {
+            index: 0,
+            error: e.into(),
+        })?;
+        let mut patches = self.patches.clone();
+        patches[0] = patch;
+        let object = Object {
+            name: self.name.clone(),
+            material: self.material,
+            patches,
+            dynamics: self.dynamics.clone(),
+        };
+        object.check_topology()?;
+        Ok(object)
+    }
+
     /// The D-NURBS parameters, when the object deforms.
     pub fn dynamics(&self) -> Option<&Params> {
         self.dynamics.as_ref()
@@ -364,6 +416,22 @@ impl Object {
         }
         Ok(())
     }
+}
+
+/// `c` with its Cartesian control points moved to `points` (as `P` by `point`), its weights
+/// and knots kept.
+fn reshape_curve<P: Point>(
+    c: &CurveBuf<P>,
+    points: &[[f64; 3]],
+    point: impl Fn(&[f64; 3]) -> P,
+) -> Result<CurveBuf<P>, NurbsError> {
+    let hom = c
+        .points()
+        .iter()
+        .zip(points)
+        .map(|(&h, p)| point(p).weighted(P::split(h).1))
+        .collect();
+    CurveBuf::new(c.degree(), c.knots().to_vec(), hom)
 }
 
 /// Where an object or a trajectory lives.

@@ -37,11 +37,14 @@ fn recorded_run(dir: &Temp) -> (AppState, PathBuf) {
 /// Writes the app's history to `path` as the run log `--record` writes for `space` (the
 /// planar one with the device's columns).
 fn write_log(state: &AppState, path: &std::path::Path, space: Space) {
-    let device = space == Space::Planar;
+    let columns = host::runlog::Columns {
+        device: space == Space::Planar,
+        deform: false,
+    };
     let mut out = Vec::new();
-    host::runlog::write_csv_header(&mut out, space, device).expect("header");
+    host::runlog::write_csv_header(&mut out, space, columns).expect("header");
     for s in &state.telemetry.history {
-        s.tick.write_csv_row(&mut out, space, device).expect("row");
+        s.tick.write_csv_row(&mut out, space, columns).expect("row");
     }
     std::fs::write(path, out).expect("write");
 }

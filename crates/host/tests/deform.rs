@@ -1,0 +1,114 @@
+//! The haptic loop pushing a deformable object (`viewer sim --deform`): the bundled taut
+//! string (L = 80 mm, T = 5 N, ρ = 0.1 kg/m, γ = 10 N·s/m², 12 control points) under a
+//! prescribed HIP, against the series stiffness of contact and string, and what a hand feels:
+//! no feature switch, no jump of the CP, no work done on the hand over a closed path, and the
+//! string springs back.
+
+use host::deform;
+use host::sim::Trajectory;
+use scene::{Bundled, Scene, Space};
+
+fn deformable() -> Scene {
+    Bundled::find("deformable")
+        .and_then(|b| b.scene().ok())
+        .expect("the bundled deformable scene")
+}
+
+/// The string's rest line.
+const Y: f64 = 0.09;
+const L: f64 = 0.08;
+const T: f64 = 5.0;
+/// The material's contact stiffness (N/m).
+const K_C: f64 = 1000.0;
+
+/// Press the string's middle `depth` past its rest line in 0.3 s, hold 0.7 s, go back out in
+/// 0.3 s and wait 0.5 s: a closed path of the hand.
+fn press(depth: f64) -> Trajectory {
+    let free = Y - 0.01;
+    let p = Y + depth;
+    let samples = [(0.0, free), (0.3, p), (1.0, p), (1.3, free), (1.8, free)];
+    Trajectory::from_samples(Space::Planar, samples.map(|(t, y)| (t, [0.0, y, 0.0])))
+        .expect("valid trajectory")
+}
+
+/// Held at a depth `d` past the rest line, the contact spring `k_c` and the string's midpoint
+/// stiffness `k_o` share the push in series: `F = d k_c k_o / (k_c + k_o)`. `k_o` is the
+/// string's `4T/L` = 250 N/m stiffened by its discretisation by 0.45–0.6 of `h/L`
+/// (`h = L/9`; crate `deform`'s test of the midpoint stiffness), so `F/d` lies in
+/// [207.9, 210.5] N/m. The hold lasts 0.7 s, 35 decay times of the mass-proportional damping
+/// (γ/2ρ = 50 s⁻¹): what is left of the transient is far below the band.
+#[test]
+fn pushed_string_gives_the_series_stiffness_of_contact_and_string() {
+    let scene = deformable();
+    let depth = 0.004;
+    let run = deform::run(&scene, 0, &press(depth), 1000.0, |_, _| {}).expect("runs");
+    let held = run
+        .ticks
+        .iter()
+        .rfind(|k| k.t_s <= 1.0)
+        .expect("a tick of the hold");
+    let k = f64::from(held.normal_force_n) / depth;
+    let series = |k_o: f64| K_C * k_o / (K_C + k_o);
+    let k_o = 4.0 * T / L;
+    let h = L / 9.0;
+    let (lo, hi) = (
+        series(k_o * (1.0 + 0.45 * h / L)),
+        series(k_o * (1.0 + 0.6 * h / L)),
+    );
+    assert!(
+        (lo..=hi).contains(&k),
+        "F/d = {k} N/m, series stiffness in [{lo}, {hi}] N/m"
+    );
+    // The string's own displacement at the CP is the rest of the depth: F = k_c (d − w).
+    let w = f64::from(held.deform.expect("a deform run")[1]);
+    let from_contact = depth - f64::from(held.normal_force_n) / K_C;
+    assert!(
+        (w - from_contact).abs() < 1e-3 * depth,
+        "string moved {w} m, the contact says {from_contact} m"
+    );
+}
+
+/// The CP tracker stays on the string's one patch while it moves, and the CP moves with the
+/// HIP and the string, never by more: per tick the HIP's step (0.047 mm at the press's
+/// 47 mm/s) plus the string's, which rides on the finger at the same speed while pressed: the
+/// CP may move 0.1 mm, no more.
+#[test]
+fn tracker_follows_the_moving_string_without_jumping() {
+    let scene = deformable();
+    let run = deform::run(&scene, 0, &press(0.004), 1000.0, |_, _| {}).expect("runs");
+    let mut worst: f32 = 0.0;
+    for pair in run.ticks.windows(2) {
+        assert!(
+            matches!(pair[1].feature, tracker::Feature::Patch(0)),
+            "feature {:?} at {} s",
+            pair[1].feature,
+            pair[1].t_s
+        );
+        worst = worst.max((pair[1].cp - pair[0].cp).length());
+    }
+    assert!(worst < 1e-4, "the CP jumped {worst} m in one tick");
+}
+
+/// Over the closed path (in, hold, out) the rendered force does no positive work on the hand
+/// (trapezoid rule over the HIP's steps): the string's damping and the friction only take
+/// energy. And it does take some: the press stores `½ F d` ≈ 1.6 mJ, of which the damping
+/// keeps part; the bound below is what the integration of a passive exchange cannot exceed
+/// in rounding (f32 forces of ~1 N over ~1e4 µm steps: 1e-9 J).
+#[test]
+fn closed_path_does_no_work_on_the_hand_and_the_string_springs_back() {
+    let scene = deformable();
+    let run = deform::run(&scene, 0, &press(0.004), 1000.0, |_, _| {}).expect("runs");
+    let work: f64 = run
+        .ticks
+        .windows(2)
+        .map(|p| {
+            let f = (p[0].force + p[1].force) * 0.5;
+            f64::from(f.dot(p[1].hip - p[0].hip))
+        })
+        .sum();
+    assert!(work <= -1e-5, "the force did {work} J of work on the hand");
+    let last = run.ticks.last().expect("ticks");
+    assert_eq!(last.patch, None, "the hand let go");
+    let w = last.deform.expect("a deform run").length();
+    assert!(w < 1e-6, "the string is still {w} m from rest 0.5 s after");
+}
