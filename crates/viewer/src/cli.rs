@@ -61,6 +61,88 @@ pub enum Command {
     /// simulated pantograph) and the walls they let it render.
     #[command(after_long_help = IDENTIFY_AFTER)]
     Identify(IdentifyArgs),
+    /// Deformable objects (a scene's "dynamics" block): the static shape under a load, or the
+    /// motion after the load is removed.
+    #[command(after_long_help = DEFORM_AFTER)]
+    Deform(DeformArgs),
+}
+
+const DEFORM_AFTER: &str = "\
+The object must have a \"dynamics\" block (D-NURBS: mass, damping, tension and bending per \
+unit rest length or area, fixed points; see the scene format). Loads:
+  uniform:FX,FY[,FZ]          force per unit rest length (N/m) of a curve or area (N/m^2) of
+                              a surface, everywhere (FZ for spatial curves and surfaces)
+  point:U[,V],FX,FY[,FZ]      a force (N) at the parameter U (curves) or U,V (surfaces)
+
+--static solves K (p - p0) = f for the equilibrium under the load and writes the scene with
+the object in that shape to --out (a scene/1 file; read again, that shape is its rest shape).
+--release starts from that equilibrium, removes the load at t = 0 and steps the object
+(Newmark's average acceleration) every --dt seconds for --duration seconds, writing the
+point at --probe to --trace, one row per step: t_s,x,y (planar curves) or t_s,x,y,z.
+
+Standard error gets the object's lowest natural frequency (Hz) and the largest displacement.
+
+Exit status:
+  0  written
+  1  the output could not be written
+  2  bad command line, unreadable or invalid scene, an object without dynamics, a load or
+     probe of the wrong shape or outside the patch's domain, an object not held against the
+     load (fix more points)
+
+Example:
+  viewer deform scenes/deformable.json --load uniform:0,-2 --static --out sagged.json
+  viewer deform scenes/deformable.json --load point:0.5,0,-0.5 --release --duration 0.2 \\
+      --dt 1e-4 --probe 0.5 --trace ring.csv";
+
+/// `viewer deform` arguments.
+#[derive(Debug, Args)]
+#[command(group(clap::ArgGroup::new("mode").required(true).args(["static_", "release"])))]
+pub struct DeformArgs {
+    /// Scene file (JSON, format `scene/1`).
+    #[arg(value_name = "SCENE")]
+    pub scene: PathBuf,
+    /// Index of the object in the scene's `objects` array, from 0.
+    #[arg(long, value_name = "I", default_value_t = 0)]
+    pub object: usize,
+    /// The load: uniform:FX,FY[,FZ] or point:U[,V],FX,FY[,FZ] (see below).
+    #[arg(long, value_name = "LOAD", allow_hyphen_values = true)]
+    pub load: String,
+    /// Write the equilibrium shape under the load (a scene/1 file) to --out.
+    #[arg(long = "static", requires = "out")]
+    pub static_: bool,
+    /// Where --static writes the deformed scene.
+    #[arg(long, value_name = "DEFORMED.json", requires = "static_")]
+    pub out: Option<PathBuf>,
+    /// Remove the load at t = 0 and trace the motion.
+    #[arg(long, requires_all = ["duration", "dt", "probe", "trace"])]
+    pub release: bool,
+    /// With --release: how long to run (s).
+    #[arg(
+        long,
+        value_name = "S",
+        requires = "release",
+        allow_negative_numbers = true
+    )]
+    pub duration: Option<f64>,
+    /// With --release: the step (s).
+    #[arg(
+        long,
+        value_name = "S",
+        requires = "release",
+        allow_negative_numbers = true
+    )]
+    pub dt: Option<f64>,
+    /// With --release: the parameter whose point is traced, U (curves) or U,V (surfaces).
+    #[arg(
+        long,
+        value_name = "U[,V]",
+        requires = "release",
+        allow_hyphen_values = true
+    )]
+    pub probe: Option<String>,
+    /// With --release: where the trace goes (CSV).
+    #[arg(long, value_name = "TRACE.csv", requires = "release")]
+    pub trace: Option<PathBuf>,
 }
 
 const IDENTIFY_AFTER: &str = "\
@@ -598,6 +680,15 @@ The force is the device's: at most 3 N, and none in free space. The hip_ columns
 handle's actual position, force_ the force after the safety layer. Only objects of planar
 curves (the pantograph is 2-DoF).
 
+Deformable object (--deform): the object's \"dynamics\" block makes it a D-NURBS patch. Every
+tick renders against its current shape; the rendered force, reversed, loads it at the contact
+point (the contact's spring acts in the object's implicit step, the rest of the force
+explicitly), it steps every floor(rate / 1000) ticks (every tick up to 2 kHz), and the
+renderer (CP tracker, god-object, friction state) carries over onto each new shape, the
+god-object moving with the point of the object it sits on. Two or three more columns follow:
+  deform_x,deform_y[,deform_z]  the object's displacement from its rest shape at the CP (m)
+--deform does not combine with --device yet.
+
 Plot (--plot, PNG): normal, friction and total force magnitude against time over coloured
 bands of the mode (top), the CP and GO parameters against time (bottom); with --device also
 the joint torques against time (a third panel).
@@ -618,7 +709,8 @@ Exit status:
 
 Example:
   viewer sim scenes/examples.json --object 1 --trajectory press.csv --out run.csv --plot run.png
-  viewer sim scenes/thesis-2d.json --device --trajectory scenes/thesis-2d.csv --out run.csv";
+  viewer sim scenes/thesis-2d.json --device --trajectory scenes/thesis-2d.csv --out run.csv
+  viewer sim scenes/deformable.json --deform --trajectory scenes/deformable.csv --out run.csv";
 
 /// Arguments of `sim`.
 #[derive(Debug, Args)]
@@ -671,6 +763,11 @@ pub struct SimArgs {
         requires = "device"
     )]
     pub hand_stiffness: Option<f64>,
+    /// The object deforms under the rendered force (its scene "dynamics" block): the force,
+    /// reversed, loads it at the contact point, it steps at 1 kHz or faster, and the run log
+    /// gets its displacement at the CP (see below).
+    #[arg(long, conflicts_with = "device")]
+    pub deform: bool,
 }
 
 impl SimArgs {

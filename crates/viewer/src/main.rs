@@ -28,6 +28,84 @@ fn main() -> ExitCode {
         Some(Command::Device(command)) => device_command(&command),
         Some(Command::Zwidth(args)) => zwidth_command(&args),
         Some(Command::Identify(args)) => identify_command(&args),
+        Some(Command::Deform(args)) => deform_command(&args),
+    }
+}
+
+fn deform_command(args: &viewer::cli::DeformArgs) -> ExitCode {
+    use host::deform::{self, Load};
+    let scene = match Scene::load(&args.scene).context("invalid scene") {
+        Ok(scene) => scene,
+        Err(e) => return fail(&e, EXIT_BAD_SETUP),
+    };
+    let setup = deform::body(&scene, args.object).and_then(|(object, body)| {
+        let load = Load::parse(&args.load, object)?;
+        let probe = match &args.probe {
+            Some(p) => Some(deform::parse_probe(p, object)?),
+            None => None,
+        };
+        Ok((object.space(), body, load, probe))
+    });
+    let (space, body, load, probe) = match setup {
+        Ok(s) => s,
+        Err(e) => return fail(&anyhow::Error::new(e), EXIT_BAD_SETUP),
+    };
+    match body.lowest_mode_hz() {
+        Ok(f) => eprintln!("deform: lowest natural frequency {f:.4} Hz"),
+        Err(e) => eprintln!("deform: no natural frequency: {e}"),
+    }
+    let (path, write): (&Path, Box<dyn FnOnce(&mut std::fs::File) -> Result<()>>) =
+        match (&args.out, &args.trace) {
+            (Some(out), _) => {
+                let (shaped, body) = match deform::static_shape(&scene, args.object, load) {
+                    Ok(s) => s,
+                    Err(e) => return fail(&anyhow::Error::new(e), EXIT_BAD_SETUP),
+                };
+                let largest = body
+                    .displacement()
+                    .iter()
+                    .map(|d| (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt())
+                    .fold(0.0, f64::max);
+                eprintln!("deform: static: largest control-point displacement {largest:e} m");
+                (
+                    out,
+                    Box::new(move |f| Ok(f.write_all(shaped.to_json_string().as_bytes())?)),
+                )
+            }
+            (None, Some(trace_path)) => {
+                let (Some(duration), Some(dt), Some(probe)) = (args.duration, args.dt, probe)
+                else {
+                    return fail(&anyhow!("--release needs --duration, --dt and --probe"), 2);
+                };
+                let trace = match deform::release(&scene, args.object, load, duration, dt, probe) {
+                    Ok(t) => t,
+                    Err(e) => return fail(&anyhow::Error::new(e), EXIT_BAD_SETUP),
+                };
+                eprintln!("deform: release: {} steps", trace.len() - 1);
+                (
+                    trace_path,
+                    Box::new(move |f| {
+                        Ok(deform::write_trace(io::BufWriter::new(f), space, &trace)?)
+                    }),
+                )
+            }
+            (None, None) => return fail(&anyhow!("--static needs --out, --release --trace"), 2),
+        };
+    let out = match AtomicFile::create(path)
+        .with_context(|| format!("cannot create {}", path.display()))
+    {
+        Ok(f) => f,
+        Err(e) => return fail(&e, EXIT_BAD_INPUT),
+    };
+    let written = out
+        .file()
+        .map_err(anyhow::Error::from)
+        .and_then(|mut f| write(&mut f))
+        .and_then(|()| out.commit().map_err(anyhow::Error::from))
+        .with_context(|| format!("cannot write {}", path.display()));
+    match written {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => fail(&e, EXIT_BAD_INPUT),
     }
 }
 
@@ -339,6 +417,11 @@ fn sim_command(args: &SimArgs) -> ExitCode {
     if let Err(e) = checked {
         return fail(&anyhow::Error::new(e), EXIT_BAD_SETUP);
     }
+    if args.deform
+        && let Err(e) = host::deform::body(&scene, args.object)
+    {
+        return fail(&anyhow::Error::new(e), EXIT_BAD_SETUP);
+    }
     if args.plot.as_ref() == Some(&args.out) {
         let e = anyhow!(
             "--plot and --out both name {}; the run log and the plot need two files",
@@ -391,12 +474,17 @@ fn sim_command(args: &SimArgs) -> ExitCode {
             }
             device_run.run
         })
+        .map_err(anyhow::Error::new)
+    } else if args.deform {
+        host::deform::run(&scene, args.object, &trajectory, rate_hz, progress)
+            .map_err(anyhow::Error::new)
     } else {
         sim::run(&scene, args.object, &trajectory, args.rate_hz(), progress)
+            .map_err(anyhow::Error::new)
     };
     let run = match result {
         Ok(run) => run,
-        Err(e) => return fail(&anyhow::Error::new(e), EXIT_BAD_SETUP),
+        Err(e) => return fail(&e, EXIT_BAD_SETUP),
     };
     if let Err(e) = out
         .file()
