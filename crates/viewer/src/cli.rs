@@ -75,7 +75,9 @@ unit rest length or area, fixed points; see the scene format). Loads:
   point:U[,V],FX,FY[,FZ]      a force (N) at the parameter U (curves) or U,V (surfaces)
 
 --static solves K (p - p0) = f for the equilibrium under the load and writes the scene with
-the object in that shape to --out (a scene/1 file; read again, that shape is its rest shape).
+the object in that shape to --out (a scene/1 file; read again, that shape is its rest shape);
+--plot draws a planar curve's rest and deformed shapes with the load's forces (red arrows,
+ending where they push) into a PNG.
 --release starts from that equilibrium, removes the load at t = 0 and steps the object
 (Newmark's average acceleration) every --dt seconds for --duration seconds, writing the
 point at --probe to --trace, one row per step: t_s,x,y (planar curves) or t_s,x,y,z.
@@ -113,6 +115,10 @@ pub struct DeformArgs {
     /// Where --static writes the deformed scene.
     #[arg(long, value_name = "DEFORMED.json", requires = "static_")]
     pub out: Option<PathBuf>,
+    /// With --static, for a planar curve: also draw the rest shape, the deformed shape and
+    /// the load into this PNG file.
+    #[arg(long, value_name = "SHAPE.png", requires = "static_")]
+    pub plot: Option<PathBuf>,
     /// Remove the load at t = 0 and trace the motion.
     #[arg(long, requires_all = ["duration", "dt", "probe", "trace"])]
     pub release: bool,

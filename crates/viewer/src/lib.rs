@@ -3,6 +3,7 @@
 
 pub mod cli;
 pub mod closest;
+pub mod deform_plot;
 pub mod devices;
 pub mod eval;
 #[cfg(feature = "gui")]
