@@ -10,7 +10,10 @@ use scene::Object;
 
 use crate::plot::{FONT, PlotError, load_font};
 
-/// Samples of a planar object's first curve (m).
+/// A force to draw: the point it pushes (mm), the force (N), its label.
+type Arrow = ((f64, f64), (f64, f64), String);
+
+/// Samples of a planar object's first curve (mm).
 fn samples(object: &Object) -> Option<Vec<(f64, f64)>> {
     let curves = object.curve_views()?;
     let c = curves.first()?;
@@ -54,7 +57,7 @@ pub fn write_png(
     let margin_x = 0.05 * (x1 - x0).max(1e-3);
     let (x0, x1) = (x0 - margin_x, x1 + margin_x);
     // Arrows: a length of 40 % of the vertical range for the largest force drawn.
-    let arrows: Vec<((f64, f64), (f64, f64), String)> = match load {
+    let arrows: Vec<Arrow> = match load {
         Load::Point { params, force_n } => {
             let curves = deformed.curve_views().unwrap_or_default();
             let at = curves
