@@ -69,7 +69,12 @@ pub struct Body {
     mass_factor: Option<Cholesky>,
     /// `K + (2/Δt) D + (4/Δt²) M` pinned at the fixed points, factored, for `Δt`.
     newmark: Option<(f64, Cholesky)>,
+    /// Buffers of a step (no allocation per step): two products, the right-hand side, the
+    /// coupling's columns and their solves.
     scratch: [Nodes; 2],
+    rhs: Nodes,
+    columns: [Nodes; 3],
+    solved: [Nodes; 3],
     local: Local,
 }
 
@@ -136,6 +141,9 @@ impl Body {
             mass_factor: None,
             newmark: None,
             scratch: [vec![[0.0; 3]; n], vec![[0.0; 3]; n]],
+            rhs: vec![[0.0; 3]; n],
+            columns: std::array::from_fn(|_| vec![[0.0; 3]; n]),
+            solved: std::array::from_fn(|_| vec![[0.0; 3]; n]),
             local,
         })
     }
@@ -323,8 +331,9 @@ impl Body {
         // The coupling's columns `J ⊗ e_j` (zero at fixed points) and the constant parts of
         // its force, `k e_j·(anchor − x₀(params))` (x₀ the rest shape's point): its force
         // on the shape `u` is `Σ_j col_j (c_j − k col_j·u)`.
-        let mut columns: Vec<Nodes> = Vec::new();
-        let mut pulls: Vec<f64> = Vec::new();
+        const AXES: [[f64; 3]; 3] = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
+        let mut pulls = [0.0; 3];
+        let mut n_columns = 0;
         let mut k_c = 0.0;
         if let Some(c) = coupling.filter(|c| c.stiffness > 0.0 && c.stiffness.is_finite()) {
             k_c = c.stiffness;
@@ -333,22 +342,26 @@ impl Body {
             for (m, &i) in self.local.index.iter().enumerate() {
                 x0 = add(x0, scale(self.rest[i], self.local.r[m]));
             }
-            let axes: Vec<[f64; 3]> = match c.normal {
-                Some(n) => vec![n],
-                None => vec![[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]],
+            let normal = c.normal.map(|n| [n]);
+            let axes: &[[f64; 3]] = match &normal {
+                Some(n) => n,
+                None => &AXES,
             };
             let pull = sub(c.anchor, x0);
-            for e in axes {
-                let mut col = vec![[0.0; 3]; self.u.len()];
+            for (j, e) in axes.iter().enumerate() {
+                let col = &mut self.columns[j];
+                col.iter_mut().for_each(|x| *x = [0.0; 3]);
                 for (m, &i) in self.local.index.iter().enumerate() {
                     if !self.fixed[i] {
-                        col[i] = scale(e, self.local.r[m]);
+                        col[i] = scale(*e, self.local.r[m]);
                     }
                 }
-                pulls.push(k_c * dot(&e, &pull));
-                columns.push(col);
+                pulls[j] = k_c * dot(e, &pull);
             }
+            n_columns = axes.len();
         }
+        let columns = &self.columns[..n_columns];
+        let pulls = &pulls[..n_columns];
         let (Some((_, chol)), Some(mass)) = (&self.newmark, &self.mass_factor) else {
             return Err(DynamicsError::Step { dt_s });
         };
@@ -361,7 +374,7 @@ impl Body {
         for i in 0..self.u.len() {
             self.a[i] = sub(sub(load[i], s0[i]), s1[i]);
         }
-        for (col, pull) in columns.iter().zip(&pulls) {
+        for (col, pull) in columns.iter().zip(pulls) {
             let along = pull - k_c * node_dot(col, &self.u);
             for (a, x) in self.a.iter_mut().zip(col) {
                 *a = add(*a, scale(*x, along));
@@ -377,11 +390,10 @@ impl Body {
             }
         }
         self.m.mul(s0, s1);
-        let mut rhs: Nodes = load
-            .iter()
-            .zip(s1.iter())
-            .map(|(f, x)| add(*f, *x))
-            .collect();
+        let rhs = &mut self.rhs;
+        for (r, (f, x)) in rhs.iter_mut().zip(load.iter().zip(s1.iter())) {
+            *r = add(*f, *x);
+        }
         for i in 0..self.u.len() {
             for j in 0..3 {
                 s0[i][j] = 2.0 / dt_s * self.u[i][j] + self.v[i][j];
@@ -391,21 +403,21 @@ impl Body {
         for (r, x) in rhs.iter_mut().zip(s1.iter()) {
             *r = add(*r, *x);
         }
-        for (col, pull) in columns.iter().zip(&pulls) {
+        for (col, pull) in columns.iter().zip(pulls) {
             for (r, x) in rhs.iter_mut().zip(col) {
                 *r = add(*r, scale(*x, *pull));
             }
         }
-        zero_fixed(&self.fixed, &mut rhs);
-        chol.solve(&mut rhs);
-        if !columns.is_empty() {
-            woodbury(chol, k_c, &mut columns, &mut rhs);
+        zero_fixed(&self.fixed, rhs);
+        chol.solve(rhs);
+        if n_columns > 0 {
+            woodbury(chol, k_c, columns, &mut self.solved[..n_columns], rhs);
         }
         // Trapezoidal velocity: v₁ = 2 (u₁ − u₀)/Δt − v₀.
         for i in 0..self.u.len() {
             for j in 0..3 {
-                self.v[i][j] = 2.0 / dt_s * (rhs[i][j] - self.u[i][j]) - self.v[i][j];
-                self.u[i][j] = rhs[i][j];
+                self.v[i][j] = 2.0 / dt_s * (self.rhs[i][j] - self.u[i][j]) - self.v[i][j];
+                self.u[i][j] = self.rhs[i][j];
             }
         }
         if let Some(tau) = self.params.plastic_time_s {
@@ -470,19 +482,21 @@ impl Body {
 }
 
 /// `y ← (A + k U Uᵀ)⁻¹ b` from `y = A⁻¹ b`: `y − Z (I/k + Uᵀ Z)⁻¹ Uᵀ y` with `Z = A⁻¹ U`
-/// (the Woodbury identity), for the up to three columns of `U`.
-fn woodbury(chol: &Cholesky, k: f64, columns: &mut [Nodes], y: &mut [[f64; 3]]) {
+/// (the Woodbury identity), for the up to three columns of `U` (`z`: as many buffers).
+fn woodbury(chol: &Cholesky, k: f64, columns: &[Nodes], z: &mut [Nodes], y: &mut [[f64; 3]]) {
     let r = columns.len();
-    let dots = node_dot;
-    let uty: Vec<f64> = columns.iter().map(|u| dots(u, y)).collect();
-    let mut z: Vec<Nodes> = columns.to_vec();
-    for col in &mut z {
-        chol.solve(col);
+    let mut uty = [0.0; 3];
+    for (j, u) in columns.iter().enumerate() {
+        uty[j] = node_dot(u, y);
+    }
+    for (zj, u) in z.iter_mut().zip(columns) {
+        zj.copy_from_slice(u);
+        chol.solve(zj);
     }
     let mut s = [[0.0; 3]; 3];
     for i in 0..r {
         for j in 0..r {
-            s[i][j] = dots(&columns[i], &z[j]) + if i == j { 1.0 / k } else { 0.0 };
+            s[i][j] = node_dot(&columns[i], &z[j]) + if i == j { 1.0 / k } else { 0.0 };
         }
     }
     let coef = solve_small(&s, &uty, r);

@@ -20,6 +20,8 @@ pub struct Local {
     pub d1: Vec<[f64; 2]>,
     /// `(∂²R/∂u², ∂²R/∂u∂v, ∂²R/∂v²)`.
     pub d2: Vec<[f64; 3]>,
+    /// The unnormalised `N w` and its derivatives (a buffer of [`Shape::eval`]).
+    weighted: Vec<[f64; 6]>,
 }
 
 /// A patch's rest shape: knots, weights and Cartesian control points (`z = 0` for planar
@@ -180,7 +182,8 @@ impl Shape {
         out.d1.clear();
         out.d2.clear();
         // Unnormalised `A = N w` with its derivatives [A, Au, Av, Auu, Auv, Avv].
-        let mut a: Vec<[f64; 6]> = Vec::new();
+        let mut a = std::mem::take(&mut out.weighted);
+        a.clear();
         match self {
             Shape::Curve {
                 degree,
@@ -245,6 +248,7 @@ impl Shape {
             out.d1.push([ru, rv]);
             out.d2.push([ruu, ruv, rvv]);
         }
+        out.weighted = a;
     }
 
     /// Gauss–Legendre points and weights over every non-empty knot span (tensor products on
