@@ -74,6 +74,11 @@ pub enum ControllerError {
     /// An identification run was refused: the device is not calibrated, or a torque is
     /// beyond what its motors give at their current limit (the field names which).
     Excitation(&'static str),
+    /// A reshape was refused: the new object's topology ([`tracker::Object::topology`]:
+    /// its pieces, their domains, the kinds of its vertices or edges, whether it closes)
+    /// differs from the loaded one's, so the renderer's feature indices would not name the
+    /// same features. Load it as a new scene instead.
+    Topology,
 }
 
 impl core::fmt::Display for ControllerError {
@@ -85,6 +90,11 @@ impl core::fmt::Display for ControllerError {
             ControllerError::Calibration(e) => write!(f, "calibration: {e}"),
             ControllerError::NoScene => write!(f, "no scene loaded: load an object first"),
             ControllerError::Excitation(why) => write!(f, "identification run refused: {why}"),
+            ControllerError::Topology => write!(
+                f,
+                "the new object's topology differs from the loaded one's (pieces, domains, \
+                 vertex or edge kinds, closedness): upload it as a new scene"
+            ),
         }
     }
 }
@@ -205,6 +215,21 @@ enum SceneState<O: Object<P = Vec2>> {
     /// The renderer, built from an [`Acquisition`] (it needs the closest point to start
     /// tracking).
     Rendering { renderer: FrictionRenderer<O> },
+}
+
+impl<O: Object<P = Vec2>> SceneState<O> {
+    /// The state carried from `old` onto `new`, the same object reshaped (see
+    /// [`Controller::replace_object`]).
+    fn carried<O2: Object<P = Vec2, State = O::State>>(self, old: &O, new: &O2) -> SceneState<O2> {
+        match self {
+            SceneState::AwaitingAcquisition { request_hip } => {
+                SceneState::AwaitingAcquisition { request_hip }
+            }
+            SceneState::Rendering { renderer } => SceneState::Rendering {
+                renderer: renderer.reshape(old, new),
+            },
+        }
+    }
 }
 
 /// What an acquisition searches from: the HIP of the last tick and the scene it is for.
@@ -521,11 +546,71 @@ impl<O: Object<P = Vec2>> Controller<O> {
         self.safety.restart_ramp_and_observer();
     }
 
+    /// Replaces the loaded object with `object`, the same object with its control points
+    /// moved (a deformable model's new shape), at a tick boundary, keeping the scene's
+    /// renderer: the CP tracker's feature, the friction mode and god-object, the material, the
+    /// generation (an acquisition in flight stays valid), the safety layer's ramp and
+    /// observer. No search and no ramp-in: the next tick renders `object`. What rides on the
+    /// surface moves with it ([`friction::FrictionRenderer::follow_reshape`]: the GO by the
+    /// surface's displacement under it, so the force changes by at most the stiffness times
+    /// the largest control-point move). Returns the object it replaced, so the caller can
+    /// drop its views before reusing their storage.
+    ///
+    /// Refused, with nothing changed, without a scene ([`ControllerError::NoScene`]) or when
+    /// `object`'s topology differs from the loaded one's ([`ControllerError::Topology`]):
+    /// the renderer's feature indices must name the same features. A few evaluations, no
+    /// allocation, no panic.
+    pub fn replace_object(&mut self, object: O) -> Result<O, ControllerError> {
+        let scene = self.scene.as_mut().ok_or(ControllerError::NoScene)?;
+        if scene.object.topology() != object.topology() {
+            return Err(ControllerError::Topology);
+        }
+        if let SceneState::Rendering { renderer } = &mut scene.state {
+            renderer.follow_reshape(&scene.object, &object);
+        }
+        Ok(core::mem::replace(&mut scene.object, object))
+    }
+
+    /// [`Controller::replace_object`] for a new object of another type with the same
+    /// tracking state and topology (views of other storage, `Chain<'b>` for `Chain<'a>`):
+    /// the same controller, renderer and all, rendering `object`. For a host that swaps its
+    /// scene storage and whose views' lifetime changes with it; the old object is dropped.
+    /// Refused as `replace_object` is, handing the controller back untouched.
+    #[allow(
+        clippy::result_large_err,
+        reason = "the error hands the controller back unchanged; there is no allocator to box it"
+    )]
+    pub fn reshape<O2>(mut self, object: O2) -> Result<Controller<O2>, (Self, ControllerError)>
+    where
+        O2: Object<P = Vec2, State = O::State, Topology = O::Topology>,
+    {
+        let Some(scene) = self.scene.take() else {
+            return Err((self, ControllerError::NoScene));
+        };
+        if scene.object.topology() != object.topology() {
+            self.scene = Some(scene);
+            return Err((self, ControllerError::Topology));
+        }
+        let state = scene.state.carried(&scene.object, &object);
+        let scene = Scene {
+            object,
+            material: scene.material,
+            generation: scene.generation,
+            state,
+        };
+        Ok(self.with_scene(Some(scene)))
+    }
+
     /// The same controller for another object type, without a scene (calibration, safety
     /// state, forces and heartbeat carried over). Lets a host that owns its scene storage
     /// drop the views of the old storage and build views of the new one: the controller's
     /// type names the views' lifetime, so it cannot outlive the storage.
     pub fn rebind<O2: Object<P = Vec2>>(self) -> Controller<O2> {
+        self.with_scene(None)
+    }
+
+    /// This controller with `scene` in place of its own.
+    fn with_scene<O2: Object<P = Vec2>>(self, scene: Option<Scene<O2>>) -> Controller<O2> {
         Controller {
             spec: self.spec,
             arm: self.arm,
@@ -533,7 +618,7 @@ impl<O: Object<P = Vec2>> Controller<O> {
             safety: self.safety,
             period_s: self.period_s,
             period_us: self.period_us,
-            scene: None,
+            scene,
             forces_enabled: self.forces_enabled,
             heartbeat_pending: self.heartbeat_pending,
             last_heartbeat_us: self.last_heartbeat_us,

@@ -117,18 +117,21 @@ pub use crc::{Crc32, crc16_ccitt_false, crc32};
 pub use error::ErrorCode;
 pub use message::{
     CRC_LEN, Frame, FrameError, HEADER_LEN, Hello, MAX_CHUNK, MAX_FEATURE_INDEX, MAX_FRAME,
-    MAX_PAYLOAD, Message, MessageType, NO_INDEX, Nack, SceneChunk, Status, TELEMETRY_LEN,
-    Telemetry, UNKNOWN_SEQ, VERSION,
+    MAX_PAYLOAD, MAX_POINTS_2D, MAX_POINTS_3D, Message, MessageType, NO_INDEX, Nack, POINTS_APPLY,
+    POINTS_HEADER_LEN, POINTS_SPATIAL, SceneChunk, ScenePoints, Status, TELEMETRY_LEN, Telemetry,
+    UNKNOWN_SEQ, VERSION,
 };
 pub use receiver::{SceneReceiver, SceneValidator};
 pub use scene::{
     KIND_CURVE2, KIND_SURFACE, MAX_CURVE_POINTS, MAX_KNOTS, MAX_OBJECTS, MAX_PATCHES,
-    MAX_SURFACE_POINTS, PatchKind, SCENE_MAGIC, SCENE_VERSION, SceneError, SceneFault, SceneStore,
-    decode_scene,
+    MAX_SURFACE_POINTS, PatchKind, PointSpan, SCENE_MAGIC, SCENE_VERSION, SceneError, SceneFault,
+    SceneStore, decode_scene, patch_points, points_span, write_points,
 };
 #[cfg(feature = "std")]
 pub use scene::{WireObject, WirePatch, encode_scene};
 pub use wire::MATERIAL_LEN;
+
+use nurbs::{Vec2, Vec3};
 
 /// USB vendor id of the board (its HID interface carries the frames, one per 64-byte report):
 /// pid.codes' open-source vendor id. A placeholder until the project has a product id of its
@@ -161,6 +164,64 @@ pub const REPORT_DESCRIPTOR: &[u8] = &[
     0x91, 0x02,       //   Output (data, variable, absolute)
     0xC0,             // End collection
 ];
+
+/// The frames of one control-point update of object `object` ([`Message::ScenePoints`]):
+/// for each `(patch, first, points)` of `patches`, its planar points (x, y, m) from control
+/// point `first` on, in frames of up to [`MAX_POINTS_2D`], the last frame of all with the
+/// apply flag, so that the device applies them together (move the curves on both sides of
+/// a join in one update: the chain must stay joined). Nothing for no points. Indices past
+/// `u16::MAX` saturate (no patch has that many points: the device refuses them).
+pub fn points_update<'a>(
+    object: u8,
+    patches: &'a [(u8, u16, &'a [Vec2])],
+) -> impl Iterator<Item = Message> + 'a {
+    let frames = patches
+        .iter()
+        .map(|(_, _, p)| p.len().div_ceil(MAX_POINTS_2D))
+        .sum::<usize>();
+    patches
+        .iter()
+        .flat_map(|&(patch, first, points)| {
+            points
+                .chunks(MAX_POINTS_2D)
+                .enumerate()
+                .map(move |(k, chunk)| (patch, offset_index(first, k * MAX_POINTS_2D), chunk))
+        })
+        .enumerate()
+        .filter_map(move |(i, (patch, first, chunk))| {
+            ScenePoints::planar(object, patch, first, i + 1 == frames, chunk)
+                .map(Message::ScenePoints)
+        })
+}
+
+/// [`points_update`] for surfaces: points (x, y, z, m) in frames of up to [`MAX_POINTS_3D`].
+pub fn points_update_spatial<'a>(
+    object: u8,
+    patches: &'a [(u8, u16, &'a [Vec3])],
+) -> impl Iterator<Item = Message> + 'a {
+    let frames = patches
+        .iter()
+        .map(|(_, _, p)| p.len().div_ceil(MAX_POINTS_3D))
+        .sum::<usize>();
+    patches
+        .iter()
+        .flat_map(|&(patch, first, points)| {
+            points
+                .chunks(MAX_POINTS_3D)
+                .enumerate()
+                .map(move |(k, chunk)| (patch, offset_index(first, k * MAX_POINTS_3D), chunk))
+        })
+        .enumerate()
+        .filter_map(move |(i, (patch, first, chunk))| {
+            ScenePoints::spatial(object, patch, first, i + 1 == frames, chunk)
+                .map(Message::ScenePoints)
+        })
+}
+
+/// `first + k`, saturated at `u16::MAX`.
+fn offset_index(first: u16, k: usize) -> u16 {
+    first.saturating_add(u16::try_from(k).unwrap_or(u16::MAX))
+}
 
 /// The messages that upload `scene`: a begin, chunks of up to [`MAX_CHUNK`] bytes, a commit.
 /// Scenes longer than `u32::MAX` bytes are not representable; the receiver's capacity is far

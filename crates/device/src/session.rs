@@ -5,7 +5,9 @@
 //! What it asks of the device comes back as an [`Event`]: a [`Command`] for the controller
 //! (applied at once by a single-threaded device, [`Command::apply`], or queued to a board's
 //! tick, which owns the controller), a committed scene (the caller swaps its scene storage at
-//! a tick boundary) or a hand target (only a simulated plant's session accepts one).
+//! a tick boundary), a control-point update applied to the active scene (the caller gives the
+//! controller the updated object at a tick boundary, keeping its renderer) or a hand target
+//! (only a simulated plant's session accepts one).
 //!
 //! No allocation, no panic; replies go through the caller's `reply` (which frames them with
 //! the device's own sequence numbers). The session never touches the controller: a status is
@@ -136,6 +138,15 @@ pub enum Event {
     /// A scene was committed: the validator (the scratch store) holds it; load it at the next
     /// tick boundary.
     SceneCommitted,
+    /// A control-point update of object `object` was applied to the active scene
+    /// ([`Message::ScenePoints`]): the validator (the scratch store) holds the updated scene;
+    /// at the next tick boundary give the controller its new object in place of the old one
+    /// ([`Controller::replace_object`], which keeps the renderer), not a fresh load.
+    ScenePointsUpdated {
+        /// The object whose points moved (a device that renders object 0 only has nothing to
+        /// do for the others).
+        object: u8,
+    },
     /// The virtual hand's new target (m, device frame); only from a simulated plant's session.
     HandTarget(Vec2),
     /// A command for the controller.
@@ -224,6 +235,9 @@ impl<const N: usize> Session<N> {
                 return Event::Command(Command::Heartbeat);
             }
             Message::SceneCommit => return Event::SceneCommitted,
+            Message::ScenePoints(p) if p.apply => {
+                return Event::ScenePointsUpdated { object: p.object };
+            }
             Message::SetMaterial {
                 object: 0,
                 material,

@@ -99,6 +99,10 @@ fn vec2() -> impl Strategy<Value = Vec2> {
     (finite(), finite()).prop_map(|(x, y)| Vec2::new(x, y))
 }
 
+fn vec3() -> impl Strategy<Value = Vec3> {
+    (finite(), finite(), finite()).prop_map(|(x, y, z)| Vec3::new(x, y, z))
+}
+
 fn material() -> impl Strategy<Value = FrictionMaterial> {
     (
         (0.0f32..1e5, 0.0f32..100.0, 0.0f32..2.0, 0.0f32..1.0),
@@ -215,6 +219,30 @@ fn message() -> impl Strategy<Value = Message> {
                 SceneChunk::new(offset, &data).unwrap()
             )),
         Just(Message::SceneCommit),
+        (
+            any::<u8>(),
+            any::<u8>(),
+            any::<u16>(),
+            any::<bool>(),
+            prop::collection::vec(vec2(), 1..=MAX_POINTS_2D)
+        )
+            .prop_map(
+                |(object, patch, first, apply, points)| Message::ScenePoints(
+                    ScenePoints::planar(object, patch, first, apply, &points).unwrap()
+                )
+            ),
+        (
+            any::<u8>(),
+            any::<u8>(),
+            any::<u16>(),
+            any::<bool>(),
+            prop::collection::vec(vec3(), 1..=MAX_POINTS_3D)
+        )
+            .prop_map(
+                |(object, patch, first, apply, points)| Message::ScenePoints(
+                    ScenePoints::spatial(object, patch, first, apply, &points).unwrap()
+                )
+            ),
         vec2().prop_map(|target_m| Message::HandTarget { target_m }),
         (
             prop::array::uniform2(-1.0f32..1.0),
@@ -314,7 +342,7 @@ proptest! {
     }
 
     #[test]
-    fn decoding_any_payload_never_panics(ty in 0usize..14, payload in prop::collection::vec(any::<u8>(), 0..60)) {
+    fn decoding_any_payload_never_panics(ty in 0usize..MessageType::ALL.len(), payload in prop::collection::vec(any::<u8>(), 0..60)) {
         let _ = Message::decode_payload(MessageType::ALL[ty], &payload);
     }
 

@@ -371,10 +371,10 @@ impl<O: Object> FrictionRenderer<O> {
         }
     }
 
-    /// The same renderer for another object type with the same tracking state and space: a
-    /// host that rebuilds its object's views (a deformable object whose control points moved,
-    /// or views of new storage) carries the renderer over unchanged (its CP tracker, GO,
-    /// mode and friction law), which holds no borrow of the object.
+    /// The same renderer, state for state, for an object of another type with the same
+    /// states (a view of other storage: `Chain<'b>` for `Chain<'a>`). Holds no borrow, so
+    /// this is a plain copy; it is up to the caller that the object it ticks next is the one
+    /// the state belongs to (or [`FrictionRenderer::reshape`] it there).
     pub fn rebind<O2: Object<P = O::P, State = O::State>>(self) -> FrictionRenderer<O2> {
         FrictionRenderer {
             material: self.material,
@@ -394,21 +394,50 @@ impl<O: Object> FrictionRenderer<O> {
         }
     }
 
-    /// Where the GO sits on `object`: the point of its patch at its parameters (the material
-    /// point of the object the GO is attached to).
-    pub fn go_anchor(&self, object: &O) -> O::P {
-        object.frame(self.go_patch, self.go_params).point
+    /// The renderer carried from `old` onto `new`, the same object with its control points
+    /// moved: [`FrictionRenderer::follow_reshape`], then [`FrictionRenderer::rebind`].
+    pub fn reshape<O2: Object<P = O::P, State = O::State>>(
+        mut self,
+        old: &O,
+        new: &O2,
+    ) -> FrictionRenderer<O2> {
+        self.follow_reshape(old, new);
+        self.rebind()
     }
 
-    /// The object moved under the renderer (a deformable object's new shape): the GO moves
-    /// with the point of the object it sits on, `anchor` being where that point was
-    /// ([`FrictionRenderer::go_anchor`] on the old shape). A stuck contact stays stuck to the
-    /// same material point and its normal force follows the surface; without this the GO
-    /// would stay where the surface was.
-    pub fn follow(&mut self, object: &O, anchor: O::P) {
-        let delta = self.go_anchor(object) - anchor;
-        self.go += delta;
-        self.go_frame.point += delta;
+    /// Carries the renderer from `old` onto `new`, the same object with its control points
+    /// moved (equal [`Object::topology`]: the caller checks it), between two ticks: mode,
+    /// friction memory, material and the CP tracker's feature stay; no search, no restart.
+    /// The next tick is `new`'s (rebind first when its type differs).
+    ///
+    /// What rides on the surface moves with it. The GO is a material point of the object
+    /// while stuck (the finger stuck to a surface goes where the surface goes), so it is
+    /// displaced by `new(go) − old(go)` at its patch and parameters, and with it the spring:
+    /// the force changes by `K` times that displacement, which is at most the largest
+    /// control-point move (a NURBS point with its weights unchanged is a convex combination
+    /// of the control points, `ΔS(u) = Σ Rᵢ(u) ΔPᵢ`, `Rᵢ ≥ 0`, `Σ Rᵢ = 1`). The last tick's
+    /// CP and HIP are displaced with the surface under them too, so the next tick's CP speed
+    /// and HIP step are measured against the object, not against the room: a surface that
+    /// moves under a still hand does not read as a slide. The CP tracker is re-evaluated where
+    /// it stands ([`Object::refresh`]). Five evaluations (three when free).
+    pub fn follow_reshape<O2: Object<P = O::P, State = O::State>>(&mut self, old: &O, new: &O2) {
+        let (cp_patch, cp_params) = O::position(&self.cp);
+        let cp_shift = new.point(cp_patch, cp_params) - old.point(cp_patch, cp_params);
+        // Free, the GO is the CP and is put anew on contact.
+        let go_shift = if self.mode == Mode::Free {
+            cp_shift
+        } else {
+            new.point(self.go_patch, self.go_params) - old.point(self.go_patch, self.go_params)
+        };
+        if let Some(p) = self.prev_cp.as_mut() {
+            *p += cp_shift;
+        }
+        self.go += go_shift;
+        self.go_frame.point += go_shift;
+        if let Some(p) = self.prev_hip.as_mut() {
+            *p += go_shift;
+        }
+        new.refresh(&mut self.cp);
     }
 
     /// Current mode.

@@ -403,7 +403,7 @@ fn simulate<V: Views>(
     let mut shape = rest.clone();
     // The renderer's type names its object's lifetime; between shapes it is held for no
     // borrow (`'static` views of nothing) and rebound to each shape's views.
-    let mut carried: Option<(FrictionRenderer<V::O<'static>>, V::P)> = None;
+    let mut carried: Option<FrictionRenderer<V::O<'static>>> = None;
     let mut previous = start;
     let mut load: Nodes = body.zero_load();
     let mut ticks = Vec::with_capacity(n);
@@ -411,11 +411,7 @@ fn simulate<V: Views>(
     while i < n {
         let object = V::view(&shape, index)?;
         let mut renderer: FrictionRenderer<V::O<'_>> = match carried.take() {
-            Some((r, anchor)) => {
-                let mut r = r.rebind();
-                r.follow(&object, anchor);
-                r
-            }
+            Some(r) => r.rebind(),
             None => FrictionRenderer::new(&object, material, point::<V::P>(start)),
         };
         // The contact's spring, implicit in the object's step (`deform::Coupling`): from the
@@ -451,9 +447,6 @@ fn simulate<V: Views>(
             i += 1;
             progress(i, n);
         }
-        let anchor = renderer.go_anchor(&object);
-        carried = Some((renderer.rebind(), anchor));
-        drop(object);
         if let Some(c) = &coupling {
             let mean = explicit.map(|x| x / in_contact as f64);
             body.add_point_force(&mut load, c.params, mean);
@@ -461,9 +454,15 @@ fn simulate<V: Views>(
         body.step_coupled(dt_s, &load, coupling.as_ref())
             .map_err(|e| dynamics_error(index, rest, e))?;
         load.iter_mut().for_each(|f| *f = [0.0; 3]);
-        shape = rest
+        let next = rest
             .reshaped(&body.points())
             .map_err(|error| DeformError::Shape { index, error })?;
+        // The renderer rides onto the new shape (what sits on the surface moves with it) and
+        // is held, borrowing nothing, until the next round's views.
+        let moved = renderer.reshape(&object, &V::view(&next, index)?);
+        carried = Some(moved.rebind());
+        drop(object);
+        shape = next;
     }
     Ok(ticks)
 }

@@ -377,6 +377,33 @@ impl<'a> Chain<'a> {
         }
     }
 
+    /// What a [`ChainTracker`] state of this chain depends on besides the geometry: the pieces
+    /// (how many, which curve each comes from, their parameter domains, which close on
+    /// themselves), whether the chain closes, and the kind of each vertex. Two chains with
+    /// equal topologies take each other's states: the same feature indices name the same
+    /// curves and vertices, with the same Voronoi regions around them (a convex vertex stays
+    /// convex). A chain whose control points moved a little keeps its topology; one whose
+    /// corner turned smooth, or whose curve gained a corner, does not.
+    pub fn topology(&self) -> ChainTopology {
+        let n = self.n_curves;
+        let mut domains = [(0.0, 0.0); MAX_CHAIN_CURVES];
+        for (d, c) in domains.iter_mut().zip(self.curves()) {
+            *d = c.domain();
+        }
+        let mut kinds = [VertexKind::End; MAX_CHAIN_CURVES + 1];
+        for (k, v) in kinds.iter_mut().zip(self.vertices()) {
+            *k = v.kind;
+        }
+        ChainTopology {
+            pieces: n as u8,
+            closed: self.closed,
+            source: self.source,
+            periodic: self.periodic,
+            domains,
+            kinds,
+        }
+    }
+
     /// The curve closest to `x` and the parameter there: the global search on every curve
     /// (used to start tracking from nothing).
     pub fn nearest(&self, x: Vec2) -> (usize, f32) {
@@ -389,6 +416,35 @@ impl<'a> Chain<'a> {
             }
         }
         (best.0, best.1)
+    }
+}
+
+/// The topology of a [`Chain`] ([`Chain::topology`]): compare two with `==`. Holds no borrow.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ChainTopology {
+    pieces: u8,
+    closed: bool,
+    source: [u16; MAX_CHAIN_CURVES],
+    periodic: [bool; MAX_CHAIN_CURVES],
+    domains: [(f32, f32); MAX_CHAIN_CURVES],
+    kinds: [VertexKind; MAX_CHAIN_CURVES + 1],
+}
+
+impl ChainTopology {
+    /// Number of pieces (curves split at their corners).
+    pub fn pieces(&self) -> usize {
+        usize::from(self.pieces)
+    }
+
+    /// Whether the chain closes.
+    pub fn is_closed(&self) -> bool {
+        self.closed
+    }
+
+    /// The kinds of the vertices.
+    pub fn vertex_kinds(&self) -> &[VertexKind] {
+        let n = usize::from(self.pieces) + usize::from(!self.closed);
+        &self.kinds[..n.min(MAX_CHAIN_CURVES + 1)]
     }
 }
 
@@ -453,6 +509,14 @@ impl ChainTracker {
     /// The curve's jet at [`ChainTracker::position`] (the tracker's own evaluation).
     pub fn jet(&self) -> &crate::patch::Jet<Vec2, 1> {
         self.tracker.jet()
+    }
+
+    /// Re-evaluates the tracker on `chain` where it is, keeping the feature (see
+    /// [`Tracker::refresh`]): `chain` is the one the state was made on with its control
+    /// points moved ([`Chain::topology`] unchanged).
+    pub fn refresh(&mut self, chain: &Chain<'_>) {
+        let i = self.curve.min(chain.n_curves - 1);
+        self.tracker.refresh(&chain.curves[i]);
     }
 
     /// Puts the tracker on curve `i` at parameter `u` (e.g. to pin a god-object).

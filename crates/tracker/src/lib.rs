@@ -19,7 +19,8 @@ mod split;
 mod track;
 
 pub use chain::{
-    Chain, ChainError, ChainTracker, JOIN_TOL_M, MAX_CHAIN_CURVES, Vertex, VertexKind,
+    Chain, ChainError, ChainTopology, ChainTracker, JOIN_TOL_M, MAX_CHAIN_CURVES, Vertex,
+    VertexKind,
 };
 pub use contact::{Contact, Feature, Penalty};
 pub use global::{
@@ -36,7 +37,7 @@ pub use polygon::{
 };
 pub use shell::{
     Corner, Edge, MAX_CORNER_VALENCE, MAX_SHELL_CORNERS, MAX_SHELL_EDGES, MAX_SHELL_PATCHES,
-    SHELL_JOIN_TOL_M, Shell, ShellError, ShellTracker, Side,
+    SHELL_JOIN_TOL_M, Shell, ShellError, ShellTopology, ShellTracker, Side,
 };
 pub use track::{
     Law, PERIODIC_TOL, Track, Tracker, TrackerConfig, stable_gain_limit, theorem_gain,

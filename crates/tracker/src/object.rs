@@ -1,10 +1,10 @@
 //! One interface over 2-D chains and 3-D shells, so the layers above (friction, the device's
 //! controller) are written once for both.
 
-use crate::chain::{Chain, ChainTracker};
+use crate::chain::{Chain, ChainTopology, ChainTracker};
 use crate::contact::{Contact, Feature};
 use crate::patch::Patch;
-use crate::shell::{Shell, ShellTracker};
+use crate::shell::{Shell, ShellTopology, ShellTracker};
 use crate::track::TrackerConfig;
 use nurbs::{Point, Vec2, Vec3};
 
@@ -14,6 +14,11 @@ pub trait Object {
     type P: Point;
     /// Per-tick tracking state (feature and tracker); `Copy`, holds no borrow.
     type State: Copy + core::fmt::Debug;
+    /// What a [`Object::State`] of the object depends on besides its geometry (pieces,
+    /// features and their kinds, parameter domains; [`Chain::topology`],
+    /// [`Shell::topology`]). Two objects with equal topologies take each other's states:
+    /// one whose control points moved, for instance, as long as that changed no kind.
+    type Topology: Copy + PartialEq + core::fmt::Debug;
 
     /// Starts tracking from nothing at `hip` (nearest feature by search).
     fn start(&self, hip: Self::P, cfg: TrackerConfig) -> Self::State;
@@ -67,6 +72,18 @@ pub trait Object {
     /// [`Chain::source_curve`], [`Shell::source_patch`]). Parameters are shared: a piece is a
     /// window onto its source patch's parameter domain.
     fn source_patch(&self, patch: usize) -> usize;
+
+    /// The object's topology ([`Object::Topology`]).
+    fn topology(&self) -> Self::Topology;
+
+    /// The point of `patch` at `params` (`[u, 0]` on curves), clamped into its domain.
+    fn point(&self, patch: usize, params: [f32; 2]) -> Self::P;
+
+    /// Re-evaluates a state's tracker on this object where it stands (same patch, same
+    /// parameters, same feature): for a state made on an object of the same topology whose
+    /// control points have since moved, so that its next step starts from this geometry.
+    /// One evaluation.
+    fn refresh(&self, state: &mut Self::State);
 }
 
 impl Object for Chain<'_> {
@@ -134,6 +151,21 @@ impl Object for Chain<'_> {
     fn source_patch(&self, patch: usize) -> usize {
         self.source_curve(patch)
     }
+
+    type Topology = ChainTopology;
+
+    fn topology(&self) -> ChainTopology {
+        Chain::topology(self)
+    }
+
+    fn point(&self, patch: usize, params: [f32; 2]) -> Vec2 {
+        // Evaluation clamps into the domain itself (NaN to its start).
+        self.curves()[patch.min(self.curves().len() - 1)].point(params[0])
+    }
+
+    fn refresh(&self, state: &mut ChainTracker) {
+        state.refresh(self);
+    }
 }
 
 impl Object for Shell<'_> {
@@ -198,6 +230,20 @@ impl Object for Shell<'_> {
 
     fn source_patch(&self, patch: usize) -> usize {
         Shell::source_patch(self, patch)
+    }
+
+    type Topology = ShellTopology;
+
+    fn topology(&self) -> ShellTopology {
+        Shell::topology(self)
+    }
+
+    fn point(&self, patch: usize, params: [f32; 2]) -> Vec3 {
+        self.patches()[patch.min(self.patches().len() - 1)].point(params[0], params[1])
+    }
+
+    fn refresh(&self, state: &mut ShellTracker) {
+        state.refresh(self);
     }
 }
 

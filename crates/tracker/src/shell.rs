@@ -428,6 +428,33 @@ impl<'a> Shell<'a> {
         self.closed
     }
 
+    /// What a [`ShellTracker`] state of this shell depends on besides the geometry (as
+    /// [`Chain::topology`](crate::Chain::topology)): the pieces (how many, their source
+    /// patches and parameter domains), what lies across each side, the edges, which patch
+    /// corners meet at each corner, and whether the shell closes.
+    pub fn topology(&self) -> ShellTopology {
+        let mut domains = [[(0.0, 0.0); 2]; MAX_SHELL_PATCHES];
+        for (d, s) in domains.iter_mut().zip(self.patches()) {
+            *d = Patch::domain(s);
+        }
+        let mut corners = [([(0, 0); MAX_CORNER_VALENCE], 0); MAX_SHELL_CORNERS];
+        for (c, corner) in corners.iter_mut().zip(self.corners()) {
+            *c = (corner.incident, corner.n_incident);
+        }
+        ShellTopology {
+            pieces: self.n_patches as u8,
+            closed: self.closed,
+            source: self.source,
+            domains,
+            sides: self.sides,
+            edges: self.edges,
+            n_edges: self.n_edges as u8,
+            corners,
+            n_corners: self.n_corners as u8,
+            corner_of: self.corner_of,
+        }
+    }
+
     /// Volume enclosed by the shell, `⅓ ∮ x·n dA` by the midpoint rule on a 24×24 grid per
     /// patch: positive when the normals point outward.
     fn enclosed_volume(&self) -> f32 {
@@ -458,6 +485,28 @@ impl<'a> Shell<'a> {
             }
         }
         (best.0, best.1)
+    }
+}
+
+/// The topology of a [`Shell`] ([`Shell::topology`]): compare two with `==`. Holds no borrow.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ShellTopology {
+    pieces: u8,
+    closed: bool,
+    source: [u16; MAX_SHELL_PATCHES],
+    domains: [[(f32, f32); 2]; MAX_SHELL_PATCHES],
+    sides: [[Side; 4]; MAX_SHELL_PATCHES],
+    edges: [Edge; MAX_SHELL_EDGES],
+    n_edges: u8,
+    corners: [([(u16, u8); MAX_CORNER_VALENCE], u8); MAX_SHELL_CORNERS],
+    n_corners: u8,
+    corner_of: [[u16; 4]; MAX_SHELL_PATCHES],
+}
+
+impl ShellTopology {
+    /// Number of pieces (patches split at their creases).
+    pub fn pieces(&self) -> usize {
+        usize::from(self.pieces)
     }
 }
 
@@ -531,6 +580,13 @@ impl ShellTracker {
     /// tracked point reaches a patch boundary.
     pub fn set_sliding(&mut self, sliding: bool) {
         self.sliding = sliding;
+    }
+
+    /// Re-evaluates the tracker on `shell` where it is, keeping the feature (as
+    /// [`crate::ChainTracker::refresh`]).
+    pub fn refresh(&mut self, shell: &Shell<'_>) {
+        let i = self.patch.min(shell.n_patches - 1);
+        self.tracker.refresh(&shell.patches[i]);
     }
 
     /// Puts the tracker on patch `i` at `t`.

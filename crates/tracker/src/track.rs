@@ -209,6 +209,14 @@ impl<P: Point, const N: usize> Tracker<P, N> {
         self.last_hip = None;
     }
 
+    /// Re-evaluates the cached jet at the current parameters on `patch`, keeping everything
+    /// else (the parameters, the HIP of the last update): for a patch whose control points
+    /// moved under the tracker (same knots, so the same domain), so that the next update steps
+    /// from the moved patch's geometry rather than the old one's.
+    pub fn refresh<S: Patch<N, P = P>>(&mut self, patch: &S) {
+        self.jet = patch.jet(self.t, 2);
+    }
+
     /// Current parameters.
     pub fn t(&self) -> [f32; N] {
         self.t

@@ -38,9 +38,10 @@ pub use sim::{SimConfig, SimHand, SimLink};
 
 use crate::controller::ControllerError;
 use crate::protocol::{
-    Frame, FrameError, Hello, MAX_FRAME, MAX_PAYLOAD, Message, Nack, scene_upload,
+    Frame, FrameError, Hello, MAX_FRAME, MAX_PAYLOAD, Message, Nack, points_update, scene_upload,
 };
 use crate::simulator::SimulatorError;
+use nurbs::Vec2;
 
 /// Why a link operation failed.
 #[derive(Debug, thiserror::Error)]
@@ -192,6 +193,37 @@ pub trait Link: core::fmt::Debug {
             self.request(&message, timeout)?;
         }
         Ok(())
+    }
+
+    /// Moves control points of object `object` of the device's active scene in place
+    /// ([`points_update`]: `(patch, first, points)` per patch, applied together), each
+    /// frame acked before the next is sent, so it returns once the device applied the
+    /// update (its renderer carries on, on the new shape). `timeout` is per frame. For a
+    /// stream of shapes, [`Link::send_points`] does not wait.
+    fn update_points(
+        &mut self,
+        object: u8,
+        patches: &[(u8, u16, &[Vec2])],
+        timeout: Duration,
+    ) -> Result<(), LinkError> {
+        for message in points_update(object, patches) {
+            self.request(&message, timeout)?;
+        }
+        Ok(())
+    }
+
+    /// Sends the frames of a control-point update ([`points_update`]) without waiting, for
+    /// shapes streamed faster than a round trip; returns their sequence numbers, whose acks
+    /// (or nacks) arrive among the device's frames. The update is applied when its last
+    /// frame is acked; a nack of any of its frames drops it whole (send the next shape).
+    fn send_points(
+        &mut self,
+        object: u8,
+        patches: &[(u8, u16, &[Vec2])],
+    ) -> Result<Vec<u16>, LinkError> {
+        points_update(object, patches)
+            .map(|message| self.send(&message))
+            .collect()
     }
 }
 

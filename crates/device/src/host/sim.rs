@@ -10,7 +10,12 @@
 //!
 //! The thread owns the decoded [`SceneStore`]; the controller holds the chain, a view of it,
 //! for one scene: at every swap the controller is [rebound](Controller::rebind) (dropping the
-//! old view), the stores are swapped and the new chain is loaded. The device clock is the
+//! old view), the stores are swapped and the new chain is loaded. A control-point update
+//! ([`Message::ScenePoints`]) keeps the renderer: the controller is
+//! [reshaped](Controller::reshape) onto the chain of the scratch store the update was
+//! validated into, the scratch is copied into the store and the controller reshaped back onto
+//! it (the copy has the same shape: nothing moves the second time), between two ticks. The
+//! device clock is the
 //! tick count times the period in integer microseconds, as a board's timer. The first object
 //! of the scene is rendered, when it is a chain of planar curves (the pantograph is planar:
 //! surfaces are accepted but render nothing).
@@ -25,7 +30,7 @@ use tracker::Chain;
 
 use super::serial::{Packets, Stream, read_packets, write_packet};
 use super::{Link, LinkError, Sequencer, cobs, software_version};
-use crate::controller::Controller;
+use crate::controller::{Controller, ControllerError};
 use crate::protocol::{Frame, MAX_FRAME, Message, SceneStore};
 use crate::safety::SafetyConfig;
 use crate::session::{DeviceState, Event, Session};
@@ -261,6 +266,8 @@ impl Link for SimLink {
 enum EpochEnd {
     /// A scene upload was committed into `scratch`.
     Swap,
+    /// A control-point update of object `object` was applied; `scratch` holds the scene.
+    Points { object: u8 },
     /// The host is gone.
     Stop,
 }
@@ -287,6 +294,20 @@ fn chain_curves(store: &SceneStore) -> Vec<Curve<'_, Vec2>> {
     (0..n).map_while(|p| store.curve(0, p)).collect()
 }
 
+/// `parked` with object 0 of `store` loaded afresh (the renderer waits for its acquisition).
+fn reload<'s>(
+    parked: Controller<Chain<'static>>,
+    store: &'s SceneStore,
+    config: &SimConfig,
+) -> Controller<Chain<'s>> {
+    let mut c = parked.rebind();
+    let curves = chain_curves(store);
+    if let (Ok(chain), Some(material)) = (Chain::new(&curves), store.material(0)) {
+        let _ = c.load_scene_as_needed(chain, material, config.passivity_control);
+    }
+    c
+}
+
 impl SimDevice {
     fn run(&mut self, controller: Controller<Chain<'static>>) {
         let mut store = Box::new(SceneStore::new());
@@ -304,11 +325,47 @@ impl SimDevice {
                 self.session
                     .note_error(crate::protocol::ErrorCode::BadMaterial);
             }
-            let end = self.epoch(&mut active);
+            let end = loop {
+                match self.epoch(&mut active) {
+                    // The pantograph renders object 0; the others' points change nothing here.
+                    EpochEnd::Points { object: 0 } => {
+                        let curves = chain_curves(&self.scratch);
+                        let Ok(chain) = Chain::new(&curves) else {
+                            continue;
+                        };
+                        match active.reshape(chain) {
+                            Ok(mid) => {
+                                // `mid` renders the scratch store: copy it into the store and
+                                // come back onto that (the same shape: nothing moves).
+                                store.clone_from(&self.scratch);
+                                let curves = chain_curves(&store);
+                                let back = match Chain::new(&curves) {
+                                    Ok(chain) => mid.reshape(chain),
+                                    Err(_) => Err((mid, ControllerError::NoScene)),
+                                };
+                                active = match back {
+                                    Ok(c) => c,
+                                    // Not expected (the same scene): start the renderer anew.
+                                    Err((mid, _)) => reload(mid.rebind(), &store, &self.config),
+                                };
+                            }
+                            Err((back, _)) => {
+                                // No scene loaded (its material was refused): nothing renders.
+                                active = back;
+                                self.session
+                                    .note_error(crate::protocol::ErrorCode::TopologyChanged);
+                            }
+                        }
+                    }
+                    EpochEnd::Points { .. } => {}
+                    end => break end,
+                }
+            };
             parked = active.rebind();
             match end {
                 EpochEnd::Stop => return,
                 EpochEnd::Swap => std::mem::swap(&mut store, &mut self.scratch),
+                EpochEnd::Points { .. } => {}
             }
         }
     }
@@ -326,8 +383,8 @@ impl SimDevice {
                 match self.commands.try_recv() {
                     Ok(ToDevice::HandTarget(t)) => self.hand.command(t),
                     Ok(ToDevice::Frame(bytes)) => match self.handle(controller, &bytes) {
-                        Ok(true) => return EpochEnd::Swap,
-                        Ok(false) => {}
+                        Ok(Some(end)) => return end,
+                        Ok(None) => {}
                         Err(()) => return EpochEnd::Stop,
                     },
                     Err(TryRecvError::Empty) => break,
@@ -370,8 +427,12 @@ impl SimDevice {
         }
     }
 
-    /// Handles one host frame; `Ok(true)` when it committed a scene.
-    fn handle(&mut self, controller: &mut Controller<Chain<'_>>, bytes: &[u8]) -> Result<bool, ()> {
+    /// Handles one host frame; `Ok(Some(_))` when it committed a scene or applied an update.
+    fn handle(
+        &mut self,
+        controller: &mut Controller<Chain<'_>>,
+        bytes: &[u8],
+    ) -> Result<Option<EpochEnd>, ()> {
         // The simulated joints "rest on their end stops": the counts read there.
         let home = self.config.spec.end_stop_counts();
         let (paced, frames, seq) = (self.config.paced, &self.frames, &mut self.seq);
@@ -386,18 +447,19 @@ impl SimDevice {
             return Err(());
         }
         Ok(match event {
-            Event::SceneCommitted => true,
+            Event::SceneCommitted => Some(EpochEnd::Swap),
+            Event::ScenePointsUpdated { object } => Some(EpochEnd::Points { object }),
             Event::HandTarget(target) => {
                 self.hand.command(target);
-                false
+                None
             }
             Event::Command(command) => {
                 if let Err(code) = command.apply(controller, home, self.config.passivity_control) {
                     self.session.note_error(code);
                 }
-                false
+                None
             }
-            Event::None => false,
+            Event::None => None,
         })
     }
 

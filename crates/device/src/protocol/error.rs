@@ -54,11 +54,33 @@ pub enum ErrorCode {
     /// A message only a simulated plant accepts ([`Message::HandTarget`](super::Message)),
     /// sent to a board that drives real motors.
     NotSimulated = 21,
+    /// A control-point update ([`Message::ScenePoints`](super::Message)) with no active scene
+    /// to update.
+    NoActiveScene = 22,
+    /// A control-point update for an object or a patch the active scene does not have (the
+    /// nack names them).
+    NoSuchPatch = 23,
+    /// A control-point update that runs past the patch's control points (first index plus
+    /// count beyond them).
+    PointsPastPatch = 24,
+    /// A control-point update whose points are planar for a surface patch, or spatial for a
+    /// planar curve.
+    PointsKind = 25,
+    /// A control-point update that changes its object's topology (its curves split at other
+    /// corners, a vertex turned from convex to reflex or smooth, a chain closed or opened):
+    /// the renderer's features would not be the same; upload the scene instead.
+    TopologyChanged = 26,
+    /// A control-point update while the staging buffer holds something else: an upload in
+    /// progress, or an update of another object not applied yet.
+    StagingBusy = 27,
+    /// A frame of a control-point update after an earlier frame of the same update was
+    /// refused: the whole update is dropped, up to and including its apply frame.
+    UpdateAborted = 28,
 }
 
 impl ErrorCode {
     /// Every code, in wire order.
-    pub const ALL: [ErrorCode; 21] = [
+    pub const ALL: [ErrorCode; 28] = [
         ErrorCode::BadLength,
         ErrorCode::BadCrc,
         ErrorCode::BadVersion,
@@ -80,6 +102,13 @@ impl ErrorCode {
         ErrorCode::ScenePatch,
         ErrorCode::SceneTopology,
         ErrorCode::NotSimulated,
+        ErrorCode::NoActiveScene,
+        ErrorCode::NoSuchPatch,
+        ErrorCode::PointsPastPatch,
+        ErrorCode::PointsKind,
+        ErrorCode::TopologyChanged,
+        ErrorCode::StagingBusy,
+        ErrorCode::UpdateAborted,
     ];
 
     /// The code with wire value `value`, if any.
@@ -111,6 +140,17 @@ impl ErrorCode {
             ErrorCode::ScenePatch => "invalid NURBS patch",
             ErrorCode::SceneTopology => "invalid object topology",
             ErrorCode::NotSimulated => "only a simulated plant takes a hand target",
+            ErrorCode::NoActiveScene => "no active scene to update",
+            ErrorCode::NoSuchPatch => "no such object or patch in the active scene",
+            ErrorCode::PointsPastPatch => "control points past the end of the patch",
+            ErrorCode::PointsKind => "planar points for a surface or spatial points for a curve",
+            ErrorCode::TopologyChanged => {
+                "the moved points change the object's topology: upload the scene instead"
+            }
+            ErrorCode::StagingBusy => {
+                "staging is busy: an upload, or an update of another object, is in progress"
+            }
+            ErrorCode::UpdateAborted => "an earlier frame of this update was refused",
         }
     }
 }

@@ -1,7 +1,7 @@
 //! Messages and frames.
 
 use friction::{FrictionMaterial, Mode, SwitchCause};
-use nurbs::Vec2;
+use nurbs::{Vec2, Vec3};
 use tracker::Feature;
 
 use super::wire::{MATERIAL_LEN, Reader, Sink, Writer, get_material, put_material};
@@ -24,6 +24,18 @@ pub const MAX_CHUNK: usize = MAX_PAYLOAD - 4;
 pub const UNKNOWN_SEQ: u16 = 0xFFFF;
 /// Object / patch index of a nack that concerns no particular object or patch.
 pub const NO_INDEX: u8 = 0xFF;
+/// Bytes of a [`Message::ScenePoints`] payload before its points: object u8, patch u8, first
+/// control point u16, flags u8.
+pub const POINTS_HEADER_LEN: usize = 5;
+/// Most planar control points (x, y) one [`Message::ScenePoints`] frame carries.
+pub const MAX_POINTS_2D: usize = (MAX_PAYLOAD - POINTS_HEADER_LEN) / 8;
+/// Most surface control points (x, y, z) one [`Message::ScenePoints`] frame carries.
+pub const MAX_POINTS_3D: usize = (MAX_PAYLOAD - POINTS_HEADER_LEN) / 12;
+/// [`ScenePoints`] flag: the last frame of an update; the staged points apply with it.
+pub const POINTS_APPLY: u8 = 1;
+/// [`ScenePoints`] flag: the points are a surface's (x, y, z); without it a planar curve's
+/// (x, y).
+pub const POINTS_SPATIAL: u8 = 2;
 
 /// A message type byte.
 #[repr(u8)]
@@ -39,6 +51,8 @@ pub enum MessageType {
     SceneChunk = 0x11,
     /// [`Message::SceneCommit`].
     SceneCommit = 0x12,
+    /// [`Message::ScenePoints`].
+    ScenePoints = 0x13,
     /// [`Message::Ack`].
     Ack = 0x20,
     /// [`Message::Nack`].
@@ -65,12 +79,13 @@ pub enum MessageType {
 
 impl MessageType {
     /// Every type.
-    pub const ALL: [MessageType; 16] = [
+    pub const ALL: [MessageType; 17] = [
         MessageType::Hello,
         MessageType::Heartbeat,
         MessageType::SceneBegin,
         MessageType::SceneChunk,
         MessageType::SceneCommit,
+        MessageType::ScenePoints,
         MessageType::Ack,
         MessageType::Nack,
         MessageType::SetMaterial,
@@ -89,7 +104,7 @@ impl MessageType {
         Self::ALL.iter().copied().find(|&t| t as u8 == value)
     }
 
-    /// The payload length range of the type (fixed for all but scene chunks).
+    /// The payload length range of the type (fixed for all but scene chunks and points).
     pub fn payload_len(self) -> core::ops::RangeInclusive<usize> {
         let n = match self {
             MessageType::Hello => 8,
@@ -97,6 +112,9 @@ impl MessageType {
             MessageType::SceneBegin => 8,
             MessageType::SceneChunk => return 5..=MAX_PAYLOAD,
             MessageType::SceneCommit => 0,
+            MessageType::ScenePoints => {
+                return POINTS_HEADER_LEN + 8..=POINTS_HEADER_LEN + 8 * MAX_POINTS_2D;
+            }
             MessageType::Ack => 2,
             MessageType::Nack => 7,
             MessageType::SetMaterial => 1 + MATERIAL_LEN,
@@ -149,6 +167,115 @@ impl SceneChunk {
     /// The chunk's bytes.
     pub fn data(&self) -> &[u8] {
         &self.data[..usize::from(self.len).min(MAX_CHUNK)]
+    }
+}
+
+/// Control points of one patch of the active scene, replaced in place
+/// ([`Message::ScenePoints`]): Cartesian points (a planar curve's x, y or a surface's x, y, z;
+/// metres, finite), from control point `first` on, of patch `patch` of object `object`. The
+/// weights are the scene's, frozen: not sent, never changed (a point goes into the scene as
+/// `(w·x, w·y, w)` with its weight `w` as uploaded). An update may take several frames (more
+/// points than one frame holds, or several patches of the object, whose joins must move
+/// together); the device stages them and applies them all with the frame that has
+/// [`ScenePoints::apply`] set.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ScenePoints {
+    /// Object index in the active scene.
+    pub object: u8,
+    /// Patch index within the object (as uploaded, not split at corners).
+    pub patch: u8,
+    /// Index of the first control point replaced (a surface's net `i` along u major, as the
+    /// wire scene stores it).
+    pub first: u16,
+    /// The last frame of the update: validate and apply everything staged.
+    pub apply: bool,
+    spatial: bool,
+    len: u8,
+    coords: [f32; 3 * MAX_POINTS_3D],
+}
+
+impl ScenePoints {
+    /// Planar points (1 to [`MAX_POINTS_2D`]); `None` for other counts.
+    pub fn planar(object: u8, patch: u8, first: u16, apply: bool, points: &[Vec2]) -> Option<Self> {
+        if points.is_empty() || points.len() > MAX_POINTS_2D {
+            return None;
+        }
+        let mut coords = [0.0; 3 * MAX_POINTS_3D];
+        for (c, p) in coords.chunks_exact_mut(2).zip(points) {
+            c.copy_from_slice(&[p.x, p.y]);
+        }
+        Some(ScenePoints {
+            object,
+            patch,
+            first,
+            apply,
+            spatial: false,
+            len: points.len() as u8,
+            coords,
+        })
+    }
+
+    /// Surface points (1 to [`MAX_POINTS_3D`]); `None` for other counts.
+    pub fn spatial(
+        object: u8,
+        patch: u8,
+        first: u16,
+        apply: bool,
+        points: &[Vec3],
+    ) -> Option<Self> {
+        if points.is_empty() || points.len() > MAX_POINTS_3D {
+            return None;
+        }
+        let mut coords = [0.0; 3 * MAX_POINTS_3D];
+        for (c, p) in coords.chunks_exact_mut(3).zip(points) {
+            c.copy_from_slice(&[p.x, p.y, p.z]);
+        }
+        Some(ScenePoints {
+            object,
+            patch,
+            first,
+            apply,
+            spatial: true,
+            len: points.len() as u8,
+            coords,
+        })
+    }
+
+    /// Whether the points are a surface's (x, y, z) rather than a planar curve's (x, y).
+    pub fn is_spatial(&self) -> bool {
+        self.spatial
+    }
+
+    /// Coordinates per point: 2 or 3.
+    pub fn dims(&self) -> usize {
+        if self.spatial { 3 } else { 2 }
+    }
+
+    /// Number of points.
+    pub fn len(&self) -> usize {
+        usize::from(self.len)
+    }
+
+    /// Whether there are no points (never, for a message from a constructor or the wire).
+    pub fn is_empty(&self) -> bool {
+        self.len == 0
+    }
+
+    /// The coordinates, point after point (`dims()` each).
+    pub fn coords(&self) -> &[f32] {
+        &self.coords[..(self.len() * self.dims()).min(self.coords.len())]
+    }
+
+    /// The planar points (none when spatial).
+    pub fn planar_points(&self) -> impl Iterator<Item = Vec2> + '_ {
+        let c = if self.spatial { &[][..] } else { self.coords() };
+        c.chunks_exact(2).map(|c| Vec2::new(c[0], c[1]))
+    }
+
+    /// The surface points (none when planar).
+    pub fn spatial_points(&self) -> impl Iterator<Item = Vec3> + '_ {
+        let c = if self.spatial { self.coords() } else { &[][..] };
+        c.chunks_exact(3).map(|c| Vec3::new(c[0], c[1], c[2]))
     }
 }
 
@@ -321,6 +448,9 @@ pub enum Message {
     SceneChunk(SceneChunk),
     /// → dev: all pieces sent; verify, validate and activate.
     SceneCommit,
+    /// → dev: replace control points of a patch of the active scene in place (staged; the
+    /// frame with the apply flag validates the update and activates it, between ticks).
+    ScenePoints(ScenePoints),
     /// → host: the frame with this sequence number was accepted.
     Ack {
         /// Sequence number of the accepted frame.
@@ -380,6 +510,7 @@ impl Message {
             Message::SceneBegin { .. } => MessageType::SceneBegin,
             Message::SceneChunk(_) => MessageType::SceneChunk,
             Message::SceneCommit => MessageType::SceneCommit,
+            Message::ScenePoints(_) => MessageType::ScenePoints,
             Message::Ack { .. } => MessageType::Ack,
             Message::Nack(_) => MessageType::Nack,
             Message::SetMaterial { .. } => MessageType::SetMaterial,
@@ -409,6 +540,17 @@ impl Message {
             Message::SceneChunk(c) => {
                 w.u32(c.offset);
                 w.put(c.data());
+            }
+            Message::ScenePoints(p) => {
+                w.u8(p.object);
+                w.u8(p.patch);
+                w.u16(p.first);
+                let apply = if p.apply { POINTS_APPLY } else { 0 };
+                let spatial = if p.spatial { POINTS_SPATIAL } else { 0 };
+                w.u8(apply | spatial);
+                for &c in p.coords() {
+                    w.f32(c);
+                }
             }
             Message::SceneCommit
             | Message::EnableForces
@@ -503,6 +645,38 @@ impl Message {
                 Message::SceneChunk(SceneChunk::new(offset, data).ok_or(short)?)
             }
             MessageType::SceneCommit => Message::SceneCommit,
+            MessageType::ScenePoints => {
+                let object = r.u8().ok_or(short)?;
+                let patch = r.u8().ok_or(short)?;
+                let first = r.u16().ok_or(short)?;
+                let flags = r.u8().ok_or(short)?;
+                if flags & !(POINTS_APPLY | POINTS_SPATIAL) != 0 {
+                    return Err(ErrorCode::BadField);
+                }
+                let spatial = flags & POINTS_SPATIAL != 0;
+                let (size, most) = if spatial {
+                    (12, MAX_POINTS_3D)
+                } else {
+                    (8, MAX_POINTS_2D)
+                };
+                let n = r.remaining() / size;
+                if !r.remaining().is_multiple_of(size) || n == 0 || n > most {
+                    return Err(short);
+                }
+                let mut coords = [0.0; 3 * MAX_POINTS_3D];
+                for c in coords.iter_mut().take(n * (size / 4)) {
+                    *c = finite(r)?;
+                }
+                Message::ScenePoints(ScenePoints {
+                    object,
+                    patch,
+                    first,
+                    apply: flags & POINTS_APPLY != 0,
+                    spatial,
+                    len: n as u8,
+                    coords,
+                })
+            }
             MessageType::Ack => Message::Ack {
                 seq: r.u16().ok_or(short)?,
             },

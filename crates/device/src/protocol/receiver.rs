@@ -1,12 +1,30 @@
 //! The device side of a link: sequence tracking and scene upload.
 
-use super::scene::{SceneError, SceneStore};
-use super::{Crc32, ErrorCode, Frame, Message, NO_INDEX, Nack, SceneChunk, UNKNOWN_SEQ, crc32};
+use super::scene::{SceneError, SceneStore, points_span, write_points};
+use super::{
+    Crc32, ErrorCode, Frame, Message, NO_INDEX, Nack, SceneChunk, ScenePoints, UNKNOWN_SEQ, crc32,
+};
 
 /// Checks an assembled scene before the receiver activates it.
 pub trait SceneValidator {
     /// `Ok` when the device can run `scene`.
     fn validate(&mut self, scene: &[u8]) -> Result<(), SceneError>;
+
+    /// `Ok` when the device can run `reshaped`, the active scene `active` with control points
+    /// of object `object` moved ([`Message::ScenePoints`]), in place of `active` without
+    /// starting its renderer anew: the object's topology must not have changed
+    /// ([`SceneFault::TopologyChanged`](super::SceneFault::TopologyChanged)). The provided
+    /// method validates `reshaped` alone (a closure cannot compare topologies); a
+    /// [`SceneStore`] compares them ([`SceneStore::decode_reshaped`]).
+    fn validate_reshape(
+        &mut self,
+        active: &[u8],
+        reshaped: &[u8],
+        object: u8,
+    ) -> Result<(), SceneError> {
+        let _ = (active, object);
+        self.validate(reshaped)
+    }
 }
 
 impl<F: FnMut(&[u8]) -> Result<(), SceneError>> SceneValidator for F {
@@ -23,6 +41,26 @@ impl<const K: usize, const C: usize, const S: usize> SceneValidator for SceneSto
     fn validate(&mut self, scene: &[u8]) -> Result<(), SceneError> {
         self.decode(scene)
     }
+
+    fn validate_reshape(
+        &mut self,
+        active: &[u8],
+        reshaped: &[u8],
+        object: u8,
+    ) -> Result<(), SceneError> {
+        self.decode_reshaped(active, reshaped, usize::from(object))
+    }
+}
+
+/// A control-point update in progress ([`Message::ScenePoints`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Points {
+    /// Points of `object` staged: the staging buffer holds the active scene with them
+    /// written in.
+    Staged { object: u8 },
+    /// A frame of the update was refused: its other frames are too, up to and including its
+    /// apply frame.
+    Aborted,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -52,6 +90,20 @@ struct Upload {
 ///   ended) → `SceneCommit`. Chunks go to the staging buffer; the commit checks the length,
 ///   the CRC-32 and the validator, and only then swaps staging and active. A new
 ///   `SceneBegin` (or a `Hello`) abandons an upload in progress.
+/// - A control-point update is one or more [`Message::ScenePoints`] of one object, the last
+///   with its apply flag. Its first frame copies the active scene into the staging buffer,
+///   each frame writes its points there (`(w·x, w·y[, w·z], w)` with the weight `w` already
+///   there), and the apply frame computes the staged scene's CRC-32 and checks it with the
+///   validator ([`SceneValidator::validate_reshape`]: valid, same topology) before it swaps
+///   staging and active. So the active scene only ever changes by whole updates. Refused:
+///   without an active scene ([`ErrorCode::NoActiveScene`]), an object or patch it does not
+///   have ([`ErrorCode::NoSuchPatch`]), points past the patch's
+///   ([`ErrorCode::PointsPastPatch`]) or of the other kind ([`ErrorCode::PointsKind`]),
+///   during an upload or an update of another object ([`ErrorCode::StagingBusy`]), a
+///   result that fails validation (its [`SceneError`]'s code) or changes the topology
+///   ([`ErrorCode::TopologyChanged`]). A refused frame drops its whole update: the update's
+///   later frames are refused too ([`ErrorCode::UpdateAborted`]), up to and including its
+///   apply frame. A `SceneBegin` or a `Hello` drops an update not yet applied.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct SceneReceiver<const N: usize = 8192> {
     buffers: [[u8; N]; 2],
@@ -59,6 +111,7 @@ pub struct SceneReceiver<const N: usize = 8192> {
     active_len: usize,
     active_crc: u32,
     upload: Option<Upload>,
+    points: Option<Points>,
     expected_seq: Option<u16>,
     simulated_plant: bool,
 }
@@ -78,6 +131,7 @@ impl<const N: usize> SceneReceiver<N> {
             active_len: 0,
             active_crc: 0,
             upload: None,
+            points: None,
             expected_seq: None,
             simulated_plant: false,
         }
@@ -149,10 +203,17 @@ impl<const N: usize> SceneReceiver<N> {
     fn handle(&mut self, frame: &Frame, validator: &mut impl SceneValidator) -> Result<(), Nack> {
         let seq = frame.seq;
         match frame.message {
-            Message::Hello(_) => self.upload = None,
-            Message::SceneBegin { total_len, crc32 } => self.begin(total_len, crc32, seq)?,
+            Message::Hello(_) => {
+                self.upload = None;
+                self.points = None;
+            }
+            Message::SceneBegin { total_len, crc32 } => {
+                self.points = None;
+                self.begin(total_len, crc32, seq)?;
+            }
             Message::SceneChunk(ref chunk) => self.chunk(chunk, seq)?,
             Message::SceneCommit => self.commit(validator, seq)?,
+            Message::ScenePoints(ref points) => self.scene_points(points, validator, seq)?,
             Message::Ack { .. } | Message::Nack(_) | Message::Status(_) | Message::Telemetry(_) => {
                 return Err(self.nack(Some(seq), ErrorCode::UnexpectedMessage, None));
             }
@@ -188,6 +249,92 @@ impl<const N: usize> SceneReceiver<N> {
             patch: index(scene.and_then(|e| e.patch)),
             expected_seq: self.expected_seq.unwrap_or(UNKNOWN_SEQ),
         }
+    }
+
+    /// A nack about patch `patch` (when given) of object `object`.
+    fn nack_at(&self, seq: u16, code: ErrorCode, object: u8, patch: Option<u8>) -> Nack {
+        Nack {
+            object,
+            patch: patch.unwrap_or(NO_INDEX),
+            ..self.nack(Some(seq), code, None)
+        }
+    }
+
+    /// One frame of a control-point update; a refusal drops the update it belongs to.
+    fn scene_points(
+        &mut self,
+        points: &ScenePoints,
+        validator: &mut impl SceneValidator,
+        seq: u16,
+    ) -> Result<(), Nack> {
+        let result = self.stage_points(points, validator, seq);
+        if points.apply {
+            // Applied or refused, the update ends with its apply frame.
+            self.points = None;
+        } else if result.is_err() {
+            self.points = Some(Points::Aborted);
+        }
+        result
+    }
+
+    fn stage_points(
+        &mut self,
+        p: &ScenePoints,
+        validator: &mut impl SceneValidator,
+        seq: u16,
+    ) -> Result<(), Nack> {
+        let refuse = |this: &Self, code, patch: bool| {
+            Err(this.nack_at(seq, code, p.object, patch.then_some(p.patch)))
+        };
+        if self.points == Some(Points::Aborted) {
+            return refuse(self, ErrorCode::UpdateAborted, false);
+        }
+        if self.active_len == 0 {
+            return refuse(self, ErrorCode::NoActiveScene, false);
+        }
+        if self.upload.is_some()
+            || matches!(self.points, Some(Points::Staged { object }) if object != p.object)
+        {
+            return refuse(self, ErrorCode::StagingBusy, false);
+        }
+        if let Err(code) = points_span(self.active_scene(), p) {
+            return refuse(self, code, true);
+        }
+        let len = self.active_len.min(N);
+        let staging_index = (self.active + 1) & 1;
+        let [b0, b1] = &mut self.buffers;
+        let (active, staging) = if staging_index == 1 {
+            (&*b0, b1)
+        } else {
+            (&*b1, b0)
+        };
+        if self.points.is_none() {
+            staging[..len].copy_from_slice(&active[..len]);
+            self.points = Some(Points::Staged { object: p.object });
+        }
+        // The staging copy has the active scene's layout: the span checked above is its too.
+        if let Err(code) = write_points(&mut staging[..len], p) {
+            return refuse(self, code, true);
+        }
+        if !p.apply {
+            return Ok(());
+        }
+        let (active, staging) = if staging_index == 1 {
+            (&self.buffers[0][..len], &self.buffers[1][..len])
+        } else {
+            (&self.buffers[1][..len], &self.buffers[0][..len])
+        };
+        let crc = crc32(staging);
+        if let Err(e) = validator.validate_reshape(active, staging, p.object) {
+            let nack = self.nack(Some(seq), e.code(), Some(&e));
+            return Err(Nack {
+                object: p.object,
+                ..nack
+            });
+        }
+        self.active = staging_index;
+        self.active_crc = crc;
+        Ok(())
     }
 
     fn begin(&mut self, total_len: u32, crc32: u32, seq: u16) -> Result<(), Nack> {

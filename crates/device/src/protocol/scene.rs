@@ -2,10 +2,13 @@
 
 use friction::FrictionMaterial;
 use nurbs::{Curve, NurbsError, Surface, Vec2, Vec3, Vec4};
-use tracker::{Chain, ChainError, MAX_CHAIN_CURVES, MAX_SHELL_PATCHES, Shell, ShellError};
+use tracker::{
+    Chain, ChainError, ChainTopology, MAX_CHAIN_CURVES, MAX_SHELL_PATCHES, Shell, ShellError,
+    ShellTopology,
+};
 
-use super::ErrorCode;
 use super::wire::{MATERIAL_LEN, Reader, get_material};
+use super::{ErrorCode, ScenePoints};
 
 /// First bytes of a wire scene.
 pub const SCENE_MAGIC: [u8; 4] = *b"NRBS";
@@ -55,6 +58,8 @@ pub enum SceneFault {
     Chain(ChainError),
     /// An object's surfaces do not form a shell.
     Shell(ShellError),
+    /// A control-point update changed the object's topology ([`tracker::Object::topology`]).
+    TopologyChanged,
 }
 
 /// Why a scene was rejected, and where.
@@ -95,6 +100,7 @@ impl SceneError {
             SceneFault::MixedKinds | SceneFault::Chain(_) | SceneFault::Shell(_) => {
                 ErrorCode::SceneTopology
             }
+            SceneFault::TopologyChanged => ErrorCode::TopologyChanged,
         }
     }
 }
@@ -113,7 +119,9 @@ impl core::fmt::Display for SceneError {
             SceneFault::Shell(e) => write!(f, "{e}"),
             SceneFault::MixedKinds => write!(f, "mixes planar curves and surfaces"),
             SceneFault::Material(code) => write!(f, "material: {code}"),
-            SceneFault::Format | SceneFault::Capacity => write!(f, "{}", self.code()),
+            SceneFault::Format | SceneFault::Capacity | SceneFault::TopologyChanged => {
+                write!(f, "{}", self.code())
+            }
         }
     }
 }
@@ -319,6 +327,73 @@ impl<const K: usize, const C: usize, const S: usize> SceneStore<K, C, S> {
             self.clear();
         }
         result
+    }
+
+    /// Validates `reshaped`, the wire scene `active` with control points of object `object`
+    /// moved, into this store ([`SceneStore::decode`]), and checks that the move kept the
+    /// object's topology: `active` is decoded first and the object's topology
+    /// ([`Chain::topology`], [`Shell::topology`]) compared with the reshaped one's
+    /// ([`SceneFault::TopologyChanged`]). On success the store holds `reshaped`; on error it
+    /// is empty. Two decodes: the cost of two commits' validation.
+    pub fn decode_reshaped(
+        &mut self,
+        active: &[u8],
+        reshaped: &[u8],
+        object: usize,
+    ) -> Result<(), SceneError> {
+        let changed = || SceneError::at(object, None, SceneFault::TopologyChanged);
+        self.decode(active)?;
+        let result = match self.kind(object) {
+            Some(PatchKind::Curve2) => {
+                let before = self.chain_topology(object).ok_or_else(changed)?;
+                self.decode(reshaped)?;
+                self.chain_topology(object) == Some(before)
+            }
+            Some(PatchKind::Surface) if S > 0 => self.shell_reshaped(reshaped, object)?,
+            _ => false,
+        };
+        if !result {
+            self.clear();
+            return Err(changed());
+        }
+        Ok(())
+    }
+
+    /// The topology of `object` when it is a chain (it was validated, so it is one). Not
+    /// inlined: the chain it builds exists only while it runs.
+    #[inline(never)]
+    fn chain_topology(&self, object: usize) -> Option<ChainTopology> {
+        let n = self.patch_count(object)?;
+        let first = self.curve(object, 0)?;
+        let mut curves = [first; MAX_CHAIN_CURVES];
+        for (p, c) in curves.iter_mut().enumerate().take(n).skip(1) {
+            *c = self.curve(object, p)?;
+        }
+        Chain::new(curves.get(..n)?).ok().map(|c| c.topology())
+    }
+
+    /// The topology of `object` when it is a shell.
+    #[inline(never)]
+    fn shell_topology(&self, object: usize) -> Option<ShellTopology> {
+        let n = self.patch_count(object)?;
+        let first = self.surface(object, 0)?;
+        let mut patches = [first; MAX_SHELL_PATCHES];
+        for (p, s) in patches.iter_mut().enumerate().take(n).skip(1) {
+            *s = self.surface(object, p)?;
+        }
+        Shell::new(patches.get(..n)?).ok().map(|s| s.topology())
+    }
+
+    /// The surface half of [`SceneStore::decode_reshaped`] (the active scene decoded): decodes
+    /// `reshaped` and says whether `object` kept its topology. Apart, so that a store without
+    /// surfaces links none of it.
+    #[inline(never)]
+    fn shell_reshaped(&mut self, reshaped: &[u8], object: usize) -> Result<bool, SceneError> {
+        let Some(before) = self.shell_topology(object) else {
+            return Ok(false);
+        };
+        self.decode(reshaped)?;
+        Ok(self.shell_topology(object) == Some(before))
     }
 
     fn parse(&mut self, bytes: &[u8]) -> Result<(), SceneError> {
@@ -527,6 +602,120 @@ fn material_fault(code: ErrorCode) -> SceneFault {
         ErrorCode::BadPayloadLength => SceneFault::Format,
         code => SceneFault::Material(code),
     }
+}
+
+/// Where the control points of one patch lie in a wire scene ([`patch_points`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct PointSpan {
+    /// Byte offset of the first homogeneous control point.
+    pub offset: usize,
+    /// Number of control points.
+    pub count: usize,
+    /// The patch's kind: a planar curve's points are `(w·x, w·y, w)`, 12 bytes; a surface's
+    /// `(w·x, w·y, w·z, w)`, 16.
+    pub kind: PatchKind,
+}
+
+impl PointSpan {
+    /// Bytes per homogeneous point.
+    pub fn stride(&self) -> usize {
+        match self.kind {
+            PatchKind::Curve2 => 12,
+            PatchKind::Surface => 16,
+        }
+    }
+}
+
+/// Where the control points of patch `patch` of object `object` lie in the wire scene
+/// `scene`: walks the headers (the layout in the module docs of `protocol`), reading no
+/// float. `None` when the scene has no such object or patch, or is cut short. Total: any
+/// bytes give an answer, never a panic.
+pub fn patch_points(scene: &[u8], object: usize, patch: usize) -> Option<PointSpan> {
+    let r = &mut Reader::new(scene);
+    if r.take(4)? != &SCENE_MAGIC[..] || r.u8()? != SCENE_VERSION {
+        return None;
+    }
+    let n_objects = usize::from(r.u8()?);
+    r.u16()?;
+    if object >= n_objects {
+        return None;
+    }
+    for o in 0..=object {
+        r.take(MATERIAL_LEN)?;
+        let n_patches = usize::from(r.u8()?);
+        for p in 0..n_patches {
+            let (kind, knots, points) = match r.u8()? {
+                KIND_CURVE2 => {
+                    r.u8()?;
+                    let m = usize::from(r.u16()?);
+                    let n = usize::from(r.u16()?);
+                    (PatchKind::Curve2, m, n)
+                }
+                KIND_SURFACE => {
+                    r.u16()?;
+                    let m = usize::from(r.u16()?) + usize::from(r.u16()?);
+                    let n = usize::from(r.u16()?) * usize::from(r.u16()?);
+                    (PatchKind::Surface, m, n)
+                }
+                _ => return None,
+            };
+            r.take(4 * knots)?;
+            let span = PointSpan {
+                offset: scene.len() - r.remaining(),
+                count: points,
+                kind,
+            };
+            r.take(span.stride().checked_mul(points)?)?;
+            if o == object && p == patch {
+                return Some(span);
+            }
+        }
+        if o == object {
+            return None;
+        }
+    }
+    None
+}
+
+/// Where the points of the update `p` go in the wire scene `scene`: the span of its patch,
+/// checked against it. [`ErrorCode::NoSuchPatch`] when the scene has no such object or patch
+/// (or is not a wire scene), [`ErrorCode::PointsKind`] for planar points on a surface or
+/// spatial ones on a curve, [`ErrorCode::PointsPastPatch`] when they run past the patch's.
+pub fn points_span(scene: &[u8], p: &ScenePoints) -> Result<PointSpan, ErrorCode> {
+    let span = patch_points(scene, usize::from(p.object), usize::from(p.patch))
+        .ok_or(ErrorCode::NoSuchPatch)?;
+    if (span.kind == PatchKind::Surface) != p.is_spatial() {
+        return Err(ErrorCode::PointsKind);
+    }
+    if usize::from(p.first) + p.len() > span.count {
+        return Err(ErrorCode::PointsPastPatch);
+    }
+    Ok(span)
+}
+
+/// Writes the points of `p` into the wire scene `scene` in place, each as `(w·x, w·y, w)` (a
+/// surface's `(w·x, w·y, w·z, w)`) with the weight `w` the scene holds for it: what the
+/// device's receiver does to its staged copy of the active scene, and what a host does to its
+/// own copy to know the scene (and its CRC-32) the device will have. Errors as
+/// [`points_span`], with `scene` unchanged. Validates nothing else: the result may not be a
+/// valid scene (the device checks that before it applies an update).
+pub fn write_points(scene: &mut [u8], p: &ScenePoints) -> Result<(), ErrorCode> {
+    let span = points_span(scene, p)?;
+    let dims = p.dims();
+    let stride = span.stride();
+    for (i, coords) in p.coords().chunks_exact(dims).enumerate() {
+        let at = span.offset + (usize::from(p.first) + i) * stride;
+        // Inside the scene: the span was read from it.
+        let bytes = scene
+            .get_mut(at..at + stride)
+            .ok_or(ErrorCode::PointsPastPatch)?;
+        let (xyz, w) = bytes.split_at_mut(4 * dims);
+        let w = f32::from_le_bytes([w[0], w[1], w[2], w[3]]);
+        for (dst, &c) in xyz.chunks_exact_mut(4).zip(coords) {
+            dst.copy_from_slice(&(c * w).to_le_bytes());
+        }
+    }
+    Ok(())
 }
 
 /// Parses and validates a wire scene into `store` (see [`SceneStore::decode`]).
