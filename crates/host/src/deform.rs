@@ -8,6 +8,7 @@
 use std::io::{self, Write};
 
 use deform::{Body, Coupling, Nodes};
+
 use friction::{FrictionMaterial, FrictionRenderer, Mode};
 use nurbs::Vec3;
 use scene::{Object, ObjectError, Patch, Scene, Space};
@@ -337,15 +338,16 @@ pub fn run(
     progress: impl FnMut(usize, usize),
 ) -> Result<Run, DeformError> {
     let n = validate(scene, index, trajectory, rate_hz)?;
-    let (object, body) = body(scene, index)?;
+    let deformer = Deformer::new(scene, index)?;
+    let object = deformer.rest().clone();
     let material = object.material().friction_material();
     let ticks = match trajectory.space() {
-        Space::Planar => simulate::<ChainViews>(
-            object, index, body, material, trajectory, rate_hz, n, progress,
-        )?,
-        Space::Spatial => simulate::<ShellViews>(
-            object, index, body, material, trajectory, rate_hz, n, progress,
-        )?,
+        Space::Planar => {
+            simulate::<ChainViews>(deformer, material, trajectory, rate_hz, n, progress)?
+        }
+        Space::Spatial => {
+            simulate::<ShellViews>(deformer, material, trajectory, rate_hz, n, progress)?
+        }
     };
     Ok(Run {
         space: trajectory.space(),
@@ -357,25 +359,119 @@ pub fn run(
     })
 }
 
-/// The penalty contact of `tick` as a spring on the object: stuck, the friction spring ties
-/// the HIP to the GO's point of the object in every direction; otherwise the normal spring
-/// acts at the CP along the normal.
-fn contact_spring(tick: &Tick, stiffness_n_per_m: f64) -> Coupling {
-    let hip = tick.hip.to_array().map(f64::from);
-    if tick.mode == Mode::Stuck {
-        Coupling {
-            params: tick.go_params.map(f64::from),
-            anchor: hip,
-            stiffness: stiffness_n_per_m,
-            normal: None,
+/// A deformable object in a haptic loop: its body, its rest shape, and what the loop's ticks
+/// since its last step did to it. The loop [feeds](Deformer::feed) it every rendered tick and
+/// [steps](Deformer::step) it at its dynamics rate; the contact's spring acts in the object's
+/// implicit step ([`Coupling`]: stuck, the friction spring ties the HIP to the GO's point of
+/// the object in every direction; otherwise the normal spring acts at the CP), the rest of the
+/// rendered force (friction while sliding, the wall's damping) explicitly, averaged over the
+/// step's ticks.
+#[derive(Clone, Debug)]
+pub struct Deformer {
+    index: usize,
+    rest: Object,
+    body: Body,
+    stiffness_n_per_m: f64,
+    load: Nodes,
+    explicit: [f64; 3],
+    fed: usize,
+    coupling: Option<Coupling>,
+}
+
+impl Deformer {
+    /// Object `index` of `scene`, at rest; its contact stiffness is its material's.
+    pub fn new(scene: &Scene, index: usize) -> Result<Self, DeformError> {
+        let (object, body) = body(scene, index)?;
+        Ok(Deformer {
+            index,
+            rest: object.clone(),
+            load: body.zero_load(),
+            stiffness_n_per_m: f64::from(object.material().stiffness_n_per_m()),
+            body,
+            explicit: [0.0; 3],
+            fed: 0,
+            coupling: None,
+        })
+    }
+
+    /// The object's index in its scene.
+    pub fn index(&self) -> usize {
+        self.index
+    }
+
+    /// The object at rest (its scene's).
+    pub fn rest(&self) -> &Object {
+        &self.rest
+    }
+
+    /// The body.
+    pub fn body(&self) -> &Body {
+        &self.body
+    }
+
+    /// The current control points (m).
+    pub fn points(&self) -> Nodes {
+        self.body.points()
+    }
+
+    /// One rendered tick: while in contact its force, reversed, loads the object. Returns the
+    /// object's displacement from rest at the tick's CP ([`Tick::deform`]).
+    pub fn feed(&mut self, tick: &Tick) -> Vec3 {
+        self.fed += 1;
+        if tick.patch.is_some() {
+            let hip = tick.hip.to_array().map(f64::from);
+            let k = self.stiffness_n_per_m;
+            let c = if tick.mode == Mode::Stuck {
+                Coupling {
+                    params: tick.go_params.map(f64::from),
+                    anchor: hip,
+                    stiffness: k,
+                    normal: None,
+                }
+            } else {
+                Coupling {
+                    params: tick.cp_params.map(f64::from),
+                    anchor: hip,
+                    stiffness: k,
+                    normal: Some(tick.normal.to_array().map(f64::from)),
+                }
+            };
+            let spring = self.body.coupling_force(&c);
+            let rendered = tick.force.to_array().map(|x| -f64::from(x));
+            for a in 0..3 {
+                self.explicit[a] += rendered[a] - spring[a];
+            }
+            self.coupling = Some(c);
         }
-    } else {
-        Coupling {
-            params: tick.cp_params.map(f64::from),
-            anchor: hip,
-            stiffness: stiffness_n_per_m,
-            normal: Some(tick.normal.to_array().map(f64::from)),
+        let d = self.body.displacement_at(tick.cp_params.map(f64::from));
+        Vec3::from_array(d.map(|x| x as f32))
+    }
+
+    /// Steps the object by `dt_s` under what the ticks fed since the last step did to it.
+    pub fn step(&mut self, dt_s: f64) -> Result<(), DeformError> {
+        if let Some(c) = &self.coupling {
+            let mean = self.explicit.map(|x| x / self.fed.max(1) as f64);
+            self.body.add_point_force(&mut self.load, c.params, mean);
         }
+        let stepped = self
+            .body
+            .step_coupled(dt_s, &self.load, self.coupling.as_ref())
+            .map_err(|e| dynamics_error(self.index, &self.rest, e));
+        self.load.iter_mut().for_each(|f| *f = [0.0; 3]);
+        self.explicit = [0.0; 3];
+        self.fed = 0;
+        self.coupling = None;
+        stepped
+    }
+
+    /// The object in its current shape.
+    pub fn shape(&self) -> Result<Object, DeformError> {
+        self.rest
+            .reshaped(&self.body.points())
+            .map_err(|error| DeformError::Shape {
+                index: self.index,
+                error,
+            })
     }
 }
 
@@ -384,28 +480,24 @@ pub fn ticks_per_step(rate_hz: f64) -> usize {
     ((rate_hz / DYNAMICS_RATE_HZ).floor() as usize).max(1)
 }
 
-#[allow(clippy::too_many_arguments)]
 fn simulate<V: Views>(
-    rest: &Object,
-    index: usize,
-    mut body: Body,
+    mut deformer: Deformer,
     material: FrictionMaterial,
     trajectory: &Trajectory,
     rate_hz: f64,
     n: usize,
     mut progress: impl FnMut(usize, usize),
 ) -> Result<Vec<Tick>, DeformError> {
+    let index = deformer.index();
     let period_s = (1.0 / rate_hz) as f32;
-    let k_contact = f64::from(material.stiffness_n_per_m);
     let per_step = ticks_per_step(rate_hz);
     let dt_s = per_step as f64 / rate_hz;
     let start = trajectory.at(trajectory.start_s());
-    let mut shape = rest.clone();
+    let mut shape = deformer.rest().clone();
     // The renderer's type names its object's lifetime; between shapes it is held for no
     // borrow (`'static` views of nothing) and rebound to each shape's views.
     let mut carried: Option<FrictionRenderer<V::O<'static>>> = None;
     let mut previous = start;
-    let mut load: Nodes = body.zero_load();
     let mut ticks = Vec::with_capacity(n);
     let mut i = 0;
     while i < n {
@@ -414,12 +506,6 @@ fn simulate<V: Views>(
             Some(r) => r.rebind(),
             None => FrictionRenderer::new(&object, material, point::<V::P>(start)),
         };
-        // The contact's spring, implicit in the object's step (`deform::Coupling`): from the
-        // latest tick in contact; the rest of the rendered force (friction while sliding, the
-        // wall's damping) acts explicitly, averaged over the step's ticks.
-        let mut coupling: Option<Coupling> = None;
-        let mut explicit = [0.0; 3];
-        let mut in_contact = 0usize;
         for _ in 0..per_step.min(n - i) {
             let t_s = trajectory.tick_time_s(i, rate_hz);
             let xyz = trajectory.at(t_s);
@@ -431,32 +517,13 @@ fn simulate<V: Views>(
             previous = xyz;
             let (hip, hip_velocity) = (point::<V::P>(xyz), point::<V::P>(velocity));
             let mut tick = render_tick(&mut renderer, &object, t_s, hip, hip_velocity, period_s);
-            if tick.patch.is_some() {
-                let c = contact_spring(&tick, k_contact);
-                let spring = body.coupling_force(&c);
-                let rendered = tick.force.to_array().map(|x| -f64::from(x));
-                for a in 0..3 {
-                    explicit[a] += rendered[a] - spring[a];
-                }
-                in_contact += 1;
-                coupling = Some(c);
-            }
-            let d = body.displacement_at(tick.cp_params.map(f64::from));
-            tick.deform = Some(Vec3::from_array(d.map(|x| x as f32)));
+            tick.deform = Some(deformer.feed(&tick));
             ticks.push(tick);
             i += 1;
             progress(i, n);
         }
-        if let Some(c) = &coupling {
-            let mean = explicit.map(|x| x / in_contact as f64);
-            body.add_point_force(&mut load, c.params, mean);
-        }
-        body.step_coupled(dt_s, &load, coupling.as_ref())
-            .map_err(|e| dynamics_error(index, rest, e))?;
-        load.iter_mut().for_each(|f| *f = [0.0; 3]);
-        let next = rest
-            .reshaped(&body.points())
-            .map_err(|error| DeformError::Shape { index, error })?;
+        deformer.step(dt_s)?;
+        let next = deformer.shape()?;
         // The renderer rides onto the new shape (what sits on the surface moves with it) and
         // is held, borrowing nothing, until the next round's views.
         let moved = renderer.reshape(&object, &V::view(&next, index)?);
