@@ -14,8 +14,15 @@ use nurbs::Vec3;
 use scene::{Object, ObjectError, Patch, Scene, Space};
 use tracker::{Chain, ChainTracker, Object as TrackedObject, Shell, ShellTracker};
 
-use crate::sim::{Run, SimError, Trajectory, validate};
-use crate::tick::{Tick, point, render_tick};
+use device::controller::{Controller, ControllerError};
+use device::simulator::SimulatedPantograph;
+use device::spec::DeviceSpec;
+use device::telemetry::TelemetryDecimator;
+
+use crate::sim::{DeviceHand, DeviceRun, Run, SimError, Trajectory, validate, validate_device};
+use crate::tick::{
+    Tick, device_controller, device_tick, end_stop_counts, point, render_tick, vec2,
+};
 
 /// The slowest rate the object steps at in a loop (Hz): a loop at up to twice this steps the
 /// object every tick, a faster one every `⌊rate / DYNAMICS_RATE_HZ⌋` ticks.
@@ -532,4 +539,117 @@ fn simulate<V: Views>(
         shape = next;
     }
     Ok(ticks)
+}
+
+/// The device's controller rendering one shape of a deformable object: the shape owns the
+/// curves, the controller their chain. [`DeviceShape::reshape`] moves the controller onto the
+/// next shape ([`Controller::reshape`]: its renderer rides along, no search, no ramp).
+struct Held<'a> {
+    controller: Option<Controller<Chain<'a>>>,
+}
+
+self_cell::self_cell!(
+    struct DeviceShape {
+        owner: Object,
+        #[not_covariant]
+        dependent: Held,
+    }
+);
+
+impl DeviceShape {
+    /// The controller moved onto `next` (the same object reshaped); `self` is left without
+    /// one. Refused when the new shape is not a valid chain of the same topology.
+    fn reshape(&mut self, next: Object, index: usize) -> Result<DeviceShape, SimError> {
+        let mut out = Err(SimError::Controller(ControllerError::NoScene));
+        self.with_dependent_mut(|_, held| {
+            let Some(controller) = held.controller.take() else {
+                return;
+            };
+            out = DeviceShape::try_new(next, move |o| {
+                let chain = ChainViews::view(o, index)?;
+                match controller.reshape(chain) {
+                    Ok(c) => Ok(Held {
+                        controller: Some(c),
+                    }),
+                    Err((_, e)) => Err(SimError::Controller(e)),
+                }
+            });
+        });
+        out
+    }
+}
+
+/// [`crate::sim::run_device`] with object `index` deformable: the closed loop through the
+/// simulated pantograph and the device's controller at `rate_hz`, the object fed every tick
+/// (the controller's rendering of it, the handle's true HIP) and stepped every
+/// `⌊rate / DYNAMICS_RATE_HZ⌋` ticks, the controller moved onto each new shape between two
+/// ticks ([`Controller::reshape`]), as a board does with the control-point updates a host
+/// sends.
+pub fn run_device(
+    scene: &Scene,
+    index: usize,
+    trajectory: &Trajectory,
+    rate_hz: f64,
+    hand: impl Into<DeviceHand>,
+    mut progress: impl FnMut(usize, usize),
+) -> Result<DeviceRun, DeformError> {
+    let hand: DeviceHand = hand.into();
+    let n = validate_device(scene, index, trajectory, rate_hz)?;
+    let mut deformer = Deformer::new(scene, index)?;
+    let material = deformer.rest().material().friction_material();
+    let spec = DeviceSpec::default();
+    let period_s = (1.0 / rate_hz) as f32;
+    let per_step = ticks_per_step(rate_hz);
+    let dt_s = per_step as f64 / rate_hz;
+    let mut passivity_control = false;
+    let mut shape = DeviceShape::try_new(deformer.rest().clone(), |o| {
+        let chain = ChainViews::view(o, index)?;
+        let (mut controller, on) = device_controller(chain, material, rate_hz)?;
+        passivity_control = on;
+        controller
+            .calibrate(end_stop_counts(&spec))
+            .map_err(SimError::Controller)?;
+        controller.set_forces_enabled(true);
+        Ok::<_, SimError>(Held {
+            controller: Some(controller),
+        })
+    })?;
+    let start = trajectory.at(trajectory.start_s());
+    let mut arm =
+        SimulatedPantograph::new(spec, hand.params, vec2(start)).map_err(SimError::Simulator)?;
+    let mut ticks = Vec::with_capacity(n);
+    let mut decimator = TelemetryDecimator::for_period_s(period_s);
+    let mut telemetry = Vec::with_capacity(n / decimator.ticks_per_frame() as usize + 1);
+    for i in 0..n {
+        let t_s = trajectory.tick_time_s(i, rate_hz);
+        let now_us = (i as f64 * 1e6 / rate_hz).round() as u64;
+        let target = vec2(trajectory.at(t_s));
+        if hand.release_at_s.is_some_and(|at| t_s >= at) && arm.is_held() {
+            arm.release();
+        }
+        let (mut tick, frame) = shape.with_dependent_mut(|_, held| match &mut held.controller {
+            Some(c) => device_tick(c, &mut arm, t_s, now_us, target, period_s),
+            None => Err(SimError::Controller(ControllerError::NoScene)),
+        })?;
+        tick.deform = Some(deformer.feed(&tick));
+        ticks.push(tick);
+        telemetry.extend(decimator.push(&frame).copied());
+        if (i + 1) % per_step == 0 {
+            deformer.step(dt_s)?;
+            shape = shape.reshape(deformer.shape()?, index)?;
+        }
+        progress(i + 1, n);
+    }
+    Ok(DeviceRun {
+        run: Run {
+            space: Space::Planar,
+            object: index,
+            object_name: deformer.rest().name().to_owned(),
+            material,
+            rate_hz,
+            ticks,
+        },
+        passivity_control,
+        telemetry,
+    })
 }

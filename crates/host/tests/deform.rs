@@ -112,3 +112,57 @@ fn closed_path_does_no_work_on_the_hand_and_the_string_springs_back() {
     let w = last.deform.expect("a deform run").length();
     assert!(w < 1e-6, "the string is still {w} m from rest 0.5 s after");
 }
+
+/// Through the device: the simulated pantograph held by a relaxed grip (300 N/m) whose target
+/// presses 6 mm past the string's rest line, at the board's 10 kHz, the controller moved onto
+/// each new shape of the string every millisecond. Held, the force over the handle's own depth
+/// past the rest line is the same series stiffness of contact and string ([207.9, 210.5] N/m,
+/// above), give or take what the encoders' quantum does to the depth the controller sees
+/// (19.6 µm at the handle over a ~3.5 mm depth: 0.6 %); the string took the rest of the depth.
+/// No feature switch, no renderer restart (a restart would ramp the force in again from 0).
+#[test]
+fn device_loop_pushes_the_string_at_the_series_stiffness() {
+    let scene = deformable();
+    let free = Y - 0.01;
+    let p = Y + 0.006;
+    let samples = [(0.0, free), (0.3, p), (1.2, p)];
+    let trajectory =
+        Trajectory::from_samples(Space::Planar, samples.map(|(t, y)| (t, [0.0, y, 0.0])))
+            .expect("valid trajectory");
+    let run = deform::run_device(
+        &scene,
+        0,
+        &trajectory,
+        10_000.0,
+        host::sim::Hand::Grip.params(),
+        |_, _| {},
+    )
+    .expect("runs");
+    let held = run.run.ticks.last().expect("ticks");
+    let depth = f64::from(held.hip.y) - Y;
+    let k = f64::from(held.normal_force_n) / depth;
+    let series = |k_o: f64| K_C * k_o / (K_C + k_o);
+    let k_o = 4.0 * T / L;
+    let h = L / 9.0;
+    let quantum = 19.6e-6 / depth;
+    let (lo, hi) = (
+        series(k_o * (1.0 + 0.45 * h / L)) * (1.0 - quantum),
+        series(k_o * (1.0 + 0.6 * h / L)) * (1.0 + quantum),
+    );
+    assert!(
+        (lo..=hi).contains(&k),
+        "F/d = {k} N/m at d = {depth} m, in [{lo}, {hi}]"
+    );
+    let contact: Vec<_> = run.run.ticks.iter().filter(|k| k.patch.is_some()).collect();
+    assert!(
+        contact
+            .iter()
+            .all(|k| matches!(k.feature, tracker::Feature::Patch(0)))
+    );
+    // Once the force is up it never falls back to a ramp's start.
+    let peak = contact
+        .iter()
+        .position(|k| k.normal_force_n > 0.5)
+        .expect("pressed");
+    assert!(contact[peak..].iter().all(|k| k.normal_force_n > 0.4));
+}

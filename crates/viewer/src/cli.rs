@@ -693,7 +693,9 @@ explicitly), it steps every floor(rate / 1000) ticks (every tick up to 2 kHz), a
 renderer (CP tracker, god-object, friction state) carries over onto each new shape, the
 god-object moving with the point of the object it sits on. Two or three more columns follow:
   deform_x,deform_y[,deform_z]  the object's displacement from its rest shape at the CP (m)
---deform does not combine with --device yet.
+With --device the object is fed the controller's rendering (the handle's true HIP) and the
+controller is moved onto each new shape between two ticks, as a board is by the control-point
+updates (ScenePoints) a host sends.
 
 Plot (--plot, PNG): normal, friction and total force magnitude against time over coloured
 bands of the mode (top), the CP and GO parameters against time (bottom); with --device also
@@ -772,7 +774,7 @@ pub struct SimArgs {
     /// The object deforms under the rendered force (its scene "dynamics" block): the force,
     /// reversed, loads it at the contact point, it steps at 1 kHz or faster, and the run log
     /// gets its displacement at the CP (see below).
-    #[arg(long, conflicts_with = "device")]
+    #[arg(long)]
     pub deform: bool,
 }
 

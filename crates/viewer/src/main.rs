@@ -469,7 +469,18 @@ fn sim_command(args: &SimArgs) -> ExitCode {
         }
     };
     let rate_hz = args.rate_hz();
-    let result = if args.device {
+    let result = if args.device && args.deform {
+        host::deform::run_device(
+            &scene,
+            args.object,
+            &trajectory,
+            rate_hz,
+            args.device_hand(),
+            progress,
+        )
+        .map(|device_run| device_run.run)
+        .map_err(anyhow::Error::new)
+    } else if args.device {
         sim::run_device(
             &scene,
             args.object,

@@ -253,9 +253,11 @@ fn bad_input_is_refused_naming_it() {
     ]);
     assert_eq!(rigid.status.code(), Some(2));
     assert!(stderr(&rigid).contains("is rigid"), "{}", stderr(&rigid));
-    let device = viewer(&[
+    let surface = viewer(&[
         "sim",
         &scenes("deformable.json"),
+        "--object",
+        "1",
         "--deform",
         "--device",
         "--trajectory",
@@ -263,5 +265,6 @@ fn bad_input_is_refused_naming_it() {
         "--out",
         &out,
     ]);
-    assert_eq!(device.status.code(), Some(2));
+    assert_eq!(surface.status.code(), Some(2));
+    assert!(stderr(&surface).contains("2-DoF"), "{}", stderr(&surface));
 }
