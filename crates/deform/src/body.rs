@@ -217,6 +217,46 @@ impl Body {
         x
     }
 
+    /// The parameters of the point of the current shape closest to `target` near `start`:
+    /// Gauss–Newton on `|x(params) − target|²` from `start` (`[u, 0]` on curves), clamped
+    /// into the domain, `iterations` steps. For a host that knows where a device's contact
+    /// is (a telemetry frame's CP) but not its parameters.
+    pub fn project(&mut self, target: [f64; 3], start: [f64; 2], iterations: usize) -> [f64; 2] {
+        let domain = self.shape.domain();
+        let surface = self.shape.is_surface();
+        let mut at = start;
+        for _ in 0..iterations {
+            self.shape.eval(at, &mut self.local);
+            let (mut x, mut xu, mut xv) = ([0.0; 3], [0.0; 3], [0.0; 3]);
+            for (m, &i) in self.local.index.iter().enumerate() {
+                let p = add(self.rest[i], self.u[i]);
+                x = add(x, scale(p, self.local.r[m]));
+                xu = add(xu, scale(p, self.local.d1[m][0]));
+                xv = add(xv, scale(p, self.local.d1[m][1]));
+            }
+            let e = sub(x, target);
+            let step = if surface {
+                let (a, b, c) = (dot(&xu, &xu), dot(&xu, &xv), dot(&xv, &xv));
+                let det = a * c - b * b;
+                if det.abs() <= f64::MIN_POSITIVE {
+                    break;
+                }
+                let (gu, gv) = (dot(&xu, &e), dot(&xv, &e));
+                [-(c * gu - b * gv) / det, -(a * gv - b * gu) / det]
+            } else {
+                let a = dot(&xu, &xu);
+                if a <= f64::MIN_POSITIVE {
+                    break;
+                }
+                [-dot(&xu, &e) / a, 0.0]
+            };
+            for k in 0..2 {
+                at[k] = (at[k] + step[k]).clamp(domain[k].0, domain[k].1);
+            }
+        }
+        at
+    }
+
     /// The displacement from the rest shape of the point at `params`.
     pub fn displacement_at(&mut self, params: [f64; 2]) -> [f64; 3] {
         self.shape.eval(params, &mut self.local);

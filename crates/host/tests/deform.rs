@@ -166,3 +166,47 @@ fn device_loop_pushes_the_string_at_the_series_stiffness() {
         .expect("pressed");
     assert!(contact[peak..].iter().all(|k| k.normal_force_n > 0.4));
 }
+
+/// A device behind a link reports its CP and GO as positions (telemetry carries no
+/// parameters); the host's `Deformer::locate` finds their parameters on its copy of the
+/// shape. Replayed over the device loop's own ticks (the same feeding and steps, so the same
+/// shapes), the located CP parameter is the controller's tracker's to within 1e-3 in u
+/// (0.08 mm along the string: the tracker converges to ~1e-5 m, the f32 positions of the frame
+/// are exact to 1e-8 m).
+#[test]
+fn located_parameters_match_the_trackers() {
+    let scene = deformable();
+    let free = Y - 0.01;
+    let p = Y + 0.006;
+    let samples = [(0.0, free), (0.3, p), (0.6, p), (0.9, free)];
+    let samples = samples.map(|(t, y)| (t, [0.002 * t, y, 0.0]));
+    let trajectory = Trajectory::from_samples(Space::Planar, samples).expect("valid");
+    let run = deform::run_device(
+        &scene,
+        0,
+        &trajectory,
+        10_000.0,
+        host::sim::Hand::Grip.params(),
+        |_, _| {},
+    )
+    .expect("runs");
+    let mut deformer = deform::Deformer::new(&scene, 0).expect("deformable");
+    let mut worst: f32 = 0.0;
+    let mut located = 0;
+    for (i, tick) in run.run.ticks.iter().enumerate() {
+        if tick.patch.is_some() {
+            let mut bare = *tick;
+            bare.cp_params = [0.0; 2];
+            bare.go_params = [0.0; 2];
+            deformer.locate(&mut bare);
+            worst = worst.max((bare.cp_params[0] - tick.cp_params[0]).abs());
+            located += 1;
+        }
+        deformer.feed(tick);
+        if (i + 1) % 10 == 0 {
+            deformer.step(1e-3).expect("steps");
+        }
+    }
+    assert!(located > 1000, "only {located} ticks in contact");
+    assert!(worst < 1e-3, "located u off by {worst}");
+}
