@@ -210,3 +210,138 @@ fn located_parameters_match_the_trackers() {
     assert!(located > 1000, "only {located} ticks in contact");
     assert!(worst < 1e-3, "located u off by {worst}");
 }
+
+/// Passivity over many closed paths of the hand: pressed 2, 4 or 8 mm past the rest line,
+/// stroked 0, 10 or 25 mm along the string and back at 20 or 100 mm/s, let go; on the
+/// string as bundled and undamped (γ = 0, where nothing but friction takes energy and a
+/// coupling that made energy would show it). The rendered force never does positive work on
+/// the hand (trapezoid rule over the HIP's 1 kHz steps; the bound is the f32 rounding of
+/// ~1 N forces over the path, 1e-7 J).
+#[test]
+fn no_closed_path_does_positive_work() {
+    let bundled = deformable();
+    let undamped = undamped();
+    for scene in [&bundled, &undamped] {
+        for depth in [0.002, 0.004, 0.008] {
+            for stroke in [0.0, 0.01, 0.025] {
+                for speed in [0.02, 0.1] {
+                    let trajectory = closed_path(depth, stroke, speed);
+                    let run = deform::run(scene, 0, &trajectory, 1000.0, |_, _| {}).expect("runs");
+                    let work = work_on_hand(&run.ticks);
+                    assert!(
+                        work <= 1e-7,
+                        "depth {depth}, stroke {stroke}, speed {speed}: {work} J on the hand"
+                    );
+                }
+            }
+        }
+    }
+}
+
+/// The same through the device (the simulated pantograph at 10 kHz, the controller reshaped
+/// every millisecond) on the undamped string, held by a relaxed grip and by a light
+/// fingertip whose target follows the path: the force after the safety layer does no positive
+/// work on the handle's true path (which closes to within the hand's lag; the bound adds
+/// what the residual force, < 1 mN at rest, could do over that gap).
+#[test]
+fn no_closed_path_through_the_device_does_positive_work() {
+    let scene = undamped();
+    for hand in [host::sim::Hand::Grip, host::sim::Hand::Finger] {
+        for depth in [0.004, 0.008] {
+            for speed in [0.02, 0.1] {
+                let trajectory = closed_path(depth, 0.025, speed);
+                let run =
+                    deform::run_device(&scene, 0, &trajectory, 10_000.0, hand.params(), |_, _| {})
+                        .expect("runs");
+                let work = work_on_hand(&run.run.ticks);
+                assert!(
+                    work <= 1e-6,
+                    "{hand:?}, depth {depth}, speed {speed}: {work} J on the hand"
+                );
+            }
+        }
+    }
+}
+
+/// A handle let go while it presses the undamped string: nothing holds it but the string and
+/// the device's own friction and damping. The pair does not ring up. Passivity bounds the
+/// force: at the release the springs in series hold `F₀²/2k_s` (k_s the series stiffness,
+/// ≥ 207.9 N/m), and a later force F needs at least `F²/2k_c` in the contact spring alone, so
+/// `F ≤ F₀ √(k_c/k_s)` = 2.19 F₀ whatever the handle does (measured: it never exceeds F₀, the
+/// string throws the handle off). 0.3 s later the force is below the release's.
+#[test]
+fn released_handle_on_the_undamped_string_does_not_ring_up() {
+    let scene = undamped();
+    let trajectory = closed_path(0.006, 0.0, 0.05);
+    let release_at_s = 0.35;
+    let hand = host::sim::DeviceHand {
+        params: host::sim::Hand::Released.params(),
+        release_at_s: Some(release_at_s),
+    };
+    let run = deform::run_device(&scene, 0, &trajectory, 10_000.0, hand, |_, _| {}).expect("runs");
+    let at_release = run
+        .run
+        .ticks
+        .iter()
+        .rfind(|k| k.t_s <= release_at_s)
+        .map(|k| k.force.length())
+        .expect("ticks");
+    assert!(
+        at_release > 0.3,
+        "pressing with {at_release} N at the release"
+    );
+    let after = run.run.ticks.iter().filter(|k| k.t_s > release_at_s);
+    let peak = after.clone().map(|k| k.force.length()).fold(0.0, f32::max);
+    let bound = at_release * (K_C / 207.9).sqrt() as f32;
+    assert!(
+        peak <= bound,
+        "{peak} N after, {at_release} N at the release"
+    );
+    let late = after
+        .filter(|k| k.t_s > release_at_s + 0.3)
+        .map(|k| k.force.length())
+        .fold(0.0, f32::max);
+    assert!(late < at_release, "still {late} N 0.3 s after");
+}
+
+/// The bundled scene with the string undamped (γ = 0).
+fn undamped() -> Scene {
+    let text = deformable().to_json_string().replacen(
+        "\"damping_ns_per_m2\": 10.0",
+        "\"damping_ns_per_m2\": 0.0",
+        1,
+    );
+    let scene = Scene::from_json_str(&text).expect("valid");
+    assert_eq!(scene.objects()[0].dynamics().map(|d| d.damping), Some(0.0));
+    scene
+}
+
+/// In from 10 mm below the rest line to `depth` past it at the string's middle, hold 0.1 s,
+/// stroke `stroke` along it and back, out, wait 0.2 s: at `speed`.
+fn closed_path(depth: f64, stroke: f64, speed: f64) -> Trajectory {
+    let free = Y - 0.01;
+    let p = Y + depth;
+    let t_in = (p - free) / speed;
+    let t_stroke = (stroke / speed).max(1e-3);
+    let samples = [
+        (0.0, [0.0, free, 0.0]),
+        (t_in, [0.0, p, 0.0]),
+        (t_in + 0.1, [0.0, p, 0.0]),
+        (t_in + 0.1 + t_stroke, [stroke, p, 0.0]),
+        (t_in + 0.1 + 2.0 * t_stroke + 1e-3, [0.0, p, 0.0]),
+        (2.0 * t_in + 0.1 + 2.0 * t_stroke + 2e-3, [0.0, free, 0.0]),
+        (2.0 * t_in + 0.3 + 2.0 * t_stroke, [0.0, free, 0.0]),
+    ];
+    Trajectory::from_samples(Space::Planar, samples).expect("valid")
+}
+
+/// The work of the rendered force on the hand over its path (trapezoid rule).
+fn work_on_hand(ticks: &[host::tick::Tick]) -> f64 {
+    ticks
+        .windows(2)
+        .map(|p| {
+            let f = (p[0].force + p[1].force) * 0.5;
+            f64::from(f.dot(p[1].hip - p[0].hip))
+        })
+        .sum()
+}
