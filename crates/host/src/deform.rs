@@ -19,7 +19,9 @@ use device::simulator::SimulatedPantograph;
 use device::spec::DeviceSpec;
 use device::telemetry::TelemetryDecimator;
 
-use crate::sim::{DeviceHand, DeviceRun, Run, SimError, Trajectory, validate, validate_device};
+use crate::sim::{
+    DeviceHand, DeviceRun, HipSamples, Run, SimError, Trajectory, validate, validate_device,
+};
 use crate::tick::{
     Tick, device_controller, device_tick, end_stop_counts, point, render_tick, vec2,
 };
@@ -519,7 +521,7 @@ fn simulate<V: Views>(
     // The renderer's type names its object's lifetime; between shapes it is held for no
     // borrow (`'static` views of nothing) and rebound to each shape's views.
     let mut carried: Option<FrictionRenderer<V::O<'static>>> = None;
-    let mut previous = start;
+    let mut hips = HipSamples::new(trajectory, rate_hz);
     let mut ticks = Vec::with_capacity(n);
     let mut i = 0;
     while i < n {
@@ -529,15 +531,7 @@ fn simulate<V: Views>(
             None => FrictionRenderer::new(&object, material, point::<V::P>(start)),
         };
         for _ in 0..per_step.min(n - i) {
-            let t_s = trajectory.tick_time_s(i, rate_hz);
-            let xyz = trajectory.at(t_s);
-            let velocity = if i == 0 {
-                [0.0; 3]
-            } else {
-                [0, 1, 2].map(|k| (xyz[k] - previous[k]) * rate_hz)
-            };
-            previous = xyz;
-            let (hip, hip_velocity) = (point::<V::P>(xyz), point::<V::P>(velocity));
+            let (t_s, hip, hip_velocity) = hips.tick::<V::P>(i);
             let mut tick = render_tick(&mut renderer, &object, t_s, hip, hip_velocity, period_s);
             tick.deform = Some(deformer.feed(&tick));
             ticks.push(tick);

@@ -374,18 +374,10 @@ fn simulate<O: TrackedObject>(
     let period_s = (1.0 / rate_hz) as f32;
     let start = trajectory.at(trajectory.start_s());
     let mut renderer = FrictionRenderer::new(object, material, point::<O::P>(start));
-    let mut previous = start;
+    let mut hips = HipSamples::new(trajectory, rate_hz);
     let mut ticks = Vec::with_capacity(n);
     for i in 0..n {
-        let t_s = trajectory.tick_time_s(i, rate_hz);
-        let xyz = trajectory.at(t_s);
-        let velocity = if i == 0 {
-            [0.0; 3]
-        } else {
-            [0, 1, 2].map(|k| (xyz[k] - previous[k]) * rate_hz)
-        };
-        previous = xyz;
-        let (hip, hip_velocity) = (point::<O::P>(xyz), point::<O::P>(velocity));
+        let (t_s, hip, hip_velocity) = hips.tick::<O::P>(i);
         ticks.push(render_tick(
             &mut renderer,
             object,
@@ -397,6 +389,37 @@ fn simulate<O: TrackedObject>(
         progress(i + 1, n);
     }
     ticks
+}
+
+/// The prescribed HIP of each tick: the trajectory at the tick's time, its velocity the
+/// backward difference of the sampled HIP (zero at the first tick).
+pub(crate) struct HipSamples<'a> {
+    trajectory: &'a Trajectory,
+    rate_hz: f64,
+    previous: [f64; 3],
+}
+
+impl<'a> HipSamples<'a> {
+    pub(crate) fn new(trajectory: &'a Trajectory, rate_hz: f64) -> Self {
+        HipSamples {
+            trajectory,
+            rate_hz,
+            previous: trajectory.at(trajectory.start_s()),
+        }
+    }
+
+    /// Tick `i`'s time, HIP and HIP velocity (ticks in order).
+    pub(crate) fn tick<P: nurbs::Point>(&mut self, i: usize) -> (f64, P, P) {
+        let t_s = self.trajectory.tick_time_s(i, self.rate_hz);
+        let xyz = self.trajectory.at(t_s);
+        let velocity = if i == 0 {
+            [0.0; 3]
+        } else {
+            [0, 1, 2].map(|k| (xyz[k] - self.previous[k]) * self.rate_hz)
+        };
+        self.previous = xyz;
+        (t_s, point::<P>(xyz), point::<P>(velocity))
+    }
 }
 
 /// A closed-loop run ([`run_device`]).
