@@ -1,5 +1,6 @@
 //! The cost of one dynamics step (the closing note's figures): curves of 12 and 48 control
-//! points and a 10 × 10 bicubic surface, each with a point force, at 1 kHz.
+//! points and a 10 × 10 bicubic surface, each with a point force, at 1 kHz, alone and with
+//! the implicit contact spring a haptic loop adds.
 
 use criterion::{Criterion, criterion_group, criterion_main};
 use deform::{Body, Params, Shape};
@@ -54,6 +55,19 @@ fn bench(c: &mut Criterion) {
         body.step(1e-3, &load).expect("steps");
         c.bench_function(&format!("step {name}"), |b| {
             b.iter(|| body.step(1e-3, &load).expect("steps"))
+        });
+        // The loop's step: a contact spring at the point, implicit (three directions).
+        let contact = deform::Coupling {
+            params: at,
+            anchor: body.point(at),
+            stiffness: 1000.0,
+            normal: None,
+        };
+        c.bench_function(&format!("step {name} with contact"), |b| {
+            b.iter(|| {
+                body.step_coupled(1e-3, &load, Some(&contact))
+                    .expect("steps")
+            })
         });
     }
 }
