@@ -30,6 +30,24 @@ pub enum AppError {
     Controller(ControllerError),
 }
 
+impl AppError {
+    /// The code a device reports for a scene or an update it accepted on the link but could
+    /// not give the controller (the status's `last_error`): the controller's topology check
+    /// ([`ErrorCode::TopologyChanged`]), no scene to reshape ([`ErrorCode::NoActiveScene`]),
+    /// a material beyond the device ([`ErrorCode::BadMaterial`]), anything else as a scene
+    /// the device cannot render ([`ErrorCode::SceneTopology`]).
+    pub fn code(&self) -> ErrorCode {
+        match self {
+            AppError::Controller(ControllerError::Topology) => ErrorCode::TopologyChanged,
+            AppError::Controller(ControllerError::NoScene) => ErrorCode::NoActiveScene,
+            AppError::Controller(
+                ControllerError::Passivity(_) | ControllerError::BeyondDevice(_),
+            ) => ErrorCode::BadMaterial,
+            _ => ErrorCode::SceneTopology,
+        }
+    }
+}
+
 impl core::fmt::Display for AppError {
     fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
         match self {
@@ -154,6 +172,33 @@ impl<'s> App<'s> {
             .load_scene_as_needed(*chain, material, true)
             .map_err(AppError::Controller)?;
         Ok(())
+    }
+
+    /// Gives the controller object `object` of `store` in place of its object: the same
+    /// scene with control points moved (a control-point update, validated with its topology
+    /// against the scene before by the link, `device::protocol::SceneStore::decode_reshaped`),
+    /// at a tick boundary. The renderer carries on, on the new shape
+    /// ([`Controller::replace_object`]: no acquisition, no ramp-in); the views of the store
+    /// before are dropped here. On error (no scene loaded, another topology) nothing changes.
+    pub fn reshape<const K: usize, const C: usize, const S: usize>(
+        &mut self,
+        store: &'s SceneStore<K, C, S>,
+        object: usize,
+    ) -> Result<(), AppError> {
+        let (curves, n) = curves(store, object)?;
+        let given = curves
+            .get(..n)
+            .ok_or(AppError::Chain(ChainError::TooManyCurves { count: n }))?;
+        // Borrowed where `Chain::new` put it, as in `App::load`.
+        let built = Chain::new(given);
+        let chain = match &built {
+            Ok(chain) => chain,
+            Err(e) => return Err(AppError::Chain(*e)),
+        };
+        self.controller
+            .replace_object(*chain)
+            .map(drop)
+            .map_err(AppError::Controller)
     }
 
     /// Applies a command of the link ([`device::session::Command::apply`]): calibration on

@@ -1,6 +1,7 @@
 //! The board's protocol task, its lowest priority: host frames through the session (whose
-//! receiver validates an upload into the staging store), commands and committed stores to the
-//! tick, replies to USB; and the acquisition jobs the tick hands out. Both build chains (the
+//! receiver validates an upload, or a control-point update, into the staging store), commands
+//! and committed stores to the tick, replies to USB; and the acquisition jobs the tick hands
+//! out. Both build chains (the
 //! validation, the search's object), so they run in one task, one after the other, and their
 //! stack frames never add up.
 //!
@@ -8,14 +9,14 @@
 //! (`heapless::spsc`, the lengths below) and [`TickShared`]'s atomics, nothing else, so nothing
 //! here can delay a tick.
 
-use core::sync::atomic::{AtomicBool, AtomicU8, AtomicU32, Ordering};
+use core::sync::atomic::{AtomicU8, AtomicU32, Ordering};
 
-use device::protocol::{ErrorCode, MAX_FRAME, Message, SceneError, SceneFault, SceneStore};
+use device::protocol::{ErrorCode, MAX_FRAME, Message, SceneStore};
 use device::session::{Command, DeviceState, Event, Session};
 use heapless::spsc::{Consumer, Producer};
 
 use crate::app::{AcquisitionJob, JobDone, run_job};
-use crate::swap::Staging;
+use crate::swap::{Incoming, Staging, Validator};
 
 /// One USB HID report: one protocol frame, zero-padded.
 pub type Report = [u8; MAX_FRAME];
@@ -38,11 +39,12 @@ pub const JOBS: usize = 2;
 pub struct TickShared {
     /// The tick's [`DeviceState`] for the status replies ([`DeviceState::to_word`]).
     status: AtomicU32,
-    /// A committed store waits for the tick (set here before it is queued, cleared by the
-    /// tick once it swapped it in or refused it). No other upload is validated meanwhile, so
+    /// What the committed store waiting for the tick is for ([`Incoming`]: 1 a scene, 2 a
+    /// control-point update; 0 none): set here before it is queued, cleared by the tick once
+    /// it swapped it in or refused it. No other upload or update is validated meanwhile, so
     /// the tick's swap (which builds a chain) and the validation (which builds one too) never
     /// preempt each other: their stack frames do not add up.
-    commit_pending: AtomicBool,
+    pending: AtomicU8,
     /// Why the tick refused the last command (an [`ErrorCode`], 0 for none), for the next
     /// status.
     command_error: AtomicU8,
@@ -53,7 +55,7 @@ impl TickShared {
     pub const fn new() -> Self {
         TickShared {
             status: AtomicU32::new(0),
-            commit_pending: AtomicBool::new(false),
+            pending: AtomicU8::new(PENDING_NONE),
             command_error: AtomicU8::new(0),
         }
     }
@@ -63,9 +65,19 @@ impl TickShared {
         self.status.store(state.to_word(), Ordering::Release);
     }
 
-    /// The tick swapped the pending commit in, or refused it.
+    /// What the store waiting for the tick is for, if one does (read before taking it from
+    /// the queue: the protocol task sets it before it queues the store).
+    pub fn pending(&self) -> Option<Incoming> {
+        match self.pending.load(Ordering::Acquire) {
+            PENDING_SCENE => Some(Incoming::Scene),
+            PENDING_POINTS => Some(Incoming::Points),
+            _ => None,
+        }
+    }
+
+    /// The tick swapped the pending store in, or refused it.
     pub fn commit_done(&self) {
-        self.commit_pending.store(false, Ordering::Release);
+        self.pending.store(PENDING_NONE, Ordering::Release);
     }
 
     /// The tick refused a command.
@@ -73,6 +85,10 @@ impl TickShared {
         self.command_error.store(code as u8, Ordering::Release);
     }
 }
+
+const PENDING_NONE: u8 = 0;
+const PENDING_SCENE: u8 = 1;
+const PENDING_POINTS: u8 = 2;
 
 impl Default for TickShared {
     fn default() -> Self {
@@ -149,19 +165,11 @@ impl<const N: usize, const K: usize, const C: usize, const S: usize>
         if self.staging.is_none() {
             self.staging = self.freed.dequeue();
         }
-        let staging = &mut self.staging;
-        let pending = self.shared.commit_pending.load(Ordering::Acquire);
-        let mut validate = |scene: &[u8]| match staging.as_mut() {
-            Some(store) if !pending => store.get_mut().decode(scene),
-            // The previous commit is not swapped in yet (both stores are with the tick, or
-            // the tick is about to swap): refused for now, the upload stays and its commit
-            // may be sent again.
-            _ => Err(SceneError {
-                object: None,
-                patch: None,
-                fault: SceneFault::Capacity,
-            }),
-        };
+        // While the previous commit or update is not swapped in (both stores are with the
+        // tick, or the tick is about to swap), a commit or an update's apply frame is refused
+        // as busy: the upload stays, its commit may be sent again.
+        let pending = self.shared.pending().is_some();
+        let mut validate = Validator::new(&mut self.staging, pending);
         if let Some(code) = ErrorCode::from_u8(self.shared.command_error.swap(0, Ordering::AcqRel))
         {
             self.session.note_error(code);
@@ -178,16 +186,23 @@ impl<const N: usize, const K: usize, const C: usize, const S: usize>
                 // it sees the missing acks.
                 let _ = replies.enqueue(*m);
             });
+        let incoming = match event {
+            Event::SceneCommitted => Some(PENDING_SCENE),
+            // The board renders object 0: another object's points change nothing it renders
+            // (the receiver's scene has them, for the next validation).
+            Event::ScenePointsUpdated { object: 0 } => Some(PENDING_POINTS),
+            _ => None,
+        };
+        // The queue has room for both stores, so it is always ready here.
+        if let Some(kind) = incoming
+            && self.commits.ready()
+            && let Some(store) = self.staging.take()
+        {
+            self.shared.pending.store(kind, Ordering::Release);
+            let _ = self.commits.enqueue(store);
+        }
         match event {
-            Event::SceneCommitted => {
-                // The queue has room for both stores, so it is always ready here.
-                if self.commits.ready()
-                    && let Some(store) = self.staging.take()
-                {
-                    self.shared.commit_pending.store(true, Ordering::Release);
-                    let _ = self.commits.enqueue(store);
-                }
-            }
+            Event::SceneCommitted | Event::ScenePointsUpdated { .. } => {}
             // A board's session refuses hand targets (no virtual hand here).
             Event::HandTarget(_) | Event::None => {}
             Event::Command(command) => {

@@ -20,16 +20,19 @@
 //! The tick's side of it is [`TickScenes`]: the link task sends it committed stores as
 //! `Staging` tokens; it publishes one, loads it into the [`App`] and hands back the store the
 //! app rendered before (or the new one, when the app refused it) as a `Staging` again; it lends
-//! the rendered store to one acquisition job at a time ([`AcquisitionJob`], [`JobDone`]). It
-//! calls `reclaim` only where the views are provably gone: after a load replaced the
-//! controller's scene, or after a load that failed (which keeps no view), and never while a
-//! job is out.
+//! the rendered store to one acquisition job at a time ([`AcquisitionJob`], [`JobDone`]). A
+//! control-point update goes the same way ([`TickScenes::reshape_in`]): the link validates the
+//! updated scene into its staging half, the tick publishes it and gives the controller its
+//! object in place of the old one (`App::reshape`, which keeps the renderer), and hands the
+//! old half back. It calls `reclaim` only where the views are provably gone: after a load or a
+//! reshape replaced the controller's object, or after one that failed (which keeps no view of
+//! the new half), and never while a job is out.
 
 use core::cell::UnsafeCell;
 use core::sync::atomic::{AtomicBool, Ordering};
 
 use device::controller::AcquisitionRequest;
-use device::protocol::SceneStore;
+use device::protocol::{SceneError, SceneFault, SceneStore, SceneValidator};
 
 use crate::app::{AcquisitionJob, App, AppError, ChainAcquisition, JobDone};
 
@@ -205,6 +208,71 @@ fn load<const K: usize, const C: usize, const S: usize>(
     app.load(store, 0)
 }
 
+/// Gives the app object 0 of `store`, the same object reshaped ([`App::reshape`]). Not
+/// inlined, as [`load`].
+#[inline(never)]
+fn reshape<const K: usize, const C: usize, const S: usize>(
+    app: &mut App<'static>,
+    store: &'static SceneStore<K, C, S>,
+) -> Result<(), AppError> {
+    app.reshape(store, 0)
+}
+
+/// What a committed store is for: a new scene to load, or the scene with control points
+/// moved, for the controller's object in place of its own.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Incoming {
+    /// A scene upload: [`TickScenes::swap_in`].
+    Scene,
+    /// A control-point update: [`TickScenes::reshape_in`].
+    Points,
+}
+
+/// The link task's validator on its staging half: decodes an upload or an updated scene
+/// into the store when the task holds one and no store waits for the tick (`busy`); refuses
+/// every scene as [`SceneFault::Busy`] otherwise (nothing changes; the host sends the frame
+/// again).
+#[derive(Debug)]
+pub struct Validator<'a, T> {
+    store: Option<&'a mut T>,
+}
+
+impl<'a, T> Validator<'a, T> {
+    /// The validator of `staging` (`None`: both stores are with the tick), refusing all when
+    /// `busy` (a store waits for the tick).
+    pub fn new(staging: &'a mut Option<Staging<T>>, busy: bool) -> Self {
+        Validator {
+            store: staging.as_mut().filter(|_| !busy).map(Staging::get_mut),
+        }
+    }
+}
+
+const BUSY: SceneError = SceneError {
+    object: None,
+    patch: None,
+    fault: SceneFault::Busy,
+};
+
+impl<const K: usize, const C: usize, const S: usize> SceneValidator
+    for Validator<'_, SceneStore<K, C, S>>
+{
+    fn validate(&mut self, scene: &[u8]) -> Result<(), SceneError> {
+        self.store.as_mut().ok_or(BUSY)?.decode(scene)
+    }
+
+    fn validate_reshape(
+        &mut self,
+        active: &[u8],
+        reshaped: &[u8],
+        object: u8,
+    ) -> Result<(), SceneError> {
+        self.store
+            .as_mut()
+            .ok_or(BUSY)?
+            .decode_reshaped(active, reshaped, usize::from(object))
+    }
+}
+
 impl<const K: usize, const C: usize, const S: usize> TickScenes<SceneStore<K, C, S>> {
     /// At a tick boundary with no job out: takes the next committed store from `next` (`None`:
     /// nothing to do) and loads object 0 of it into `app` (the renderer then waits for its
@@ -247,6 +315,66 @@ impl<const K: usize, const C: usize, const S: usize> TickScenes<SceneStore<K, C,
                     freed: Some(staging),
                 })
             }
+        }
+    }
+
+    /// At a tick boundary with no job out: takes the next store from `next` (`None`: nothing
+    /// to do), the rendered scene with control points of object 0 moved (validated with its
+    /// topology by the link), and gives the app object 0 of it in place of its object
+    /// ([`App::reshape`]: the renderer carries on). The store rendered before goes back (or
+    /// the new one, when the app refused it: no scene loaded, or another topology). Does
+    /// nothing, not even call `next`, while a job is out (it reads the store rendered now).
+    pub fn reshape_in(
+        &mut self,
+        app: &mut App<'static>,
+        next: impl FnOnce() -> Option<Staging<SceneStore<K, C, S>>>,
+    ) -> Option<Swapped<SceneStore<K, C, S>>> {
+        if self.job_out {
+            return None;
+        }
+        let new = next()?.publish();
+        match reshape(app, new.get()) {
+            Ok(()) => {
+                let freed = self.active.replace(new).map(|old| {
+                    #[allow(unsafe_code)]
+                    // SAFETY: the reshape replaced the controller's object, and
+                    // `App::reshape` dropped the object it returned, the views of `old`
+                    // (`new`'s now); no job reads `old` (`job_out` is false); `new`'s one
+                    // `get` went to the app; the caller keeps no copy of a view (`new`'s
+                    // contract).
+                    unsafe {
+                        old.reclaim()
+                    }
+                });
+                Some(Swapped {
+                    loaded: Ok(()),
+                    freed,
+                })
+            }
+            Err(e) => {
+                #[allow(unsafe_code)]
+                // SAFETY: `App::reshape` keeps no view of a store it refuses (the chain it
+                // built is dropped, the controller's object is the one before), and the
+                // `get` above was the only one of this half since it was published here.
+                let staging = unsafe { new.reclaim() };
+                Some(Swapped {
+                    loaded: Err(e),
+                    freed: Some(staging),
+                })
+            }
+        }
+    }
+
+    /// [`TickScenes::swap_in`] or [`TickScenes::reshape_in`], as `incoming` says.
+    pub fn take_in(
+        &mut self,
+        app: &mut App<'static>,
+        incoming: Incoming,
+        next: impl FnOnce() -> Option<Staging<SceneStore<K, C, S>>>,
+    ) -> Option<Swapped<SceneStore<K, C, S>>> {
+        match incoming {
+            Incoming::Scene => self.swap_in(app, next),
+            Incoming::Points => self.reshape_in(app, next),
         }
     }
 

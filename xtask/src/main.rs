@@ -43,7 +43,7 @@ fn main() -> ExitCode {
         },
         _ => {
             eprintln!(
-                "usage: cargo xtask ci | qemu [--opt-level 3|s|3,s]\n\n\
+                "usage: cargo xtask ci | qemu [--opt-level 3|s|3,s] [--session] [--serve HOST:PORT]\n\n\
                  ci    install what is missing (rustup target {EMBEDDED_TARGET}, clippy, rustfmt),\n\
                  \x20     then: cargo fmt --check, clippy -D warnings, cargo test --workspace,\n\
                  \x20     cross-build every no_std crate for {EMBEDDED_TARGET}, and check\n\
@@ -55,8 +55,10 @@ fn main() -> ExitCode {
                  \x20     each opt-level (default 3), run the thesis-2d scenario at 10 kHz on\n\
                  \x20     QEMU's netduinoplus2 with -icount shift=5, compare its telemetry\n\
                  \x20     frames (its UART, 1 kHz) with the host's run, print instructions\n\
-                 \x20     per tick (inlined and not; budgets enforced), the CPU load and the\n\
-                 \x20     ELF's text/data/bss"
+                 \x20     per tick (inlined and not; budgets enforced; also while control-point\n\
+                 \x20     updates are applied), the CPU load and the ELF's text/data/bss, after\n\
+                 \x20     the host session against qemu-serve (--session: that session only;\n\
+                 \x20     --serve: keep qemu-serve running on a TCP port instead)"
             );
             ExitCode::from(2)
         }

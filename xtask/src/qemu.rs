@@ -75,6 +75,8 @@ pub struct Options {
     /// `--serve HOST:PORT`: boot `qemu-serve` with its UART on that TCP port and keep it
     /// running, instead of the session and the measurements.
     pub serve: Option<String>,
+    /// `--session`: the host sessions against `qemu-serve` only, not the measurements.
+    pub session_only: bool,
 }
 
 impl Default for Options {
@@ -83,6 +85,7 @@ impl Default for Options {
         Options {
             opt_levels: vec!["3".to_owned()],
             serve: None,
+            session_only: false,
         }
     }
 }
@@ -92,6 +95,7 @@ impl Options {
     pub fn parse(args: &[String]) -> Result<Self, String> {
         let mut opt_levels = vec!["3".to_owned()];
         let mut serve = None;
+        let mut session_only = false;
         let mut it = args.iter();
         while let Some(a) = it.next() {
             match a.as_str() {
@@ -122,10 +126,15 @@ impl Options {
                         }
                     }
                 }
+                "--session" => session_only = true,
                 other => return Err(format!("qemu: unknown argument {other}")),
             }
         }
-        Ok(Options { opt_levels, serve })
+        Ok(Options {
+            opt_levels,
+            serve,
+            session_only,
+        })
     }
 }
 
@@ -182,6 +191,13 @@ pub fn qemu(options: &Options) -> Result<(), String> {
     }
     let mut session = crate::session::run(&serve_elf, &root)?;
     session.extend(crate::session::app(&serve_elf, &root)?);
+    if options.session_only {
+        println!("\nxtask qemu: the host sessions against qemu-serve");
+        for line in &session {
+            println!("  {line}");
+        }
+        return Ok(());
+    }
     for level in &options.opt_levels {
         let data = data_dir.to_string_lossy().into_owned();
         let target = target_dir.to_string_lossy().into_owned();
@@ -927,6 +943,10 @@ mod tests {
         assert!(Options::parse(&args(&["--opt-level", "fast"])).is_err());
         assert!(Options::parse(&args(&["--opt-level"])).is_err());
         assert!(Options::parse(&args(&["--serve"])).is_err());
+        assert_eq!(
+            Options::parse(&args(&["--session"])).map(|o| o.session_only),
+            Ok(true)
+        );
         assert_eq!(
             Options::parse(&args(&["--serve", "127.0.0.1:4444"])).map(|o| o.serve),
             Ok(Some("127.0.0.1:4444".into()))

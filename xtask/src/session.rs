@@ -3,16 +3,22 @@
 //! (`device::host::TcpLink`), as `viewer device monitor --tcp` does: hello, scene upload and
 //! commit, forces on, the virtual hand into the object and along it (stuck → slip in the
 //! telemetry), malformed and out-of-order frames refused with the device running on and its
-//! scene unchanged, a second scene swapped in while in contact, and heartbeat loss turning the
-//! force off at the watchdog's timeout.
+//! scene unchanged, a second scene swapped in while in contact, the curve moving under the
+//! held hand by a stream of control-point updates (every one acked, the device's CRC the
+//! host's afterwards, contact kept on the same arc, the rendered depth that of the moved
+//! curve), and heartbeat loss turning the force off at the watchdog's timeout.
 
 use std::net::TcpListener;
 use std::path::Path;
 use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
 
+use std::collections::HashMap;
+
 use device::host::{Link, TcpLink};
-use device::protocol::{ErrorCode, Message, SceneChunk, Status, Telemetry, crc32, scene_upload};
+use device::protocol::{
+    ErrorCode, Message, Nack, SceneChunk, Status, Telemetry, crc32, points_update, scene_upload,
+};
 use device::safety::Faults;
 use friction::{FrictionMaterial, Mode};
 use nurbs::Vec2;
@@ -27,6 +33,17 @@ const REPLY: Duration = Duration::from_secs(5);
 const HEARTBEAT: Duration = Duration::from_millis(50);
 /// The emulated board's heartbeat timeout (µs).
 const WATCHDOG_US: u32 = 250_000;
+/// The control-point stream: the right arc's middle control point moves `POINTS_AMPLITUDE_M`
+/// out and back along the line from the arc's centre through it, at `POINTS_FREQUENCY_HZ`, one
+/// shape every `POINTS_PERIOD` for `POINTS_DURATION` (a deformable model's surface at the
+/// rate a D-NURBS host integrates it).
+const POINTS_AMPLITUDE_M: f32 = 1e-3;
+const POINTS_FREQUENCY_HZ: f32 = 2.0;
+const POINTS_PERIOD: Duration = Duration::from_millis(8);
+const POINTS_DURATION: Duration = Duration::from_secs(2);
+/// The update rate the stream must reach (acked updates per second).
+const POINTS_RATE_MIN_HZ: f64 = 100.0;
+
 /// The hand's target every 10 ms: at the slide's 17 mm/s a step of 0.17 mm, under half the
 /// hand's spring stretch at breakaway (μs F_N / 2000 N/m ≈ 0.4 mm), so the steps do not make
 /// their own stick–slip.
@@ -167,6 +184,85 @@ impl Host {
         Ok(())
     }
 
+    /// Streams control-point updates of the right arc's middle point (patch 0, point 1 of
+    /// object 0, at `p1` with the scene as uploaded) moving by `offset(t)` (m, along `out`),
+    /// one every [`POINTS_PERIOD`] for [`POINTS_DURATION`], without waiting for the acks;
+    /// heartbeats go on, hand targets do not (the hand holds its last one). Returns when every
+    /// update is answered (or [`REPLY`] after the last was sent).
+    fn stream_points(
+        &mut self,
+        p1: Vec2,
+        out: Vec2,
+        offset: impl Fn(f32) -> f32,
+    ) -> Result<PointsRun, String> {
+        let mut run = PointsRun::default();
+        let mut waiting: HashMap<u16, f32> = HashMap::new();
+        let mut current = 0.0;
+        let start = Instant::now();
+        let mut k = 0u32;
+        loop {
+            let now = Instant::now();
+            if self.heartbeats && self.last_heartbeat.elapsed() >= HEARTBEAT {
+                let seq = self
+                    .link
+                    .send(&Message::Heartbeat { uptime_ms: 0 })
+                    .map_err(|e| format!("session: heartbeat: {e}"))?;
+                self.heartbeat_seq = Some(seq);
+                self.stamp_index = None;
+                self.last_heartbeat = now;
+            }
+            let due = start + POINTS_PERIOD * k;
+            if now >= due && now - start < POINTS_DURATION {
+                let d = offset((POINTS_PERIOD * k).as_secs_f32());
+                let to = [p1 + out * d];
+                for m in points_update(0, &[(0, 1, &to[..])]) {
+                    let seq = self
+                        .link
+                        .send(&m)
+                        .map_err(|e| format!("session: points: {e}"))?;
+                    waiting.insert(seq, d);
+                }
+                run.sent.push(now - start);
+                k += 1;
+            }
+            let frame = self
+                .link
+                .recv(Duration::from_millis(1))
+                .map_err(|e| format!("session: link: {e}"))?;
+            match frame.map(|f| f.message) {
+                Some(Message::Telemetry(t)) => {
+                    run.frames.push((t, current));
+                    self.telemetry.push(t);
+                }
+                Some(Message::Ack { seq }) if self.heartbeat_seq == Some(seq) => {
+                    self.stamp_index = Some(self.telemetry.len());
+                }
+                Some(Message::Ack { seq }) => {
+                    if let Some(d) = waiting.remove(&seq) {
+                        // The device acks an update when it applied it, before the tick that
+                        // renders it: the frames behind this ack are of this shape.
+                        current = d;
+                        run.acked.push((start.elapsed(), d));
+                    }
+                }
+                Some(Message::Nack(n)) if waiting.remove(&n.seq).is_some() => run.nacks.push(n),
+                Some(Message::Nack(n)) => self.nacks.push((n.seq, n.code)),
+                Some(Message::Status(s)) => self.status = Some(s),
+                _ => {}
+            }
+            let elapsed = start.elapsed();
+            if elapsed >= POINTS_DURATION && waiting.is_empty() {
+                return Ok(run);
+            }
+            if elapsed >= POINTS_DURATION + REPLY {
+                return Err(format!(
+                    "session: {} control-point updates unanswered {REPLY:?} after the stream",
+                    waiting.len()
+                ));
+            }
+        }
+    }
+
     /// The active scene's CRC-32, from the status answering the next heartbeat.
     fn scene_crc(&mut self, at: Vec2) -> Result<u32, String> {
         self.status = None;
@@ -180,6 +276,20 @@ impl Host {
     }
 }
 
+/// What a control-point stream ([`Host::stream_points`]) saw.
+#[derive(Default)]
+struct PointsRun {
+    /// When each update was sent (since the stream began).
+    sent: Vec<Duration>,
+    /// When each acked update's ack arrived, and its displacement (m).
+    acked: Vec<(Duration, f32)>,
+    /// Nacks of updates.
+    nacks: Vec<Nack>,
+    /// The telemetry, each frame with the displacement of the last update acked before it
+    /// (the shape the tick rendered).
+    frames: Vec<(Telemetry, f32)>,
+}
+
 /// The wire scene of object 0 of `scene` with `material` (the app's own upload).
 fn wire_scene(scene: &Scene, material: FrictionMaterial) -> Result<Vec<u8>, String> {
     let material =
@@ -188,6 +298,157 @@ fn wire_scene(scene: &Scene, material: FrictionMaterial) -> Result<Vec<u8>, Stri
         .with_material(0, material)
         .map_err(|e| format!("session: {e}"))?;
     host::upload::wire_scene(&scene, 0).map_err(|e| format!("session: wire scene: {e}"))
+}
+
+/// The curve moving under the held hand: the right arc's middle control point streamed out
+/// and back ([`Host::stream_points`]) while the hand holds `at` in contact with the arc
+/// (`scene` with `material`, the active scene). Checks that every update is acked, at
+/// [`POINTS_RATE_MIN_HZ`] or more; that the device's scene ends as the host's own scene with
+/// the point moved there (`scene::edit::move_point`, re-encoded: an independent path to the
+/// bytes); that the telemetry keeps coming, in contact on the same arc without a fault; and
+/// that the depth the device renders is the moved curve's: each frame's depth (|CP − HIP|)
+/// against the global closest point of the shape the device had applied when it sent the
+/// frame (the last update acked before it).
+fn points_phase(
+    host: &mut Host,
+    scene: &Scene,
+    material: FrictionMaterial,
+    at: Vec2,
+) -> Result<Vec<String>, String> {
+    use scene::edit::{PointRef, move_point};
+    let material =
+        scene::Material::from_friction(material).map_err(|e| format!("points: material: {e}"))?;
+    let scene = scene
+        .with_material(0, material)
+        .map_err(|e| format!("points: {e}"))?;
+    let right = match scene.objects()[0].patches().first() {
+        Some(scene::Patch::Curve2(c)) => c.clone(),
+        other => return Err(format!("points: the right arc is {other:?}")),
+    };
+    let p1 = right
+        .view()
+        .control_point(1)
+        .ok_or("points: the right arc has no point 1")?
+        .0;
+    // Out through the point from the arc's centre: along the arc's normal where the hand is.
+    let out = (p1 - Vec2::new(-0.02, 0.06)).normalize();
+    let offset =
+        |t: f32| POINTS_AMPLITUDE_M * (2.0 * std::f32::consts::PI * POINTS_FREQUENCY_HZ * t).sin();
+    host.pump(Duration::from_millis(100), |_| at)?;
+    let run = host.stream_points(p1, out, offset)?;
+    let (sent, acked) = (run.sent.len(), run.acked.len());
+    let span = match (run.sent.first(), run.acked.last()) {
+        (Some(a), Some((b, _))) => b.saturating_sub(*a).as_secs_f64(),
+        _ => 0.0,
+    };
+    let rate_hz = if span > 0.0 { acked as f64 / span } else { 0.0 };
+    if !run.nacks.is_empty() || acked != sent {
+        return Err(format!(
+            "points: {acked} of {sent} updates acked, nacks {:?}",
+            run.nacks
+        ));
+    }
+    if rate_hz < POINTS_RATE_MIN_HZ {
+        return Err(format!(
+            "points: {acked} updates in {span:.2} s: {rate_hz:.1} Hz, under {POINTS_RATE_MIN_HZ} Hz"
+        ));
+    }
+    // The device's scene against the host's: the last shape, edited and re-encoded.
+    let last = run.acked.last().map_or(0.0, |(_, d)| *d);
+    let edited = move_point(&scene, PointRef::new(0, 0, 1), p1 + out * last)
+        .map_err(|e| format!("points: {e}"))?;
+    let wire = host::upload::wire_scene(&edited, 0).map_err(|e| format!("points: {e}"))?;
+    let crc = host.scene_crc(at)?;
+    if crc != crc32(&wire) {
+        return Err(format!(
+            "points: the device's scene CRC {crc:#x} is not the host's {:#x}",
+            crc32(&wire)
+        ));
+    }
+    // The telemetry during the stream.
+    let frames = &run.frames;
+    let faults = frames.iter().fold(0, |f, (t, _)| f | t.faults);
+    let mut features: Vec<_> = frames.iter().map(|(t, _)| t.feature).collect();
+    features.dedup();
+    let seen = modes(&frames.iter().map(|(t, _)| *t).collect::<Vec<_>>());
+    if frames.len() < 1000
+        || faults != 0
+        || seen.contains(&Mode::Free)
+        || features
+            .iter()
+            .any(|f| *f != Some(tracker::Feature::Patch(0)))
+    {
+        return Err(format!(
+            "points: {} frames, faults {faults:#x}, modes {seen:?}, features {features:?}",
+            frames.len(),
+        ));
+    }
+    // Each frame's depth against the shape it rendered, and against the arc as uploaded (what
+    // a device that ignored the updates would render).
+    let cfg = tracker::GlobalConfig::default();
+    let k = scene.objects()[0]
+        .material()
+        .friction_material()
+        .stiffness_n_per_m;
+    let mut shapes: HashMap<u32, nurbs::CurveBuf<Vec2>> = HashMap::new();
+    let mut worst_um = 0.0f32;
+    let mut unmoved_um = 0.0f32;
+    let mut force_n = 0.0f32;
+    let (mut lo, mut hi) = (f32::MAX, f32::MIN);
+    let (mut f_lo, mut f_hi) = (f32::MAX, f32::MIN);
+    for (t, d) in frames {
+        let curve = match shapes.entry(d.to_bits()) {
+            std::collections::hash_map::Entry::Occupied(e) => e.into_mut(),
+            std::collections::hash_map::Entry::Vacant(e) => e.insert(
+                right
+                    .with_point(1, p1 + out * *d)
+                    .map_err(|e| format!("points: {e}"))?,
+            ),
+        };
+        let expected = -tracker::closest_point(&curve.view(), t.hip_m, &cfg).signed_distance;
+        let uploaded = -tracker::closest_point(&right.view(), t.hip_m, &cfg).signed_distance;
+        let rendered = (t.cp_m - t.hip_m).length();
+        worst_um = worst_um.max((rendered - expected).abs() * 1e6);
+        unmoved_um = unmoved_um.max((rendered - uploaded).abs() * 1e6);
+        force_n = force_n.max((t.force_normal_n - k * expected).abs());
+        lo = lo.min(expected);
+        hi = hi.max(expected);
+        f_lo = f_lo.min(t.force_normal_n);
+        f_hi = f_hi.max(t.force_normal_n);
+    }
+    let lines = vec![
+        format!(
+            "session points updates={sent} acked={acked} rate_hz={rate_hz:.1} period_ms={} \
+             span_s={span:.2} amplitude_mm={} frequency_hz={} crc={crc:#x} expected={:#x} \
+             frames={} modes={seen:?} feature=Patch(0) faults={faults:#x}",
+            POINTS_PERIOD.as_millis(),
+            POINTS_AMPLITUDE_M * 1e3,
+            POINTS_FREQUENCY_HZ,
+            crc32(&wire),
+            frames.len()
+        ),
+        format!(
+            "session points depth_mm={:.3}..{:.3} depth_error_um={worst_um:.2} \
+             depth_error_vs_uploaded_arc_um={unmoved_um:.1} normal_force_n={f_lo:.3}..{f_hi:.3} \
+             largest_normal_force_minus_k_depth_n={force_n:.4}",
+            lo * 1e3,
+            hi * 1e3
+        ),
+    ];
+    // The device renders the moved curve: its depth is the moved curve's, to the tracker's
+    // convergence (one Gauss–Newton step a tick; an update moves the contact by at most
+    // 2π f A × 8 ms = 0.1 mm, and a step leaves |κ d| ≈ 4 mm / 36 mm of a parameter error:
+    // 11 µm after the update's first tick, 1.2 µm after the next, and a frame is a
+    // millisecond's tick), and it moves (the surface's 1 mm at this point is about a third of
+    // a millimetre of depth). In the stuck spring the normal force is K times the depth at
+    // the GO, which rides on the surface: within K × 20 µm of K × the depth.
+    if worst_um > 20.0 || hi - lo < 0.3e-3 || force_n > k * 20e-6 {
+        return Err(format!(
+            "points: the device did not render the moving curve\n{}",
+            lines.join("\n")
+        ));
+    }
+    Ok(lines)
 }
 
 /// The modes of `t` in order, repeats collapsed.
@@ -540,6 +801,8 @@ pub fn run(elf: &Path, root: &Path) -> Result<Vec<String>, String> {
             crc32(&second)
         ));
     }
+
+    lines.extend(points_phase(&mut host, &scene, softer, along)?);
 
     // Heartbeat loss: the force goes off at the watchdog's timeout. The tick that stamped the
     // last heartbeat is the first telemetry after its ack (the device acks a frame when it

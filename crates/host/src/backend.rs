@@ -68,6 +68,26 @@ pub enum Command<S = Session> {
     /// Who holds the simulated pantograph's handle (a released hand lets go at once). The
     /// simulated device in the app only.
     Hand(crate::sim::Hand),
+    /// Move control points of the device's scene in place (a deformable model's new shape,
+    /// [`PointsUpdate`]): the device's renderer carries on, on the new shape, with no new
+    /// acquisition or ramp. A device behind a link only ([`crate::remote`]): sent at once,
+    /// not queued behind requests, and the newest update replaces one not sent yet.
+    ScenePoints(Box<PointsUpdate>),
+}
+
+/// New control points for patches of one object of the device's scene
+/// ([`Command::ScenePoints`], [`device::protocol::points_update`]). Send whole patches (or at
+/// least every point that moved since the device's last applied shape): an update replaced
+/// by a newer one before it went out is never sent.
+#[derive(Clone, Debug, PartialEq)]
+pub struct PointsUpdate {
+    /// The object in the device's scene (a session's upload makes its object the scene's
+    /// object 0).
+    pub object: u8,
+    /// Per patch: its index in the object, the index of its first control point given, and
+    /// the new Cartesian points (m; planar x, y). The weights stay the scene's. Patches
+    /// that share a point at a join move together in one update.
+    pub patches: Vec<(u8, u16, Vec<Vec2>)>,
 }
 
 impl<S> Command<S> {
@@ -82,6 +102,7 @@ impl<S> Command<S> {
             Command::ClearFaults => "clearing the faults",
             Command::Calibrate => "the calibration",
             Command::Hand(_) => "the hand model",
+            Command::ScenePoints(_) => "the control-point update",
         }
     }
 }
@@ -162,6 +183,14 @@ pub struct LoopCounters {
     pub link_bad_frames: AtomicU64,
     /// The latest heartbeat's round trip to a device behind a link (µs; 0 before one).
     pub link_rtt_us: AtomicU64,
+    /// Control-point updates ([`Command::ScenePoints`]) sent to a device behind a link.
+    pub points_sent: AtomicU64,
+    /// Control-point updates the device applied (the ack of their apply frame).
+    pub points_applied: AtomicU64,
+    /// Control-point updates the device refused, or never answered.
+    pub points_refused: AtomicU64,
+    /// Control-point updates replaced by a newer one before they were sent.
+    pub points_superseded: AtomicU64,
 }
 
 /// Asks the OS to run the calling thread ahead of every normal one: real-time FIFO

@@ -421,7 +421,9 @@ impl Steppable for HapticLoop {
                 self.swap_session(*session);
                 Some(Reply::Swapped)
             }
-            Command::Mesh(_) => Some(Reply::Unsupported(command.name())),
+            // The app's own simulated device takes shapes as sessions (`Swap`); control-point
+            // updates are the protocol's, for a device behind a link.
+            Command::Mesh(_) | Command::ScenePoints(_) => Some(Reply::Unsupported(command.name())),
             Command::Forces(on) => {
                 self.set_forces_enabled(on);
                 None

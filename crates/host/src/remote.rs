@@ -12,6 +12,13 @@
 //!   state is unchanged.
 //! - Heartbeats go every [`HEARTBEAT_PERIOD`]; the device answers each with its status
 //!   ([`LinkEvent::Status`]), and its round trip is the link's latency.
+//! - Control-point updates ([`Command::ScenePoints`]: a deformable model's moving shape) go
+//!   without waiting, as soon as no upload is queued or in flight (the device's staging
+//!   buffer is the upload's until it commits): their frames are sent at once, several
+//!   updates may be in flight, and an update the UI replaces before it went out is never
+//!   sent (the newest shape wins). The ack of an update's last frame means the device applied
+//!   it ([`LoopCounters::points_applied`](crate::backend::LoopCounters)); a nack of any of its
+//!   frames, that it dropped the whole update ([`LinkEvent::Refused`]).
 //! - Hand targets go, without waiting, to a device whose plant is simulated: the newest one
 //!   every [`HAND_PERIOD`] while it changes. The device's virtual hand follows them at a
 //!   bounded speed in its own time ([`device::simulator::VirtualHand`]: a hand does not
@@ -30,13 +37,13 @@ use std::sync::mpsc::TryRecvError;
 use std::time::{Duration, Instant};
 
 use device::host::{GapCounter, LinkError};
-use device::protocol::{ErrorCode, Frame, Message, Status, Telemetry, scene_upload};
+use device::protocol::{ErrorCode, Frame, Message, Status, Telemetry, points_update, scene_upload};
 use device::safety::Faults;
 use friction::Mode;
 use nurbs::{Vec2, Vec3};
 use tracker::Feature;
 
-use crate::backend::{Command, LinkEvent, LoopEnds, LoopThread, Reply, Sample};
+use crate::backend::{Command, LinkEvent, LoopEnds, LoopThread, PointsUpdate, Reply, Sample};
 use crate::devices::{HEARTBEAT_PERIOD, Opened};
 use crate::planar::MaterialChangeError;
 use crate::tick::{DeviceSample, Tick};
@@ -90,6 +97,8 @@ enum Purpose {
     /// Not a message: the queue waits here until the handle of a simulated plant has
     /// followed the virtual hand to the pointer's target (or [`SETTLE_TIMEOUT`] passed).
     Settle,
+    /// A control-point update (never queued: sent at once, see [`Host::send_points`]).
+    Points,
 }
 
 impl Purpose {
@@ -101,6 +110,7 @@ impl Purpose {
             Purpose::Calibrate => "the calibration",
             Purpose::ClearFaults => "clearing the faults",
             Purpose::Settle => "moving the handle to the hand",
+            Purpose::Points => "the control-point update",
         }
     }
 }
@@ -128,6 +138,11 @@ struct Host {
     settle_since: Option<Instant>,
     /// A command refused before it was sent, to report at the end of the turn.
     refused_now: Option<(Purpose, String)>,
+    /// The newest control-point update not sent yet.
+    points_pending: Option<PointsUpdate>,
+    /// Control-point updates sent and not answered: the sequence numbers of their first and
+    /// last frames, and when they went.
+    points_in_flight: VecDeque<(u16, u16, Instant)>,
     clock: DeviceClock,
     started: Instant,
     heard: Instant,
@@ -151,6 +166,8 @@ impl Host {
             hip: None,
             settle_since: None,
             refused_now: None,
+            points_pending: None,
+            points_in_flight: VecDeque::new(),
             clock: DeviceClock::default(),
             started: now,
             heard: now,
@@ -250,6 +267,7 @@ impl Host {
             self.in_flight = Some((seq, purpose, now));
         }
         self.move_hand(now).map_err(|e| self.lost(&e))?;
+        self.send_points(ends, now).map_err(|e| self.lost(&e))?;
         let until = now + Duration::from_millis(1);
         loop {
             let left = until.saturating_duration_since(Instant::now());
@@ -305,6 +323,56 @@ impl Host {
         Ok(())
     }
 
+    /// Sends the pending control-point update, once the device has answered a heartbeat and
+    /// no upload is queued or in flight; gives up on updates unanswered for
+    /// [`REQUEST_TIMEOUT`].
+    fn send_points(&mut self, ends: &LoopEnds, now: Instant) -> Result<(), LinkError> {
+        while let Some(&(_, _, sent)) = self.points_in_flight.front()
+            && now - sent > REQUEST_TIMEOUT
+        {
+            self.points_in_flight.pop_front();
+            ends.counters.points_refused.fetch_add(1, Ordering::Relaxed);
+            self.refused(
+                ends,
+                Purpose::Points,
+                format!("no answer within {REQUEST_TIMEOUT:?}"),
+            );
+        }
+        let uploading = matches!(self.in_flight, Some((_, Purpose::Upload { .. }, _)))
+            || self
+                .queue
+                .iter()
+                .any(|(_, p)| matches!(p, Purpose::Upload { .. }));
+        if self.status.is_none() || uploading {
+            return Ok(());
+        }
+        let Some(update) = self.points_pending.take() else {
+            return Ok(());
+        };
+        let patches: Vec<(u8, u16, &[Vec2])> = update
+            .patches
+            .iter()
+            .map(|(patch, first, points)| (*patch, *first, &points[..]))
+            .collect();
+        let mut seqs = None;
+        for message in points_update(update.object, &patches) {
+            let seq = self.opened.link.send(&message)?;
+            seqs = Some((seqs.map_or(seq, |(first, _)| first), seq));
+        }
+        if let Some((first, last)) = seqs {
+            self.points_in_flight.push_back((first, last, now));
+            ends.counters.points_sent.fetch_add(1, Ordering::Relaxed);
+        }
+        Ok(())
+    }
+
+    /// The index in [`Host::points_in_flight`] of the update frame `seq` belongs to.
+    fn points_update_of(&self, seq: u16) -> Option<usize> {
+        self.points_in_flight
+            .iter()
+            .position(|&(first, last, _)| seq.wrapping_sub(first) <= last.wrapping_sub(first))
+    }
+
     fn lost(&self, e: &LinkError) -> String {
         format!("{}: {e}", self.device)
     }
@@ -354,6 +422,13 @@ impl Host {
             // The device renders NURBS objects through the protocol; a mesh is the app's. The
             // hand on a board's handle is a person's.
             Command::Mesh(_) | Command::Hand(_) => ends.reply(Reply::Unsupported(command.name())),
+            Command::ScenePoints(update) => {
+                if self.points_pending.replace(*update).is_some() {
+                    ends.counters
+                        .points_superseded
+                        .fetch_add(1, Ordering::Relaxed);
+                }
+            }
         }
         Ok(())
     }
@@ -404,6 +479,12 @@ impl Host {
                 ends.reply(Reply::Link(LinkEvent::Status(s)));
             }
             Message::Ack { seq } => {
+                if let Some(i) = self.points_update_of(seq)
+                    && self.points_in_flight[i].1 == seq
+                {
+                    self.points_in_flight.remove(i);
+                    ends.counters.points_applied.fetch_add(1, Ordering::Relaxed);
+                }
                 if let Some((s, purpose, _)) = self.in_flight
                     && s == seq
                 {
@@ -417,7 +498,8 @@ impl Host {
                         Purpose::Upload { last: false }
                         | Purpose::Forces
                         | Purpose::Calibrate
-                        | Purpose::Settle => {}
+                        | Purpose::Settle
+                        | Purpose::Points => {}
                     }
                 }
             }
@@ -427,6 +509,12 @@ impl Host {
                 {
                     self.in_flight = None;
                     self.refused(ends, purpose, n.code.message().to_owned());
+                } else if let Some(i) = self.points_update_of(n.seq) {
+                    // The device dropped the whole update; its later frames' nacks
+                    // (`UpdateAborted`) find it gone.
+                    self.points_in_flight.remove(i);
+                    ends.counters.points_refused.fetch_add(1, Ordering::Relaxed);
+                    self.refused(ends, Purpose::Points, n.code.message().to_owned());
                 } else if n.code == ErrorCode::NotSimulated && self.simulated_plant {
                     // A board: the hand on the handle is real.
                     self.simulated_plant = false;

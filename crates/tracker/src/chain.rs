@@ -404,6 +404,27 @@ impl<'a> Chain<'a> {
         }
     }
 
+    /// Whether this chain's topology is `t`: `self.topology() == *t` without building one
+    /// (a caller short of stack compares in place).
+    pub fn has_topology(&self, t: &ChainTopology) -> bool {
+        let n = self.n_curves;
+        let nv = self.n_vertices;
+        usize::from(t.pieces) == n
+            && t.closed == self.closed
+            && t.source == self.source
+            && t.periodic == self.periodic
+            && t.domains[..n]
+                .iter()
+                .zip(self.curves())
+                .all(|(d, c)| *d == c.domain())
+            && t.domains[n..].iter().all(|d| *d == (0.0, 0.0))
+            && t.kinds[..nv]
+                .iter()
+                .zip(self.vertices())
+                .all(|(k, v)| *k == v.kind)
+            && t.kinds[nv..].iter().all(|k| *k == VertexKind::End)
+    }
+
     /// The curve closest to `x` and the parameter there: the global search on every curve
     /// (used to start tracking from nothing).
     pub fn nearest(&self, x: Vec2) -> (usize, f32) {

@@ -3,7 +3,8 @@
 //! Tasks, highest priority first (nothing of a lower priority can delay a tick):
 //!
 //! 3. `tick` — TIM5's update interrupt, 10 kHz (features `tick-1khz`, `tick-2khz`,
-//!    `tick-5khz` for slower ticks): feeds the watchdog, swaps in a committed scene, applies
+//!    `tick-5khz` for slower ticks): feeds the watchdog, swaps in a committed scene (or gives
+//!    the controller the object of a control-point update, keeping its renderer), applies
 //!    the link's commands, runs one [`App::tick`] on the encoders and the clock, drives PWM,
 //!    directions and driver enable, and queues one telemetry frame per millisecond for USB
 //!    (the app folds the millisecond's ticks into it, `device::telemetry`). Never waits,
@@ -562,13 +563,20 @@ mod app {
         {
             let _ = l.app.controller_mut().complete_acquisition(acquisition);
         }
-        // A committed scene, swapped in at this tick boundary once no acquisition reads a
-        // store (so the swap's frame never stacks on the acquisition's either); the store it
-        // replaced, or the refused one, goes back to the protocol task.
+        // A committed scene (or the scene with control points moved: the controller's object
+        // is replaced, its renderer carries on), swapped in at this tick boundary once no
+        // acquisition reads a store (so the swap's frame never stacks on the acquisition's
+        // either); the store it replaced, or the refused one, goes back to the protocol task.
         let commits = &mut l.tick.commits;
-        if let Some(swapped) = l.scenes.swap_in(l.app, || commits.dequeue()) {
+        if let Some(incoming) = SHARED.pending()
+            && let Some(swapped) = l.scenes.take_in(l.app, incoming, || commits.dequeue())
+        {
             if let Some(freed) = swapped.freed {
                 let _ = l.tick.freed.enqueue(freed);
+            }
+            // Accepted on the link but not rendered: the next status says why.
+            if let Err(e) = swapped.loaded {
+                SHARED.command_refused(e.code());
             }
             SHARED.commit_done();
         }

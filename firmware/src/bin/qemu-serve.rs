@@ -9,9 +9,15 @@
 //! One cooperative loop: it reads the link until no byte waits (every frame through
 //! [`Session`], the device side of the link the host's simulator uses too), then runs the tick
 //! when SysTick marks the next millisecond (1 kHz of the emulated 168 MHz core), then the
-//! acquisition a scene load asks for (between ticks, as the board's lowest-priority task). A
-//! committed scene is swapped in at that tick boundary: the app is parked (its view of the old
-//! store dropped), the two stores swap roles, and the new store is loaded.
+//! acquisition a scene load asks for (between ticks, as the board's lowest-priority task). The
+//! two scene stores are the board's double buffer (`firmware::swap`, `static`, here at the
+//! host's full capacity): a commit is validated into the staging half and swapped in at once,
+//! between two ticks ([`TickScenes::swap_in`]); a control-point update
+//! ([`Message::ScenePoints`]) is validated into it too and gives the controller its reshaped
+//! object there ([`TickScenes::reshape_in`]: the renderer carries on, no acquisition, no
+//! ramp-in), the half rendered before going back to the link.
+//!
+//! [`Message::ScenePoints`]: device::protocol::Message::ScenePoints
 //!
 //! [`Message::HandTarget`]: device::protocol::Message::HandTarget
 //! [`App`]: firmware::app::App
@@ -29,6 +35,7 @@ use device::spec::DeviceSpec;
 use firmware::app::Parked;
 use firmware::board::Board;
 use firmware::netduino::{Clock, SimulatedBoard};
+use firmware::swap::{Incoming, SceneBuffers, TickScenes, Validator};
 use nurbs::Vec2;
 
 /// The tick period.
@@ -50,6 +57,11 @@ const HEARTBEAT_TIMEOUT_S: f32 = 0.25;
 const SCENE_CAPACITY: usize = 4096;
 /// Where the handle starts (m): as the host's simulator, `device::host::SimConfig`.
 const START_M: Vec2 = Vec2::new(0.0, 0.09);
+
+/// The two scene stores, as the board's (`firmware::swap`) at the host's capacity: one
+/// rendered, one the link validates into. All zero bits when empty, so in `.bss`.
+static SCENES: SceneBuffers<SceneStore> =
+    SceneBuffers::new(SceneStore::empty(), SceneStore::empty());
 
 /// The bytes of one COBS packet as they arrive, up to its `0x00` delimiter.
 struct Packet {
@@ -118,7 +130,7 @@ fn main() -> ! {
     };
     let mut board = SimulatedBoard::new(arm);
     let period_s = PERIOD_US as f32 * 1e-6;
-    let mut parked = match Parked::with_safety(SafetyConfig {
+    let parked = match Parked::with_safety(SafetyConfig {
         period_s,
         ramp_time_s: RAMP_TIME_S,
         heartbeat_timeout_s: HEARTBEAT_TIMEOUT_S,
@@ -128,9 +140,18 @@ fn main() -> ! {
         Err(e) => fail(format_args!("{e}")),
     };
     let mut session: Session<SCENE_CAPACITY> = Session::new(true);
-    // The stores live in main's frame, which never returns.
-    let (mut a, mut b) = (SceneStore::new(), SceneStore::new());
-    let (mut active, mut scratch) = (&mut a, &mut b);
+    let Some([first, second]) = SCENES.split() else {
+        fail(format_args!("the scene stores were split before"));
+    };
+    // The link validates into `staging`; `spare` is the other half until the first swap.
+    let (mut staging, mut spare) = (Some(first), Some(second));
+    #[allow(unsafe_code)]
+    // SAFETY: this loop is the only user of `app` and `scenes`; it copies no view out of the
+    // app's controller, loads and reshapes it only through `scenes`, and lends no
+    // acquisition job (the search runs in place, `App::acquire`, between ticks).
+    let mut scenes = unsafe { TickScenes::new() };
+    // No scene before the first upload: the app runs without force.
+    let mut app = parked.unloaded();
     let mut hand = VirtualHand::at(START_M);
     let mut packet = Packet {
         bytes: [0; cobs::max_encoding_length(MAX_FRAME) + 1],
@@ -141,53 +162,65 @@ fn main() -> ! {
     let mut due_us = 0u64;
     hprintln!("qemu-serve: ready");
     loop {
-        // An empty store (before the first upload) loads nothing: the app runs without force.
-        let (mut app, _) = parked.load(active, 0);
-        'epoch: loop {
-            let mut byte = [0u8; 1];
-            while board.link_receive(&mut byte) == 1 {
-                let mut frame = [0u8; MAX_FRAME];
-                let Some(n) = packet.push(byte[0], &mut frame) else {
-                    continue;
-                };
-                let state = DeviceState::of(firmware::software_version(), app.controller());
-                let event = session.handle(
-                    frame.get(..n).unwrap_or(&[]),
-                    &mut *scratch,
-                    state,
-                    &mut |m: &Message| app.send(&mut board, m),
-                );
-                match event {
-                    Event::SceneCommitted => break 'epoch,
-                    Event::HandTarget(t) => hand.command(t),
-                    Event::Command(command) => {
-                        // The simulated joints "rest on their end stops": the counts read there.
-                        if let Err(code) = app.apply(command, spec.end_stop_counts()) {
-                            session.note_error(code);
-                        }
-                    }
-                    Event::None => {}
+        let mut byte = [0u8; 1];
+        while board.link_receive(&mut byte) == 1 {
+            let mut frame = [0u8; MAX_FRAME];
+            let Some(n) = packet.push(byte[0], &mut frame) else {
+                continue;
+            };
+            let state = DeviceState::of(firmware::software_version(), app.controller());
+            let event = session.handle(
+                frame.get(..n).unwrap_or(&[]),
+                &mut Validator::new(&mut staging, false),
+                state,
+                &mut |m: &Message| app.send(&mut board, m),
+            );
+            let incoming = match event {
+                Event::SceneCommitted => Some(Incoming::Scene),
+                // The pantograph renders object 0; the others' points change nothing here.
+                Event::ScenePointsUpdated { object: 0 } => Some(Incoming::Points),
+                Event::ScenePointsUpdated { .. } | Event::None => None,
+                Event::HandTarget(t) => {
+                    hand.command(t);
+                    None
                 }
+                Event::Command(command) => {
+                    // The simulated joints "rest on their end stops": the counts read there.
+                    if let Err(code) = app.apply(command, spec.end_stop_counts()) {
+                        session.note_error(code);
+                    }
+                    None
+                }
+            };
+            // Between two ticks: the loop ticks below, after the link.
+            if let Some(incoming) = incoming {
+                let mut next = staging.take();
+                let swapped = scenes.take_in(&mut app, incoming, || next.take());
+                let freed = swapped.and_then(|s| {
+                    if let Err(e) = s.loaded {
+                        session.note_error(e.code());
+                    }
+                    s.freed
+                });
+                staging = next.or(freed).or_else(|| spare.take());
             }
-            let now_us = clock.now_us();
-            if now_us >= due_us {
-                // Ticks on the period's grid; after a stall (the host stopped QEMU) the grid
-                // restarts rather than racing through the missed ticks.
-                due_us = if now_us - due_us > 100 * PERIOD_US {
-                    now_us + PERIOD_US
-                } else {
-                    due_us + PERIOD_US
-                };
-                board.now_us = now_us;
-                app.tick(&mut board);
-                // An arm driven into a singular pose stays there, as a real one on its stops.
-                let _ = board.step_plant(hand.step(period_s), period_s);
-                app.acquire();
-            }
-            cortex_m::asm::wfi();
         }
-        parked = app.park();
-        core::mem::swap(&mut active, &mut scratch);
+        let now_us = clock.now_us();
+        if now_us >= due_us {
+            // Ticks on the period's grid; after a stall (the host stopped QEMU) the grid
+            // restarts rather than racing through the missed ticks.
+            due_us = if now_us - due_us > 100 * PERIOD_US {
+                now_us + PERIOD_US
+            } else {
+                due_us + PERIOD_US
+            };
+            board.now_us = now_us;
+            app.tick(&mut board);
+            // An arm driven into a singular pose stays there, as a real one on its stops.
+            let _ = board.step_plant(hand.step(period_s), period_s);
+            app.acquire();
+        }
+        cortex_m::asm::wfi();
     }
 }
 

@@ -70,8 +70,10 @@ pub enum ErrorCode {
     /// corners, a vertex turned from convex to reflex or smooth, a chain closed or opened):
     /// the renderer's features would not be the same; upload the scene instead.
     TopologyChanged = 26,
-    /// A control-point update while the staging buffer holds something else: an upload in
-    /// progress, or an update of another object not applied yet.
+    /// A control-point update while the staging buffer holds something else (an upload in
+    /// progress, or an update of another object not applied yet), or a commit or an update
+    /// that found no store free to validate into (the one before is not in use yet: a
+    /// board's tick takes it at its next boundary; send the frame again).
     StagingBusy = 27,
     /// A frame of a control-point update after an earlier frame of the same update was
     /// refused: the whole update is dropped, up to and including its apply frame.

@@ -52,9 +52,13 @@ impl<const K: usize, const C: usize, const S: usize> SceneValidator for SceneSto
     }
 }
 
-/// A control-point update in progress ([`Message::ScenePoints`]).
+/// Where a control-point update is ([`Message::ScenePoints`]). `Idle` first: its value is all
+/// zero bits, as the whole receiver's is when new (a board's `static` of it needs no image in
+/// flash).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 enum Points {
+    /// None in progress.
+    Idle,
     /// Points of `object` staged: the staging buffer holds the active scene with them
     /// written in.
     Staged { object: u8 },
@@ -111,7 +115,7 @@ pub struct SceneReceiver<const N: usize = 8192> {
     active_len: usize,
     active_crc: u32,
     upload: Option<Upload>,
-    points: Option<Points>,
+    points: Points,
     expected_seq: Option<u16>,
     simulated_plant: bool,
 }
@@ -131,7 +135,7 @@ impl<const N: usize> SceneReceiver<N> {
             active_len: 0,
             active_crc: 0,
             upload: None,
-            points: None,
+            points: Points::Idle,
             expected_seq: None,
             simulated_plant: false,
         }
@@ -205,10 +209,10 @@ impl<const N: usize> SceneReceiver<N> {
         match frame.message {
             Message::Hello(_) => {
                 self.upload = None;
-                self.points = None;
+                self.points = Points::Idle;
             }
             Message::SceneBegin { total_len, crc32 } => {
-                self.points = None;
+                self.points = Points::Idle;
                 self.begin(total_len, crc32, seq)?;
             }
             Message::SceneChunk(ref chunk) => self.chunk(chunk, seq)?,
@@ -270,9 +274,9 @@ impl<const N: usize> SceneReceiver<N> {
         let result = self.stage_points(points, validator, seq);
         if points.apply {
             // Applied or refused, the update ends with its apply frame.
-            self.points = None;
+            self.points = Points::Idle;
         } else if result.is_err() {
-            self.points = Some(Points::Aborted);
+            self.points = Points::Aborted;
         }
         result
     }
@@ -286,14 +290,14 @@ impl<const N: usize> SceneReceiver<N> {
         let refuse = |this: &Self, code, patch: bool| {
             Err(this.nack_at(seq, code, p.object, patch.then_some(p.patch)))
         };
-        if self.points == Some(Points::Aborted) {
+        if self.points == Points::Aborted {
             return refuse(self, ErrorCode::UpdateAborted, false);
         }
         if self.active_len == 0 {
             return refuse(self, ErrorCode::NoActiveScene, false);
         }
         if self.upload.is_some()
-            || matches!(self.points, Some(Points::Staged { object }) if object != p.object)
+            || matches!(self.points, Points::Staged { object } if object != p.object)
         {
             return refuse(self, ErrorCode::StagingBusy, false);
         }
@@ -308,9 +312,9 @@ impl<const N: usize> SceneReceiver<N> {
         } else {
             (&*b1, b0)
         };
-        if self.points.is_none() {
+        if self.points == Points::Idle {
             staging[..len].copy_from_slice(&active[..len]);
-            self.points = Some(Points::Staged { object: p.object });
+            self.points = Points::Staged { object: p.object };
         }
         // The staging copy has the active scene's layout: the span checked above is its too.
         if let Err(code) = write_points(&mut staging[..len], p) {

@@ -3,8 +3,7 @@
 use friction::FrictionMaterial;
 use nurbs::{Curve, NurbsError, Surface, Vec2, Vec3, Vec4};
 use tracker::{
-    Chain, ChainError, ChainTopology, MAX_CHAIN_CURVES, MAX_SHELL_PATCHES, Shell, ShellError,
-    ShellTopology,
+    Chain, ChainError, MAX_CHAIN_CURVES, MAX_SHELL_PATCHES, Shell, ShellError, ShellTopology,
 };
 
 use super::wire::{MATERIAL_LEN, Reader, get_material};
@@ -60,6 +59,10 @@ pub enum SceneFault {
     Shell(ShellError),
     /// A control-point update changed the object's topology ([`tracker::Object::topology`]).
     TopologyChanged,
+    /// The device has no store free to validate into: the scene or update before is not in
+    /// use yet (a board's tick takes it at its next boundary). Nothing changed; send the
+    /// frame again.
+    Busy,
 }
 
 /// Why a scene was rejected, and where.
@@ -101,6 +104,7 @@ impl SceneError {
                 ErrorCode::SceneTopology
             }
             SceneFault::TopologyChanged => ErrorCode::TopologyChanged,
+            SceneFault::Busy => ErrorCode::StagingBusy,
         }
     }
 }
@@ -119,7 +123,10 @@ impl core::fmt::Display for SceneError {
             SceneFault::Shell(e) => write!(f, "{e}"),
             SceneFault::MixedKinds => write!(f, "mixes planar curves and surfaces"),
             SceneFault::Material(code) => write!(f, "material: {code}"),
-            SceneFault::Format | SceneFault::Capacity | SceneFault::TopologyChanged => {
+            SceneFault::Format
+            | SceneFault::Capacity
+            | SceneFault::TopologyChanged
+            | SceneFault::Busy => {
                 write!(f, "{}", self.code())
             }
         }
@@ -334,42 +341,51 @@ impl<const K: usize, const C: usize, const S: usize> SceneStore<K, C, S> {
     /// object's topology: `active` is decoded first and the object's topology
     /// ([`Chain::topology`], [`Shell::topology`]) compared with the reshaped one's
     /// ([`SceneFault::TopologyChanged`]). On success the store holds `reshaped`; on error it
-    /// is empty. Two decodes: the cost of two commits' validation.
+    /// is empty. Two decodes: the cost of two commits' validation. Not inlined, and its own
+    /// frame holds one topology: the chains are built further down, one at a time, so its
+    /// deepest stack is a commit's validation and a topology.
+    #[inline(never)]
     pub fn decode_reshaped(
         &mut self,
         active: &[u8],
         reshaped: &[u8],
         object: usize,
     ) -> Result<(), SceneError> {
-        let changed = || SceneError::at(object, None, SceneFault::TopologyChanged);
+        let changed = SceneError::at(object, None, SceneFault::TopologyChanged);
         self.decode(active)?;
-        let result = match self.kind(object) {
-            Some(PatchKind::Curve2) => {
-                let before = self.chain_topology(object).ok_or_else(changed)?;
-                self.decode(reshaped)?;
-                self.chain_topology(object) == Some(before)
-            }
+        let kept = match self.kind(object) {
+            Some(PatchKind::Curve2) => match self.with_chain(object, |c| c.topology()) {
+                Some(before) => {
+                    self.decode(reshaped)?;
+                    self.with_chain(object, |c| c.has_topology(&before)) == Some(true)
+                }
+                None => false,
+            },
             Some(PatchKind::Surface) if S > 0 => self.shell_reshaped(reshaped, object)?,
             _ => false,
         };
-        if !result {
+        if !kept {
             self.clear();
-            return Err(changed());
+            return Err(changed);
         }
         Ok(())
     }
 
-    /// The topology of `object` when it is a chain (it was validated, so it is one). Not
-    /// inlined: the chain it builds exists only while it runs.
+    /// `f` of `object` as a chain (it was validated, so it is one). Not inlined: the chain
+    /// it builds exists only while it runs, borrowed where `Chain::new` put it (a chain is a
+    /// few KiB: every move of one is stack).
     #[inline(never)]
-    fn chain_topology(&self, object: usize) -> Option<ChainTopology> {
+    fn with_chain<R>(&self, object: usize, f: impl FnOnce(&Chain<'_>) -> R) -> Option<R> {
         let n = self.patch_count(object)?;
         let first = self.curve(object, 0)?;
         let mut curves = [first; MAX_CHAIN_CURVES];
         for (p, c) in curves.iter_mut().enumerate().take(n).skip(1) {
             *c = self.curve(object, p)?;
         }
-        Chain::new(curves.get(..n)?).ok().map(|c| c.topology())
+        match &Chain::new(curves.get(..n)?) {
+            Ok(chain) => Some(f(chain)),
+            Err(_) => None,
+        }
     }
 
     /// The topology of `object` when it is a shell.
@@ -381,7 +397,10 @@ impl<const K: usize, const C: usize, const S: usize> SceneStore<K, C, S> {
         for (p, s) in patches.iter_mut().enumerate().take(n).skip(1) {
             *s = self.surface(object, p)?;
         }
-        Shell::new(patches.get(..n)?).ok().map(|s| s.topology())
+        match &Shell::new(patches.get(..n)?) {
+            Ok(shell) => Some(shell.topology()),
+            Err(_) => None,
+        }
     }
 
     /// The surface half of [`SceneStore::decode_reshaped`] (the active scene decoded): decodes
