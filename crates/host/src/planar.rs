@@ -421,7 +421,7 @@ impl Steppable for HapticLoop {
                 self.swap_session(*session);
                 Some(Reply::Swapped)
             }
-            Command::Mesh(_) => Some(Reply::Unsupported(command.name())),
+            Command::Mesh(_) | Command::Deform(_) => Some(Reply::Unsupported(command.name())),
             Command::Forces(on) => {
                 self.set_forces_enabled(on);
                 None

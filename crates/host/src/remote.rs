@@ -352,8 +352,11 @@ impl Host {
             ),
             Command::Calibrate => self.request(Message::Calibrate, Purpose::Calibrate),
             // The device renders NURBS objects through the protocol; a mesh is the app's. The
-            // hand on a board's handle is a person's.
-            Command::Mesh(_) | Command::Hand(_) => ends.reply(Reply::Unsupported(command.name())),
+            // hand on a board's handle is a person's. Deforming the object behind a link is not
+            // built yet.
+            Command::Mesh(_) | Command::Hand(_) | Command::Deform(_) => {
+                ends.reply(Reply::Unsupported(command.name()));
+            }
         }
         Ok(())
     }

@@ -455,7 +455,9 @@ impl Steppable for SpatialLoop {
                 None
             }
             Command::ClearFaults => Some(Reply::FaultsCleared(device::safety::Faults::empty())),
-            Command::Calibrate | Command::Hand(_) => Some(Reply::Unsupported(command.name())),
+            Command::Calibrate | Command::Hand(_) | Command::Deform(_) => {
+                Some(Reply::Unsupported(command.name()))
+            }
         }
     }
 
