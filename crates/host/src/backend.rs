@@ -28,6 +28,7 @@ use friction::FrictionMaterial;
 use nurbs::{Vec2, Vec3};
 use tracker::TriMesh;
 
+use crate::deform::{DeformChangeError, DeformStatus};
 use crate::planar::{MaterialChangeError, Session};
 use crate::runlog::RecordTx;
 use crate::spatial::MeshError;
@@ -73,6 +74,12 @@ pub enum Command<S = Session> {
     /// acquisition or ramp. A device behind a link only ([`crate::remote`]): sent at once,
     /// not queued behind requests, and the newest update replaces one not sent yet.
     ScenePoints(Box<PointsUpdate>),
+    /// Make the rendered object deformable (`true`: the hand pushes it and it moves, a
+    /// [`Deformer`](crate::deform::Deformer) stepped by the loop, its renderer carried onto
+    /// each new shape) or rigid at its rest shape again (`false`). The object needs a
+    /// `"dynamics"` block. Answered with [`Reply::Deform`]; a loop that cannot deform answers
+    /// [`Reply::Unsupported`].
+    Deform(bool),
 }
 
 /// New control points for patches of one object of the device's scene
@@ -103,6 +110,7 @@ impl<S> Command<S> {
             Command::Calibrate => "the calibration",
             Command::Hand(_) => "the hand model",
             Command::ScenePoints(_) => "the control-point update",
+            Command::Deform(_) => "deforming the object",
         }
     }
 }
@@ -119,6 +127,9 @@ pub enum Reply {
     /// The result of a [`Command::Mesh`]: a mesh the loop cannot scan in a tick is refused
     /// and the running rendering stays.
     Mesh(Result<(), MeshError>),
+    /// The result of a [`Command::Deform`]: whether the object now deforms and where the loop
+    /// publishes its shape, or why it was refused (nothing changed).
+    Deform(Result<DeformStatus, DeformChangeError>),
     /// The loop does not support the command ([`Command::name`]); nothing changed.
     Unsupported(&'static str),
     /// What a device behind a link said or did ([`crate::remote`]).

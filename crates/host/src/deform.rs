@@ -6,6 +6,7 @@
 //! tracker follows the moving surface from where it was.
 
 use std::io::{self, Write};
+use std::sync::{Arc, Mutex, PoisonError};
 
 use deform::{Body, Coupling, Nodes};
 
@@ -77,6 +78,125 @@ pub enum DeformError {
     /// The loop could not run.
     #[error(transparent)]
     Sim(#[from] SimError),
+}
+
+/// Why a loop did not take a [`Command::Deform`](crate::backend::Command::Deform): the object
+/// it renders is unchanged.
+#[derive(Debug, thiserror::Error)]
+pub enum DeformChangeError {
+    /// The loop renders no object.
+    #[error("no object is rendered: there is nothing to deform")]
+    NoObject,
+    /// The spatial hand feels a mesh (the polygonal baseline), not the NURBS object.
+    #[error("the hand feels the object's mesh: feel the NURBS surface to deform it")]
+    Mesh,
+    /// The object is rigid (no `"dynamics"` block), or its body or shape could not be built.
+    #[error(transparent)]
+    Object(#[from] DeformError),
+    /// The device's controller refused the object's new shape (its topology changed).
+    #[error("device controller: {0}")]
+    Controller(ControllerError),
+}
+
+/// What a loop answers a [`Command::Deform`](crate::backend::Command::Deform) it took.
+#[derive(Clone, Debug)]
+pub struct DeformStatus {
+    /// Whether the object now deforms (`false`: rigid, at its rest shape).
+    pub deforming: bool,
+    /// Where the loop publishes the object's shape while it deforms (the same for the loop's
+    /// whole life: a reader keeps it across commands and scene swaps).
+    pub shape: Arc<SharedShape>,
+}
+
+/// Loop steps of 1 ms between two publications of a deforming object's shape: 17 ms, so at
+/// most 59 Hz, a display's rate (a frame drawn between two publications shows the same shape).
+pub const PUBLISH_EVERY_MS: u32 = 17;
+
+/// A deformable object's shape as a loop publishes it for the UI.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct ShapeFrame {
+    /// Whether the object deforms; `false` once it is rigid again (at rest), or before it
+    /// ever deformed.
+    pub deforming: bool,
+    /// The object's index in the loop's scene.
+    pub object: usize,
+    /// Its first patch's control points (m, the scene's order; `z = 0` on planar curves).
+    pub points: Vec<[f64; 3]>,
+    /// The loop's time of the shape (s).
+    pub t_s: f64,
+    /// Publications so far: a reader tells a new shape from one it has read.
+    pub version: u64,
+}
+
+/// The shape of a loop's deformable object, shared with the UI: the loop writes it at most
+/// every [`PUBLISH_EVERY_MS`] and only when it gets the lock at once (`try_lock`: a tick never
+/// waits for a frame; a publication missed is made at the next step), into buffers sized when
+/// deforming starts, so a publication allocates nothing. The UI copies it out when it draws.
+#[derive(Debug, Default)]
+pub struct SharedShape(Mutex<ShapeFrame>);
+
+impl SharedShape {
+    /// An empty shape (not deforming), to share.
+    pub fn new() -> Arc<Self> {
+        Arc::new(SharedShape::default())
+    }
+
+    /// Loop side, when `deformer` starts (a command, not a tick: this may wait for a reader
+    /// and allocates the buffers): its rest shape, published.
+    pub fn start(&self, deformer: &Deformer, t_s: f64) {
+        let mut frame = self.0.lock().unwrap_or_else(PoisonError::into_inner);
+        frame.points.resize(deformer.body().n_points(), [0.0; 3]);
+        frame.deforming = true;
+        frame.object = deformer.index();
+        write_points(&mut frame, deformer, t_s);
+    }
+
+    /// Loop side, every tick it may publish: `deformer`'s current control points, unless a
+    /// reader holds the lock (then `false`: try again later). Copies into the buffers
+    /// [`SharedShape::start`] sized: no allocation, no wait.
+    pub fn publish(&self, deformer: &Deformer, t_s: f64) -> bool {
+        match self.0.try_lock() {
+            Ok(mut frame) => {
+                write_points(&mut frame, deformer, t_s);
+                true
+            }
+            Err(_) => false,
+        }
+    }
+
+    /// Loop side, when the object is rigid again (a command or a scene swap): not deforming.
+    pub fn stop(&self, t_s: f64) {
+        let mut frame = self.0.lock().unwrap_or_else(PoisonError::into_inner);
+        frame.deforming = false;
+        frame.t_s = t_s;
+        frame.version += 1;
+    }
+
+    /// UI side: copies the shape into `into` when it is newer than `into` (another version);
+    /// whether it did. Holds the lock for the copy only.
+    pub fn read_into(&self, into: &mut ShapeFrame) -> bool {
+        let frame = self.0.lock().unwrap_or_else(PoisonError::into_inner);
+        if frame.version == into.version {
+            return false;
+        }
+        into.clone_from(&frame);
+        true
+    }
+}
+
+/// The deformer's control points (rest plus displacement, no allocation) into `frame`.
+fn write_points(frame: &mut ShapeFrame, deformer: &Deformer, t_s: f64) {
+    let body = deformer.body();
+    for ((out, p), u) in frame
+        .points
+        .iter_mut()
+        .zip(body.rest())
+        .zip(body.displacement())
+    {
+        *out = [p[0] + u[0], p[1] + u[1], p[2] + u[2]];
+    }
+    frame.t_s = t_s;
+    frame.version += 1;
 }
 
 /// A load on a deformable object.
@@ -419,6 +539,12 @@ impl Deformer {
         tick.go_params = self.located[1].map(|x| x as f32);
         tick.cp_param = tick.cp_params[0];
         tick.go_param = tick.go_params[0];
+    }
+
+    /// Renders the contact with stiffness `stiffness_n_per_m` from the next tick (a material
+    /// change: the contact spring in the object's step is the material's).
+    pub fn set_contact_stiffness(&mut self, stiffness_n_per_m: f32) {
+        self.stiffness_n_per_m = f64::from(stiffness_n_per_m);
     }
 
     /// The object's index in its scene.

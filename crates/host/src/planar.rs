@@ -423,7 +423,9 @@ impl Steppable for HapticLoop {
             }
             // The app's own simulated device takes shapes as sessions (`Swap`); control-point
             // updates are the protocol's, for a device behind a link.
-            Command::Mesh(_) | Command::ScenePoints(_) => Some(Reply::Unsupported(command.name())),
+            Command::Mesh(_) | Command::ScenePoints(_) | Command::Deform(_) => {
+                Some(Reply::Unsupported(command.name()))
+            }
             Command::Forces(on) => {
                 self.set_forces_enabled(on);
                 None

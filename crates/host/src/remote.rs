@@ -429,6 +429,8 @@ impl Host {
                         .fetch_add(1, Ordering::Relaxed);
                 }
             }
+            // Deforming the object behind a link is not built yet.
+            Command::Deform(_) => ends.reply(Reply::Unsupported(command.name())),
         }
         Ok(())
     }

@@ -455,9 +455,10 @@ impl Steppable for SpatialLoop {
                 None
             }
             Command::ClearFaults => Some(Reply::FaultsCleared(device::safety::Faults::empty())),
-            Command::Calibrate | Command::Hand(_) | Command::ScenePoints(_) => {
-                Some(Reply::Unsupported(command.name()))
-            }
+            Command::Calibrate
+            | Command::Hand(_)
+            | Command::ScenePoints(_)
+            | Command::Deform(_) => Some(Reply::Unsupported(command.name())),
         }
     }
 

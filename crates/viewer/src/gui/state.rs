@@ -452,6 +452,8 @@ impl AppState {
                     spatial.message = Some(format!("{e}; the hand still feels the NURBS surface"));
                 }
             }
+            // The app sends no Command::Deform yet.
+            Reply::Deform(_) => {}
             Reply::Unsupported(what) => {
                 self.loop_refused = Some(format!("the haptic loop does not support {what}"));
             }
