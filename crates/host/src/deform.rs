@@ -567,6 +567,11 @@ impl Deformer {
         self.body.points()
     }
 
+    /// The rest shape's control points (m).
+    pub fn rest_points(&self) -> Nodes {
+        self.body.rest().to_vec()
+    }
+
     /// One rendered tick: while in contact its force, reversed, loads the object. Returns the
     /// object's displacement from rest at the tick's CP ([`Tick::deform`]).
     pub fn feed(&mut self, tick: &Tick) -> Vec3 {

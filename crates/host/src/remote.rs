@@ -32,6 +32,7 @@
 //!   forces off once heartbeats stop (a board's within 100 ms), whatever the host does.
 
 use std::collections::VecDeque;
+use std::sync::Arc;
 use std::sync::atomic::Ordering;
 use std::sync::mpsc::TryRecvError;
 use std::time::{Duration, Instant};
@@ -44,9 +45,11 @@ use nurbs::{Vec2, Vec3};
 use tracker::Feature;
 
 use crate::backend::{Command, LinkEvent, LoopEnds, LoopThread, PointsUpdate, Reply, Sample};
+use crate::deform::{DeformChangeError, DeformStatus, Deformer, SharedShape};
 use crate::devices::{HEARTBEAT_PERIOD, Opened};
 use crate::planar::MaterialChangeError;
 use crate::tick::{DeviceSample, Tick};
+use scene::Scene;
 
 /// A device silent this long is gone (telemetry comes every tick, so this is hundreds of
 /// frames).
@@ -140,6 +143,13 @@ struct Host {
     refused_now: Option<(Purpose, String)>,
     /// The newest control-point update not sent yet.
     points_pending: Option<PointsUpdate>,
+    /// The scene the device renders (its object's index), for a [`Command::Deform`].
+    scene: Option<(Scene, usize)>,
+    /// The deforming object, while it deforms: stepped on the device's telemetry, its shape
+    /// sent back to the device ([`DEFORM_UPDATE_EVERY`]).
+    deforming: Option<RemoteDeform>,
+    /// Where the deforming object's shape is published for the UI.
+    shape: Arc<SharedShape>,
     /// Control-point updates sent and not answered: the sequence numbers of their first and
     /// last frames, and when they went.
     points_in_flight: VecDeque<(u16, u16, Instant)>,
@@ -167,6 +177,9 @@ impl Host {
             settle_since: None,
             refused_now: None,
             points_pending: None,
+            scene: None,
+            deforming: None,
+            shape: SharedShape::new(),
             points_in_flight: VecDeque::new(),
             clock: DeviceClock::default(),
             started: now,
@@ -389,6 +402,12 @@ impl Host {
             ),
             Command::Swap(session) => match session.wire() {
                 Some(wire) => {
+                    // The new object starts rigid (its upload brings its shape).
+                    if self.deforming.take().is_some() {
+                        self.points_pending = None;
+                        self.shape.stop(self.clock.total_us as f64 * 1e-6);
+                    }
+                    self.scene = session.object().map(|o| (session.scene().clone(), o));
                     let steps: Vec<Message> = scene_upload(wire).collect();
                     let n = steps.len();
                     for (i, m) in steps.into_iter().enumerate() {
@@ -429,8 +448,10 @@ impl Host {
                         .fetch_add(1, Ordering::Relaxed);
                 }
             }
-            // Deforming the object behind a link is not built yet.
-            Command::Deform(_) => ends.reply(Reply::Unsupported(command.name())),
+            Command::Deform(on) => {
+                let reply = self.set_deforming(on);
+                ends.reply(Reply::Deform(reply));
+            }
         }
         Ok(())
     }
@@ -535,18 +556,102 @@ impl Host {
     }
 
     /// The UI's sample of a telemetry frame.
+    /// Makes the device's object deformable or rigid again ([`Command::Deform`]).
+    fn set_deforming(&mut self, on: bool) -> Result<DeformStatus, DeformChangeError> {
+        if on && self.deforming.is_none() {
+            let (scene, object) = self.scene.as_ref().ok_or(DeformChangeError::NoObject)?;
+            let deformer = Deformer::new(scene, *object)?;
+            self.shape
+                .start(&deformer, self.clock.total_us as f64 * 1e-6);
+            self.deforming = Some(RemoteDeform {
+                deformer,
+                frames: 0,
+            });
+        } else if !on {
+            self.stop_deforming();
+        }
+        Ok(DeformStatus {
+            deforming: self.deforming.is_some(),
+            shape: Arc::clone(&self.shape),
+        })
+    }
+
+    /// Rigid again: the device gets the rest shape back.
+    fn stop_deforming(&mut self) {
+        if let Some(d) = self.deforming.take() {
+            self.points_pending = Some(patch_update(d.deformer.rest_points()));
+            self.shape.stop(self.clock.total_us as f64 * 1e-6);
+        }
+    }
+
     fn sample(&mut self, t: &Telemetry) -> Sample {
         let (t_s, period_us) = self.clock.advance(t.time_us);
         if t.hip_m != Vec2::ZERO {
             self.hip = Some(t.hip_m);
         }
         let forces_enabled = self.status.is_some_and(|s| s.forces_enabled);
+        let mut tick = tick_of(t, t_s);
+        if let Some(d) = &mut self.deforming {
+            // The frame's CP and GO are positions: their parameters on the host's copy of
+            // the shape, then the force loads it; one step per frame, of the frame's period.
+            d.deformer.locate(&mut tick);
+            tick.deform = Some(d.deformer.feed(&tick));
+            let dt_s = period_us
+                .map_or(1e-3, |p| f64::from(p) * 1e-6)
+                .clamp(1e-4, 1e-2);
+            match d.deformer.step(dt_s) {
+                Ok(()) => {
+                    d.frames += 1;
+                    if d.frames % DEFORM_UPDATE_EVERY == 0 {
+                        self.points_pending = Some(patch_update(d.deformer.points()));
+                    }
+                    if d.frames % crate::deform::PUBLISH_EVERY_MS == 0 {
+                        self.shape.publish(&d.deformer, t_s);
+                    }
+                }
+                // A shape that left the range of f32: back to rest, as the command would.
+                Err(_) => self.stop_deforming(),
+            }
+        }
         Sample {
-            tick: tick_of(t, t_s),
+            tick,
             hand_target: self.hand_target.map_or(t.hip_m, |(p, _)| p),
             period_us,
             forces_enabled,
         }
+    }
+}
+
+/// Telemetry frames (1 ms each) between two control-point updates of a deforming object:
+/// 500 Hz. The device renders the contact against the shape the host sent last, so the hand,
+/// the host's object and the device's copy close a loop through the link's delay (a frame of
+/// telemetry, the update interval, the link); a stiff contact on a light object needs that
+/// delay short against the period of the object's mass on the contact spring (the bundled
+/// string: `√((k_c + k_o)/m) ≈ 560 rad/s`, 11 ms). Measured through the simulated device
+/// (`tests/remote_deform.rs`): every 4 frames (250 Hz) the string pressed by a grip rings in
+/// a limit cycle of 0–8 N; every 2 it settles at the series stiffness. A 12-point curve is 2
+/// frames an update: 1000 frames a second to the device.
+pub const DEFORM_UPDATE_EVERY: u32 = 2;
+
+/// A deforming object behind a link.
+struct RemoteDeform {
+    deformer: Deformer,
+    /// Frames it was stepped on.
+    frames: u32,
+}
+
+/// The update that moves the device's object 0, patch 0, to `points`.
+fn patch_update(points: Vec<[f64; 3]>) -> PointsUpdate {
+    PointsUpdate {
+        object: 0,
+        patches: vec![(
+            0,
+            0,
+            points
+                .into_iter()
+                .map(|p| Vec2::new(p[0] as f32, p[1] as f32))
+                .collect(),
+        )],
     }
 }
 
