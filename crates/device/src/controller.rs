@@ -571,6 +571,32 @@ impl<O: Object<P = Vec2>> Controller<O> {
         Ok(core::mem::replace(&mut scene.object, object))
     }
 
+    /// [`Controller::replace_object`] in place: `reshape` moves the loaded object onto its new
+    /// geometry itself (a chain onto the same store's curves with moved points,
+    /// [`tracker::Chain::reshape`]), so no second object is built, copied or returned: for a
+    /// device short of time and stack between two ticks. The renderer follows as with
+    /// `replace_object` (the points under its CP and GO are taken before `reshape` runs).
+    /// `reshape` must refuse (return `false` with the object unchanged) a new shape of
+    /// another topology, as `Chain::reshape` does; then nothing changes
+    /// ([`ControllerError::Topology`]). Without a scene, [`ControllerError::NoScene`].
+    pub fn reshape_object(
+        &mut self,
+        reshape: impl FnOnce(&mut O) -> bool,
+    ) -> Result<(), ControllerError> {
+        let scene = self.scene.as_mut().ok_or(ControllerError::NoScene)?;
+        let anchors = match &scene.state {
+            SceneState::Rendering { renderer } => Some(renderer.anchors(&scene.object)),
+            SceneState::AwaitingAcquisition { .. } => None,
+        };
+        if !reshape(&mut scene.object) {
+            return Err(ControllerError::Topology);
+        }
+        if let (SceneState::Rendering { renderer }, Some(anchors)) = (&mut scene.state, anchors) {
+            renderer.follow_anchors(anchors, &scene.object);
+        }
+        Ok(())
+    }
+
     /// [`Controller::replace_object`] for a new object of another type with the same
     /// tracking state and topology (views of other storage, `Chain<'b>` for `Chain<'a>`):
     /// the same controller, renderer and all, rendering `object`. For a host that swaps its
