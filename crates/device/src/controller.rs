@@ -11,6 +11,21 @@
 //! loads the new object at a tick boundary, after the whole scene was received and validated,
 //! or [rebinds](Controller::rebind) the controller to a new view type first.
 //!
+//! # A moving shape keeps its renderer
+//!
+//! A deformable model moves its control points many times a second; loading each shape would
+//! restart the renderer (a search, no force until it is back, a ramp-in) every time. So the
+//! object can be exchanged for the same object reshaped, at a tick boundary, with the renderer
+//! kept: [`Controller::replace_object`] (a new object, the old one returned so its views can be
+//! dropped), [`Controller::reshape`] (the same for views of another lifetime) or
+//! [`Controller::reshape_object`] (the object moved in place, [`tracker::Chain::reshape`]: what
+//! a board does between two ticks). The new shape must have the old one's topology
+//! ([`tracker::Object::topology`]: pieces, domains, vertex or edge kinds, closedness), so that
+//! the tracker's feature indices name the same features; another is refused with nothing
+//! changed. What rides on the surface moves with it (the stuck god-object, the last tick's CP
+//! and HIP: [`friction::FrictionRenderer::follow_reshape`]), so the force changes by at most
+//! the stiffness times the largest control-point move.
+//!
 //! # Acquisition is not the tick's
 //!
 //! A renderer starts from the object's global closest-point search ([`tracker::Object::start`]),
