@@ -174,30 +174,34 @@ impl<'s> App<'s> {
         Ok(())
     }
 
-    /// Gives the controller object `object` of `store` in place of its object: the same
-    /// scene with control points moved (a control-point update, validated with its topology
-    /// against the scene before by the link, `device::protocol::SceneStore::decode_reshaped`),
-    /// at a tick boundary. The renderer carries on, on the new shape
-    /// ([`Controller::replace_object`]: no acquisition, no ramp-in); the views of the store
-    /// before are dropped here. On error (no scene loaded, another topology) nothing changes.
+    /// Moves the controller's object onto object `object` of `store`: the same scene with
+    /// control points moved (a control-point update, validated with its topology against the
+    /// scene before by the link, `device::protocol::SceneStore::decode_reshaped`), at a tick
+    /// boundary. The chain is moved in place ([`Controller::reshape_object`] with
+    /// [`Chain::reshape`]: no second chain built or copied, four evaluations a curve) and the
+    /// renderer carries on, on the new shape (no acquisition, no ramp-in); no view of the
+    /// store before is left. On error (no scene loaded, another topology) nothing changes and
+    /// the chain still views the store before.
     pub fn reshape<const K: usize, const C: usize, const S: usize>(
         &mut self,
         store: &'s SceneStore<K, C, S>,
         object: usize,
     ) -> Result<(), AppError> {
-        let (curves, n) = curves(store, object)?;
+        // The views built here, not returned from `curves` (a copy of the array): this runs
+        // between two ticks.
+        let n = store
+            .patch_count(object)
+            .ok_or(AppError::NoObject(object))?;
+        let first = store.curve(object, 0).ok_or(AppError::NotPlanar(object))?;
+        let mut curves = [first; MAX_CHAIN_CURVES];
+        for (p, c) in curves.iter_mut().enumerate().take(n).skip(1) {
+            *c = store.curve(object, p).ok_or(AppError::NotPlanar(object))?;
+        }
         let given = curves
             .get(..n)
             .ok_or(AppError::Chain(ChainError::TooManyCurves { count: n }))?;
-        // Borrowed where `Chain::new` put it, as in `App::load`.
-        let built = Chain::new(given);
-        let chain = match &built {
-            Ok(chain) => chain,
-            Err(e) => return Err(AppError::Chain(*e)),
-        };
         self.controller
-            .replace_object(*chain)
-            .map(drop)
+            .reshape_object(|chain| chain.reshape(given))
             .map_err(AppError::Controller)
     }
 

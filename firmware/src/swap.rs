@@ -208,8 +208,8 @@ fn load<const K: usize, const C: usize, const S: usize>(
     app.load(store, 0)
 }
 
-/// Gives the app object 0 of `store`, the same object reshaped ([`App::reshape`]). Not
-/// inlined, as [`load`].
+/// Moves the app's object onto object 0 of `store`, the same object reshaped
+/// ([`App::reshape`]). Not inlined, as [`load`].
 #[inline(never)]
 fn reshape<const K: usize, const C: usize, const S: usize>(
     app: &mut App<'static>,
@@ -337,10 +337,10 @@ impl<const K: usize, const C: usize, const S: usize> TickScenes<SceneStore<K, C,
             Ok(()) => {
                 let freed = self.active.replace(new).map(|old| {
                     #[allow(unsafe_code)]
-                    // SAFETY: the reshape replaced the controller's object, and
-                    // `App::reshape` dropped the object it returned, the views of `old`
-                    // (`new`'s now); no job reads `old` (`job_out` is false); `new`'s one
-                    // `get` went to the app; the caller keeps no copy of a view (`new`'s
+                    // SAFETY: the reshape moved every view of the controller's chain onto
+                    // `new` (`Chain::reshape` overwrites all of them, padding included), so
+                    // none of `old` is left; no job reads `old` (`job_out` is false); `new`'s
+                    // one `get` went to the app; the caller keeps no copy of a view (`new`'s
                     // contract).
                     unsafe {
                         old.reclaim()
@@ -353,9 +353,9 @@ impl<const K: usize, const C: usize, const S: usize> TickScenes<SceneStore<K, C,
             }
             Err(e) => {
                 #[allow(unsafe_code)]
-                // SAFETY: `App::reshape` keeps no view of a store it refuses (the chain it
-                // built is dropped, the controller's object is the one before), and the
-                // `get` above was the only one of this half since it was published here.
+                // SAFETY: `App::reshape` keeps no view of a store it refuses (a refused
+                // `Chain::reshape` changes nothing: the chain views the store before), and
+                // the `get` above was the only one of this half since it was published here.
                 let staging = unsafe { new.reclaim() };
                 Some(Swapped {
                     loaded: Err(e),

@@ -11,6 +11,21 @@
 //! loads the new object at a tick boundary, after the whole scene was received and validated,
 //! or [rebinds](Controller::rebind) the controller to a new view type first.
 //!
+//! # A moving shape keeps its renderer
+//!
+//! A deformable model moves its control points many times a second; loading each shape would
+//! restart the renderer (a search, no force until it is back, a ramp-in) every time. So the
+//! object can be exchanged for the same object reshaped, at a tick boundary, with the renderer
+//! kept: [`Controller::replace_object`] (a new object, the old one returned so its views can be
+//! dropped), [`Controller::reshape`] (the same for views of another lifetime) or
+//! [`Controller::reshape_object`] (the object moved in place, [`tracker::Chain::reshape`]: what
+//! a board does between two ticks). The new shape must have the old one's topology
+//! ([`tracker::Object::topology`]: pieces, domains, vertex or edge kinds, closedness), so that
+//! the tracker's feature indices name the same features; another is refused with nothing
+//! changed. What rides on the surface moves with it (the stuck god-object, the last tick's CP
+//! and HIP: [`friction::FrictionRenderer::follow_reshape`]), so the force changes by at most
+//! the stiffness times the largest control-point move.
+//!
 //! # Acquisition is not the tick's
 //!
 //! A renderer starts from the object's global closest-point search ([`tracker::Object::start`]),
@@ -569,6 +584,32 @@ impl<O: Object<P = Vec2>> Controller<O> {
             renderer.follow_reshape(&scene.object, &object);
         }
         Ok(core::mem::replace(&mut scene.object, object))
+    }
+
+    /// [`Controller::replace_object`] in place: `reshape` moves the loaded object onto its new
+    /// geometry itself (a chain onto the same store's curves with moved points,
+    /// [`tracker::Chain::reshape`]), so no second object is built, copied or returned: for a
+    /// device short of time and stack between two ticks. The renderer follows as with
+    /// `replace_object` (the points under its CP and GO are taken before `reshape` runs).
+    /// `reshape` must refuse (return `false` with the object unchanged) a new shape of
+    /// another topology, as `Chain::reshape` does; then nothing changes
+    /// ([`ControllerError::Topology`]). Without a scene, [`ControllerError::NoScene`].
+    pub fn reshape_object(
+        &mut self,
+        reshape: impl FnOnce(&mut O) -> bool,
+    ) -> Result<(), ControllerError> {
+        let scene = self.scene.as_mut().ok_or(ControllerError::NoScene)?;
+        let anchors = match &scene.state {
+            SceneState::Rendering { renderer } => Some(renderer.anchors(&scene.object)),
+            SceneState::AwaitingAcquisition { .. } => None,
+        };
+        if !reshape(&mut scene.object) {
+            return Err(ControllerError::Topology);
+        }
+        if let (SceneState::Rendering { renderer }, Some(anchors)) = (&mut scene.state, anchors) {
+            renderer.follow_anchors(anchors, &scene.object);
+        }
+        Ok(())
     }
 
     /// [`Controller::replace_object`] for a new object of another type with the same

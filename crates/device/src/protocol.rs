@@ -30,6 +30,7 @@
 //! | 0x10 | [`Message::SceneBegin`] | → dev | 8 | total length u32, CRC-32 of the scene u32 |
 //! | 0x11 | [`Message::SceneChunk`] | → dev | 5 ..= 57 | byte offset u32, 1 ..= [`MAX_CHUNK`] = 53 bytes |
 //! | 0x12 | [`Message::SceneCommit`] | → dev | 0 | |
+//! | 0x13 | [`Message::ScenePoints`] | → dev | 13 ..= 53 | object u8, patch u8, first control point u16, flags u8 (bit 0 [`POINTS_APPLY`], bit 1 [`POINTS_SPATIAL`]), then 1 ..= 6 planar points x, y or 1 ..= 4 surface points x, y, z (f32, m); below |
 //! | 0x20 | [`Message::Ack`] | → host | 2 | acked sequence number u16 |
 //! | 0x21 | [`Message::Nack`] | → host | 7 | rejected seq u16 ([`UNKNOWN_SEQ`] if unreadable), [`ErrorCode`] u8, object u8, patch u8 ([`NO_INDEX`] if none), expected seq u16 |
 //! | 0x30 | [`Message::SetMaterial`] | → dev | 52 | object u8, material (51, below) |
@@ -38,6 +39,7 @@
 //! | 0x33 | [`Message::Calibrate`] | → dev | 0 | |
 //! | 0x34 | [`Message::ClearFaults`] | → dev | 2 | fault mask u16 |
 //! | 0x35 | [`Message::HandTarget`] | → dev | 8 | virtual hand target x, y (f32, m); simulated plants only, a board nacks it with [`ErrorCode::NotSimulated`] |
+//! | 0x36 | [`Message::Excite`] | → dev | 16 | torque amplitude per joint (f32 × 2, N·m), half-period per joint (u16 × 2, ms), duration u32 (ms) |
 //! | 0x40 | [`Message::Status`] | → host | 18 | flags u8 (bit 0 forces enabled, bit 1 calibrated), faults u16, scene length u32, scene CRC-32 u32, upload bytes received u32, expected seq u16, last error u8 |
 //! | 0x50 | [`Message::Telemetry`] | → host | 57 | below |
 //!
@@ -76,7 +78,34 @@
 //!
 //! `SceneBegin { total_len, crc32 }`, then `SceneChunk`s whose offsets follow each other with
 //! no gap or overlap, then `SceneCommit`; the device acks or nacks every frame.
-//! [`SceneReceiver`] implements the device side; [`scene_upload`] produces the messages.
+//! [`SceneReceiver`] implements the device side; [`scene_upload`] produces the messages. The
+//! upload is for a new scene or a new topology; a shape that moves (a deformable model's) goes
+//! as control-point updates.
+//!
+//! # Control-point update
+//!
+//! One or more [`Message::ScenePoints`] of one object of the active scene, the last with the
+//! apply flag: new Cartesian positions for control points of its patches (a patch as
+//! uploaded, its points as the scene stores them, a surface's net `i` along u major), x, y for
+//! a planar curve, x, y, z with [`POINTS_SPATIAL`] for a surface. The weights are frozen: they
+//! are not sent, and a point goes into the scene as `(w·x, w·y[, w·z], w)` with the weight it
+//! was uploaded with ([`write_points`], which a host also runs on its copy to know the scene's
+//! CRC-32). An update may span frames (more than [`MAX_POINTS_2D`] or [`MAX_POINTS_3D`]
+//! points) and patches (the curves on both sides of a join move together, or the chain comes
+//! apart); the device stages the frames and applies them all on the apply frame, so the tick
+//! never sees half an update: the receiver copies the active scene into its staging buffer,
+//! writes the points there, and on the apply frame validates the result as a commit with the
+//! object's topology unchanged ([`SceneValidator::validate_reshape`],
+//! [`SceneStore::decode_reshaped`]) before it swaps it in with its new CRC-32 (what
+//! `Status.scene_crc32` reports). The device then gives its controller the reshaped object at
+//! a tick boundary, keeping the renderer (no search, no ramp-in;
+//! `Controller::replace_object`, `Controller::reshape_object`). Every refusal names its
+//! cause ([`ErrorCode::NoActiveScene`], [`ErrorCode::NoSuchPatch`],
+//! [`ErrorCode::PointsPastPatch`], [`ErrorCode::PointsKind`], [`ErrorCode::BadField`] for a
+//! non-finite coordinate, [`ErrorCode::StagingBusy`], [`ErrorCode::TopologyChanged`], a
+//! validation's own code) and drops the whole update, its later frames refused with
+//! [`ErrorCode::UpdateAborted`] up to its apply frame; the active scene, its CRC and the
+//! controller stay as they were. [`points_update`] produces the frames.
 //!
 //! # Scene on the wire
 //!

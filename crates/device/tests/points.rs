@@ -348,6 +348,61 @@ fn an_update_gives_the_scene_and_crc_the_host_encodes() {
 }
 
 #[test]
+fn a_surface_update_lands_as_the_host_encodes_it() {
+    let (mut device, mut host) = loaded();
+    let sheet = sheet();
+    // Net point (1, 1) (index 1·3 + 1 = 4 along u major) lifted 1 mm, and its neighbour.
+    let (n_u, n_v) = sheet.counts();
+    let lifted: Vec<Vec3> = (4..6)
+        .map(|k| {
+            let h = sheet.points()[k];
+            h.truncate() / h.w + Vec3::new(0.0, 0.0, 1e-3)
+        })
+        .collect();
+    let mut event = Event::None;
+    for m in points_update_spatial(2, &[(0, 4, &lifted[..])]) {
+        let (e, reply) = device.handle(&mut host, m);
+        assert!(matches!(reply, Message::Ack { .. }), "{reply:?}");
+        event = e;
+    }
+    assert_eq!(event, Event::ScenePointsUpdated { object: 2 });
+    // The host's surface with the same points, its weights kept: (w·x, w·y, w·z, w).
+    let mut points = sheet.points().to_vec();
+    for (k, p) in (4..6).zip(&lifted) {
+        let w = points[k].w;
+        points[k] = (*p * w).extend(w);
+    }
+    let (ku, kv) = sheet.knots();
+    let moved = SurfaceBuf::new(sheet.degree(), (ku.to_vec(), kv.to_vec()), n_v, points).unwrap();
+    assert_eq!(moved.counts(), (n_u, n_v));
+    let arcs = arcs();
+    let a = [
+        WirePatch::Curve(arcs[0].view()),
+        WirePatch::Curve(arcs[1].view()),
+    ];
+    let wave = wave();
+    let w = [WirePatch::Curve(wave.view())];
+    let s = [WirePatch::Surface(moved.view())];
+    let m = FrictionMaterial::default();
+    let host_scene = encode_scene(&[
+        WireObject {
+            material: m,
+            patches: &a,
+        },
+        WireObject {
+            material: m,
+            patches: &w,
+        },
+        WireObject {
+            material: m,
+            patches: &s,
+        },
+    ])
+    .unwrap();
+    assert_eq!(device.active(), (host_scene.clone(), crc32(&host_scene)));
+}
+
+#[test]
 fn a_multi_frame_update_applies_only_with_its_apply_frame() {
     let (mut device, mut host) = loaded();
     let before = device.active();

@@ -293,3 +293,37 @@ fn reshaping_into_other_storage_is_replacing() {
         assert_eq!(tick(&mut a, counts, i), tick(&mut b, counts, i), "tick {i}");
     }
 }
+
+#[test]
+fn reshaping_in_place_is_replacing() {
+    // The shapes, built before the controllers that borrow them: out by 20 µm steps.
+    let shapes: Vec<[CurveBuf<Vec2>; 2]> = (0..=20)
+        .map(|step| moved(outward() * (step as f32 * 2e-5)))
+        .collect();
+    let views: Vec<[nurbs::Curve<'_, Vec2>; 2]> =
+        shapes.iter().map(|s| [s[0].view(), s[1].view()]).collect();
+    let turned = moved(Vec2::new(0.0, 0.12 - 0.083_094));
+    let turned_views = [turned[0].view(), turned[1].view()];
+    let counts = held_counts();
+    let mut a = loaded(Chain::new(&views[0]).unwrap());
+    let mut b = loaded(Chain::new(&views[0]).unwrap());
+    for i in 0..SETTLE {
+        assert_eq!(tick(&mut a, counts, i), tick(&mut b, counts, i));
+    }
+    // A shape of another topology is refused in place too, with nothing changed.
+    assert_eq!(
+        b.reshape_object(|c| c.reshape(&turned_views)),
+        Err(ControllerError::Topology)
+    );
+    let mut i = SETTLE;
+    for shape in &views[1..] {
+        a.replace_object(Chain::new(shape).unwrap()).unwrap();
+        // The same shape, the chain moved onto it in place (`Chain::reshape`: four jets and
+        // no second chain): the same ticks, bit for bit.
+        b.reshape_object(|c| c.reshape(shape)).unwrap();
+        for _ in 0..EVERY {
+            assert_eq!(tick(&mut a, counts, i), tick(&mut b, counts, i), "tick {i}");
+            i += 1;
+        }
+    }
+}

@@ -7,4 +7,4 @@ pub mod models;
 mod render;
 
 pub use material::{FrictionMaterial, MaterialError, ModelKind, Stribeck};
-pub use render::{FrictionOutput, FrictionRenderer, Mode, SwitchCause, cp_config};
+pub use render::{Anchors, FrictionOutput, FrictionRenderer, Mode, SwitchCause, cp_config};

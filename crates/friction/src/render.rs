@@ -217,6 +217,15 @@ pub struct FrictionOutput<P> {
     pub slip_speed_m_per_s: f32,
 }
 
+/// The points of an object under what rides on its surface ([`FrictionRenderer::anchors`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Anchors<P> {
+    /// The point under the CP tracker.
+    pub cp: P,
+    /// The point under the GO, `None` when free.
+    pub go: Option<P>,
+}
+
 /// Per-model state of the velocity-based laws.
 #[derive(Clone, Copy, Debug)]
 enum LawState<P> {
@@ -419,15 +428,38 @@ impl<O: Object> FrictionRenderer<O> {
     /// CP and HIP are displaced with the surface under them too, so the next tick's CP speed
     /// and HIP step are measured against the object, not against the room: a surface that
     /// moves under a still hand does not read as a slide. The CP tracker is re-evaluated where
-    /// it stands ([`Object::refresh`]). Five evaluations (three when free).
+    /// it stands ([`Object::refresh`]). Three evaluations (one when free).
     pub fn follow_reshape<O2: Object<P = O::P, State = O::State>>(&mut self, old: &O, new: &O2) {
-        let (cp_patch, cp_params) = O::position(&self.cp);
-        let cp_shift = new.point(cp_patch, cp_params) - old.point(cp_patch, cp_params);
-        // Free, the GO is the CP and is put anew on contact.
-        let go_shift = if self.mode == Mode::Free {
-            cp_shift
-        } else {
-            new.point(self.go_patch, self.go_params) - old.point(self.go_patch, self.go_params)
+        let anchors = self.anchors(old);
+        self.follow_anchors(anchors, new);
+    }
+
+    /// Where what rides on the surface is on `object` ([`FrictionRenderer::follow_reshape`]):
+    /// the points of the surface under the CP and under the GO. Take them before the object
+    /// moves when it moves in place, and give them to [`FrictionRenderer::follow_anchors`]
+    /// after.
+    pub fn anchors(&self, object: &O) -> Anchors<O::P> {
+        Anchors {
+            // The tracker's own evaluation of `object` where it stands.
+            cp: O::state_point(&self.cp),
+            // Free, the GO is the CP and is put anew on contact.
+            go: (self.mode != Mode::Free).then(|| object.point(self.go_patch, self.go_params)),
+        }
+    }
+
+    /// The second half of [`FrictionRenderer::follow_reshape`]: `before` are the
+    /// [`anchors`](FrictionRenderer::anchors) on the object before it moved, `new` the object
+    /// now.
+    pub fn follow_anchors<O2: Object<P = O::P, State = O::State>>(
+        &mut self,
+        before: Anchors<O::P>,
+        new: &O2,
+    ) {
+        new.refresh(&mut self.cp);
+        let cp_shift = O2::state_point(&self.cp) - before.cp;
+        let go_shift = match before.go {
+            Some(go) => new.point(self.go_patch, self.go_params) - go,
+            None => cp_shift,
         };
         if let Some(p) = self.prev_cp.as_mut() {
             *p += cp_shift;
@@ -437,7 +469,6 @@ impl<O: Object> FrictionRenderer<O> {
         if let Some(p) = self.prev_hip.as_mut() {
             *p += go_shift;
         }
-        new.refresh(&mut self.cp);
     }
 
     /// Current mode.

@@ -66,6 +66,22 @@ impl<'a, P: Point> Curve<'a, P> {
         Curve { knots, points }
     }
 
+    /// The curve of data [`Curve::new`] accepted before (the same `degree`, `knots` and
+    /// `points`), without checking it again: for storage that validated its contents once and
+    /// holds nothing else (a device's scene store builds its views with it, between two
+    /// ticks). Data `Curve::new` refuses makes a curve whose evaluation may panic; debug
+    /// builds check.
+    pub fn new_unchecked(degree: usize, knots: &'a [f32], points: &'a [P::Hom]) -> Self {
+        debug_assert!(
+            Self::new(degree, knots, points).is_ok(),
+            "Curve::new_unchecked on data Curve::new refuses"
+        );
+        Curve {
+            knots: Knots::whole(knots, degree),
+            points,
+        }
+    }
+
     /// Degree.
     #[inline]
     pub fn degree(&self) -> usize {
@@ -195,7 +211,40 @@ impl<'a, P: Point> Curve<'a, P> {
     /// Point, derivatives, unit tangent, unit normal and curvature at `u`.
     pub fn frame(&self, u: f32) -> CurveFrame<P> {
         let u = self.knots.clamp(u);
-        let d = self.derivs(u, 2);
+        self.frame_from(u, self.derivs(u, 2))
+    }
+
+    /// [`Curve::frame`] at `u` from `d`, the point and derivatives there up to order 2
+    /// ([`Curve::derivs`]`(u, 2)`, e.g. kept from an earlier evaluation): the same frame,
+    /// without evaluating them again.
+    pub fn frame_from(&self, u: f32, d: CurveDerivs<P>) -> CurveFrame<P> {
+        let (tangent, degenerate, l1) = self.tangent_of(u, &d);
+        let curvature = if degenerate {
+            0.0
+        } else {
+            let len = crate::math::sqrt(l1);
+            P::curvature_numerator(d.du, d.duu) / (l1 * len)
+        };
+        CurveFrame {
+            derivs: d,
+            tangent,
+            normal: P::curve_normal(tangent, d.duu),
+            curvature,
+        }
+    }
+}
+
+impl<P: Point> Curve<'_, P> {
+    /// The unit tangent of [`Curve::frame_from`] alone (no normal, no curvature): the same
+    /// value, for a caller that needs only the direction.
+    pub fn tangent_from(&self, u: f32, d: &CurveDerivs<P>) -> P {
+        self.tangent_of(u, d).0
+    }
+
+    /// The unit tangent at `u` from the derivatives there, whether `C'` counts as vanished,
+    /// and `|C'|²`.
+    fn tangent_of(&self, u: f32, d: &CurveDerivs<P>) -> (P, bool, f32) {
+        let u = self.knots.clamp(u);
         let l1 = d.du.length_squared();
         let scale = self.knots.domain_len();
         let degenerate = l1
@@ -215,18 +264,7 @@ impl<'a, P: Point> Curve<'a, P> {
                 (self.point(b) - self.point(a)).try_normalize()
             })
             .unwrap_or_else(|| unit_first_axis::<P>());
-        let curvature = if degenerate {
-            0.0
-        } else {
-            let len = crate::math::sqrt(l1);
-            P::curvature_numerator(d.du, d.duu) / (l1 * len)
-        };
-        CurveFrame {
-            derivs: d,
-            tangent,
-            normal: P::curve_normal(tangent, d.duu),
-            curvature,
-        }
+        (tangent, degenerate, l1)
     }
 }
 

@@ -139,7 +139,7 @@ impl<'a> Knots<'a> {
     }
 
     /// The whole domain of validated knots.
-    fn whole(knots: &'a [f32], degree: usize) -> Self {
+    pub(crate) fn whole(knots: &'a [f32], degree: usize) -> Self {
         Knots {
             knots,
             degree,

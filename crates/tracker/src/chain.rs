@@ -262,48 +262,20 @@ impl<'a> Chain<'a> {
         };
         let mut vertices = [blank; MAX_CHAIN_CURVES + 1];
         let n_vertices = if closed { n } else { n + 1 };
-        for (k, v) in vertices.iter_mut().enumerate().take(n_vertices) {
-            let incoming = if k > 0 {
-                Some(k - 1)
-            } else if closed {
-                Some(n - 1)
+        let tangent = |i: usize, at_end: bool| {
+            let c = &curves[i];
+            let (a, b) = c.domain();
+            c.frame(if at_end { b } else { a }).tangent
+        };
+        let point = |i: usize, at_end: bool| {
+            if at_end {
+                end(&curves[i])
             } else {
-                None
-            };
-            let outgoing = if k < n { Some(k) } else { None };
-            let t_in = incoming.map(|a| {
-                let c = &curves[a];
-                c.frame(c.domain().1).tangent
-            });
-            let t_out = outgoing.map(|b| {
-                let c = &curves[b];
-                c.frame(c.domain().0).tangent
-            });
-            let position = match outgoing {
-                Some(b) => start(&curves[b]),
-                None => end(&curves[n - 1]),
-            };
-            let kind = match (t_in, t_out) {
-                (Some(ti), Some(to)) => {
-                    let cross = ti.perp_dot(to);
-                    if cross.abs() <= 1e-4 && ti.dot(to) > 0.0 {
-                        VertexKind::Smooth
-                    } else if cross > 0.0 {
-                        VertexKind::Convex
-                    } else {
-                        VertexKind::Reflex
-                    }
-                }
-                _ => VertexKind::End,
-            };
-            *v = Vertex {
-                position,
-                incoming: incoming.map(|i| i as u16),
-                outgoing: outgoing.map(|i| i as u16),
-                t_in: t_in.or(t_out).unwrap_or(Vec2::X),
-                t_out: t_out.or(t_in).unwrap_or(Vec2::X),
-                kind,
-            };
+                start(&curves[i])
+            }
+        };
+        for (k, v) in vertices.iter_mut().enumerate().take(n_vertices) {
+            *v = vertex(k, n, closed, tangent, point);
         }
         let mut periodic = [false; MAX_CHAIN_CURVES];
         for (p, c) in periodic.iter_mut().zip(curves) {
@@ -404,6 +376,128 @@ impl<'a> Chain<'a> {
         }
     }
 
+    /// Moves the chain onto `given`, the curves it was built from with their control points
+    /// moved (same degrees, same knots), in place: what depends on the geometry is computed
+    /// again as [`Chain::new`] computes it (the pieces, each curve's jets at its ends, the
+    /// vertices' positions, tangents and kinds, whether each curve closes on itself), so the
+    /// chain becomes the one `Chain::new(given)` builds. Refused (`false`, the chain
+    /// unchanged) when that chain would not have this one's [`Chain::topology`] (other pieces
+    /// or domains, a vertex of another kind, a curve or the chain closing or opening) or its
+    /// curves would not join. A first pass checks all that from the new pieces' end jets,
+    /// holding one piece's at a time; the second writes the chain (the first pass's jets kept
+    /// for the first few pieces): two to four evaluations per curve where `Chain::new` makes a
+    /// dozen, and no second chain, for a device that moves its object between two ticks. It
+    /// does not check again the orientation of a closed chain (`Chain::new`'s
+    /// [`ChainError::Clockwise`], a sampling of the whole chain): a move that turns a closed
+    /// chain inside out is the caller's to refuse (a device validates every update with
+    /// `Chain::new` before it gets here).
+    pub fn reshape(&mut self, given: &[Curve<'a, Vec2>]) -> bool {
+        /// Pieces whose end jets the first pass keeps for the second.
+        const KEPT: usize = 4;
+        let n = self.n_curves;
+        let Some(&first) = given.first() else {
+            return false;
+        };
+        if given.len() > MAX_CHAIN_CURVES {
+            return false;
+        }
+        let zero = Jet {
+            point: Vec2::ZERO,
+            d: [Vec2::ZERO],
+            dd: [[Vec2::ZERO]],
+        };
+        let ends = |c: &Curve<'a, Vec2>| {
+            let (a, b) = c.domain();
+            [c.jet([a], 2), c.jet([b], 2)]
+        };
+        // A jet's point and derivatives at an end are `Curve::derivs(u, 2)` there, which give
+        // the `Curve::point` and `Curve::frame` that `Chain::new` computes.
+        let tangent_of = |c: &Curve<'a, Vec2>, j: &Jet<Vec2, 1>, at_end: bool| {
+            let (a, b) = c.domain();
+            let d = nurbs::CurveDerivs {
+                point: j.point,
+                du: j.d[0],
+                duu: j.dd[0][0],
+            };
+            c.tangent_from(if at_end { b } else { a }, &d)
+        };
+        // The kind of a vertex between two curves: vertex 1 of an open chain of the two.
+        let kind = |t_in: Vec2, t_out: Vec2| {
+            vertex(1, 2, false, |i, _| [t_in, t_out][i], |_, _| Vec2::ZERO).kind
+        };
+        // First pass: the new pieces, one at a time, against this chain.
+        let mut kept = [[zero; 2]; KEPT];
+        let mut count = 0;
+        let mut fits = true;
+        let mut first_start: Option<(Curve<'a, Vec2>, Jet<Vec2, 1>)> = None;
+        let mut last_end: Option<(Curve<'a, Vec2>, Jet<Vec2, 1>)> = None;
+        for (i, c) in given.iter().enumerate() {
+            crate::split::curve_pieces(c, |piece| {
+                let k = count;
+                count += 1;
+                if !fits
+                    || k >= n
+                    || usize::from(self.source[k]) != i
+                    || piece.domain() != self.curves[k].domain()
+                {
+                    fits = false;
+                    return;
+                }
+                let j = ends(&piece);
+                let gap = (j[0].point - j[1].point).length_squared();
+                fits &= (gap <= PERIODIC_TOL * PERIODIC_TOL) == self.periodic[k];
+                if let Some((prev, end)) = &last_end {
+                    fits &= (j[0].point - end.point).length() <= JOIN_TOL_M;
+                    let t_in = tangent_of(prev, end, true);
+                    let t_out = tangent_of(&piece, &j[0], false);
+                    fits &= kind(t_in, t_out) == self.vertices[k].kind;
+                }
+                if let Some(slot) = kept.get_mut(k) {
+                    *slot = j;
+                }
+                first_start.get_or_insert((piece, j[0]));
+                last_end = Some((piece, j[1]));
+            });
+        }
+        let (Some((c0, start)), Some((cn, end))) = (first_start, last_end) else {
+            return false;
+        };
+        let closed = (start.point - end.point).length() <= JOIN_TOL_M;
+        if !fits || count != n || closed != self.closed {
+            return false;
+        }
+        if closed {
+            let t_in = tangent_of(&cn, &end, true);
+            let t_out = tangent_of(&c0, &start, false);
+            if kind(t_in, t_out) != self.vertices[0].kind {
+                return false;
+            }
+        }
+        // Second pass: the chain, as `Chain::new` fills it (its padding with `given[0]`: no
+        // view of the storage before is left).
+        let mut k = 0;
+        for c in given {
+            crate::split::curve_pieces(c, |piece| {
+                if let Some(slot) = self.curves.get_mut(k) {
+                    *slot = piece;
+                    self.end_jets[k] = kept.get(k).copied().unwrap_or_else(|| ends(&piece));
+                }
+                k += 1;
+            });
+        }
+        for slot in self.curves.iter_mut().skip(n) {
+            *slot = first;
+        }
+        let (curves, jets) = (&self.curves, &self.end_jets);
+        let point = |i: usize, at_end: bool| jets[i][usize::from(at_end)].point;
+        let tangent =
+            |i: usize, at_end: bool| tangent_of(&curves[i], &jets[i][usize::from(at_end)], at_end);
+        for (k, v) in self.vertices.iter_mut().enumerate().take(self.n_vertices) {
+            *v = vertex(k, n, closed, tangent, point);
+        }
+        true
+    }
+
     /// Whether this chain's topology is `t`: `self.topology() == *t` without building one
     /// (a caller short of stack compares in place).
     pub fn has_topology(&self, t: &ChainTopology) -> bool {
@@ -437,6 +531,53 @@ impl<'a> Chain<'a> {
             }
         }
         (best.0, best.1)
+    }
+}
+
+/// Vertex `k` of a chain of `n` curves, closed or not, from the curves' unit tangents and
+/// points at their ends (`tangent(i, at_end)`, `point(i, at_end)`): the one computation of a
+/// vertex, [`Chain::new`]'s and [`Chain::reshape`]'s.
+fn vertex(
+    k: usize,
+    n: usize,
+    closed: bool,
+    tangent: impl Fn(usize, bool) -> Vec2,
+    point: impl Fn(usize, bool) -> Vec2,
+) -> Vertex {
+    let incoming = if k > 0 {
+        Some(k - 1)
+    } else if closed {
+        Some(n - 1)
+    } else {
+        None
+    };
+    let outgoing = if k < n { Some(k) } else { None };
+    let t_in = incoming.map(|a| tangent(a, true));
+    let t_out = outgoing.map(|b| tangent(b, false));
+    let position = match outgoing {
+        Some(b) => point(b, false),
+        None => point(n - 1, true),
+    };
+    let kind = match (t_in, t_out) {
+        (Some(ti), Some(to)) => {
+            let cross = ti.perp_dot(to);
+            if cross.abs() <= 1e-4 && ti.dot(to) > 0.0 {
+                VertexKind::Smooth
+            } else if cross > 0.0 {
+                VertexKind::Convex
+            } else {
+                VertexKind::Reflex
+            }
+        }
+        _ => VertexKind::End,
+    };
+    Vertex {
+        position,
+        incoming: incoming.map(|i| i as u16),
+        outgoing: outgoing.map(|i| i as u16),
+        t_in: t_in.or(t_out).unwrap_or(Vec2::X),
+        t_out: t_out.or(t_in).unwrap_or(Vec2::X),
+        kind,
     }
 }
 

@@ -79,6 +79,10 @@ pub trait Object {
     /// The point of `patch` at `params` (`[u, 0]` on curves), clamped into its domain.
     fn point(&self, patch: usize, params: [f32; 2]) -> Self::P;
 
+    /// The point a state's tracker stands on, from its last evaluation (the object's point at
+    /// [`Object::position`], not evaluated again).
+    fn state_point(state: &Self::State) -> Self::P;
+
     /// Re-evaluates a state's tracker on this object where it stands (same patch, same
     /// parameters, same feature): for a state made on an object of the same topology whose
     /// control points have since moved, so that its next step starts from this geometry.
@@ -163,6 +167,10 @@ impl Object for Chain<'_> {
         self.curves()[patch.min(self.curves().len() - 1)].point(params[0])
     }
 
+    fn state_point(state: &ChainTracker) -> Vec2 {
+        state.jet().point
+    }
+
     fn refresh(&self, state: &mut ChainTracker) {
         state.refresh(self);
     }
@@ -240,6 +248,10 @@ impl Object for Shell<'_> {
 
     fn point(&self, patch: usize, params: [f32; 2]) -> Vec3 {
         self.patches()[patch.min(self.patches().len() - 1)].point(params[0], params[1])
+    }
+
+    fn state_point(state: &ShellTracker) -> Vec3 {
+        state.jet().point
     }
 
     fn refresh(&self, state: &mut ShellTracker) {

@@ -331,3 +331,112 @@ fn chain_validation_errors() {
     let views: Vec<_> = cw.iter().map(|c| c.view()).collect();
     assert_eq!(Chain::new(&views).unwrap_err(), ChainError::Clockwise);
 }
+
+/// Each curve of `curves` with its inner control points (all but the ends) moved by `by`.
+fn inner_moved(curves: &[CurveBuf<Vec2>], by: Vec2) -> Vec<CurveBuf<Vec2>> {
+    curves
+        .iter()
+        .map(|c| {
+            let n = c.points().len();
+            let mut moved = c.clone();
+            for i in 1..n - 1 {
+                let (p, _) = c.view().control_point(i).unwrap();
+                moved = moved.with_point(i, p + by).unwrap();
+            }
+            moved
+        })
+        .collect()
+}
+
+/// `Chain::reshape` moves a chain onto its curves' new points exactly as `Chain::new` builds
+/// the chain of them: the same vertices and topology, and a tracker run over the same HIP path
+/// (around the object, through every vertex region and across the corners) finds the same
+/// contacts on both, bit for bit. A shape of another topology, or curves that come apart,
+/// are refused with the chain unchanged.
+#[test]
+fn reshape_in_place_is_the_chain_new_builds() {
+    // A closed curved triangle (three convex corners) and a polyline with corners inside
+    // one curve (pieces split at load).
+    let triangle = three_curves(0.005);
+    let zigzag = vec![
+        CurveBuf::from_cartesian(
+            1,
+            vec![0.0, 0.0, 1.0, 2.0, 3.0, 3.0],
+            &[
+                Vec2::new(-0.04, 0.08),
+                Vec2::new(-0.015, 0.1),
+                Vec2::new(0.015, 0.085),
+                Vec2::new(0.04, 0.1),
+            ],
+            None,
+        )
+        .unwrap(),
+    ];
+    for (name, curves) in [("triangle", triangle), ("zigzag", zigzag)] {
+        let moved = inner_moved(&curves, Vec2::new(0.7e-3, -0.4e-3));
+        let views: Vec<_> = curves.iter().map(|c| c.view()).collect();
+        let moved_views: Vec<_> = moved.iter().map(|c| c.view()).collect();
+        let fresh = Chain::new(&moved_views).unwrap();
+        let mut chain = Chain::new(&views).unwrap();
+        assert!(chain.reshape(&moved_views), "{name}");
+        assert_eq!(chain.vertices(), fresh.vertices(), "{name}");
+        assert_eq!(chain.topology(), fresh.topology(), "{name}");
+        assert!(chain.has_topology(&fresh.topology()), "{name}");
+        for (a, b) in chain.curves().iter().zip(fresh.curves()) {
+            assert_eq!(a.points().as_ptr(), b.points().as_ptr(), "{name}: views");
+            assert_eq!(a.domain(), b.domain(), "{name}");
+        }
+        let path = orbit(0.04, 720, true);
+        let cfg = TrackerConfig::default();
+        let mut on_reshaped = ChainTracker::new(&chain, path[0], cfg);
+        let mut on_fresh = ChainTracker::new(&fresh, path[0], cfg);
+        for &x in &path {
+            assert_eq!(
+                on_reshaped.update(&chain, x, T, true),
+                on_fresh.update(&fresh, x, T, true),
+                "{name} at {x}"
+            );
+        }
+    }
+
+    // Refused, unchanged: the triangle's first side bulged so far inward that its corner
+    // turns reflex; its first side's end moved off the next side's start; another count.
+    let triangle = three_curves(0.005);
+    let views: Vec<_> = triangle.iter().map(|c| c.view()).collect();
+    let mut chain = Chain::new(&views).unwrap();
+    let before = (chain.vertices().to_vec(), chain.topology());
+    let mut dented = triangle.clone();
+    let (p2, _) = triangle[0].view().control_point(2).unwrap();
+    dented[0] = triangle[0]
+        .with_point(2, p2 + Vec2::new(0.06, 0.03))
+        .unwrap();
+    let mut apart = triangle.clone();
+    let (end, _) = triangle[0].view().control_point(3).unwrap();
+    apart[0] = triangle[0]
+        .with_point(3, end + Vec2::new(0.0, 1e-3))
+        .unwrap();
+    let dented_views: Vec<_> = dented.iter().map(|c| c.view()).collect();
+    assert_ne!(
+        Chain::new(&dented_views).map(|c| c.topology()).ok(),
+        Some(before.1),
+        "the dent changes a vertex's kind"
+    );
+    let apart_views: Vec<_> = apart.iter().map(|c| c.view()).collect();
+    for (what, given) in [
+        ("a reflex corner", &dented_views[..]),
+        ("a gap", &apart_views[..]),
+        ("two curves of three", &views[..2]),
+        ("no curves", &[][..]),
+    ] {
+        assert!(!chain.reshape(given), "{what}");
+        assert_eq!(
+            (chain.vertices().to_vec(), chain.topology()),
+            before,
+            "{what}"
+        );
+        assert_eq!(
+            chain.curves()[0].points().as_ptr(),
+            views[0].points().as_ptr()
+        );
+    }
+}

@@ -107,7 +107,11 @@ struct Upload {
 ///   result that fails validation (its [`SceneError`]'s code) or changes the topology
 ///   ([`ErrorCode::TopologyChanged`]). A refused frame drops its whole update: the update's
 ///   later frames are refused too ([`ErrorCode::UpdateAborted`]), up to and including its
-///   apply frame. A `SceneBegin` or a `Hello` drops an update not yet applied.
+///   apply frame. A `SceneBegin` or a `Hello` drops an update not yet applied. An update
+///   whose apply frame never arrived (lost on the way: the next frame is a sequence gap)
+///   stays staged, and the object's next update is applied over it: an update that sends
+///   every point of the patches it moves (a deformable model's whole shape) is whole
+///   whatever came before.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct SceneReceiver<const N: usize = 8192> {
     buffers: [[u8; N]; 2],

@@ -300,19 +300,22 @@ impl<const K: usize, const C: usize, const S: usize> SceneStore<K, C, S> {
         Some((u, v))
     }
 
-    /// Patch `patch` of `object` when that object is a chain of planar curves. Builds the view
-    /// with [`Curve::new`], so it costs one validation pass: build views once, at load.
+    /// Patch `patch` of `object` when that object is a chain of planar curves. The view is
+    /// not validated again ([`Curve::new_unchecked`]): the store holds only what
+    /// [`SceneStore::decode`] validated with [`Curve::new`], and nothing else writes it. So a
+    /// view costs no validation pass, which matters to a device that builds views between two
+    /// ticks (a control-point update's, `Chain::reshape`).
     pub fn curve(&self, object: usize, patch: usize) -> Option<Curve<'_, Vec2>> {
         let p = self.patch_record(object, patch, PatchKind::Curve2)?;
         let (knots, _) = self.knot_slices(p)?;
         let points = self
             .curve_points
             .get(p.points..p.points + usize::from(p.counts.0))?;
-        Curve::new(usize::from(p.degree.0), knots, points).ok()
+        Some(Curve::new_unchecked(usize::from(p.degree.0), knots, points))
     }
 
-    /// Patch `patch` of `object` when that object is a shell of surfaces (see
-    /// [`SceneStore::curve`] for the cost).
+    /// Patch `patch` of `object` when that object is a shell of surfaces. Builds the view
+    /// with [`Surface::new`], so it costs one validation pass: build views once, at load.
     pub fn surface(&self, object: usize, patch: usize) -> Option<Surface<'_>> {
         let p = self.patch_record(object, patch, PatchKind::Surface)?;
         let knots = self.knot_slices(p)?;
