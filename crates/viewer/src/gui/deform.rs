@@ -67,9 +67,9 @@ impl DeformInfo {
             Err(e) => format!("none ({e})"),
         };
         format!(
-            "The hand pushes the object and it moves (D-NURBS: its control points obey \
-             M p̈ + D ṗ + K (p − p₀) = f, stepped every 1 ms), drawn over its rest shape, \
-             faint; off, it is rigid at rest again.\n\
+            "The hand pushes the object and it moves (D-NURBS: mass, damping and stiffness \
+             on its control points, stepped every 1 ms), drawn over its rest shape, faint; \
+             off, it is rigid at rest again.\n\
              tension {} {t}, density {} {rho}, damping {} {gamma}, bending {} {beta}\n\
              first natural frequency {mode}",
             self.tension, self.density, self.damping, self.bending
