@@ -4,6 +4,14 @@
 //! UI moves. The scene reaches it as the device's upload ([`Session`]): the in-process
 //! simulator decodes it with the device's own receiver, as a board would. It runs on a
 //! [`Backend`](crate::backend::Backend) like every loop the app drives.
+//!
+//! A deformable object (one with a `"dynamics"` block) deforms under the hand on
+//! [`Command::Deform`]: every device tick feeds a [`Deformer`], every step (1 ms, ten device
+//! ticks) steps it, and the controller is carried onto the new shape
+//! ([`Controller::reshape`]: its renderer, feature, friction state and safety ramp stay; no
+//! search, no ramp-in). The shape reaches the UI through a [`SharedShape`].
+
+use std::sync::Arc;
 
 use device::controller::{Controller, ControllerError};
 use device::protocol::SceneStore;
@@ -15,6 +23,9 @@ use nurbs::Vec2;
 use tracker::Chain;
 
 use crate::backend::{Command, RATE_HZ, Reply, Sample, Steppable};
+use crate::deform::{
+    DeformChangeError, DeformError, DeformStatus, Deformer, PUBLISH_EVERY_MS, SharedShape,
+};
 
 /// The device's tick rate in the loop (Hz): the board's. The loop thread wakes at
 /// [`RATE_HZ`] and runs [`TICKS_PER_STEP`] device ticks per wake.
@@ -24,7 +35,7 @@ pub const TICKS_PER_STEP: u32 = (DEVICE_RATE_HZ / RATE_HZ) as u32;
 use crate::sim::SimError;
 use crate::tick::{self, Tick};
 use crate::upload::{self, UploadError};
-use scene::{Material, MaterialError, Scene, Space};
+use scene::{Material, MaterialError, Object, Scene, Space};
 
 /// Where the handle (and the hand's target) starts: in the middle of the default device's
 /// workspace, above the bundled planar scenes.
@@ -38,10 +49,11 @@ pub const MAX_HAND_SPEED_M_PER_S: f32 = device::simulator::MAX_HAND_SPEED_M_PER_
 /// first planar one; `None` when the scene has none), and the controller built for it.
 pub struct Session(SessionCell);
 
-/// The controller of a [`Session`], borrowing the scene's curves.
+/// The controller of a [`Session`], borrowing the scene's curves; `None` while the object
+/// deforms (the controller then renders its current shape, in a [`ShapeCell`]).
 #[derive(Debug)]
 struct Rendering<'a> {
-    controller: Controller<Chain<'a>>,
+    controller: Option<Controller<Chain<'a>>>,
     passivity_control: bool,
 }
 
@@ -52,6 +64,21 @@ self_cell::self_cell!(
         // covariant in 'a): it is reached through closures only.
         #[not_covariant]
         dependent: Rendering,
+    }
+);
+
+/// The controller of a deforming object, borrowing the curves of the object's current shape
+/// (`None` only while it is being moved onto the next shape).
+#[derive(Debug)]
+struct ShapeRendering<'a> {
+    controller: Option<Controller<Chain<'a>>>,
+}
+
+self_cell::self_cell!(
+    struct ShapeCell {
+        owner: Object,
+        #[not_covariant]
+        dependent: ShapeRendering,
     }
 );
 
@@ -162,16 +189,14 @@ impl Session {
 
 fn build_controller(choice: &SceneChoice) -> Result<Rendering<'_>, SessionError> {
     let spec = DeviceSpec::default();
-    let (mut controller, passivity_control) = match &choice.received {
-        Some(received) => {
-            let store = &received.store;
-            let curves: Vec<_> = (0..store.patch_count(0).unwrap_or(0))
-                .filter_map(|p| store.curve(0, p))
-                .collect();
-            let index = choice.object.unwrap_or(0);
-            let chain = Chain::new(&curves).map_err(|error| SimError::Chain { index, error })?;
-            let material = store.material(0).unwrap_or_default();
-            tick::device_controller(chain, material, DEVICE_RATE_HZ)?
+    let (mut controller, passivity_control) = match store_chain(choice) {
+        Some(chain) => {
+            let material = choice
+                .received
+                .as_ref()
+                .and_then(|r| r.store.material(0))
+                .unwrap_or_default();
+            tick::device_controller(chain?, material, DEVICE_RATE_HZ)?
         }
         None => {
             let safety = device::safety::SafetyConfig {
@@ -190,9 +215,70 @@ fn build_controller(choice: &SceneChoice) -> Result<Rendering<'_>, SessionError>
         .map_err(SimError::Controller)?;
     controller.set_forces_enabled(true);
     Ok(Rendering {
-        controller,
+        controller: Some(controller),
         passivity_control,
     })
+}
+
+/// The chain of the curves the device decoded, when it received an object.
+fn store_chain(choice: &SceneChoice) -> Option<Result<Chain<'_>, SimError>> {
+    let store = &choice.received.as_ref()?.store;
+    let curves: Vec<_> = (0..store.patch_count(0).unwrap_or(0))
+        .filter_map(|p| store.curve(0, p))
+        .collect();
+    let index = choice.object.unwrap_or(0);
+    Some(Chain::new(&curves).map_err(|error| SimError::Chain { index, error }))
+}
+
+/// The chain of `object`'s planar curves (object `index` of the scene).
+fn shape_chain(object: &Object, index: usize) -> Result<Chain<'_>, SimError> {
+    let curves = object.curve_views().unwrap_or_default();
+    Chain::new(&curves).map_err(|error| SimError::Chain { index, error })
+}
+
+/// `controller` carried onto `shape`, object `index` with its control points moved, in a cell
+/// of its own ([`Controller::reshape`]: the same renderer, no search, no ramp-in), or handed
+/// back with the reason.
+///
+/// The chain is built from the shape's curves directly, not re-encoded through the upload
+/// ([`upload::wire_scene`] and [`upload::receive`]) as the session's rest shape is: the device
+/// would decode the same f32 points, and framing, checking and decoding the object every
+/// millisecond would cost the loop more than the step itself.
+#[allow(
+    clippy::result_large_err,
+    reason = "the error hands the controller back; it is moved, not copied, once per step"
+)]
+fn carry(
+    controller: Controller<Chain<'_>>,
+    shape: Object,
+    index: usize,
+) -> Result<ShapeCell, (Controller<Chain<'_>>, DeformChangeError)> {
+    ShapeCell::try_new(shape, move |o| match shape_chain(o, index) {
+        Ok(chain) => match controller.reshape(chain) {
+            Ok(c) => Ok(ShapeRendering {
+                controller: Some(c),
+            }),
+            Err((c, e)) => Err((c, DeformChangeError::Controller(e))),
+        },
+        Err(e) => Err((controller, DeformChangeError::Object(DeformError::Sim(e)))),
+    })
+}
+
+/// A deforming object in the loop: its dynamics and the controller on its current shape.
+struct Deforming {
+    deformer: Deformer,
+    cell: ShapeCell,
+    /// Steps since the shape was last published.
+    since_publish: u32,
+}
+
+impl std::fmt::Debug for Deforming {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Deforming")
+            .field("object", &self.deformer.index())
+            .field("since_publish", &self.since_publish)
+            .finish_non_exhaustive()
+    }
 }
 
 /// Why a material was not applied. The running material is unchanged.
@@ -213,7 +299,8 @@ pub enum MaterialChangeError {
     Device(String),
 }
 
-/// The loop's state: the session, the simulated arm and the hand. Stepped one tick at a time.
+/// The loop's state: the session, the simulated arm and the hand, and the object's dynamics
+/// while it deforms. Stepped one tick at a time.
 #[derive(Debug)]
 pub struct HapticLoop {
     session: Session,
@@ -223,6 +310,8 @@ pub struct HapticLoop {
     tick: u64,
     period_s: f32,
     last_error: Option<String>,
+    deforming: Option<Deforming>,
+    shape: Arc<SharedShape>,
 }
 
 impl HapticLoop {
@@ -240,22 +329,28 @@ impl HapticLoop {
             tick: 0,
             period_s: (1.0 / DEVICE_RATE_HZ) as f32,
             last_error: None,
+            deforming: None,
+            shape: SharedShape::new(),
         })
     }
 
     /// One step of the loop: [`TICKS_PER_STEP`] device ticks at [`DEVICE_RATE_HZ`] (see
-    /// [`HapticLoop::device_tick`]); returns the last one's record, so the UI and the
-    /// recorder get one record per millisecond, evenly spaced.
+    /// [`HapticLoop::device_tick`]), then, while the object deforms, one step of its dynamics
+    /// (1 ms) and the controller carried onto its new shape; returns the last tick's record,
+    /// so the UI and the recorder get one record per millisecond, evenly spaced.
     pub fn step(&mut self) -> Tick {
         for _ in 1..TICKS_PER_STEP {
             self.device_tick();
         }
-        self.device_tick()
+        let tick = self.device_tick();
+        self.step_object();
+        tick
     }
 
-    /// One device tick (see [`tick::device_tick`]). An arm driven into a singular pose stays
-    /// there; the tick is then recorded at the last pose and [`HapticLoop::last_error`] says
-    /// why.
+    /// One device tick (see [`tick::device_tick`]); while the object deforms the tick feeds its
+    /// [`Deformer`] and records the object's displacement at the CP ([`Tick::deform`]). An
+    /// arm driven into a singular pose stays there; the tick is then recorded at the last pose
+    /// and [`HapticLoop::last_error`] says why.
     pub fn device_tick(&mut self) -> Tick {
         let target = self.hand.step(self.period_s);
         let t_s = self.tick as f64 / DEVICE_RATE_HZ;
@@ -263,20 +358,242 @@ impl HapticLoop {
         let now_us = (self.tick as f64 * 1e6 / DEVICE_RATE_HZ).round() as u64;
         let period_s = self.period_s;
         let arm = &mut self.arm;
-        let result = self.session.0.with_dependent_mut(|_, r| {
-            tick::device_tick(&mut r.controller, arm, t_s, now_us, target, period_s)
-        });
+        let result = match &mut self.deforming {
+            Some(d) => d.cell.with_dependent_mut(|_, r| {
+                r.controller
+                    .as_mut()
+                    .map(|c| tick::device_tick(c, arm, t_s, now_us, target, period_s))
+            }),
+            None => self.session.0.with_dependent_mut(|_, r| {
+                r.controller
+                    .as_mut()
+                    .map(|c| tick::device_tick(c, arm, t_s, now_us, target, period_s))
+            }),
+        };
         self.tick += 1;
-        match result {
-            Ok((tick, _)) => tick,
-            Err(e) => {
-                self.last_error = Some(e.to_string());
-                let hip = self.arm.hip().map(|(p, _)| p).unwrap_or(target);
-                Tick {
-                    hip: nurbs::Vec3::new(hip.x, hip.y, 0.0),
-                    ..Tick::idle(t_s)
+        let error = match result {
+            Some(Ok((mut tick, _))) => {
+                if let Some(d) = &mut self.deforming {
+                    tick.deform = Some(d.deformer.feed(&tick));
+                }
+                return tick;
+            }
+            Some(Err(e)) => e.to_string(),
+            // Only while a controller is carried between shapes, never at a tick.
+            None => "the loop has no controller".to_owned(),
+        };
+        self.last_error = Some(error);
+        let hip = self.arm.hip().map(|(p, _)| p).unwrap_or(target);
+        Tick {
+            hip: nurbs::Vec3::new(hip.x, hip.y, 0.0),
+            ..Tick::idle(t_s)
+        }
+    }
+
+    /// One dynamics step of a deforming object under what the step's ticks fed it, the
+    /// controller carried onto the new shape, and the shape published when it is due. A step
+    /// that fails (the dynamics refuse a load, the shape leaves f32) makes the object rigid
+    /// again and [`HapticLoop::last_error`] says why.
+    fn step_object(&mut self) {
+        let Some(d) = self.deforming.as_mut() else {
+            return;
+        };
+        let t_s = self.tick as f64 / DEVICE_RATE_HZ;
+        let index = d.deformer.index();
+        let dt_s = f64::from(TICKS_PER_STEP) / DEVICE_RATE_HZ;
+        let moved = match d.deformer.step(dt_s).and_then(|()| d.deformer.shape()) {
+            Ok(next) => d.cell.with_dependent_mut(|_, r| {
+                let controller = r.controller.take()?;
+                Some(carry(controller, next, index).map_err(|(c, e)| {
+                    r.controller = Some(c);
+                    e
+                }))
+            }),
+            Err(e) => Some(Err(e.into())),
+        };
+        match moved {
+            Some(Ok(cell)) => {
+                d.cell = cell;
+                d.since_publish += 1;
+                if d.since_publish >= PUBLISH_EVERY_MS && self.shape.publish(&d.deformer, t_s) {
+                    d.since_publish = 0;
                 }
             }
+            Some(Err(e)) => {
+                let stopped = self.stop_deforming();
+                self.last_error = Some(match stopped {
+                    Ok(()) => format!("{e}; the object is rigid again"),
+                    Err(again) => format!("{e}; {again}"),
+                });
+            }
+            None => {}
+        }
+    }
+
+    /// Makes the rendered object deformable (`true`) from the next tick, from its rest shape,
+    /// or rigid at its rest shape again (`false`); the controller is carried onto the shape
+    /// either way (no search, no ramp-in). Asking for what already is changes nothing. The
+    /// object's shape is published in [`HapticLoop::shared_shape`] while it deforms. Refused,
+    /// with nothing changed, when no object is rendered or it is rigid (no `"dynamics"`
+    /// block).
+    pub fn set_deforming(&mut self, on: bool) -> Result<DeformStatus, DeformChangeError> {
+        if on {
+            self.start_deforming()?;
+        } else {
+            self.stop_deforming()?;
+        }
+        Ok(DeformStatus {
+            deforming: self.deforming.is_some(),
+            shape: self.shape.clone(),
+        })
+    }
+
+    /// Whether the rendered object deforms.
+    pub fn deforming(&self) -> bool {
+        self.deforming.is_some()
+    }
+
+    /// The deforming object's dynamics, while it deforms.
+    pub fn deformer(&self) -> Option<&Deformer> {
+        self.deforming.as_ref().map(|d| &d.deformer)
+    }
+
+    /// Where the loop publishes the deforming object's shape (the same for the loop's life).
+    pub fn shared_shape(&self) -> &Arc<SharedShape> {
+        &self.shape
+    }
+
+    /// The rendered object's dynamics at rest, with the running material's contact stiffness.
+    fn rest_deformer(&self) -> Result<Deformer, DeformChangeError> {
+        let index = self.session.object().ok_or(DeformChangeError::NoObject)?;
+        let mut deformer = Deformer::new(self.session.scene(), index)?;
+        if let Some(m) = self.material {
+            deformer.set_contact_stiffness(m.stiffness_n_per_m);
+        }
+        Ok(deformer)
+    }
+
+    fn start_deforming(&mut self) -> Result<(), DeformChangeError> {
+        if self.deforming.is_some() {
+            return Ok(());
+        }
+        let deformer = self.rest_deformer()?;
+        let rest = deformer.shape()?;
+        let index = deformer.index();
+        let cell = self.session.0.with_dependent_mut(|_, r| {
+            let controller = r.controller.take().ok_or(DeformChangeError::NoObject)?;
+            carry(controller, rest, index).map_err(|(c, e)| {
+                r.controller = Some(c);
+                e
+            })
+        })?;
+        self.shape
+            .start(&deformer, self.tick as f64 / DEVICE_RATE_HZ);
+        self.deforming = Some(Deforming {
+            deformer,
+            cell,
+            since_publish: 0,
+        });
+        Ok(())
+    }
+
+    /// The controller back on the session's rest shape (the device's received curves).
+    fn stop_deforming(&mut self) -> Result<(), DeformChangeError> {
+        let Some(mut d) = self.deforming.take() else {
+            return Ok(());
+        };
+        let session = &mut self.session;
+        let back = d.cell.with_dependent_mut(|_, shape| {
+            let Some(controller) = shape.controller.take() else {
+                return Ok(());
+            };
+            session.0.with_dependent_mut(|owner, r| {
+                let chain = match store_chain(owner) {
+                    Some(Ok(chain)) => chain,
+                    Some(Err(e)) => {
+                        shape.controller = Some(controller);
+                        return Err(DeformChangeError::Object(e.into()));
+                    }
+                    None => {
+                        shape.controller = Some(controller);
+                        return Err(DeformChangeError::NoObject);
+                    }
+                };
+                match controller.reshape(chain) {
+                    Ok(c) => {
+                        r.controller = Some(c);
+                        Ok(())
+                    }
+                    Err((c, e)) => {
+                        shape.controller = Some(c);
+                        Err(DeformChangeError::Controller(e))
+                    }
+                }
+            })
+        });
+        match back {
+            Ok(()) => {
+                self.shape.stop(self.tick as f64 / DEVICE_RATE_HZ);
+                Ok(())
+            }
+            Err(e) => {
+                self.deforming = Some(d);
+                Err(e)
+            }
+        }
+    }
+
+    /// A deforming object back at rest with the running material's contact stiffness (after a
+    /// material change), the controller carried onto the rest shape.
+    fn restart_deforming(&mut self) -> Result<(), DeformChangeError> {
+        if self.deforming.is_none() {
+            return Ok(());
+        }
+        let deformer = self.rest_deformer()?;
+        let rest = deformer.shape()?;
+        let index = deformer.index();
+        let Some(d) = self.deforming.as_mut() else {
+            return Ok(());
+        };
+        let cell = d.cell.with_dependent_mut(|_, r| {
+            let controller = r.controller.take().ok_or(DeformChangeError::NoObject)?;
+            carry(controller, rest, index).map_err(|(c, e)| {
+                r.controller = Some(c);
+                e
+            })
+        })?;
+        d.cell = cell;
+        d.deformer = deformer;
+        d.since_publish = 0;
+        self.shape
+            .start(&d.deformer, self.tick as f64 / DEVICE_RATE_HZ);
+        Ok(())
+    }
+
+    /// `f` on the controller, wherever it is (the session's, or the deforming shape's).
+    fn with_controller<R>(&self, f: impl for<'a> FnOnce(&Controller<Chain<'a>>) -> R) -> Option<R> {
+        match &self.deforming {
+            Some(d) => d.cell.with_dependent(|_, r| r.controller.as_ref().map(f)),
+            None => self
+                .session
+                .0
+                .with_dependent(|_, r| r.controller.as_ref().map(f)),
+        }
+    }
+
+    /// `f` on the controller, wherever it is.
+    fn with_controller_mut<R>(
+        &mut self,
+        f: impl for<'a> FnOnce(&mut Controller<Chain<'a>>) -> R,
+    ) -> Option<R> {
+        match &mut self.deforming {
+            Some(d) => d
+                .cell
+                .with_dependent_mut(|_, r| r.controller.as_mut().map(f)),
+            None => self
+                .session
+                .0
+                .with_dependent_mut(|_, r| r.controller.as_mut().map(f)),
         }
     }
 
@@ -316,7 +633,8 @@ impl HapticLoop {
 
     /// Validates `material` (every field, then the controller's own check) and, when both
     /// accept it, renders the object with it from the next tick (the renderer restarts, the
-    /// force ramps in). On error the running material stays.
+    /// force ramps in; a deforming object starts again from rest, its contact as stiff as the
+    /// material). On error the running material stays.
     pub fn set_material(
         &mut self,
         material: FrictionMaterial,
@@ -325,15 +643,21 @@ impl HapticLoop {
         if self.session.object().is_none() {
             return Err(MaterialChangeError::NoObject);
         }
-        self.session.0.with_dependent_mut(|_, r| {
-            let passivity = r
-                .controller
-                .set_material_as_needed(material, true)
-                .map_err(MaterialChangeError::Controller)?;
-            r.passivity_control = passivity;
-            Ok::<(), MaterialChangeError>(())
-        })?;
+        let passivity = self
+            .with_controller_mut(|c| c.set_material_as_needed(material, true))
+            .ok_or(MaterialChangeError::NoObject)?
+            .map_err(MaterialChangeError::Controller)?;
+        self.session
+            .0
+            .with_dependent_mut(|_, r| r.passivity_control = passivity);
         self.material = Some(material);
+        if let Err(e) = self.restart_deforming() {
+            let stopped = self.stop_deforming();
+            self.last_error = Some(match stopped {
+                Ok(()) => format!("{e}; the object is rigid again"),
+                Err(again) => format!("{e}; {again}"),
+            });
+        }
         Ok(material)
     }
 
@@ -343,9 +667,13 @@ impl HapticLoop {
     }
 
     /// Renders `session` from the next tick; the arm, the hand and the forces' switch stay
-    /// as they are.
+    /// as they are. A deforming object is dropped with the old session: the new one renders
+    /// its object rigid, at rest, until it is asked to deform.
     pub fn swap_session(&mut self, session: Session) {
         let forces = self.forces_enabled();
+        if self.deforming.take().is_some() {
+            self.shape.stop(self.tick as f64 / DEVICE_RATE_HZ);
+        }
         self.material = material_of(&session);
         self.session = session;
         self.set_forces_enabled(forces);
@@ -358,40 +686,32 @@ impl HapticLoop {
 
     /// Enables or disables the forces.
     pub fn set_forces_enabled(&mut self, enabled: bool) {
-        self.session
-            .0
-            .with_dependent_mut(|_, r| r.controller.set_forces_enabled(enabled));
+        self.with_controller_mut(|c| c.set_forces_enabled(enabled));
     }
 
     /// Whether forces are enabled.
     pub fn forces_enabled(&self) -> bool {
-        self.session
-            .0
-            .with_dependent(|_, r| r.controller.forces_enabled())
+        self.with_controller(|c| c.forces_enabled())
+            .unwrap_or(false)
     }
 
     /// Clears the latched faults whose condition is gone; returns those still latched.
     pub fn clear_faults(&mut self) -> Faults {
-        self.session
-            .0
-            .with_dependent_mut(|_, r| r.controller.clear_faults())
+        self.with_controller_mut(|c| c.clear_faults())
+            .unwrap_or_default()
     }
 
     /// Calibrates the controller on the simulated arm's end stops (where it was homed).
     pub fn calibrate(&mut self) {
         let counts = tick::end_stop_counts(&DeviceSpec::default());
-        let result = self
-            .session
-            .0
-            .with_dependent_mut(|_, r| r.controller.calibrate(counts));
-        if let Err(e) = result {
+        if let Some(Err(e)) = self.with_controller_mut(|c| c.calibrate(counts)) {
             self.last_error = Some(e.to_string());
         }
     }
 
     /// The latched faults.
     pub fn faults(&self) -> Faults {
-        self.session.0.with_dependent(|_, r| r.controller.faults())
+        self.with_controller(|c| c.faults()).unwrap_or_default()
     }
 
     /// Why the last tick could not move the arm, if it could not.
@@ -421,11 +741,10 @@ impl Steppable for HapticLoop {
                 self.swap_session(*session);
                 Some(Reply::Swapped)
             }
-            // The app's own simulated device takes shapes as sessions (`Swap`); control-point
-            // updates are the protocol's, for a device behind a link.
-            Command::Mesh(_) | Command::ScenePoints(_) | Command::Deform(_) => {
-                Some(Reply::Unsupported(command.name()))
-            }
+            // The app's own simulated device takes shapes as sessions (`Swap`) or from its own
+            // deforming object (`Deform`); control-point updates are the protocol's, for a
+            // device behind a link.
+            Command::Mesh(_) | Command::ScenePoints(_) => Some(Reply::Unsupported(command.name())),
             Command::Forces(on) => {
                 self.set_forces_enabled(on);
                 None
@@ -439,6 +758,7 @@ impl Steppable for HapticLoop {
                 self.set_hand(hand);
                 None
             }
+            Command::Deform(on) => Some(Reply::Deform(self.set_deforming(on))),
         }
     }
 

@@ -9,16 +9,24 @@
 //! the same [`crate::backend::Backend`] as the planar loop (it is a [`Steppable`]); its
 //! commands, replies and samples are the planar loop's ([`Command`], [`Reply`], [`Sample`]),
 //! swapping in a [`SpatialSession`]. Tests step a [`SpatialLoop`] directly.
+//!
+//! A deformable object of surfaces (one with a `"dynamics"` block) deforms under the hand on
+//! [`Command::Deform`]: every tick feeds a [`Deformer`] and steps it (1 ms), and the renderer
+//! is carried onto the new shape ([`FrictionRenderer::reshape`]: no search, no restart). The
+//! shape reaches the UI through a [`SharedShape`].
+
+use std::sync::Arc;
 
 use friction::{FrictionMaterial, FrictionRenderer, Mode};
 use nurbs::{Vec2, Vec3};
 use tracker::{Contact, Feature, Penalty, Shell, TriMesh};
 
 use crate::backend::{Command, RATE_HZ, Reply, Sample, Steppable};
+use crate::deform::{DeformChangeError, DeformStatus, Deformer, PUBLISH_EVERY_MS, SharedShape};
 use crate::planar::{MAX_HAND_SPEED_M_PER_S, MaterialChangeError};
 use crate::sim::SimError;
 use crate::tick::{self, Tick};
-use scene::{Material, Scene, Space};
+use scene::{Material, Object, Scene, Space};
 
 /// Most triangles a mesh the loop renders may have: the baseline scans every triangle each
 /// tick, measured at 30 to 42 ns a triangle in the test profile on the project's 2-core
@@ -136,6 +144,54 @@ impl SpatialSession {
     }
 }
 
+// The renderer of a deforming object's current shape, borrowing its surfaces.
+self_cell::self_cell!(
+    struct MovingShell {
+        owner: Object,
+        #[not_covariant]
+        dependent: ShellRendering,
+    }
+);
+
+/// A deforming object in the loop: its dynamics and the renderer on its current shape.
+struct SpatialDeforming {
+    deformer: Deformer,
+    cell: MovingShell,
+    /// Steps since the shape was last published.
+    since_publish: u32,
+}
+
+impl std::fmt::Debug for SpatialDeforming {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("SpatialDeforming")
+            .field("object", &self.deformer.index())
+            .field("since_publish", &self.since_publish)
+            .finish_non_exhaustive()
+    }
+}
+
+/// The shell of `object`'s surfaces (object `index` of the scene).
+fn shell_of(object: &Object, index: usize) -> Result<Shell<'_>, SimError> {
+    let surfaces = object.surface_views().unwrap_or_default();
+    Shell::new(&surfaces).map_err(|error| SimError::Shell { index, error })
+}
+
+/// `renderer`, rendering `old`, carried onto `shape` (object `index` with its control points
+/// moved) in a cell of its own: what rides on the surface moves with it, no search, no
+/// restart ([`FrictionRenderer::reshape`]).
+fn carry<'a>(
+    renderer: &FrictionRenderer<Shell<'a>>,
+    old: &Shell<'a>,
+    shape: Object,
+    index: usize,
+) -> Result<MovingShell, SimError> {
+    MovingShell::try_new(shape, |o| {
+        let shell = shell_of(o, index)?;
+        let renderer = renderer.reshape(old, &shell);
+        Ok(ShellRendering { shell, renderer })
+    })
+}
+
 fn shell_rendering(
     scene: &Scene,
     index: usize,
@@ -207,6 +263,9 @@ pub struct SpatialLoop {
     forces_enabled: bool,
     tick: u64,
     period_s: f32,
+    deforming: Option<SpatialDeforming>,
+    shape: Arc<SharedShape>,
+    last_error: Option<String>,
 }
 
 /// Why a mesh was not taken for rendering.
@@ -252,13 +311,19 @@ impl SpatialLoop {
             forces_enabled: true,
             tick: 0,
             period_s: (1.0 / RATE_HZ) as f32,
+            deforming: None,
+            shape: SharedShape::new(),
+            last_error: None,
         }
     }
 
     /// One tick: the HIP moves towards the hand's command at up to
     /// [`MAX_HAND_SPEED_M_PER_S`] (the tracker follows a hand, not a teleport), its velocity
     /// is the backward difference, and the mesh (when set) or the NURBS object renders the
-    /// force. With forces off the contact is still shown, the force is zero.
+    /// force. With forces off the contact is still shown, the force is zero. A deforming
+    /// object is pushed by the tick's force (reversed), steps (1 ms) and takes its new shape,
+    /// the renderer carried onto it; the tick records its displacement at the CP
+    /// ([`Tick::deform`]).
     pub fn step(&mut self) -> Tick {
         let to_go = self.hand_command - self.hip;
         let max_step = MAX_HAND_SPEED_M_PER_S * self.period_s;
@@ -273,9 +338,12 @@ impl SpatialLoop {
         let t_s = self.tick as f64 / RATE_HZ;
         self.tick += 1;
         let (hip, period_s) = (self.hip, self.period_s);
-        let mut tick = match &self.mesh {
-            Some(mesh) => mesh_tick(mesh, &self.material, t_s, hip, velocity),
-            None => self.session.0.with_dependent_mut(|_, d| match d {
+        let mut tick = match (&self.mesh, &mut self.deforming) {
+            (Some(mesh), _) => mesh_tick(mesh, &self.material, t_s, hip, velocity),
+            (None, Some(d)) => d.cell.with_dependent_mut(|_, r| {
+                tick::render_tick(&mut r.renderer, &r.shell, t_s, hip, velocity, period_s)
+            }),
+            (None, None) => self.session.0.with_dependent_mut(|_, d| match d {
                 Some(r) => {
                     tick::render_tick(&mut r.renderer, &r.shell, t_s, hip, velocity, period_s)
                 }
@@ -285,7 +353,156 @@ impl SpatialLoop {
         if !self.forces_enabled {
             tick.force = Vec3::ZERO;
         }
+        if let Some(d) = &mut self.deforming {
+            tick.deform = Some(d.deformer.feed(&tick));
+        }
+        self.step_object();
         tick
+    }
+
+    /// One dynamics step of a deforming object, its renderer carried onto the new shape, and
+    /// the shape published when it is due. A step that fails makes the object rigid again and
+    /// [`SpatialLoop::last_error`] says why.
+    fn step_object(&mut self) {
+        let Some(d) = self.deforming.as_mut() else {
+            return;
+        };
+        let t_s = self.tick as f64 / RATE_HZ;
+        let index = d.deformer.index();
+        // The loop's rate is the dynamics' (crate::deform::DYNAMICS_RATE_HZ): a step a tick.
+        let moved = d
+            .deformer
+            .step(1.0 / RATE_HZ)
+            .and_then(|()| d.deformer.shape())
+            .map_err(DeformChangeError::from)
+            .and_then(|next| {
+                d.cell
+                    .with_dependent(|_, r| carry(&r.renderer, &r.shell, next, index))
+                    .map_err(|e| DeformChangeError::Object(e.into()))
+            });
+        match moved {
+            Ok(cell) => {
+                d.cell = cell;
+                d.since_publish += 1;
+                if d.since_publish >= PUBLISH_EVERY_MS && self.shape.publish(&d.deformer, t_s) {
+                    d.since_publish = 0;
+                }
+            }
+            Err(e) => {
+                self.stop_deforming();
+                self.last_error = Some(format!("{e}; the object is rigid again"));
+            }
+        }
+    }
+
+    /// Makes the NURBS object deformable (`true`) from the next tick, from its rest shape, or
+    /// rigid at its rest shape again (`false`); the renderer is carried onto the shape either
+    /// way (no search, no restart). Asking for what already is changes nothing. The shape is
+    /// published in [`SpatialLoop::shared_shape`] while it deforms. Refused, with nothing
+    /// changed, while a mesh is felt, without a NURBS object, or when it is rigid (no
+    /// `"dynamics"` block).
+    pub fn set_deforming(&mut self, on: bool) -> Result<DeformStatus, DeformChangeError> {
+        if on {
+            self.start_deforming()?;
+        } else {
+            self.stop_deforming();
+        }
+        Ok(DeformStatus {
+            deforming: self.deforming.is_some(),
+            shape: self.shape.clone(),
+        })
+    }
+
+    /// Whether the object deforms.
+    pub fn deforming(&self) -> bool {
+        self.deforming.is_some()
+    }
+
+    /// The deforming object's dynamics, while it deforms.
+    pub fn deformer(&self) -> Option<&Deformer> {
+        self.deforming.as_ref().map(|d| &d.deformer)
+    }
+
+    /// Where the loop publishes the deforming object's shape (the same for the loop's life).
+    pub fn shared_shape(&self) -> &Arc<SharedShape> {
+        &self.shape
+    }
+
+    /// Why the object stopped deforming by itself, if it did.
+    pub fn last_error(&self) -> Option<&str> {
+        self.last_error.as_deref()
+    }
+
+    /// The NURBS object's dynamics at rest, with the running material's contact stiffness.
+    fn rest_deformer(&self) -> Result<Deformer, DeformChangeError> {
+        let scene = self.session.scene().ok_or(DeformChangeError::NoObject)?;
+        let mut deformer = Deformer::new(scene, self.session.object())?;
+        deformer.set_contact_stiffness(self.material.stiffness_n_per_m);
+        Ok(deformer)
+    }
+
+    fn start_deforming(&mut self) -> Result<(), DeformChangeError> {
+        if self.deforming.is_some() {
+            return Ok(());
+        }
+        if self.mesh.is_some() {
+            return Err(DeformChangeError::Mesh);
+        }
+        let deformer = self.rest_deformer()?;
+        let rest = deformer.shape()?;
+        let index = deformer.index();
+        let cell = self.session.0.with_dependent(|_, d| match d {
+            Some(r) => carry(&r.renderer, &r.shell, rest, index)
+                .map_err(|e| DeformChangeError::Object(e.into())),
+            None => Err(DeformChangeError::NoObject),
+        })?;
+        self.shape.start(&deformer, self.tick as f64 / RATE_HZ);
+        self.deforming = Some(SpatialDeforming {
+            deformer,
+            cell,
+            since_publish: 0,
+        });
+        Ok(())
+    }
+
+    /// The renderer back on the session's rest shape.
+    fn stop_deforming(&mut self) {
+        let Some(d) = self.deforming.take() else {
+            return;
+        };
+        self.session.0.with_dependent_mut(|_, s| {
+            if let Some(rest) = s {
+                d.cell.with_dependent(|_, moving| {
+                    rest.renderer = moving.renderer.reshape(&moving.shell, &rest.shell);
+                });
+            }
+        });
+        self.shape.stop(self.tick as f64 / RATE_HZ);
+    }
+
+    /// A deforming object back at rest, its renderer restarted at the HIP with the running
+    /// material (a material change).
+    fn restart_deforming(&mut self) -> Result<(), DeformChangeError> {
+        if self.deforming.is_none() {
+            return Ok(());
+        }
+        let deformer = self.rest_deformer()?;
+        let rest = deformer.shape()?;
+        let index = deformer.index();
+        let (hip, material) = (self.hip, self.material);
+        let cell = MovingShell::try_new(rest, |o| {
+            let shell = shell_of(o, index)?;
+            let renderer = FrictionRenderer::new(&shell, material, hip);
+            Ok::<_, SimError>(ShellRendering { shell, renderer })
+        })
+        .map_err(|e| DeformChangeError::Object(e.into()))?;
+        if let Some(d) = self.deforming.as_mut() {
+            d.cell = cell;
+            d.deformer = deformer;
+            d.since_publish = 0;
+            self.shape.start(&d.deformer, self.tick as f64 / RATE_HZ);
+        }
+        Ok(())
     }
 
     /// Commands the hand (m, device frame); a non-finite target is ignored.
@@ -311,6 +528,8 @@ impl SpatialLoop {
     pub fn set_mesh(&mut self, mesh: Option<TriMesh>) -> Result<(), MeshError> {
         if let Some(m) = &mesh {
             check_mesh(m)?;
+            // The mesh is the rest shape's tessellation: a deforming object is rigid again.
+            self.stop_deforming();
         } else {
             self.session.restart(self.hip, self.material);
         }
@@ -323,7 +542,8 @@ impl SpatialLoop {
         self.mesh.is_some()
     }
 
-    /// Validates `material` and renders with it from the next tick (the renderer restarts).
+    /// Validates `material` and renders with it from the next tick (the renderer restarts; a
+    /// deforming object starts again from rest, its contact as stiff as the material).
     pub fn set_material(
         &mut self,
         material: FrictionMaterial,
@@ -331,6 +551,10 @@ impl SpatialLoop {
         Material::from_friction(material)?;
         self.material = material;
         self.session.restart(self.hip, material);
+        if let Err(e) = self.restart_deforming() {
+            self.stop_deforming();
+            self.last_error = Some(format!("{e}; the object is rigid again"));
+        }
         Ok(material)
     }
 
@@ -339,8 +563,13 @@ impl SpatialLoop {
         self.material
     }
 
-    /// Renders another object from the next tick; the HIP stays where it is.
+    /// Renders another object from the next tick; the HIP stays where it is. A deforming
+    /// object is dropped with the old session: the new one is rigid, at rest, until it is
+    /// asked to deform.
     pub fn swap(&mut self, mut session: SpatialSession) {
+        if self.deforming.take().is_some() {
+            self.shape.stop(self.tick as f64 / RATE_HZ);
+        }
         self.material = session.material();
         session.restart(self.hip, self.material);
         self.session = session;
@@ -435,7 +664,8 @@ impl Steppable for SpatialLoop {
     type Session = SpatialSession;
 
     /// Every command: the hand, the material, a session, a mesh ([`Reply::Mesh`]: refused when
-    /// [`check_mesh`] refuses it, the UI checks before sending), the forces; clearing faults
+    /// [`check_mesh`] refuses it, the UI checks before sending), the forces, deforming the
+    /// object ([`Reply::Deform`]); clearing faults
     /// answers that none are latched (the spatial hand has no safety layer); calibrating is
     /// [`Reply::Unsupported`] (there is no arm).
     fn apply(&mut self, command: Command<SpatialSession>) -> Option<Reply> {
@@ -455,10 +685,10 @@ impl Steppable for SpatialLoop {
                 None
             }
             Command::ClearFaults => Some(Reply::FaultsCleared(device::safety::Faults::empty())),
-            Command::Calibrate
-            | Command::Hand(_)
-            | Command::ScenePoints(_)
-            | Command::Deform(_) => Some(Reply::Unsupported(command.name())),
+            Command::Deform(on) => Some(Reply::Deform(self.set_deforming(on))),
+            Command::Calibrate | Command::Hand(_) | Command::ScenePoints(_) => {
+                Some(Reply::Unsupported(command.name()))
+            }
         }
     }
 

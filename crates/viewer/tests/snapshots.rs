@@ -6,7 +6,8 @@
 mod common;
 
 use common::{
-    MIDDLE, harness, harness_3d, outward, press, press_and_slide, press_apex, stepped, stepped_3d,
+    MIDDLE, below_the_string, harness, harness_3d, harness_3d_from, move_hand, outward, press,
+    press_and_slide, press_apex, push_the_string, stepped, stepped_3d, stepped_deformable,
 };
 use viewer::gui::{ViewerUi, view};
 
@@ -136,4 +137,48 @@ fn snapshot_3d_view_of_the_bump_felt_as_a_mesh() {
     }
     press_apex(&mut state, 0.002);
     harness_3d(state).snapshot("view_3d_thesis_3d_mesh");
+}
+
+/// The bundled string with deform on, its middle pushed from below by the hand's target 10 mm
+/// past the rest line and held: the rest shape faint, the moving string (the loop's newest
+/// shape) and its control polygon over it, the HIP in the dent.
+#[test]
+fn snapshot_2d_view_of_the_pushed_deforming_string() {
+    let mut state = stepped_deformable();
+    below_the_string(&mut state);
+    state.set_deform(true);
+    push_the_string(&mut state, 0.01);
+    assert!(state.deform.deforming && state.deform.moving_view.is_some());
+    let mut ui = ViewerUi::new(state);
+    // Closer than the scene's fit (which takes in the drum's outline too): the string's 80 mm
+    // across 640 points.
+    ui.view = view::View2d {
+        centre: nurbs::Vec2::new(0.0, 0.09),
+        scale: 8000.0,
+        fit_pending: false,
+        last_rect: None,
+    };
+    let mut h = harness([800.0, 600.0], ui, |ui, v| {
+        view::view_2d_ui(ui, &mut v.state, &mut v.view);
+    });
+    h.run_steps(2);
+    h.snapshot("view_2d_deformable_string_pushed");
+}
+
+/// The drum skin (the deformable scene's object 1) with deform on, pressed 8 mm into its
+/// centre by the spatial hand: the dented skin shaded, its control net moving with it, the
+/// rest shape's faint grid over it, seen from 4° above the skin's plane.
+#[test]
+fn snapshot_3d_view_of_the_pressed_deforming_drum() {
+    let mut state = stepped_deformable();
+    state.render_object(1);
+    state.set_deform(true);
+    move_hand(&mut state, nurbs::Vec3::new(0.0, 0.09, -0.008), 100);
+    state.step(600);
+    assert!(state.deform.moving.is_some());
+    let camera = viewer::gui::view3d::Camera3d {
+        pitch_rad: 4f32.to_radians(),
+        ..viewer::gui::view3d::Camera3d::default()
+    };
+    harness_3d_from(state, camera).snapshot("view_3d_deformable_drum_pressed");
 }

@@ -7,6 +7,7 @@
 //! them out and hands what they ask to the state's methods. Each is snapshot-tested with
 //! `egui_kittest`.
 
+pub mod deform;
 pub mod editing;
 pub mod panels;
 pub mod replay;
@@ -24,7 +25,8 @@ use eframe::egui;
 use host::runlog::Recorder;
 use host::trajectory::Trajectory;
 use panels::{
-    DeviceAction, FileAction, ObjectsPanel, ReplayAction, StatusAction, StatusBar, TelemetryPanel,
+    DeviceAction, FileAction, ObjectsAction, ObjectsPanel, ReplayAction, StatusAction, StatusBar,
+    TelemetryPanel,
 };
 use scene::Scene;
 use scene::bundled::BUNDLED;
@@ -128,10 +130,12 @@ impl ViewerUi {
         }
     }
 
-    /// The objects panel; a click renders another object.
+    /// The objects panel; a click renders another object, or switches *deform*.
     pub fn objects_ui(&mut self, ui: &mut egui::Ui) {
-        if let Some(i) = self.objects.ui(ui, &self.state) {
-            self.state.render_object(i);
+        match self.objects.ui(ui, &self.state) {
+            Some(ObjectsAction::Render(i)) => self.state.render_object(i),
+            Some(ObjectsAction::Deform(on)) => self.state.set_deform(on),
+            None => {}
         }
     }
 

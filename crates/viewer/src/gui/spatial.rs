@@ -167,6 +167,12 @@ impl SpatialState {
         self.command(Command::Forces(on));
     }
 
+    /// Makes the NURBS object deformable or rigid again ([`Command::Deform`]); the reply,
+    /// for a stepped loop.
+    pub fn deform(&mut self, on: bool) -> Option<Reply> {
+        self.command(Command::Deform(on))
+    }
+
     /// Sets the material (validated by the loop); the reply, for a stepped loop.
     pub fn set_material(&mut self, material: FrictionMaterial) -> Option<Reply> {
         let reply = self.command(Command::SetMaterial(material));

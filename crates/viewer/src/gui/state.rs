@@ -14,6 +14,7 @@ use device::spec::{DeviceSpec, WorkspaceBox};
 use friction::FrictionMaterial;
 use nurbs::Vec2;
 
+use super::deform::DeformState;
 use super::editing::EditState;
 use super::panels::{DevicePanel, FilePanel, MaterialPanel, ReplayPanel};
 use super::replay::Replay;
@@ -24,7 +25,7 @@ use host::devices::{self, Target};
 use host::planar::{HapticLoop, MaterialChangeError, START_HIP, Session};
 use host::runlog::RecordTx;
 use scene::bundled::BUNDLED;
-use scene::{Material, Patch, Scene, Space};
+use scene::{Material, Object, Patch, Scene, Space};
 
 pub use super::telemetry::{FRAME_WINDOW, HISTORY_S, JITTER_WINDOW};
 
@@ -59,60 +60,69 @@ pub struct SceneView {
     pub model: Scene,
 }
 
+impl ObjectView {
+    /// The drawable geometry of `o`, and the points of its spatial patches (projected on
+    /// z = 0: not drawn in the 2-D view, they still bound the scene).
+    pub fn new(o: &Object) -> (Self, Vec<Vec2>) {
+        let mut curves = Vec::new();
+        let mut control_polygons = Vec::new();
+        let mut extra = Vec::new();
+        for p in o.patches() {
+            match p {
+                Patch::Curve2(c) => {
+                    let view = c.view();
+                    let (a, b) = view.domain();
+                    let pts: Vec<Vec2> = (0..=CURVE_SAMPLES)
+                        .map(|i| {
+                            let u = a + (b - a) * i as f32 / CURVE_SAMPLES as f32;
+                            view.point(u)
+                        })
+                        .collect();
+                    curves.push(pts);
+                    control_polygons.push(
+                        (0..view.points().len())
+                            .filter_map(|i| view.control_point(i).map(|(p, _)| p))
+                            .collect(),
+                    );
+                }
+                Patch::Curve3(c) => {
+                    let dehom = c.points().iter().map(|h| Vec2::new(h.x / h.w, h.y / h.w));
+                    extra.extend(dehom);
+                }
+                Patch::Surface(s) => {
+                    let dehom = s.points().iter().map(|h| Vec2::new(h.x / h.w, h.y / h.w));
+                    extra.extend(dehom);
+                }
+            }
+        }
+        let view = ObjectView {
+            name: o.name().to_owned(),
+            space: o.space(),
+            curves,
+            control_polygons,
+        };
+        (view, extra)
+    }
+}
+
 impl SceneView {
     /// The drawable geometry of `scene`.
     pub fn new(label: &str, scene: &Scene, rendered: Option<usize>) -> Self {
         let mut objects = Vec::new();
         let (mut lo, mut hi) = (Vec2::splat(f32::INFINITY), Vec2::splat(f32::NEG_INFINITY));
         for o in scene.objects() {
-            let mut curves = Vec::new();
-            let mut control_polygons = Vec::new();
-            let mut extra = Vec::new();
-            for p in o.patches() {
-                match p {
-                    Patch::Curve2(c) => {
-                        let view = c.view();
-                        let (a, b) = view.domain();
-                        let pts: Vec<Vec2> = (0..=CURVE_SAMPLES)
-                            .map(|i| {
-                                let u = a + (b - a) * i as f32 / CURVE_SAMPLES as f32;
-                                view.point(u)
-                            })
-                            .collect();
-                        curves.push(pts);
-                        control_polygons.push(
-                            (0..view.points().len())
-                                .filter_map(|i| view.control_point(i).map(|(p, _)| p))
-                                .collect(),
-                        );
-                    }
-                    // Spatial patches are not drawn in the 2-D view; their control points
-                    // (projected on z = 0) still bound the scene.
-                    Patch::Curve3(c) => {
-                        let dehom = c.points().iter().map(|h| Vec2::new(h.x / h.w, h.y / h.w));
-                        extra.extend(dehom);
-                    }
-                    Patch::Surface(s) => {
-                        let dehom = s.points().iter().map(|h| Vec2::new(h.x / h.w, h.y / h.w));
-                        extra.extend(dehom);
-                    }
-                }
-            }
-            for p in curves
+            let (view, extra) = ObjectView::new(o);
+            for p in view
+                .curves
                 .iter()
-                .chain(&control_polygons)
+                .chain(&view.control_polygons)
                 .flatten()
                 .chain(&extra)
             {
                 lo = lo.min(*p);
                 hi = hi.max(*p);
             }
-            objects.push(ObjectView {
-                name: o.name().to_owned(),
-                space: o.space(),
-                curves,
-                control_polygons,
-            });
+            objects.push(view);
         }
         if !(lo.is_finite() && hi.is_finite()) {
             (lo, hi) = (Vec2::new(-0.05, 0.05), Vec2::new(0.05, 0.13));
@@ -312,6 +322,8 @@ pub struct AppState {
     /// The 3-D view and the spatial hand, for a scene without planar objects (or an opened
     /// mesh); while it is there the telemetry is the spatial loop's.
     pub spatial: Option<SpatialState>,
+    /// The *deform* switch of the object felt and its moving shape.
+    pub deform: DeformState,
 }
 
 impl AppState {
@@ -341,6 +353,11 @@ impl AppState {
             .material()
             .or_else(|| spatial.as_ref().and_then(SpatialState::material));
         let backend = Backend::start(haptic, threaded, record.clone())?;
+        let mut deform = DeformState::default();
+        let felt = view
+            .rendered
+            .or_else(|| spatial.as_ref().and_then(SpatialState::object));
+        deform.scene_shown(&scene, felt);
         Ok(AppState {
             backend,
             device: DeviceChoice::Simulated,
@@ -364,6 +381,7 @@ impl AppState {
             materials: MaterialPanel::new(running_material),
             edit: EditState::default(),
             spatial,
+            deform,
         })
     }
 
@@ -400,11 +418,12 @@ impl AppState {
             for s in spatial.step(n) {
                 self.take(s);
             }
-            return;
+        } else {
+            for s in self.backend.step(n) {
+                self.take(s);
+            }
         }
-        for s in self.backend.step(n) {
-            self.take(s);
-        }
+        self.refresh_deform();
     }
 
     /// Takes in what the loop sent since the last call (never waits).
@@ -421,6 +440,45 @@ impl AppState {
         }
         for r in replies {
             self.on_reply(r);
+        }
+        self.refresh_deform();
+    }
+
+    /// Makes the object felt deformable (`true`) or rigid at rest again: the command goes to
+    /// the loop that renders it (the planar device's or the spatial hand's); the loop's answer
+    /// sets [`DeformState::deforming`], or [`DeformState::error`] says why not.
+    pub fn set_deform(&mut self, on: bool) {
+        if on && self.deform.info.is_none() {
+            self.deform.error = Some(
+                "the object felt is rigid: give it a \"dynamics\" block in the scene file to \
+                 make it deformable"
+                    .into(),
+            );
+            return;
+        }
+        self.deform.requested = on;
+        self.deform.error = None;
+        self.send_deform(on);
+    }
+
+    fn send_deform(&mut self, on: bool) {
+        if let Some(spatial) = self.spatial.as_mut().filter(|s| s.has_loop()) {
+            if let Some(reply) = spatial.deform(on) {
+                self.on_reply(reply);
+            }
+        } else if !self.command(Command::Deform(on)) {
+            self.deform.error = Some("the haptic loop did not take it (its queue is full)".into());
+            self.deform.refused();
+        }
+    }
+
+    /// Reads the moving shape the loop published, and hands it to the 3-D view.
+    fn refresh_deform(&mut self) {
+        let changed = self.deform.refresh();
+        if let Some(spatial) = &mut self.spatial
+            && (changed || (self.deform.moving.is_none() && spatial.view.is_moving()))
+        {
+            spatial.view.set_moving(self.deform.moving_object());
         }
     }
 
@@ -452,8 +510,15 @@ impl AppState {
                     spatial.message = Some(format!("{e}; the hand still feels the NURBS surface"));
                 }
             }
-            // The app sends no Command::Deform yet.
-            Reply::Deform(_) => {}
+            Reply::Deform(r) => {
+                self.deform.on_reply(r);
+                self.refresh_deform();
+            }
+            Reply::Unsupported(what) if what == Command::<Session>::Deform(true).name() => {
+                self.deform.error = Some(format!("this device does not support {what}"));
+                self.deform.refused();
+                self.refresh_deform();
+            }
             Reply::Unsupported(what) => {
                 self.loop_refused = Some(format!("the haptic loop does not support {what}"));
             }
@@ -503,6 +568,11 @@ impl AppState {
             self.edit.reset();
             self.materials.edited = p.material.unwrap_or_default();
             self.materials.error = None;
+        }
+        // The loop renders the new object rigid, at rest: ask again when it deforms too.
+        let felt = self.felt_object();
+        if self.deform.scene_shown(&self.scene.model, felt) {
+            self.send_deform(true);
         }
     }
 
@@ -557,6 +627,10 @@ impl AppState {
                 self.link = LinkState::default();
                 self.forces_requested = true;
                 self.telemetry.restart();
+                let felt = self.felt_object();
+                if self.spatial.is_none() && self.deform.scene_shown(&self.scene.model, felt) {
+                    self.send_deform(true);
+                }
             }
             Err(e) => self.files.error = Some(format!("cannot restart the simulator: {e}")),
         }
@@ -970,6 +1044,7 @@ impl AppState {
         self.spatial = Some(spatial);
         self.files.error = None;
         self.materials.error = None;
+        self.deform.scene_shown(&self.scene.model, None);
     }
 
     /// Clears the latched faults whose condition is gone.

@@ -11,6 +11,9 @@
 //! Pressing anywhere else still moves the hand (the selection stays), so an edit can be felt
 //! at once. The Voronoi region boundaries
 //! of the rendered object ([`scene::regions::region_boundaries`]) are drawn faintly on request.
+//!
+//! While the rendered object deforms ([`super::deform`]) its rest shape is drawn faint and its
+//! current shape, as the loop last published it, over it.
 
 use eframe::egui;
 use egui::{Align2, Color32, FontId, Pos2, Rect, Sense, Shape, Stroke, StrokeKind, Vec2 as EVec2};
@@ -38,6 +41,18 @@ pub fn tick_summary(k: &host::tick::Tick) -> String {
         k.force.length(),
         k.depth_m.max(0.0) * 1e3
     )
+}
+
+/// One line on a deforming object, as the 2-D and 3-D views print it: how far it moved at
+/// the CP, and that the faint shape is its rest shape.
+pub fn deform_summary(state: &AppState) -> String {
+    match state.latest().and_then(|s| s.tick.deform) {
+        Some(w) => format!(
+            "deforming: moved {:.2} mm at the CP (rest shape faint)",
+            w.length() * 1e3
+        ),
+        None => "deforming (rest shape faint)".to_owned(),
+    }
 }
 
 /// The colour of a friction mode: the bands of `sim --plot`, deepened for lines on white.
@@ -383,8 +398,18 @@ fn draw_reach(painter: &egui::Painter, rect: Rect, view: &View2d, state: &AppSta
 
 fn draw_scene(painter: &egui::Painter, rect: Rect, view: &View2d, state: &AppState) {
     let polygon = Stroke::new(1.0, Color32::from_gray(150));
+    let moving = state
+        .deform
+        .moving_view
+        .as_ref()
+        .zip(state.deform.info.as_ref())
+        .filter(|(_, info)| state.scene.rendered == Some(info.object));
     for (i, o) in state.scene.objects.iter().enumerate() {
         let rendered = state.scene.rendered == Some(i);
+        if let Some((now, _)) = moving.filter(|(_, info)| info.object == i) {
+            draw_moving(painter, rect, view, o, now);
+            continue;
+        }
         for poly in &o.control_polygons {
             let pts: Vec<Pos2> = poly.iter().map(|p| view.screen_of(rect, *p)).collect();
             painter.add(Shape::dashed_line(&pts, polygon, 4.0, 3.0));
@@ -405,6 +430,38 @@ fn draw_scene(painter: &egui::Painter, rect: Rect, view: &View2d, state: &AppSta
             let pts: Vec<Pos2> = curve.iter().map(|p| view.screen_of(rect, *p)).collect();
             painter.line(pts, stroke);
         }
+    }
+}
+
+/// A deforming object: its rest shape `rest` faint, its current shape `now` (curves and control
+/// polygons) over it as the rendered object is drawn.
+fn draw_moving(
+    painter: &egui::Painter,
+    rect: Rect,
+    view: &View2d,
+    rest: &super::state::ObjectView,
+    now: &super::state::ObjectView,
+) {
+    let faint = Stroke::new(2.0, Color32::from_rgba_unmultiplied(90, 110, 160, 90));
+    for curve in &rest.curves {
+        let pts: Vec<Pos2> = curve.iter().map(|p| view.screen_of(rect, *p)).collect();
+        painter.line(pts, faint);
+    }
+    let polygon = Stroke::new(1.0, Color32::from_gray(150));
+    for poly in &now.control_polygons {
+        let pts: Vec<Pos2> = poly.iter().map(|p| view.screen_of(rect, *p)).collect();
+        painter.add(Shape::dashed_line(&pts, polygon, 4.0, 3.0));
+        for p in &pts {
+            painter.rect_filled(
+                Rect::from_center_size(*p, EVec2::splat(5.0)),
+                0.0,
+                polygon.color,
+            );
+        }
+    }
+    for curve in &now.curves {
+        let pts: Vec<Pos2> = curve.iter().map(|p| view.screen_of(rect, *p)).collect();
+        painter.line(pts, Stroke::new(3.0, Color32::from_rgb(30, 30, 30)));
     }
 }
 
@@ -482,6 +539,13 @@ fn draw_legend(painter: &egui::Painter, rect: Rect, view: &View2d, state: &AppSt
     if let Some(s) = state.latest() {
         let k = &s.tick;
         line(&mut y, tick_summary(k), mode_colour(k.mode));
+    }
+    if state.deform.moving_view.is_some() {
+        line(
+            &mut y,
+            deform_summary(state),
+            Color32::from_rgb(70, 90, 150),
+        );
     }
     let help = if state.edit.enabled {
         "edit: drag a handle: move its point  ·  elsewhere: hand  ·  Ctrl+Z: undo"

@@ -25,7 +25,7 @@ use tracker::TriMesh;
 use super::spatial::SpatialState;
 use super::state::AppState;
 use super::view::mode_colour;
-use scene::{Patch, Scene};
+use scene::{Object, Patch, Scene};
 
 /// Chordal tolerance of the display tessellation (m): display only, finer than any haptic
 /// tessellation the slider offers.
@@ -42,6 +42,14 @@ const SURFACE: [f32; 4] = [0.55, 0.68, 0.85, 1.0];
 const FACETED: [f32; 4] = [0.85, 0.68, 0.45, 1.0];
 const NET: [f32; 4] = [0.45, 0.45, 0.45, 1.0];
 const WIRE: [f32; 4] = [0.15, 0.15, 0.15, 1.0];
+/// The rest shape behind a deforming surface: faint blue-grey lines (premultiplied alpha).
+const REST: [f32; 4] = [0.3 * 0.45, 0.35 * 0.45, 0.5 * 0.45, 0.45];
+/// Grid cells per direction of a deforming surface's display mesh (each becomes two
+/// triangles): a fixed grid, re-evaluated at the loop's publication rate, not an adaptive
+/// tessellation.
+pub const MOVING_GRID: usize = 32;
+/// Iso-parameter lines per direction drawn of the rest shape behind a deforming surface.
+pub const REST_LINES: usize = 9;
 
 /// Triangles and lines ready for the GPU: the scene as drawn.
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -78,6 +86,11 @@ impl Geometry {
     pub fn triangle_count(&self) -> usize {
         self.centroids.len()
     }
+
+    /// Line segments in this geometry.
+    pub fn segment_count(&self) -> usize {
+        self.lines.len() / (2 * VERTEX_FLOATS)
+    }
 }
 
 /// The scene as the 3-D view draws it.
@@ -97,6 +110,11 @@ pub struct Scene3d {
     faceted: Option<(usize, Geometry)>,
     /// Per object: the range of its triangles in `base.triangles` (in triangles).
     object_triangles: Vec<std::ops::Range<usize>>,
+    /// Per object: the range of its segments in `base.lines` (in segments).
+    object_lines: Vec<std::ops::Range<usize>>,
+    /// A deforming object's current shape (drawn instead of its rest shape, which is drawn
+    /// faint behind it), and the index of that object.
+    moving: Option<(usize, Geometry)>,
     /// What goes to the GPU.
     pub geometry: Arc<Geometry>,
 }
@@ -118,8 +136,10 @@ impl Scene3d {
             hi = hi.max(p);
         };
         let mut object_triangles = Vec::new();
+        let mut object_lines = Vec::new();
         for o in scene.objects() {
             let first = base.triangle_count();
+            let first_line = base.segment_count();
             for p in o.patches() {
                 match p {
                     Patch::Surface(s) => {
@@ -184,11 +204,18 @@ impl Scene3d {
                 }
             }
             object_triangles.push(first..base.triangle_count());
+            object_lines.push(first_line..base.segment_count());
         }
         let rendered_name = rendered
             .and_then(|i| scene.object(i))
             .map(|o| o.name().to_owned());
-        Self::assemble(label, rendered_name, (lo, hi), base, object_triangles)
+        Self::assemble(
+            label,
+            rendered_name,
+            (lo, hi),
+            base,
+            (object_triangles, object_lines),
+        )
     }
 
     /// A scene of one mesh (an opened OBJ file), flat shaded.
@@ -200,7 +227,10 @@ impl Scene3d {
             lo = lo.min(p);
             hi = hi.max(p);
         }
-        let ranges = std::iter::once(0..base.triangle_count()).collect();
+        let ranges = (
+            std::iter::once(0..base.triangle_count()).collect(),
+            std::iter::once(0..base.segment_count()).collect(),
+        );
         Self::assemble(label, Some(name.to_owned()), (lo, hi), base, ranges)
     }
 
@@ -209,7 +239,10 @@ impl Scene3d {
         rendered_name: Option<String>,
         (lo, hi): (Vec3, Vec3),
         base: Geometry,
-        object_triangles: Vec<std::ops::Range<usize>>,
+        (object_triangles, object_lines): (
+            Vec<std::ops::Range<usize>>,
+            Vec<std::ops::Range<usize>>,
+        ),
     ) -> Self {
         let bounds = if lo.is_finite() && hi.is_finite() {
             (lo, hi)
@@ -223,6 +256,8 @@ impl Scene3d {
             base,
             faceted: None,
             object_triangles,
+            object_lines,
+            moving: None,
             geometry: Arc::new(Geometry::default()),
         };
         s.rebuild();
@@ -240,31 +275,120 @@ impl Scene3d {
         self.rebuild();
     }
 
+    /// Shows object `object` in its current shape `now` over its rest shape `rest`, drawn
+    /// faint (a deforming object, [`super::deform`]), or, with `None`, at rest again.
+    pub fn set_moving(&mut self, moving: Option<(usize, &Object, &Object)>) {
+        self.moving = moving.map(|(object, rest, now)| {
+            let mut g = Geometry::default();
+            moving_into(&mut g, rest, now);
+            (object, g)
+        });
+        self.rebuild();
+    }
+
+    /// Whether a deforming object's current shape is shown.
+    pub fn is_moving(&self) -> bool {
+        self.moving.is_some()
+    }
+
     fn rebuild(&mut self) {
         let mut g = Geometry {
-            lines: self.base.lines.clone(),
             revision: next_revision(),
             ..Geometry::default()
         };
-        let hidden = self
-            .faceted
-            .as_ref()
-            .and_then(|(i, _)| self.object_triangles.get(*i).cloned())
-            .unwrap_or(0..0);
+        let range = |ranges: &[std::ops::Range<usize>], i: Option<usize>| {
+            i.and_then(|i| ranges.get(i).cloned()).unwrap_or(0..0)
+        };
+        let faceted = self.faceted.as_ref().map(|(i, _)| *i);
+        let moving = self.moving.as_ref().map(|(i, _)| *i);
+        let hidden = [
+            range(&self.object_triangles, faceted),
+            range(&self.object_triangles, moving),
+        ];
         let stride = 3 * VERTEX_FLOATS;
         for (k, c) in self.base.centroids.iter().enumerate() {
-            if !hidden.contains(&k) {
+            if !hidden.iter().any(|h| h.contains(&k)) {
                 g.triangles
                     .extend_from_slice(&self.base.triangles[k * stride..(k + 1) * stride]);
                 g.centroids.push(*c);
             }
         }
-        if let Some((_, f)) = &self.faceted {
-            g.triangles.extend_from_slice(&f.triangles);
-            g.centroids.extend_from_slice(&f.centroids);
-            g.lines.extend_from_slice(&f.lines);
+        // A deforming object's control net moves with it: its rest net is not drawn.
+        let hidden_lines = range(&self.object_lines, moving);
+        let stride = 2 * VERTEX_FLOATS;
+        for k in 0..self.base.segment_count() {
+            if !hidden_lines.contains(&k) {
+                g.lines
+                    .extend_from_slice(&self.base.lines[k * stride..(k + 1) * stride]);
+            }
+        }
+        for (_, extra) in self.faceted.iter().chain(&self.moving) {
+            g.triangles.extend_from_slice(&extra.triangles);
+            g.centroids.extend_from_slice(&extra.centroids);
+            g.lines.extend_from_slice(&extra.lines);
         }
         self.geometry = Arc::new(g);
+    }
+}
+
+/// A deforming object: its surfaces in the shape `now` on a [`MOVING_GRID`] grid, smooth
+/// shaded, with their control nets, over [`REST_LINES`] iso-parameter lines each way of the
+/// rest shape `rest`, faint.
+fn moving_into(g: &mut Geometry, rest: &Object, now: &Object) {
+    let (Some(rest), Some(now)) = (rest.surface_views(), now.surface_views()) else {
+        return;
+    };
+    for (r, s) in rest.iter().zip(&now) {
+        let ((u0, u1), (v0, v1)) = s.domain();
+        let n = MOVING_GRID;
+        let at = |i: usize, j: usize| {
+            let (u, v) = (
+                u0 + (u1 - u0) * i as f32 / n as f32,
+                v0 + (v1 - v0) * j as f32 / n as f32,
+            );
+            (s.point(u, v), s.normal(u, v))
+        };
+        let grid: Vec<(Vec3, Vec3)> = (0..=n)
+            .flat_map(|i| (0..=n).map(move |j| (i, j)))
+            .map(|(i, j)| at(i, j))
+            .collect();
+        let idx = |i: usize, j: usize| i * (n + 1) + j;
+        for i in 0..n {
+            for j in 0..n {
+                let [a, b, c, d] = [idx(i, j), idx(i + 1, j), idx(i + 1, j + 1), idx(i, j + 1)];
+                for tri in [[a, b, c], [a, c, d]] {
+                    g.triangle(tri.map(|k| grid[k].0), tri.map(|k| grid[k].1), SURFACE);
+                }
+            }
+        }
+        let (nu, nv) = s.counts();
+        let net = |i: usize, j: usize| {
+            s.points()
+                .get(i * nv + j)
+                .map(|h| Vec3::new(h.x / h.w, h.y / h.w, h.z / h.w))
+        };
+        for i in 0..nu {
+            for j in 0..nv {
+                let Some(a) = net(i, j) else { continue };
+                let next_u = (i + 1 < nu).then(|| net(i + 1, j)).flatten();
+                let next_v = (j + 1 < nv).then(|| net(i, j + 1)).flatten();
+                for b in [next_u, next_v].into_iter().flatten() {
+                    g.segment(a, b, NET);
+                }
+            }
+        }
+        let ((u0, u1), (v0, v1)) = r.domain();
+        let samples = 4 * MOVING_GRID;
+        let lerp = |a: f32, b: f32, k: usize, n: usize| a + (b - a) * k as f32 / n as f32;
+        for k in 0..=REST_LINES {
+            let (u, v) = (lerp(u0, u1, k, REST_LINES), lerp(v0, v1, k, REST_LINES));
+            for m in 0..samples {
+                let (a, b) = (lerp(v0, v1, m, samples), lerp(v0, v1, m + 1, samples));
+                g.segment(r.point(u, a), r.point(u, b), REST);
+                let (a, b) = (lerp(u0, u1, m, samples), lerp(u0, u1, m + 1, samples));
+                g.segment(r.point(a, v), r.point(b, v), REST);
+            }
+        }
     }
 }
 
@@ -728,10 +852,22 @@ pub fn view_3d_ui(ui: &mut egui::Ui, state: &mut AppState, camera: &mut Camera3d
     let painter = painter.with_clip_rect(rect);
     let latest = state.latest().copied();
     let spatial = state.spatial.as_ref();
+    let deforming = state
+        .deform
+        .moving
+        .is_some()
+        .then(|| super::view::deform_summary(state));
     if let Some(spatial) = spatial {
         draw_hand(&painter, rect, camera, spatial, latest.as_ref());
         draw_axes(&painter, rect, camera);
-        draw_legend(&painter, rect, spatial, latest.as_ref(), installed);
+        draw_legend(
+            &painter,
+            rect,
+            spatial,
+            latest.as_ref(),
+            installed,
+            deforming.as_deref(),
+        );
     }
 }
 
@@ -872,6 +1008,7 @@ fn draw_legend(
     spatial: &SpatialState,
     latest: Option<&host::backend::Sample>,
     installed: bool,
+    deforming: Option<&str>,
 ) {
     let font = FontId::proportional(13.0);
     let text = Color32::from_gray(40);
@@ -908,6 +1045,9 @@ fn draw_legend(
             ),
             text,
         );
+    }
+    if let Some(d) = deforming {
+        line(d.to_owned(), Color32::from_rgb(70, 90, 150));
     }
     if !installed {
         line(

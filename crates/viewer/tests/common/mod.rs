@@ -140,6 +140,31 @@ pub fn stepped_3d() -> AppState {
     state
 }
 
+// ----- the bundled deformable scene -----
+
+/// The rest line of the bundled string (y, m): x from −40 to 40 mm, its outside below.
+pub const STRING_Y: f32 = 0.09;
+
+/// The bundled deformable scene (the string on the device, the drum skin object 1), stepped.
+pub fn stepped_deformable() -> AppState {
+    stepped_scene("deformable")
+}
+
+/// From the app's start above the string (its inside: the device pushes the handle down) the
+/// hand goes round the string's right end to below its middle, 15 mm from it, and rests.
+pub fn below_the_string(state: &mut AppState) {
+    drag(state, Vec2::new(0.05, 0.11), 300);
+    drag(state, Vec2::new(0.05, 0.075), 300);
+    drag(state, Vec2::new(0.0, STRING_Y - 0.015), 300);
+    state.step(200);
+}
+
+/// The hand's target pushed `depth_m` past the string's middle from below, and held 0.7 s.
+pub fn push_the_string(state: &mut AppState, depth_m: f32) {
+    drag(state, Vec2::new(0.0, STRING_Y + depth_m), 300);
+    state.step(700);
+}
+
 // ----- harnesses -----
 
 /// A light-themed harness of `size` drawing `show`, rendered through wgpu.
@@ -167,6 +192,11 @@ pub fn view_2d_harness<'a>(state: AppState) -> Harness<'a, ViewerUi> {
 
 /// A harness on the 3-D view with its wgpu pipelines installed.
 pub fn harness_3d<'a>(state: AppState) -> Harness<'a, ViewerUi> {
+    harness_3d_from(state, Camera3d::default())
+}
+
+/// [`harness_3d`] looking from `camera`'s direction (fitted to the scene).
+pub fn harness_3d_from<'a>(state: AppState, camera: Camera3d) -> Harness<'a, ViewerUi> {
     use eframe::egui_wgpu;
     let render_state = egui_kittest::wgpu::create_render_state(
         egui_kittest::wgpu::default_wgpu_setup(),
@@ -175,7 +205,7 @@ pub fn harness_3d<'a>(state: AppState) -> Harness<'a, ViewerUi> {
     view3d::install(&render_state);
     let mut ui = ViewerUi::new(state);
     ui.wgpu_installed = true;
-    ui.camera3d = Camera3d::default();
+    ui.camera3d = camera;
     let mut h = Harness::builder()
         .with_size(egui::Vec2::new(800.0, 600.0))
         .with_theme(egui::Theme::Light)
