@@ -206,7 +206,9 @@ def greville(knots, p, n):
 
 
 def deformable():
-    n, length, y = 12, 0.08, 0.09
+    # The string lies above the app's start point (0, 0.11), its outside (normal -y) below:
+    # the hand starts outside it and pushes up.
+    n, length, y = 12, 0.08, 0.115
     k = clamped_uniform(3, n)
     string = {
         "name": "taut string (D-NURBS, 5 N)",
@@ -230,7 +232,7 @@ def deformable():
         "patches": [{
             "degree": [3, 3],
             "knots": [kd, kd],
-            "points": [[[round(-side / 2 + side * gu, 9), round(y - side / 2 + side * gv, 9), 0.0]
+            "points": [[[round(-side / 2 + side * gu, 9), round(0.09 - side / 2 + side * gv, 9), 0.0]
                         for gv in g] for gu in g],
         }],
         "dynamics": {"density_kg_per_m2": 1.0, "damping_ns_per_m3": 100.0,

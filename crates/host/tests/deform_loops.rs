@@ -20,7 +20,7 @@ fn deformable() -> Scene {
 }
 
 /// The string's rest line (y, m), its length and tension, the material's contact stiffness.
-const Y: f64 = 0.09;
+const Y: f64 = 0.115;
 const L: f64 = 0.08;
 const T: f64 = 5.0;
 const K_C: f64 = 1000.0;
@@ -89,7 +89,7 @@ fn rendered(t: &Tick) -> Vec3 {
 /// and handle settle faster; the force is steady to 1e-4 N over the last 0.3 s, checked).
 #[test]
 fn planar_loop_pushing_the_string_settles_at_the_series_stiffness() {
-    let below = Vec2::new(0.0, 0.075);
+    let below = Vec2::new(0.0, 0.10);
     let session = Session::with_object(deformable(), Some(0)).expect("session");
     let mut l = HapticLoop::new(session, below).expect("loop");
     for _ in 0..300 {
@@ -101,7 +101,7 @@ fn planar_loop_pushing_the_string_settles_at_the_series_stiffness() {
     assert!(shape.read_into(&mut frame));
     assert!(frame.deforming && frame.object == 0 && frame.points.len() == 12);
 
-    let target = Vec2::new(0.0, 0.10);
+    let target = Vec2::new(0.0, 0.125);
     l.set_hand_target(target);
     let ticks: Vec<Tick> = (0..1300).map(|_| l.step()).collect();
     assert!(
@@ -198,11 +198,11 @@ fn planar_loop_pushing_the_string_settles_at_the_series_stiffness() {
 /// stiffness; a scene swap renders the new session rigid, which then deforms from rest.
 #[test]
 fn material_change_and_swap_while_deforming_start_from_rest() {
-    let below = Vec2::new(0.0, 0.075);
+    let below = Vec2::new(0.0, 0.10);
     let session = Session::with_object(deformable(), Some(0)).expect("session");
     let mut l = HapticLoop::new(session, below).expect("loop");
     assert_eq!(deform_reply(&mut l, true), Ok(true));
-    l.set_hand_target(Vec2::new(0.0, 0.10));
+    l.set_hand_target(Vec2::new(0.0, 0.125));
     for _ in 0..500 {
         l.step();
     }

@@ -17,7 +17,7 @@ use scene::{Bundled, Scene};
 
 const PATIENCE: Duration = Duration::from_secs(20);
 /// The string's rest line, length, tension; the contact's stiffness.
-const Y: f32 = 0.09;
+const Y: f32 = 0.115;
 const L: f64 = 0.08;
 const T: f64 = 5.0;
 const K_C: f64 = 1000.0;

@@ -650,14 +650,15 @@ fn identify_command() {
 // `viewer deform` and `viewer sim --deform`: the files they write, checked against the taut
 // string's closed forms, and their refusals.
 
-/// The bundled string: 80 mm at y = 0.09 under 5 N, 0.1 kg/m.
+/// The bundled string: 80 mm at y = 0.115 under 5 N, 0.1 kg/m.
+const Y: f64 = 0.115;
 const L: f64 = 0.08;
 const T: f64 = 5.0;
 const RHO: f64 = 0.1;
 
 /// `--static` under 2 N/m writes a valid scene whose string sags in the parabola
 /// `q x (L − x)/2T`: at u = ½ (the control points at the Greville abscissae make x linear in
-/// u) by `q L²/8T` = 0.32 mm. The file holds f32 coordinates (ulp 7e-9 m at 0.09 m) and the
+/// u) by `q L²/8T` = 0.32 mm. The file holds f32 coordinates (ulp 7e-9 m at 0.115 m) and the
 /// solve is exact in the spline space: 1e-7 m.
 #[test]
 fn static_sag_is_the_parabola() {
@@ -680,17 +681,17 @@ fn static_sag_is_the_parabola() {
     let mid = curves[0].point(0.5);
     let sag = 2.0 * L * L / (8.0 * T);
     assert!(
-        (f64::from(mid.y) - (0.09 - sag)).abs() < 1e-7,
+        (f64::from(mid.y) - (Y - sag)).abs() < 1e-7,
         "middle at {} vs {}",
         mid.y,
-        0.09 - sag
+        Y - sag
     );
 }
 
 /// `--release` rings at the string's first mode, `(1/2L)√(T/ρ)` = 44.19 Hz undamped (printed),
 /// slowed by the scene's mass-proportional damping γ = 10 N·s/m² (decay rate `γ/2ρ` = 50 s⁻¹
 /// in every mode) to `√(ω₁² − (γ/2ρ)²)/2π` = 43.47 Hz: the probe's upward zero crossings
-/// about the rest line (the file's f32 0.09), over the first five periods while the amplitude
+/// about the rest line (the file's f32 0.115), over the first five periods while the amplitude
 /// is far above the f32 rest line's rounding. Newmark's elongation at 20 kHz is 2e-5; the
 /// third mode (1/27 of the first at the middle, damped to a frequency that is not 3 × the
 /// first's) moves single crossings by up to 1e-3 of a period: 1e-3.
@@ -725,7 +726,7 @@ fn release_trace_rings_at_the_first_mode() {
     let rows: Vec<(f64, f64)> = lines
         .map(|l| {
             let c: Vec<f64> = l.split(',').map(|x| x.parse().expect("number")).collect();
-            (c[0], c[2] - f64::from(0.09f32))
+            (c[0], c[2] - f64::from(Y as f32))
         })
         .collect();
     assert_eq!(rows.len(), 4001);

@@ -153,7 +153,7 @@ fn snapshot_2d_view_of_the_pushed_deforming_string() {
     // Closer than the scene's fit (which takes in the drum's outline too): the string's 80 mm
     // across 640 points.
     ui.view = view::View2d {
-        centre: nurbs::Vec2::new(0.0, 0.09),
+        centre: nurbs::Vec2::new(0.0, common::STRING_Y),
         scale: 8000.0,
         fit_pending: false,
         last_rect: None,

@@ -143,18 +143,16 @@ pub fn stepped_3d() -> AppState {
 // ----- the bundled deformable scene -----
 
 /// The rest line of the bundled string (y, m): x from −40 to 40 mm, its outside below.
-pub const STRING_Y: f32 = 0.09;
+pub const STRING_Y: f32 = 0.115;
 
 /// The bundled deformable scene (the string on the device, the drum skin object 1), stepped.
 pub fn stepped_deformable() -> AppState {
     stepped_scene("deformable")
 }
 
-/// From the app's start above the string (its inside: the device pushes the handle down) the
-/// hand goes round the string's right end to below its middle, 15 mm from it, and rests.
+/// From the app's start, 5 mm below the string (its outside), the hand goes to 15 mm below its
+/// middle and rests.
 pub fn below_the_string(state: &mut AppState) {
-    drag(state, Vec2::new(0.05, 0.11), 300);
-    drag(state, Vec2::new(0.05, 0.075), 300);
     drag(state, Vec2::new(0.0, STRING_Y - 0.015), 300);
     state.step(200);
 }
