@@ -307,37 +307,14 @@ impl Shape {
     }
 }
 
-/// The `n`-point Gauss–Legendre rule on `[−1, 1]`: the roots of `P_n` by Newton's method from
-/// Tricomi's estimate `cos(π (i − ¼) / (n + ½))`, and the weights `2 / ((1 − x²) P_n'(x)²)`
-/// (Abramowitz & Stegun 25.4.29). Exact for polynomials of degree `2n − 1`.
+/// The `n`-point Gauss–Legendre rule on `[−1, 1]` (crate `gauss-quad`, Bogaert's algorithm):
+/// nodes and weights, exact for polynomials of degree `2n − 1`.
 pub fn gauss_legendre(n: usize) -> (Vec<f64>, Vec<f64>) {
-    let n = n.max(1);
-    let mut nodes = Vec::with_capacity(n);
-    let mut weights = Vec::with_capacity(n);
-    for i in 1..=n {
-        let mut x = (std::f64::consts::PI * (i as f64 - 0.25) / (n as f64 + 0.5)).cos();
-        let mut dp = 1.0;
-        for _ in 0..100 {
-            // P_n(x) and P_n'(x) by the three-term recurrence.
-            let (mut p0, mut p1) = (1.0, x);
-            for k in 2..=n {
-                let p2 = ((2 * k - 1) as f64 * x * p1 - (k - 1) as f64 * p0) / k as f64;
-                p0 = p1;
-                p1 = p2;
-            }
-            let p = if n == 1 { x } else { p1 };
-            let pm1 = if n == 1 { 1.0 } else { p0 };
-            dp = n as f64 * (x * p - pm1) / (x * x - 1.0);
-            let step = p / dp;
-            x -= step;
-            if step.abs() < 1e-16 {
-                break;
-            }
-        }
-        nodes.push(x);
-        weights.push(2.0 / ((1.0 - x * x) * dp * dp));
-    }
-    (nodes, weights)
+    let n = std::num::NonZeroUsize::new(n).unwrap_or(std::num::NonZeroUsize::MIN);
+    gauss_quad::legendre::GaussLegendre::new(n)
+        .iter()
+        .map(|&(x, w)| (x, w))
+        .unzip()
 }
 
 #[cfg(test)]
