@@ -681,42 +681,48 @@ fn simulate<V: Views>(
     Ok(ticks)
 }
 
-/// The device's controller rendering one shape of a deformable object: the shape owns the
-/// curves, the controller their chain. [`DeviceShape::reshape`] moves the controller onto the
-/// next shape ([`Controller::reshape`]: its renderer rides along, no search, no ramp).
-struct Held<'a> {
-    controller: Option<Controller<Chain<'a>>>,
+/// The device's controller rendering one shape of a deformable object, borrowing the curves
+/// of the shape (`None` only while it is being moved onto the next shape).
+#[derive(Debug)]
+pub(crate) struct ShapeRendering<'a> {
+    pub(crate) controller: Option<Controller<Chain<'a>>>,
 }
 
 self_cell::self_cell!(
-    struct DeviceShape {
+    /// A shape of a deformable object and the device's controller rendering it.
+    pub(crate) struct ShapeCell {
         owner: Object,
         #[not_covariant]
-        dependent: Held,
+        dependent: ShapeRendering,
     }
 );
 
-impl DeviceShape {
-    /// The controller moved onto `next` (the same object reshaped); `self` is left without
-    /// one. Refused when the new shape is not a valid chain of the same topology.
-    fn reshape(&mut self, next: Object, index: usize) -> Result<DeviceShape, SimError> {
-        let mut out = Err(SimError::Controller(ControllerError::NoScene));
-        self.with_dependent_mut(|_, held| {
-            let Some(controller) = held.controller.take() else {
-                return;
-            };
-            out = DeviceShape::try_new(next, move |o| {
-                let chain = ChainViews::view(o, index)?;
-                match controller.reshape(chain) {
-                    Ok(c) => Ok(Held {
-                        controller: Some(c),
-                    }),
-                    Err((_, e)) => Err(SimError::Controller(e)),
-                }
-            });
-        });
-        out
-    }
+/// `controller` carried onto `shape`, object `index` with its control points moved, in a cell
+/// of its own ([`Controller::reshape`]: the same renderer, no search, no ramp-in), or handed
+/// back with the reason.
+///
+/// The chain is built from the shape's curves directly, not re-encoded through the upload
+/// (`upload::wire_scene`, `upload::receive`) as a session's rest shape is: the device would
+/// decode the same f32 points, and framing, checking and decoding the object every
+/// millisecond would cost the loop more than the step itself.
+#[allow(
+    clippy::result_large_err,
+    reason = "the error hands the controller back; it is moved, not copied, once per step"
+)]
+pub(crate) fn carry(
+    controller: Controller<Chain<'_>>,
+    shape: Object,
+    index: usize,
+) -> Result<ShapeCell, (Controller<Chain<'_>>, DeformChangeError)> {
+    ShapeCell::try_new(shape, move |o| match ChainViews::view(o, index) {
+        Ok(chain) => match controller.reshape(chain) {
+            Ok(c) => Ok(ShapeRendering {
+                controller: Some(c),
+            }),
+            Err((c, e)) => Err((c, DeformChangeError::Controller(e))),
+        },
+        Err(e) => Err((controller, DeformChangeError::Object(DeformError::Sim(e)))),
+    })
 }
 
 /// [`crate::sim::run_device`] with object `index` deformable: the closed loop through the
@@ -742,7 +748,7 @@ pub fn run_device(
     let per_step = ticks_per_step(rate_hz);
     let dt_s = per_step as f64 / rate_hz;
     let mut passivity_control = false;
-    let mut shape = DeviceShape::try_new(deformer.rest().clone(), |o| {
+    let mut shape = ShapeCell::try_new(deformer.rest().clone(), |o| {
         let chain = ChainViews::view(o, index)?;
         let (mut controller, on) = device_controller(chain, material, rate_hz)?;
         passivity_control = on;
@@ -750,7 +756,7 @@ pub fn run_device(
             .calibrate(end_stop_counts(&spec))
             .map_err(SimError::Controller)?;
         controller.set_forces_enabled(true);
-        Ok::<_, SimError>(Held {
+        Ok::<_, SimError>(ShapeRendering {
             controller: Some(controller),
         })
     })?;
@@ -776,7 +782,24 @@ pub fn run_device(
         telemetry.extend(decimator.push(&frame).copied());
         if (i + 1) % per_step == 0 {
             deformer.step(dt_s)?;
-            shape = shape.reshape(deformer.shape()?, index)?;
+            let next = deformer.shape()?;
+            let moved = shape.with_dependent_mut(|_, r| {
+                let controller = r.controller.take()?;
+                Some(carry(controller, next, index).map_err(|(c, e)| {
+                    r.controller = Some(c);
+                    e
+                }))
+            });
+            shape = match moved {
+                Some(Ok(cell)) => cell,
+                Some(Err(DeformChangeError::Object(e))) => return Err(e),
+                Some(Err(DeformChangeError::Controller(e))) => {
+                    return Err(SimError::Controller(e).into());
+                }
+                Some(Err(DeformChangeError::NoObject | DeformChangeError::Mesh)) | None => {
+                    return Err(SimError::Controller(ControllerError::NoScene).into());
+                }
+            };
         }
         progress(i + 1, n);
     }

@@ -24,7 +24,7 @@ use tracker::Chain;
 
 use crate::backend::{Command, RATE_HZ, Reply, Sample, Steppable};
 use crate::deform::{
-    DeformChangeError, DeformError, DeformStatus, Deformer, PUBLISH_EVERY_MS, SharedShape,
+    DeformChangeError, DeformStatus, Deformer, PUBLISH_EVERY_MS, ShapeCell, SharedShape, carry,
 };
 
 /// The device's tick rate in the loop (Hz): the board's. The loop thread wakes at
@@ -35,7 +35,7 @@ pub const TICKS_PER_STEP: u32 = (DEVICE_RATE_HZ / RATE_HZ) as u32;
 use crate::sim::SimError;
 use crate::tick::{self, Tick};
 use crate::upload::{self, UploadError};
-use scene::{Material, MaterialError, Object, Scene, Space};
+use scene::{Material, MaterialError, Scene, Space};
 
 /// Where the handle (and the hand's target) starts: in the middle of the default device's
 /// workspace, above the bundled planar scenes.
@@ -64,21 +64,6 @@ self_cell::self_cell!(
         // covariant in 'a): it is reached through closures only.
         #[not_covariant]
         dependent: Rendering,
-    }
-);
-
-/// The controller of a deforming object, borrowing the curves of the object's current shape
-/// (`None` only while it is being moved onto the next shape).
-#[derive(Debug)]
-struct ShapeRendering<'a> {
-    controller: Option<Controller<Chain<'a>>>,
-}
-
-self_cell::self_cell!(
-    struct ShapeCell {
-        owner: Object,
-        #[not_covariant]
-        dependent: ShapeRendering,
     }
 );
 
@@ -228,40 +213,6 @@ fn store_chain(choice: &SceneChoice) -> Option<Result<Chain<'_>, SimError>> {
         .collect();
     let index = choice.object.unwrap_or(0);
     Some(Chain::new(&curves).map_err(|error| SimError::Chain { index, error }))
-}
-
-/// The chain of `object`'s planar curves (object `index` of the scene).
-fn shape_chain(object: &Object, index: usize) -> Result<Chain<'_>, SimError> {
-    let curves = object.curve_views().unwrap_or_default();
-    Chain::new(&curves).map_err(|error| SimError::Chain { index, error })
-}
-
-/// `controller` carried onto `shape`, object `index` with its control points moved, in a cell
-/// of its own ([`Controller::reshape`]: the same renderer, no search, no ramp-in), or handed
-/// back with the reason.
-///
-/// The chain is built from the shape's curves directly, not re-encoded through the upload
-/// ([`upload::wire_scene`] and [`upload::receive`]) as the session's rest shape is: the device
-/// would decode the same f32 points, and framing, checking and decoding the object every
-/// millisecond would cost the loop more than the step itself.
-#[allow(
-    clippy::result_large_err,
-    reason = "the error hands the controller back; it is moved, not copied, once per step"
-)]
-fn carry(
-    controller: Controller<Chain<'_>>,
-    shape: Object,
-    index: usize,
-) -> Result<ShapeCell, (Controller<Chain<'_>>, DeformChangeError)> {
-    ShapeCell::try_new(shape, move |o| match shape_chain(o, index) {
-        Ok(chain) => match controller.reshape(chain) {
-            Ok(c) => Ok(ShapeRendering {
-                controller: Some(c),
-            }),
-            Err((c, e)) => Err((c, DeformChangeError::Controller(e))),
-        },
-        Err(e) => Err((controller, DeformChangeError::Object(DeformError::Sim(e)))),
-    })
 }
 
 /// A deforming object in the loop: its dynamics and the controller on its current shape.
