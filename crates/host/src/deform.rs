@@ -16,16 +16,12 @@ use scene::{Object, ObjectError, Patch, Scene, Space};
 use tracker::{Chain, ChainTracker, Object as TrackedObject, Shell, ShellTracker};
 
 use device::controller::{Controller, ControllerError};
-use device::simulator::SimulatedPantograph;
-use device::spec::DeviceSpec;
-use device::telemetry::TelemetryDecimator;
 
 use crate::sim::{
-    DeviceHand, DeviceRun, HipSamples, Run, SimError, Trajectory, validate, validate_device,
+    DeviceHand, DeviceRun, HipSamples, Run, SimError, Trajectory, drive_device, ready_controller,
+    validate, validate_device,
 };
-use crate::tick::{
-    Tick, device_controller, device_tick, end_stop_counts, point, render_tick, vec2,
-};
+use crate::tick::{Tick, device_tick, point, render_tick};
 
 /// The slowest rate the object steps at in a loop (Hz): a loop at up to twice this steps the
 /// object every tick, a faster one every `⌊rate / DYNAMICS_RATE_HZ⌋` ticks.
@@ -737,72 +733,61 @@ pub fn run_device(
     trajectory: &Trajectory,
     rate_hz: f64,
     hand: impl Into<DeviceHand>,
-    mut progress: impl FnMut(usize, usize),
+    progress: impl FnMut(usize, usize),
 ) -> Result<DeviceRun, DeformError> {
     let hand: DeviceHand = hand.into();
     let n = validate_device(scene, index, trajectory, rate_hz)?;
     let mut deformer = Deformer::new(scene, index)?;
     let material = deformer.rest().material().friction_material();
-    let spec = DeviceSpec::default();
     let period_s = (1.0 / rate_hz) as f32;
     let per_step = ticks_per_step(rate_hz);
     let dt_s = per_step as f64 / rate_hz;
     let mut passivity_control = false;
     let mut shape = ShapeCell::try_new(deformer.rest().clone(), |o| {
-        let chain = ChainViews::view(o, index)?;
-        let (mut controller, on) = device_controller(chain, material, rate_hz)?;
+        let (controller, on) = ready_controller(ChainViews::view(o, index)?, material, rate_hz)?;
         passivity_control = on;
-        controller
-            .calibrate(end_stop_counts(&spec))
-            .map_err(SimError::Controller)?;
-        controller.set_forces_enabled(true);
         Ok::<_, SimError>(ShapeRendering {
             controller: Some(controller),
         })
     })?;
-    let start = trajectory.at(trajectory.start_s());
-    let mut arm =
-        SimulatedPantograph::new(spec, hand.params, vec2(start)).map_err(SimError::Simulator)?;
-    let mut ticks = Vec::with_capacity(n);
-    let mut decimator = TelemetryDecimator::for_period_s(period_s);
-    let mut telemetry = Vec::with_capacity(n / decimator.ticks_per_frame() as usize + 1);
-    for i in 0..n {
-        let t_s = trajectory.tick_time_s(i, rate_hz);
-        let now_us = (i as f64 * 1e6 / rate_hz).round() as u64;
-        let target = vec2(trajectory.at(t_s));
-        if hand.release_at_s.is_some_and(|at| t_s >= at) && arm.is_held() {
-            arm.release();
-        }
-        let (mut tick, frame) = shape.with_dependent_mut(|_, held| match &mut held.controller {
-            Some(c) => device_tick(c, &mut arm, t_s, now_us, target, period_s),
-            None => Err(SimError::Controller(ControllerError::NoScene)),
-        })?;
-        tick.deform = Some(deformer.feed(&tick));
-        ticks.push(tick);
-        telemetry.extend(decimator.push(&frame).copied());
-        if (i + 1) % per_step == 0 {
-            deformer.step(dt_s)?;
-            let next = deformer.shape()?;
-            let moved = shape.with_dependent_mut(|_, r| {
-                let controller = r.controller.take()?;
-                Some(carry(controller, next, index).map_err(|(c, e)| {
-                    r.controller = Some(c);
-                    e
-                }))
-            });
-            shape = match moved {
-                Some(Ok(cell)) => cell,
-                Some(Err(DeformChangeError::Object(e))) => return Err(e),
-                Some(Err(DeformChangeError::Controller(e))) => {
-                    return Err(SimError::Controller(e).into());
-                }
-                Some(Err(DeformChangeError::NoObject | DeformChangeError::Mesh)) | None => {
-                    return Err(SimError::Controller(ControllerError::NoScene).into());
-                }
-            };
-        }
-        progress(i + 1, n);
-    }
+    let mut i = 0;
+    let (ticks, telemetry) = drive_device(
+        trajectory,
+        rate_hz,
+        hand,
+        n,
+        progress,
+        |arm, t_s, now_us, target| {
+            let (mut tick, frame) = shape.with_dependent_mut(|_, r| match &mut r.controller {
+                Some(c) => device_tick(c, arm, t_s, now_us, target, period_s),
+                None => Err(SimError::Controller(ControllerError::NoScene)),
+            })?;
+            tick.deform = Some(deformer.feed(&tick));
+            i += 1;
+            if i % per_step == 0 {
+                deformer.step(dt_s)?;
+                let next = deformer.shape()?;
+                let moved = shape.with_dependent_mut(|_, r| {
+                    let controller = r.controller.take()?;
+                    Some(carry(controller, next, index).map_err(|(c, e)| {
+                        r.controller = Some(c);
+                        e
+                    }))
+                });
+                shape = match moved {
+                    Some(Ok(cell)) => cell,
+                    Some(Err(DeformChangeError::Object(e))) => return Err(e),
+                    Some(Err(DeformChangeError::Controller(e))) => {
+                        return Err(SimError::Controller(e).into());
+                    }
+                    Some(Err(DeformChangeError::NoObject | DeformChangeError::Mesh)) | None => {
+                        return Err(SimError::Controller(ControllerError::NoScene).into());
+                    }
+                };
+            }
+            Ok((tick, frame))
+        },
+    )?;
     Ok(DeviceRun {
         run: Run {
             space: Space::Planar,

@@ -17,7 +17,7 @@
 //! [`Run::write_csv`] writes the run log: one row per tick, columns [`csv_header`](crate::runlog::csv_header), followed
 //! by [`DEVICE_COLUMNS`](crate::runlog::DEVICE_COLUMNS) for device runs.
 
-use device::controller::ControllerError;
+use device::controller::{Controller, ControllerError};
 use device::kinematics::KinematicsError;
 use device::protocol::Telemetry;
 pub use device::simulator::SimParams;
@@ -25,6 +25,7 @@ use device::simulator::{SimulatedPantograph, SimulatorError};
 use device::spec::DeviceSpec;
 use device::telemetry::TelemetryDecimator;
 use friction::{FrictionMaterial, FrictionRenderer};
+use nurbs::Vec2;
 use tracker::{Chain, ChainError, Object as TrackedObject, Shell, ShellError};
 
 use crate::tick::{
@@ -391,6 +392,56 @@ fn simulate<O: TrackedObject>(
     ticks
 }
 
+/// The default device's controller at `rate_hz` with `chain` and `material` loaded
+/// ([`device_controller`]), calibrated on the end stops and with forces on, as a closed-loop
+/// run starts it; and whether the passivity controller is on.
+pub(crate) fn ready_controller<'a>(
+    chain: Chain<'a>,
+    material: FrictionMaterial,
+    rate_hz: f64,
+) -> Result<(Controller<Chain<'a>>, bool), SimError> {
+    let (mut controller, passivity_control) = device_controller(chain, material, rate_hz)?;
+    controller
+        .calibrate(end_stop_counts(&DeviceSpec::default()))
+        .map_err(SimError::Controller)?;
+    controller.set_forces_enabled(true);
+    Ok((controller, passivity_control))
+}
+
+/// The closed loop's ticks: `n` ticks at `rate_hz` of the default simulated pantograph,
+/// started where the trajectory starts and held by `hand`, whose target follows the
+/// trajectory; each tick is `tick(arm, t_s, now_us, target)` (the device clock in whole
+/// microseconds, as a board's timer), its frames folded by the board's decimator.
+pub(crate) fn drive_device<E: From<SimError>>(
+    trajectory: &Trajectory,
+    rate_hz: f64,
+    hand: DeviceHand,
+    n: usize,
+    mut progress: impl FnMut(usize, usize),
+    mut tick: impl FnMut(&mut SimulatedPantograph, f64, u64, Vec2) -> Result<(Tick, Telemetry), E>,
+) -> Result<(Vec<Tick>, Vec<Telemetry>), E> {
+    let start = trajectory.at(trajectory.start_s());
+    let mut arm = SimulatedPantograph::new(DeviceSpec::default(), hand.params, vec2(start))
+        .map_err(SimError::Simulator)?;
+    let mut ticks = Vec::with_capacity(n);
+    // The board's decimator, on the same period (firmware::app).
+    let mut decimator = TelemetryDecimator::for_period_s((1.0 / rate_hz) as f32);
+    let mut telemetry = Vec::with_capacity(n / decimator.ticks_per_frame() as usize + 1);
+    for i in 0..n {
+        let t_s = trajectory.tick_time_s(i, rate_hz);
+        let now_us = (i as f64 * 1e6 / rate_hz).round() as u64;
+        let target = vec2(trajectory.at(t_s));
+        if hand.release_at_s.is_some_and(|at| t_s >= at) && arm.is_held() {
+            arm.release();
+        }
+        let (record, frame) = tick(&mut arm, t_s, now_us, target)?;
+        ticks.push(record);
+        telemetry.extend(decimator.push(&frame).copied());
+        progress(i + 1, n);
+    }
+    Ok((ticks, telemetry))
+}
+
 /// The prescribed HIP of each tick: the trajectory at the tick's time, its velocity the
 /// backward difference of the sampled HIP (zero at the first tick).
 pub(crate) struct HipSamples<'a> {
@@ -501,42 +552,25 @@ pub fn run_device(
     trajectory: &Trajectory,
     rate_hz: f64,
     hand: impl Into<DeviceHand>,
-    mut progress: impl FnMut(usize, usize),
+    progress: impl FnMut(usize, usize),
 ) -> Result<DeviceRun, SimError> {
     let hand: DeviceHand = hand.into();
     let n = validate_device(scene, object, trajectory, rate_hz)?;
     let o = &scene.objects()[object];
     let material = o.material().friction_material();
     with_chain(scene, object, |chain| {
-        let spec = DeviceSpec::default();
+        let (mut controller, passivity_control) = ready_controller(chain, material, rate_hz)?;
         let period_s = (1.0 / rate_hz) as f32;
-        let (mut controller, passivity_control) = device_controller(chain, material, rate_hz)?;
-        controller
-            .calibrate(end_stop_counts(&spec))
-            .map_err(SimError::Controller)?;
-        controller.set_forces_enabled(true);
-
-        let start = trajectory.at(trajectory.start_s());
-        let mut arm = SimulatedPantograph::new(spec, hand.params, vec2(start))
-            .map_err(SimError::Simulator)?;
-        let mut ticks = Vec::with_capacity(n);
-        // The board's decimator, on the same period (firmware::app).
-        let mut decimator = TelemetryDecimator::for_period_s(period_s);
-        let mut telemetry = Vec::with_capacity(n / decimator.ticks_per_frame() as usize + 1);
-        for i in 0..n {
-            let t_s = trajectory.tick_time_s(i, rate_hz);
-            // The device clock: integer microseconds since the start, as a board's timer.
-            let now_us = (i as f64 * 1e6 / rate_hz).round() as u64;
-            let target = vec2(trajectory.at(t_s));
-            if hand.release_at_s.is_some_and(|at| t_s >= at) && arm.is_held() {
-                arm.release();
-            }
-            let (tick, frame) =
-                device_tick(&mut controller, &mut arm, t_s, now_us, target, period_s)?;
-            ticks.push(tick);
-            telemetry.extend(decimator.push(&frame).copied());
-            progress(i + 1, n);
-        }
+        let (ticks, telemetry) = drive_device(
+            trajectory,
+            rate_hz,
+            hand,
+            n,
+            progress,
+            |arm, t_s, now_us, target| {
+                device_tick(&mut controller, arm, t_s, now_us, target, period_s)
+            },
+        )?;
         Ok(DeviceRun {
             run: Run {
                 space: Space::Planar,
