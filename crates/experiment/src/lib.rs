@@ -2,5 +2,6 @@
 #![warn(missing_docs)]
 
 pub mod fit;
+pub mod participant;
 pub mod plan;
 pub mod staircase;

@@ -1,0 +1,260 @@
+//! The simulated participant of `viewer experiment run --participant sim:SEED[:weber=W][:lapse=L]`:
+//! what it perceives of a stimulus it felt, from the forces and positions the loop rendered
+//! (never from the stimulus's label), and how it decides.
+//!
+//! Stiffness: pressing an object, the participant feels the force grow with how far the hand
+//! went past where the force began: its estimate is the least-squares slope of the force's
+//! magnitude against that penetration along the force's direction (through the origin).
+//! Judging two intervals (2AFC), it compares the logarithms of the two estimates, each with
+//! Gaussian noise of standard deviation σ; two independent noises make the comparison's noise
+//! σ√2, so the comparison at `k = r (1 + W)` is answered right with probability
+//! `Φ(ln(1 + W) / (σ√2))`, which is 0.75 at `σ = ln(1 + W) / (√2 Φ⁻¹(0.75))`: the
+//! participant's 75 %-correct point on the Weber scale is W. A lapse answers at random.
+
+/// The simulated participant's parameters.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SimParticipant {
+    /// Seed of its decision noise.
+    pub seed: u64,
+    /// Its Weber fraction at 75 % correct in 2AFC (stiffness).
+    pub weber: f64,
+    /// The probability of a lapse (an answer at random).
+    pub lapse: f64,
+}
+
+/// The 75th percentile of the standard normal distribution, Φ⁻¹(0.75).
+pub const PROBIT_75: f64 = 0.674_489_750_196_081_7;
+
+/// Default Weber fraction of a simulated participant: about what people show for stiffness
+/// (Jones & Tan 2013 report 8–22 %).
+pub const DEFAULT_WEBER: f64 = 0.15;
+
+/// Why a `--participant` was refused.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum ParticipantError {
+    /// Not `sim:SEED[:weber=W][:lapse=L]`.
+    #[error("--participant {0:?}: expected sim:SEED[:weber=W][:lapse=L] (or a participant ID)")]
+    Form(String),
+    /// A field out of its range.
+    #[error("--participant {text:?}: {field} = {value} is not {rule}")]
+    Field {
+        /// The text given.
+        text: String,
+        /// `seed`, `weber` or `lapse`.
+        field: &'static str,
+        /// The value given.
+        value: String,
+        /// What it must be.
+        rule: &'static str,
+    },
+}
+
+impl SimParticipant {
+    /// Parses `sim:SEED[:weber=W][:lapse=L]`: a seed (u64), a Weber fraction in (0, 10]
+    /// (default [`DEFAULT_WEBER`]) and a lapse rate in [0, 0.5] (default 0). `None` for text
+    /// that is not a simulated participant (a real participant's ID).
+    pub fn parse(text: &str) -> Option<Result<Self, ParticipantError>> {
+        let rest = text.strip_prefix("sim:")?;
+        Some(Self::parse_fields(text, rest))
+    }
+
+    fn parse_fields(text: &str, rest: &str) -> Result<Self, ParticipantError> {
+        let field = |field, value: &str, rule| ParticipantError::Field {
+            text: text.to_owned(),
+            field,
+            value: value.to_owned(),
+            rule,
+        };
+        let mut parts = rest.split(':');
+        let seed_text = parts.next().unwrap_or_default();
+        let seed = seed_text
+            .parse::<u64>()
+            .map_err(|_| field("seed", seed_text, "a whole number from 0 to 2^64 - 1"))?;
+        let mut p = SimParticipant {
+            seed,
+            weber: DEFAULT_WEBER,
+            lapse: 0.0,
+        };
+        for part in parts {
+            let (key, value) = part
+                .split_once('=')
+                .ok_or_else(|| ParticipantError::Form(text.to_owned()))?;
+            let number = value.parse::<f64>().ok().filter(|v| v.is_finite());
+            match key {
+                "weber" => {
+                    p.weber = number
+                        .filter(|&w| w > 0.0 && w <= 10.0)
+                        .ok_or_else(|| field("weber", value, "a Weber fraction in (0, 10]"))?;
+                }
+                "lapse" => {
+                    p.lapse = number
+                        .filter(|&l| (0.0..=0.5).contains(&l))
+                        .ok_or_else(|| field("lapse", value, "a lapse rate in [0, 0.5]"))?;
+                }
+                _ => return Err(ParticipantError::Form(text.to_owned())),
+            }
+        }
+        Ok(p)
+    }
+
+    /// The standard deviation of the noise on one log-stiffness estimate that puts the 2AFC
+    /// 75 % point at the Weber fraction (module docs).
+    pub fn sigma(&self) -> f64 {
+        (1.0 + self.weber).ln() / (std::f64::consts::SQRT_2 * PROBIT_75)
+    }
+
+    /// Which of two felt stiffnesses (estimates, N/m) the participant calls stiffer: `false`
+    /// for the first, `true` for the second; `rng` draws its noise and lapses.
+    pub fn stiffer(&self, first: f64, second: f64, rng: &mut SplitMix64) -> bool {
+        if rng.uniform() < self.lapse {
+            return rng.uniform() < 0.5;
+        }
+        let sigma = self.sigma();
+        let a = first.max(f64::MIN_POSITIVE).ln() + sigma * rng.normal();
+        let b = second.max(f64::MIN_POSITIVE).ln() + sigma * rng.normal();
+        b > a
+    }
+}
+
+/// The stiffness (N/m) a press conveys: the least-squares slope, through the origin, of the
+/// force's magnitude against the hand's travel past the point where the force began, measured
+/// along the force's direction. `samples` are the hand's positions (m) and the forces on it
+/// (N), in time order. `None` when the force never rose or the hand never went in.
+pub fn felt_stiffness(samples: &[([f32; 3], [f32; 3])]) -> Option<f64> {
+    let first = samples.iter().position(|(_, f)| norm(f) > 0.0)?;
+    let contact = samples[first.saturating_sub(1)].0;
+    let (mut fd, mut dd) = (0.0, 0.0);
+    for (hip, force) in &samples[first..] {
+        let f = norm(force);
+        if f <= 0.0 {
+            continue;
+        }
+        // The force pushes the hand out: the hand went in along −F.
+        let d = -(0..3)
+            .map(|k| f64::from(hip[k] - contact[k]) * f64::from(force[k]))
+            .sum::<f64>()
+            / f;
+        if d > 0.0 {
+            fd += f * d;
+            dd += d * d;
+        }
+    }
+    (dd > 0.0).then(|| fd / dd)
+}
+
+fn norm(v: &[f32; 3]) -> f64 {
+    v.iter().map(|x| f64::from(*x).powi(2)).sum::<f64>().sqrt()
+}
+
+/// SplitMix64 (Steele, Lea & Flood 2014): a small seeded generator, enough for decision noise
+/// and shuffles, the same sequence on every machine.
+#[derive(Clone, Debug)]
+pub struct SplitMix64(u64);
+
+impl SplitMix64 {
+    /// The generator seeded with `seed`.
+    pub fn new(seed: u64) -> Self {
+        SplitMix64(seed)
+    }
+
+    /// The next 64 random bits.
+    pub fn next_u64(&mut self) -> u64 {
+        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        let mut z = self.0;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        z ^ (z >> 31)
+    }
+
+    /// Uniform in [0, 1) (53 bits).
+    pub fn uniform(&mut self) -> f64 {
+        (self.next_u64() >> 11) as f64 / (1u64 << 53) as f64
+    }
+
+    /// Standard normal (Box–Muller).
+    pub fn normal(&mut self) -> f64 {
+        let u1 = 1.0 - self.uniform();
+        let u2 = self.uniform();
+        (-2.0 * u1.ln()).sqrt() * (2.0 * std::f64::consts::PI * u2).cos()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// SplitMix64's reference outputs for seed 1234567 (the algorithm's published test
+    /// vector, as in Vigna's `splitmix64.c` and Java's `SplittableRandom`).
+    #[test]
+    fn splitmix_matches_its_reference_sequence() {
+        let mut r = SplitMix64::new(1_234_567);
+        let expected = [
+            6_457_827_717_110_365_317,
+            3_203_168_211_198_807_973,
+            9_817_491_932_198_370_423,
+            4_593_380_528_125_082_431,
+            16_408_922_859_458_223_821,
+        ];
+        for e in expected {
+            assert_eq!(r.next_u64(), e);
+        }
+    }
+
+    #[test]
+    fn parses_and_refuses_naming_the_field() {
+        assert_eq!(
+            SimParticipant::parse("sim:7:weber=0.2:lapse=0.02"),
+            Some(Ok(SimParticipant {
+                seed: 7,
+                weber: 0.2,
+                lapse: 0.02
+            }))
+        );
+        assert_eq!(SimParticipant::parse("P01"), None);
+        let err = |t: &str| match SimParticipant::parse(t) {
+            Some(Err(e)) => e.to_string(),
+            other => panic!("{t}: {other:?}"),
+        };
+        assert!(err("sim:x").contains("seed = x"));
+        assert!(err("sim:1:weber=0").contains("weber = 0"));
+        assert!(err("sim:1:lapse=0.9").contains("lapse = 0.9"));
+        assert!(err("sim:1:speed=2").contains("expected sim:SEED"));
+    }
+
+    /// A linear spring of k pressed along −y: the felt stiffness is k, whatever the approach
+    /// before contact. The contact point is the last sample without force, on the samples'
+    /// grid here; the f32 positions (ulp 7e-9 m at 0.1 m) against depths of 0.02–2 mm leave
+    /// at most ~4e-4 of the slope: 1e-3.
+    #[test]
+    fn felt_stiffness_of_a_linear_press_is_its_stiffness() {
+        let k = 750.0f32;
+        let samples: Vec<_> = (0..200)
+            .map(|i| {
+                let y = 0.1 - i as f32 * 2e-5;
+                let depth = (0.098 - y).max(0.0);
+                ([0.01, y, 0.0], [0.0, k * depth, 0.0])
+            })
+            .collect();
+        let felt = felt_stiffness(&samples).expect("pressed");
+        assert!((felt / f64::from(k) - 1.0).abs() < 1e-3, "{felt}");
+    }
+
+    /// The decision rule's 75 % point is the Weber fraction: over 40,000 noiseless-stimulus
+    /// trials at k₂ = k₁ (1 + W) the participant says "second" 75 % of the time, within the
+    /// binomial 4-sigma band √(0.75·0.25/40000)·4 = 0.0087; at k₂ = k₁, 50 %.
+    #[test]
+    fn the_75_percent_point_is_the_weber_fraction() {
+        let p = SimParticipant {
+            seed: 3,
+            weber: 0.2,
+            lapse: 0.0,
+        };
+        let mut rng = SplitMix64::new(p.seed);
+        let n = 40_000;
+        let right = (0..n).filter(|_| p.stiffer(500.0, 600.0, &mut rng)).count();
+        let rate = right as f64 / n as f64;
+        assert!((rate - 0.75).abs() < 0.0087, "{rate}");
+        let same = (0..n).filter(|_| p.stiffer(500.0, 500.0, &mut rng)).count();
+        assert!((same as f64 / n as f64 - 0.5).abs() < 0.01);
+    }
+}
