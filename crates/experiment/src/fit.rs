@@ -55,11 +55,11 @@ impl Model {
         !matches!(self, Model::Gaussian)
     }
 
-    fn to_u(self, x: f64) -> f64 {
+    fn u_of_level(self, x: f64) -> f64 {
         if self.uses_log() { x.ln() } else { x }
     }
 
-    fn from_u(self, u: f64) -> f64 {
+    fn level_of_u(self, u: f64) -> f64 {
         if self.uses_log() { u.exp() } else { u }
     }
 
@@ -201,7 +201,7 @@ impl Fit {
     /// `ψ(x)`, the probability of a correct answer at level `x`.
     pub fn psi(&self, x: f64) -> f64 {
         let (m, s) = self.location_scale();
-        psi_u(self.model, self.model.to_u(x), m, s, self.lapse)
+        psi_u(self.model, self.model.u_of_level(x), m, s, self.lapse)
     }
 
     /// The level where `ψ = p`, for `p` strictly between the guess rate and `1 − λ`.
@@ -429,7 +429,7 @@ fn psi_u(model: Model, u: f64, m: f64, s: f64, lapse: f64) -> f64 {
 
 fn level_at(model: Model, m: f64, s: f64, lapse: f64, p: f64) -> Option<f64> {
     let f = (p - GUESS_2AFC) / (1.0 - GUESS_2AFC - lapse);
-    (f > 0.0 && f < 1.0).then(|| model.from_u(m + s * model.quantile(f)))
+    (f > 0.0 && f < 1.0).then(|| model.level_of_u(m + s * model.quantile(f)))
 }
 
 /// Validated data in the fit's coordinate `u`, with the binomial constants.
@@ -499,7 +499,7 @@ fn prepare(data: &[Point], model: Model) -> Result<Prepared, FitError> {
     if used.iter().all(|p| 2 * p.n_correct <= p.n_trials) {
         return Err(FitError::AtChance);
     }
-    let u: Vec<f64> = used.iter().map(|p| model.to_u(p.level)).collect();
+    let u: Vec<f64> = used.iter().map(|p| model.u_of_level(p.level)).collect();
     let n: Vec<f64> = used.iter().map(|p| f64::from(p.n_trials)).collect();
     let k: Vec<f64> = used.iter().map(|p| f64::from(p.n_correct)).collect();
     let mut log_binom = 0.0;
@@ -627,7 +627,7 @@ fn fit_prepared(prep: &Prepared, model: Model, options: FitOptions) -> Result<Fi
     }
     let kernel = prep.kernel(model, m, s, lapse);
     let threshold_75 = level_at(model, m, s, lapse, TARGET_75).ok_or(FitError::NotConverged)?;
-    let u_t = model.to_u(threshold_75);
+    let u_t = model.u_of_level(threshold_75);
     let du_dx = if model.uses_log() {
         1.0 / threshold_75
     } else {

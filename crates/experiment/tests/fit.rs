@@ -45,7 +45,11 @@ fn inverse3(a: [[f64; 3]; 3]) -> [[f64; 3]; 3] {
         let r: Vec<usize> = (0..3).filter(|&x| x != i).collect();
         let s: Vec<usize> = (0..3).filter(|&x| x != j).collect();
         let minor = a[r[0]][s[0]] * a[r[1]][s[1]] - a[r[0]][s[1]] * a[r[1]][s[0]];
-        if (i + j) % 2 == 0 { minor } else { -minor }
+        if (i + j).is_multiple_of(2) {
+            minor
+        } else {
+            -minor
+        }
     };
     let det = a[0][0] * c(0, 0) + a[0][1] * c(0, 1) + a[0][2] * c(0, 2);
     let mut inv = [[0.0; 3]; 3];
