@@ -15,8 +15,11 @@
 //!
 //! The fit maximises the binomial log-likelihood with Nelder–Mead on unconstrained
 //! parameters `(m, ln s, t)` with `λ = λ_max sin² t`, restarted from its own optimum until it
-//! stops improving; it is deterministic. [`bootstrap`] gives parametric-bootstrap percentile
-//! intervals of the 75 % threshold and the Weber fraction.
+//! stops improving; it is deterministic. The scale `s` is kept within `[10⁻⁶, 10³]` times the
+//! range of `u` over the data: a data set whose likelihood keeps rising towards a step
+//! function or a flat line (perfectly separated, or falling with the level) ends on that
+//! bound. [`bootstrap`] gives parametric-bootstrap percentile intervals of the 75 % threshold
+//! and the Weber fraction.
 
 use rand_chacha::ChaCha8Rng;
 use rand_chacha::rand_core::{RngCore, SeedableRng};
@@ -159,6 +162,11 @@ pub enum FitError {
     /// The optimum is not a finite set of parameters.
     #[error("the likelihood maximisation did not reach finite parameters")]
     NotConverged,
+    /// The likelihood is maximised by a degenerate function whose 75 % point or parameters lie
+    /// beyond the floating-point range (typically data that fall with the level, fitted on a
+    /// log scale).
+    #[error("the fitted function is degenerate: its 75 % point or parameters are not finite")]
+    NoThreshold,
     /// The bootstrap was asked for too few resamples.
     #[error("bootstrap needs at least 2 resamples, got {0}")]
     TooFewResamples(usize),
@@ -638,6 +646,13 @@ fn fit_prepared(prep: &Prepared, model: Model, options: FitOptions) -> Result<Fi
         Model::Gaussian | Model::LogGaussian => (m, s),
         Model::Weibull => (m.exp(), 1.0 / s),
     };
+    let representable = alpha.is_finite()
+        && beta.is_finite()
+        && beta > 0.0
+        && (model != Model::Weibull || alpha > 0.0);
+    if !(threshold_75.is_finite() && slope.is_finite() && representable) {
+        return Err(FitError::NoThreshold);
+    }
     Ok(Fit {
         model,
         options,

@@ -527,3 +527,179 @@ fn bootstrap_interval_covers_the_true_weber_fraction() {
     assert!((0.88..=0.99).contains(&coverage), "coverage {coverage}");
     assert!((median - w).abs() < 0.4 * sd);
 }
+
+/// Asymptotic covariance of the ML estimate of `θ` for a binomial model `ψ(x; θ)`: the
+/// inverse of `Σ nᵢ ∇ψᵢ ∇ψᵢᵀ / (ψᵢ (1 − ψᵢ))`, gradients by central differences (relative
+/// step 1e-6: truncation ~1e-12, round-off ~1e-10, negligible against the 4-SE margin).
+fn fisher_covariance(
+    psi: &dyn Fn(f64, [f64; 3]) -> f64,
+    theta: [f64; 3],
+    levels: &[f64],
+    n: u32,
+) -> [[f64; 3]; 3] {
+    let grad = |g: &dyn Fn([f64; 3]) -> f64| -> [f64; 3] {
+        let mut out = [0.0; 3];
+        for i in 0..3 {
+            let h = 1e-6 * theta[i].abs().max(1e-2);
+            let (mut up, mut down) = (theta, theta);
+            up[i] += h;
+            down[i] -= h;
+            out[i] = (g(up) - g(down)) / (2.0 * h);
+        }
+        out
+    };
+    let mut info = [[0.0; 3]; 3];
+    for &x in levels {
+        let p = psi(x, theta);
+        let g = grad(&|t| psi(x, t));
+        for i in 0..3 {
+            for j in 0..3 {
+                info[i][j] += f64::from(n) * g[i] * g[j] / (p * (1.0 - p));
+            }
+        }
+    }
+    inverse3(info)
+}
+
+/// (a) for the log-scale models: 10 levels × 10 000 trials from a known Weibull and a known
+/// log-Gaussian; every parameter and the threshold within 4 asymptotic standard errors (see
+/// `recovers_generating_gaussian`), the threshold's by the delta method on its closed form.
+#[test]
+fn recovers_generating_weibull_and_log_gaussian() {
+    let n = 10_000;
+    let weibull = |x: f64, t: [f64; 3]| 0.5 + (0.5 - t[2]) * (1.0 - (-(x / t[0]).powf(t[1])).exp());
+    let weibull_t = |t: [f64; 3]| t[0] * (-(1.0 - 0.25 / (0.5 - t[2])).ln()).powf(1.0 / t[1]);
+    let log_gauss = |x: f64, t: [f64; 3]| 0.5 + (0.5 - t[2]) * phi((x.ln() - t[0]) / t[1]);
+    let log_gauss_t = |t: [f64; 3]| (t[0] + t[1] * phi_inv(0.25 / (0.5 - t[2]))).exp();
+    type Psi = dyn Fn(f64, [f64; 3]) -> f64;
+    type Thr = dyn Fn([f64; 3]) -> f64;
+    type Case<'a> = (Model, &'a Psi, &'a Thr, [f64; 3], Vec<f64>);
+    let cases: [Case; 2] = [
+        (
+            Model::Weibull,
+            &weibull,
+            &weibull_t,
+            [2.0, 3.0, 0.01],
+            (0..10).map(|i| 1.0 + 0.3 * f64::from(i)).collect(),
+        ),
+        (
+            Model::LogGaussian,
+            &log_gauss,
+            &log_gauss_t,
+            [2f64.ln(), 0.3, 0.03],
+            (0..10)
+                .map(|i| (2f64.ln() + 0.3 * (-2.0 + 0.5 * f64::from(i))).exp())
+                .collect(),
+        ),
+    ];
+    for (seed, (model, psi, thr, truth, levels)) in cases.iter().enumerate() {
+        let mut rng = Prng::new(40 + seed as u64);
+        let data: Vec<Point> = levels
+            .iter()
+            .map(|&x| Point {
+                level: x,
+                n_trials: n,
+                n_correct: rng.binomial(n, psi(x, *truth)),
+            })
+            .collect();
+        let f = fit(&data, *model, FitOptions::default()).expect("valid data");
+        let cov = fisher_covariance(*psi, *truth, levels, n);
+        let mut dt = [0.0; 3];
+        for i in 0..3 {
+            let h = 1e-6 * truth[i].abs().max(1e-2);
+            let (mut up, mut down) = (*truth, *truth);
+            up[i] += h;
+            down[i] -= h;
+            dt[i] = (thr(up) - thr(down)) / (2.0 * h);
+        }
+        let var_t: f64 = (0..3)
+            .flat_map(|i| (0..3).map(move |j| (i, j)))
+            .map(|(i, j)| dt[i] * cov[i][j] * dt[j])
+            .sum();
+        let est = [f.alpha, f.beta, f.lapse];
+        println!(
+            "{model:?}: estimates {est:.5?} (true {truth:?}); threshold {:.5} (true {:.5}, se {:.5})",
+            f.threshold_75,
+            thr(*truth),
+            var_t.sqrt()
+        );
+        for i in 0..3 {
+            assert!(
+                (est[i] - truth[i]).abs() < 4.0 * cov[i][i].sqrt(),
+                "{model:?} parameter {i}"
+            );
+        }
+        assert!(
+            (f.threshold_75 - thr(*truth)).abs() < 4.0 * var_t.sqrt(),
+            "{model:?} threshold"
+        );
+    }
+}
+
+mod properties {
+    use super::*;
+    use proptest::prelude::*;
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(256))]
+
+        /// On any data set the fit either refuses with a named error or returns a local
+        /// maximum of the likelihood within the bounds: no step of 1e-3 (relative) along any
+        /// parameter, kept inside `λ ∈ [0, 0.1]`, raises the log-likelihood by more than the
+        /// optimiser's tolerance (1e-12 relative on the value, 1e-9 in the parameters; the
+        /// likelihood changes by far less than 1e-6 over such a distance).
+        #[test]
+        fn fit_is_a_local_maximum(
+            rows in prop::collection::vec((0.1f64..5.0, 1u32..60, 0.0f64..=1.0), 2..8),
+            model in prop::sample::select(vec![Model::Gaussian, Model::LogGaussian, Model::Weibull]),
+        ) {
+            let data: Vec<Point> = rows
+                .iter()
+                .map(|&(level, n, q)| Point { level, n_trials: n, n_correct: (q * f64::from(n)).round() as u32 })
+                .collect();
+            match fit(&data, model, FitOptions::default()) {
+                Err(FitError::AtChance | FitError::TooFewLevels { .. } | FitError::NoThreshold) => {}
+                Err(e) => prop_assert!(false, "unexpected error {e}"),
+                Ok(f) => {
+                    prop_assert!(f.threshold_75.is_finite() && f.slope.is_finite() && f.log_likelihood.is_finite());
+                    prop_assert!((0.0..=0.1).contains(&f.lapse) && f.deviance >= 0.0);
+                    let ll = |f: &Fit| -> f64 {
+                        data.iter()
+                            .map(|p| {
+                                let q = f.psi(p.level).clamp(1e-300, 1.0 - 1e-16);
+                                f64::from(p.n_correct) * q.ln() + f64::from(p.n_trials - p.n_correct) * (1.0 - q).ln()
+                            })
+                            .sum()
+                    };
+                    let base = ll(&f);
+                    // The scale `s` of the location–scale form is bounded to [1e-6, 1e3] times
+                    // the range of u (module docs). A fit on a bound is degenerate (a step or a
+                    // flat line: the likelihood's supremum is not attained, and location and
+                    // lapse trade off along a ridge), so only fits inside are checked.
+                    let u = |x: f64| if model == Model::Gaussian { x } else { x.ln() };
+                    let us: Vec<f64> = data.iter().map(|p| u(p.level)).collect();
+                    let range = us.iter().copied().fold(f64::NEG_INFINITY, f64::max)
+                        - us.iter().copied().fold(f64::INFINITY, f64::min);
+                    let s = if model == Model::Weibull { 1.0 / f.beta } else { f.beta };
+                    let at_upper = s > 0.99e3 * range;
+                    let at_lower = s < 1.01e-6 * range;
+                    prop_assume!(!at_upper && !at_lower);
+                    for i in 0..3 {
+                        for sign in [-1.0, 1.0] {
+                            let mut g = f.clone();
+                            match i {
+                                // The Weibull's α is a scale (positive): step it relatively.
+                                0 if model == Model::Weibull => g.alpha *= 1.0 + sign * 1e-3,
+                                0 => g.alpha += sign * 1e-3 * f.alpha.abs().max(1e-3),
+                                1 => g.beta *= 1.0 + sign * 1e-3,
+                                _ => g.lapse = (f.lapse + sign * 1e-4).clamp(0.0, 0.1),
+                            }
+                            let other = ll(&g);
+                            prop_assert!(other <= base + 1e-9 * (1.0 + base.abs()), "{model:?}: {other} > {base} moving {i}");
+                        }
+                    }
+                }
+            }
+        }
+    }
+}
