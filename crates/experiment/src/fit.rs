@@ -302,6 +302,13 @@ impl Prng {
         (0..n).filter(|_| self.bernoulli(p)).count() as u32
     }
 
+    /// A standard normal draw (Box–Muller).
+    pub fn normal(&mut self) -> f64 {
+        let u1 = 1.0 - self.uniform();
+        let u2 = self.uniform();
+        (-2.0 * u1.ln()).sqrt() * (2.0 * std::f64::consts::PI * u2).cos()
+    }
+
     /// A uniform index in `0..n` (`n > 0`).
     pub fn index(&mut self, n: usize) -> usize {
         // Lemire's multiply-shift: bias below 2⁻³² for any n that fits a u32.

@@ -11,6 +11,8 @@
 //! `Φ(ln(1 + W) / (σ√2))`, which is 0.75 at `σ = ln(1 + W) / (√2 Φ⁻¹(0.75))`: the
 //! participant's 75 %-correct point on the Weber scale is W. A lapse answers at random.
 
+use crate::fit::{Prng, normal_quantile};
+
 /// The simulated participant's parameters.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct SimParticipant {
@@ -21,9 +23,6 @@ pub struct SimParticipant {
     /// The probability of a lapse (an answer at random).
     pub lapse: f64,
 }
-
-/// The 75th percentile of the standard normal distribution, Φ⁻¹(0.75).
-pub const PROBIT_75: f64 = 0.674_489_750_196_081_7;
 
 /// Default Weber fraction of a simulated participant: about what people show for stiffness
 /// (Jones & Tan 2013 report 8–22 %).
@@ -100,14 +99,14 @@ impl SimParticipant {
     /// The standard deviation of the noise on one log-stiffness estimate that puts the 2AFC
     /// 75 % point at the Weber fraction (module docs).
     pub fn sigma(&self) -> f64 {
-        (1.0 + self.weber).ln() / (std::f64::consts::SQRT_2 * PROBIT_75)
+        (1.0 + self.weber).ln() / (std::f64::consts::SQRT_2 * normal_quantile(0.75))
     }
 
     /// Which of two felt stiffnesses (estimates, N/m) the participant calls stiffer: `false`
     /// for the first, `true` for the second; `rng` draws its noise and lapses.
-    pub fn stiffer(&self, first: f64, second: f64, rng: &mut SplitMix64) -> bool {
-        if rng.uniform() < self.lapse {
-            return rng.uniform() < 0.5;
+    pub fn stiffer(&self, first: f64, second: f64, rng: &mut Prng) -> bool {
+        if rng.bernoulli(self.lapse) {
+            return rng.bernoulli(0.5);
         }
         let sigma = self.sigma();
         let a = first.max(f64::MIN_POSITIVE).ln() + sigma * rng.normal();
@@ -146,59 +145,9 @@ fn norm(v: &[f32; 3]) -> f64 {
     v.iter().map(|x| f64::from(*x).powi(2)).sum::<f64>().sqrt()
 }
 
-/// SplitMix64 (Steele, Lea & Flood 2014): a small seeded generator, enough for decision noise
-/// and shuffles, the same sequence on every machine.
-#[derive(Clone, Debug)]
-pub struct SplitMix64(u64);
-
-impl SplitMix64 {
-    /// The generator seeded with `seed`.
-    pub fn new(seed: u64) -> Self {
-        SplitMix64(seed)
-    }
-
-    /// The next 64 random bits.
-    pub fn next_u64(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
-    }
-
-    /// Uniform in [0, 1) (53 bits).
-    pub fn uniform(&mut self) -> f64 {
-        (self.next_u64() >> 11) as f64 / (1u64 << 53) as f64
-    }
-
-    /// Standard normal (Box–Muller).
-    pub fn normal(&mut self) -> f64 {
-        let u1 = 1.0 - self.uniform();
-        let u2 = self.uniform();
-        (-2.0 * u1.ln()).sqrt() * (2.0 * std::f64::consts::PI * u2).cos()
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    /// SplitMix64's reference outputs for seed 1234567 (the algorithm's published test
-    /// vector, as in Vigna's `splitmix64.c` and Java's `SplittableRandom`).
-    #[test]
-    fn splitmix_matches_its_reference_sequence() {
-        let mut r = SplitMix64::new(1_234_567);
-        let expected = [
-            6_457_827_717_110_365_317,
-            3_203_168_211_198_807_973,
-            9_817_491_932_198_370_423,
-            4_593_380_528_125_082_431,
-            16_408_922_859_458_223_821,
-        ];
-        for e in expected {
-            assert_eq!(r.next_u64(), e);
-        }
-    }
 
     #[test]
     fn parses_and_refuses_naming_the_field() {
@@ -249,7 +198,7 @@ mod tests {
             weber: 0.2,
             lapse: 0.0,
         };
-        let mut rng = SplitMix64::new(p.seed);
+        let mut rng = Prng::new(p.seed);
         let n = 40_000;
         let right = (0..n).filter(|_| p.stiffer(500.0, 600.0, &mut rng)).count();
         let rate = right as f64 / n as f64;
