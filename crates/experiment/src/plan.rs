@@ -438,7 +438,7 @@ impl Plan {
         if spec.blocks == 0 {
             return Err(invalid("blocks", "0; at least 1 is needed"));
         }
-        if spec.repetitions % spec.blocks != 0 {
+        if !spec.repetitions.is_multiple_of(spec.blocks) {
             return Err(invalid(
                 "blocks",
                 format!(
@@ -447,13 +447,13 @@ impl Plan {
                 ),
             ));
         }
-        if let Some(t) = spec.exploration_time_s {
-            if !(t > 0.0 && t.is_finite()) {
-                return Err(invalid(
-                    "exploration_time_s",
-                    format!("{t} is not positive"),
-                ));
-            }
+        if let Some(t) = spec.exploration_time_s
+            && !(t > 0.0 && t.is_finite())
+        {
+            return Err(invalid(
+                "exploration_time_s",
+                format!("{t} is not positive"),
+            ));
         }
         check_design(&spec)?;
         let plan = Plan { spec, scenes };
