@@ -144,6 +144,33 @@ fn shapes_are_two_curves_meeting_below_the_start_point() {
                     "every point at least 1 cm below the start point"
                 );
             }
+            // Homogeneous → Cartesian control points of both curves.
+            let xy = |c: usize| -> Vec<(f32, f32)> {
+                curves[c]
+                    .points()
+                    .iter()
+                    .map(|p| (p.x / p.z, p.y / p.z))
+                    .collect()
+            };
+            let (right, left) = (xy(0), xy(1));
+            // Right end → vertex → left end: the direction over the top is −x, whose right-hand
+            // side (t × k̂ = (t_y, −t_x) = (0, 1)) is up, towards the start point.
+            assert!(right[0].0 > 0.0 && left[2].0 < 0.0);
+            assert_eq!(right[2], left[0], "the curves meet at the vertex");
+            assert_eq!(right[2].0, 0.0);
+            // The middle control point lies to the right of the chord (outside: convex), on it
+            // (straight) or to its left (inside: concave), in the order of the stimuli. The cross
+            // product's size is ~1e-4 m² for the bowed ones; 1e-9 only absorbs rounding.
+            let (a, m, b) = (right[0], right[1], right[2]);
+            let cross = (b.0 - a.0) * (m.1 - a.1) - (b.1 - a.1) * (m.0 - a.0);
+            let side = if cross.abs() < 1e-9 {
+                0
+            } else if cross < 0.0 {
+                1
+            } else {
+                -1
+            };
+            assert_eq!(side, [1, 1, 0, -1, -1][s], "shape {s}: cross {cross}");
         }
     }
 }
