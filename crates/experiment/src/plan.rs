@@ -55,7 +55,9 @@
 //! staircase starts and bounds) must give a valid material for every stimulus and condition.
 //!
 //! [`Plan::trials`] lists the trials of an `identification` or `constant-stimuli` plan;
-//! [`Plan::to_json_string`] writes the plan back (the plan as run, with its seed).
+//! [`Plan::to_json_string`] writes the plan back as read (defaults written out, with its seed);
+//! [`Plan::to_json_string_resolved`] with absolute scene paths, for the `DIR/plan.json` kept
+//! beside a run's results.
 
 use std::collections::BTreeMap;
 use std::fmt;
@@ -380,6 +382,8 @@ pub struct TrialSpec {
 pub struct Plan {
     spec: PlanSpec,
     scenes: Vec<Scene>,
+    /// The folder relative scene paths are resolved against.
+    folder: PathBuf,
 }
 
 impl Plan {
@@ -456,7 +460,11 @@ impl Plan {
             ));
         }
         check_design(&spec)?;
-        let plan = Plan { spec, scenes };
+        let plan = Plan {
+            spec,
+            scenes,
+            folder: folder.to_owned(),
+        };
         plan.check_materials()?;
         Ok(plan)
     }
@@ -618,6 +626,32 @@ impl Plan {
         trials
     }
 
+    /// The folder the stimuli's relative scene paths are resolved against.
+    pub fn folder(&self) -> &Path {
+        &self.folder
+    }
+
+    /// The plan as run, for `DIR/plan.json` beside its results: [`Plan::to_json_string`] with
+    /// every scene path made absolute (resolved against [`Plan::folder`]), so that the copy
+    /// loads from any folder; bundled scene names stay as they are.
+    pub fn to_json_string_resolved(&self) -> Result<String, PlanError> {
+        let mut spec = self.spec.clone();
+        for (i, s) in spec.stimuli.iter_mut().enumerate() {
+            if is_path(&s.scene) {
+                let path = std::path::absolute(self.folder.join(&s.scene)).map_err(|e| {
+                    invalid(
+                        format!("stimuli[{i}].scene"),
+                        format!("cannot resolve: {e}"),
+                    )
+                })?;
+                s.scene = path.to_string_lossy().into_owned();
+            }
+        }
+        let mut text = serde_json::to_string_pretty(&spec).unwrap_or_default();
+        text.push('\n');
+        Ok(text)
+    }
+
     /// The plan as a pretty-printed `experiment/1` document (defaults written out), which
     /// [`Plan::from_json_str`] reads back as the same plan.
     pub fn to_json_string(&self) -> String {
@@ -657,8 +691,7 @@ fn load_stimuli(stimuli: &[StimulusSpec], folder: &Path) -> Result<Vec<Scene>, P
             field: field.clone(),
             error: Box::new(error),
         };
-        let is_path = s.scene.contains('/') || s.scene.ends_with(".json");
-        let scene = if is_path {
+        let scene = if is_path(&s.scene) {
             Scene::load(folder.join(&s.scene)).map_err(scene_error)?
         } else {
             match Bundled::find(&s.scene) {
@@ -689,6 +722,11 @@ fn load_stimuli(stimuli: &[StimulusSpec], folder: &Path) -> Result<Vec<Scene>, P
         scenes.push(scene);
     }
     Ok(scenes)
+}
+
+/// A scene reference is a path if it contains `/` or ends in `.json`, else a bundled name.
+fn is_path(scene: &str) -> bool {
+    scene.contains('/') || scene.ends_with(".json")
 }
 
 fn check_name(field: &str, name: &str) -> Result<(), PlanError> {

@@ -687,3 +687,23 @@ fn shuffle_is_uniform_over_permutations() {
         "{seen:?}"
     );
 }
+
+/// The plan as run, written beside its results, loads from another folder with the same
+/// scenes and trials.
+#[test]
+fn resolved_copy_loads_from_anywhere() {
+    let plan = thesis_shapes();
+    let text = plan.to_json_string_resolved().expect("resolved");
+    let elsewhere = std::env::temp_dir();
+    let back = Plan::from_json_str(&text, &elsewhere).expect(&text);
+    assert_eq!(back.trials(), plan.trials());
+    for s in 0..plan.spec().stimuli.len() {
+        assert_eq!(back.scene(s), plan.scene(s));
+        assert!(Path::new(&back.spec().stimuli[s].scene).is_absolute());
+    }
+    // Bundled names are kept.
+    let with_bundled = read(&base()).expect("base");
+    let text = with_bundled.to_json_string_resolved().expect("resolved");
+    let back = Plan::from_json_str(&text, &elsewhere).expect(&text);
+    assert_eq!(back.spec().stimuli[2].scene, "thesis-2d");
+}
