@@ -707,3 +707,35 @@ fn resolved_copy_loads_from_anywhere() {
     let back = Plan::from_json_str(&text, &elsewhere).expect(&text);
     assert_eq!(back.spec().stimuli[2].scene, "thesis-2d");
 }
+
+proptest::proptest! {
+    #![proptest_config(proptest::prelude::ProptestConfig::with_cases(48))]
+
+    /// For any seed, block count and repetitions per block, every block runs every cell
+    /// equally often, and each cell's comparison interval is first and second equally often
+    /// within a block (±1 for an odd count).
+    #[test]
+    fn every_block_is_balanced(seed in proptest::prelude::any::<u64>(), blocks in 1u32..4, per_block in 1u32..4, practice in 0u32..7) {
+        let mut spec = read(&constant_base()).expect("plan").spec().clone();
+        spec.seed = seed;
+        spec.blocks = blocks;
+        spec.repetitions = blocks * per_block;
+        spec.practice_trials = practice;
+        let plan = Plan::from_spec(spec, &experiments()).expect("valid");
+        let trials = plan.trials();
+        proptest::prop_assert_eq!(trials.len(), (practice + 4 * blocks * per_block) as usize);
+        for block in 0..blocks as usize {
+            let c = counts(trials.iter().filter(|t| t.block == Some(block)));
+            proptest::prop_assert_eq!(c.len(), 4);
+            proptest::prop_assert!(c.values().all(|&n| n == per_block as usize));
+            for key in c.keys() {
+                let first = trials
+                    .iter()
+                    .filter(|t| t.block == Some(block) && cell(t) == *key)
+                    .filter(|t| t.comparison_interval == Some(Interval::First))
+                    .count() as i64;
+                proptest::prop_assert!((2 * first - i64::from(per_block)).abs() <= 1);
+            }
+        }
+    }
+}
