@@ -14,6 +14,9 @@ drum skin (a flat 10 x 10 bicubic, membrane tension 50 N/m) that the hand pushes
 string's middle 4 mm past its rest shape, strokes along it and lets go.
 torus: an exact rational biquadratic torus (one 9 x 9 patch, no trajectory), to feel a closed
 curved surface in the viewer's 3-D view.
+shapes-*: the five objects of the shape-identification experiment (thesis section 4.3, Fig.
+4.3.1: two curves meeting at a vertex, convex, straight or concave), a graded family from
+strongly convex to strongly concave, for experiments/thesis-shapes.json (no trajectory).
 """
 import json
 import math
@@ -257,6 +260,54 @@ def deformable():
     return scene, segs
 
 
+# --- shapes-* (thesis section 4.3, Fig. 4.3.1) -----------------------------------------
+# A roof: two curves from the ends (+-SHAPE_HALF_WIDTH, SHAPE_BASE_Y) to the vertex
+# (0, SHAPE_VERTEX_Y). The chain runs right to left over the top, so its outside (the right
+# of its direction, t x k) faces up and the app's start point (0, 0.11) is outside, 15 mm
+# above the vertex. Each curve is a quadratic Bezier whose middle control point sits off the
+# chord's midpoint along the chord's outward normal by `bulge` times the chord's length:
+# > 0 convex, 0 straight, < 0 concave. Fig. 4.3.1 shows two convex objects (a, b), a
+# straight one (c) and a concave one (d); the fifth is the stronger concave one, so the five
+# are a family of geometrically similar shapes, graded by curvature.
+SHAPE_HALF_WIDTH = 0.03
+SHAPE_BASE_Y = 0.065
+SHAPE_VERTEX_Y = 0.095
+SHAPES = [
+    ("convex-strong", 0.2),
+    ("convex-mild", 0.1),
+    ("straight", 0.0),
+    ("concave-mild", -0.1),
+    ("concave-strong", -0.2),
+]
+
+
+def bowed(p0, p2, bulge):
+    dx, dy = p2[0] - p0[0], p2[1] - p0[1]
+    # Outward normal of the chord p0 -> p2: t x k = (ty, -tx), times |chord| * bulge.
+    p1 = ((p0[0] + p2[0]) / 2 + bulge * dy, (p0[1] + p2[1]) / 2 - bulge * dx)
+    return {
+        "degree": 2,
+        "knots": [0, 0, 0, 1, 1, 1],
+        "points": [list(p0), list(p1), list(p2)],
+    }
+
+
+def shape(name, bulge):
+    right = (SHAPE_HALF_WIDTH, SHAPE_BASE_Y)
+    vertex = (0.0, SHAPE_VERTEX_Y)
+    left = (-SHAPE_HALF_WIDTH, SHAPE_BASE_Y)
+    return {
+        "format": "scene/1",
+        "objects": [
+            {
+                "name": f"{name}: two curves meeting at a vertex (thesis Fig. 4.3.1)",
+                "material": MATERIAL,
+                "patches": [bowed(right, vertex, bulge), bowed(vertex, left, bulge)],
+            }
+        ],
+    }
+
+
 def write(name, scene, segs):
     with open(os.path.join(HERE, f"{name}.json"), "w") as f:
         json.dump(scene, f, indent=1)
@@ -284,3 +335,7 @@ if __name__ == "__main__":
     with open(os.path.join(HERE, "torus.json"), "w") as f:
         json.dump(torus(), f, indent=1)
         f.write("\n")
+    for name, bulge in SHAPES:
+        with open(os.path.join(HERE, f"shapes-{name}.json"), "w") as f:
+            json.dump(shape(name, bulge), f, indent=1)
+            f.write("\n")
