@@ -4,4 +4,5 @@
 pub mod fit;
 pub mod participant;
 pub mod plan;
+pub mod rng;
 pub mod staircase;

@@ -59,6 +59,7 @@
 //! [`Plan::to_json_string_resolved`] with absolute scene paths, for the `DIR/plan.json` kept
 //! beside a run's results.
 
+use crate::rng::Prng;
 use std::collections::BTreeMap;
 use std::fmt;
 use std::path::{Path, PathBuf};
@@ -555,7 +556,7 @@ impl Plan {
     /// The trials of an `identification` or `constant-stimuli` plan, in order: the practice
     /// trials (flagged, `block: None`), then the blocks. Each block runs every stimulus ×
     /// condition (× level) `repetitions / blocks` times, shuffled (Fisher–Yates with
-    /// [`SplitMix64`] seeded by the plan's `seed`); in 2AFC designs each cell's comparison
+    /// [`Prng`] seeded by the plan's `seed`); in 2AFC designs each cell's comparison
     /// interval alternates from a random start, so within a block each cell has it first and
     /// second equally often (±1 when the cell runs an odd number of times). Practice trials
     /// are drawn from shuffled rounds of all cells.
@@ -577,7 +578,7 @@ impl Plan {
             }
         }
         let two = spec.design.two_interval();
-        let mut rng = SplitMix64::new(spec.seed);
+        let mut rng = Prng::new(spec.seed);
         let mut trials = Vec::new();
         let trial = |block, practice, (stimulus, condition, level), interval| TrialSpec {
             index: 0,
@@ -593,7 +594,7 @@ impl Plan {
             let mut round: Vec<TrialSpec> = cells
                 .iter()
                 .map(|&cell| {
-                    let first = rng.next_u64() & 1 == 0;
+                    let first = rng.bernoulli(0.5);
                     trial(None, true, cell, interval_of(first))
                 })
                 .collect();
@@ -606,7 +607,7 @@ impl Plan {
             for block in 0..spec.blocks as usize {
                 let mut list = Vec::with_capacity(cells.len() * per_block);
                 for &cell in &cells {
-                    let first = rng.next_u64() & 1 == 0;
+                    let first = rng.bernoulli(0.5);
                     for k in 0..per_block {
                         list.push(trial(
                             Some(block),
@@ -949,53 +950,6 @@ fn parse<T: serde::de::DeserializeOwned>(text: &str) -> Result<T, PlanError> {
         error,
     })?;
     Ok(value)
-}
-
-/// SplitMix64 (Steele, Lea & Flood 2014; Vigna's reference C code `splitmix64.c`): a 64-bit
-/// state advanced by the golden-ratio increment and output through a 64-bit finaliser. Small,
-/// fast, passes BigCrush, and every seed (including 0) gives a full-period stream, which is all
-/// a trial shuffle needs. Not cryptographic.
-#[derive(Clone, Debug, PartialEq, Eq)]
-pub struct SplitMix64 {
-    state: u64,
-}
-
-impl SplitMix64 {
-    /// A generator seeded with `seed`.
-    pub fn new(seed: u64) -> Self {
-        SplitMix64 { state: seed }
-    }
-
-    /// The next 64 random bits.
-    pub fn next_u64(&mut self) -> u64 {
-        self.state = self.state.wrapping_add(0x9e37_79b9_7f4a_7c15);
-        let mut z = self.state;
-        z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
-        z ^ (z >> 31)
-    }
-
-    /// A uniform integer in `0..n` (`n` ≥ 1), without modulo bias: draws below 2⁶⁴ mod n are
-    /// rejected so that the accepted range is a multiple of n (O'Neill's `bounded_rand`).
-    pub fn below(&mut self, n: u64) -> u64 {
-        let n = n.max(1);
-        let threshold = n.wrapping_neg() % n;
-        loop {
-            let x = self.next_u64();
-            if x >= threshold {
-                return x % n;
-            }
-        }
-    }
-
-    /// Shuffles `items` in place (Fisher–Yates, Knuth's Algorithm P): every permutation is
-    /// equally likely.
-    pub fn shuffle<T>(&mut self, items: &mut [T]) {
-        for i in (1..items.len()).rev() {
-            let j = self.below(i as u64 + 1) as usize;
-            items.swap(i, j);
-        }
-    }
 }
 
 impl fmt::Display for Interval {
