@@ -14,7 +14,7 @@ drum skin (a flat 10 x 10 bicubic, membrane tension 50 N/m) that the hand pushes
 string's middle 4 mm past its rest shape, strokes along it and lets go.
 torus: an exact rational biquadratic torus (one 9 x 9 patch, no trajectory), to feel a closed
 curved surface in the viewer's 3-D view.
-shapes-*: the five objects of the shape-identification experiment (thesis section 4.3, Fig.
+experiments/shapes/shapes-*: the five objects of the shape-identification experiment (not bundled scenes) (thesis section 4.3, Fig.
 4.3.1: two curves meeting at a vertex, convex, straight or concave), a graded family from
 strongly convex to strongly concave, for experiments/thesis-shapes.json (no trajectory).
 """
@@ -336,6 +336,6 @@ if __name__ == "__main__":
         json.dump(torus(), f, indent=1)
         f.write("\n")
     for name, bulge in SHAPES:
-        with open(os.path.join(HERE, f"shapes-{name}.json"), "w") as f:
+        with open(os.path.join(HERE, "..", "experiments", "shapes", f"shapes-{name}.json"), "w") as f:
             json.dump(shape(name, bulge), f, indent=1)
             f.write("\n")

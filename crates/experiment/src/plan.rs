@@ -11,7 +11,7 @@
 //!   "name": "thesis shapes",
 //!   "seed": 20,
 //!   "design": "identification",
-//!   "stimuli": [ { "name": "convex", "scene": "../scenes/shapes-convex-strong.json", "object": 0 } ],
+//!   "stimuli": [ { "name": "convex", "scene": "shapes/shapes-convex-strong.json", "object": 0 } ],
 //!   "conditions": [ { "name": "friction", "material": {} },
 //!                   { "name": "frictionless", "material": { "mu_static": 0, "mu_dynamic": 0 } } ],
 //!   "repetitions": 4, "blocks": 2, "practice_trials": 5, "exploration_time_s": 20

@@ -24,8 +24,8 @@ fn base() -> Value {
         "seed": 7,
         "design": "identification",
         "stimuli": [
-            { "name": "convex", "scene": "../scenes/shapes-convex-strong.json", "object": 0 },
-            { "name": "concave", "scene": "../scenes/shapes-concave-strong.json" },
+            { "name": "convex", "scene": "shapes/shapes-convex-strong.json", "object": 0 },
+            { "name": "concave", "scene": "shapes/shapes-concave-strong.json" },
             { "name": "bundled", "scene": "thesis-2d", "object": 0 }
         ],
         "conditions": [
@@ -44,7 +44,7 @@ fn staircase_base() -> Value {
         "name": "jnd",
         "seed": 1,
         "design": "2afc-staircase",
-        "stimuli": [ { "name": "straight", "scene": "../scenes/shapes-straight.json" } ],
+        "stimuli": [ { "name": "straight", "scene": "shapes/shapes-straight.json" } ],
         "reference": { "field": "stiffness_n_per_m", "value": 500.0 },
         "staircases": [ {
             "name": "above", "start": 800.0,
@@ -60,7 +60,7 @@ fn constant_base() -> Value {
         "name": "constant",
         "seed": 3,
         "design": "constant-stimuli",
-        "stimuli": [ { "name": "straight", "scene": "../scenes/shapes-straight.json" } ],
+        "stimuli": [ { "name": "straight", "scene": "shapes/shapes-straight.json" } ],
         "reference": { "field": "stiffness_n_per_m", "value": 500.0 },
         "levels": [400.0, 450.0, 550.0, 600.0],
         "repetitions": 6,
@@ -244,7 +244,7 @@ fn stimulus_object_must_exist() {
     refused(
         &with(base(), "/stimuli/1/object", json!(5)),
         "stimuli[1].object",
-        "5 is not an object of ../scenes/shapes-concave-strong.json (it has 1)",
+        "5 is not an object of shapes/shapes-concave-strong.json (it has 1)",
     );
 }
 
