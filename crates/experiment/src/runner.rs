@@ -66,23 +66,23 @@ pub enum RunError {
     #[error("a 2afc-staircase plan needs a \"reference\"")]
     NoReference,
     /// A staircase's parameters are refused.
-    #[error("staircase {name:?}: {source}")]
+    #[error("staircase {name:?}: {cause}")]
     Staircase {
         /// Its name in the plan.
         name: String,
         /// What is wrong.
-        source: StaircaseError,
+        cause: StaircaseError,
     },
     /// The plan's material at a level is refused.
     #[error(transparent)]
     Plan(#[from] PlanError),
     /// The stimulus's scene with the material at a level is refused.
-    #[error("the scene with the stimulus's material at {level}: {source}")]
+    #[error("the scene with the stimulus's material at {level}: {cause}")]
     Scene {
         /// The value of the reference field.
         level: f64,
         /// What is wrong.
-        source: SceneError,
+        cause: SceneError,
     },
     /// The object has nothing under the press.
     #[error("object {object} ({name:?}) has no surface under x = 0 where the press comes down")]
@@ -94,16 +94,16 @@ pub enum RunError {
     },
     /// The press could not be made a trajectory.
     #[error("the press trajectory: {0}")]
-    Trajectory(#[from] TrajectoryError),
+    Trajectory(TrajectoryError),
     /// A simulated interval failed.
-    #[error("trial {trial}, interval {interval}: the simulation failed: {source}")]
+    #[error("trial {trial}, interval {interval}: the simulation failed: {cause}")]
     Sim {
         /// The trial (from 1).
         trial: usize,
         /// `a` or `b`.
         interval: char,
         /// What failed.
-        source: SimError,
+        cause: SimError,
     },
     /// The press rendered no force to feel.
     #[error("trial {trial}, interval {interval}: the press felt no force (the object was missed)")]
@@ -117,20 +117,20 @@ pub enum RunError {
     #[error("the staircases had not finished after {0} trials")]
     TooManyTrials(usize),
     /// A folder could not be made.
-    #[error("cannot create the folder {path}: {source}")]
+    #[error("cannot create the folder {path}: {cause}")]
     CreateDir {
         /// The folder.
         path: PathBuf,
         /// Why.
-        source: io::Error,
+        cause: io::Error,
     },
     /// A file could not be written.
-    #[error("cannot write {path}: {source}")]
+    #[error("cannot write {path}: {cause}")]
     Write {
         /// The file.
         path: PathBuf,
         /// Why.
-        source: io::Error,
+        cause: io::Error,
     },
 }
 
@@ -247,9 +247,9 @@ fn staircase(spec: &StaircaseSpec, reference: f64) -> Result<(Staircase, Side), 
             },
         },
     };
-    let stair = Staircase::new(config).map_err(|source| RunError::Staircase {
+    let stair = Staircase::new(config).map_err(|cause| RunError::Staircase {
         name: spec.name.clone(),
-        source,
+        cause,
     })?;
     Ok((stair, side))
 }
@@ -309,14 +309,15 @@ fn surface_at_x0(scene: &Scene, object: usize) -> Result<(f64, f64), RunError> {
 fn press(surface_m: f64, top_m: f64) -> Result<Trajectory, RunError> {
     let start = [0.0, top_m + PRESS_ABOVE_M, 0.0];
     let bottom = [0.0, surface_m - PRESS_DEPTH_M, 0.0];
-    Ok(Trajectory::from_samples(
+    Trajectory::from_samples(
         Space::Planar,
         [
             (0.0, start),
             (PRESS_DOWN_S, bottom),
             (PRESS_DOWN_S + PRESS_UP_S, start),
         ],
-    )?)
+    )
+    .map_err(RunError::Trajectory)
 }
 
 /// Quotes a CSV field when it needs it (RFC 4180).
@@ -329,9 +330,9 @@ fn csv_field(text: &str) -> String {
 }
 
 fn create_dir(path: &Path) -> Result<(), RunError> {
-    fs::create_dir_all(path).map_err(|source| RunError::CreateDir {
+    fs::create_dir_all(path).map_err(|cause| RunError::CreateDir {
         path: path.to_owned(),
-        source,
+        cause,
     })
 }
 
@@ -371,7 +372,7 @@ pub fn run_2afc(
     let scene_at = |level: f64| -> Result<Scene, RunError> {
         let material = plan.material(stimulus, condition, Some(level))?;
         base.with_material(object, material)
-            .map_err(|source| RunError::Scene { level, source })
+            .map_err(|cause| RunError::Scene { level, cause })
     };
     let reference_scene = scene_at(reference)?;
 
@@ -391,14 +392,14 @@ pub fn run_2afc(
     create_dir(&traces)?;
     let plan_path = out_dir.join("plan.json");
     let plan_json = plan.to_json_string_resolved()?;
-    fs::write(&plan_path, plan_json + "\n").map_err(|source| RunError::Write {
+    fs::write(&plan_path, plan_json + "\n").map_err(|cause| RunError::Write {
         path: plan_path,
-        source,
+        cause,
     })?;
     let trials_path = out_dir.join("trials.csv");
-    let write_error = |source| RunError::Write {
+    let write_error = |cause| RunError::Write {
         path: trials_path.clone(),
-        source,
+        cause,
     };
     let mut trials_csv = BufWriter::new(File::create(&trials_path).map_err(write_error)?);
     writeln!(trials_csv, "{TRIALS_HEADER}").map_err(write_error)?;
@@ -424,11 +425,11 @@ pub fn run_2afc(
         let mut names = Vec::new();
         for (k, (scene, interval)) in [(first, 'a'), (second, 'b')].into_iter().enumerate() {
             let run =
-                sim::run(scene, object, &trajectory, RATE_HZ, |_, _| {}).map_err(|source| {
+                sim::run(scene, object, &trajectory, RATE_HZ, |_, _| {}).map_err(|cause| {
                     RunError::Sim {
                         trial,
                         interval,
-                        source,
+                        cause,
                     }
                 })?;
             let samples: Vec<([f32; 3], [f32; 3])> = run
@@ -441,7 +442,7 @@ pub fn run_2afc(
             let path = traces.join(&name);
             File::create(&path)
                 .and_then(|file| run.write_csv(file))
-                .map_err(|source| RunError::Write { path, source })?;
+                .map_err(|cause| RunError::Write { path, cause })?;
             names.push(format!("traces/{name}"));
         }
         let second_stiffer = participant.stiffer(felt[0], felt[1], &mut noise);
@@ -449,9 +450,9 @@ pub fn run_2afc(
         let correct = chose_comparison != side.below;
         interleaved
             .respond(correct)
-            .map_err(|source| RunError::Staircase {
+            .map_err(|cause| RunError::Staircase {
                 name: spec.staircases[index].name.clone(),
-                source,
+                cause,
             })?;
         writeln!(
             trials_csv,
