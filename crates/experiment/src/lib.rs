@@ -5,4 +5,5 @@ pub mod fit;
 pub mod participant;
 pub mod plan;
 pub mod rng;
+pub mod runner;
 pub mod staircase;

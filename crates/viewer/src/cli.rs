@@ -65,6 +65,54 @@ pub enum Command {
     /// motion after the load is removed.
     #[command(after_long_help = DEFORM_AFTER)]
     Deform(DeformArgs),
+    /// Psychophysics experiments (plans of format `experiment/1`).
+    #[command(subcommand)]
+    Experiment(ExperimentCommand),
+}
+
+/// `experiment …` subcommands.
+#[derive(Debug, Subcommand)]
+pub enum ExperimentCommand {
+    /// Run a 2afc-staircase plan headless with a simulated participant.
+    #[command(after_long_help = EXPERIMENT_RUN_AFTER)]
+    Run(ExperimentRunArgs),
+}
+
+const EXPERIMENT_RUN_AFTER: &str = "\
+Each trial presents the reference and the staircase's comparison in a random order; both \
+are explored by the same press (straight down at x = 0 from 10 mm above the object's top to \
+2 mm past its surface in 0.5 s, back up in 0.2 s, at 1 kHz through the simulated loop). The \
+simulated participant feels each interval's stiffness from the rendered positions and forces \
+and says which was stiffer, with the noise that puts its 75 % point at the Weber fraction W \
+(default 0.15) and a lapse rate L (default 0). Real participants run in the app, later.
+
+Written to --out (created if missing): trials.csv (one row per trial), \
+traces/trial-NNNN-a.csv and -b.csv (each interval's run log) and plan.json (the plan with \
+absolute scene paths). Standard output gets one line: the trials and each staircase's \
+threshold (the mean of its last reversals).
+
+Exit status:
+  0  the staircases finished
+  1  the output could not be written, or a trial failed
+  2  bad command line, unreadable or invalid plan, a plan that is not 2afc-staircase, a
+     participant that is not sim:SEED[:weber=W][:lapse=L]
+
+Example:
+  viewer experiment run experiments/stiffness-jnd.json --participant sim:1:weber=0.2 \\
+      --out runs/sim1";
+
+/// `viewer experiment run` arguments.
+#[derive(Debug, Args)]
+pub struct ExperimentRunArgs {
+    /// The plan (JSON, format `experiment/1`, design `2afc-staircase`).
+    #[arg(value_name = "PLAN.json")]
+    pub plan: PathBuf,
+    /// Who answers: sim:SEED[:weber=W][:lapse=L] (a simulated participant).
+    #[arg(long, value_name = "PARTICIPANT")]
+    pub participant: String,
+    /// The folder the run is written to.
+    #[arg(long, value_name = "DIR")]
+    pub out: PathBuf,
 }
 
 const DEFORM_AFTER: &str = "\

@@ -29,6 +29,60 @@ fn main() -> ExitCode {
         Some(Command::Zwidth(args)) => zwidth_command(&args),
         Some(Command::Identify(args)) => identify_command(&args),
         Some(Command::Deform(args)) => deform_command(&args),
+        Some(Command::Experiment(command)) => experiment_command(&command),
+    }
+}
+
+fn experiment_command(command: &viewer::cli::ExperimentCommand) -> ExitCode {
+    use experiment::participant::SimParticipant;
+    use experiment::plan::Plan;
+    use experiment::runner::{RunError, run_2afc};
+    use viewer::cli::ExperimentCommand;
+    let ExperimentCommand::Run(args) = command;
+    let participant = match SimParticipant::parse(&args.participant) {
+        Some(Ok(p)) => p,
+        Some(Err(e)) => return fail(&anyhow::Error::new(e), EXIT_BAD_SETUP),
+        None => {
+            return fail(
+                &anyhow!(
+                    "--participant {:?}: only simulated participants \
+                     (sim:SEED[:weber=W][:lapse=L]) run headless; the app runs real \
+                     participants (later)",
+                    args.participant
+                ),
+                EXIT_BAD_SETUP,
+            );
+        }
+    };
+    let plan = match Plan::load(&args.plan)
+        .with_context(|| format!("invalid plan {}", args.plan.display()))
+    {
+        Ok(plan) => plan,
+        Err(e) => return fail(&e, EXIT_BAD_SETUP),
+    };
+    match run_2afc(&plan, &participant, &args.out) {
+        Ok(summary) => {
+            println!("experiment run: {summary}");
+            ExitCode::SUCCESS
+        }
+        Err(e) => {
+            let code = match e {
+                RunError::Design(_)
+                | RunError::Unsupported(_)
+                | RunError::NoReference
+                | RunError::Staircase { .. }
+                | RunError::Plan(_)
+                | RunError::Scene { .. }
+                | RunError::NoSurface { .. }
+                | RunError::Trajectory(_) => EXIT_BAD_SETUP,
+                RunError::Sim { .. }
+                | RunError::NotFelt { .. }
+                | RunError::TooManyTrials(_)
+                | RunError::CreateDir { .. }
+                | RunError::Write { .. } => EXIT_BAD_INPUT,
+            };
+            fail(&anyhow::Error::new(e), code)
+        }
     }
 }
 

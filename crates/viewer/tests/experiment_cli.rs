@@ -1,0 +1,78 @@
+//! `viewer experiment run` as a user runs it: the summary line, the files, the refusals.
+#![allow(clippy::unwrap_used)]
+
+use std::process::Command;
+
+fn experiment_run(args: &[&str]) -> (i32, String, String) {
+    let out = Command::new(env!("CARGO_BIN_EXE_viewer"))
+        .args(["experiment", "run"])
+        .args(args)
+        .current_dir(concat!(env!("CARGO_MANIFEST_DIR"), "/../.."))
+        .output()
+        .unwrap();
+    (
+        out.status.code().unwrap(),
+        String::from_utf8(out.stdout).unwrap(),
+        String::from_utf8(out.stderr).unwrap(),
+    )
+}
+
+#[test]
+fn a_simulated_participant_runs_the_stiffness_plan() {
+    let dir = std::env::temp_dir().join(format!("viewer-experiment-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    let (code, out, err) = experiment_run(&[
+        "experiments/stiffness-jnd.json",
+        "--participant",
+        "sim:1:weber=0.2",
+        "--out",
+        dir.to_str().unwrap(),
+    ]);
+    assert_eq!(code, 0, "{err}");
+    assert_eq!(out.lines().count(), 1, "{out}");
+    assert!(out.starts_with("experiment run: "), "{out}");
+    assert!(out.contains("\"from above\": threshold"), "{out}");
+    assert!(out.contains("\"from below\": threshold"), "{out}");
+    let trials: usize = out["experiment run: ".len()..]
+        .split(' ')
+        .next()
+        .unwrap()
+        .parse()
+        .unwrap();
+    let csv = std::fs::read_to_string(dir.join("trials.csv")).unwrap();
+    assert_eq!(csv.lines().count(), trials + 1);
+    assert!(dir.join("plan.json").is_file());
+    assert!(
+        dir.join(format!("traces/trial-{trials:04}-b.csv"))
+            .is_file()
+    );
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn a_real_participant_and_a_bad_design_are_refused_with_status_2() {
+    let dir = std::env::temp_dir().join(format!("viewer-experiment-no-{}", std::process::id()));
+    let out = dir.to_str().unwrap();
+    let (code, _, err) = experiment_run(&[
+        "experiments/stiffness-jnd.json",
+        "--participant",
+        "P01",
+        "--out",
+        out,
+    ]);
+    assert_eq!(code, 2, "{err}");
+    assert!(
+        err.contains("\"P01\"") && err.contains("real participants"),
+        "{err}"
+    );
+    let (code, _, err) = experiment_run(&[
+        "experiments/thesis-shapes.json",
+        "--participant",
+        "sim:1",
+        "--out",
+        out,
+    ]);
+    assert_eq!(code, 2, "{err}");
+    assert!(err.contains("\"identification\""), "{err}");
+    assert!(!dir.exists(), "nothing is written for a refused run");
+}
