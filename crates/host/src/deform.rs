@@ -160,6 +160,16 @@ impl SharedShape {
         }
     }
 
+    /// Loop side, after each step of `deformer`: counts the step in `since_publish` and
+    /// publishes once [`PUBLISH_EVERY_MS`] steps have passed since the last publication (a
+    /// reader holding the lock only delays it to the next step).
+    pub fn publish_when_due(&self, since_publish: &mut u32, deformer: &Deformer, t_s: f64) {
+        *since_publish += 1;
+        if *since_publish >= PUBLISH_EVERY_MS && self.publish(deformer, t_s) {
+            *since_publish = 0;
+        }
+    }
+
     /// Loop side, when the object is rigid again (a command or a scene swap): not deforming.
     pub fn stop(&self, t_s: f64) {
         let mut frame = self.0.lock().unwrap_or_else(PoisonError::into_inner);

@@ -23,9 +23,7 @@ use nurbs::Vec2;
 use tracker::Chain;
 
 use crate::backend::{Command, RATE_HZ, Reply, Sample, Steppable};
-use crate::deform::{
-    DeformChangeError, DeformStatus, Deformer, PUBLISH_EVERY_MS, ShapeCell, SharedShape, carry,
-};
+use crate::deform::{DeformChangeError, DeformStatus, Deformer, ShapeCell, SharedShape, carry};
 
 /// The device's tick rate in the loop (Hz): the board's. The loop thread wakes at
 /// [`RATE_HZ`] and runs [`TICKS_PER_STEP`] device ticks per wake.
@@ -365,10 +363,8 @@ impl HapticLoop {
         match moved {
             Some(Ok(cell)) => {
                 d.cell = cell;
-                d.since_publish += 1;
-                if d.since_publish >= PUBLISH_EVERY_MS && self.shape.publish(&d.deformer, t_s) {
-                    d.since_publish = 0;
-                }
+                self.shape
+                    .publish_when_due(&mut d.since_publish, &d.deformer, t_s);
             }
             Some(Err(e)) => {
                 let stopped = self.stop_deforming();

@@ -22,7 +22,7 @@ use nurbs::{Vec2, Vec3};
 use tracker::{Contact, Feature, Penalty, Shell, TriMesh};
 
 use crate::backend::{Command, RATE_HZ, Reply, Sample, Steppable};
-use crate::deform::{DeformChangeError, DeformStatus, Deformer, PUBLISH_EVERY_MS, SharedShape};
+use crate::deform::{DeformChangeError, DeformStatus, Deformer, SharedShape};
 use crate::planar::{MAX_HAND_SPEED_M_PER_S, MaterialChangeError};
 use crate::sim::SimError;
 use crate::tick::{self, Tick};
@@ -383,10 +383,8 @@ impl SpatialLoop {
         match moved {
             Ok(cell) => {
                 d.cell = cell;
-                d.since_publish += 1;
-                if d.since_publish >= PUBLISH_EVERY_MS && self.shape.publish(&d.deformer, t_s) {
-                    d.since_publish = 0;
-                }
+                self.shape
+                    .publish_when_due(&mut d.since_publish, &d.deformer, t_s);
             }
             Err(e) => {
                 self.stop_deforming();
