@@ -731,6 +731,20 @@ pub(crate) fn carry(
     })
 }
 
+/// The controller in `slot` carried onto `shape` ([`carry`]); refused, it goes back into the
+/// slot. An empty slot (no object rendered) is [`DeformChangeError::NoObject`].
+pub(crate) fn carry_from(
+    slot: &mut Option<Controller<Chain<'_>>>,
+    shape: Object,
+    index: usize,
+) -> Result<ShapeCell, DeformChangeError> {
+    let controller = slot.take().ok_or(DeformChangeError::NoObject)?;
+    carry(controller, shape, index).map_err(|(c, e)| {
+        *slot = Some(c);
+        e
+    })
+}
+
 /// [`crate::sim::run_device`] with object `index` deformable: the closed loop through the
 /// simulated pantograph and the device's controller at `rate_hz`, the object fed every tick
 /// (the controller's rendering of it, the handle's true HIP) and stepped every
@@ -777,20 +791,15 @@ pub fn run_device(
             if i % per_step == 0 {
                 deformer.step(dt_s)?;
                 let next = deformer.shape()?;
-                let moved = shape.with_dependent_mut(|_, r| {
-                    let controller = r.controller.take()?;
-                    Some(carry(controller, next, index).map_err(|(c, e)| {
-                        r.controller = Some(c);
-                        e
-                    }))
-                });
+                let moved =
+                    shape.with_dependent_mut(|_, r| carry_from(&mut r.controller, next, index));
                 shape = match moved {
-                    Some(Ok(cell)) => cell,
-                    Some(Err(DeformChangeError::Object(e))) => return Err(e),
-                    Some(Err(DeformChangeError::Controller(e))) => {
+                    Ok(cell) => cell,
+                    Err(DeformChangeError::Object(e)) => return Err(e),
+                    Err(DeformChangeError::Controller(e)) => {
                         return Err(SimError::Controller(e).into());
                     }
-                    Some(Err(DeformChangeError::NoObject | DeformChangeError::Mesh)) | None => {
+                    Err(DeformChangeError::NoObject | DeformChangeError::Mesh) => {
                         return Err(SimError::Controller(ControllerError::NoScene).into());
                     }
                 };

@@ -23,7 +23,9 @@ use nurbs::Vec2;
 use tracker::Chain;
 
 use crate::backend::{Command, RATE_HZ, Reply, Sample, Steppable};
-use crate::deform::{DeformChangeError, DeformStatus, Deformer, ShapeCell, SharedShape, carry};
+use crate::deform::{
+    DeformChangeError, DeformStatus, Deformer, ShapeCell, SharedShape, carry_from,
+};
 
 /// The device's tick rate in the loop (Hz): the board's. The loop thread wakes at
 /// [`RATE_HZ`] and runs [`TICKS_PER_STEP`] device ticks per wake.
@@ -351,29 +353,24 @@ impl HapticLoop {
         let index = d.deformer.index();
         let dt_s = f64::from(TICKS_PER_STEP) / DEVICE_RATE_HZ;
         let moved = match d.deformer.step(dt_s).and_then(|()| d.deformer.shape()) {
-            Ok(next) => d.cell.with_dependent_mut(|_, r| {
-                let controller = r.controller.take()?;
-                Some(carry(controller, next, index).map_err(|(c, e)| {
-                    r.controller = Some(c);
-                    e
-                }))
-            }),
-            Err(e) => Some(Err(e.into())),
+            Ok(next) => d
+                .cell
+                .with_dependent_mut(|_, r| carry_from(&mut r.controller, next, index)),
+            Err(e) => Err(e.into()),
         };
         match moved {
-            Some(Ok(cell)) => {
+            Ok(cell) => {
                 d.cell = cell;
                 self.shape
                     .publish_when_due(&mut d.since_publish, &d.deformer, t_s);
             }
-            Some(Err(e)) => {
+            Err(e) => {
                 let stopped = self.stop_deforming();
                 self.last_error = Some(match stopped {
                     Ok(()) => format!("{e}; the object is rigid again"),
                     Err(again) => format!("{e}; {again}"),
                 });
             }
-            None => {}
         }
     }
 
@@ -427,13 +424,10 @@ impl HapticLoop {
         let deformer = self.rest_deformer()?;
         let rest = deformer.shape()?;
         let index = deformer.index();
-        let cell = self.session.0.with_dependent_mut(|_, r| {
-            let controller = r.controller.take().ok_or(DeformChangeError::NoObject)?;
-            carry(controller, rest, index).map_err(|(c, e)| {
-                r.controller = Some(c);
-                e
-            })
-        })?;
+        let cell = self
+            .session
+            .0
+            .with_dependent_mut(|_, r| carry_from(&mut r.controller, rest, index))?;
         self.shape
             .start(&deformer, self.tick as f64 / DEVICE_RATE_HZ);
         self.deforming = Some(Deforming {
@@ -502,13 +496,9 @@ impl HapticLoop {
         let Some(d) = self.deforming.as_mut() else {
             return Ok(());
         };
-        let cell = d.cell.with_dependent_mut(|_, r| {
-            let controller = r.controller.take().ok_or(DeformChangeError::NoObject)?;
-            carry(controller, rest, index).map_err(|(c, e)| {
-                r.controller = Some(c);
-                e
-            })
-        })?;
+        let cell = d
+            .cell
+            .with_dependent_mut(|_, r| carry_from(&mut r.controller, rest, index))?;
         d.cell = cell;
         d.deformer = deformer;
         d.since_publish = 0;
