@@ -297,3 +297,35 @@ fn sim_link_nacks_a_bad_scene_and_paced_link_answers_hello() {
         .request(&device::protocol::Message::DisableForces, Duration::MAX)
         .unwrap();
 }
+
+/// A stream joined while the device was already sending begins with the tail of a frame
+/// (QEMU's emulated UART keeps running between clients; a board may stream from boot): the
+/// hello skips what does not decode and the session opens. (CI once failed here with
+/// "bad frame: frame CRC mismatch" when the app connected to the emulated board.)
+#[test]
+fn hello_skips_the_tail_of_a_frame_on_a_stream_joined_mid_frame() {
+    use std::io::Write;
+    use std::sync::atomic::AtomicBool;
+    let listener = std::net::TcpListener::bind("127.0.0.1:0").unwrap();
+    let address = listener.local_addr().unwrap().to_string();
+    let stop = std::sync::Arc::new(AtomicBool::new(false));
+    let device = {
+        let stop = stop.clone();
+        std::thread::spawn(move || {
+            let (mut stream, _) = listener.accept().unwrap();
+            // The last bytes of a frame, then its delimiter: COBS decodes them to 3 bytes,
+            // which are no frame.
+            stream.write_all(&[0x04, 0x11, 0x22, 0x33, 0x00]).unwrap();
+            stream.set_nodelay(true).unwrap();
+            unpaced().serve(stream, &stop)
+        })
+    };
+    let mut link = device::host::TcpLink::connect(&address, TIMEOUT).unwrap();
+    let hello = link.hello(TIMEOUT).unwrap();
+    assert_eq!(hello.max_payload, 57);
+    // The session goes on as usual after it.
+    link.request(&Message::DisableForces, TIMEOUT).unwrap();
+    stop.store(true, std::sync::atomic::Ordering::Relaxed);
+    drop(link);
+    let _ = device.join().unwrap();
+}

@@ -166,19 +166,23 @@ pub trait Link: core::fmt::Debug {
         }
     }
 
-    /// Opens the session: sends the host's [`Hello`] and waits for the device's.
+    /// Opens the session: sends the host's [`Hello`] and waits for the device's. Frames
+    /// that do not decode before it are skipped: a byte stream joined while the device was
+    /// already sending (a board that streams from boot, an emulated UART that kept running)
+    /// starts with the tail of a frame, which is no fault of the session about to begin.
     fn hello(&mut self, timeout: Duration) -> Result<Hello, LinkError> {
         self.send(&Message::Hello(host_hello()))?;
         let deadline = deadline(timeout);
         loop {
             let left = deadline.saturating_duration_since(Instant::now());
-            match self.recv(left)? {
-                Some(Frame {
+            match self.recv(left) {
+                Ok(Some(Frame {
                     message: Message::Hello(h),
                     ..
-                }) => return Ok(h),
-                Some(_) => {}
-                None => return Err(LinkError::Timeout(timeout)),
+                })) => return Ok(h),
+                Ok(Some(_)) | Err(LinkError::Frame(_)) => {}
+                Ok(None) => return Err(LinkError::Timeout(timeout)),
+                Err(e) => return Err(e),
             }
             if Instant::now() >= deadline {
                 return Err(LinkError::Timeout(timeout));
