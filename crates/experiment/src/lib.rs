@@ -6,4 +6,5 @@ pub mod participant;
 pub mod plan;
 pub mod rng;
 pub mod runner;
+pub mod session;
 pub mod staircase;

@@ -22,7 +22,21 @@ pub struct SimParticipant {
     pub weber: f64,
     /// The probability of a lapse (an answer at random).
     pub lapse: f64,
+    /// The standard deviation of its felt contact heights (m): kinesthetic position noise.
+    pub acuity_m: f64,
+    /// The standard deviation of its felt force directions (rad).
+    pub direction_rad: f64,
 }
+
+/// Default position noise of a simulated participant's felt contact heights: 1 mm, about the
+/// finger's kinesthetic resolution for positions a few centimetres apart (Tan et al. 1994
+/// report JNDs of 0.8–2.5 mm for joint displacements at the finger).
+pub const DEFAULT_ACUITY_MM: f64 = 1.0;
+
+/// Default noise of a simulated participant's felt force directions: 10°, under the
+/// 18–33° force-direction JNDs Tan et al. (2006) measured, since the direction is read at
+/// every tap with the hand at rest.
+pub const DEFAULT_DIRECTION_DEG: f64 = 10.0;
 
 /// Default Weber fraction of a simulated participant: about what people show for stiffness
 /// (Jones & Tan 2013 report 8–22 %).
@@ -32,7 +46,9 @@ pub const DEFAULT_WEBER: f64 = 0.15;
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
 pub enum ParticipantError {
     /// Not `sim:SEED[:weber=W][:lapse=L]`.
-    #[error("--participant {0:?}: expected sim:SEED[:weber=W][:lapse=L] (or a participant ID)")]
+    #[error(
+        "--participant {0:?}: expected sim:SEED[:weber=W][:lapse=L][:acuity_mm=A][:direction_deg=D] (or a participant ID)"
+    )]
     Form(String),
     /// A field out of its range.
     #[error("--participant {text:?}: {field} = {value} is not {rule}")]
@@ -49,9 +65,12 @@ pub enum ParticipantError {
 }
 
 impl SimParticipant {
-    /// Parses `sim:SEED[:weber=W][:lapse=L]`: a seed (u64), a Weber fraction in (0, 10]
-    /// (default [`DEFAULT_WEBER`]) and a lapse rate in [0, 0.5] (default 0). `None` for text
-    /// that is not a simulated participant (a real participant's ID).
+    /// Parses `sim:SEED[:weber=W][:lapse=L][:acuity_mm=A][:direction_deg=D]`: a seed (u64),
+    /// a Weber fraction in (0, 10] (default [`DEFAULT_WEBER`]), a lapse rate in [0, 0.5]
+    /// (default 0), and for shapes the noise of felt heights in (0, 100] mm (default
+    /// [`DEFAULT_ACUITY_MM`]) and of felt force directions in (0, 90]° (default
+    /// [`DEFAULT_DIRECTION_DEG`]). `None` for text that is not a simulated participant (a
+    /// real participant's ID).
     pub fn parse(text: &str) -> Option<Result<Self, ParticipantError>> {
         let rest = text.strip_prefix("sim:")?;
         Some(Self::parse_fields(text, rest))
@@ -73,6 +92,8 @@ impl SimParticipant {
             seed,
             weber: DEFAULT_WEBER,
             lapse: 0.0,
+            acuity_m: DEFAULT_ACUITY_MM * 1e-3,
+            direction_rad: DEFAULT_DIRECTION_DEG.to_radians(),
         };
         for part in parts {
             let (key, value) = part
@@ -89,6 +110,18 @@ impl SimParticipant {
                     p.lapse = number
                         .filter(|&l| (0.0..=0.5).contains(&l))
                         .ok_or_else(|| field("lapse", value, "a lapse rate in [0, 0.5]"))?;
+                }
+                "acuity_mm" => {
+                    p.acuity_m = number
+                        .filter(|&a| a > 0.0 && a <= 100.0)
+                        .ok_or_else(|| field("acuity_mm", value, "a noise in (0, 100] mm"))?
+                        * 1e-3;
+                }
+                "direction_deg" => {
+                    p.direction_rad = number
+                        .filter(|&a| a > 0.0 && a <= 90.0)
+                        .ok_or_else(|| field("direction_deg", value, "a noise in (0, 90] degrees"))?
+                        .to_radians();
                 }
                 _ => return Err(ParticipantError::Form(text.to_owned())),
             }
@@ -112,6 +145,92 @@ impl SimParticipant {
         let a = first.max(f64::MIN_POSITIVE).ln() + sigma * rng.normal();
         let b = second.max(f64::MIN_POSITIVE).ln() + sigma * rng.normal();
         b > a
+    }
+}
+
+/// What one vertical tap on a shape felt.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Tap {
+    /// Where the tap came down (m).
+    pub x: f64,
+    /// The height at which the force first reached the touch level (m).
+    pub height: f64,
+    /// The surface slope dy/dx the force's direction conveys at the end of the press: the
+    /// force taken as the surface normal `(−g, 1)/√(1 + g²)`.
+    pub slope: f64,
+}
+
+/// Two cues of a two-sided shape (a roof over x = 0, taps symmetric about it), each the
+/// shape's mean sagitta (m, positive where the sides bulge out, convex), from the taps at
+/// `0, ±d, ±2d, ±3d, ±4d` (in that order, any sign first):
+/// - from heights: `h(±2d) − (h(0) + h(±4d)) / 2` averaged over both sides;
+/// - from force directions: the curvature `κ = Δg / 2d` between the slopes at `±d` and `±3d`,
+///   as the sagitta `−κ (4d)² / 8` of an arc of that curvature over the side, averaged.
+///
+/// `None` unless the taps are those nine points.
+pub fn shape_cues(taps: &[Tap]) -> Option<[f64; 2]> {
+    if taps.len() != 9 {
+        return None;
+    }
+    let d = taps.iter().map(|t| t.x.abs()).fold(0.0, f64::max) / 4.0;
+    let at = |k: i32| {
+        taps.iter()
+            .find(|t| (t.x - f64::from(k) * d).abs() < 0.25 * d)
+            .copied()
+    };
+    let mut pos = 0.0;
+    let mut dir = 0.0;
+    for side in [-1, 1] {
+        let (h0, h2, h4) = (at(0)?, at(2 * side)?, at(4 * side)?);
+        pos += 0.5 * (h2.height - 0.5 * (h0.height + h4.height));
+        let (inner, outer) = (at(side)?, at(3 * side)?);
+        let kappa = (outer.slope - inner.slope) / (outer.x - inner.x);
+        dir += 0.5 * (-kappa * (4.0 * d).powi(2) / 8.0);
+    }
+    Some([pos, dir])
+}
+
+impl SimParticipant {
+    /// The participant's felt taps: each height with Gaussian noise of [`Self::acuity_m`],
+    /// each force direction (the angle of its slope's normal) with Gaussian noise of
+    /// [`Self::direction_rad`].
+    pub fn feel_taps(&self, taps: &[Tap], rng: &mut Prng) -> Vec<Tap> {
+        taps.iter()
+            .map(|t| Tap {
+                x: t.x,
+                height: t.height + self.acuity_m * rng.normal(),
+                slope: (t.slope.atan() + self.direction_rad * rng.normal()).tan(),
+            })
+            .collect()
+    }
+
+    /// Which of the candidate shapes (their noiseless [`shape_cues`], in the plan's order:
+    /// the pictures the participant chooses among) the felt cues are: the nearest in the
+    /// distance that weighs each cue by its noise's variance. The height cue's variance is
+    /// `0.875 σ_h²` (its weights 1/2, 1/2, 1/2, 1/4, 1/4 on five independent heights); the
+    /// direction cue's `((4d)² / 8)² σ_g² / (2d)²` with the slope noise `σ_g = 2 σ_θ` (at a
+    /// 45° slope `dg/dθ = 1 + g² = 2`). A lapse answers at random.
+    pub fn identify(
+        &self,
+        felt: [f64; 2],
+        candidates: &[[f64; 2]],
+        d: f64,
+        rng: &mut Prng,
+    ) -> usize {
+        if candidates.is_empty() {
+            return 0;
+        }
+        if rng.bernoulli(self.lapse) {
+            return rng.index(candidates.len());
+        }
+        let var_pos = 0.875 * self.acuity_m.powi(2);
+        let sigma_g = 2.0 * self.direction_rad;
+        let var_dir = ((4.0 * d).powi(2) / 8.0).powi(2) * sigma_g.powi(2) / (2.0 * d).powi(2);
+        let distance =
+            |c: &[f64; 2]| (felt[0] - c[0]).powi(2) / var_pos + (felt[1] - c[1]).powi(2) / var_dir;
+        (0..candidates.len())
+            .min_by(|&a, &b| distance(&candidates[a]).total_cmp(&distance(&candidates[b])))
+            .unwrap_or(0)
     }
 }
 
@@ -156,7 +275,9 @@ mod tests {
             Some(Ok(SimParticipant {
                 seed: 7,
                 weber: 0.2,
-                lapse: 0.02
+                lapse: 0.02,
+                acuity_m: 1e-3,
+                direction_rad: 10f64.to_radians(),
             }))
         );
         assert_eq!(SimParticipant::parse("P01"), None);
@@ -194,9 +315,8 @@ mod tests {
     #[test]
     fn the_75_percent_point_is_the_weber_fraction() {
         let p = SimParticipant {
-            seed: 3,
             weber: 0.2,
-            lapse: 0.0,
+            ..SimParticipant::parse("sim:3").unwrap().unwrap()
         };
         let mut rng = Prng::new(p.seed);
         let n = 40_000;

@@ -1,12 +1,13 @@
-//! Running a `2afc-staircase` plan headless with a simulated participant
-//! (`viewer experiment run PLAN.json --participant sim:SEED --out DIR`).
+//! Running a plan headless with a simulated participant
+//! (`viewer experiment run PLAN.json --participant sim:SEED --out DIR`), through the same
+//! [`Session`] as the app's participant screen, so the files are the same.
 //!
-//! Each trial presents the reference and the comparison (the staircase's level) in a random
-//! order. Both intervals are explored by the same press: the hand comes down on the object at
-//! x = 0 from 10 mm above its top to 2 mm past where a rigid surface would be in
-//! [`PRESS_DOWN_S`], then goes back up in [`PRESS_UP_S`], prescribed at 1 kHz through
-//! [`host::sim::run`]. The participant feels each interval's stiffness from the rendered
-//! positions and forces ([`felt_stiffness`]) and says which was stiffer
+//! **2AFC** (`2afc-staircase`, `constant-stimuli`): each trial presents the reference and the
+//! comparison in the session's order. Both intervals are explored by the same press: the hand
+//! comes down on the object at x = 0 from 10 mm above its top to 2 mm past where a rigid
+//! surface would be in [`PRESS_DOWN_S`], then goes back up in [`PRESS_UP_S`], prescribed at
+//! 1 kHz through [`host::sim::run`]. The participant feels each interval's stiffness from the
+//! rendered positions and forces ([`felt_stiffness`]) and says which was stiffer
 //! ([`SimParticipant::stiffer`]).
 //!
 //! A staircase's `down` rule makes the task harder. For a staircase that starts below the
@@ -18,23 +19,38 @@
 //! (a bound can sit there) neither is right, and the staircase's side decides as stated,
 //! which the participant meets half the time: the truth for identical stimuli.
 //!
-//! Written to the output folder: `trials.csv` (one row per trial, long format), `traces/
-//! trial-NNNN-a.csv` and `-b.csv` (each interval's run log, first and second interval), and
-//! `plan.json` (the plan with absolute scene paths).
+//! **Identification**: the participant taps the object at nine points across the stimuli's
+//! common bounding box (the same for every stimulus, so the exploration says nothing of which
+//! is presented), through [`host::sim::explore`]: at each point the hand comes down at
+//! [`TAP_SPEED_M_PER_S`] from above the box until the force reaches [`TAP_STOP_N`], noting the
+//! height where it first reached [`TAP_TOUCH_N`] and the force's direction at the end, and goes
+//! back up. From the heights and directions it forms two cues of the shape
+//! ([`shape_cues`]), with its noise ([`SimParticipant::feel_taps`]), and names the candidate
+//! whose pictured shape gives the nearest cues ([`SimParticipant::identify`]). Friction acts
+//! where it physically does: a tap that sticks on a slope pushes back vertically, not along
+//! the normal, so the direction cue flattens where the slope is inside the friction cone.
+//!
+//! Written to the output folder: `trials.csv` ([`crate::session`]'s columns), `traces/
+//! trial-NNNN-a.csv` (and `-b.csv` for 2AFC: each interval's run log), and `plan.json` (the
+//! plan with absolute scene paths).
 
-use std::fs::{self, File};
-use std::io::{self, BufWriter, Write};
+use std::fs::File;
+use std::io;
 use std::path::{Path, PathBuf};
 
 use host::sim::{self, SimError, Trajectory, TrajectoryError};
+use host::tick::Tick;
 
 use scene::{Scene, SceneError, Space};
 use thiserror::Error;
 
-use crate::participant::{SimParticipant, felt_stiffness};
-use crate::plan::{Design, Plan, PlanError, StaircaseSpec, StepKind, StopSpec};
+use crate::participant::{SimParticipant, Tap, felt_stiffness, shape_cues};
+use crate::plan::{Design, Plan, PlanError};
 use crate::rng::Prng;
-use crate::staircase::{Interleaved, Staircase, StaircaseConfig, StaircaseError, Step, Stop};
+use crate::session::{Response, Session, TrialRecord};
+use crate::staircase::StaircaseError;
+
+pub use crate::session::{MAX_TRIALS, TRIALS_HEADER};
 
 /// Height of the press's start above the object's top (m).
 pub const PRESS_ABOVE_M: f64 = 0.010;
@@ -46,19 +62,32 @@ pub const PRESS_DOWN_S: f64 = 0.5;
 pub const PRESS_UP_S: f64 = 0.2;
 /// Tick rate of the simulated exploration (Hz).
 pub const RATE_HZ: f64 = sim::DEFAULT_RATE_HZ;
-/// Most trials a run may take before it is declared stuck (a staircase that never reverses).
-pub const MAX_TRIALS: usize = 10_000;
-
-/// The header of `trials.csv`.
-pub const TRIALS_HEADER: &str = "participant,session,block,trial,design,stimulus,condition,\
-staircase,level,reference,comparison_interval,response,correct,response_time_s,trace,t_start_s";
+/// Speed of a tap's way down, and of the moves between taps (m/s).
+pub const TAP_SPEED_M_PER_S: f64 = 0.05;
+/// The force at which a tap counts as touching (N): a quarter of a millimetre into a
+/// 1,000 N/m wall.
+pub const TAP_TOUCH_N: f64 = 0.25;
+/// The force at which a tap stops pressing and reads the force's direction (N).
+pub const TAP_STOP_N: f64 = 1.0;
+/// How far above the stimuli's common box the hand moves between taps (m).
+pub const TAP_CLEARANCE_M: f64 = 0.005;
 
 /// Why a run could not be made.
 #[derive(Debug, Error)]
 pub enum RunError {
-    /// The runner only runs `2afc-staircase` plans.
-    #[error("the plan's design is {0:?}: only \"2afc-staircase\" plans can be run so far")]
-    Design(&'static str),
+    /// The folder holds rows the session cannot resume from.
+    #[error("{}{}: cannot resume: {reason}", path.display(), if *line > 0 { format!(":{line}") } else { String::new() })]
+    Resume {
+        /// The file.
+        path: PathBuf,
+        /// Its line (from 1; 0 for the whole file).
+        line: usize,
+        /// What is wrong.
+        reason: String,
+    },
+    /// An answer that does not fit the trial.
+    #[error("{0}")]
+    Response(String),
     /// A plan feature the runner does not handle yet.
     #[error("{0}")]
     Unsupported(String),
@@ -85,12 +114,14 @@ pub enum RunError {
         cause: SceneError,
     },
     /// The object has nothing under the press.
-    #[error("object {object} ({name:?}) has no surface under x = 0 where the press comes down")]
+    #[error("object {object} ({name:?}) has no surface under x = {x} where the hand comes down")]
     NoSurface {
         /// Its index in the scene.
         object: usize,
         /// Its name.
         name: String,
+        /// Where the hand comes down (m).
+        x: f64,
     },
     /// The press could not be made a trajectory.
     #[error("the press trajectory: {0}")]
@@ -116,6 +147,16 @@ pub enum RunError {
     /// The staircases did not finish.
     #[error("the staircases had not finished after {0} trials")]
     TooManyTrials(usize),
+    /// An identification plan whose stimuli cannot be told apart by taps.
+    #[error(
+        "trial {trial}: the taps found no surface at x = {x} m (the stimulus has nothing under the tap)"
+    )]
+    NoTouch {
+        /// The trial (from 1).
+        trial: usize,
+        /// Where the tap came down (m).
+        x: f64,
+    },
     /// A folder could not be made.
     #[error("cannot create the folder {path}: {cause}")]
     CreateDir {
@@ -160,18 +201,27 @@ pub struct StaircaseSummary {
 /// What a run did.
 #[derive(Clone, Debug, PartialEq)]
 pub struct RunSummary {
-    /// Trials run.
+    /// Trials run (practice included).
     pub trials: usize,
-    /// The reference value.
-    pub reference: f64,
-    /// Each staircase, in the plan's order.
+    /// Practice trials among them.
+    pub practice: usize,
+    /// Trials answered correctly, practice excluded.
+    pub correct: usize,
+    /// The reference value (2AFC designs).
+    pub reference: Option<f64>,
+    /// Each staircase, in the plan's order (staircase designs).
     pub staircases: Vec<StaircaseSummary>,
 }
 
 impl std::fmt::Display for RunSummary {
-    /// One line: the trials and each staircase's threshold.
+    /// One line: the trials, the proportion correct and each staircase's threshold.
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        write!(f, "{} trials", self.trials)?;
+        let n = self.trials - self.practice;
+        write!(
+            f,
+            "{} trials ({} practice), {} of {n} correct",
+            self.trials, self.practice, self.correct
+        )?;
         for s in &self.staircases {
             match s.threshold {
                 Some(t) => write!(
@@ -190,91 +240,56 @@ impl std::fmt::Display for RunSummary {
     }
 }
 
-/// How a plan's staircase runs: on the level itself or mirrored about the reference.
-#[derive(Clone, Copy, Debug)]
-struct Side {
-    below: bool,
-    multiplicative: bool,
-    reference: f64,
-}
-
-impl Side {
-    /// The staircase's value for a level, and back (an involution).
-    fn mirror(self, x: f64) -> f64 {
-        match (self.below, self.multiplicative) {
-            (false, _) => x,
-            (true, true) => self.reference * self.reference / x,
-            (true, false) => 2.0 * self.reference - x,
-        }
-    }
-}
-
-fn step(kind: StepKind, size: f64) -> Step {
-    match kind {
-        StepKind::Additive => Step::Additive(size),
-        StepKind::Multiplicative => Step::Multiplicative(size),
-    }
-}
-
-fn staircase(spec: &StaircaseSpec, reference: f64) -> Result<(Staircase, Side), RunError> {
-    let [lo, hi] = spec.bounds;
-    let side = Side {
-        below: spec.start < reference || (spec.start == reference && hi <= reference),
-        multiplicative: spec.step.kind == StepKind::Multiplicative,
-        reference,
-    };
-    let (a, b) = (side.mirror(lo), side.mirror(hi));
-    let config = StaircaseConfig {
-        start: side.mirror(spec.start),
-        n_down: spec.rule.down,
-        n_up: spec.rule.up,
-        step: step(spec.step.kind, spec.step.size),
-        reduced_step: spec
-            .step
-            .reduce_after_reversals
-            .zip(spec.step.reduced_size)
-            .map(|(after, size)| (after as usize, step(spec.step.kind, size))),
-        min: a.min(b),
-        max: a.max(b),
-        stop: match spec.stop {
-            StopSpec::Reversals(n) => Stop {
-                reversals: Some(n as usize),
-                trials: None,
-            },
-            StopSpec::Trials(n) => Stop {
-                reversals: None,
-                trials: Some(n as usize),
-            },
-        },
-    };
-    let stair = Staircase::new(config).map_err(|cause| RunError::Staircase {
-        name: spec.name.clone(),
-        cause,
-    })?;
-    Ok((stair, side))
-}
-
-/// The height of the object's highest curve point over x = 0 (m): where a rigid surface would
-/// stop the press. Each curve is sampled at 4096 parameters and the crossings of x = 0
+/// The height (m) and slope dy/dx of the object's highest curve point over `x`, and the
+/// height of its top. Each curve is sampled at 4096 parameters and the crossings of `x`
 /// interpolated linearly (exact on straight pieces).
-fn surface_at_x0(scene: &Scene, object: usize) -> Result<(f64, f64), RunError> {
+fn surface_at(scene: &Scene, object: usize, x: f64) -> Result<(f64, f64, f64), RunError> {
     let o = scene.object(object).ok_or_else(|| {
         RunError::Unsupported(format!(
             "the stimulus's object {object} is not in its scene"
         ))
     })?;
-    let no_surface = || RunError::NoSurface {
-        object,
-        name: o.name().to_owned(),
-    };
+    let (mut surface, mut slope, mut top) = (f64::NEG_INFINITY, 0.0, f64::NEG_INFINITY);
+    for [x0, y0, x1, y1] in segments(scene, object)? {
+        top = top.max(y0).max(y1);
+        if (x0 <= x && x1 >= x) || (x1 <= x && x0 >= x) {
+            let (y, g) = if x1 == x0 {
+                (y0.max(y1), 0.0)
+            } else {
+                let g = (y1 - y0) / (x1 - x0);
+                (y0 + g * (x - x0), g)
+            };
+            if y > surface {
+                (surface, slope) = (y, g);
+            }
+        }
+    }
+    if surface.is_finite() {
+        Ok((surface, slope, top))
+    } else {
+        Err(RunError::NoSurface {
+            object,
+            name: o.name().to_owned(),
+            x,
+        })
+    }
+}
+
+/// The object's curves as 4096 straight segments each, `[x0, y0, x1, y1]`.
+fn segments(scene: &Scene, object: usize) -> Result<Vec<[f64; 4]>, RunError> {
+    let o = scene.object(object).ok_or_else(|| {
+        RunError::Unsupported(format!(
+            "the stimulus's object {object} is not in its scene"
+        ))
+    })?;
     let curves = o.curve_views().ok_or_else(|| {
         RunError::Unsupported(format!(
-            "object {object} ({:?}) is not planar: the press is planar for now",
+            "object {object} ({:?}) is not planar: the exploration is planar for now",
             o.name()
         ))
     })?;
     const SAMPLES: usize = 4096;
-    let (mut surface, mut top) = (f64::NEG_INFINITY, f64::NEG_INFINITY);
+    let mut out = Vec::with_capacity(curves.len() * SAMPLES);
     for c in &curves {
         let (u0, u1) = c.domain();
         let points: Vec<(f64, f64)> = (0..=SAMPLES)
@@ -284,27 +299,12 @@ fn surface_at_x0(scene: &Scene, object: usize) -> Result<(f64, f64), RunError> {
                 (f64::from(p.x), f64::from(p.y))
             })
             .collect();
-        for w in points.windows(2) {
-            let ((x0, y0), (x1, y1)) = (w[0], w[1]);
-            top = top.max(y0).max(y1);
-            if (x0 <= 0.0 && x1 >= 0.0) || (x1 <= 0.0 && x0 >= 0.0) {
-                let y = if x1 == x0 {
-                    y0.max(y1)
-                } else {
-                    y0 + (y1 - y0) * (0.0 - x0) / (x1 - x0)
-                };
-                surface = surface.max(y);
-            }
-        }
+        out.extend(points.windows(2).map(|w| [w[0].0, w[0].1, w[1].0, w[1].1]));
     }
-    if surface.is_finite() {
-        Ok((surface, top))
-    } else {
-        Err(no_surface())
-    }
+    Ok(out)
 }
 
-/// The press of every interval: straight down at x = 0 from [`PRESS_ABOVE_M`] above the
+/// The press of every 2AFC interval: straight down at x = 0 from [`PRESS_ABOVE_M`] above the
 /// object's top to [`PRESS_DEPTH_M`] under its surface, then back.
 fn press(surface_m: f64, top_m: f64) -> Result<Trajectory, RunError> {
     let start = [0.0, top_m + PRESS_ABOVE_M, 0.0];
@@ -320,194 +320,310 @@ fn press(surface_m: f64, top_m: f64) -> Result<Trajectory, RunError> {
     .map_err(RunError::Trajectory)
 }
 
-/// Quotes a CSV field when it needs it (RFC 4180).
-fn csv_field(text: &str) -> String {
-    if text.contains([',', '"', '\n', '\r']) {
-        format!("\"{}\"", text.replace('"', "\"\""))
-    } else {
-        text.to_owned()
+/// Where the identification taps come down and between which heights they move: the nine
+/// points `centre + k d`, `k = −4..=4`, over 80 % of the stimuli's common bounding box, the
+/// height [`TAP_CLEARANCE_M`] above it and the floor as far under it.
+#[derive(Clone, Debug, PartialEq)]
+struct TapPlan {
+    xs: Vec<f64>,
+    d: f64,
+    above: f64,
+    floor: f64,
+}
+
+impl TapPlan {
+    fn new(plan: &Plan) -> Result<TapPlan, RunError> {
+        let mut b = [
+            f64::INFINITY,
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+            f64::NEG_INFINITY,
+        ];
+        for (i, st) in plan.spec().stimuli.iter().enumerate() {
+            let scene = plan.scene(i).ok_or_else(|| {
+                RunError::Unsupported(format!("the plan has no scene for stimulus {i}"))
+            })?;
+            for [x0, y0, x1, y1] in segments(scene, st.object)? {
+                b = [
+                    b[0].min(x0).min(x1),
+                    b[1].min(y0).min(y1),
+                    b[2].max(x0).max(x1),
+                    b[3].max(y0).max(y1),
+                ];
+            }
+        }
+        let centre = 0.5 * (b[0] + b[2]);
+        let d = 0.8 * 0.5 * (b[2] - b[0]) / 4.0;
+        Ok(TapPlan {
+            xs: (-4..=4).map(|k| centre + f64::from(k) * d).collect(),
+            d,
+            above: b[3] + TAP_CLEARANCE_M,
+            floor: b[1] - TAP_CLEARANCE_M,
+        })
+    }
+
+    /// The taps a rigid, frictionless copy of the stimulus would give (heights and slopes of
+    /// its geometry): what its picture shows.
+    fn pictured(&self, scene: &Scene, object: usize) -> Result<Vec<Tap>, RunError> {
+        self.xs
+            .iter()
+            .map(|&x| {
+                let (height, slope, _) = surface_at(scene, object, x)?;
+                Ok(Tap { x, height, slope })
+            })
+            .collect()
     }
 }
 
-fn create_dir(path: &Path) -> Result<(), RunError> {
-    fs::create_dir_all(path).map_err(|cause| RunError::CreateDir {
-        path: path.to_owned(),
-        cause,
-    })
+/// What a tapping hand is doing.
+#[derive(Clone, Copy, Debug)]
+enum TapPhase {
+    /// Moving over to tap `i`.
+    Over(usize),
+    /// Coming down at tap `i`; the height where it touched.
+    Down(usize, Option<f64>),
+    /// Going back up from tap `i`.
+    Up(usize),
+}
+
+/// Taps `scene`'s object at the plan's points through the haptic loop ([`sim::explore`]);
+/// returns the run and what each tap felt (`None` for a tap that reached the floor without
+/// touching).
+fn tap(
+    scene: &Scene,
+    object: usize,
+    taps: &TapPlan,
+    max_ticks: usize,
+) -> Result<(sim::Run, Vec<Option<Tap>>), SimError> {
+    let step = TAP_SPEED_M_PER_S / RATE_HZ;
+    let mut at = [taps.xs[0], taps.above];
+    let mut phase = TapPhase::Down(0, None);
+    let mut felt: Vec<Option<Tap>> = vec![None; taps.xs.len()];
+    let run = sim::explore(
+        scene,
+        object,
+        [at[0], at[1], 0.0],
+        RATE_HZ,
+        max_ticks,
+        |last: &Tick| {
+            let f = last.force;
+            let force = f64::from(f.length());
+            phase = match phase {
+                TapPhase::Over(i) => {
+                    let dx = taps.xs[i] - at[0];
+                    at[0] += dx.clamp(-step, step);
+                    if dx.abs() <= step {
+                        TapPhase::Down(i, None)
+                    } else {
+                        phase
+                    }
+                }
+                TapPhase::Down(i, touched) => {
+                    // `at` is where this tick's record was taken.
+                    let touched = touched.or((force >= TAP_TOUCH_N).then_some(at[1]));
+                    if force >= TAP_STOP_N || at[1] <= taps.floor {
+                        felt[i] = touched.map(|height| Tap {
+                            x: taps.xs[i],
+                            height,
+                            slope: if f.y > 0.0 {
+                                -f64::from(f.x) / f64::from(f.y)
+                            } else {
+                                0.0
+                            },
+                        });
+                        TapPhase::Up(i)
+                    } else {
+                        at[1] -= step;
+                        TapPhase::Down(i, touched)
+                    }
+                }
+                TapPhase::Up(i) => {
+                    at[1] = (at[1] + 2.0 * step).min(taps.above);
+                    if at[1] < taps.above {
+                        phase
+                    } else if i + 1 < taps.xs.len() {
+                        TapPhase::Over(i + 1)
+                    } else {
+                        return None;
+                    }
+                }
+            };
+            Some([at[0], at[1], 0.0])
+        },
+    )?;
+    Ok((run, felt))
+}
+
+/// Writes a run log under `DIR/traces`; returns its name relative to `DIR`.
+fn write_trace(dir: &Path, name: String, run: &sim::Run) -> Result<String, RunError> {
+    let path = dir.join("traces").join(&name);
+    File::create(&path)
+        .and_then(|file| run.write_csv(file))
+        .map_err(|cause| RunError::Write { path, cause })?;
+    Ok(format!("traces/{name}"))
 }
 
 /// The participant's label in `trials.csv`: its `--participant` text, normalised.
 pub fn participant_label(p: &SimParticipant) -> String {
-    format!("sim:{}:weber={}:lapse={}", p.seed, p.weber, p.lapse)
+    format!(
+        "sim:{}:weber={}:lapse={}:acuity_mm={}:direction_deg={}",
+        p.seed,
+        p.weber,
+        p.lapse,
+        p.acuity_m * 1e3,
+        p.direction_rad.to_degrees()
+    )
 }
 
-/// Runs a `2afc-staircase` plan with a simulated participant, writing `trials.csv`,
-/// `traces/` and `plan.json` into `out_dir` (created if missing). The staircases are
-/// interleaved with the plan's seed; the interval order is drawn from a stream seeded by the
-/// plan's seed + 1; the participant's noise from its own seed. Practice trials are not run.
-pub fn run_2afc(
+/// Runs `plan` with a simulated participant into `out_dir` (module docs): a [`Session`]
+/// (resuming one already there), each trial explored through the haptic loop and answered
+/// from what was felt. The participant's noise comes from its own seed.
+pub fn run(
     plan: &Plan,
     participant: &SimParticipant,
     out_dir: &Path,
 ) -> Result<RunSummary, RunError> {
     let spec = plan.spec();
-    if spec.design != Design::TwoAfcStaircase {
-        return Err(RunError::Design(spec.design.name()));
-    }
-    if spec.stimuli.len() != 1 || spec.conditions.len() != 1 {
-        return Err(RunError::Unsupported(format!(
-            "the plan has {} stimuli and {} conditions: the runner runs one of each so far",
-            spec.stimuli.len(),
-            spec.conditions.len()
-        )));
-    }
-    let reference = spec.reference.as_ref().ok_or(RunError::NoReference)?.value;
-    let (stimulus, condition) = (0, 0);
-    let object = spec.stimuli[stimulus].object;
-    let base = plan.scene(stimulus).ok_or_else(|| {
-        RunError::Unsupported(format!("the plan has no scene for stimulus {stimulus}"))
-    })?;
-    let (surface, top) = surface_at_x0(base, object)?;
-    let trajectory = press(surface, top)?;
-    let scene_at = |level: f64| -> Result<Scene, RunError> {
-        let material = plan.material(stimulus, condition, Some(level))?;
-        base.with_material(object, material)
-            .map_err(|cause| RunError::Scene { level, cause })
-    };
-    let reference_scene = scene_at(reference)?;
-
-    let mut stairs = Vec::new();
-    let mut sides = Vec::new();
-    for s in &spec.staircases {
-        let (stair, side) = staircase(s, reference)?;
-        stairs.push(stair);
-        sides.push(side);
-    }
-    let mut interleaved = Interleaved::new(stairs, spec.seed);
-    let mut order = Prng::new(spec.seed.wrapping_add(1));
-    let mut noise = Prng::new(participant.seed);
-
-    create_dir(out_dir)?;
-    let traces = out_dir.join("traces");
-    create_dir(&traces)?;
-    let plan_path = out_dir.join("plan.json");
-    let plan_json = plan.to_json_string_resolved()?;
-    fs::write(&plan_path, plan_json + "\n").map_err(|cause| RunError::Write {
-        path: plan_path,
-        cause,
-    })?;
-    let trials_path = out_dir.join("trials.csv");
-    let write_error = |cause| RunError::Write {
-        path: trials_path.clone(),
-        cause,
-    };
-    let mut trials_csv = BufWriter::new(File::create(&trials_path).map_err(write_error)?);
-    writeln!(trials_csv, "{TRIALS_HEADER}").map_err(write_error)?;
-
-    let label = csv_field(&participant_label(participant));
-    let interval_s = PRESS_DOWN_S + PRESS_UP_S;
-    let mut trial = 0;
-    while let Some((index, value)) = interleaved.next_trial() {
-        if trial >= MAX_TRIALS {
-            return Err(RunError::TooManyTrials(trial));
+    let design = spec.design;
+    // Everything the exploration needs is checked before anything is written.
+    let taps = if design == Design::Identification {
+        let taps = TapPlan::new(plan)?;
+        let pictured = (0..spec.stimuli.len())
+            .map(|i| {
+                let scene = plan.scene(i).ok_or_else(|| {
+                    RunError::Unsupported(format!("the plan has no scene for stimulus {i}"))
+                })?;
+                let cues = shape_cues(&taps.pictured(scene, spec.stimuli[i].object)?)
+                    .ok_or_else(|| RunError::Unsupported("nine taps expected".to_owned()))?;
+                Ok(cues)
+            })
+            .collect::<Result<Vec<[f64; 2]>, RunError>>()?;
+        Some((taps, pictured))
+    } else {
+        for (i, st) in spec.stimuli.iter().enumerate() {
+            let scene = plan.scene(i).ok_or_else(|| {
+                RunError::Unsupported(format!("the plan has no scene for stimulus {i}"))
+            })?;
+            surface_at(scene, st.object, 0.0)?;
         }
-        trial += 1;
-        let side = sides[index];
-        let level = side.mirror(value);
-        let comparison_first = order.bernoulli(0.5);
-        let comparison_scene = scene_at(level)?;
-        let (first, second) = if comparison_first {
-            (&comparison_scene, &reference_scene)
-        } else {
-            (&reference_scene, &comparison_scene)
-        };
-        let mut felt = [0.0; 2];
-        let mut names = Vec::new();
-        for (k, (scene, interval)) in [(first, 'a'), (second, 'b')].into_iter().enumerate() {
-            let run =
-                sim::run(scene, object, &trajectory, RATE_HZ, |_, _| {}).map_err(|cause| {
+        None
+    };
+    let max_ticks = spec
+        .exploration_time_s
+        .map_or(sim::MAX_TICKS, |t| (t * RATE_HZ).ceil() as usize);
+    let mut session = Session::open(plan.clone(), &participant_label(participant), out_dir)?;
+    let mut noise = Prng::new(participant.seed);
+    let (mut trials, mut practice, mut correct) = (0, 0, 0);
+    let mut clock_s = 0.0;
+    while let Some(trial) = session.next_trial()? {
+        let n = trial.number;
+        let t_start_s = clock_s;
+        let mut traces = Vec::new();
+        let response = if let Some((taps, pictured)) = &taps {
+            let (run, felt) =
+                tap(&trial.intervals[0], trial.object, taps, max_ticks).map_err(|cause| {
                     RunError::Sim {
-                        trial,
-                        interval,
+                        trial: n,
+                        interval: 'a',
                         cause,
                     }
                 })?;
-            let samples: Vec<([f32; 3], [f32; 3])> = run
-                .ticks
+            clock_s += run.ticks.len() as f64 / RATE_HZ;
+            traces.push(write_trace(out_dir, format!("trial-{n:04}-a.csv"), &run)?);
+            let felt = felt
                 .iter()
-                .map(|t| (t.hip.to_array(), t.force.to_array()))
-                .collect();
-            felt[k] = felt_stiffness(&samples).ok_or(RunError::NotFelt { trial, interval })?;
-            let name = format!("trial-{trial:04}-{interval}.csv");
-            let path = traces.join(&name);
-            File::create(&path)
-                .and_then(|file| run.write_csv(file))
-                .map_err(|cause| RunError::Write { path, cause })?;
-            names.push(format!("traces/{name}"));
+                .zip(&taps.xs)
+                .map(|(t, &x)| t.ok_or(RunError::NoTouch { trial: n, x }))
+                .collect::<Result<Vec<Tap>, RunError>>()?;
+            let cues = shape_cues(&participant.feel_taps(&felt, &mut noise))
+                .ok_or_else(|| RunError::Unsupported("nine taps expected".to_owned()))?;
+            Response::Stimulus(participant.identify(cues, pictured, taps.d, &mut noise))
+        } else {
+            let mut felt = [0.0; 2];
+            for (k, (scene, interval)) in trial.intervals.iter().zip(['a', 'b']).enumerate() {
+                let (surface, _, top) = surface_at(scene, trial.object, 0.0)?;
+                let trajectory = press(surface, top)?;
+                let run = sim::run(scene, trial.object, &trajectory, RATE_HZ, |_, _| {}).map_err(
+                    |cause| RunError::Sim {
+                        trial: n,
+                        interval,
+                        cause,
+                    },
+                )?;
+                clock_s += run.ticks.len() as f64 / RATE_HZ;
+                let samples: Vec<([f32; 3], [f32; 3])> = run
+                    .ticks
+                    .iter()
+                    .map(|t| (t.hip.to_array(), t.force.to_array()))
+                    .collect();
+                felt[k] =
+                    felt_stiffness(&samples).ok_or(RunError::NotFelt { trial: n, interval })?;
+                traces.push(write_trace(
+                    out_dir,
+                    format!("trial-{n:04}-{interval}.csv"),
+                    &run,
+                )?);
+            }
+            let second = participant.stiffer(felt[0], felt[1], &mut noise);
+            Response::Interval(if second { 2 } else { 1 })
+        };
+        let record = TrialRecord {
+            response_time_s: 0.0,
+            traces,
+            t_start_s,
+        };
+        let right = session.respond(response, &record)?;
+        trials += 1;
+        if trial.practice {
+            practice += 1;
+        } else if right {
+            correct += 1;
         }
-        let second_stiffer = participant.stiffer(felt[0], felt[1], &mut noise);
-        let chose_comparison = second_stiffer != comparison_first;
-        let correct = chose_comparison != side.below;
-        interleaved
-            .respond(correct)
-            .map_err(|cause| RunError::Staircase {
-                name: spec.staircases[index].name.clone(),
-                cause,
-            })?;
-        writeln!(
-            trials_csv,
-            "{label},1,1,{trial},{},{},{},{},{level:?},{reference:?},{},{},{},0,{},{:.3}",
-            spec.design.name(),
-            csv_field(&spec.stimuli[stimulus].name),
-            csv_field(&spec.conditions[condition].name),
-            csv_field(&spec.staircases[index].name),
-            if comparison_first { 1 } else { 2 },
-            if second_stiffer { 2 } else { 1 },
-            u8::from(correct),
-            csv_field(&names.join(";")),
-            (trial - 1) as f64 * 2.0 * interval_s,
-        )
-        .map_err(write_error)?;
     }
-    trials_csv.flush().map_err(write_error)?;
 
-    let staircases = interleaved
+    let staircases = session
         .stairs()
-        .iter()
-        .zip(&sides)
-        .zip(&spec.staircases)
-        .map(|((stair, &side), s)| {
-            let reversal_levels: Vec<f64> = stair
-                .reversal_levels()
+        .map(|(stairs, sides)| {
+            stairs
                 .iter()
-                .map(|&v| side.mirror(v))
-                .collect();
-            let n = reversal_levels.len();
-            let after = match stair.config().reduced_step {
-                Some((after, _)) => after,
-                None => 2,
-            };
-            let mut k = n.saturating_sub(after);
-            if k % 2 == 1 {
-                k -= 1;
-            }
-            let k = if k == 0 { n } else { k };
-            let threshold =
-                (k > 0).then(|| reversal_levels[n - k..].iter().sum::<f64>() / k as f64);
-            StaircaseSummary {
-                name: s.name.clone(),
-                below: side.below,
-                trials: stair.track().len(),
-                finished: stair.is_finished(),
-                threshold,
-                threshold_reversals: k,
-                reversal_levels,
-            }
+                .zip(sides)
+                .zip(&spec.staircases)
+                .map(|((stair, side), s)| {
+                    let reversal_levels: Vec<f64> = stair
+                        .reversal_levels()
+                        .iter()
+                        .map(|&v| side.mirror(v))
+                        .collect();
+                    let n = reversal_levels.len();
+                    let after = match stair.config().reduced_step {
+                        Some((after, _)) => after,
+                        None => 2,
+                    };
+                    let mut k = n.saturating_sub(after);
+                    if k % 2 == 1 {
+                        k -= 1;
+                    }
+                    let k = if k == 0 { n } else { k };
+                    let threshold =
+                        (k > 0).then(|| reversal_levels[n - k..].iter().sum::<f64>() / k as f64);
+                    StaircaseSummary {
+                        name: s.name.clone(),
+                        below: side.below,
+                        trials: stair.track().len(),
+                        finished: stair.is_finished(),
+                        threshold,
+                        threshold_reversals: k,
+                        reversal_levels,
+                    }
+                })
+                .collect()
         })
-        .collect();
+        .unwrap_or_default();
     Ok(RunSummary {
-        trials: trial,
-        reference,
+        trials,
+        practice,
+        correct,
+        reference: spec.reference.as_ref().map(|r| r.value),
         staircases,
     })
 }

@@ -6,7 +6,7 @@ use std::path::{Path, PathBuf};
 
 use experiment::participant::SimParticipant;
 use experiment::plan::Plan;
-use experiment::runner::{RunError, TRIALS_HEADER, run_2afc};
+use experiment::runner::{RunError, TRIALS_HEADER, run};
 
 fn root() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
@@ -28,7 +28,7 @@ fn the_stiffness_plan_runs_to_thresholds_at_the_participants_70_7_percent_points
     let plan = Plan::load(root().join("experiments/stiffness-jnd.json")).unwrap();
     let participant = SimParticipant::parse("sim:1:weber=0.2").unwrap().unwrap();
     let out = temp_dir("run");
-    let summary = run_2afc(&plan, &participant, &out).unwrap();
+    let summary = run(&plan, &participant, &out).unwrap();
 
     // Files: the header, one row per trial, both traces of every trial as run logs.
     let trials = std::fs::read_to_string(out.join("trials.csv")).unwrap();
@@ -40,9 +40,12 @@ fn the_stiffness_plan_runs_to_thresholds_at_the_participants_70_7_percent_points
     for (i, row) in rows.iter().enumerate() {
         assert_eq!(row.len(), columns, "row {}: {row:?}", i + 1);
         assert_eq!(row[3], (i + 1).to_string());
-        assert_eq!(row[4], "2afc-staircase");
-        assert_eq!(row[13], "0");
-        for trace in row[14].split(';') {
+        // The plan's 4 practice trials come first, in block 0.
+        assert_eq!(row[4], if i < 4 { "1" } else { "0" });
+        assert_eq!(row[2], if i < 4 { "0" } else { "1" });
+        assert_eq!(row[5], "2afc-staircase");
+        assert_eq!(row[14], "0.000");
+        for trace in row[15].split(';') {
             let log = std::fs::read_to_string(out.join(trace))
                 .unwrap_or_else(|e| panic!("trial {}: {trace}: {e}", i + 1));
             assert!(log.starts_with("t_s,"), "{trace} is not a run log");
@@ -62,11 +65,12 @@ fn the_stiffness_plan_runs_to_thresholds_at_the_participants_70_7_percent_points
     for s in &summary.staircases {
         assert!(s.finished, "{s:?}");
         assert_eq!(s.reversal_levels.len(), 12, "{s:?}");
-        assert_eq!(s.trials, rows.iter().filter(|r| r[7] == s.name).count());
+        assert_eq!(s.trials, rows.iter().filter(|r| r[8] == s.name).count());
     }
+    assert_eq!(summary.practice, 4);
     assert_eq!(
         summary.trials,
-        summary.staircases.iter().map(|s| s.trials).sum::<usize>()
+        summary.practice + summary.staircases.iter().map(|s| s.trials).sum::<usize>()
     );
 
     // The participant's model (participant.rs): a comparison x against the reference r is
@@ -74,7 +78,7 @@ fn the_stiffness_plan_runs_to_thresholds_at_the_participants_70_7_percent_points
     // so 2-down/1-up's 70.7 % point is x = r exp(ln(1 + W) Φ⁻¹(0.707) / Φ⁻¹(0.75)), and its
     // mirror r²/x below. The felt stiffness is proportional to the rendered one (the same
     // press on the same shape), so the ratio carries over.
-    let r = summary.reference;
+    let r = summary.reference.unwrap();
     let log_offset = 1.2f64.ln() * Z_707 / Z_75;
     let (upper_model, lower_model) = (r * log_offset.exp(), r / log_offset.exp());
     let upper = &summary.staircases[0];
@@ -104,13 +108,77 @@ fn the_stiffness_plan_runs_to_thresholds_at_the_participants_70_7_percent_points
     }
 }
 
+/// The thesis's shape experiment with a simulated participant: every trial of the plan ran,
+/// in the plan's balanced order, each answered with one of the five shapes; the participant
+/// identifies the shapes far above chance (1/5) from what the taps rendered. Rerun into the
+/// same folder, the finished run resumes with nothing left to do, its rows untouched.
 #[test]
-fn a_plan_that_is_not_a_staircase_is_refused_naming_its_design() {
+fn the_thesis_shapes_run_identifies_above_chance_and_resumes() {
     let plan = Plan::load(root().join("experiments/thesis-shapes.json")).unwrap();
-    let participant = SimParticipant::parse("sim:1").unwrap().unwrap();
-    let out = temp_dir("refused");
-    let err = run_2afc(&plan, &participant, &out).unwrap_err();
-    assert!(matches!(err, RunError::Design(_)), "{err}");
-    assert!(err.to_string().contains("2afc-staircase"), "{err}");
-    assert!(!out.exists(), "nothing is written for a refused plan");
+    let participant = SimParticipant::parse("sim:5").unwrap().unwrap();
+    let out = temp_dir("shapes");
+    let summary = run(&plan, &participant, &out).unwrap();
+    let planned = plan.trials();
+    // 5 practice, then 5 shapes × 2 conditions × 4 repetitions in 2 blocks.
+    assert_eq!(summary.trials, planned.len());
+    assert_eq!(summary.trials, 5 + 40);
+    assert_eq!(summary.practice, 5);
+    let trials = std::fs::read_to_string(out.join("trials.csv")).unwrap();
+    let rows: Vec<Vec<String>> = trials
+        .lines()
+        .skip(1)
+        .map(|l| experiment::session::csv_fields(l).unwrap())
+        .collect();
+    let names: Vec<&str> = plan
+        .spec()
+        .stimuli
+        .iter()
+        .map(|s| s.name.as_str())
+        .collect();
+    for (row, t) in rows.iter().zip(&planned) {
+        assert_eq!(row[6], names[t.stimulus]);
+        assert_eq!(row[7], plan.spec().conditions[t.condition].name);
+        assert!(names.contains(&row[12].as_str()), "{row:?}");
+        assert_eq!(row[13], u8::from(row[12] == row[6]).to_string());
+        // One trace per trial, a tap run log.
+        assert!(out.join(&row[15]).exists(), "{row:?}");
+    }
+    // Chance is 8 of 40; a participant that felt nothing of the shape would exceed 16 (the
+    // binomial's 0.999 quantile at n = 40, p = 0.2 is 16) with probability < 0.001.
+    eprintln!("thesis shapes: {summary}");
+    assert!(summary.correct > 16, "{summary}");
+
+    let again = run(&plan, &participant, &out).unwrap();
+    assert_eq!(again.trials, 0, "{again}");
+    assert_eq!(
+        std::fs::read_to_string(out.join("trials.csv")).unwrap(),
+        trials
+    );
+    if std::env::var_os("KEEP").is_none() {
+        std::fs::remove_dir_all(&out).unwrap();
+    }
+}
+
+/// A folder holding another plan's run is refused, naming the file, and left untouched.
+#[test]
+fn a_folder_of_another_plan_is_refused_and_untouched() {
+    let shapes = Plan::load(root().join("experiments/thesis-shapes.json")).unwrap();
+    let jnd = Plan::load(root().join("experiments/stiffness-jnd.json")).unwrap();
+    let participant = SimParticipant::parse("sim:2").unwrap().unwrap();
+    let out = temp_dir("other-plan");
+    std::fs::create_dir_all(&out).unwrap();
+    std::fs::write(
+        out.join("plan.json"),
+        shapes.to_json_string_resolved().unwrap() + "\n",
+    )
+    .unwrap();
+    std::fs::write(out.join("trials.csv"), format!("{TRIALS_HEADER}\n")).unwrap();
+    let err = run(&jnd, &participant, &out).unwrap_err();
+    assert!(matches!(err, RunError::Resume { .. }), "{err}");
+    assert!(err.to_string().contains("plan.json"), "{err}");
+    assert_eq!(
+        std::fs::read_to_string(out.join("trials.csv")).unwrap(),
+        format!("{TRIALS_HEADER}\n")
+    );
+    std::fs::remove_dir_all(&out).unwrap();
 }

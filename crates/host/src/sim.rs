@@ -342,7 +342,14 @@ pub fn run(
                 index: object,
                 error,
             })?;
-            simulate(&chain, material, trajectory, rate_hz, n, progress)
+            simulate(
+                &chain,
+                material,
+                rate_hz,
+                n,
+                prescribed(trajectory, rate_hz, n),
+                progress,
+            )
         }
         Space::Spatial => {
             let surfaces = o.surface_views().ok_or_else(space_error)?;
@@ -350,7 +357,14 @@ pub fn run(
                 index: object,
                 error,
             })?;
-            simulate(&shell, material, trajectory, rate_hz, n, progress)
+            simulate(
+                &shell,
+                material,
+                rate_hz,
+                n,
+                prescribed(trajectory, rate_hz, n),
+                progress,
+            )
         }
     };
     Ok(Run {
@@ -363,33 +377,120 @@ pub fn run(
     })
 }
 
-/// The tick loop, once for chains and shells.
-fn simulate<O: TrackedObject>(
-    object: &O,
-    material: FrictionMaterial,
+/// The HIP of tick `i` of `n` prescribed by `trajectory`: its time and position.
+fn prescribed(
     trajectory: &Trajectory,
     rate_hz: f64,
     n: usize,
+) -> impl FnMut(usize, Option<&Tick>) -> Option<(f64, [f64; 3])> {
+    move |i, _| {
+        (i < n).then(|| {
+            let t_s = trajectory.tick_time_s(i, rate_hz);
+            (t_s, trajectory.at(t_s))
+        })
+    }
+}
+
+/// The tick loop, once for chains and shells: `hip_at(i, last)` gives tick `i`'s time and
+/// HIP from the previous tick's record (`None` at tick 0), or ends the run; the HIP velocity
+/// is the backward difference of the HIPs (zero at the first tick). At most [`MAX_TICKS`].
+fn simulate<O: TrackedObject>(
+    object: &O,
+    material: FrictionMaterial,
+    rate_hz: f64,
+    expected: usize,
+    mut hip_at: impl FnMut(usize, Option<&Tick>) -> Option<(f64, [f64; 3])>,
     mut progress: impl FnMut(usize, usize),
 ) -> Vec<Tick> {
     let period_s = (1.0 / rate_hz) as f32;
-    let start = trajectory.at(trajectory.start_s());
+    let mut ticks: Vec<Tick> = Vec::with_capacity(expected);
+    let Some((t0, start)) = hip_at(0, None) else {
+        return ticks;
+    };
     let mut renderer = FrictionRenderer::new(object, material, point::<O::P>(start));
-    let mut hips = HipSamples::new(trajectory, rate_hz);
-    let mut ticks = Vec::with_capacity(n);
-    for i in 0..n {
-        let (t_s, hip, hip_velocity) = hips.tick::<O::P>(i);
+    let (mut next, mut previous) = (Some((t0, start)), start);
+    while let Some((t_s, xyz)) = next {
+        let i = ticks.len();
+        let velocity = if i == 0 {
+            [0.0; 3]
+        } else {
+            [0, 1, 2].map(|k| (xyz[k] - previous[k]) * rate_hz)
+        };
+        previous = xyz;
         ticks.push(render_tick(
             &mut renderer,
             object,
             t_s,
-            hip,
-            hip_velocity,
+            point::<O::P>(xyz),
+            point::<O::P>(velocity),
             period_s,
         ));
-        progress(i + 1, n);
+        progress(ticks.len(), expected);
+        next = if ticks.len() < MAX_TICKS {
+            hip_at(ticks.len(), ticks.last())
+        } else {
+            None
+        };
     }
     ticks
+}
+
+/// Runs object `object` of `scene` with its material under a hand that decides where to go
+/// from what it felt: the HIP starts at `start` (tick 0, t = 0) and each later tick's HIP is
+/// `hand(last)`, where `last` is the previous tick's record (its position, force, mode, …);
+/// `None` ends the run, as does reaching `max_ticks` (at most [`MAX_TICKS`]). This is how a
+/// simulated participant explores an object: pressing until it feels a force, following a
+/// surface. The HIP velocity is the backward difference of the HIPs, as in [`run`].
+pub fn explore(
+    scene: &Scene,
+    object: usize,
+    start: [f64; 3],
+    rate_hz: f64,
+    max_ticks: usize,
+    mut hand: impl FnMut(&Tick) -> Option<[f64; 3]>,
+) -> Result<Run, SimError> {
+    let count = scene.objects().len();
+    let o = scene.object(object).ok_or(SimError::ObjectIndex {
+        index: object,
+        count,
+    })?;
+    check_rate(rate_hz)?;
+    let max_ticks = max_ticks.min(MAX_TICKS);
+    let material = o.material().friction_material();
+    let mut hip_at = |i: usize, last: Option<&Tick>| -> Option<(f64, [f64; 3])> {
+        match last {
+            None => Some((0.0, start)),
+            Some(_) if i >= max_ticks => None,
+            Some(last) => hand(last).map(|p| (i as f64 / rate_hz, p)),
+        }
+    };
+    let chain_error = |error| SimError::Chain {
+        index: object,
+        error,
+    };
+    let ticks = match o.space() {
+        Space::Planar => {
+            let curves = o.curve_views().unwrap_or_default();
+            let chain = Chain::new(&curves).map_err(chain_error)?;
+            simulate(&chain, material, rate_hz, 0, &mut hip_at, |_, _| {})
+        }
+        Space::Spatial => {
+            let surfaces = o.surface_views().unwrap_or_default();
+            let shell = Shell::new(&surfaces).map_err(|error| SimError::Shell {
+                index: object,
+                error,
+            })?;
+            simulate(&shell, material, rate_hz, 0, &mut hip_at, |_, _| {})
+        }
+    };
+    Ok(Run {
+        space: o.space(),
+        object,
+        object_name: o.name().to_owned(),
+        material,
+        rate_hz,
+        ticks,
+    })
 }
 
 /// The default device's controller at `rate_hz` with `chain` and `material` loaded

@@ -73,29 +73,35 @@ pub enum Command {
 /// `experiment …` subcommands.
 #[derive(Debug, Subcommand)]
 pub enum ExperimentCommand {
-    /// Run a 2afc-staircase plan headless with a simulated participant.
+    /// Run a plan headless with a simulated participant.
     #[command(after_long_help = EXPERIMENT_RUN_AFTER)]
     Run(ExperimentRunArgs),
 }
 
 const EXPERIMENT_RUN_AFTER: &str = "\
-Each trial presents the reference and the staircase's comparison in a random order; both \
-are explored by the same press (straight down at x = 0 from 10 mm above the object's top to \
-2 mm past its surface in 0.5 s, back up in 0.2 s, at 1 kHz through the simulated loop). The \
-simulated participant feels each interval's stiffness from the rendered positions and forces \
-and says which was stiffer, with the noise that puts its 75 % point at the Weber fraction W \
-(default 0.15) and a lapse rate L (default 0). Real participants run in the app, later.
+Any design runs (identification, 2afc-staircase, constant-stimuli), practice trials first. \
+2AFC: each trial presents the reference and the comparison in a random order; both are \
+explored by the same press (straight down at x = 0 from 10 mm above the object's top to 2 mm \
+past its surface in 0.5 s, back up in 0.2 s, at 1 kHz through the simulated loop); the \
+participant feels each interval's stiffness from the rendered positions and forces and says \
+which was stiffer, with the noise that puts its 75 % point at the Weber fraction W (default \
+0.15). Identification: the participant taps the object at nine points across the stimuli's \
+common box (down at 50 mm/s until the force reaches 1 N), notes where each tap touched and \
+which way the force pushed, and names the stimulus whose picture fits best, with position \
+noise A mm (default 1) and direction noise D degrees (default 10). A lapse rate L (default 0) \
+answers at random. Real participants run in the app.
 
-Written to --out (created if missing): trials.csv (one row per trial), \
-traces/trial-NNNN-a.csv and -b.csv (each interval's run log) and plan.json (the plan with \
-absolute scene paths). Standard output gets one line: the trials and each staircase's \
-threshold (the mean of its last reversals).
+Written to --out (created if missing; a folder holding this plan's run by the same \
+participant is resumed at its next trial): trials.csv (one row per trial), \
+traces/trial-NNNN-a.csv (and -b.csv for 2AFC: each interval's run log) and plan.json (the \
+plan with absolute scene paths). Standard output gets one line: the trials, the proportion \
+correct and each staircase's threshold (the mean of its last reversals).
 
 Exit status:
-  0  the staircases finished
+  0  the plan ran to its end
   1  the output could not be written, or a trial failed
-  2  bad command line, unreadable or invalid plan, a plan that is not 2afc-staircase, a
-     participant that is not sim:SEED[:weber=W][:lapse=L]
+  2  bad command line, unreadable or invalid plan, a folder holding another run, a
+     participant that is not sim:SEED[:weber=W][:lapse=L][:acuity_mm=A][:direction_deg=D]
 
 Example:
   viewer experiment run experiments/stiffness-jnd.json --participant sim:1:weber=0.2 \\
@@ -104,10 +110,11 @@ Example:
 /// `viewer experiment run` arguments.
 #[derive(Debug, Args)]
 pub struct ExperimentRunArgs {
-    /// The plan (JSON, format `experiment/1`, design `2afc-staircase`).
+    /// The plan (JSON, format `experiment/1`).
     #[arg(value_name = "PLAN.json")]
     pub plan: PathBuf,
-    /// Who answers: sim:SEED[:weber=W][:lapse=L] (a simulated participant).
+    /// Who answers: sim:SEED[:weber=W][:lapse=L][:acuity_mm=A][:direction_deg=D] (a
+    /// simulated participant).
     #[arg(long, value_name = "PARTICIPANT")]
     pub participant: String,
     /// The folder the run is written to.

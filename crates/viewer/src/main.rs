@@ -36,7 +36,7 @@ fn main() -> ExitCode {
 fn experiment_command(command: &viewer::cli::ExperimentCommand) -> ExitCode {
     use experiment::participant::SimParticipant;
     use experiment::plan::Plan;
-    use experiment::runner::{RunError, run_2afc};
+    use experiment::runner::{RunError, run};
     use viewer::cli::ExperimentCommand;
     let ExperimentCommand::Run(args) = command;
     let participant = match SimParticipant::parse(&args.participant) {
@@ -46,7 +46,7 @@ fn experiment_command(command: &viewer::cli::ExperimentCommand) -> ExitCode {
             return fail(
                 &anyhow!(
                     "--participant {:?}: only simulated participants \
-                     (sim:SEED[:weber=W][:lapse=L]) run headless; the app runs real \
+                     (sim:SEED[:weber=W][:lapse=L][:acuity_mm=A][:direction_deg=D]) run headless; the app runs real \
                      participants (later)",
                     args.participant
                 ),
@@ -60,15 +60,15 @@ fn experiment_command(command: &viewer::cli::ExperimentCommand) -> ExitCode {
         Ok(plan) => plan,
         Err(e) => return fail(&e, EXIT_BAD_SETUP),
     };
-    match run_2afc(&plan, &participant, &args.out) {
+    match run(&plan, &participant, &args.out) {
         Ok(summary) => {
             println!("experiment run: {summary}");
             ExitCode::SUCCESS
         }
         Err(e) => {
             let code = match e {
-                RunError::Design(_)
-                | RunError::Unsupported(_)
+                RunError::Unsupported(_)
+                | RunError::Resume { .. }
                 | RunError::NoReference
                 | RunError::Staircase { .. }
                 | RunError::Plan(_)
@@ -77,6 +77,8 @@ fn experiment_command(command: &viewer::cli::ExperimentCommand) -> ExitCode {
                 | RunError::Trajectory(_) => EXIT_BAD_SETUP,
                 RunError::Sim { .. }
                 | RunError::NotFelt { .. }
+                | RunError::NoTouch { .. }
+                | RunError::Response(_)
                 | RunError::TooManyTrials(_)
                 | RunError::CreateDir { .. }
                 | RunError::Write { .. } => EXIT_BAD_INPUT,
