@@ -8,3 +8,4 @@ pub mod rng;
 pub mod runner;
 pub mod session;
 pub mod staircase;
+pub mod trace;

@@ -49,6 +49,9 @@ fn the_stiffness_plan_runs_to_thresholds_at_the_participants_70_7_percent_points
             let log = std::fs::read_to_string(out.join(trace))
                 .unwrap_or_else(|e| panic!("trial {}: {trace}: {e}", i + 1));
             assert!(log.starts_with("t_s,"), "{trace} is not a run log");
+            // The real-time check: an unbroken 1 kHz loop.
+            let timing = experiment::trace::check(&log, 1000.0).unwrap();
+            assert_eq!((timing.dropped, timing.irregular), (0, 0), "{trace}");
             // 0.7 s at 1 kHz, plus the header.
             assert!(
                 log.lines().count() > 700,
@@ -140,8 +143,15 @@ fn the_thesis_shapes_run_identifies_above_chance_and_resumes() {
         assert_eq!(row[7], plan.spec().conditions[t.condition].name);
         assert!(names.contains(&row[12].as_str()), "{row:?}");
         assert_eq!(row[13], u8::from(row[12] == row[6]).to_string());
-        // One trace per trial, a tap run log.
-        assert!(out.join(&row[15]).exists(), "{row:?}");
+        // One trace per trial, a tap run log of an unbroken 1 kHz loop that ended within the
+        // plan's exploration time (30 s).
+        let log = std::fs::read_to_string(out.join(&row[15])).unwrap();
+        let timing = experiment::trace::check(&log, 1000.0).unwrap();
+        assert_eq!((timing.dropped, timing.irregular), (0, 0), "{row:?}");
+        assert!(
+            timing.duration_s > 1.0 && timing.duration_s < 30.0,
+            "{timing:?}"
+        );
     }
     // Chance is 8 of 40; a participant that felt nothing of the shape would exceed 16 (the
     // binomial's 0.999 quantile at n = 40, p = 0.2 is 16) with probability < 0.001.
