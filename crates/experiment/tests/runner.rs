@@ -192,3 +192,70 @@ fn a_folder_of_another_plan_is_refused_and_untouched() {
     );
     std::fs::remove_dir_all(&out).unwrap();
 }
+
+/// The constant-stimuli plan with a simulated participant of W = 0.15: every level runs its
+/// 20 repetitions, the comparison first in exactly half of them (the design alternates it
+/// within each block's 10), and the proportion correct at each of the three folded distances
+/// (40 trials: ×1.1 with ÷1.1, …) is the participant's ψ there, within 4 binomial standard
+/// errors √(ψ(1 − ψ)/40) (the felt stiffness is proportional to the rendered one for the same
+/// press, so ratios carry over; see the staircase test).
+#[test]
+fn constant_stimuli_run_balanced_and_follow_the_participants_psychometric_function() {
+    let plan = Plan::load(root().join("experiments/stiffness-constant.json")).unwrap();
+    let participant = SimParticipant::parse("sim:9:weber=0.15").unwrap().unwrap();
+    let out = temp_dir("constant");
+    let summary = run(&plan, &participant, &out).unwrap();
+    assert_eq!(summary.trials, 4 + 6 * 20);
+    let trials = std::fs::read_to_string(out.join("trials.csv")).unwrap();
+    let rows: Vec<Vec<&str>> = trials
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').collect())
+        .collect();
+    let tests: Vec<&Vec<&str>> = rows.iter().filter(|r| r[4] == "0").collect();
+    let r = 500.0f64;
+    let sigma_sqrt2 = 1.15f64.ln() / Z_75;
+    // Φ(z) = erfc(−z/√2)/2, computed here independently of the crate's own Φ.
+    let psi = |ratio: f64| 0.5 * erfc(-(ratio.ln() / sigma_sqrt2) / std::f64::consts::SQRT_2);
+    for ratio in [1.1, 1.25, 1.5] {
+        let at: Vec<&&Vec<&str>> = tests
+            .iter()
+            .filter(|row| {
+                let level: f64 = row[9].parse().unwrap();
+                ((level / r).ln().abs() - f64::ln(ratio)).abs() < 1e-9
+            })
+            .collect();
+        assert_eq!(at.len(), 40, "ratio {ratio}");
+        for sign in [true, false] {
+            let side: Vec<_> = at
+                .iter()
+                .filter(|row| (row[9].parse::<f64>().unwrap() > r) == sign)
+                .collect();
+            assert_eq!(side.len(), 20);
+            assert_eq!(side.iter().filter(|row| row[11] == "1").count(), 10);
+        }
+        let p = at.iter().filter(|row| row[13] == "1").count() as f64 / 40.0;
+        let expected = psi(ratio);
+        let se = (expected * (1.0 - expected) / 40.0).sqrt();
+        eprintln!("ratio {ratio}: {p:.3} correct, model {expected:.3} ± {se:.3}");
+        assert!(
+            (p - expected).abs() < 4.0 * se.max(0.025),
+            "ratio {ratio}: {p} vs {expected}"
+        );
+    }
+    std::fs::remove_dir_all(&out).unwrap();
+}
+
+/// erfc(x) = 1 − erf(x), erf by Simpson's rule on [0, |x|] with 2,000 panels (for |x| ≤ 3
+/// the rule's error bound h⁴ max|f⁗|/180 · |x| is below 1e-12).
+fn erfc(x: f64) -> f64 {
+    let n = 2000;
+    let h = x.abs() / n as f64;
+    let f = |t: f64| (-t * t).exp();
+    let mut s = f(0.0) + f(x.abs());
+    for i in 1..n {
+        s += if i % 2 == 1 { 4.0 } else { 2.0 } * f(i as f64 * h);
+    }
+    let erf = 2.0 / std::f64::consts::PI.sqrt() * s * h / 3.0;
+    1.0 - erf.copysign(x)
+}
