@@ -627,3 +627,68 @@ pub fn run(
         staircases,
     })
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Taps on the straight roof, whose sides slope at exactly 45° (ends (±0.03, 0.065),
+    /// vertex (0, 0.095)). Without friction the force is the surface normal, so the felt slope
+    /// is the side's, ∓1. With Coulomb friction the vertical press slides (tan 45° = 1 > μs =
+    /// 0.7) and the force leans from the normal towards the vertical by the friction angle
+    /// atan μ: the felt slope is tan(45° − atan μ) = (1 − μ)/(1 + μ). The renderer's μ follows
+    /// the Stribeck curve between μd = 0.5 (fast) and μs = 0.7 (slow), so the felt slope lies
+    /// in [(1 − μs)/(1 + μs), (1 − μd)/(1 + μd)] = [0.176, 0.333]: a third to a sixth of the
+    /// true slope, the flattening friction brings to the direction cue.
+    /// The heights: the touch level F = 0.25 N is reached a depth d = F / K along the normal
+    /// (K = 1,000 N/m), i.e. Δy = d / cos 45° under the surface; sliding on the cone's edge the
+    /// spring is stretched 1/cos(atan μd) = √(1 + μd²) times the normal depth, so
+    /// Δy = d / (cos 45° √(1 + μd²)). The tap descends 50 µm a tick, so the touch is noted up
+    /// to one step deeper (and 1 µm for f32 positions).
+    #[test]
+    fn taps_feel_the_normal_without_friction_and_the_friction_cone_with_it() {
+        let plan = Plan::load(
+            Path::new(env!("CARGO_MANIFEST_DIR")).join("../../experiments/thesis-shapes.json"),
+        )
+        .unwrap();
+        let taps = TapPlan::new(&plan).unwrap();
+        let straight = 2;
+        let scene = plan.scene(straight).unwrap();
+        let d = TAP_TOUCH_N / 1000.0;
+        let cos45 = std::f64::consts::FRAC_1_SQRT_2;
+        let step = TAP_SPEED_M_PER_S / RATE_HZ;
+        let cone = |mu: f64| (1.0 - mu) / (1.0 + mu);
+        for (condition, slopes, lever) in [
+            (1, [1.0 - 1e-3, 1.0 + 1e-3], 1.0),
+            (0, [cone(0.7), cone(0.5)], 1.49f64.sqrt()),
+        ] {
+            // The spring's stretch over the normal depth is at most √(1 + μs²).
+            let lowest = d / (cos45 * lever);
+            let material = plan.material(straight, condition, None).unwrap();
+            let scene = scene.with_material(0, material).unwrap();
+            let (run, felt) = tap(&scene, 0, &taps, 60_000).unwrap();
+            assert!(run.ticks.len() > 1000);
+            for t in felt.iter().map(|t| t.unwrap()) {
+                if t.x.abs() < 1e-9 {
+                    continue; // the vertex: no single slope
+                }
+                let (h, g, _) = surface_at(&scene, 0, t.x).unwrap();
+                eprintln!(
+                    "condition {condition}: x {:+.4} felt slope {:+.4} (side {g:+.3}), height {:.5} (geometry {h:.5})",
+                    t.x, t.slope, t.height
+                );
+                assert!(
+                    t.slope.abs() >= slopes[0] && t.slope.abs() <= slopes[1],
+                    "{t:?} not in {slopes:?}"
+                );
+                assert_eq!(t.slope.signum(), g.signum(), "{t:?}");
+                let below = h - t.height;
+                assert!(
+                    below > lowest - 1e-6 && below < lowest + step + 1e-6,
+                    "{t:?}: {below} not in [{lowest}, {}]",
+                    lowest + step
+                );
+            }
+        }
+    }
+}
