@@ -148,7 +148,7 @@ pub use message::{
     CRC_LEN, Frame, FrameError, HEADER_LEN, Hello, MAX_CHUNK, MAX_FEATURE_INDEX, MAX_FRAME,
     MAX_PAYLOAD, MAX_POINTS_2D, MAX_POINTS_3D, Message, MessageType, NO_INDEX, Nack, POINTS_APPLY,
     POINTS_HEADER_LEN, POINTS_SPATIAL, SceneChunk, ScenePoints, Status, TELEMETRY_LEN, Telemetry,
-    UNKNOWN_SEQ, VERSION,
+    UNKNOWN_SEQ, VERSION, next_seq,
 };
 pub use receiver::{SceneReceiver, SceneValidator};
 pub use scene::{

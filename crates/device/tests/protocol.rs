@@ -985,7 +985,7 @@ fn refused_in_sequence(rx: &Receiver, before: &Receiver, next: u16) {
 impl Host {
     fn frame(&mut self, message: Message) -> Vec<u8> {
         let f = encode(self.seq, message);
-        self.seq = self.seq.wrapping_add(1);
+        self.seq = next_seq(self.seq);
         f
     }
 }
@@ -1498,4 +1498,58 @@ fn report_descriptor_declares_one_frame_each_way_without_report_ids() {
     let frame_bits = 8 * MAX_FRAME as u32;
     assert_eq!(input_bits, [frame_bits], "one input report of one frame");
     assert_eq!(output_bits, [frame_bits], "one output report of one frame");
+}
+
+/// A lost host frame costs one nack wherever it falls in the numbering, the wrap included:
+/// the host's `Sequencer` follows the device's sequence-gap nack and the next 50 frames go
+/// through. Before host numbers skipped 0xFFFF, losing the frame numbered 0xFFFF left the
+/// device expecting 0xFFFF, which its nacks cannot name (it is `UNKNOWN_SEQ`), and 0 of the
+/// next 50 frames were accepted.
+#[test]
+fn a_lost_frame_costs_one_nack_anywhere_in_the_numbering() {
+    use device::host::Sequencer;
+    for lost in [0x1234u16, 0xFFFD, 0xFFFE, 0x0000, 0x0001] {
+        let mut rx = Box::new(Receiver::new());
+        let mut host = Sequencer::default();
+        // Bring the host's numbering to a few frames before the loss.
+        while host.encode(&Message::EnableForces).2 != lost.wrapping_sub(6) {}
+        let hello = host
+            .encode(&Message::Hello(Hello {
+                software: [0, 1, 0],
+                scene_capacity: 0,
+                max_payload: MAX_PAYLOAD as u8,
+            }))
+            .0;
+        rx.receive(&hello, &mut never).unwrap();
+        let mut accepted_after_nack = 0;
+        let mut nacks = 0;
+        let mut dropped = false;
+        for _ in 0..60 {
+            let (report, n, seq) = host.encode(&Message::Heartbeat { uptime_ms: 1 });
+            assert_ne!(seq, UNKNOWN_SEQ, "no host frame is numbered 0xFFFF");
+            if seq == lost && !dropped {
+                dropped = true;
+                continue; // lost on the way (its number is sent again after the nack)
+            }
+            match rx.receive(&report[..n], &mut never) {
+                Ok(_) if nacks > 0 => accepted_after_nack += 1,
+                Ok(_) => {}
+                Err(nack) => {
+                    nacks += 1;
+                    assert_eq!(nack.code, ErrorCode::SequenceGap, "lost {lost:#06x}");
+                    assert_eq!(nack.expected_seq, lost, "lost {lost:#06x}");
+                    // The reply reaches the host, which renumbers from the expected frame.
+                    let reply = encode(0, Message::Nack(nack));
+                    host.decode_reply(&reply).unwrap();
+                }
+            }
+        }
+        // The loss costs exactly one (nacked) frame.
+        assert!(dropped);
+        assert_eq!(nacks, 1, "lost {lost:#06x}");
+        assert!(
+            accepted_after_nack >= 50,
+            "lost {lost:#06x}: {accepted_after_nack}"
+        );
+    }
 }

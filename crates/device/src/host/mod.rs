@@ -105,7 +105,7 @@ impl Sequencer {
     /// report, the frame's length and its sequence number.
     pub fn encode(&mut self, message: &Message) -> ([u8; MAX_FRAME], usize, u16) {
         let seq = self.next;
-        self.next = self.next.wrapping_add(1);
+        self.next = crate::protocol::next_seq(self.next);
         let (report, n) = Frame {
             seq,
             message: *message,

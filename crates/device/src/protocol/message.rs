@@ -20,8 +20,19 @@ pub const MAX_PAYLOAD: usize = MAX_FRAME - HEADER_LEN - CRC_LEN;
 /// Largest scene chunk: the payload minus the u32 offset.
 pub const MAX_CHUNK: usize = MAX_PAYLOAD - 4;
 /// The sequence number a nack carries when the rejected frame's own number is unknown
-/// (the frame was too damaged to trust it).
+/// (the frame was too damaged to trust it). No host frame is numbered with it: the host's
+/// numbers go from 0xFFFE to 0 ([`next_seq`]), so a nack's expected number is never
+/// ambiguous.
 pub const UNKNOWN_SEQ: u16 = 0xFFFF;
+
+/// The sequence number after `seq` for frames from the host: one more, wrapping from 0xFFFE to
+/// 0 past [`UNKNOWN_SEQ`]. (Were 0xFFFF a frame's number and that frame lost, the device's
+/// sequence-gap nacks would carry `expected_seq = 0xFFFF`, which a host cannot tell from
+/// "unknown", and the link would never resynchronise.)
+pub const fn next_seq(seq: u16) -> u16 {
+    let next = seq.wrapping_add(1);
+    if next == UNKNOWN_SEQ { 0 } else { next }
+}
 /// Object / patch index of a nack that concerns no particular object or patch.
 pub const NO_INDEX: u8 = 0xFF;
 /// Bytes of a [`Message::ScenePoints`] payload before its points: object u8, patch u8, first

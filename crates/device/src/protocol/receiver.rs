@@ -3,6 +3,7 @@
 use super::scene::{SceneError, SceneStore, points_span, write_points};
 use super::{
     Crc32, ErrorCode, Frame, Message, NO_INDEX, Nack, SceneChunk, ScenePoints, UNKNOWN_SEQ, crc32,
+    next_seq,
 };
 
 /// Checks an assembled scene before the receiver activates it.
@@ -189,7 +190,7 @@ impl<const N: usize> SceneReceiver<N> {
                 if let Some(seq) = e.seq
                     && self.expected_seq.is_none_or(|x| x == seq)
                 {
-                    self.expected_seq = Some(seq.wrapping_add(1));
+                    self.expected_seq = Some(next_seq(seq));
                 }
                 return Err(self.nack(e.seq, e.code, None));
             }
@@ -200,9 +201,9 @@ impl<const N: usize> SceneReceiver<N> {
             return Err(self.nack(Some(seq), ErrorCode::SequenceGap, None));
         }
         let handled = self.handle(&frame, validator);
-        self.expected_seq = Some(seq.wrapping_add(1));
+        self.expected_seq = Some(next_seq(seq));
         handled.map(|()| frame).map_err(|nack| Nack {
-            expected_seq: seq.wrapping_add(1),
+            expected_seq: next_seq(seq),
             ..nack
         })
     }
