@@ -329,3 +329,95 @@ fn hello_skips_the_tail_of_a_frame_on_a_stream_joined_mid_frame() {
     drop(link);
     let _ = device.join().unwrap();
 }
+
+/// Materials over the wire: a coefficient of 1e30 (which the rules used to accept, after
+/// which most telemetry frames carried a friction force of −∞ that the host refuses, so the
+/// link looked dead while the board rendered) is nacked as a bad material and changes
+/// nothing; the largest material the rules accept, under LuGre (the model with the most
+/// products of coefficients and speeds), renders a press and a slide with every frame finite.
+#[test]
+fn huge_materials_are_refused_and_the_largest_accepted_renders_finite_frames() {
+    use device::protocol::ErrorCode;
+    use friction::ModelKind;
+    let mut link = unpaced();
+    link.hello(TIMEOUT).unwrap();
+    link.upload_scene(&thesis_2d_scene(), TIMEOUT).unwrap();
+    link.request(&Message::Calibrate, TIMEOUT).unwrap();
+    link.request(&Message::EnableForces, TIMEOUT).unwrap();
+    for m in [
+        Message::Heartbeat { uptime_ms: 0 },
+        Message::ClearFaults { mask: u16::MAX },
+        Message::Heartbeat { uptime_ms: 0 },
+    ] {
+        link.send(&m).unwrap();
+    }
+    for huge in [
+        FrictionMaterial {
+            model: ModelKind::LuGre,
+            viscous_ns_per_m: 1e30,
+            ..FrictionMaterial::default()
+        },
+        FrictionMaterial {
+            model: ModelKind::LuGre,
+            bristle_damping_ns_per_m: 1e30,
+            ..FrictionMaterial::default()
+        },
+        FrictionMaterial {
+            model: ModelKind::Karnopp,
+            viscous_ns_per_m: 1e30,
+            ..FrictionMaterial::default()
+        },
+    ] {
+        let message = Message::SetMaterial {
+            object: 0,
+            material: huge,
+        };
+        match link.request(&message, TIMEOUT) {
+            Err(device::host::LinkError::Nack(n)) => {
+                assert_eq!(n.code, ErrorCode::BadMaterial, "{huge:?}")
+            }
+            other => panic!("{huge:?}: {other:?}"),
+        }
+    }
+    let largest = FrictionMaterial {
+        model: ModelKind::LuGre,
+        // The renderer's stiffness stays what the device allows; the friction terms go to
+        // the rules' maxima.
+        stiffness_n_per_m: 1000.0,
+        ..FrictionMaterial::MAX
+    };
+    link.request(
+        &Message::SetMaterial {
+            object: 0,
+            material: largest,
+        },
+        TIMEOUT,
+    )
+    .unwrap();
+    // In and along the right arc, as in the rendering test; every frame decodes (a
+    // non-finite force is refused by the decoder, and `run` unwraps each frame).
+    let path = [
+        Vec2::new(0.03, 0.075),
+        Vec2::new(0.012, 0.075),
+        Vec2::new(0.012, 0.085),
+        Vec2::new(0.012, 0.065),
+    ];
+    let mut frames = Vec::new();
+    for w in path.windows(2) {
+        for k in 1..=20 {
+            link.set_hand_target(w[0].lerp(w[1], k as f32 / 20.0))
+                .unwrap();
+            frames.extend(run(&mut link, 20, true));
+        }
+    }
+    assert!(
+        frames
+            .iter()
+            .all(|t| t.force_friction_n.is_finite() && t.force_n.is_finite()),
+        "non-finite frames"
+    );
+    assert!(
+        frames.iter().any(|t| t.mode != Mode::Free),
+        "never in contact"
+    );
+}

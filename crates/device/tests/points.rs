@@ -694,13 +694,23 @@ fn the_simulated_device_renders_a_curve_moving_under_the_hand() {
         telemetry.extend(tm);
         answers.extend(ans);
     }
-    let (tm, ans) = read(&mut link, 50, &mut gaps);
-    telemetry.extend(tm);
-    answers.extend(ans);
-    let acked = answers
-        .iter()
-        .filter(|m| matches!(m, Message::Ack { seq } if sent.contains(seq)))
-        .count();
+    // The last acks follow within a few frames; a loaded machine may delay the device's
+    // thread, so read on (up to a second of frames) until they are all in.
+    let count_acked = |answers: &[Message]| {
+        answers
+            .iter()
+            .filter(|m| matches!(m, Message::Ack { seq } if sent.contains(seq)))
+            .count()
+    };
+    for _ in 0..20 {
+        let (tm, ans) = read(&mut link, 50, &mut gaps);
+        telemetry.extend(tm);
+        answers.extend(ans);
+        if count_acked(&answers) >= sent.len() {
+            break;
+        }
+    }
+    let acked = count_acked(&answers);
     let nacked: Vec<&Message> = answers
         .iter()
         .filter(|m| matches!(m, Message::Nack(_)))

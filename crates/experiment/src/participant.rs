@@ -265,6 +265,7 @@ fn norm(v: &[f32; 3]) -> f64 {
 }
 
 #[cfg(test)]
+#[allow(clippy::unwrap_used)]
 mod tests {
     use super::*;
 

@@ -87,6 +87,7 @@ pub fn check(log: &str, rate_hz: f64) -> Result<Timing, TraceError> {
 }
 
 #[cfg(test)]
+#[allow(clippy::unwrap_used)]
 mod tests {
     use super::*;
 

@@ -142,6 +142,15 @@ pub enum MaterialError {
         /// The value given.
         value: f64,
     },
+    /// A value above what a device can render ([`FrictionMaterial::MAX`]).
+    TooLarge {
+        /// The field.
+        field: &'static str,
+        /// The value given.
+        value: f32,
+        /// The largest value accepted.
+        max: f32,
+    },
     /// Dynamic friction exceeds static friction.
     FrictionOrder {
         /// Static friction coefficient.
@@ -155,7 +164,9 @@ impl MaterialError {
     /// The field at fault.
     pub fn field(&self) -> &'static str {
         match self {
-            MaterialError::Range { field, .. } | MaterialError::Positive { field, .. } => field,
+            MaterialError::Range { field, .. }
+            | MaterialError::Positive { field, .. }
+            | MaterialError::TooLarge { field, .. } => field,
             MaterialError::Exponent { .. } => "stribeck",
             MaterialError::FrictionOrder { .. } => "mu_dynamic",
         }
@@ -171,6 +182,10 @@ impl core::fmt::Display for MaterialError {
             MaterialError::Positive { field, value } => {
                 write!(f, "material.{field}: {value} must be finite and > 0")
             }
+            MaterialError::TooLarge { field, value, max } => write!(
+                f,
+                "material.{field}: {value} is larger than {max}, the most a device renders"
+            ),
             MaterialError::Exponent { value } => write!(
                 f,
                 "material.stribeck.power: {value} must be an integer from 1 to 255"
@@ -190,30 +205,69 @@ impl core::fmt::Display for MaterialError {
 impl core::error::Error for MaterialError {}
 
 impl FrictionMaterial {
+    /// The largest value of each field the rules accept: far beyond any device's rendering
+    /// (a desktop device renders a few thousand N/m and a few N·s/m; μ above 2 is glue),
+    /// low enough that every force the renderer computes stays finite in `f32` for any HIP
+    /// in a workspace (|x| ≤ 1 m) at any speed a clock can produce (10⁴ m/s: a metre in a
+    /// 10 kHz tick). The model and Stribeck shape are those of the default.
+    pub const MAX: FrictionMaterial = FrictionMaterial {
+        stiffness_n_per_m: 1e6,
+        damping_ns_per_m: 1e4,
+        mu_static: 10.0,
+        mu_dynamic: 10.0,
+        stribeck: Stribeck::Linear,
+        transition_time_s: 100.0,
+        converge_tol_m: 1.0,
+        stop_speed_m_per_s: 100.0,
+        model: ModelKind::StickSlip,
+        viscous_ns_per_m: 1e4,
+        karnopp_band_m_per_s: 100.0,
+        bristle_stiffness_n_per_m: 1e7,
+        bristle_damping_ns_per_m: 1e4,
+        stribeck_speed_m_per_s: 100.0,
+    };
+
     /// The one set of material rules, applied by the scene loader, the app's material editor
-    /// and the device to an uploaded material: every value finite; stiffness, damping, μs, μd,
-    /// stop speed, viscous, Karnopp band and bristle damping ≥ 0; transition time, convergence
-    /// tolerance, bristle stiffness and Stribeck speed > 0; μd ≤ μs; a Stribeck power exponent
-    /// ≥ 1. The first field at fault, in the format's order.
+    /// and the device to an uploaded material: every value finite and at most
+    /// [`FrictionMaterial::MAX`]'s; stiffness, damping, μs, μd, stop speed, viscous, Karnopp
+    /// band and bristle damping ≥ 0; transition time, convergence tolerance, bristle
+    /// stiffness and Stribeck speed > 0; μd ≤ μs; a Stribeck power exponent ≥ 1. The first
+    /// field at fault, in the format's order.
     pub fn validate(&self) -> Result<(), MaterialError> {
-        let non_negative = |field, value: f32| {
-            if value.is_finite() && value >= 0.0 {
+        let at_most = |field, value: f32, max: f32| {
+            if value <= max {
                 Ok(())
+            } else {
+                Err(MaterialError::TooLarge { field, value, max })
+            }
+        };
+        let non_negative = |field, value: f32, max| {
+            if value.is_finite() && value >= 0.0 {
+                at_most(field, value, max)
             } else {
                 Err(MaterialError::Range { field, value })
             }
         };
-        let positive = |field, value: f32| {
+        let positive = |field, value: f32, max| {
             if value.is_finite() && value > 0.0 {
-                Ok(())
+                at_most(field, value, max)
             } else {
                 Err(MaterialError::Positive { field, value })
             }
         };
-        non_negative("stiffness_n_per_m", self.stiffness_n_per_m)?;
-        non_negative("damping_ns_per_m", self.damping_ns_per_m)?;
-        non_negative("mu_static", self.mu_static)?;
-        non_negative("mu_dynamic", self.mu_dynamic)?;
+        let m = Self::MAX;
+        non_negative(
+            "stiffness_n_per_m",
+            self.stiffness_n_per_m,
+            m.stiffness_n_per_m,
+        )?;
+        non_negative(
+            "damping_ns_per_m",
+            self.damping_ns_per_m,
+            m.damping_ns_per_m,
+        )?;
+        non_negative("mu_static", self.mu_static, m.mu_static)?;
+        non_negative("mu_dynamic", self.mu_dynamic, m.mu_dynamic)?;
         if self.mu_dynamic > self.mu_static {
             return Err(MaterialError::FrictionOrder {
                 mu_static: self.mu_static,
@@ -223,14 +277,42 @@ impl FrictionMaterial {
         if let Stribeck::Power { exponent: 0 } = self.stribeck {
             return Err(MaterialError::Exponent { value: 0.0 });
         }
-        positive("transition_time_s", self.transition_time_s)?;
-        positive("converge_tol_m", self.converge_tol_m)?;
-        non_negative("stop_speed_m_per_s", self.stop_speed_m_per_s)?;
-        non_negative("viscous_ns_per_m", self.viscous_ns_per_m)?;
-        non_negative("karnopp_band_m_per_s", self.karnopp_band_m_per_s)?;
-        positive("bristle_stiffness_n_per_m", self.bristle_stiffness_n_per_m)?;
-        non_negative("bristle_damping_ns_per_m", self.bristle_damping_ns_per_m)?;
-        positive("stribeck_speed_m_per_s", self.stribeck_speed_m_per_s)
+        positive(
+            "transition_time_s",
+            self.transition_time_s,
+            m.transition_time_s,
+        )?;
+        positive("converge_tol_m", self.converge_tol_m, m.converge_tol_m)?;
+        non_negative(
+            "stop_speed_m_per_s",
+            self.stop_speed_m_per_s,
+            m.stop_speed_m_per_s,
+        )?;
+        non_negative(
+            "viscous_ns_per_m",
+            self.viscous_ns_per_m,
+            m.viscous_ns_per_m,
+        )?;
+        non_negative(
+            "karnopp_band_m_per_s",
+            self.karnopp_band_m_per_s,
+            m.karnopp_band_m_per_s,
+        )?;
+        positive(
+            "bristle_stiffness_n_per_m",
+            self.bristle_stiffness_n_per_m,
+            m.bristle_stiffness_n_per_m,
+        )?;
+        non_negative(
+            "bristle_damping_ns_per_m",
+            self.bristle_damping_ns_per_m,
+            m.bristle_damping_ns_per_m,
+        )?;
+        positive(
+            "stribeck_speed_m_per_s",
+            self.stribeck_speed_m_per_s,
+            m.stribeck_speed_m_per_s,
+        )
     }
 }
 

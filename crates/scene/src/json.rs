@@ -31,22 +31,25 @@
 //! ([`tracker::Shell`]); a single patch of either kind is a valid object. Spatial curves and
 //! objects that mix planar curves and surfaces are rejected.
 //!
-//! The `material` has four required fields (`stiffness_n_per_m`, `damping_ns_per_m`,
-//! `mu_static`, `mu_dynamic`) and optional friction-rendering fields, whose defaults are
-//! [`friction::FrictionMaterial::default`]'s (see [`Material::friction_material`]):
+//! The `material` has four required fields (`stiffness_n_per_m` ≥ 0 and ≤ 1e6,
+//! `damping_ns_per_m` ≥ 0 and ≤ 1e4, `mu_static` and `mu_dynamic` ≥ 0 and ≤ 10, μd ≤ μs) and
+//! optional friction-rendering fields, whose defaults are
+//! [`friction::FrictionMaterial::default`]'s (see [`Material::friction_material`]). The upper
+//! bounds ([`friction::FrictionMaterial::MAX`]) are far beyond what a device renders and keep
+//! every force the renderer computes finite:
 //!
 //! | field | default | valid |
 //! |---|---|---|
 //! | `stribeck` | `"linear"` | `"linear"`, `{"power": n}` (integer n in 1..=255), `"smoothstep"` |
-//! | `transition_time_s` | 0.06 | > 0 |
-//! | `converge_tol_m` | 1e-5 | > 0 |
-//! | `stop_speed_m_per_s` | 5e-4 | ≥ 0 |
+//! | `transition_time_s` | 0.06 | > 0, ≤ 100 |
+//! | `converge_tol_m` | 1e-5 | > 0, ≤ 1 |
+//! | `stop_speed_m_per_s` | 5e-4 | ≥ 0, ≤ 100 |
 //! | `model` | `"stick_slip"` | `"stick_slip"`, `"coulomb_viscous"`, `"karnopp"`, `"dahl"`, `"lugre"` |
-//! | `viscous_ns_per_m` | 0 | ≥ 0 |
-//! | `karnopp_band_m_per_s` | 1e-3 | ≥ 0 |
-//! | `bristle_stiffness_n_per_m` | 2000 | > 0 |
-//! | `bristle_damping_ns_per_m` | 0 | ≥ 0 |
-//! | `stribeck_speed_m_per_s` | 0.01 | > 0 |
+//! | `viscous_ns_per_m` | 0 | ≥ 0, ≤ 1e4 |
+//! | `karnopp_band_m_per_s` | 1e-3 | ≥ 0, ≤ 100 |
+//! | `bristle_stiffness_n_per_m` | 2000 | > 0, ≤ 1e7 |
+//! | `bristle_damping_ns_per_m` | 0 | ≥ 0, ≤ 1e4 |
+//! | `stribeck_speed_m_per_s` | 0.01 | > 0, ≤ 100 |
 //!
 //! An object of one patch may carry a `"dynamics"` block, which makes it deformable (D-NURBS,
 //! crate `deform`); without one it is rigid. Its fields, per unit arc length (curves) or area
