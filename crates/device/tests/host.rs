@@ -421,3 +421,27 @@ fn huge_materials_are_refused_and_the_largest_accepted_renders_finite_frames() {
         "never in contact"
     );
 }
+
+/// Sequence gaps: a forward jump is that many frames lost, the wrap from 0xFFFF to 0 is
+/// none, a repeated frame is none, and a jump backwards is the device restarting its
+/// numbering, not ~65,000 lost frames (what `device monitor` reported after a reset).
+#[test]
+fn gap_counter_tells_losses_from_a_restart() {
+    let mut g = GapCounter::default();
+    for seq in [10, 11, 14] {
+        g.observe(seq);
+    }
+    assert_eq!((g.dropped, g.restarts), (2, 0));
+    for seq in [0xFFFE, 0xFFFF, 0, 1] {
+        g.observe(seq);
+    }
+    // 14 → 0xFFFE is a step back of 16: a restart; the wrap after it loses nothing.
+    assert_eq!((g.dropped, g.restarts), (2, 1));
+    assert_eq!(g.observe(1), 0);
+    let mut g = GapCounter::default();
+    g.observe(5000);
+    assert_eq!(g.observe(3), 0);
+    assert_eq!((g.dropped, g.restarts, g.received), (0, 1, 2));
+    assert_eq!(g.observe(6), 2);
+    assert_eq!((g.dropped, g.restarts), (2, 1));
+}

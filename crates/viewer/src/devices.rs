@@ -120,7 +120,14 @@ pub fn monitor(
             Err(e) => return Err(e.into()),
         };
         let Frame { seq, message } = frame;
+        let restarts = gaps.restarts;
         let gap = gaps.observe(seq);
+        if gaps.restarts > restarts {
+            writeln!(
+                out,
+                "the device restarted its frame numbering at seq {seq} (a reset?); nothing counted as dropped"
+            )?;
+        }
         if gap > 0 {
             writeln!(
                 out,
@@ -152,4 +159,53 @@ pub fn monitor(
 pub fn sim_hand_target(elapsed: Duration) -> Vec2 {
     let phase = elapsed.as_secs_f32() * std::f32::consts::TAU / 4.0;
     SimConfig::default().start_hip + Vec2::new(phase.cos() - 1.0, phase.sin()) * 0.01
+}
+
+#[cfg(test)]
+#[allow(clippy::unwrap_used)]
+mod tests {
+    use super::*;
+    use std::collections::VecDeque;
+
+    /// A device that sends the frames it was given, then nothing.
+    #[derive(Debug)]
+    struct Replay(VecDeque<Frame>);
+
+    impl Link for Replay {
+        fn send(&mut self, _: &Message) -> Result<u16, LinkError> {
+            Ok(0)
+        }
+        fn recv(&mut self, _: Duration) -> Result<Option<Frame>, LinkError> {
+            Ok(self.0.pop_front())
+        }
+    }
+
+    /// A device reset mid-stream (its numbering starts again at 0) is reported as a restart,
+    /// not as ~65,000 dropped frames; a real gap after it is still counted.
+    #[test]
+    fn monitor_reports_a_device_restart_not_a_huge_loss() {
+        let seqs = (700..710).chain(0..5).chain(7..9);
+        let frames = seqs
+            .map(|seq| Frame {
+                seq,
+                message: Message::Ack { seq: 0 },
+            })
+            .collect();
+        let mut out = Vec::new();
+        let summary = monitor(
+            &mut Replay(frames),
+            Some(Duration::from_millis(50)),
+            1,
+            |_| Ok(()),
+            &mut out,
+        )
+        .unwrap();
+        let out = String::from_utf8(out).unwrap();
+        assert_eq!(summary.dropped, 2, "{out}");
+        assert!(
+            out.contains("restarted its frame numbering at seq 0"),
+            "{out}"
+        );
+        assert!(out.contains("dropped 2 frame(s) before seq 7"), "{out}");
+    }
 }

@@ -231,7 +231,12 @@ pub trait Link: core::fmt::Debug {
     }
 }
 
-/// Counts the frames lost between sequence numbers (wrapping).
+/// Counts the frames lost between sequence numbers (wrapping), and the device's restarts.
+///
+/// A number behind the last one (a wrapping step of half the range or more) is the device
+/// starting its numbering again (a reset, a reflash, a new session on a shared link), not
+/// 65,000 lost frames: at a frame a millisecond that many would be half a minute of silence,
+/// which a link declares lost long before ([`crate::host`]'s users give up after 0.5 s).
 #[derive(Clone, Copy, Debug, Default)]
 pub struct GapCounter {
     last: Option<u16>,
@@ -239,17 +244,26 @@ pub struct GapCounter {
     pub dropped: u64,
     /// Frames seen so far.
     pub received: u64,
+    /// Times the numbering went backwards (the device restarted).
+    pub restarts: u64,
 }
 
 impl GapCounter {
     /// Records a frame with sequence number `seq`; returns how many frames were missing
-    /// just before it (0 when it follows the last one).
+    /// just before it (0 when it follows the last one, and when the numbering went back:
+    /// see [`GapCounter::restarts`]).
     pub fn observe(&mut self, seq: u16) -> u16 {
-        let gap = self
-            .last
-            .map_or(0, |last| seq.wrapping_sub(last).wrapping_sub(1));
+        let step = self.last.map_or(1, |last| seq.wrapping_sub(last));
         self.last = Some(seq);
         self.received += 1;
+        if step == 0 {
+            return 0; // the same frame again: nothing lost
+        }
+        if step >= 0x8000 {
+            self.restarts += 1;
+            return 0;
+        }
+        let gap = step - 1;
         self.dropped += u64::from(gap);
         gap
     }
