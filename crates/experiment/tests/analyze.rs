@@ -374,19 +374,14 @@ fn constant_stimuli_recover_a_known_observers_weber_fraction() {
     // this large has probability 6·10⁻⁵ under that normal law.
     let alpha = 500.0 * (1.0 + observer.mu());
     let beta = 500.0 * observer.sigma;
-    let mut se2 = 0.0;
-    {
-        // The levels carry different counts: the information adds per level.
-        let mut info_levels = Vec::new();
-        for p in &cell.points {
-            for _ in 0..p.trials / per_level {
-                info_levels.push(p.level);
-            }
-        }
-        let se = threshold_se(alpha, beta, observer.lapse, &info_levels, f64::from(per_level));
-        se2 += se * se;
-    }
-    let se_weber = se2.sqrt() / 500.0;
+    // The information adds per level: a folded level with 600 trials enters twice.
+    let info_levels: Vec<f64> = cell
+        .points
+        .iter()
+        .flat_map(|p| std::iter::repeat_n(p.level, (p.trials / per_level) as usize))
+        .collect();
+    let se = threshold_se(alpha, beta, observer.lapse, &info_levels, f64::from(per_level));
+    let se_weber = se / 500.0;
     let true_threshold = observer.level_at(0.75).unwrap();
     assert!((true_threshold / 500.0 - 1.0 - 0.2).abs() < 1e-12);
     assert!(

@@ -101,7 +101,8 @@ fn bad_runs_and_options_are_refused_with_status_2() {
     let _ = std::fs::remove_dir_all(&dir);
     synthesize_thesis_shapes(&dir);
     let csv = std::fs::read_to_string(dir.join("trials.csv")).unwrap();
-    std::fs::write(dir.join("trials.csv"), csv.replacen(",P01,", ",P01,", 1).replacen("identification,convex-strong", "identification,wavy", 1)).unwrap();
+    let bad = csv.replacen("identification,convex-strong", "identification,wavy", 1);
+    std::fs::write(dir.join("trials.csv"), bad).unwrap();
     let (code, _, err) = analyze(&[dir.to_str().unwrap()]);
     assert_eq!(code, 2, "{err}");
     assert!(err.contains("trials.csv:") && err.contains("(stimulus): \"wavy\""), "{err}");
