@@ -580,12 +580,9 @@ impl RowReader<'_> {
 
     fn unsigned(&self, column: usize) -> Result<u64, AnalyzeError> {
         let t = self.text(column);
-        t.trim().parse::<u64>().map_err(|_| {
-            self.error(
-                column,
-                format!("{t:?} is not a whole number ≥ 0"),
-            )
-        })
+        t.trim()
+            .parse::<u64>()
+            .map_err(|_| self.error(column, format!("{t:?} is not a whole number ≥ 0")))
     }
 
     fn flag(&self, column: usize) -> Result<bool, AnalyzeError> {
@@ -874,8 +871,7 @@ pub fn fisher_exact_two_sided(table: [[u64; 2]; 2]) -> f64 {
     let n = row1 + row2;
     // P(X = x) for X the top-left cell: C(col1, x) C(n − col1, row1 − x) / C(n, row1).
     let ln_p = |x: u64| {
-        ln_factorial(col1) - ln_factorial(x) - ln_factorial(col1 - x)
-            + ln_factorial(n - col1)
+        ln_factorial(col1) - ln_factorial(x) - ln_factorial(col1 - x) + ln_factorial(n - col1)
             - ln_factorial(row1 - x)
             - ln_factorial(n - col1 - (row1 - x))
             - (ln_factorial(n) - ln_factorial(row1) - ln_factorial(row2))
@@ -1130,11 +1126,10 @@ fn two_afc(
 pub fn analyze(dir: &Path, options: &AnalyzeOptions) -> Result<Summary, AnalyzeError> {
     let summary = summarize(dir, options)?;
     let path = dir.join("summary.json");
-    let mut text = serde_json::to_string_pretty(&summary)
-        .map_err(|e| AnalyzeError::Write {
-            path: path.clone(),
-            error: std::io::Error::other(e),
-        })?;
+    let mut text = serde_json::to_string_pretty(&summary).map_err(|e| AnalyzeError::Write {
+        path: path.clone(),
+        error: std::io::Error::other(e),
+    })?;
     text.push('\n');
     std::fs::write(&path, text).map_err(|error| AnalyzeError::Write { path, error })?;
     Ok(summary)

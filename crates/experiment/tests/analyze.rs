@@ -29,10 +29,8 @@ fn shapes_dir() -> PathBuf {
 }
 
 fn temp_dir(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!(
-        "experiment-analyze-{name}-{}",
-        std::process::id()
-    ));
+    let dir =
+        std::env::temp_dir().join(format!("experiment-analyze-{name}-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(&dir).unwrap();
     dir
@@ -205,7 +203,10 @@ fn identification_counts_the_confusion_matrix_by_hand() {
     assert_eq!(id.stimuli, SHAPES);
     let (f, fl) = (&id.conditions[0], &id.conditions[1]);
     assert_eq!((f.name.as_str(), f.trials, f.correct), ("friction", 4, 3));
-    assert_eq!((fl.name.as_str(), fl.trials, fl.correct), ("frictionless", 4, 1));
+    assert_eq!(
+        (fl.name.as_str(), fl.trials, fl.correct),
+        ("frictionless", 4, 1)
+    );
     assert_eq!(f.accuracy, Some(0.75));
     assert_eq!(fl.accuracy, Some(0.25));
     // Rows presented, columns answered, by hand from the rows above (the practice row, which
@@ -235,17 +236,22 @@ fn identification_counts_the_confusion_matrix_by_hand() {
     assert_eq!(effect.accuracy, [Some(0.75), Some(0.25)]);
     // summary.json is written, and reads back with the documented fields.
     let json: Value =
-        serde_json::from_str(&std::fs::read_to_string(dir.join("summary.json")).unwrap())
-            .unwrap();
+        serde_json::from_str(&std::fs::read_to_string(dir.join("summary.json")).unwrap()).unwrap();
     assert_eq!(json["format"], "experiment-summary/1");
-    assert_eq!(json["identification"]["conditions"][1]["confusion"][2][3], 1);
+    assert_eq!(
+        json["identification"]["conditions"][1]["confusion"][2][3],
+        1
+    );
     assert_eq!(
         json["identification"]["condition_effect"]["conditions"][1],
         "frictionless"
     );
     assert!(json.get("two_afc").is_none());
     let line = summary.to_string();
-    assert!(line.contains("\"friction\": 3 correct of 4 (75.0 %)"), "{line}");
+    assert!(
+        line.contains("\"friction\": 3 correct of 4 (75.0 %)"),
+        "{line}"
+    );
     assert!(line.contains("p = 0.4857"), "{line}");
     std::fs::remove_dir_all(&dir).unwrap();
 }
@@ -299,7 +305,11 @@ fn threshold_se(alpha: f64, beta: f64, lapse: f64, levels: &[f64], n: f64) -> f6
     }
     let f = 0.25 / (0.5 - lapse);
     let zf = normal_quantile(f);
-    let grad = [1.0, zf, beta / normal_pdf(zf) * 0.25 / (0.5 - lapse).powi(2)];
+    let grad = [
+        1.0,
+        zf,
+        beta / normal_pdf(zf) * 0.25 / (0.5 - lapse).powi(2),
+    ];
     // grad · I⁻¹ · grad, with I⁻¹ by Gaussian elimination on [I | grad].
     let mut m = info;
     let mut v = grad;
@@ -363,7 +373,9 @@ fn constant_stimuli_recover_a_known_observers_weber_fraction() {
     let levels: Vec<f64> = cell.points.iter().map(|p| p.level).collect();
     assert_eq!(
         levels,
-        vec![500.0, 525.0, 550.0, 575.0, 600.0, 625.0, 650.0, 700.0, 800.0]
+        vec![
+            500.0, 525.0, 550.0, 575.0, 600.0, 625.0, 650.0, 700.0, 800.0
+        ]
     );
     let counts: Vec<u32> = cell.points.iter().map(|p| p.trials).collect();
     assert_eq!(counts, vec![300, 300, 300, 300, 300, 600, 300, 300, 600]);
@@ -380,7 +392,13 @@ fn constant_stimuli_recover_a_known_observers_weber_fraction() {
         .iter()
         .flat_map(|p| std::iter::repeat_n(p.level, (p.trials / per_level) as usize))
         .collect();
-    let se = threshold_se(alpha, beta, observer.lapse, &info_levels, f64::from(per_level));
+    let se = threshold_se(
+        alpha,
+        beta,
+        observer.lapse,
+        &info_levels,
+        f64::from(per_level),
+    );
     let se_weber = se / 500.0;
     let true_threshold = observer.level_at(0.75).unwrap();
     assert!((true_threshold / 500.0 - 1.0 - 0.2).abs() < 1e-12);
@@ -389,7 +407,10 @@ fn constant_stimuli_recover_a_known_observers_weber_fraction() {
         "weber {} vs 0.2 ± 4 × {se_weber}",
         fit.weber_75
     );
-    assert!(se_weber < 0.01, "the design pins the threshold: se {se_weber}");
+    assert!(
+        se_weber < 0.01,
+        "the design pins the threshold: se {se_weber}"
+    );
     let [lo, hi] = fit.ci95_weber.unwrap();
     assert!(lo < fit.weber_75 && fit.weber_75 < hi, "[{lo}, {hi}]");
     assert!(cell.staircases.is_empty());
@@ -483,8 +504,15 @@ fn staircase_tracks_and_reversals_read_by_hand() {
         .collect();
     assert_eq!(rev, vec![(9, 375.0)]);
     // Folded: 300 → 833.33…, 375 → 666.66…; pooled with nothing else.
-    assert!(cell.points.iter().any(|p| p.level == 250_000.0 / 300.0 && p.trials == 3));
-    assert!(!dir.join("summary.json").exists(), "summarize writes nothing");
+    assert!(
+        cell.points
+            .iter()
+            .any(|p| p.level == 250_000.0 / 300.0 && p.trials == 3)
+    );
+    assert!(
+        !dir.join("summary.json").exists(),
+        "summarize writes nothing"
+    );
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
@@ -530,7 +558,10 @@ reference,comparison_interval,response,correct,response_time_s,trace,t_start_s\n
         &plan,
         &format!("{ok}P,1,1,2,0,identification,straight,friction,,,,,flat,0,2.0,,0\n"),
     );
-    assert!(e.contains("trials.csv:3: column 13 (response): \"flat\""), "{e}");
+    assert!(
+        e.contains("trials.csv:3: column 13 (response): \"flat\""),
+        "{e}"
+    );
     let e = expect_error(
         "duplicate",
         &plan,
@@ -554,13 +585,19 @@ reference,comparison_interval,response,correct,response_time_s,trace,t_start_s\n
         &plan,
         &format!("{ok}P,1,1,2,0,identification,straight\n"),
     );
-    assert!(e.contains("trials.csv:3: 7 fields, the header has 17"), "{e}");
+    assert!(
+        e.contains("trials.csv:3: 7 fields, the header has 17"),
+        "{e}"
+    );
     let e = expect_error(
         "quote",
         &plan,
         &format!("{ok}\"P,1,1,2,0,identification,straight\n"),
     );
-    assert!(e.contains("trials.csv:3: column 1 (participant): a quoted field is not closed"), "{e}");
+    assert!(
+        e.contains("trials.csv:3: column 1 (participant): a quoted field is not closed"),
+        "{e}"
+    );
     let e = expect_error(
         "correct",
         &plan,
@@ -589,7 +626,10 @@ reference,comparison_interval,response,correct,response_time_s,trace,t_start_s\n
         &afc,
         &format!("{HEADER}\nsim,1,1,1,0,constant-stimuli,straight,scene,,550,400,1,1,1,0,,0\n"),
     );
-    assert!(e.contains("column 11 (reference): 400 is not the plan's reference value 500"), "{e}");
+    assert!(
+        e.contains("column 11 (reference): 400 is not the plan's reference value 500"),
+        "{e}"
+    );
     let e = expect_error(
         "interval",
         &afc,
@@ -607,9 +647,14 @@ reference,comparison_interval,response,correct,response_time_s,trace,t_start_s\n
     let e = expect_error(
         "staircase-name",
         &staircase_plan(),
-        &format!("{HEADER}\nsim,1,1,1,0,2afc-staircase,straight,scene,sideways,550,500,1,1,1,0,,0\n"),
+        &format!(
+            "{HEADER}\nsim,1,1,1,0,2afc-staircase,straight,scene,sideways,550,500,1,1,1,0,,0\n"
+        ),
     );
-    assert!(e.contains("column 9 (staircase): \"sideways\" is not a staircase"), "{e}");
+    assert!(
+        e.contains("column 9 (staircase): \"sideways\" is not a staircase"),
+        "{e}"
+    );
     // A missing plan names plan.json.
     let dir = temp_dir("no-plan");
     std::fs::write(dir.join("trials.csv"), &ok).unwrap();

@@ -47,7 +47,10 @@ pub fn write_png(summary: &Summary, file: &Path, path: &Path) -> Result<(), Plot
     let root = BitMapBackend::new(file, SIZE).into_drawing_area();
     let result = (|| -> DrawResult<()> {
         root.fill(&WHITE)?;
-        let title = format!("{} ({}, {} trials)", summary.plan, summary.design, summary.trials);
+        let title = format!(
+            "{} ({}, {} trials)",
+            summary.plan, summary.design, summary.trials
+        );
         let root = root.titled(&shorten(&title, 120), (FONT, 22))?;
         if let Some(id) = &summary.identification {
             confusions(id, &root)?;
@@ -75,10 +78,13 @@ fn confusions(id: &Identification, root: &Area<'_>) -> DrawResult<()> {
     let n = id.stimuli.len();
     let panels = root.split_evenly((1, id.conditions.len().max(1)));
     for (c, (cond, area)) in id.conditions.iter().zip(&panels).enumerate() {
-        let accuracy = cond
-            .accuracy
-            .map_or("no trials".to_owned(), |a| format!("{:.1} % correct", 100.0 * a));
-        let mut caption = format!("{}: {} of {} ({accuracy})", cond.name, cond.correct, cond.trials);
+        let accuracy = cond.accuracy.map_or("no trials".to_owned(), |a| {
+            format!("{:.1} % correct", 100.0 * a)
+        });
+        let mut caption = format!(
+            "{}: {} of {} ({accuracy})",
+            cond.name, cond.correct, cond.trials
+        );
         if c == 0
             && let Some(e) = &id.condition_effect
         {
@@ -125,24 +131,33 @@ fn confusions(id: &Identification, root: &Area<'_>) -> DrawResult<()> {
                 );
                 let x = a as i32;
                 chart.draw_series(std::iter::once(Rectangle::new(
-                    [(SegmentValue::Exact(x), SegmentValue::Exact(y)), (SegmentValue::Exact(x + 1), SegmentValue::Exact(y + 1))],
+                    [
+                        (SegmentValue::Exact(x), SegmentValue::Exact(y)),
+                        (SegmentValue::Exact(x + 1), SegmentValue::Exact(y + 1)),
+                    ],
                     fill.filled(),
                 )))?;
                 chart.draw_series(std::iter::once(Rectangle::new(
-                    [(SegmentValue::Exact(x), SegmentValue::Exact(y)), (SegmentValue::Exact(x + 1), SegmentValue::Exact(y + 1))],
-                    if a == p { BLACK.stroke_width(2) } else { BLACK.mix(0.2).stroke_width(1) },
+                    [
+                        (SegmentValue::Exact(x), SegmentValue::Exact(y)),
+                        (SegmentValue::Exact(x + 1), SegmentValue::Exact(y + 1)),
+                    ],
+                    if a == p {
+                        BLACK.stroke_width(2)
+                    } else {
+                        BLACK.mix(0.2).stroke_width(1)
+                    },
                 )))?;
                 let text_colour = if share > 0.55 { WHITE } else { BLACK };
                 chart.draw_series(std::iter::once(Text::new(
                     count.to_string(),
                     (SegmentValue::CenterOf(x), SegmentValue::CenterOf(y)),
-                    (FONT, 18)
-                        .into_font()
-                        .color(&text_colour)
-                        .pos(plotters::style::text_anchor::Pos::new(
+                    (FONT, 18).into_font().color(&text_colour).pos(
+                        plotters::style::text_anchor::Pos::new(
                             plotters::style::text_anchor::HPos::Center,
                             plotters::style::text_anchor::VPos::Center,
-                        )),
+                        ),
+                    ),
                 )))?;
             }
         }
@@ -224,7 +239,8 @@ fn tracks(afc: &TwoAfc, area: &Area<'_>) -> DrawResult<()> {
         for s in &cell.staircases {
             let c = colour(k);
             k += 1;
-            let points: Vec<(f64, f64)> = s.track.iter().map(|t| (t.trial as f64, t.level)).collect();
+            let points: Vec<(f64, f64)> =
+                s.track.iter().map(|t| (t.trial as f64, t.level)).collect();
             let label = if many_cells {
                 format!("{} ({} / {})", s.name, cell.stimulus, cell.condition)
             } else {
@@ -235,7 +251,11 @@ fn tracks(afc: &TwoAfc, area: &Area<'_>) -> DrawResult<()> {
                 .label(label)
                 .legend(move |(x, y)| PathElement::new([(x, y), (x + 18, y)], c.stroke_width(2)));
             chart.draw_series(s.track.iter().map(|t| {
-                let style = if t.correct { c.filled() } else { WHITE.filled() };
+                let style = if t.correct {
+                    c.filled()
+                } else {
+                    WHITE.filled()
+                };
                 Circle::new((t.trial as f64, t.level), 4, style)
             }))?;
             chart.draw_series(
@@ -357,7 +377,13 @@ fn cell_series(
     } else {
         String::new()
     };
-    let largest = cell.points.iter().map(|p| p.trials).max().unwrap_or(1).max(1);
+    let largest = cell
+        .points
+        .iter()
+        .map(|p| p.trials)
+        .max()
+        .unwrap_or(1)
+        .max(1);
     chart
         .draw_series(cell.points.iter().filter(|p| p.trials > 0).map(|p| {
             // Area proportional to the trials at the level.

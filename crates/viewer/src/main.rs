@@ -92,7 +92,10 @@ fn experiment_command(command: &viewer::cli::ExperimentCommand) -> ExitCode {
 fn experiment_analyze_command(args: &viewer::cli::ExperimentAnalyzeArgs) -> ExitCode {
     use experiment::analyze::{AnalyzeOptions, analyze, parse_model};
     let Some(model) = parse_model(&args.model) else {
-        return fail(&anyhow!("--model {:?}: not a model", args.model), EXIT_BAD_SETUP);
+        return fail(
+            &anyhow!("--model {:?}: not a model", args.model),
+            EXIT_BAD_SETUP,
+        );
     };
     let options = AnalyzeOptions {
         model,

@@ -75,8 +75,14 @@ fn an_identification_run_is_analysed_into_a_summary_and_a_figure() {
     let (code, out, err) = analyze(&[dir.to_str().unwrap()]);
     assert_eq!(code, 0, "{err}");
     assert_eq!(out.lines().count(), 1, "{out}");
-    assert!(out.starts_with("experiment analyze: thesis shapes"), "{out}");
-    assert!(out.contains("\"friction\": ") && out.contains("Fisher"), "{out}");
+    assert!(
+        out.starts_with("experiment analyze: thesis shapes"),
+        "{out}"
+    );
+    assert!(
+        out.contains("\"friction\": ") && out.contains("Fisher"),
+        "{out}"
+    );
     let json: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(dir.join("summary.json")).unwrap()).unwrap();
     assert_eq!(json["trials"], 40);
@@ -85,11 +91,7 @@ fn an_identification_run_is_analysed_into_a_summary_and_a_figure() {
     assert_eq!(&png[1..4], b"PNG");
     // An explicit --figure goes where it is told.
     let figure = dir.join("elsewhere.png");
-    let (code, _, err) = analyze(&[
-        dir.to_str().unwrap(),
-        "--figure",
-        figure.to_str().unwrap(),
-    ]);
+    let (code, _, err) = analyze(&[dir.to_str().unwrap(), "--figure", figure.to_str().unwrap()]);
     assert_eq!(code, 0, "{err}");
     assert!(figure.is_file());
     std::fs::remove_dir_all(&dir).unwrap();
@@ -105,7 +107,10 @@ fn bad_runs_and_options_are_refused_with_status_2() {
     std::fs::write(dir.join("trials.csv"), bad).unwrap();
     let (code, _, err) = analyze(&[dir.to_str().unwrap()]);
     assert_eq!(code, 2, "{err}");
-    assert!(err.contains("trials.csv:") && err.contains("(stimulus): \"wavy\""), "{err}");
+    assert!(
+        err.contains("trials.csv:") && err.contains("(stimulus): \"wavy\""),
+        "{err}"
+    );
     assert!(!dir.join("summary.json").exists());
     let (code, _, err) = analyze(&[dir.to_str().unwrap(), "--resamples", "1"]);
     assert_eq!(code, 2, "{err}");
