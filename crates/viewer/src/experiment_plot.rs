@@ -76,6 +76,8 @@ fn shorten(text: &str, max: usize) -> String {
 
 fn confusions(id: &Identification, root: &Area<'_>) -> DrawResult<()> {
     let n = id.stimuli.len();
+    // A segmented range a..b has a segment for each of a..=b: n segments end at n − 1.
+    let last = (n as i32 - 1).max(1);
     let panels = root.split_evenly((1, id.conditions.len().max(1)));
     for (c, (cond, area)) in id.conditions.iter().zip(&panels).enumerate() {
         let accuracy = cond.accuracy.map_or("no trials".to_owned(), |a| {
@@ -98,10 +100,7 @@ fn confusions(id: &Identification, root: &Area<'_>) -> DrawResult<()> {
             .caption(shorten(&caption, 60), (FONT, 17))
             .x_label_area_size(60)
             .y_label_area_size(130)
-            .build_cartesian_2d(
-                (0..n as i32).into_segmented(),
-                (0..n as i32).into_segmented(),
-            )?;
+            .build_cartesian_2d((0..last).into_segmented(), (0..last).into_segmented())?;
         chart
             .configure_mesh()
             .disable_mesh()
@@ -299,6 +298,14 @@ fn psychometric(afc: &TwoAfc, area: &Area<'_>) -> DrawResult<()> {
             }
         }
     }
+    // From just under the guess rate, lower when a level is answered worse than chance.
+    let y_low = afc
+        .cells
+        .iter()
+        .flat_map(|c| &c.points)
+        .filter(|p| p.trials > 0)
+        .map(|p| f64::from(p.correct) / f64::from(p.trials) - 0.04)
+        .fold(0.4, f64::min);
     let x_range = r - 0.03 * (hi - r).max(1e-9)..hi + 0.06 * (hi - r).max(1e-9);
     let caption = match afc.cells.as_slice() {
         [cell] => match (&cell.fit, &cell.fit_error) {
@@ -319,7 +326,7 @@ fn psychometric(afc: &TwoAfc, area: &Area<'_>) -> DrawResult<()> {
         .caption(shorten(&caption, 70), (FONT, 18))
         .x_label_area_size(45)
         .y_label_area_size(70)
-        .build_cartesian_2d(x_range.clone(), 0.4..1.02)?;
+        .build_cartesian_2d(x_range.clone(), y_low..1.02)?;
     chart
         .configure_mesh()
         .x_desc(format!(
