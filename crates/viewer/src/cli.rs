@@ -90,6 +90,7 @@ analysed. Every row is checked against the plan; an error names the file, line a
 identification: per condition, the accuracy, the confusion matrix (rows presented, columns \
 answered, in the plan's stimulus order) and the accuracy per stimulus; with two conditions, \
 Fisher's exact test (two-sided) of their accuracies.
+
 2afc-staircase, constant-stimuli: levels below the reference r are folded onto its upper \
 side (r^2/x); the proportion correct per folded level is fitted by maximum likelihood (guess \
 rate 0.5, lapse rate in [0, 0.1]) with --model; the Weber fraction at 75 % correct \
