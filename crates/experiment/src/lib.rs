@@ -1,6 +1,7 @@
 #![doc = include_str!("../README.md")]
 #![warn(missing_docs)]
 
+pub mod analyze;
 pub mod fit;
 pub mod participant;
 pub mod plan;

@@ -76,6 +76,60 @@ pub enum ExperimentCommand {
     /// Run a plan headless with a simulated participant.
     #[command(after_long_help = EXPERIMENT_RUN_AFTER)]
     Run(ExperimentRunArgs),
+    /// Analyse a run folder (plan.json, trials.csv): summary.json, a figure, one paragraph.
+    #[command(after_long_help = EXPERIMENT_ANALYZE_AFTER)]
+    Analyze(ExperimentAnalyzeArgs),
+}
+
+const EXPERIMENT_ANALYZE_AFTER: &str = "\
+Reads DIR/plan.json (the plan as run) and DIR/trials.csv (one row per trial, header \
+participant,session,block,trial,practice,design,stimulus,condition,staircase,level,reference,\
+comparison_interval,response,correct,response_time_s,trace,t_start_s). Practice rows are not \
+analysed. Every row is checked against the plan; an error names the file, line and column.
+
+identification: per condition, the accuracy, the confusion matrix (rows presented, columns \
+answered, in the plan's stimulus order) and the accuracy per stimulus; with two conditions, \
+Fisher's exact test (two-sided) of their accuracies.
+
+2afc-staircase, constant-stimuli: levels below the reference r are folded onto its upper \
+side (r^2/x); the proportion correct per folded level is fitted by maximum likelihood (guess \
+rate 0.5, lapse rate in [0, 0.1]) with --model; the Weber fraction at 75 % correct \
+(threshold / r - 1) gets a 95 % parametric-bootstrap interval (--resamples, --seed); each \
+staircase's track and reversals are listed.
+
+Written: DIR/summary.json (its fields are documented in the experiment crate's analyze \
+module) and the figure (--figure, default DIR/summary.png): the confusion matrices as heat \
+maps, or the staircase tracks and the fitted psychometric function. Standard output gets one \
+paragraph: the accuracy per condition and Fisher's p, or the Weber fraction with its interval.
+
+Exit status:
+  0  analysed and written
+  1  summary.json or the figure could not be written
+  2  bad command line, a missing or invalid plan.json or trials.csv (wrong header, a bad \
+     number, an unknown stimulus, a duplicate trial, a design other than the plan's)
+
+Example:
+  viewer experiment analyze runs/sim1 --resamples 2000";
+
+/// `viewer experiment analyze` arguments.
+#[derive(Debug, Args)]
+pub struct ExperimentAnalyzeArgs {
+    /// The run folder (plan.json and trials.csv, as `experiment run` writes them).
+    #[arg(value_name = "DIR")]
+    pub dir: PathBuf,
+    /// The psychometric function of 2AFC designs.
+    #[arg(long, value_name = "MODEL", default_value = "log-gaussian", value_parser = ["gaussian", "log-gaussian", "weibull"])]
+    pub model: String,
+    /// Bootstrap resamples for the 95 % interval (at least 2; 1000 or more for a reliable
+    /// interval).
+    #[arg(long, value_name = "N", default_value_t = 1000, value_parser = clap::value_parser!(u32).range(2..))]
+    pub resamples: u32,
+    /// The bootstrap's seed (default: the plan's seed).
+    #[arg(long, value_name = "SEED")]
+    pub seed: Option<u64>,
+    /// The figure (PNG; default DIR/summary.png).
+    #[arg(long, value_name = "PATH")]
+    pub figure: Option<PathBuf>,
 }
 
 const EXPERIMENT_RUN_AFTER: &str = "\

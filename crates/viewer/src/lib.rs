@@ -6,6 +6,7 @@ pub mod closest;
 pub mod deform_plot;
 pub mod devices;
 pub mod eval;
+pub mod experiment_plot;
 #[cfg(feature = "gui")]
 pub mod gui;
 pub mod output;

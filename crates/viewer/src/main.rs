@@ -38,7 +38,10 @@ fn experiment_command(command: &viewer::cli::ExperimentCommand) -> ExitCode {
     use experiment::plan::Plan;
     use experiment::runner::{RunError, run};
     use viewer::cli::ExperimentCommand;
-    let ExperimentCommand::Run(args) = command;
+    let args = match command {
+        ExperimentCommand::Run(args) => args,
+        ExperimentCommand::Analyze(args) => return experiment_analyze_command(args),
+    };
     let participant = match SimParticipant::parse(&args.participant) {
         Some(Ok(p)) => p,
         Some(Err(e)) => return fail(&anyhow::Error::new(e), EXIT_BAD_SETUP),
@@ -86,6 +89,48 @@ fn experiment_command(command: &viewer::cli::ExperimentCommand) -> ExitCode {
             fail(&anyhow::Error::new(e), code)
         }
     }
+}
+
+fn experiment_analyze_command(args: &viewer::cli::ExperimentAnalyzeArgs) -> ExitCode {
+    use experiment::analyze::{AnalyzeOptions, analyze, parse_model};
+    let Some(model) = parse_model(&args.model) else {
+        return fail(
+            &anyhow!("--model {:?}: not a model", args.model),
+            EXIT_BAD_SETUP,
+        );
+    };
+    let options = AnalyzeOptions {
+        model,
+        resamples: args.resamples as usize,
+        seed: args.seed,
+    };
+    let figure = args
+        .figure
+        .clone()
+        .unwrap_or_else(|| args.dir.join("summary.png"));
+    let summary = match analyze(&args.dir, &options) {
+        Ok(s) => s,
+        Err(e) => {
+            let code = if e.is_bad_input() {
+                EXIT_BAD_SETUP
+            } else {
+                EXIT_BAD_INPUT
+            };
+            return fail(&anyhow::Error::new(e), code);
+        }
+    };
+    let drawn = AtomicFile::create(&figure)
+        .with_context(|| format!("cannot create figure {}", figure.display()))
+        .and_then(|file| {
+            viewer::experiment_plot::write_png(&summary, file.temp_path(), &figure)?;
+            file.commit()
+                .with_context(|| format!("cannot write figure {}", figure.display()))
+        });
+    if let Err(e) = drawn {
+        return fail(&e, EXIT_BAD_INPUT);
+    }
+    println!("experiment analyze: {summary}");
+    ExitCode::SUCCESS
 }
 
 fn deform_command(args: &viewer::cli::DeformArgs) -> ExitCode {

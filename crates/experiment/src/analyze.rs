@@ -1,0 +1,1258 @@
+//! The analysis of a run folder (`viewer experiment analyze DIR`, thesis §4.3): its
+//! `plan.json` and `trials.csv` in, `summary.json` out.
+//!
+//! `trials.csv` is RFC-4180 CSV (fields with commas, quotes or line breaks are quoted, `""`
+//! is a quote) with exactly this header:
+//!
+//! ```text
+//! participant,session,block,trial,practice,design,stimulus,condition,staircase,level,reference,comparison_interval,response,correct,response_time_s,trace,t_start_s
+//! ```
+//!
+//! Practice rows (`practice` = 1) are checked and counted but not analysed. A trial number
+//! may appear once only in the file (a resumed session continues the numbering). Every row
+//! must match the plan: its `design`, a `stimulus`, `condition` and (2AFC staircases)
+//! `staircase` the plan names, the plan's `reference` value, and a `correct` that agrees
+//! with the `response`. Errors name the file, the line and the column at fault.
+//!
+//! # Identification
+//!
+//! Per condition (plan order): trials, accuracy, the confusion matrix (rows: the stimulus
+//! presented, columns: the stimulus answered, both in the plan's stimulus order) and the
+//! accuracy per stimulus. With exactly two conditions, the condition effect (the friction
+//! effect of the thesis-shapes plan) is Fisher's exact test, two-sided, of the 2×2 table
+//! correct/incorrect × condition: the probability, under the hypergeometric distribution of
+//! the table with its margins fixed, of the tables at most as likely as the one observed
+//! (with R's relative tolerance 10⁻⁷), as R's `fisher.test` computes it.
+//!
+//! # 2AFC (`2afc-staircase`, `constant-stimuli`)
+//!
+//! Levels below the reference `r` are folded onto its upper side by the multiplicative mirror
+//! `x → r²/x` (the one the runner's multiplicative staircases use), so that the proportion
+//! correct against the folded level is one 2AFC psychometric function with guess rate ½:
+//! a comparison at `r/1.2` is as far from `r` as one at `1.2 r`. Trials are pooled per
+//! distinct folded level into [`Point`]s and fitted by maximum likelihood ([`crate::fit`],
+//! lapse rate in `[0, 0.1]` as psignifit's default) per stimulus × condition cell that has
+//! trials; the Weber fraction at 75 % correct is `threshold_75 / r − 1`, its 95 % interval
+//! a parametric bootstrap's percentiles. A staircase's reversals are read from its track:
+//! a trial is a reversal when the level's direction of change flips after it (levels equal
+//! to the one before do not count as a direction). A move blocked at a bound, or the move
+//! after the last trial, leaves no trace in the track, so this count can fall short of the
+//! runner's own by those.
+//!
+//! # `summary.json`
+//!
+//! | field | meaning |
+//! |---|---|
+//! | `format` | `"experiment-summary/1"` |
+//! | `plan` | the plan's `name` |
+//! | `design` | `"identification"`, `"2afc-staircase"` or `"constant-stimuli"` |
+//! | `participants` | the distinct `participant` labels, in order of appearance |
+//! | `sessions` | the distinct `session` numbers, ascending |
+//! | `trials` | rows analysed (practice rows left out) |
+//! | `practice_trials` | practice rows (not analysed) |
+//! | `identification` | identification designs only, else absent (below) |
+//! | `two_afc` | 2AFC designs only, else absent (below) |
+//!
+//! `identification`:
+//!
+//! | field | meaning |
+//! |---|---|
+//! | `stimuli` | the stimulus names: the order of the confusion matrices' rows and columns |
+//! | `conditions[i].name` | the condition (plan order) |
+//! | `conditions[i].trials`, `.correct` | its trials and those answered right |
+//! | `conditions[i].accuracy` | `correct / trials`; `null` without trials |
+//! | `conditions[i].confusion` | `confusion[p][a]`: trials presenting stimulus `p` answered `a` |
+//! | `conditions[i].per_stimulus[j]` | `{ "stimulus", "trials", "correct", "accuracy" }` (row `j`) |
+//! | `condition_effect` | with exactly two conditions, else `null`: `{ "test", "conditions", "accuracy", "correct", "trials", "p_value" }`, the two conditions' accuracies and Fisher's two-sided exact p |
+//!
+//! `two_afc`:
+//!
+//! | field | meaning |
+//! |---|---|
+//! | `field`, `reference` | the plan's `reference`: the material field varied and its reference value `r` |
+//! | `model` | the sigmoid fitted: `"log-gaussian"` (default), `"gaussian"` or `"weibull"` |
+//! | `lapse_max` | the lapse rate's upper bound (0.1) |
+//! | `resamples`, `seed` | the parametric bootstrap's resamples and seed |
+//! | `cells[i].stimulus`, `.condition` | the cell (plan order; cells without trials are left out) |
+//! | `cells[i].trials`, `.correct` | its trials and those answered right |
+//! | `cells[i].points[j]` | `{ "level", "trials", "correct" }`: the trials pooled at one folded level, ascending |
+//! | `cells[i].fit` | `null` when the data cannot be fitted (`fit_error` says why), else below |
+//! | `cells[i].fit.threshold_75` | the folded level answered 75 % correct |
+//! | `cells[i].fit.weber_75` | `threshold_75 / r − 1`, the Weber fraction (JND / reference) |
+//! | `cells[i].fit.slope` | `dψ/dx` at `threshold_75` (per unit of the level) |
+//! | `cells[i].fit.lapse` | the fitted lapse rate λ |
+//! | `cells[i].fit.alpha`, `.beta` | the sigmoid's location and spread or shape ([`crate::fit`]) |
+//! | `cells[i].fit.log_likelihood`, `.deviance` | at the optimum; the deviance against the saturated model |
+//! | `cells[i].fit.ci95_threshold`, `.ci95_weber` | `[lo, hi]`, 95 % bootstrap percentile intervals; `null` when the bootstrap failed (`bootstrap_error` says why) |
+//! | `cells[i].fit.bootstrap_fitted`, `.bootstrap_failed` | resamples that entered the intervals, and those that could not be fitted |
+//! | `cells[i].staircases[k]` | `2afc-staircase` only: `{ "name", "track": [{ "trial", "level", "correct" }], "reversals": [{ "trial", "level" }] }`, the levels as presented (not folded), in trial order |
+
+use std::collections::{BTreeSet, HashMap};
+use std::fmt;
+use std::path::{Path, PathBuf};
+
+use serde::Serialize;
+use thiserror::Error;
+
+use crate::fit::{self, BootstrapOptions, Fit, FitOptions, Model, Point};
+use crate::plan::{Design, Plan, PlanError};
+
+/// The format tag of `summary.json`.
+pub const FORMAT: &str = "experiment-summary/1";
+
+/// The columns of `trials.csv`, in order.
+pub const TRIALS_COLUMNS: [&str; 17] = [
+    "participant",
+    "session",
+    "block",
+    "trial",
+    "practice",
+    "design",
+    "stimulus",
+    "condition",
+    "staircase",
+    "level",
+    "reference",
+    "comparison_interval",
+    "response",
+    "correct",
+    "response_time_s",
+    "trace",
+    "t_start_s",
+];
+
+/// The relative tolerance of Fisher's test: tables whose probability is at most the
+/// observed one times `1 + 10⁻⁷` count as "at most as likely" (R's `fisher.test`).
+pub const FISHER_RELATIVE_TOLERANCE: f64 = 1e-7;
+
+/// The lapse rate's upper bound (psignifit's default).
+pub const LAPSE_MAX: f64 = 0.1;
+
+/// Options of [`analyze`].
+#[derive(Debug, Clone, PartialEq)]
+pub struct AnalyzeOptions {
+    /// The sigmoid of 2AFC fits.
+    pub model: Model,
+    /// Bootstrap resamples (at least 2; 1000 or more for a 95 % interval).
+    pub resamples: usize,
+    /// The bootstrap's seed; `None`: the plan's seed.
+    pub seed: Option<u64>,
+}
+
+impl Default for AnalyzeOptions {
+    /// Log-Gaussian, 1000 resamples, the plan's seed.
+    fn default() -> Self {
+        Self {
+            model: Model::LogGaussian,
+            resamples: 1000,
+            seed: None,
+        }
+    }
+}
+
+/// The name of a model in `summary.json` and on the command line.
+pub fn model_name(model: Model) -> &'static str {
+    match model {
+        Model::Gaussian => "gaussian",
+        Model::LogGaussian => "log-gaussian",
+        Model::Weibull => "weibull",
+    }
+}
+
+/// The model of a name ([`model_name`]).
+pub fn parse_model(name: &str) -> Option<Model> {
+    match name {
+        "gaussian" => Some(Model::Gaussian),
+        "log-gaussian" => Some(Model::LogGaussian),
+        "weibull" => Some(Model::Weibull),
+        _ => None,
+    }
+}
+
+/// Why a run folder could not be analysed. Every message names the file.
+#[derive(Debug, Error)]
+pub enum AnalyzeError {
+    /// The options are refused.
+    #[error("{0}")]
+    Options(String),
+    /// `plan.json` is missing or invalid.
+    #[error(transparent)]
+    Plan(#[from] PlanError),
+    /// A file could not be read.
+    #[error("cannot read {}: {error}", path.display())]
+    Read {
+        /// The file.
+        path: PathBuf,
+        /// Why.
+        error: std::io::Error,
+    },
+    /// A fault in `trials.csv`.
+    #[error("{}:{line}: {}{message}", path.display(), column_text(*column, field))]
+    Csv {
+        /// The file.
+        path: PathBuf,
+        /// The line (from 1) the record starts on.
+        line: usize,
+        /// The column (from 1), when one is at fault.
+        column: Option<usize>,
+        /// The column's name, when one is at fault.
+        field: Option<String>,
+        /// What is wrong.
+        message: String,
+    },
+    /// `summary.json` could not be written.
+    #[error("cannot write {}: {error}", path.display())]
+    Write {
+        /// The file.
+        path: PathBuf,
+        /// Why.
+        error: std::io::Error,
+    },
+}
+
+fn column_text(column: Option<usize>, field: &Option<String>) -> String {
+    match (column, field) {
+        (Some(c), Some(f)) => format!("column {c} ({f}): "),
+        (Some(c), None) => format!("column {c}: "),
+        (None, Some(f)) => format!("{f}: "),
+        (None, None) => String::new(),
+    }
+}
+
+impl AnalyzeError {
+    /// Whether the error is in the input (plan, trials, options) rather than in writing.
+    pub fn is_bad_input(&self) -> bool {
+        !matches!(self, AnalyzeError::Write { .. })
+    }
+}
+
+/// The analysis of a run folder; `summary.json` is its JSON (see the module docs).
+#[derive(Debug, Clone, Serialize)]
+pub struct Summary {
+    /// [`FORMAT`].
+    pub format: &'static str,
+    /// The plan's name.
+    pub plan: String,
+    /// The design's name.
+    pub design: &'static str,
+    /// Distinct participant labels, in order of appearance.
+    pub participants: Vec<String>,
+    /// Distinct session numbers, ascending.
+    pub sessions: Vec<u64>,
+    /// Rows analysed.
+    pub trials: usize,
+    /// Practice rows (not analysed).
+    pub practice_trials: usize,
+    /// The identification analysis.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub identification: Option<Identification>,
+    /// The 2AFC analysis.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub two_afc: Option<TwoAfc>,
+}
+
+/// An identification design's results.
+#[derive(Debug, Clone, Serialize)]
+pub struct Identification {
+    /// The stimulus names, the confusion matrices' order.
+    pub stimuli: Vec<String>,
+    /// Each condition, in plan order.
+    pub conditions: Vec<ConditionResult>,
+    /// Fisher's exact test between the two conditions, when there are exactly two.
+    pub condition_effect: Option<ConditionEffect>,
+}
+
+/// One condition of an identification design.
+#[derive(Debug, Clone, Serialize)]
+pub struct ConditionResult {
+    /// Its name.
+    pub name: String,
+    /// Trials.
+    pub trials: u64,
+    /// Trials answered right.
+    pub correct: u64,
+    /// `correct / trials`, `None` without trials.
+    pub accuracy: Option<f64>,
+    /// `confusion[presented][answered]`.
+    pub confusion: Vec<Vec<u64>>,
+    /// Per stimulus presented.
+    pub per_stimulus: Vec<StimulusResult>,
+}
+
+/// One stimulus (one row of a confusion matrix).
+#[derive(Debug, Clone, Serialize)]
+pub struct StimulusResult {
+    /// Its name.
+    pub stimulus: String,
+    /// Trials presenting it.
+    pub trials: u64,
+    /// Those answered with its name.
+    pub correct: u64,
+    /// `correct / trials`, `None` without trials.
+    pub accuracy: Option<f64>,
+}
+
+/// Fisher's exact test of accuracy between two conditions.
+#[derive(Debug, Clone, Serialize)]
+pub struct ConditionEffect {
+    /// `"fisher-exact-two-sided"`.
+    pub test: &'static str,
+    /// The two conditions.
+    pub conditions: [String; 2],
+    /// Their accuracies (`None` without trials).
+    pub accuracy: [Option<f64>; 2],
+    /// Their correct answers.
+    pub correct: [u64; 2],
+    /// Their trials.
+    pub trials: [u64; 2],
+    /// The two-sided p-value.
+    pub p_value: f64,
+}
+
+/// A 2AFC design's results.
+#[derive(Debug, Clone, Serialize)]
+pub struct TwoAfc {
+    /// The material field varied.
+    pub field: String,
+    /// The reference value.
+    pub reference: f64,
+    /// The sigmoid's name ([`model_name`]).
+    pub model: &'static str,
+    /// The lapse rate's bound.
+    pub lapse_max: f64,
+    /// Bootstrap resamples.
+    pub resamples: usize,
+    /// Bootstrap seed.
+    pub seed: u64,
+    /// Each stimulus × condition cell with trials, in plan order.
+    pub cells: Vec<Cell>,
+}
+
+/// One stimulus × condition cell of a 2AFC design.
+#[derive(Debug, Clone, Serialize)]
+pub struct Cell {
+    /// The stimulus's name.
+    pub stimulus: String,
+    /// The condition's name.
+    pub condition: String,
+    /// Trials.
+    pub trials: u64,
+    /// Trials answered right.
+    pub correct: u64,
+    /// The data at each folded level, ascending.
+    pub points: Vec<PointResult>,
+    /// The fit, `None` when the data cannot be fitted.
+    pub fit: Option<FitResult>,
+    /// Why there is no fit.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub fit_error: Option<String>,
+    /// The staircases' tracks (`2afc-staircase`), in plan order.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub staircases: Vec<Track>,
+    /// The fit itself, for its curve ([`Fit::psi`]); not in the JSON.
+    #[serde(skip)]
+    pub fitted: Option<Fit>,
+}
+
+/// The trials at one folded level.
+#[derive(Debug, Clone, Copy, Serialize)]
+pub struct PointResult {
+    /// The folded level.
+    pub level: f64,
+    /// Trials.
+    pub trials: u32,
+    /// Trials answered right.
+    pub correct: u32,
+}
+
+/// A psychometric fit with its bootstrap intervals.
+#[derive(Debug, Clone, Serialize)]
+pub struct FitResult {
+    /// The folded level answered 75 % correct.
+    pub threshold_75: f64,
+    /// `threshold_75 / reference − 1`.
+    pub weber_75: f64,
+    /// `dψ/dx` at the threshold.
+    pub slope: f64,
+    /// The lapse rate.
+    pub lapse: f64,
+    /// Location α.
+    pub alpha: f64,
+    /// Spread or shape β.
+    pub beta: f64,
+    /// Log-likelihood at the optimum.
+    pub log_likelihood: f64,
+    /// Deviance against the saturated model.
+    pub deviance: f64,
+    /// 95 % interval of `threshold_75`.
+    pub ci95_threshold: Option<[f64; 2]>,
+    /// 95 % interval of `weber_75`.
+    pub ci95_weber: Option<[f64; 2]>,
+    /// Resamples in the intervals.
+    pub bootstrap_fitted: usize,
+    /// Resamples that could not be fitted.
+    pub bootstrap_failed: usize,
+    /// Why there are no intervals.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub bootstrap_error: Option<String>,
+}
+
+/// One staircase's track.
+#[derive(Debug, Clone, Serialize)]
+pub struct Track {
+    /// Its name.
+    pub name: String,
+    /// Its trials, in trial order.
+    pub track: Vec<TrackTrial>,
+    /// Its reversals.
+    pub reversals: Vec<Reversal>,
+}
+
+/// One trial of a staircase.
+#[derive(Debug, Clone, Copy, Serialize)]
+pub struct TrackTrial {
+    /// The trial number.
+    pub trial: u64,
+    /// The level presented (not folded).
+    pub level: f64,
+    /// Whether it was answered right.
+    pub correct: bool,
+}
+
+/// A staircase's reversal.
+#[derive(Debug, Clone, Copy, Serialize)]
+pub struct Reversal {
+    /// The trial after which the direction flipped.
+    pub trial: u64,
+    /// Its level.
+    pub level: f64,
+}
+
+// ---------------------------------------------------------------------------------------
+// CSV
+
+/// One record: its first line and its fields.
+struct Record {
+    line: usize,
+    fields: Vec<String>,
+}
+
+/// Splits RFC-4180 text into records; a quoted field may hold commas, `""` and line breaks.
+/// Line ends are `\n` or `\r\n`. Blank lines are skipped.
+fn parse_csv(text: &str, path: &Path) -> Result<Vec<Record>, AnalyzeError> {
+    let mut records = Vec::new();
+    let mut fields: Vec<String> = Vec::new();
+    let mut field = String::new();
+    let mut line = 1;
+    let mut start_line = 1;
+    let mut in_quotes = false;
+    // Whether the current field was quoted (then only a separator may follow its closing quote).
+    let mut quoted = false;
+    let mut after_quote = false;
+    let mut chars = text.chars().peekable();
+    let error = |line: usize, column: usize, message: String| AnalyzeError::Csv {
+        path: path.to_owned(),
+        line,
+        column: Some(column),
+        field: TRIALS_COLUMNS.get(column - 1).map(|s| (*s).to_owned()),
+        message,
+    };
+    let mut end_record = |fields: &mut Vec<String>, field: &mut String, start_line: usize| {
+        fields.push(std::mem::take(field));
+        let done = std::mem::take(fields);
+        if !(done.len() == 1 && done[0].is_empty()) {
+            records.push(Record {
+                line: start_line,
+                fields: done,
+            });
+        }
+    };
+    while let Some(c) = chars.next() {
+        if in_quotes {
+            match c {
+                '"' if chars.peek() == Some(&'"') => {
+                    chars.next();
+                    field.push('"');
+                }
+                '"' => {
+                    in_quotes = false;
+                    after_quote = true;
+                }
+                '\n' => {
+                    line += 1;
+                    field.push('\n');
+                }
+                _ => field.push(c),
+            }
+            continue;
+        }
+        match c {
+            ',' => {
+                fields.push(std::mem::take(&mut field));
+                quoted = false;
+                after_quote = false;
+            }
+            '\r' if chars.peek() == Some(&'\n') => {}
+            '\n' => {
+                end_record(&mut fields, &mut field, start_line);
+                line += 1;
+                start_line = line;
+                quoted = false;
+                after_quote = false;
+            }
+            '"' if field.is_empty() && !quoted => {
+                in_quotes = true;
+                quoted = true;
+            }
+            _ if after_quote => {
+                return Err(error(
+                    line,
+                    fields.len() + 1,
+                    format!("{c:?} after a closing quote (a quoted field ends at a comma)"),
+                ));
+            }
+            '"' => {
+                return Err(error(
+                    line,
+                    fields.len() + 1,
+                    "a quote inside an unquoted field (quote the whole field, double the quote)"
+                        .to_owned(),
+                ));
+            }
+            _ => field.push(c),
+        }
+    }
+    if in_quotes {
+        return Err(error(
+            start_line,
+            fields.len() + 1,
+            "a quoted field is not closed before the end of the file".to_owned(),
+        ));
+    }
+    if !fields.is_empty() || !field.is_empty() {
+        end_record(&mut fields, &mut field, start_line);
+    }
+    Ok(records)
+}
+
+// ---------------------------------------------------------------------------------------
+// Rows
+
+/// A checked row of `trials.csv`.
+#[derive(Debug, Clone)]
+struct Row {
+    line: usize,
+    participant: String,
+    session: u64,
+    trial: u64,
+    practice: bool,
+    stimulus: usize,
+    condition: usize,
+    /// Index of the plan's staircase (2AFC staircases).
+    staircase: Option<usize>,
+    /// Identification: the stimulus answered.
+    answered: Option<usize>,
+    /// 2AFC: the comparison's level.
+    level: Option<f64>,
+    correct: bool,
+}
+
+struct RowReader<'a> {
+    path: &'a Path,
+    line: usize,
+    fields: &'a [String],
+}
+
+impl RowReader<'_> {
+    fn error(&self, column: usize, message: impl Into<String>) -> AnalyzeError {
+        AnalyzeError::Csv {
+            path: self.path.to_owned(),
+            line: self.line,
+            column: Some(column + 1),
+            field: Some(TRIALS_COLUMNS[column].to_owned()),
+            message: message.into(),
+        }
+    }
+
+    fn text(&self, column: usize) -> &str {
+        &self.fields[column]
+    }
+
+    fn unsigned(&self, column: usize) -> Result<u64, AnalyzeError> {
+        let t = self.text(column);
+        t.trim()
+            .parse::<u64>()
+            .map_err(|_| self.error(column, format!("{t:?} is not a whole number ≥ 0")))
+    }
+
+    fn flag(&self, column: usize) -> Result<bool, AnalyzeError> {
+        match self.text(column).trim() {
+            "0" => Ok(false),
+            "1" => Ok(true),
+            t => Err(self.error(column, format!("{t:?} is neither 0 nor 1"))),
+        }
+    }
+
+    fn number(&self, column: usize) -> Result<f64, AnalyzeError> {
+        let t = self.text(column);
+        match t.trim().parse::<f64>() {
+            Ok(v) if v.is_finite() => Ok(v),
+            _ => Err(self.error(column, format!("{t:?} is not a finite number"))),
+        }
+    }
+
+    fn interval(&self, column: usize) -> Result<u8, AnalyzeError> {
+        match self.text(column).trim() {
+            "1" => Ok(1),
+            "2" => Ok(2),
+            t => Err(self.error(column, format!("{t:?} is neither interval 1 nor 2"))),
+        }
+    }
+
+    fn empty(&self, column: usize, design: Design) -> Result<(), AnalyzeError> {
+        let t = self.text(column);
+        if t.trim().is_empty() {
+            Ok(())
+        } else {
+            Err(self.error(
+                column,
+                format!("{t:?}: must be empty in a {} design", design.name()),
+            ))
+        }
+    }
+
+    fn name_in(&self, column: usize, names: &[&str], what: &str) -> Result<usize, AnalyzeError> {
+        let t = self.text(column);
+        names.iter().position(|n| *n == t).ok_or_else(|| {
+            self.error(
+                column,
+                format!(
+                    "{t:?} is not a {what} of the plan (they are {})",
+                    names
+                        .iter()
+                        .map(|n| format!("{n:?}"))
+                        .collect::<Vec<_>>()
+                        .join(", ")
+                ),
+            )
+        })
+    }
+}
+
+const C_PARTICIPANT: usize = 0;
+const C_SESSION: usize = 1;
+const C_BLOCK: usize = 2;
+const C_TRIAL: usize = 3;
+const C_PRACTICE: usize = 4;
+const C_DESIGN: usize = 5;
+const C_STIMULUS: usize = 6;
+const C_CONDITION: usize = 7;
+const C_STAIRCASE: usize = 8;
+const C_LEVEL: usize = 9;
+const C_REFERENCE: usize = 10;
+const C_INTERVAL: usize = 11;
+const C_RESPONSE: usize = 12;
+const C_CORRECT: usize = 13;
+
+/// Reads and checks `trials.csv` against the plan.
+fn read_trials(path: &Path, plan: &Plan) -> Result<Vec<Row>, AnalyzeError> {
+    let text = std::fs::read_to_string(path).map_err(|error| AnalyzeError::Read {
+        path: path.to_owned(),
+        error,
+    })?;
+    let records = parse_csv(&text, path)?;
+    let csv_error = |line: usize, column: Option<usize>, message: String| AnalyzeError::Csv {
+        path: path.to_owned(),
+        line,
+        column,
+        field: column.and_then(|c| TRIALS_COLUMNS.get(c - 1).map(|s| (*s).to_owned())),
+        message,
+    };
+    let Some((header, rows)) = records.split_first() else {
+        return Err(csv_error(
+            1,
+            None,
+            format!(
+                "the file is empty; it needs the header {}",
+                TRIALS_COLUMNS.join(",")
+            ),
+        ));
+    };
+    for (i, expected) in TRIALS_COLUMNS.iter().enumerate() {
+        let found = header.fields.get(i).map(String::as_str);
+        if found != Some(*expected) {
+            return Err(AnalyzeError::Csv {
+                path: path.to_owned(),
+                line: header.line,
+                column: Some(i + 1),
+                field: None,
+                message: format!(
+                    "the header has {}, expected {expected:?}; the header must be {}",
+                    match found {
+                        Some(f) => format!("{f:?}"),
+                        None => "nothing".to_owned(),
+                    },
+                    TRIALS_COLUMNS.join(",")
+                ),
+            });
+        }
+    }
+    if header.fields.len() > TRIALS_COLUMNS.len() {
+        return Err(csv_error(
+            header.line,
+            Some(TRIALS_COLUMNS.len() + 1),
+            format!(
+                "the header has {} columns, expected {}: {}",
+                header.fields.len(),
+                TRIALS_COLUMNS.len(),
+                TRIALS_COLUMNS.join(",")
+            ),
+        ));
+    }
+    let spec = plan.spec();
+    let design = spec.design;
+    let stimuli: Vec<&str> = spec.stimuli.iter().map(|s| s.name.as_str()).collect();
+    let conditions: Vec<&str> = spec.conditions.iter().map(|c| c.name.as_str()).collect();
+    let staircases: Vec<&str> = spec.staircases.iter().map(|s| s.name.as_str()).collect();
+    let reference = spec.reference.as_ref().map(|r| r.value);
+    let mut seen: HashMap<u64, usize> = HashMap::new();
+    let mut out = Vec::with_capacity(rows.len());
+    for record in rows {
+        if record.fields.len() != TRIALS_COLUMNS.len() {
+            return Err(csv_error(
+                record.line,
+                None,
+                format!(
+                    "{} fields, the header has {}",
+                    record.fields.len(),
+                    TRIALS_COLUMNS.len()
+                ),
+            ));
+        }
+        let r = RowReader {
+            path,
+            line: record.line,
+            fields: &record.fields,
+        };
+        let session = r.unsigned(C_SESSION)?;
+        let block = r.unsigned(C_BLOCK)?;
+        let trial = r.unsigned(C_TRIAL)?;
+        let practice = r.flag(C_PRACTICE)?;
+        if practice && block != 0 {
+            return Err(r.error(C_BLOCK, format!("{block}: a practice trial is in block 0")));
+        }
+        if let Some(first) = seen.insert(trial, record.line) {
+            return Err(r.error(
+                C_TRIAL,
+                format!("trial {trial} appears again (first on line {first}); a trial number may appear once only"),
+            ));
+        }
+        if r.text(C_DESIGN) != design.name() {
+            return Err(r.error(
+                C_DESIGN,
+                format!(
+                    "{:?} does not match the plan's design {:?}",
+                    r.text(C_DESIGN),
+                    design.name()
+                ),
+            ));
+        }
+        let stimulus = r.name_in(C_STIMULUS, &stimuli, "stimulus")?;
+        let condition = r.name_in(C_CONDITION, &conditions, "condition")?;
+        let correct = r.flag(C_CORRECT)?;
+        let mut row = Row {
+            line: record.line,
+            participant: r.text(C_PARTICIPANT).to_owned(),
+            session,
+            trial,
+            practice,
+            stimulus,
+            condition,
+            staircase: None,
+            answered: None,
+            level: None,
+            correct,
+        };
+        match (design, reference) {
+            (Design::Identification, _) => {
+                for c in [C_STAIRCASE, C_LEVEL, C_REFERENCE, C_INTERVAL] {
+                    r.empty(c, design)?;
+                }
+                let answered = r.name_in(C_RESPONSE, &stimuli, "stimulus")?;
+                if correct != (answered == stimulus) {
+                    return Err(r.error(
+                        C_CORRECT,
+                        format!(
+                            "{} but the response {:?} {} the stimulus {:?}",
+                            u8::from(correct),
+                            stimuli[answered],
+                            if answered == stimulus { "is" } else { "is not" },
+                            stimuli[stimulus]
+                        ),
+                    ));
+                }
+                row.answered = Some(answered);
+            }
+            (_, Some(reference)) => {
+                if design == Design::TwoAfcStaircase {
+                    row.staircase = Some(r.name_in(C_STAIRCASE, &staircases, "staircase")?);
+                } else {
+                    r.empty(C_STAIRCASE, design)?;
+                }
+                let level = r.number(C_LEVEL)?;
+                if level <= 0.0 {
+                    return Err(r.error(
+                        C_LEVEL,
+                        format!("{level} is not positive: levels are folded about the reference multiplicatively"),
+                    ));
+                }
+                let given = r.number(C_REFERENCE)?;
+                if (given - reference).abs() > 1e-9 * reference.abs() {
+                    return Err(r.error(
+                        C_REFERENCE,
+                        format!("{given} is not the plan's reference value {reference}"),
+                    ));
+                }
+                let comparison = r.interval(C_INTERVAL)?;
+                let response = r.interval(C_RESPONSE)?;
+                let chose_comparison = response == comparison;
+                // Above the reference the comparison is the right answer, below it the
+                // reference; at the reference neither, and either answer may be scored.
+                let expected = if level > reference {
+                    Some(chose_comparison)
+                } else if level < reference {
+                    Some(!chose_comparison)
+                } else {
+                    None
+                };
+                if let Some(e) = expected
+                    && e != correct
+                {
+                    return Err(r.error(
+                        C_CORRECT,
+                        format!(
+                            "{} but the response (interval {response}) chose the {} at level {level} {} the reference {reference}",
+                            u8::from(correct),
+                            if chose_comparison { "comparison" } else { "reference" },
+                            if level > reference { "above" } else { "below" },
+                        ),
+                    ));
+                }
+                row.level = Some(level);
+            }
+            (_, None) => {
+                return Err(AnalyzeError::Options(format!(
+                    "the plan's design is {} but it has no reference",
+                    design.name()
+                )));
+            }
+        }
+        out.push(row);
+    }
+    Ok(out)
+}
+
+// ---------------------------------------------------------------------------------------
+// Statistics
+
+/// `ln n!`.
+fn ln_factorial(n: u64) -> f64 {
+    libm::lgamma(n as f64 + 1.0)
+}
+
+/// Fisher's exact test, two-sided, of the 2×2 table `[[a, b], [c, d]]`: the sum of the
+/// hypergeometric probabilities (margins fixed) of the tables at most as likely as the
+/// observed one, with R's relative tolerance [`FISHER_RELATIVE_TOLERANCE`].
+pub fn fisher_exact_two_sided(table: [[u64; 2]; 2]) -> f64 {
+    let [[a, b], [c, d]] = table;
+    let row1 = a + b;
+    let row2 = c + d;
+    let col1 = a + c;
+    let n = row1 + row2;
+    // P(X = x) for X the top-left cell: C(col1, x) C(n − col1, row1 − x) / C(n, row1).
+    let ln_p = |x: u64| {
+        ln_factorial(col1) - ln_factorial(x) - ln_factorial(col1 - x) + ln_factorial(n - col1)
+            - ln_factorial(row1 - x)
+            - ln_factorial(n - col1 - (row1 - x))
+            - (ln_factorial(n) - ln_factorial(row1) - ln_factorial(row2))
+    };
+    let lo = col1.saturating_sub(row2);
+    let hi = col1.min(row1);
+    let logs: Vec<f64> = (lo..=hi).map(ln_p).collect();
+    let max = logs.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+    let d: Vec<f64> = logs.iter().map(|l| (l - max).exp()).collect();
+    let total: f64 = d.iter().sum();
+    let observed = d[(a - lo) as usize];
+    let limit = observed * (1.0 + FISHER_RELATIVE_TOLERANCE);
+    let p: f64 = d.iter().filter(|&&v| v <= limit).sum::<f64>() / total;
+    p.min(1.0)
+}
+
+fn ratio(k: u64, n: u64) -> Option<f64> {
+    (n > 0).then(|| k as f64 / n as f64)
+}
+
+fn identification(plan: &Plan, rows: &[Row]) -> Identification {
+    let spec = plan.spec();
+    let n = spec.stimuli.len();
+    let stimuli: Vec<String> = spec.stimuli.iter().map(|s| s.name.clone()).collect();
+    let conditions: Vec<ConditionResult> = spec
+        .conditions
+        .iter()
+        .enumerate()
+        .map(|(c, cond)| {
+            let mut confusion = vec![vec![0u64; n]; n];
+            for row in rows.iter().filter(|r| r.condition == c) {
+                if let Some(a) = row.answered {
+                    confusion[row.stimulus][a] += 1;
+                }
+            }
+            let trials: u64 = confusion.iter().flatten().sum();
+            let correct: u64 = (0..n).map(|i| confusion[i][i]).sum();
+            let per_stimulus = (0..n)
+                .map(|i| {
+                    let t: u64 = confusion[i].iter().sum();
+                    StimulusResult {
+                        stimulus: stimuli[i].clone(),
+                        trials: t,
+                        correct: confusion[i][i],
+                        accuracy: ratio(confusion[i][i], t),
+                    }
+                })
+                .collect();
+            ConditionResult {
+                name: cond.name.clone(),
+                trials,
+                correct,
+                accuracy: ratio(correct, trials),
+                confusion,
+                per_stimulus,
+            }
+        })
+        .collect();
+    let condition_effect = match conditions.as_slice() {
+        [x, y] => Some(ConditionEffect {
+            test: "fisher-exact-two-sided",
+            conditions: [x.name.clone(), y.name.clone()],
+            accuracy: [x.accuracy, y.accuracy],
+            correct: [x.correct, y.correct],
+            trials: [x.trials, y.trials],
+            p_value: fisher_exact_two_sided([
+                [x.correct, x.trials - x.correct],
+                [y.correct, y.trials - y.correct],
+            ]),
+        }),
+        _ => None,
+    };
+    Identification {
+        stimuli,
+        conditions,
+        condition_effect,
+    }
+}
+
+/// Folds `level` onto the upper side of `reference`: `r²/x` below it, `x` otherwise.
+pub fn fold(level: f64, reference: f64) -> f64 {
+    if level < reference {
+        reference * reference / level
+    } else {
+        level
+    }
+}
+
+/// The reversals of a track: the trials after which the level's direction of change flips
+/// (trials whose level equals the one before set no direction).
+pub fn reversals(track: &[TrackTrial]) -> Vec<Reversal> {
+    let mut out = Vec::new();
+    let mut last_up: Option<bool> = None;
+    for i in 1..track.len() {
+        let (before, after) = (track[i - 1].level, track[i].level);
+        if after == before {
+            continue;
+        }
+        let up = after > before;
+        if last_up.is_some_and(|l| l != up) {
+            out.push(Reversal {
+                trial: track[i - 1].trial,
+                level: before,
+            });
+        }
+        last_up = Some(up);
+    }
+    out
+}
+
+fn two_afc(
+    plan: &Plan,
+    rows: &[Row],
+    options: &AnalyzeOptions,
+    seed: u64,
+) -> Result<TwoAfc, AnalyzeError> {
+    let spec = plan.spec();
+    let reference = spec
+        .reference
+        .as_ref()
+        .ok_or_else(|| AnalyzeError::Options("the 2AFC plan has no reference".to_owned()))?;
+    let r = reference.value;
+    let mut cells = Vec::new();
+    for (s, stimulus) in spec.stimuli.iter().enumerate() {
+        for (c, condition) in spec.conditions.iter().enumerate() {
+            let mut cell_rows: Vec<&Row> = rows
+                .iter()
+                .filter(|row| row.stimulus == s && row.condition == c)
+                .collect();
+            if cell_rows.is_empty() {
+                continue;
+            }
+            cell_rows.sort_by_key(|row| row.trial);
+            // Pool per folded level (exact equality: the levels a design presents repeat
+            // exactly, and r²/x of the same x is the same number).
+            let mut points: Vec<Point> = Vec::new();
+            for row in &cell_rows {
+                let level = fold(row.level.unwrap_or(r), r);
+                match points.iter_mut().find(|p| p.level == level) {
+                    Some(p) => {
+                        p.n_trials += 1;
+                        p.n_correct += u32::from(row.correct);
+                    }
+                    None => points.push(Point {
+                        level,
+                        n_trials: 1,
+                        n_correct: u32::from(row.correct),
+                    }),
+                }
+            }
+            points.sort_by(|a, b| a.level.total_cmp(&b.level));
+            let fit_options = FitOptions {
+                lapse_max: LAPSE_MAX,
+                reference: Some(r),
+            };
+            let (fit, fit_error, fitted) = match fit::fit(&points, options.model, fit_options) {
+                Ok(f) => {
+                    let boot = fit::bootstrap(
+                        &f,
+                        &points,
+                        &BootstrapOptions {
+                            resamples: options.resamples,
+                            seed,
+                            coverage: 0.95,
+                        },
+                    );
+                    let (ci_t, ci_w, fitted_n, failed_n, boot_error) = match boot {
+                        Ok(b) => (
+                            Some([b.threshold_75.lower, b.threshold_75.upper]),
+                            b.weber_75.map(|w| [w.lower, w.upper]),
+                            b.fitted,
+                            b.failed,
+                            None,
+                        ),
+                        Err(e) => (None, None, 0, 0, Some(e.to_string())),
+                    };
+                    let result = FitResult {
+                        threshold_75: f.threshold_75,
+                        weber_75: f.threshold_75 / r - 1.0,
+                        slope: f.slope,
+                        lapse: f.lapse,
+                        alpha: f.alpha,
+                        beta: f.beta,
+                        log_likelihood: f.log_likelihood,
+                        deviance: f.deviance,
+                        ci95_threshold: ci_t,
+                        ci95_weber: ci_w,
+                        bootstrap_fitted: fitted_n,
+                        bootstrap_failed: failed_n,
+                        bootstrap_error: boot_error,
+                    };
+                    (Some(result), None, Some(f))
+                }
+                Err(e) => (None, Some(e.to_string()), None),
+            };
+            let staircases = if spec.design == Design::TwoAfcStaircase {
+                spec.staircases
+                    .iter()
+                    .enumerate()
+                    .filter_map(|(k, st)| {
+                        let track: Vec<TrackTrial> = cell_rows
+                            .iter()
+                            .filter(|row| row.staircase == Some(k))
+                            .map(|row| TrackTrial {
+                                trial: row.trial,
+                                level: row.level.unwrap_or(r),
+                                correct: row.correct,
+                            })
+                            .collect();
+                        (!track.is_empty()).then(|| Track {
+                            name: st.name.clone(),
+                            reversals: reversals(&track),
+                            track,
+                        })
+                    })
+                    .collect()
+            } else {
+                Vec::new()
+            };
+            cells.push(Cell {
+                stimulus: stimulus.name.clone(),
+                condition: condition.name.clone(),
+                trials: cell_rows.len() as u64,
+                correct: cell_rows.iter().filter(|row| row.correct).count() as u64,
+                points: points
+                    .iter()
+                    .map(|p| PointResult {
+                        level: p.level,
+                        trials: p.n_trials,
+                        correct: p.n_correct,
+                    })
+                    .collect(),
+                fit,
+                fit_error,
+                staircases,
+                fitted,
+            });
+        }
+    }
+    Ok(TwoAfc {
+        field: reference.field.clone(),
+        reference: r,
+        model: model_name(options.model),
+        lapse_max: LAPSE_MAX,
+        resamples: options.resamples,
+        seed,
+        cells,
+    })
+}
+
+/// Analyses the run folder `dir` (`plan.json`, `trials.csv`) and writes `dir/summary.json`.
+pub fn analyze(dir: &Path, options: &AnalyzeOptions) -> Result<Summary, AnalyzeError> {
+    let summary = summarize(dir, options)?;
+    let path = dir.join("summary.json");
+    let mut text = serde_json::to_string_pretty(&summary).map_err(|e| AnalyzeError::Write {
+        path: path.clone(),
+        error: std::io::Error::other(e),
+    })?;
+    text.push('\n');
+    std::fs::write(&path, text).map_err(|error| AnalyzeError::Write { path, error })?;
+    Ok(summary)
+}
+
+/// [`analyze`] without writing `summary.json`.
+pub fn summarize(dir: &Path, options: &AnalyzeOptions) -> Result<Summary, AnalyzeError> {
+    if options.resamples < 2 {
+        return Err(AnalyzeError::Options(format!(
+            "--resamples {}: the bootstrap needs at least 2 (1000 or more for a 95 % interval)",
+            options.resamples
+        )));
+    }
+    let plan = Plan::load(dir.join("plan.json"))?;
+    let trials_path = dir.join("trials.csv");
+    let all = read_trials(&trials_path, &plan)?;
+    let practice_trials = all.iter().filter(|r| r.practice).count();
+    let rows: Vec<Row> = all.iter().filter(|r| !r.practice).cloned().collect();
+    if rows.is_empty() {
+        return Err(AnalyzeError::Csv {
+            path: trials_path,
+            line: all.last().map_or(1, |r| r.line),
+            column: None,
+            field: None,
+            message: format!(
+                "no trials to analyse ({practice_trials} practice trials, which are not analysed)"
+            ),
+        });
+    }
+    let mut participants: Vec<String> = Vec::new();
+    for r in &all {
+        if !participants.contains(&r.participant) {
+            participants.push(r.participant.clone());
+        }
+    }
+    let sessions: BTreeSet<u64> = all.iter().map(|r| r.session).collect();
+    let spec = plan.spec();
+    let (identification, two_afc) = match spec.design {
+        Design::Identification => (Some(identification(&plan, &rows)), None),
+        Design::TwoAfcStaircase | Design::ConstantStimuli => {
+            let seed = options.seed.unwrap_or(spec.seed);
+            (None, Some(two_afc(&plan, &rows, options, seed)?))
+        }
+    };
+    Ok(Summary {
+        format: FORMAT,
+        plan: spec.name.clone(),
+        design: spec.design.name(),
+        participants,
+        sessions: sessions.into_iter().collect(),
+        trials: rows.len(),
+        practice_trials,
+        identification,
+        two_afc,
+    })
+}
+
+fn percent(x: Option<f64>) -> String {
+    match x {
+        Some(v) => format!("{:.1} %", 100.0 * v),
+        None => "n/a".to_owned(),
+    }
+}
+
+impl fmt::Display for Summary {
+    /// One paragraph: accuracy per condition and Fisher's p, or each cell's Weber fraction
+    /// with its 95 % interval.
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(
+            f,
+            "{} ({}): {} trials analysed ({} practice left out)",
+            self.plan, self.design, self.trials, self.practice_trials
+        )?;
+        if let Some(id) = &self.identification {
+            for c in &id.conditions {
+                write!(
+                    f,
+                    "; {:?}: {} correct of {} ({})",
+                    c.name,
+                    c.correct,
+                    c.trials,
+                    percent(c.accuracy)
+                )?;
+            }
+            if let Some(e) = &id.condition_effect {
+                write!(
+                    f,
+                    "; {:?} vs {:?}: Fisher's exact test, two-sided, p = {:.4}",
+                    e.conditions[0], e.conditions[1], e.p_value
+                )?;
+            }
+        }
+        if let Some(t) = &self.two_afc {
+            for c in &t.cells {
+                write!(
+                    f,
+                    "; {} / {} ({} trials): ",
+                    c.stimulus, c.condition, c.trials
+                )?;
+                match (&c.fit, &c.fit_error) {
+                    (Some(fit), _) => {
+                        write!(
+                            f,
+                            "Weber fraction at 75 % {:.4} (threshold {:.4} against reference {}, {} fit",
+                            fit.weber_75, fit.threshold_75, t.reference, t.model
+                        )?;
+                        match fit.ci95_weber {
+                            Some([lo, hi]) => write!(
+                                f,
+                                ", 95 % CI [{lo:.4}, {hi:.4}] from {} resamples)",
+                                t.resamples
+                            )?,
+                            None => write!(
+                                f,
+                                ", no CI: {})",
+                                fit.bootstrap_error.as_deref().unwrap_or("bootstrap failed")
+                            )?,
+                        }
+                    }
+                    (None, e) => write!(f, "no fit: {}", e.as_deref().unwrap_or("unknown"))?,
+                }
+            }
+        }
+        write!(f, ".")
+    }
+}

@@ -1,0 +1,680 @@
+//! The analysis of a run folder against references it did not produce: Fisher's exact test
+//! against textbook values and exact integer arithmetic, a confusion matrix counted by hand,
+//! staircase reversals read by hand, a simulated observer's Weber fraction recovered within
+//! its asymptotic standard error, and bad inputs refused with the line and column.
+#![allow(clippy::unwrap_used)]
+
+use std::path::{Path, PathBuf};
+
+use experiment::analyze::{
+    AnalyzeError, AnalyzeOptions, Summary, TRIALS_COLUMNS, analyze, fisher_exact_two_sided,
+    summarize,
+};
+use experiment::fit::{Model, Observer, Prng, normal_cdf, normal_pdf, normal_quantile};
+use serde_json::{Value, json};
+
+const HEADER: &str = "participant,session,block,trial,practice,design,stimulus,condition,\
+staircase,level,reference,comparison_interval,response,correct,response_time_s,trace,t_start_s";
+
+const SHAPES: [&str; 5] = [
+    "convex-strong",
+    "convex-mild",
+    "straight",
+    "concave-mild",
+    "concave-strong",
+];
+
+fn shapes_dir() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../../experiments/shapes")
+}
+
+fn temp_dir(name: &str) -> PathBuf {
+    let dir =
+        std::env::temp_dir().join(format!("experiment-analyze-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+fn write_run(name: &str, plan: &Value, trials: &str) -> PathBuf {
+    let dir = temp_dir(name);
+    std::fs::write(
+        dir.join("plan.json"),
+        serde_json::to_string_pretty(plan).unwrap(),
+    )
+    .unwrap();
+    std::fs::write(dir.join("trials.csv"), trials).unwrap();
+    dir
+}
+
+fn identification_plan() -> Value {
+    let stimuli: Vec<Value> = SHAPES
+        .iter()
+        .map(|s| {
+            let scene = shapes_dir().join(format!("shapes-{s}.json"));
+            json!({ "name": s, "scene": scene.to_str().unwrap(), "object": 0 })
+        })
+        .collect();
+    json!({
+        "format": "experiment/1",
+        "name": "shapes by hand",
+        "seed": 11,
+        "design": "identification",
+        "stimuli": stimuli,
+        "conditions": [
+            { "name": "friction", "material": {} },
+            { "name": "frictionless", "material": { "mu_static": 0.0, "mu_dynamic": 0.0 } }
+        ],
+        "repetitions": 2,
+        "practice_trials": 1
+    })
+}
+
+fn straight() -> Value {
+    let scene = shapes_dir().join("shapes-straight.json");
+    json!([{ "name": "straight", "scene": scene.to_str().unwrap(), "object": 0 }])
+}
+
+fn constant_plan(levels: &[f64]) -> Value {
+    json!({
+        "format": "experiment/1",
+        "name": "stiffness by constant stimuli",
+        "seed": 5,
+        "design": "constant-stimuli",
+        "stimuli": straight(),
+        "reference": { "field": "stiffness_n_per_m", "value": 500.0 },
+        "levels": levels,
+    })
+}
+
+fn staircase_plan() -> Value {
+    json!({
+        "format": "experiment/1",
+        "name": "stiffness by staircases",
+        "seed": 9,
+        "design": "2afc-staircase",
+        "stimuli": straight(),
+        "reference": { "field": "stiffness_n_per_m", "value": 500.0 },
+        "staircases": [
+            { "name": "from above", "start": 800.0, "step": { "size": 100.0 },
+              "stop": { "trials": 20 }, "bounds": [500.0, 1000.0] },
+            { "name": "from below", "start": 300.0, "step": { "size": 1.25, "kind": "multiplicative" },
+              "stop": { "trials": 20 }, "bounds": [200.0, 500.0] }
+        ]
+    })
+}
+
+fn error_text(e: &AnalyzeError) -> String {
+    e.to_string()
+}
+
+// ---------------------------------------------------------------------------------------
+// Fisher's exact test
+
+#[test]
+fn fisher_matches_the_textbook_values() {
+    // Fisher's lady tasting tea, R's `fisher.test(matrix(c(3,1,1,3),2))`: p = 0.4857. The
+    // tables with margins 4/4 have top-left cell x = 0..4 with C(4,x)C(4,4−x) = 1, 16, 36, 16,
+    // 1 out of C(8,4) = 70; x = 3 (16) and the tables at most as likely: (1+16+16+1)/70.
+    let p = fisher_exact_two_sided([[3, 1], [1, 3]]);
+    assert!((p - 34.0 / 70.0).abs() < 1e-12, "{p}");
+    assert!((p - 0.4857).abs() < 5e-5);
+    // A perfect 5/5 split: only x = 5 and x = 0 have C(5,x)C(5,5−x) = 1 of C(10,5) = 252.
+    let p = fisher_exact_two_sided([[5, 0], [0, 5]]);
+    assert!((p - 2.0 / 252.0).abs() < 1e-14, "{p}");
+    // Rows 2 and 5, first column 3: x = 0, 1, 2 with C(3,x)C(4,2−x) = 6, 12, 3 of C(7,2) =
+    // 21. Not symmetric: x = 2 gives 3/21, x = 0 gives (6+3)/21.
+    let p = fisher_exact_two_sided([[2, 0], [1, 4]]);
+    assert!((p - 3.0 / 21.0).abs() < 1e-14, "{p}");
+    let p = fisher_exact_two_sided([[0, 2], [3, 2]]);
+    assert!((p - 9.0 / 21.0).abs() < 1e-14, "{p}");
+    // The most likely table: p = 1.
+    assert!((fisher_exact_two_sided([[2, 2], [2, 2]]) - 1.0).abs() < 1e-14);
+    // Wikipedia's "Fisher's exact test" example (men/women studying): p = 0.002759.
+    let p = fisher_exact_two_sided([[1, 9], [11, 3]]);
+    assert!((p - 0.002759).abs() < 5e-7, "{p}");
+}
+
+/// `C(n, k)` in exact integers.
+fn choose(n: u64, k: u64) -> u128 {
+    let mut c: u128 = 1;
+    for i in 0..k {
+        c = c * u128::from(n - i) / u128::from(i + 1);
+    }
+    c
+}
+
+#[test]
+fn fisher_agrees_with_exact_integer_counting_on_every_small_table() {
+    // The reference counts tables in integers (probabilities C(c,x)C(N−c,r−x) / C(N,r) share
+    // the denominator, so "at most as likely" is an exact integer comparison, ties included).
+    for a in 0..7u64 {
+        for b in 0..7u64 {
+            for c in 0..7u64 {
+                for d in 0..7u64 {
+                    let (row1, col1, n) = (a + b, a + c, a + b + c + d);
+                    let weight = |x: u64| choose(col1, x) * choose(n - col1, row1 - x);
+                    let lo = col1.saturating_sub(c + d);
+                    let hi = col1.min(row1);
+                    let observed = weight(a);
+                    let tail: u128 = (lo..=hi).map(weight).filter(|&w| w <= observed).sum();
+                    let exact = tail as f64 / choose(n, row1) as f64;
+                    let p = fisher_exact_two_sided([[a, b], [c, d]]);
+                    assert!(
+                        (p - exact).abs() <= 1e-12 * exact.max(1e-300) + 1e-15,
+                        "[[{a},{b}],[{c},{d}]]: {p} vs {exact}"
+                    );
+                }
+            }
+        }
+    }
+}
+
+// ---------------------------------------------------------------------------------------
+// Identification
+
+/// A practice row, then friction 3 of 4 correct and frictionless 1 of 4, the latter in a
+/// resumed session 2, the rows out of trial order, a participant label that needs quoting.
+const ID_TRIALS: &str = "\
+\"P \"\"01\"\", left\",1,0,1,1,identification,convex-strong,friction,,,,,concave-strong,0,3.1,,0
+\"P \"\"01\"\", left\",1,1,2,0,identification,convex-strong,friction,,,,,convex-strong,1,2.0,,10
+\"P \"\"01\"\", left\",1,1,4,0,identification,straight,friction,,,,,straight,1,2.0,,30
+\"P \"\"01\"\", left\",1,1,3,0,identification,convex-mild,friction,,,,,convex-mild,1,2.0,,20
+\"P \"\"01\"\", left\",1,1,5,0,identification,concave-mild,friction,,,,,straight,0,2.0,,40
+\"P \"\"01\"\", left\",2,2,6,0,identification,convex-strong,frictionless,,,,,convex-mild,0,2.0,,0
+\"P \"\"01\"\", left\",2,2,7,0,identification,concave-strong,frictionless,,,,,concave-strong,1,2.0,,10
+\"P \"\"01\"\", left\",2,2,8,0,identification,straight,frictionless,,,,,concave-mild,0,2.0,,20
+\"P \"\"01\"\", left\",2,2,9,0,identification,straight,frictionless,,,,,convex-mild,0,2.0,\"a,b\",30
+";
+
+#[test]
+fn identification_counts_the_confusion_matrix_by_hand() {
+    let dir = write_run(
+        "identification",
+        &identification_plan(),
+        &format!("{HEADER}\r\n{ID_TRIALS}"),
+    );
+    let summary = analyze(&dir, &AnalyzeOptions::default()).unwrap();
+    assert_eq!(summary.trials, 8);
+    assert_eq!(summary.practice_trials, 1);
+    assert_eq!(summary.participants, vec!["P \"01\", left".to_owned()]);
+    assert_eq!(summary.sessions, vec![1, 2]);
+    let id = summary.identification.as_ref().unwrap();
+    assert_eq!(id.stimuli, SHAPES);
+    let (f, fl) = (&id.conditions[0], &id.conditions[1]);
+    assert_eq!((f.name.as_str(), f.trials, f.correct), ("friction", 4, 3));
+    assert_eq!(
+        (fl.name.as_str(), fl.trials, fl.correct),
+        ("frictionless", 4, 1)
+    );
+    assert_eq!(f.accuracy, Some(0.75));
+    assert_eq!(fl.accuracy, Some(0.25));
+    // Rows presented, columns answered, by hand from the rows above (the practice row, which
+    // would add convex-strong → concave-strong, is left out).
+    let friction = vec![
+        vec![1, 0, 0, 0, 0],
+        vec![0, 1, 0, 0, 0],
+        vec![0, 0, 1, 0, 0],
+        vec![0, 0, 1, 0, 0],
+        vec![0, 0, 0, 0, 0],
+    ];
+    let frictionless = vec![
+        vec![0, 1, 0, 0, 0],
+        vec![0, 0, 0, 0, 0],
+        vec![0, 1, 0, 1, 0],
+        vec![0, 0, 0, 0, 0],
+        vec![0, 0, 0, 0, 1],
+    ];
+    assert_eq!(f.confusion, friction);
+    assert_eq!(fl.confusion, frictionless);
+    let acc: Vec<Option<f64>> = fl.per_stimulus.iter().map(|s| s.accuracy).collect();
+    assert_eq!(acc, vec![Some(0.0), None, Some(0.0), None, Some(1.0)]);
+    assert_eq!(fl.per_stimulus[2].trials, 2);
+    // 3/4 against 1/4 is the tea-tasting table: p = 34/70.
+    let effect = id.condition_effect.as_ref().unwrap();
+    assert!((effect.p_value - 34.0 / 70.0).abs() < 1e-12);
+    assert_eq!(effect.accuracy, [Some(0.75), Some(0.25)]);
+    // summary.json is written, and reads back with the documented fields.
+    let json: Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.join("summary.json")).unwrap()).unwrap();
+    assert_eq!(json["format"], "experiment-summary/1");
+    assert_eq!(
+        json["identification"]["conditions"][1]["confusion"][2][3],
+        1
+    );
+    assert_eq!(
+        json["identification"]["condition_effect"]["conditions"][1],
+        "frictionless"
+    );
+    assert!(json.get("two_afc").is_none());
+    let line = summary.to_string();
+    assert!(
+        line.contains("\"friction\": 3 correct of 4 (75.0 %)"),
+        "{line}"
+    );
+    assert!(line.contains("p = 0.4857"), "{line}");
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+// ---------------------------------------------------------------------------------------
+// 2AFC
+
+/// A 2AFC row: correct as given; the response follows from it and the interval.
+fn afc_row(
+    design: &str,
+    trial: u64,
+    staircase: &str,
+    level: f64,
+    correct: bool,
+    comparison_first: bool,
+) -> String {
+    let comparison = if comparison_first { 1 } else { 2 };
+    // Above the reference the right answer is the comparison, below it the reference.
+    let chose_comparison = if level >= 500.0 { correct } else { !correct };
+    let response = if chose_comparison {
+        comparison
+    } else {
+        3 - comparison
+    };
+    format!(
+        "sim,1,1,{trial},0,{design},straight,scene,{staircase},{level:?},500.0,{comparison},{response},{},0,,0\n",
+        u8::from(correct)
+    )
+}
+
+/// The asymptotic standard error of the ML 75 % threshold for the Gaussian model
+/// `ψ = ½ + (½ − λ) Φ((x − α)/β)` with `n` trials at each of `levels`: the binomial variance
+/// `ψ(1 − ψ)/n` of every level's proportion, propagated by the Fisher information
+/// `I = Σ n ∇ψ ∇ψᵀ / (ψ(1 − ψ))` over `(α, β, λ)` and the delta method on
+/// `x₇₅ = α + β Φ⁻¹(¼ / (½ − λ))`.
+fn threshold_se(alpha: f64, beta: f64, lapse: f64, levels: &[f64], n: f64) -> f64 {
+    let mut info = [[0.0; 3]; 3];
+    for &x in levels {
+        let z = (x - alpha) / beta;
+        let psi = 0.5 + (0.5 - lapse) * normal_cdf(z);
+        let g = [
+            -(0.5 - lapse) * normal_pdf(z) / beta,
+            -(0.5 - lapse) * normal_pdf(z) * z / beta,
+            -normal_cdf(z),
+        ];
+        for i in 0..3 {
+            for j in 0..3 {
+                info[i][j] += n * g[i] * g[j] / (psi * (1.0 - psi));
+            }
+        }
+    }
+    let f = 0.25 / (0.5 - lapse);
+    let zf = normal_quantile(f);
+    let grad = [
+        1.0,
+        zf,
+        beta / normal_pdf(zf) * 0.25 / (0.5 - lapse).powi(2),
+    ];
+    // grad · I⁻¹ · grad, with I⁻¹ by Gaussian elimination on [I | grad].
+    let mut m = info;
+    let mut v = grad;
+    for k in 0..3 {
+        for i in k + 1..3 {
+            let r = m[i][k] / m[k][k];
+            for j in k..3 {
+                m[i][j] -= r * m[k][j];
+            }
+            v[i] -= r * v[k];
+        }
+    }
+    let mut y = [0.0; 3];
+    for i in (0..3).rev() {
+        let s: f64 = (i + 1..3).map(|j| m[i][j] * y[j]).sum();
+        y[i] = (v[i] - s) / m[i][i];
+    }
+    grad.iter().zip(&y).map(|(g, y)| g * y).sum::<f64>().sqrt()
+}
+
+#[test]
+fn constant_stimuli_recover_a_known_observers_weber_fraction() {
+    let observer = Observer {
+        weber: 0.2,
+        reference: 500.0,
+        sigma: 0.1,
+        lapse: 0.04,
+    };
+    // Comparisons on both sides of the reference; 400 and 312.5 fold exactly onto 625 and
+    // 800 (500²/400, 500²/312.5), where they pool with the comparisons above.
+    let presented = [
+        500.0, 525.0, 550.0, 575.0, 600.0, 625.0, 650.0, 700.0, 800.0, 400.0, 312.5,
+    ];
+    let folded = |x: f64| if x < 500.0 { 250_000.0 / x } else { x };
+    let per_level = 300;
+    let mut rng = Prng::new(2024);
+    let mut text = format!("{HEADER}\n");
+    let mut trial = 0;
+    for _ in 0..per_level {
+        for &x in &presented {
+            trial += 1;
+            // The observer is defined on the folded level: a comparison at r/k is as hard as
+            // one at k·r.
+            let correct = observer.respond(folded(x), &mut rng);
+            let first = rng.bernoulli(0.5);
+            text.push_str(&afc_row("constant-stimuli", trial, "", x, correct, first));
+        }
+    }
+    let dir = write_run("constant", &constant_plan(&presented), &text);
+    let options = AnalyzeOptions {
+        model: Model::Gaussian,
+        resamples: 200,
+        seed: None,
+    };
+    let summary = analyze(&dir, &options).unwrap();
+    assert_eq!(summary.trials, trial as usize);
+    let afc = summary.two_afc.as_ref().unwrap();
+    assert_eq!(afc.model, "gaussian");
+    assert_eq!(afc.seed, 5, "the plan's seed by default");
+    let cell = &afc.cells[0];
+    let levels: Vec<f64> = cell.points.iter().map(|p| p.level).collect();
+    assert_eq!(
+        levels,
+        vec![
+            500.0, 525.0, 550.0, 575.0, 600.0, 625.0, 650.0, 700.0, 800.0
+        ]
+    );
+    let counts: Vec<u32> = cell.points.iter().map(|p| p.trials).collect();
+    assert_eq!(counts, vec![300, 300, 300, 300, 300, 600, 300, 300, 600]);
+    let fit = cell.fit.as_ref().unwrap();
+    // The Gaussian model is the observer's own form (α = r(1 + μ), β = rσ): the ML threshold
+    // is asymptotically normal around the true 75 % point with the standard error of
+    // `threshold_se` (weights: the trials per folded level). 4 standard errors: a deviation
+    // this large has probability 6·10⁻⁵ under that normal law.
+    let alpha = 500.0 * (1.0 + observer.mu());
+    let beta = 500.0 * observer.sigma;
+    // The information adds per level: a folded level with 600 trials enters twice.
+    let info_levels: Vec<f64> = cell
+        .points
+        .iter()
+        .flat_map(|p| std::iter::repeat_n(p.level, (p.trials / per_level) as usize))
+        .collect();
+    let se = threshold_se(
+        alpha,
+        beta,
+        observer.lapse,
+        &info_levels,
+        f64::from(per_level),
+    );
+    let se_weber = se / 500.0;
+    let true_threshold = observer.level_at(0.75).unwrap();
+    assert!((true_threshold / 500.0 - 1.0 - 0.2).abs() < 1e-12);
+    assert!(
+        (fit.weber_75 - 0.2).abs() < 4.0 * se_weber,
+        "weber {} vs 0.2 ± 4 × {se_weber}",
+        fit.weber_75
+    );
+    assert!(
+        se_weber < 0.01,
+        "the design pins the threshold: se {se_weber}"
+    );
+    let [lo, hi] = fit.ci95_weber.unwrap();
+    assert!(lo < fit.weber_75 && fit.weber_75 < hi, "[{lo}, {hi}]");
+    assert!(cell.staircases.is_empty());
+    let line = summary.to_string();
+    assert!(line.contains("Weber fraction at 75 %"), "{line}");
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn staircase_tracks_and_reversals_read_by_hand() {
+    // "from above": 800 800 700 700 800 800 700 700 600 700: down after trial 2, up after 4
+    // (reversal at 700), down after 6 (reversal at 800), down after 8, up after 9 (reversal
+    // at 600). Interleaved with "from below" (trials 3, 6, 9, …).
+    let above = [
+        (800.0, true),
+        (800.0, true),
+        (700.0, true),
+        (700.0, false),
+        (800.0, true),
+        (800.0, true),
+        (700.0, true),
+        (700.0, true),
+        (600.0, false),
+        (700.0, true),
+    ];
+    let below = [(300.0, true), (300.0, true), (375.0, false), (300.0, true)];
+    let mut text = format!("{HEADER}\n");
+    text.push_str(
+        "sim,1,0,100,1,2afc-staircase,straight,scene,from above,900.0,500.0,1,1,1,0,,0\n",
+    );
+    let mut trial = 0;
+    let (mut a, mut b) = (above.iter(), below.iter());
+    let mut above_trials = Vec::new();
+    loop {
+        trial += 1;
+        let next = if trial % 3 == 0 {
+            b.next().map(|x| ("from below", x))
+        } else {
+            a.next().map(|x| ("from above", x))
+        };
+        let Some((name, &(level, correct))) = next else {
+            break;
+        };
+        if name == "from above" {
+            above_trials.push(trial);
+        }
+        text.push_str(&afc_row(
+            "2afc-staircase",
+            trial,
+            name,
+            level,
+            correct,
+            trial % 2 == 0,
+        ));
+    }
+    let dir = write_run("staircase", &staircase_plan(), &text);
+    let summary = summarize(
+        &dir,
+        &AnalyzeOptions {
+            resamples: 20,
+            ..AnalyzeOptions::default()
+        },
+    )
+    .unwrap();
+    assert_eq!(summary.practice_trials, 1);
+    let cell = &summary.two_afc.as_ref().unwrap().cells[0];
+    let stairs = &cell.staircases;
+    assert_eq!(stairs.len(), 2);
+    assert_eq!(stairs[0].name, "from above");
+    let levels: Vec<f64> = stairs[0].track.iter().map(|t| t.level).collect();
+    assert_eq!(levels, above.iter().map(|x| x.0).collect::<Vec<_>>());
+    let rev: Vec<(u64, f64)> = stairs[0]
+        .reversals
+        .iter()
+        .map(|r| (r.trial, r.level))
+        .collect();
+    assert_eq!(
+        rev,
+        vec![
+            (above_trials[3], 700.0),
+            (above_trials[5], 800.0),
+            (above_trials[8], 600.0)
+        ]
+    );
+    // "from below": 300 300 375 300: up after its 2nd trial, down after its 3rd (reversal at
+    // 375, its trial 9).
+    let rev: Vec<(u64, f64)> = stairs[1]
+        .reversals
+        .iter()
+        .map(|r| (r.trial, r.level))
+        .collect();
+    assert_eq!(rev, vec![(9, 375.0)]);
+    // Folded: 300 → 833.33…, 375 → 666.66…; pooled with nothing else.
+    assert!(
+        cell.points
+            .iter()
+            .any(|p| p.level == 250_000.0 / 300.0 && p.trials == 3)
+    );
+    assert!(
+        !dir.join("summary.json").exists(),
+        "summarize writes nothing"
+    );
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+// ---------------------------------------------------------------------------------------
+// Bad input
+
+fn expect_error(name: &str, plan: &Value, trials: &str) -> String {
+    let dir = write_run(name, plan, trials);
+    let e = analyze(&dir, &AnalyzeOptions::default()).unwrap_err();
+    assert!(e.is_bad_input());
+    assert!(!dir.join("summary.json").exists());
+    std::fs::remove_dir_all(&dir).unwrap();
+    error_text(&e)
+}
+
+const GOOD_ID_ROW: &str = "P,1,1,1,0,identification,straight,friction,,,,,straight,1,2.0,,0\n";
+
+#[test]
+fn bad_inputs_are_refused_naming_the_line_and_column() {
+    let plan = identification_plan();
+    let e = expect_error("empty", &plan, "");
+    assert!(e.contains("trials.csv:1:") && e.contains("empty"), "{e}");
+    // The runner's old header, without `practice`.
+    let old = "participant,session,block,trial,design,stimulus,condition,staircase,level,\
+reference,comparison_interval,response,correct,response_time_s,trace,t_start_s\n";
+    let e = expect_error("old-header", &plan, &format!("{old}{GOOD_ID_ROW}"));
+    assert!(
+        e.contains("trials.csv:1: column 5: the header has \"design\", expected \"practice\""),
+        "{e}"
+    );
+    let ok = format!("{HEADER}\n{GOOD_ID_ROW}");
+    let e = expect_error(
+        "unknown-stimulus",
+        &plan,
+        &format!("{ok}P,1,1,2,0,identification,wavy,friction,,,,,straight,0,2.0,,0\n"),
+    );
+    assert!(
+        e.contains("trials.csv:3: column 7 (stimulus): \"wavy\" is not a stimulus of the plan"),
+        "{e}"
+    );
+    let e = expect_error(
+        "unknown-answer",
+        &plan,
+        &format!("{ok}P,1,1,2,0,identification,straight,friction,,,,,flat,0,2.0,,0\n"),
+    );
+    assert!(
+        e.contains("trials.csv:3: column 13 (response): \"flat\""),
+        "{e}"
+    );
+    let e = expect_error(
+        "duplicate",
+        &plan,
+        &format!("{ok}P,2,1,1,0,identification,straight,friction,,,,,straight,1,2.0,,0\n"),
+    );
+    assert!(
+        e.contains("trials.csv:3: column 4 (trial): trial 1 appears again (first on line 2)"),
+        "{e}"
+    );
+    let e = expect_error(
+        "design",
+        &plan,
+        &format!("{HEADER}\nP,1,1,1,0,constant-stimuli,straight,friction,,,,,straight,1,2.0,,0\n"),
+    );
+    assert!(
+        e.contains("trials.csv:2: column 6 (design): \"constant-stimuli\" does not match the plan's design \"identification\""),
+        "{e}"
+    );
+    let e = expect_error(
+        "fields",
+        &plan,
+        &format!("{ok}P,1,1,2,0,identification,straight\n"),
+    );
+    assert!(
+        e.contains("trials.csv:3: 7 fields, the header has 17"),
+        "{e}"
+    );
+    let e = expect_error(
+        "quote",
+        &plan,
+        &format!("{ok}\"P,1,1,2,0,identification,straight\n"),
+    );
+    assert!(
+        e.contains("trials.csv:3: column 1 (participant): a quoted field is not closed"),
+        "{e}"
+    );
+    let e = expect_error(
+        "correct",
+        &plan,
+        &format!("{ok}P,1,1,2,0,identification,straight,friction,,,,,straight,0,2.0,,0\n"),
+    );
+    assert!(e.contains("trials.csv:3: column 14 (correct)"), "{e}");
+    let e = expect_error(
+        "practice-only",
+        &plan,
+        &format!("{HEADER}\nP,1,0,1,1,identification,straight,friction,,,,,straight,1,2.0,,0\n"),
+    );
+    assert!(e.contains("no trials to analyse"), "{e}");
+
+    let afc = constant_plan(&[550.0, 600.0]);
+    let e = expect_error(
+        "level",
+        &afc,
+        &format!("{HEADER}\nsim,1,1,1,0,constant-stimuli,straight,scene,,55O,500.0,1,1,1,0,,0\n"),
+    );
+    assert!(
+        e.contains("trials.csv:2: column 10 (level): \"55O\" is not a finite number"),
+        "{e}"
+    );
+    let e = expect_error(
+        "reference",
+        &afc,
+        &format!("{HEADER}\nsim,1,1,1,0,constant-stimuli,straight,scene,,550,400,1,1,1,0,,0\n"),
+    );
+    assert!(
+        e.contains("column 11 (reference): 400 is not the plan's reference value 500"),
+        "{e}"
+    );
+    let e = expect_error(
+        "interval",
+        &afc,
+        &format!("{HEADER}\nsim,1,1,1,0,constant-stimuli,straight,scene,,550,500,3,1,1,0,,0\n"),
+    );
+    assert!(e.contains("column 12 (comparison_interval)"), "{e}");
+    // Level above the reference, the reference chosen (interval 2 while the comparison was
+    // in 1): wrong, yet marked correct.
+    let e = expect_error(
+        "afc-correct",
+        &afc,
+        &format!("{HEADER}\nsim,1,1,1,0,constant-stimuli,straight,scene,,550,500,1,2,1,0,,0\n"),
+    );
+    assert!(e.contains("trials.csv:2: column 14 (correct)"), "{e}");
+    let e = expect_error(
+        "staircase-name",
+        &staircase_plan(),
+        &format!(
+            "{HEADER}\nsim,1,1,1,0,2afc-staircase,straight,scene,sideways,550,500,1,1,1,0,,0\n"
+        ),
+    );
+    assert!(
+        e.contains("column 9 (staircase): \"sideways\" is not a staircase"),
+        "{e}"
+    );
+    // A missing plan names plan.json.
+    let dir = temp_dir("no-plan");
+    std::fs::write(dir.join("trials.csv"), &ok).unwrap();
+    let e = summarize(&dir, &AnalyzeOptions::default()).unwrap_err();
+    assert!(e.to_string().contains("plan.json"), "{e}");
+    std::fs::remove_dir_all(&dir).unwrap();
+    // Too few resamples.
+    let e = summarize(
+        Path::new("."),
+        &AnalyzeOptions {
+            resamples: 1,
+            ..AnalyzeOptions::default()
+        },
+    )
+    .unwrap_err();
+    assert!(e.to_string().contains("--resamples 1"), "{e}");
+}
+
+#[test]
+fn the_documented_columns_are_the_header() {
+    assert_eq!(TRIALS_COLUMNS.join(","), HEADER);
+    let _: fn(&Path, &AnalyzeOptions) -> Result<Summary, AnalyzeError> = analyze;
+}
