@@ -10,6 +10,7 @@
 pub mod deform;
 pub mod editing;
 pub mod panels;
+pub mod participant;
 pub mod replay;
 pub mod spatial;
 pub mod state;
