@@ -27,10 +27,8 @@ const JND: &str = concat!(
 
 /// An empty folder of its own under the temporary directory.
 fn temp_dir(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!(
-        "viewer-participant-{}-{name}",
-        std::process::id()
-    ));
+    let dir =
+        std::env::temp_dir().join(format!("viewer-participant-{}-{name}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);
     dir
 }
@@ -134,7 +132,10 @@ fn an_answer_writes_a_row_and_its_trace_and_practice_says_whether_it_was_right()
     let second = run.trial().unwrap().clone();
     assert_eq!((second.number, run.phase()), (2, &Phase::Exploring));
     run.end_exploration(&mut state, 9.0);
-    assert!(!run.answer(&mut state, wrong(second.stimulus), 9.25).unwrap());
+    assert!(
+        !run.answer(&mut state, wrong(second.stimulus), 9.25)
+            .unwrap()
+    );
     let names: Vec<String> = run.answers().into_iter().map(|(n, _)| n).collect();
     assert_eq!(
         names,
@@ -169,7 +170,11 @@ fn an_answer_writes_a_row_and_its_trace_and_practice_says_whether_it_was_right()
     assert_eq!(test.number, 6);
     run.end_exploration(&mut state, 11.0);
     run.answer(&mut state, wrong(test.stimulus), 12.0).unwrap();
-    assert_eq!(run.phase(), &Phase::Exploring, "no feedback on a test trial");
+    assert_eq!(
+        run.phase(),
+        &Phase::Exploring,
+        "no feedback on a test trial"
+    );
     assert_eq!(run.trial().unwrap().number, 7);
     assert_eq!(rows(&dir).len(), 6);
     std::fs::remove_dir_all(&dir).unwrap();
@@ -188,7 +193,8 @@ fn the_timer_ends_the_exploration_and_the_response_time_runs_from_there() {
     assert_eq!(run.phase(), &Phase::Answering);
     assert!(!state.forces_requested, "the stimulus is gone");
     let s = run.trial().unwrap().stimulus;
-    run.answer(&mut state, Response::Stimulus(s), 132.0).unwrap();
+    run.answer(&mut state, Response::Stimulus(s), 132.0)
+        .unwrap();
     assert_eq!(rows(&dir)[0][column("response_time_s")], "2.000");
     std::fs::remove_dir_all(&dir).unwrap();
 }
@@ -236,7 +242,8 @@ fn a_pause_removes_the_stimulus_and_stops_the_clocks() {
     run.resume(&mut state, 200.0);
     assert_eq!(run.phase(), &Phase::Answering);
     let s = run.trial().unwrap().stimulus;
-    run.answer(&mut state, Response::Stimulus(s), 201.5).unwrap();
+    run.answer(&mut state, Response::Stimulus(s), 201.5)
+        .unwrap();
     assert_eq!(rows(&dir)[0][column("response_time_s")], "2.500");
     std::fs::remove_dir_all(&dir).unwrap();
 }
@@ -286,6 +293,7 @@ fn a_2afc_trial_switches_between_its_intervals_and_writes_a_trace_of_each() {
     let answers: Vec<String> = run.answers().into_iter().map(|(n, _)| n).collect();
     assert_eq!(answers, ["first was stiffer", "second was stiffer"]);
     run.resume(&mut state, 0.0);
+    assert_eq!(run.progress(), "Practice · Trial 1 of 4");
     let trial = run.trial().unwrap().clone();
     assert_eq!(trial.intervals.len(), 2);
     let stiffness = |state: &AppState| state.running_material.unwrap().stiffness_n_per_m;
@@ -359,6 +367,20 @@ fn a_2afc_trial_switches_between_its_intervals_and_writes_a_trace_of_each() {
             correct: false,
             message: format!("wrong, the {which} was stiffer")
         }
+    );
+    // Past the practice the staircases set the trials: their number is not known.
+    loop {
+        run.next(&mut state, 8.0);
+        if !run.trial().unwrap().practice {
+            break;
+        }
+        run.end_exploration(&mut state, 8.0);
+        run.answer(&mut state, Response::Interval(1), 8.0).unwrap();
+    }
+    assert_eq!(run.phase(), &Phase::Exploring);
+    assert_eq!(
+        run.progress(),
+        "Trial 5 (staircase: until the staircases end)"
     );
     std::fs::remove_dir_all(&dir).unwrap();
 }

@@ -28,7 +28,7 @@ use std::time::Instant;
 
 use eframe::egui;
 use egui::{Align2, Color32, FontId, Key, RichText, Sense, Stroke, Vec2 as EVec2};
-use experiment::plan::Plan;
+use experiment::plan::{Design, Plan};
 use experiment::runner::RunError;
 use experiment::session::{Response, Session, Trial, TrialRecord};
 use host::runlog::{Columns, write_csv_header};
@@ -68,6 +68,8 @@ pub struct ParticipantRun {
     names: Vec<String>,
     /// Whether trials have two intervals (2AFC).
     two_interval: bool,
+    /// Whether staircases set the trials after the practice (their number is not known).
+    staircase: bool,
     /// The comparative of the 2AFC answer: "stiffer", or "more intense".
     comparative: &'static str,
     /// The plan's longest exploration (s).
@@ -132,6 +134,7 @@ impl ParticipantRun {
         let spec = plan.spec();
         let names = spec.stimuli.iter().map(|s| s.name.clone()).collect();
         let two_interval = spec.design.two_interval();
+        let staircase = spec.design == Design::TwoAfcStaircase;
         let comparative = match &spec.reference {
             Some(r) if r.field.starts_with("stiffness") => "stiffer",
             _ => "more intense",
@@ -143,6 +146,7 @@ impl ParticipantRun {
             out_dir: out_dir.to_owned(),
             names,
             two_interval,
+            staircase,
             comparative,
             exploration_s,
             trial: None,
@@ -186,6 +190,11 @@ impl ParticipantRun {
     /// Whether trials have two intervals (2AFC).
     pub fn is_two_interval(&self) -> bool {
         self.two_interval
+    }
+
+    /// Whether staircases set the trials after the practice (how many is not known).
+    pub fn is_staircase(&self) -> bool {
+        self.staircase
     }
 
     /// The comparative of the 2AFC question: "stiffer" (a stiffness plan), or "more intense".
@@ -360,7 +369,11 @@ impl ParticipantRun {
         response: Response,
         now_s: f64,
     ) -> Result<bool, RunError> {
-        let Some(trial) = self.trial.clone().filter(|_| self.phase == Phase::Answering) else {
+        let Some(trial) = self
+            .trial
+            .clone()
+            .filter(|_| self.phase == Phase::Answering)
+        else {
             return Err(RunError::Response(
                 "an answer is asked only after the exploration".to_owned(),
             ));
@@ -636,7 +649,10 @@ impl ParticipantUi {
             }
             let planned = run.session().planned().max(1);
             let answered = run.session().answered().min(planned);
-            ui.add(
+            // Past a staircase plan's practice the number of trials left is not known.
+            let known = !run.is_staircase() || run.session().answered() < planned;
+            ui.add_visible(
+                known,
                 egui::ProgressBar::new(answered as f32 / planned as f32)
                     .desired_width(200.0)
                     .text(format!("{answered} / {planned} answered")),
@@ -711,8 +727,7 @@ impl ParticipantUi {
                         } else {
                             format!("{} {name}", i + 1)
                         };
-                        let button =
-                            egui::Button::new(big(text)).min_size(EVec2::new(140.0, 44.0));
+                        let button = egui::Button::new(big(text)).min_size(EVec2::new(140.0, 44.0));
                         if ui.add(button).clicked() {
                             let _ = self.run.answer(&mut self.state, response, now);
                         }
@@ -795,7 +810,10 @@ impl ParticipantUi {
         }
         let faults = s.faults();
         if !faults.is_empty() {
-            ui.colored_label(Color32::from_rgb(190, 40, 40), format!("faults: {faults:?}"));
+            ui.colored_label(
+                Color32::from_rgb(190, 40, 40),
+                format!("faults: {faults:?}"),
+            );
         }
     }
 
@@ -829,8 +847,14 @@ impl ParticipantUi {
         if state.device == DeviceChoice::Simulated || state.link.simulated_plant {
             let target = self.view.screen_of(rect, state.hand_target);
             let s = Stroke::new(1.5, Color32::from_rgb(150, 150, 200));
-            painter.line_segment([target - EVec2::new(6.0, 0.0), target + EVec2::new(6.0, 0.0)], s);
-            painter.line_segment([target - EVec2::new(0.0, 6.0), target + EVec2::new(0.0, 6.0)], s);
+            painter.line_segment(
+                [target - EVec2::new(6.0, 0.0), target + EVec2::new(6.0, 0.0)],
+                s,
+            );
+            painter.line_segment(
+                [target - EVec2::new(0.0, 6.0), target + EVec2::new(0.0, 6.0)],
+                s,
+            );
         }
         if let Some(sample) = state.latest() {
             let hip = sample.tick.hip;
@@ -861,10 +885,7 @@ impl ParticipantUi {
             Phase::Answering => centre("Answer below", Color32::from_gray(60)),
             Phase::Feedback { .. } => {}
             Phase::Paused if self.run.started() => centre("Paused", Color32::from_gray(60)),
-            Phase::Paused => centre(
-                "Press Start when you are ready",
-                Color32::from_gray(60),
-            ),
+            Phase::Paused => centre("Press Start when you are ready", Color32::from_gray(60)),
             Phase::Done => centre("Thank you.", Color32::from_gray(60)),
         }
     }

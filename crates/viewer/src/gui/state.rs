@@ -324,8 +324,9 @@ pub struct AppState {
     pub spatial: Option<SpatialState>,
     /// The *deform* switch of the object felt and its moving shape.
     pub deform: DeformState,
-    /// While `Some`, every planar tick the UI takes in is kept here too (the participant
-    /// screen's per-trial run logs, [`super::participant`]); its owner empties it.
+    /// While `Some`, every tick the UI takes in from the live loop is kept here too (the
+    /// participant screen's per-trial run logs, [`super::participant`]); its owner empties
+    /// it.
     pub capture: Option<Vec<host::tick::Tick>>,
 }
 
