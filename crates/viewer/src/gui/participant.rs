@@ -714,11 +714,11 @@ impl ParticipantUi {
             Phase::Answering => {
                 ui.label(big(if self.run.is_two_interval() {
                     format!(
-                        "Which was {}? (F or ←: first, S or →: second)",
+                        "Which was {}? (keys F or Left: first, S or Right: second)",
                         self.run.comparative()
                     )
                 } else {
-                    "Which was it? (or its key)".to_owned()
+                    "Which was it? (or press its number)".to_owned()
                 }));
                 ui.horizontal_wrapped(|ui| {
                     for (i, (name, response)) in self.run.answers().into_iter().enumerate() {
@@ -793,7 +793,7 @@ impl ParticipantUi {
                 } else if s.link.hello.is_some() {
                     format!("{name}: connected")
                 } else {
-                    format!("{name}: connecting…")
+                    format!("{name}: connecting...")
                 };
                 ui.label(status);
                 if ui
@@ -873,7 +873,7 @@ impl ParticipantUi {
         };
         match self.run.phase() {
             Phase::Exploring if !self.run.stimulus_on() => {
-                centre("loading…", Color32::from_gray(120));
+                centre("loading...", Color32::from_gray(120));
             }
             Phase::Exploring if self.run.is_two_interval() => {
                 centre(
