@@ -108,6 +108,14 @@ fn participant_command(args: &viewer::cli::ExperimentRunArgs) -> ExitCode {
         }
     };
     let session = run.session();
+    if run.phase() == &viewer::gui::participant::Phase::Done {
+        println!(
+            "experiment run: {} holds all {} trials of the plan already; nothing to run",
+            args.out.display(),
+            session.answered()
+        );
+        return ExitCode::SUCCESS;
+    }
     if session.resumed() > 0 {
         eprintln!(
             "experiment run: {} resumed at trial {} (session {})",

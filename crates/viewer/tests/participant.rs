@@ -511,6 +511,10 @@ fn the_last_answer_ends_the_run_with_thanks() {
     }
     assert_eq!(n, 45);
     assert_eq!(run.phase(), &Phase::Done);
+    // Reopened, the folder has nothing left to run.
+    let (again, _) = open(SHAPES, &dir);
+    assert_eq!(again.phase(), &Phase::Done);
+    assert_eq!(again.session().resumed(), 45);
     let mut p = ParticipantUi::new(state, run);
     p.frozen_s = Some(0.0);
     let mut h = participant_harness(p);

@@ -129,7 +129,8 @@ pub fn write_trace(dir: &Path, name: &str, ticks: &[Tick]) -> Result<String, Run
 
 impl ParticipantRun {
     /// Opens `participant`'s session of `plan` in `out_dir` (a folder holding this run is
-    /// resumed at its next trial, see [`Session::open`]); the run starts paused.
+    /// resumed at its next trial, see [`Session::open`]); the run starts paused, or done when
+    /// the folder holds every trial's answer.
     pub fn open(plan: Plan, participant: &str, out_dir: &Path) -> Result<Self, RunError> {
         let spec = plan.spec();
         let names = spec.stimuli.iter().map(|s| s.name.clone()).collect();
@@ -140,7 +141,13 @@ impl ParticipantRun {
             _ => "more intense",
         };
         let exploration_s = spec.exploration_time_s;
-        let session = Session::open(plan, participant, out_dir)?;
+        let mut session = Session::open(plan, participant, out_dir)?;
+        // A folder whose every trial is answered opens done.
+        let phase = if session.next_trial()?.is_some() {
+            Phase::Paused
+        } else {
+            Phase::Done
+        };
         Ok(ParticipantRun {
             session,
             out_dir: out_dir.to_owned(),
@@ -150,7 +157,7 @@ impl ParticipantRun {
             comparative,
             exploration_s,
             trial: None,
-            phase: Phase::Paused,
+            phase,
             resume_to: None,
             interval: 0,
             presented: 0,
