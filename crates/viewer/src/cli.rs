@@ -118,7 +118,7 @@ participant's prints the trials answered when the window closes.
 
 Exit status:
   0  the plan ran to its end (or, for a real participant, the window was closed)
-  1  the output could not be written, or a trial failed
+  1  the output could not be written, a trial failed, or the app's window could not open
   2  bad command line, unreadable or invalid plan, a folder holding another run, a
      participant sim:... that is not sim:SEED[:weber=W][:lapse=L][:acuity_mm=A][:direction_deg=D]
 
