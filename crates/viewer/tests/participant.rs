@@ -522,3 +522,36 @@ fn the_last_answer_ends_the_run_with_thanks() {
     h.get_by_label("Done: 45 trials. Thank you.");
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+/// The app's own set-up: the loop on its thread, whose scene swaps are taken a little later
+/// (the participant's window runs so, and a device's upload is taken later still).
+#[test]
+fn with_the_loop_on_its_thread_the_stimulus_comes_on_once_the_loop_took_the_scene() {
+    use std::time::{Duration, Instant};
+    let dir = temp_dir("threaded");
+    let plan = Plan::load(SHAPES).unwrap();
+    let scene = plan.scene(0).unwrap().clone();
+    let mut run = ParticipantRun::open(plan, "P01", &dir).unwrap();
+    let mut state = AppState::new("participant", scene, true, None).unwrap();
+    run.resume(&mut state, 0.0);
+    let trial = run.trial().unwrap().clone();
+    let begun = Instant::now();
+    while !run.stimulus_on() && begun.elapsed() < Duration::from_secs(5) {
+        std::thread::sleep(Duration::from_millis(5));
+        state.poll();
+        run.tick(&mut state, 0.0);
+    }
+    assert!(run.stimulus_on());
+    assert!(state.forces_requested);
+    assert_eq!(state.scene.model, trial.intervals[0]);
+    std::thread::sleep(Duration::from_millis(200));
+    state.poll();
+    run.tick(&mut state, 1.0);
+    run.end_exploration(&mut state, 1.0);
+    run.answer(&mut state, Response::Stimulus(trial.stimulus), 2.0)
+        .unwrap();
+    state.shutdown();
+    let log = host::runlog::read(&dir.join("traces/trial-0001-a.csv")).unwrap();
+    assert!(log.run.ticks.len() > 20, "{} ticks", log.run.ticks.len());
+    std::fs::remove_dir_all(&dir).unwrap();
+}
