@@ -555,3 +555,62 @@ fn with_the_loop_on_its_thread_the_stimulus_comes_on_once_the_loop_took_the_scen
     assert!(log.run.ticks.len() > 20, "{} ticks", log.run.ticks.len());
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+/// The participant's window on a device behind a link (here the host's simulated device,
+/// the protocol a board speaks): each trial's scene is uploaded as the app uploads any scene,
+/// the forces come on once the device has it, and go off when the exploration ends.
+#[test]
+fn on_a_linked_device_the_trial_is_uploaded_and_its_forces_follow_the_phase() {
+    use std::time::{Duration, Instant};
+    let dir = temp_dir("linked");
+    let plan = Plan::load(SHAPES).unwrap();
+    let mut state =
+        viewer::gui::participant::participant_state(&plan, Some(host::devices::Target::Sim))
+            .unwrap();
+    let mut run = ParticipantRun::open(plan, "P01", &dir).unwrap();
+    let wait = |state: &mut AppState,
+                run: &mut ParticipantRun,
+                what: &str,
+                done: &dyn Fn(&AppState, &ParticipantRun) -> bool| {
+        let begun = Instant::now();
+        while !done(state, run) {
+            assert!(
+                begun.elapsed() < Duration::from_secs(20),
+                "waited for {what}; link {:?}",
+                state.link
+            );
+            std::thread::sleep(Duration::from_millis(5));
+            state.poll();
+            run.tick(state, 0.0);
+        }
+    };
+    // The device's set-up (calibration, then the forces) ends with the forces off.
+    wait(&mut state, &mut run, "the calibrated device", &|s, _| {
+        s.link.status.is_some_and(|st| st.calibrated)
+    });
+    run.resume(&mut state, 0.0);
+    let trial = run.trial().unwrap().clone();
+    let wire = host::upload::wire_scene(&trial.intervals[0], trial.object).unwrap();
+    wait(
+        &mut state,
+        &mut run,
+        "the trial's scene on the device, forces on",
+        &|s, r| {
+            r.stimulus_on()
+                && s.link.status.is_some_and(|st| {
+                    st.scene_crc32 == device::protocol::crc32(&wire) && st.forces_enabled
+                })
+        },
+    );
+    run.end_exploration(&mut state, 1.0);
+    wait(&mut state, &mut run, "the forces off", &|s, _| {
+        s.link.status.is_some_and(|st| !st.forces_enabled)
+    });
+    assert_eq!(run.phase(), &Phase::Answering);
+    run.answer(&mut state, Response::Stimulus(trial.stimulus), 2.0)
+        .unwrap();
+    state.shutdown();
+    let log = host::runlog::read(&dir.join("traces/trial-0001-a.csv")).unwrap();
+    assert!(!log.run.ticks.is_empty());
+    std::fs::remove_dir_all(&dir).unwrap();
+}

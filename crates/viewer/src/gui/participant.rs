@@ -907,15 +907,15 @@ pub struct Outcome {
     pub done: bool,
 }
 
-/// Opens the participant's window on `run`: the loop on the plan's first stimulus with the
-/// forces off, driving `device` (the simulated pantograph in the app when `None`), until the
-/// window closes.
-pub fn run_window(
-    run: ParticipantRun,
+/// The app's state for a participant's window: the loop on its thread on the plan's first
+/// stimulus with the forces off, driving `device` (the simulated pantograph in the app when
+/// `None`; a device's link set up as `viewer gui --device` sets it up, its forces turned off
+/// after the set-up's), so that nothing is felt before the first trial.
+pub fn participant_state(
+    plan: &Plan,
     device: Option<host::devices::Target>,
-) -> anyhow::Result<Outcome> {
+) -> anyhow::Result<AppState> {
     use anyhow::Context;
-    let plan = run.session().plan();
     let scene = plan
         .scene(0)
         .cloned()
@@ -924,9 +924,20 @@ pub fn run_window(
     state.set_forces(false);
     if let Some(target) = device {
         state.connect(target);
-        // After the setup's forces-on in the link's queue: nothing is felt before a trial.
+        // After the set-up's forces-on in the link's queue.
         state.set_forces(false);
     }
+    Ok(state)
+}
+
+/// Opens the participant's window on `run`: the loop on the plan's first stimulus with the
+/// forces off, driving `device` (the simulated pantograph in the app when `None`), until the
+/// window closes.
+pub fn run_window(
+    run: ParticipantRun,
+    device: Option<host::devices::Target>,
+) -> anyhow::Result<Outcome> {
+    let state = participant_state(run.session().plan(), device)?;
     let outcome = std::sync::Arc::new(std::sync::Mutex::new(Outcome::default()));
     let app = ParticipantApp {
         ui: ParticipantUi::new(state, run),
