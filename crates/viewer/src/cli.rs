@@ -73,7 +73,8 @@ pub enum Command {
 /// `experiment …` subcommands.
 #[derive(Debug, Subcommand)]
 pub enum ExperimentCommand {
-    /// Run a plan headless with a simulated participant.
+    /// Run a plan: headless with a simulated participant, or in the app's participant
+    /// screen with a real one.
     #[command(after_long_help = EXPERIMENT_RUN_AFTER)]
     Run(ExperimentRunArgs),
     /// Analyse a run folder (plan.json, trials.csv): summary.json, a figure, one paragraph.
@@ -133,7 +134,23 @@ pub struct ExperimentAnalyzeArgs {
 }
 
 const EXPERIMENT_RUN_AFTER: &str = "\
-Any design runs (identification, 2afc-staircase, constant-stimuli), practice trials first. \
+A real participant (any --participant that does not start with sim:, e.g. P01) runs in the \
+app's participant screen, on the device --device names. Each trial's scene is loaded into \
+the haptic loop as the app loads any scene (uploaded to a connected board); the screen never \
+draws the object, only the hand's cursor, the trial's number and progress, the exploration \
+timer (the plan's exploration_time_s, for the whole trial: when it runs out the forces go \
+off and the answer is asked) and the answer buttons: one per stimulus in the plan's order (keys 1-9) for \
+identification; \"first was stiffer\" / \"second was stiffer\" (keys F/S or left/right) \
+for 2AFC, whose two intervals the participant switches between at will (buttons, keys 1/2). \
+Enter ends the exploration early; the response time runs from the end of the exploration to \
+the answer. Practice trials say whether the answer was right (Enter: next trial), test trials \
+say nothing. Pause (P or Esc) turns the forces off until Resume (P or Enter); Quit closes \
+the window, and running the same command again resumes at the next unanswered trial (the \
+trial in progress is presented again). Before the first trial the screen waits for Start, \
+with the device's state, Calibrate and Clear faults for the experimenter.
+
+A simulated participant (sim:...) runs headless. Any design runs (identification, \
+2afc-staircase, constant-stimuli), practice trials first. \
 2AFC: each trial presents the reference and the comparison in a random order; both are \
 explored by the same press (straight down at x = 0 from 10 mm above the object's top to 2 mm \
 past its surface in 0.5 s, back up in 0.2 s, at 1 kHz through the simulated loop); the \
@@ -143,23 +160,27 @@ which was stiffer, with the noise that puts its 75 % point at the Weber fraction
 common box (down at 50 mm/s until the force reaches 1 N), notes where each tap touched and \
 which way the force pushed, and names the stimulus whose picture fits best, with position \
 noise A mm (default 1) and direction noise D degrees (default 10). A lapse rate L (default 0) \
-answers at random. Real participants run in the app.
+answers at random.
 
 Written to --out (created if missing; a folder holding this plan's run by the same \
 participant is resumed at its next trial): trials.csv (one row per trial), \
-traces/trial-NNNN-a.csv (and -b.csv for 2AFC: each interval's run log) and plan.json (the \
-plan with absolute scene paths). Standard output gets one line: the trials, the proportion \
-correct and each staircase's threshold (the mean of its last reversals).
+traces/trial-NNNN-a.csv (and -b.csv for 2AFC: each interval's run log; a real participant's \
+are the ticks felt while the stimulus was on, in the columns of gui --record) and plan.json \
+(the plan with absolute scene paths). A simulated run prints one line: the trials, the \
+proportion correct and each staircase's threshold (the mean of its last reversals); a real \
+participant's prints the trials answered when the window closes.
 
 Exit status:
-  0  the plan ran to its end
-  1  the output could not be written, or a trial failed
+  0  the plan ran to its end (or, for a real participant, the window was closed)
+  1  the output could not be written, a trial failed, or the app's window could not open
   2  bad command line, unreadable or invalid plan, a folder holding another run, a
-     participant that is not sim:SEED[:weber=W][:lapse=L][:acuity_mm=A][:direction_deg=D]
+     participant sim:... that is not sim:SEED[:weber=W][:lapse=L][:acuity_mm=A][:direction_deg=D]
 
-Example:
+Examples:
   viewer experiment run experiments/stiffness-jnd.json --participant sim:1:weber=0.2 \\
-      --out runs/sim1";
+      --out runs/sim1
+  viewer experiment run experiments/thesis-shapes.json --participant P01 --out runs/P01 \\
+      --device hid";
 
 /// `viewer experiment run` arguments.
 #[derive(Debug, Args)]
@@ -168,12 +189,17 @@ pub struct ExperimentRunArgs {
     #[arg(value_name = "PLAN.json")]
     pub plan: PathBuf,
     /// Who answers: sim:SEED[:weber=W][:lapse=L][:acuity_mm=A][:direction_deg=D] (a
-    /// simulated participant).
+    /// simulated participant, headless), or a real participant's ID (P01: the app's
+    /// participant screen).
     #[arg(long, value_name = "PARTICIPANT")]
     pub participant: String,
     /// The folder the run is written to.
     #[arg(long, value_name = "DIR")]
     pub out: PathBuf,
+    /// A real participant's device: `sim` (the simulated pantograph in the app, moved with
+    /// the mouse), `hid`, `serial:PATH` or `tcp:HOST:PORT`, as for `viewer gui`.
+    #[arg(long, value_name = "DEVICE", default_value = "sim", value_parser = gui_device)]
+    pub device: GuiDevice,
 }
 
 const DEFORM_AFTER: &str = "\

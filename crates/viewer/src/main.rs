@@ -45,17 +45,7 @@ fn experiment_command(command: &viewer::cli::ExperimentCommand) -> ExitCode {
     let participant = match SimParticipant::parse(&args.participant) {
         Some(Ok(p)) => p,
         Some(Err(e)) => return fail(&anyhow::Error::new(e), EXIT_BAD_SETUP),
-        None => {
-            return fail(
-                &anyhow!(
-                    "--participant {:?}: only simulated participants \
-                     (sim:SEED[:weber=W][:lapse=L][:acuity_mm=A][:direction_deg=D]) run headless; the app runs real \
-                     participants (later)",
-                    args.participant
-                ),
-                EXIT_BAD_SETUP,
-            );
-        }
+        None => return participant_command(args),
     };
     let plan = match Plan::load(&args.plan)
         .with_context(|| format!("invalid plan {}", args.plan.display()))
@@ -131,6 +121,80 @@ fn experiment_analyze_command(args: &viewer::cli::ExperimentAnalyzeArgs) -> Exit
     }
     println!("experiment analyze: {summary}");
     ExitCode::SUCCESS
+}
+
+/// `experiment run` with a real participant: the app's participant screen
+/// ([`viewer::gui::participant`]).
+#[cfg(feature = "gui")]
+fn participant_command(args: &viewer::cli::ExperimentRunArgs) -> ExitCode {
+    use experiment::plan::Plan;
+    use experiment::runner::RunError;
+    use viewer::gui::participant::{ParticipantRun, run_window};
+    if args.participant.trim().is_empty() {
+        return fail(
+            &anyhow!("--participant: give the participant's ID (P01), or sim:SEED"),
+            EXIT_BAD_SETUP,
+        );
+    }
+    let plan = match Plan::load(&args.plan)
+        .with_context(|| format!("invalid plan {}", args.plan.display()))
+    {
+        Ok(plan) => plan,
+        Err(e) => return fail(&e, EXIT_BAD_SETUP),
+    };
+    let run = match ParticipantRun::open(plan, &args.participant, &args.out) {
+        Ok(run) => run,
+        Err(e) => {
+            let code = match e {
+                RunError::CreateDir { .. } | RunError::Write { .. } => EXIT_BAD_INPUT,
+                _ => EXIT_BAD_SETUP,
+            };
+            return fail(&anyhow::Error::new(e), code);
+        }
+    };
+    let session = run.session();
+    if run.phase() == &viewer::gui::participant::Phase::Done {
+        println!(
+            "experiment run: {} holds all {} trials of the plan already; nothing to run",
+            args.out.display(),
+            session.answered()
+        );
+        return ExitCode::SUCCESS;
+    }
+    if session.resumed() > 0 {
+        eprintln!(
+            "experiment run: {} resumed at trial {} (session {})",
+            args.out.display(),
+            session.resumed() + 1,
+            session.number()
+        );
+    }
+    match run_window(run, args.device.0.clone()) {
+        Ok(outcome) => {
+            println!(
+                "experiment run: {} trials answered{}",
+                outcome.answered,
+                if outcome.done {
+                    ", the plan is done"
+                } else {
+                    "; run the same command again to resume"
+                }
+            );
+            ExitCode::SUCCESS
+        }
+        Err(e) => fail(&e, EXIT_BAD_INPUT),
+    }
+}
+
+#[cfg(not(feature = "gui"))]
+fn participant_command(args: &viewer::cli::ExperimentRunArgs) -> ExitCode {
+    let e = anyhow!(
+        "--participant {:?}: a real participant runs in the app, and this viewer was built \
+         without its `gui` feature; rebuild with the default features, or run a simulated \
+         participant (sim:SEED)",
+        args.participant
+    );
+    fail(&e, EXIT_BAD_SETUP)
 }
 
 fn deform_command(args: &viewer::cli::DeformArgs) -> ExitCode {

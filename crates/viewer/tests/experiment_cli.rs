@@ -49,10 +49,22 @@ fn a_simulated_participant_runs_the_stiffness_plan() {
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
+/// A real participant runs in the app's window (not opened here); what is wrong with the run
+/// is refused before the window opens.
 #[test]
-fn a_real_participant_and_a_bad_design_are_refused_with_status_2() {
-    let dir = std::env::temp_dir().join(format!("viewer-experiment-no-{}", std::process::id()));
+fn a_real_participant_on_another_participants_folder_is_refused_with_status_2() {
+    let dir = std::env::temp_dir().join(format!("viewer-experiment-p01-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
     let out = dir.to_str().unwrap();
+    let (code, _, err) = experiment_run(&[
+        "experiments/stiffness-jnd.json",
+        "--participant",
+        "sim:1:weber=0.2",
+        "--out",
+        out,
+    ]);
+    assert_eq!(code, 0, "{err}");
+    let before = std::fs::read_to_string(dir.join("trials.csv")).unwrap();
     let (code, _, err) = experiment_run(&[
         "experiments/stiffness-jnd.json",
         "--participant",
@@ -62,17 +74,32 @@ fn a_real_participant_and_a_bad_design_are_refused_with_status_2() {
     ]);
     assert_eq!(code, 2, "{err}");
     assert!(
-        err.contains("\"P01\"") && err.contains("real participants"),
+        err.contains("cannot resume") && err.contains("\"P01\"'s"),
         "{err}"
     );
+    assert_eq!(
+        std::fs::read_to_string(dir.join("trials.csv")).unwrap(),
+        before
+    );
     let (code, _, err) = experiment_run(&[
-        "experiments/thesis-shapes.json",
+        "experiments/stiffness-jnd.json",
         "--participant",
-        "sim:1",
+        " ",
         "--out",
         out,
     ]);
     assert_eq!(code, 2, "{err}");
-    assert!(err.contains("\"identification\""), "{err}");
-    assert!(!dir.exists(), "nothing is written for a refused run");
+    assert!(err.contains("--participant"), "{err}");
+    let (code, _, err) = experiment_run(&[
+        "experiments/stiffness-jnd.json",
+        "--participant",
+        "P01",
+        "--out",
+        out,
+        "--device",
+        "usb",
+    ]);
+    assert_eq!(code, 2, "{err}");
+    assert!(err.contains("\"usb\" is not a device"), "{err}");
+    std::fs::remove_dir_all(&dir).unwrap();
 }

@@ -5,11 +5,13 @@
 //! from the drawing, so tests drive it without a window. Each panel is a struct of
 //! [`panels`] (egui's demo app) that owns its form state and draws itself; [`ViewerUi`] lays
 //! them out and hands what they ask to the state's methods. Each is snapshot-tested with
-//! `egui_kittest`.
+//! `egui_kittest`. [`participant`] is the other window the app opens: a psychophysics run's
+//! participant screen (`viewer experiment run PLAN --participant P01`), on the same state.
 
 pub mod deform;
 pub mod editing;
 pub mod panels;
+pub mod participant;
 pub mod replay;
 pub mod spatial;
 pub mod state;

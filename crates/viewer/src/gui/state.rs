@@ -324,6 +324,10 @@ pub struct AppState {
     pub spatial: Option<SpatialState>,
     /// The *deform* switch of the object felt and its moving shape.
     pub deform: DeformState,
+    /// While `Some`, every tick the UI takes in from the live loop is kept here too (the
+    /// participant screen's per-trial run logs, [`super::participant`]); its owner empties
+    /// it.
+    pub capture: Option<Vec<host::tick::Tick>>,
 }
 
 impl AppState {
@@ -382,6 +386,7 @@ impl AppState {
             edit: EditState::default(),
             spatial,
             deform,
+            capture: None,
         })
     }
 
@@ -484,6 +489,9 @@ impl AppState {
 
     fn take(&mut self, s: Sample) {
         self.telemetry.received += 1;
+        if let Some(capture) = &mut self.capture {
+            capture.push(s.tick);
+        }
         if self.replay.is_some() {
             // The live loop runs on behind a replay; its ticks are not shown.
             return;
