@@ -795,7 +795,10 @@ fn read_trials(path: &Path, plan: &Plan) -> Result<Vec<Row>, AnalyzeError> {
             }
             (_, Some(reference)) => {
                 if design == Design::TwoAfcStaircase {
-                    row.staircase = Some(r.name_in(C_STAIRCASE, &staircases, "staircase")?);
+                    // Practice trials run before the staircases, at the first one's start.
+                    if !(practice && r.text(C_STAIRCASE).is_empty()) {
+                        row.staircase = Some(r.name_in(C_STAIRCASE, &staircases, "staircase")?);
+                    }
                 } else {
                     r.empty(C_STAIRCASE, design)?;
                 }
