@@ -4,9 +4,10 @@
 //! reports the bias of the fitted `weber_75` and the coverage of its 95 % interval.
 //!
 //! ```text
-//! cargo run --release -p experiment --example recovery -- [RUNS] [W] [PLAN] [RESAMPLES]
+//! cargo run --release -p experiment --example recovery -- [RUNS] [W] [PLAN] [RESAMPLES] [MODEL]
 //! ```
-//! Defaults: 100 runs, W = 0.2, `experiments/stiffness-jnd.json`, 1000 resamples.
+//! Defaults: 100 runs, W = 0.2, `experiments/stiffness-jnd.json`, 1000 resamples,
+//! `log-gaussian`.
 
 use std::path::PathBuf;
 
@@ -27,8 +28,12 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     );
     let resamples: usize = args.get(3).map_or(Ok(1000), |a| a.parse())?;
     let plan = Plan::load(&plan_path)?;
+    let model = match args.get(4).map(String::as_str) {
+        None => Model::LogGaussian,
+        Some(name) => experiment::analyze::parse_model(name).ok_or("model")?,
+    };
     let options = AnalyzeOptions {
-        model: Model::LogGaussian,
+        model,
         resamples,
         seed: None,
     };

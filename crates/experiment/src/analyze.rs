@@ -1032,15 +1032,31 @@ fn two_afc(
             };
             let (fit, fit_error, fitted) = match fit::fit(&points, options.model, fit_options) {
                 Ok(f) => {
-                    let boot = fit::bootstrap(
-                        &f,
-                        &points,
-                        &BootstrapOptions {
-                            resamples: options.resamples,
-                            seed,
-                            coverage: 0.95,
-                        },
-                    );
+                    let boot_options = BootstrapOptions {
+                        resamples: options.resamples,
+                        seed,
+                        coverage: 0.95,
+                    };
+                    let boot = if spec.design == Design::TwoAfcStaircase {
+                        // The staircases re-run with the fitted observer (see
+                        // `fit::bootstrap_procedure`).
+                        let template = spec
+                            .staircases
+                            .iter()
+                            .map(|st| crate::session::staircase(st, r))
+                            .collect::<Result<Vec<_>, _>>();
+                        match template {
+                            Ok(template) => {
+                                fit::bootstrap_procedure(&f, &boot_options, |f, rng| {
+                                    rerun_staircases(&template, r, f, rng)
+                                })
+                                .map_err(|e| e.to_string())
+                            }
+                            Err(e) => Err(e.to_string()),
+                        }
+                    } else {
+                        fit::bootstrap(&f, &points, &boot_options).map_err(|e| e.to_string())
+                    };
                     let (ci_t, ci_w, fitted_n, failed_n, boot_error) = match boot {
                         Ok(b) => (
                             Some([b.threshold_75.lower, b.threshold_75.upper]),
@@ -1049,7 +1065,7 @@ fn two_afc(
                             b.failed,
                             None,
                         ),
-                        Err(e) => (None, None, 0, 0, Some(e.to_string())),
+                        Err(e) => (None, None, 0, 0, Some(e)),
                     };
                     let result = FitResult {
                         threshold_75: f.threshold_75,
@@ -1258,4 +1274,44 @@ impl fmt::Display for Summary {
         }
         write!(f, ".")
     }
+}
+
+/// One bootstrap resample of a staircase run: the plan's staircases, interleaved with a seed
+/// drawn from `rng`, answered by an observer correct with probability `fit.psi` at each
+/// level folded about the reference `r`, pooled per folded level.
+fn rerun_staircases(
+    template: &[(crate::staircase::Staircase, crate::session::Side)],
+    r: f64,
+    fit: &Fit,
+    rng: &mut crate::rng::Prng,
+) -> Vec<Point> {
+    let (stairs, sides): (Vec<_>, Vec<_>) = template.iter().cloned().unzip();
+    let seed = (rng.uniform() * 9_007_199_254_740_992.0) as u64;
+    let mut interleaved = crate::staircase::Interleaved::new(stairs, seed);
+    let mut points: Vec<Point> = Vec::new();
+    let mut trials = 0;
+    while let Some((index, value)) = interleaved.next_trial() {
+        trials += 1;
+        if trials > crate::session::MAX_TRIALS {
+            break;
+        }
+        let level = fold(sides[index].mirror(value), r);
+        let correct = rng.bernoulli(fit.psi(level));
+        if interleaved.respond(correct).is_err() {
+            break;
+        }
+        match points.iter_mut().find(|p| p.level == level) {
+            Some(p) => {
+                p.n_trials += 1;
+                p.n_correct += u32::from(correct);
+            }
+            None => points.push(Point {
+                level,
+                n_trials: 1,
+                n_correct: u32::from(correct),
+            }),
+        }
+    }
+    points.sort_by(|a, b| a.level.total_cmp(&b.level));
+    points
 }

@@ -703,3 +703,38 @@ mod properties {
         }
     }
 }
+
+/// The procedure bootstrap with the fixed-level binomial resampler is the parametric
+/// bootstrap exactly: the same draws from the same seed, the same refits, the same interval.
+#[test]
+fn procedure_bootstrap_at_fixed_levels_is_the_parametric_bootstrap() {
+    let o = Observer {
+        weber: 0.2,
+        reference: 1.0,
+        sigma: 0.1,
+        lapse: 0.0,
+    };
+    let levels: Vec<f64> = (1..=7).map(|i| 1.0 + 0.05 * f64::from(i)).collect();
+    let data = o.run_constant(&levels, 40, &mut Prng::new(3));
+    let opts = FitOptions {
+        lapse_max: 0.1,
+        reference: Some(1.0),
+    };
+    let f = fit(&data, Model::Gaussian, opts).expect("valid data");
+    let b = BootstrapOptions {
+        resamples: 200,
+        seed: 9,
+        coverage: 0.95,
+    };
+    let by_levels = experiment::fit::bootstrap_procedure(&f, &b, |f, rng| {
+        data.iter()
+            .map(|p| Point {
+                n_correct: rng.binomial(p.n_trials, f.psi(p.level)),
+                ..*p
+            })
+            .collect()
+    })
+    .expect("fits");
+    let parametric = bootstrap(&f, &data, &b).expect("fits");
+    assert_eq!(by_levels, parametric);
+}
