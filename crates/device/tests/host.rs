@@ -164,6 +164,24 @@ fn unpaced() -> SimLink {
     .unwrap()
 }
 
+/// Uploads `scene`, calibrates and enables the forces. The upload and the requests took
+/// longer than the watchdog (the unpaced device runs up to its 64-frame queue ahead of the
+/// host per round trip): feed it, clear the latched fault and feed it again back to back, so
+/// the device handles the three between the same two ticks and a status asked for with the
+/// second heartbeat follows the clearing at once.
+fn ready(link: &mut SimLink, scene: &[u8]) {
+    link.upload_scene(scene, TIMEOUT).unwrap();
+    link.request(&Message::Calibrate, TIMEOUT).unwrap();
+    link.request(&Message::EnableForces, TIMEOUT).unwrap();
+    for m in [
+        Message::Heartbeat { uptime_ms: 0 },
+        Message::ClearFaults { mask: u16::MAX },
+        Message::Heartbeat { uptime_ms: 0 },
+    ] {
+        link.send(&m).unwrap();
+    }
+}
+
 /// Reads `n` frames, feeding the watchdog every 20 telemetry frames when `heartbeat`;
 /// returns the telemetry, and checks the device's sequence numbers have no gap.
 fn run(link: &mut SimLink, n: usize, heartbeat: bool) -> Vec<device::protocol::Telemetry> {
@@ -190,20 +208,7 @@ fn sim_link_renders_the_uploaded_scene_and_trips_the_watchdog() {
     assert_eq!(hello.scene_capacity, 8192);
 
     let scene = thesis_2d_scene();
-    link.upload_scene(&scene, TIMEOUT).unwrap();
-    link.request(&Message::Calibrate, TIMEOUT).unwrap();
-    link.request(&Message::EnableForces, TIMEOUT).unwrap();
-    // The upload and the requests took longer than the watchdog (the unpaced device runs up
-    // to its 64-frame queue ahead of the host per round trip): feed it, clear the latched
-    // fault and ask for the status back to back, so the device handles the three between the
-    // same two ticks and the status (the second one) follows the clearing at once.
-    for m in [
-        Message::Heartbeat { uptime_ms: 0 },
-        Message::ClearFaults { mask: u16::MAX },
-        Message::Heartbeat { uptime_ms: 0 },
-    ] {
-        link.send(&m).unwrap();
-    }
+    ready(&mut link, &scene);
     let mut statuses = 0;
     let status = loop {
         if let Some(Frame {
@@ -341,16 +346,7 @@ fn huge_materials_are_refused_and_the_largest_accepted_renders_finite_frames() {
     use friction::ModelKind;
     let mut link = unpaced();
     link.hello(TIMEOUT).unwrap();
-    link.upload_scene(&thesis_2d_scene(), TIMEOUT).unwrap();
-    link.request(&Message::Calibrate, TIMEOUT).unwrap();
-    link.request(&Message::EnableForces, TIMEOUT).unwrap();
-    for m in [
-        Message::Heartbeat { uptime_ms: 0 },
-        Message::ClearFaults { mask: u16::MAX },
-        Message::Heartbeat { uptime_ms: 0 },
-    ] {
-        link.send(&m).unwrap();
-    }
+    ready(&mut link, &thesis_2d_scene());
     for huge in [
         FrictionMaterial {
             model: ModelKind::LuGre,

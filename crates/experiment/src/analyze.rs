@@ -94,6 +94,7 @@ use std::path::{Path, PathBuf};
 use serde::Serialize;
 use thiserror::Error;
 
+use crate::csv::Record;
 use crate::fit::{self, BootstrapOptions, Fit, FitOptions, Model, Point};
 use crate::plan::{Design, Plan, PlanError};
 
@@ -431,108 +432,15 @@ pub struct Reversal {
 // ---------------------------------------------------------------------------------------
 // CSV
 
-/// One record: its first line and its fields.
-struct Record {
-    line: usize,
-    fields: Vec<String>,
-}
-
-/// Splits RFC-4180 text into records; a quoted field may hold commas, `""` and line breaks.
-/// Line ends are `\n` or `\r\n`. Blank lines are skipped.
+/// [`crate::csv::records`] of `trials.csv`, its errors naming the file and the column.
 fn parse_csv(text: &str, path: &Path) -> Result<Vec<Record>, AnalyzeError> {
-    let mut records = Vec::new();
-    let mut fields: Vec<String> = Vec::new();
-    let mut field = String::new();
-    let mut line = 1;
-    let mut start_line = 1;
-    let mut in_quotes = false;
-    // Whether the current field was quoted (then only a separator may follow its closing quote).
-    let mut quoted = false;
-    let mut after_quote = false;
-    let mut chars = text.chars().peekable();
-    let error = |line: usize, column: usize, message: String| AnalyzeError::Csv {
+    crate::csv::records(text).map_err(|e| AnalyzeError::Csv {
         path: path.to_owned(),
-        line,
-        column: Some(column),
-        field: TRIALS_COLUMNS.get(column - 1).map(|s| (*s).to_owned()),
-        message,
-    };
-    let mut end_record = |fields: &mut Vec<String>, field: &mut String, start_line: usize| {
-        fields.push(std::mem::take(field));
-        let done = std::mem::take(fields);
-        if !(done.len() == 1 && done[0].is_empty()) {
-            records.push(Record {
-                line: start_line,
-                fields: done,
-            });
-        }
-    };
-    while let Some(c) = chars.next() {
-        if in_quotes {
-            match c {
-                '"' if chars.peek() == Some(&'"') => {
-                    chars.next();
-                    field.push('"');
-                }
-                '"' => {
-                    in_quotes = false;
-                    after_quote = true;
-                }
-                '\n' => {
-                    line += 1;
-                    field.push('\n');
-                }
-                _ => field.push(c),
-            }
-            continue;
-        }
-        match c {
-            ',' => {
-                fields.push(std::mem::take(&mut field));
-                quoted = false;
-                after_quote = false;
-            }
-            '\r' if chars.peek() == Some(&'\n') => {}
-            '\n' => {
-                end_record(&mut fields, &mut field, start_line);
-                line += 1;
-                start_line = line;
-                quoted = false;
-                after_quote = false;
-            }
-            '"' if field.is_empty() && !quoted => {
-                in_quotes = true;
-                quoted = true;
-            }
-            _ if after_quote => {
-                return Err(error(
-                    line,
-                    fields.len() + 1,
-                    format!("{c:?} after a closing quote (a quoted field ends at a comma)"),
-                ));
-            }
-            '"' => {
-                return Err(error(
-                    line,
-                    fields.len() + 1,
-                    "a quote inside an unquoted field (quote the whole field, double the quote)"
-                        .to_owned(),
-                ));
-            }
-            _ => field.push(c),
-        }
-    }
-    if in_quotes {
-        return Err(error(
-            start_line,
-            fields.len() + 1,
-            "a quoted field is not closed before the end of the file".to_owned(),
-        ));
-    }
-    if !fields.is_empty() || !field.is_empty() {
-        end_record(&mut fields, &mut field, start_line);
-    }
-    Ok(records)
+        line: e.line,
+        column: Some(e.column),
+        field: TRIALS_COLUMNS.get(e.column - 1).map(|s| (*s).to_owned()),
+        message: e.message,
+    })
 }
 
 // ---------------------------------------------------------------------------------------

@@ -2,6 +2,7 @@
 #![warn(missing_docs)]
 
 pub mod analyze;
+pub mod csv;
 pub mod fit;
 pub mod participant;
 pub mod plan;

@@ -218,41 +218,6 @@ fn create_dir(path: &Path) -> Result<(), RunError> {
     })
 }
 
-/// Quotes a CSV field when it needs it (RFC 4180).
-pub fn csv_field(text: &str) -> String {
-    if text.contains([',', '"', '\n', '\r']) {
-        format!("\"{}\"", text.replace('"', "\"\""))
-    } else {
-        text.to_owned()
-    }
-}
-
-/// The fields of one RFC 4180 line (quoted fields may hold commas and doubled quotes);
-/// `None` for an unterminated quote.
-pub fn csv_fields(line: &str) -> Option<Vec<String>> {
-    let mut fields = Vec::new();
-    let mut field = String::new();
-    let mut chars = line.chars().peekable();
-    let mut quoted = false;
-    while let Some(c) = chars.next() {
-        match (quoted, c) {
-            (true, '"') if chars.peek() == Some(&'"') => {
-                field.push('"');
-                chars.next();
-            }
-            (true, '"') => quoted = false,
-            (false, '"') if field.is_empty() => quoted = true,
-            (false, ',') => fields.push(std::mem::take(&mut field)),
-            (_, c) => field.push(c),
-        }
-    }
-    if quoted {
-        return None;
-    }
-    fields.push(field);
-    Some(fields)
-}
-
 impl Session {
     /// Opens `participant`'s session of `plan` in `out_dir` (created if missing): a new run
     /// writes `plan.json` and the header of `trials.csv`; a folder that already holds this
@@ -356,12 +321,16 @@ impl Session {
             line,
             reason,
         };
-        let mut lines = text.lines().enumerate();
-        match lines.next() {
-            Some((_, header)) if header == TRIALS_HEADER => {}
+        let records = crate::csv::records(text).map_err(|e| refuse(e.line, e.message))?;
+        let mut rows = records.iter();
+        match rows.next() {
+            Some(header) if header.fields.join(",") == TRIALS_HEADER => {}
             None => return Ok(()),
-            Some(_) => {
-                return Err(refuse(1, format!("the header is not {TRIALS_HEADER:?}")));
+            Some(header) => {
+                return Err(refuse(
+                    header.line,
+                    format!("the header is not {TRIALS_HEADER:?}"),
+                ));
             }
         }
         let column = |name: &str| TRIALS_HEADER.split(',').position(|c| c == name);
@@ -383,14 +352,12 @@ impl Session {
             "correct",
         ]
         .map(|c| column(c).unwrap_or(0));
-        for (i, line) in lines {
-            let n = i + 1;
-            if line.is_empty() {
-                continue;
+        for record in rows {
+            let n = record.line;
+            let fields = &record.fields;
+            if fields.len() != TRIALS_HEADER.split(',').count() {
+                return Err(refuse(n, "not a complete row of trials.csv".to_owned()));
             }
-            let fields = csv_fields(line)
-                .filter(|f| f.len() == TRIALS_HEADER.split(',').count())
-                .ok_or_else(|| refuse(n, "not a complete row of trials.csv".to_owned()))?;
             if fields[c_participant] != self.participant {
                 return Err(refuse(
                     n,
@@ -588,22 +555,22 @@ impl Session {
         let spec = self.plan.spec();
         let number = |x: Option<f64>| x.map(|v| format!("{v:?}")).unwrap_or_default();
         let answer = match response {
-            Response::Stimulus(s) => csv_field(&spec.stimuli[s].name),
+            Response::Stimulus(s) => crate::csv::field(&spec.stimuli[s].name),
             Response::Interval(k) => k.to_string(),
         };
         let row = format!(
             "{},{},{},{},{},{},{},{},{},{},{},{},{answer},{},{:.3},{},{:.3}",
-            csv_field(&self.participant),
+            crate::csv::field(&self.participant),
             self.session,
             trial.block,
             trial.number,
             u8::from(trial.practice),
             spec.design.name(),
-            csv_field(&spec.stimuli[trial.stimulus].name),
-            csv_field(&spec.conditions[trial.condition].name),
+            crate::csv::field(&spec.stimuli[trial.stimulus].name),
+            crate::csv::field(&spec.conditions[trial.condition].name),
             trial
                 .staircase
-                .map(|s| csv_field(&spec.staircases[s].name))
+                .map(|s| crate::csv::field(&spec.staircases[s].name))
                 .unwrap_or_default(),
             number(trial.level),
             number(trial.reference),
@@ -613,7 +580,7 @@ impl Session {
                 .unwrap_or_default(),
             u8::from(correct),
             record.response_time_s,
-            csv_field(&record.traces.join(";")),
+            crate::csv::field(&record.traces.join(";")),
             record.t_start_s,
         );
         let path = self.trials_path.clone();

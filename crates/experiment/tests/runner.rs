@@ -127,10 +127,11 @@ fn the_thesis_shapes_run_identifies_above_chance_and_resumes() {
     assert_eq!(summary.trials, 5 + 40);
     assert_eq!(summary.practice, 5);
     let trials = std::fs::read_to_string(out.join("trials.csv")).unwrap();
-    let rows: Vec<Vec<String>> = trials
-        .lines()
+    let rows: Vec<Vec<String>> = experiment::csv::records(&trials)
+        .unwrap()
+        .into_iter()
         .skip(1)
-        .map(|l| experiment::session::csv_fields(l).unwrap())
+        .map(|r| r.fields)
         .collect();
     let names: Vec<&str> = plan
         .spec()

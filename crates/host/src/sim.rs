@@ -255,6 +255,16 @@ impl DeviceHand {
     }
 }
 
+/// Object `object` of `scene`, checked with the tick rate: what every run starts from.
+fn rendered_object(scene: &Scene, object: usize, rate_hz: f64) -> Result<&scene::Object, SimError> {
+    let o = scene.object(object).ok_or(SimError::ObjectIndex {
+        index: object,
+        count: scene.objects().len(),
+    })?;
+    check_rate(rate_hz)?;
+    Ok(o)
+}
+
 /// Checks everything [`run`] checks before its first tick, without running it; returns the
 /// number of ticks.
 pub fn validate(
@@ -263,12 +273,7 @@ pub fn validate(
     trajectory: &Trajectory,
     rate_hz: f64,
 ) -> Result<usize, SimError> {
-    let count = scene.objects().len();
-    let o = scene.object(object).ok_or(SimError::ObjectIndex {
-        index: object,
-        count,
-    })?;
-    check_rate(rate_hz)?;
+    let o = rendered_object(scene, object, rate_hz)?;
     if o.space() != trajectory.space() {
         return Err(SimError::Space {
             trajectory: trajectory.space(),
@@ -449,12 +454,7 @@ pub fn explore(
     max_ticks: usize,
     mut hand: impl FnMut(&Tick) -> Option<[f64; 3]>,
 ) -> Result<Run, SimError> {
-    let count = scene.objects().len();
-    let o = scene.object(object).ok_or(SimError::ObjectIndex {
-        index: object,
-        count,
-    })?;
-    check_rate(rate_hz)?;
+    let o = rendered_object(scene, object, rate_hz)?;
     let max_ticks = max_ticks.min(MAX_TICKS);
     let material = o.material().friction_material();
     let mut hip_at = |i: usize, last: Option<&Tick>| -> Option<(f64, [f64; 3])> {
