@@ -1,8 +1,11 @@
 //! The board's USB side, run in its USB interrupt: host reports in to the protocol task,
 //! replies and telemetry out as IN reports, one device sequence number over all of them.
-//! The HID class and the bus are the board binary's; this is the queueing and numbering.
+//! The HID device and its endpoints are `device::usb::HidPort` (the same code the host runs
+//! over USB/IP in `cargo xtask hid`); this is what the board puts behind it, the queueing and
+//! numbering ([`ReportPump`]).
 
 use device::protocol::{Frame, Message};
+use device::usb::ReportPump;
 use heapless::spsc::{Consumer, Producer};
 
 use crate::protocol_task::{FRAMES, REPLIES, REPORTS, Report};
@@ -27,10 +30,10 @@ impl core::fmt::Debug for Usb {
     }
 }
 
-impl Usb {
+impl ReportPump for Usb {
     /// The next report to send: a reply first, else the oldest telemetry frame; numbered
     /// with the device's sequence. `None` when nothing is waiting.
-    pub fn next_report(&mut self) -> Option<Report> {
+    fn next_report(&mut self) -> Option<Report> {
         let message = match self.replies.peek() {
             Some(m) => *m,
             None => match self.frames.peek().map(|r| Frame::decode(r)) {
@@ -54,7 +57,7 @@ impl Usb {
     }
 
     /// The report of [`Usb::next_report`] was sent.
-    pub fn sent(&mut self) {
+    fn sent(&mut self) {
         if self.replies.dequeue().is_none() {
             let _ = self.frames.dequeue();
         }
@@ -63,7 +66,7 @@ impl Usb {
 
     /// A host report, copied into a zero-padded [`Report`] for the protocol task; a full
     /// queue drops it (the host sees no ack and resends).
-    pub fn received(&mut self, bytes: &[u8]) {
+    fn received(&mut self, bytes: &[u8]) {
         let mut report = [0u8; device::protocol::MAX_FRAME];
         if let Some(dst) = report.get_mut(..bytes.len()) {
             dst.copy_from_slice(bytes);
@@ -72,7 +75,7 @@ impl Usb {
     }
 
     /// Drops the waiting telemetry (nothing to send it to).
-    pub fn drop_frames(&mut self) {
+    fn drop_frames(&mut self) {
         while self.frames.dequeue().is_some() {}
     }
 }

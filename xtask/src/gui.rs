@@ -13,7 +13,7 @@
 //!   tick period and jitter) is printed.
 
 use std::path::Path;
-use std::process::{Command, Stdio};
+use std::process::Command;
 use std::time::{Duration, Instant};
 
 /// Debian packages the GUI checks need, and why.
@@ -36,44 +36,9 @@ const WINDOW_FRAMES: &str = "180";
 /// The window test fails if the app has not exited by then.
 const WINDOW_TIMEOUT: Duration = Duration::from_secs(180);
 
-fn installed(package: &str) -> bool {
-    Command::new("dpkg-query")
-        .args(["-W", "-f=${Status}", package])
-        .stderr(Stdio::null())
-        .output()
-        .is_ok_and(|o| String::from_utf8_lossy(&o.stdout).contains("install ok installed"))
-}
-
 /// Installs the [`PACKAGES`] that are missing (apt-get, as root), saying which and why.
 pub(crate) fn ensure_packages() -> Result<(), String> {
-    let missing: Vec<&(&str, &str)> = PACKAGES.iter().filter(|(p, _)| !installed(p)).collect();
-    if missing.is_empty() {
-        return Ok(());
-    }
-    let names: Vec<&str> = missing.iter().map(|(p, _)| *p).collect();
-    for (p, why) in &missing {
-        println!("xtask: installing {p} ({why}) for the viewer's GUI tests");
-    }
-    let root = crate::output("id", &["-u"]).is_ok_and(|u| u.trim() == "0");
-    if !root {
-        return Err(format!(
-            "the GUI tests need {}; install them with `sudo apt-get install -y {}` and rerun",
-            names.join(", "),
-            names.join(" ")
-        ));
-    }
-    let env = [("DEBIAN_FRONTEND", "noninteractive")];
-    crate::run_in(
-        std::path::Path::new("."),
-        "apt-get",
-        &["update", "-qq"],
-        &env,
-    )
-    .map_err(|e| format!("apt-get update failed ({e}); the GUI tests need {names:?}"))?;
-    let mut args = vec!["install", "-y", "-qq", "--no-install-recommends"];
-    args.extend(&names);
-    crate::run_in(std::path::Path::new("."), "apt-get", &args, &env)
-        .map_err(|e| format!("could not install {}: {e}", names.join(", ")))
+    crate::ensure_packages(PACKAGES, "the viewer's GUI tests")
 }
 
 /// Runs the viewer's real window under Xvfb and checks that it closes itself with status 0.

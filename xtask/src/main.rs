@@ -5,6 +5,7 @@
 
 mod board;
 mod gui;
+mod hid;
 mod qemu;
 mod session;
 
@@ -41,9 +42,34 @@ fn main() -> ExitCode {
                 ExitCode::FAILURE
             }
         },
+        Some("hid") => match hid_standalone() {
+            Ok(()) => {
+                println!("xtask hid: done");
+                ExitCode::SUCCESS
+            }
+            Err(e) => {
+                eprintln!("xtask hid: FAILED: {e}");
+                ExitCode::FAILURE
+            }
+        },
+        // Inside `cargo xtask hid`'s guest only.
+        Some("hid-guest-device") => match hid::guest_device() {
+            Ok(()) => ExitCode::SUCCESS,
+            Err(e) => {
+                eprintln!("{e}");
+                ExitCode::FAILURE
+            }
+        },
+        Some("hid-guest-session") => {
+            let root = args.get(1).map_or_else(|| Path::new(".").to_path_buf(), Into::into);
+            match hid::guest_session(&root) {
+                Ok(()) => ExitCode::SUCCESS,
+                Err(_) => ExitCode::FAILURE,
+            }
+        }
         _ => {
             eprintln!(
-                "usage: cargo xtask ci | qemu [--opt-level 3|s|3,s] [--session] [--serve HOST:PORT]\n\n\
+                "usage: cargo xtask ci | hid | qemu [--opt-level 3|s|3,s] [--session] [--serve HOST:PORT]\n\n\
                  ci    install what is missing (rustup target {EMBEDDED_TARGET}, clippy, rustfmt),\n\
                  \x20     then: cargo fmt --check, clippy -D warnings, cargo test --workspace,\n\
                  \x20     cross-build every no_std crate for {EMBEDDED_TARGET}, and check\n\
@@ -122,11 +148,14 @@ fn ci() -> Result<(), String> {
             CI_ENV,
         )?;
     }
-    gui::window_test(
-        &host_target_dir(&qemu::workspace_root()?)
-            .join("debug")
-            .join("viewer"),
-    )?;
+    let root = qemu::workspace_root()?;
+    let target = host_target_dir(&root);
+    gui::window_test(&target.join("debug").join("viewer"))?;
+    // The USB HID link end to end: the board's USB device over USB/IP, a Linux guest's
+    // hidraw, the viewer and HidLink.
+    for line in hid::run(&root, &target, &target.join("debug").join("viewer"))? {
+        println!("{line}");
+    }
     qemu::check_firmware(&cargo)?;
     board::check_board(&cargo)?;
     // The firmware under QEMU: the thesis-2d scenario in the emulated MCU compared frame by
@@ -134,6 +163,56 @@ fn ci() -> Result<(), String> {
     qemu::qemu(&qemu::Options::default())?;
     report_disk("at the end", None)?;
     Ok(())
+}
+
+/// `cargo xtask hid` on its own: builds the viewer (as `cargo build -p viewer`) and runs
+/// the check.
+fn hid_standalone() -> Result<(), String> {
+    ensure_toolchain()?;
+    let cargo = env::var("CARGO").unwrap_or_else(|_| "cargo".into());
+    run(&cargo, &["build", "-p", "viewer"])?;
+    let root = qemu::workspace_root()?;
+    let target = host_target_dir(&root);
+    for line in hid::run(&root, &target, &target.join("debug").join("viewer"))? {
+        println!("{line}");
+    }
+    Ok(())
+}
+
+fn installed(package: &str) -> bool {
+    Command::new("dpkg-query")
+        .args(["-W", "-f=${Status}", package])
+        .stderr(std::process::Stdio::null())
+        .output()
+        .is_ok_and(|o| String::from_utf8_lossy(&o.stdout).contains("install ok installed"))
+}
+
+/// Installs the Debian `packages` (name, why) that are missing (apt-get, as root), saying
+/// which and why, for `what`.
+pub(crate) fn ensure_packages(packages: &[(&str, &str)], what: &str) -> Result<(), String> {
+    let missing: Vec<&(&str, &str)> = packages.iter().filter(|(p, _)| !installed(p)).collect();
+    if missing.is_empty() {
+        return Ok(());
+    }
+    let names: Vec<&str> = missing.iter().map(|(p, _)| *p).collect();
+    for (p, why) in &missing {
+        println!("xtask: installing {p} ({why}) for {what}");
+    }
+    let root = output("id", &["-u"]).is_ok_and(|u| u.trim() == "0");
+    if !root {
+        return Err(format!(
+            "{what} needs {}; install them with `sudo apt-get install -y {}` and rerun",
+            names.join(", "),
+            names.join(" ")
+        ));
+    }
+    let env = [("DEBIAN_FRONTEND", "noninteractive")];
+    run_in(Path::new("."), "apt-get", &["update", "-qq"], &env)
+        .map_err(|e| format!("apt-get update failed ({e}); {what} needs {names:?}"))?;
+    let mut args = vec!["install", "-y", "-qq", "--no-install-recommends"];
+    args.extend(&names);
+    run_in(Path::new("."), "apt-get", &args, &env)
+        .map_err(|e| format!("could not install {}: {e}", names.join(", ")))
 }
 
 /// The environment of CI's cargo runs: no incremental caches. A one-off build gains nothing

@@ -80,15 +80,15 @@ impl Drop for Qemu {
 }
 
 /// The host's side: the link, its heartbeat and the virtual hand's target.
-struct Host {
-    link: TcpLink,
-    heartbeats: bool,
+pub(crate) struct Host<L: Link> {
+    pub(crate) link: L,
+    pub(crate) heartbeats: bool,
     last_heartbeat: Instant,
     last_target: Instant,
     /// Telemetry received, in order.
-    telemetry: Vec<Telemetry>,
+    pub(crate) telemetry: Vec<Telemetry>,
     /// Nacks of frames nobody waited for.
-    nacks: Vec<(u16, ErrorCode)>,
+    pub(crate) nacks: Vec<(u16, ErrorCode)>,
     /// The frame whose answer [`Host::request`] waits for, and the answer.
     awaited: Option<u16>,
     answer: Option<Result<(), ErrorCode>>,
@@ -100,10 +100,27 @@ struct Host {
     stamp_index: Option<usize>,
 }
 
-impl Host {
+impl<L: Link> Host<L> {
+    /// The host's side of a session on `link`, heartbeats on.
+    pub(crate) fn new(link: L) -> Self {
+        Host {
+            link,
+            heartbeats: true,
+            last_heartbeat: Instant::now(),
+            last_target: Instant::now(),
+            telemetry: Vec::new(),
+            nacks: Vec::new(),
+            awaited: None,
+            answer: None,
+            status: None,
+            heartbeat_seq: None,
+            stamp_index: None,
+        }
+    }
+
     /// Reads for `d`, sending heartbeats (while on, every [`HEARTBEAT`]) and the hand's target
     /// `target(t)` (`t` from 0 to 1 over `d`, every [`TARGET_PERIOD`]).
-    fn pump(&mut self, d: Duration, mut target: impl FnMut(f32) -> Vec2) -> Result<(), String> {
+    pub(crate) fn pump(&mut self, d: Duration, mut target: impl FnMut(f32) -> Vec2) -> Result<(), String> {
         let start = Instant::now();
         loop {
             let t = (start.elapsed().as_secs_f32() / d.as_secs_f32()).min(1.0);
@@ -150,7 +167,7 @@ impl Host {
     }
 
     /// Sends `m` and pumps, the hand held at `at`, until the device answers it.
-    fn send_awaiting(&mut self, m: &Message, at: Vec2) -> Result<Result<(), ErrorCode>, String> {
+    pub(crate) fn send_awaiting(&mut self, m: &Message, at: Vec2) -> Result<Result<(), ErrorCode>, String> {
         let seq = self
             .link
             .send(m)
@@ -171,13 +188,13 @@ impl Host {
     }
 
     /// [`Host::send_awaiting`], a nack being an error.
-    fn request(&mut self, m: &Message, at: Vec2) -> Result<(), String> {
+    pub(crate) fn request(&mut self, m: &Message, at: Vec2) -> Result<(), String> {
         self.send_awaiting(m, at)?
             .map_err(|code| format!("session: {:?} refused: {code}", m.message_type()))
     }
 
     /// Uploads and commits `scene`, frame by frame, the hand held at `at`.
-    fn upload(&mut self, scene: &[u8], at: Vec2) -> Result<(), String> {
+    pub(crate) fn upload(&mut self, scene: &[u8], at: Vec2) -> Result<(), String> {
         for m in scene_upload(scene) {
             self.request(&m, at)?;
         }
@@ -264,7 +281,7 @@ impl Host {
     }
 
     /// The active scene's CRC-32, from the status answering the next heartbeat.
-    fn scene_crc(&mut self, at: Vec2) -> Result<u32, String> {
+    pub(crate) fn scene_crc(&mut self, at: Vec2) -> Result<u32, String> {
         self.status = None;
         let start = Instant::now();
         while self.status.is_none() && start.elapsed() < REPLY {
@@ -310,7 +327,7 @@ fn wire_scene(scene: &Scene, material: FrictionMaterial) -> Result<Vec<u8>, Stri
 /// against the global closest point of the shape the device had applied when it sent the
 /// frame (the last update acked before it).
 fn points_phase(
-    host: &mut Host,
+    host: &mut Host<TcpLink>,
     scene: &Scene,
     material: FrictionMaterial,
     at: Vec2,
@@ -660,19 +677,7 @@ pub fn run(elf: &Path, root: &Path) -> Result<Vec<String>, String> {
             Err(e) => return Err(format!("session: cannot connect to QEMU on {address}: {e}")),
         }
     };
-    let mut host = Host {
-        link,
-        heartbeats: true,
-        last_heartbeat: Instant::now(),
-        last_target: Instant::now(),
-        telemetry: Vec::new(),
-        nacks: Vec::new(),
-        awaited: None,
-        answer: None,
-        status: None,
-        heartbeat_seq: None,
-        stamp_index: None,
-    };
+    let mut host = Host::new(link);
     let mut lines = Vec::new();
     // QEMU starts the emulation when the connection arrives, and its USART drops what it
     // receives before the firmware has enabled it: speak once the device has.
@@ -804,9 +809,19 @@ pub fn run(elf: &Path, root: &Path) -> Result<Vec<String>, String> {
 
     lines.extend(points_phase(&mut host, &scene, softer, along)?);
 
-    // Heartbeat loss: the force goes off at the watchdog's timeout. The tick that stamped the
-    // last heartbeat is the first telemetry after its ack (the device acks a frame when it
-    // handles it, between ticks, and the next tick stamps the heartbeat).
+    lines.push(watchdog_phase(&mut host, along, WATCHDOG_US)?);
+    Ok(lines)
+}
+
+/// Heartbeat loss: the force goes off at the watchdog's timeout (`timeout_us`), the hand held
+/// at `along`. The tick that stamped the last heartbeat is the first telemetry after its ack
+/// (the device acks a frame when it handles it, between ticks, and the next tick stamps the
+/// heartbeat). Returns the line it measured.
+pub(crate) fn watchdog_phase<L: Link>(
+    host: &mut Host<L>,
+    along: Vec2,
+    timeout_us: u32,
+) -> Result<String, String> {
     host.heartbeats = false;
     host.pump(Duration::from_millis(400), |_| along)?;
     let stamped = host
@@ -830,20 +845,20 @@ pub fn run(elf: &Path, root: &Path) -> Result<Vec<String>, String> {
         .iter()
         .map(|t| t.force_n.length())
         .fold(0.0f32, f32::max);
-    lines.push(format!(
+    let line = format!(
         "session watchdog trip_tick={k} age_before_us={} age_at_trip_us={} largest_force_from_trip_n={forced}",
         age(k.saturating_sub(1)),
         age(k)
-    ));
+    );
     // The first tick whose age is past the timeout trips (not one before, not one later), and
     // from that tick on there is no force.
-    if k == 0 || age(k - 1) > WATCHDOG_US || age(k) <= WATCHDOG_US || forced != 0.0 {
+    if k == 0 || age(k - 1) > timeout_us || age(k) <= timeout_us || forced != 0.0 {
         return Err(format!(
             "session: the watchdog tripped on tick {k} after the last heartbeat (ages {} and {} \
-             µs around it, timeout {WATCHDOG_US} µs) with up to {forced} N from then on",
+             µs around it, timeout {timeout_us} µs) with up to {forced} N from then on",
             age(k.saturating_sub(1)),
             age(k)
         ));
     }
-    Ok(lines)
+    Ok(line)
 }

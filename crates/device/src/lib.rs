@@ -15,3 +15,5 @@ pub mod session;
 pub mod simulator;
 pub mod spec;
 pub mod telemetry;
+#[cfg(feature = "usb")]
+pub mod usb;

@@ -32,7 +32,7 @@
 #![no_main]
 
 use device::board_io::{Extend16, LedPattern, pwm_duty};
-use device::protocol::{MAX_FRAME, Message, REPORT_DESCRIPTOR, SceneStore};
+use device::protocol::{MAX_FRAME, Message, SceneStore};
 use device::session::{Command, DeviceState, Session};
 use firmware::app::{AcquisitionJob, App, JobDone, Parked};
 use firmware::board::Board;
@@ -323,9 +323,8 @@ mod app {
     use super::*;
     use heapless::spsc::Queue;
     use stm32f4xx_hal::otg_fs::{USB, UsbBusType};
+    use device::usb::HidPort;
     use usb_device::class_prelude::UsbBusAllocator;
-    use usb_device::prelude::*;
-    use usbd_hid::hid_class::HIDClass;
 
     #[shared]
     struct Shared {}
@@ -340,8 +339,7 @@ mod app {
         /// The store the tick renders and the acquisition job that reads it.
         scenes: TickScenes<BoardStore>,
         tick: TickQueues,
-        usb_device: UsbDevice<'static, UsbBusType>,
-        hid: HIDClass<'static, UsbBusType>,
+        port: HidPort<'static, UsbBusType>,
         usb: Usb,
         protocol: Protocol<SCENE_CAPACITY, BoardStore>,
     }
@@ -398,32 +396,16 @@ mod app {
         (tick, frame_tx, usb, protocol)
     }
 
-    /// USB (OTG_FS, 48 MHz from the PLL's Q output): the HID class with the protocol's
-    /// report descriptor and the device with its ids and strings.
+    /// USB (OTG_FS, 48 MHz from the PLL's Q output): the board's HID device
+    /// (`device::usb::HidPort`: the protocol's report descriptor, the ids and strings).
     fn usb_start(
         usb: USB,
         usb_bus: &'static mut Option<UsbBusAllocator<UsbBusType>>,
         ep_memory: &'static mut [u32; 64],
-    ) -> (
-        UsbDevice<'static, UsbBusType>,
-        HIDClass<'static, UsbBusType>,
-    ) {
+    ) -> HidPort<'static, UsbBusType> {
         let usb_bus: &'static UsbBusAllocator<UsbBusType> =
             usb_bus.insert(UsbBusType::new(usb, ep_memory));
-        let hid = HIDClass::new(usb_bus, REPORT_DESCRIPTOR, 1);
-        let usb_device = UsbDeviceBuilder::new(
-            usb_bus,
-            UsbVidPid(device::protocol::USB_VID, device::protocol::USB_PID),
-        )
-        .strings(&[StringDescriptors::default()
-            .manufacturer("nurbs-haptics")
-            .product("NURBS haptic pantograph")
-            .serial_number("0001")])
-        .expect("one language of strings")
-        .max_packet_size_0(64)
-        .expect("64 is a valid control packet size")
-        .build();
-        (usb_device, hid)
+        HidPort::new(usb_bus, "0001").expect("the bus holds one HID interface and its strings")
     }
 
     #[init(local = [
@@ -489,7 +471,7 @@ mod app {
         let full_scale_a = app.controller().spec().current_limit_a;
 
         assert!(rcc.clocks.is_pll48clk_valid(), "USB needs a 48 MHz clock");
-        let (usb_device, hid) = usb_start(
+        let port = usb_start(
             USB::new(
                 (dp.OTG_FS_GLOBAL, dp.OTG_FS_DEVICE, dp.OTG_FS_PWRCLK),
                 (gpioa.pa11, gpioa.pa12),
@@ -529,8 +511,7 @@ mod app {
                 app,
                 scenes,
                 tick,
-                usb_device,
-                hid,
+                port,
                 usb,
                 protocol,
             },
@@ -610,28 +591,10 @@ mod app {
     }
 
     /// USB: enumeration, host reports in (to the protocol task), replies and telemetry out.
-    #[task(binds = OTG_FS, priority = 2, local = [usb_device, hid, usb])]
+    #[task(binds = OTG_FS, priority = 2, local = [port, usb])]
     fn usb(cx: usb::Context) {
-        let l = cx.local;
-        if l.usb_device.poll(&mut [l.hid]) {
-            let mut buf = [0u8; MAX_FRAME];
-            while let Ok(n) = l.hid.pull_raw_output(&mut buf) {
-                if n == 0 {
-                    break;
-                }
-                l.usb.received(buf.get(..n).unwrap_or(&[]));
-            }
-        }
-        if l.usb_device.state() != UsbDeviceState::Configured {
-            // Nothing to send to: telemetry is dropped, not queued.
-            l.usb.drop_frames();
-            return;
-        }
-        if let Some(report) = l.usb.next_report()
-            && l.hid.push_raw_input(&report).is_ok()
-        {
-            l.usb.sent();
-        }
+        // Unconfigured (no host): telemetry is dropped, not queued.
+        cx.local.port.poll(cx.local.usb);
     }
 }
 

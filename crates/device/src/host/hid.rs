@@ -67,6 +67,17 @@ impl HidLink {
         })
     }
 
+    /// Sends `bytes` as one output report as they are (no sequence number, no CRC; zero
+    /// padded to [`MAX_FRAME`], at most that many): for tests of a device's handling of
+    /// malformed input.
+    pub fn send_raw(&mut self, bytes: &[u8]) -> Result<(), LinkError> {
+        let mut out = [0u8; MAX_FRAME + 1];
+        let n = bytes.len().min(MAX_FRAME);
+        out[1..=n].copy_from_slice(&bytes[..n]);
+        self.device.write(&out)?;
+        Ok(())
+    }
+
     /// Opens the first device with [`USB_VID`] / [`USB_PID`].
     pub fn open_first() -> Result<Self, LinkError> {
         let api = HidApi::new()?;

@@ -35,6 +35,8 @@ pub use serial::{BAUD, SerialLink, SerialPortInfo, Stream, StreamLink, TcpLink, 
 #[cfg(unix)]
 pub use serial::{PseudoTerminal, pseudo_terminal};
 pub use sim::{SimConfig, SimHand, SimLink};
+#[cfg(feature = "usb")]
+pub use sim::SimReports;
 
 use crate::controller::ControllerError;
 use crate::protocol::{

@@ -487,3 +487,64 @@ fn emit(
         frames.send(report).map_err(|_| ())
     }
 }
+
+/// The simulated device's frames as the reports of the board's USB HID device
+/// ([`crate::usb::HidPort`]) run on the host, over USB/IP in `cargo xtask hid`: host reports
+/// go to the device's thread as a board's OUT reports go to its protocol task, and the
+/// device's frames (acks, nacks, status, telemetry, numbered by the device) come out one per
+/// IN report. Feature `usb`.
+#[cfg(feature = "usb")]
+#[derive(Debug)]
+pub struct SimReports {
+    link: SimLink,
+    next: Option<[u8; MAX_FRAME]>,
+}
+
+#[cfg(feature = "usb")]
+impl SimLink {
+    /// This device behind a USB port instead of a host link ([`SimReports`]).
+    pub fn into_reports(self) -> SimReports {
+        SimReports {
+            link: self,
+            next: None,
+        }
+    }
+}
+
+#[cfg(feature = "usb")]
+impl SimReports {
+    /// Whether the device's thread still runs (it stops when it cannot send).
+    pub fn running(&self) -> bool {
+        self.link.thread.as_ref().is_some_and(|t| !t.is_finished())
+    }
+}
+
+#[cfg(feature = "usb")]
+impl crate::usb::ReportPump for SimReports {
+    fn received(&mut self, report: &[u8]) {
+        let mut frame = [0u8; MAX_FRAME];
+        let n = report.len().min(MAX_FRAME);
+        frame[..n].copy_from_slice(&report[..n]);
+        // A device thread that is gone answers nothing: the host times out, as with a board
+        // that stopped.
+        let _ = self.link.command(ToDevice::Frame(frame));
+    }
+
+    fn next_report(&mut self) -> Option<[u8; MAX_FRAME]> {
+        if self.next.is_none() {
+            self.next = self.link.from_device.as_ref()?.try_recv().ok();
+        }
+        self.next
+    }
+
+    fn sent(&mut self) {
+        self.next = None;
+    }
+
+    fn drop_frames(&mut self) {
+        self.next = None;
+        if let Some(from_device) = &self.link.from_device {
+            while from_device.try_recv().is_ok() {}
+        }
+    }
+}

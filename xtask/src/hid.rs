@@ -1,0 +1,683 @@
+//! `cargo xtask hid`: the USB HID link end to end without a board.
+//!
+//! The board's USB device (`device::usb::HidPort`: its descriptor, endpoints and report pump,
+//! the code the firmware runs) runs on the host's simulated pantograph
+//! (`device::host::sim::SimReports`) over USB/IP (`usbip-device`). A Linux kernel attaches it
+//! with `usbip attach` (`vhci-hcd`), parses its report descriptor (`usbhid`, `hid-generic`)
+//! and gives it a `/dev/hidraw` node, which the host side uses unchanged: `viewer device list`
+//! and a session over `device::host::HidLink` (hidapi's hidraw backend).
+//!
+//! The machine's own kernel has no `vhci-hcd`, so all of this runs in a small guest:
+//! `qemu-system-x86_64` (KVM when it boots, TCG otherwise) on Debian's `linux-image-amd64`
+//! with an initramfs built here (busybox and the modules; the Debian packages are fetched with
+//! `apt-get download` into `target/hid-guest/` and unpacked there, nothing is installed). The
+//! project's binaries and the `usbip` tool run in the guest from the host's file system,
+//! shared read-only over virtio-9p, in a chroot: the binaries the host built, with the host's
+//! libraries. The guest has no network but its own loopback, where the USB/IP device listens.
+//!
+//! The guest prints its results on its console (`hid: ...` lines), which this reads.
+
+use std::io::{BufRead, BufReader, Write};
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Stdio};
+use std::sync::mpsc;
+use std::time::{Duration, Instant};
+
+use device::host::{HidLink, Link, list_hid};
+use device::protocol::{Message, Telemetry};
+use nurbs::Vec2;
+use scene::Scene;
+
+use crate::session::{Host, watchdog_phase};
+
+/// The guest's modules: USB/IP's virtual host controller, the HID stack up to hidraw, and
+/// virtio-9p for the host's file system. Their dependencies are read from the modules
+/// themselves (`depends=`) and loaded first.
+const MODULES: &[&str] = &[
+    "vhci-hcd",
+    "usbhid",
+    "hid-generic",
+    "virtio_pci",
+    "9pnet_virtio",
+    "9p",
+];
+/// The Debian packages the guest is made of (fetched, unpacked, not installed); the kernel
+/// is `linux-image-amd64`'s dependency of the day.
+const GUEST_PACKAGES: &[&str] = &["busybox-static", "usbip"];
+/// The host packages `cargo xtask hid` installs when missing.
+pub(crate) const HOST_PACKAGES: &[(&str, &str)] = &[
+    ("qemu-system-x86", "the guest that runs the USB HID check (`cargo xtask hid`)"),
+    ("libudev1", "the `usbip` tool, run in the guest from the host's file system"),
+];
+/// The whole guest run may take this long (boot, attach, the session's ~20 s) under TCG on a
+/// loaded 2-core machine; it took about a minute on an idle one.
+const GUEST_TIMEOUT: Duration = Duration::from_secs(600);
+/// A KVM guest that has not reached its init by then is not booting (nested virtualisation
+/// that hangs in the firmware, as on some cloud machines): the check falls back to TCG.
+const KVM_BOOT_TIMEOUT: Duration = Duration::from_secs(20);
+/// The simulated device's heartbeat timeout in the guest (µs): a quarter second, as the
+/// emulated board's, so that an emulated guest's stalls do not trip it while heartbeats flow
+/// every 50 ms.
+pub(crate) const GUEST_WATCHDOG_US: u32 = 250_000;
+/// How long the session counts telemetry (the issue's 10 s).
+const TELEMETRY_WINDOW: Duration = Duration::from_secs(10);
+/// Round trips measured (heartbeat → its ack).
+const ROUND_TRIPS: usize = 200;
+
+/// Runs the check: builds the guest, boots it, returns the lines it measured.
+pub fn run(root: &Path, target: &Path, viewer: &Path) -> Result<Vec<String>, String> {
+    crate::ensure_packages(HOST_PACKAGES, "the USB HID check")?;
+    let cache = target.join("hid-guest");
+    let unpacked = fetch_packages(&cache)?;
+    let xtask = std::env::current_exe().map_err(|e| format!("hid: the xtask binary: {e}"))?;
+    let kernel = find_kernel(&unpacked)?;
+    let initrd = cache.join("initrd.cpio");
+    write_initramfs(&initrd, &unpacked, &init_script(root, &unpacked, &xtask, viewer)?)?;
+    let kvm = std::fs::OpenOptions::new()
+        .read(true)
+        .write(true)
+        .open("/dev/kvm")
+        .is_ok();
+    let mut lines = Vec::new();
+    let outcome = if kvm {
+        match boot(&kernel, &initrd, "kvm", Some(KVM_BOOT_TIMEOUT)) {
+            Ok(out) => Ok(out),
+            Err(e) if e.contains("did not reach its init") => {
+                lines.push(format!(
+                    "hid: /dev/kvm opens but a KVM guest {e}: running under TCG instead"
+                ));
+                boot(&kernel, &initrd, "tcg", None)
+            }
+            Err(e) => Err(e),
+        }
+    } else {
+        lines.push("hid: no usable /dev/kvm: running the guest under TCG".into());
+        boot(&kernel, &initrd, "tcg", None)
+    };
+    let (accel, console, elapsed) = outcome?;
+    lines.push(format!("hid: guest ran under {accel} for {:.1} s", elapsed.as_secs_f64()));
+    let results: Vec<&str> = console
+        .iter()
+        .filter_map(|l| l.trim_end().strip_prefix("hid: ").map(|_| l.trim_end()))
+        .collect();
+    lines.extend(results.iter().map(|s| s.to_string()));
+    if console.iter().any(|l| l.trim_end() == "hid: PASSED") {
+        Ok(lines)
+    } else {
+        let tail: Vec<&String> = console.iter().rev().take(60).collect();
+        let tail: Vec<&str> = tail.iter().rev().map(|s| s.as_str()).collect();
+        Err(format!(
+            "hid: the guest's check failed:\n{}\n--- the guest's console, last lines ---\n{}",
+            lines.join("\n"),
+            tail.join("\n")
+        ))
+    }
+}
+
+/// Fetches the guest's Debian packages into `cache/debs` (once) and unpacks them into
+/// `cache/root`; returns that folder.
+fn fetch_packages(cache: &Path) -> Result<PathBuf, String> {
+    let debs = cache.join("debs");
+    let unpacked = cache.join("root");
+    let image = kernel_package()?;
+    let mut wanted: Vec<String> = GUEST_PACKAGES.iter().map(|s| s.to_string()).collect();
+    wanted.push(image);
+    std::fs::create_dir_all(&debs).map_err(|e| format!("hid: {}: {e}", debs.display()))?;
+    let have = |name: &str| -> bool {
+        std::fs::read_dir(&debs).is_ok_and(|d| {
+            d.flatten()
+                .any(|f| f.file_name().to_string_lossy().starts_with(&format!("{name}_")))
+        })
+    };
+    let missing: Vec<&str> = wanted.iter().map(String::as_str).filter(|p| !have(p)).collect();
+    if !missing.is_empty() {
+        println!(
+            "xtask hid: downloading {} (apt-get download, unpacked under {}; nothing is installed)",
+            missing.join(", "),
+            cache.display()
+        );
+        let mut args = vec!["download"];
+        args.extend(&missing);
+        let status = Command::new("apt-get")
+            .args(&args)
+            .current_dir(&debs)
+            .status()
+            .map_err(|e| format!("hid: apt-get: {e}"))?;
+        if !status.success() {
+            return Err(format!(
+                "hid: apt-get download {} failed ({status}); the guest needs them",
+                missing.join(" ")
+            ));
+        }
+    }
+    if !unpacked.join(".done").exists() {
+        let _ = std::fs::remove_dir_all(&unpacked);
+        for deb in std::fs::read_dir(&debs).map_err(|e| format!("hid: {e}"))?.flatten() {
+            crate::run_in(
+                Path::new("."),
+                "dpkg-deb",
+                &[
+                    "-x",
+                    &deb.path().to_string_lossy(),
+                    &unpacked.to_string_lossy(),
+                ],
+                &[],
+            )?;
+        }
+        std::fs::write(unpacked.join(".done"), b"").map_err(|e| format!("hid: {e}"))?;
+    }
+    Ok(unpacked)
+}
+
+/// The kernel package `linux-image-amd64` depends on today (`linux-image-6.1.0-N-amd64`).
+fn kernel_package() -> Result<String, String> {
+    let out = crate::output("apt-cache", &["depends", "linux-image-amd64"])?;
+    out.lines()
+        .filter_map(|l| l.trim().strip_prefix("Depends: "))
+        .find(|p| p.starts_with("linux-image-"))
+        .map(str::to_owned)
+        .ok_or_else(|| format!("hid: no kernel among linux-image-amd64's dependencies:\n{out}"))
+}
+
+fn find_kernel(unpacked: &Path) -> Result<PathBuf, String> {
+    std::fs::read_dir(unpacked.join("boot"))
+        .map_err(|e| format!("hid: the kernel package's boot/: {e}"))?
+        .flatten()
+        .map(|f| f.path())
+        .find(|p| p.file_name().is_some_and(|n| n.to_string_lossy().starts_with("vmlinuz-")))
+        .ok_or_else(|| "hid: no vmlinuz in the kernel package".into())
+}
+
+/// The modules folder (`lib/modules/VERSION`) of the unpacked kernel.
+fn modules_dir(unpacked: &Path) -> Result<PathBuf, String> {
+    let base = unpacked.join("lib").join("modules");
+    std::fs::read_dir(&base)
+        .map_err(|e| format!("hid: {}: {e}", base.display()))?
+        .flatten()
+        .map(|f| f.path())
+        .next()
+        .ok_or_else(|| "hid: no modules in the kernel package".into())
+}
+
+/// Every `.ko` under `dir`, by module name (dashes as underscores, as the kernel names them).
+fn index_modules(dir: &Path, out: &mut Vec<(String, PathBuf)>) {
+    let Ok(entries) = std::fs::read_dir(dir) else {
+        return;
+    };
+    for e in entries.flatten() {
+        let p = e.path();
+        if p.is_dir() {
+            index_modules(&p, out);
+        } else if let Some(stem) = p.file_name().and_then(|n| n.to_str()?.strip_suffix(".ko")) {
+            out.push((stem.replace('-', "_"), p.clone()));
+        }
+    }
+}
+
+/// A module's dependencies, from its `.modinfo` section's `depends=` string.
+fn depends(ko: &[u8]) -> Vec<String> {
+    let key = b"depends=";
+    ko.windows(key.len())
+        .position(|w| w == key)
+        .map(|at| {
+            let rest = &ko[at + key.len()..];
+            let end = rest.iter().position(|&b| b == 0).unwrap_or(rest.len());
+            String::from_utf8_lossy(&rest[..end])
+                .split(',')
+                .filter(|s| !s.is_empty())
+                .map(|s| s.replace('-', "_"))
+                .collect()
+        })
+        .unwrap_or_default()
+}
+
+/// [`MODULES`] and their dependencies, each after what it depends on: `(name, bytes)`.
+fn modules_in_order(unpacked: &Path) -> Result<Vec<(String, Vec<u8>)>, String> {
+    let mut index = Vec::new();
+    index_modules(&modules_dir(unpacked)?, &mut index);
+    let mut order: Vec<(String, Vec<u8>)> = Vec::new();
+    fn visit(
+        name: &str,
+        index: &[(String, PathBuf)],
+        order: &mut Vec<(String, Vec<u8>)>,
+        depth: usize,
+    ) -> Result<(), String> {
+        if order.iter().any(|(n, _)| n == name) {
+            return Ok(());
+        }
+        if depth > 32 {
+            return Err(format!("hid: module dependencies loop at {name}"));
+        }
+        let path = index
+            .iter()
+            .find(|(n, _)| n == name)
+            .map(|(_, p)| p)
+            .ok_or_else(|| format!("hid: the kernel package has no module {name}"))?;
+        let bytes = std::fs::read(path).map_err(|e| format!("hid: {}: {e}", path.display()))?;
+        for d in depends(&bytes) {
+            visit(&d, index, order, depth + 1)?;
+        }
+        order.push((name.to_string(), bytes));
+        Ok(())
+    }
+    for m in MODULES {
+        visit(&m.replace('-', "_"), &index, &mut order, 0)?;
+    }
+    Ok(order)
+}
+
+/// The guest's `/init`: mounts, modules, the host's file system, then the check, its lines
+/// on the console, and power off.
+fn init_script(root: &Path, unpacked: &Path, xtask: &Path, viewer: &Path) -> Result<String, String> {
+    let modules: Vec<String> = modules_in_order(unpacked)?
+        .into_iter()
+        .map(|(n, _)| n)
+        .collect();
+    let usbip = unpacked.join("usr").join("sbin").join("usbip");
+    if !usbip.exists() {
+        return Err(format!("hid: the usbip package has no {}", usbip.display()));
+    }
+    let abs = |p: &Path| -> Result<String, String> {
+        std::fs::canonicalize(p)
+            .map(|p| p.to_string_lossy().into_owned())
+            .map_err(|e| format!("hid: {}: {e}", p.display()))
+    };
+    Ok(format!(
+        r#"#!/bin/sh
+export PATH=/bin
+echo
+mount -t proc proc /proc
+mount -t sysfs sys /sys
+mount -t devtmpfs dev /dev
+echo "hid: guest booted, init at $(cut -d' ' -f1 /proc/uptime) s of guest uptime"
+for m in {modules}; do insmod /lib/modules/$m.ko || echo "hid-guest: insmod $m failed"; done
+ip link set lo up
+mkdir -p /host
+if ! mount -t 9p -o trans=virtio,version=9p2000.L,ro host /host; then
+  echo "hid: FAILED: cannot mount the host's file system over 9p"; poweroff -f
+fi
+for d in proc sys dev; do mount --bind /$d /host/$d; done
+mount -t tmpfs tmp /host/tmp
+mount -t tmpfs run /host/run
+[ -L /host/var/run ] || mount -t tmpfs varrun /host/var/run
+cd /
+chroot /host {xtask} hid-guest-device > /dev/ttyS0 2>&1 &
+attached=0
+for i in 1 2 3 4 5 6 7 8 9 10; do
+  sleep 1
+  chroot /host {usbip} attach -r 127.0.0.1 -b 1-1 2>&1 | sed 's/^/hid-guest: usbip: /'
+  if ls /sys/class/hidraw 2>/dev/null | grep -q hidraw; then attached=1; break; fi
+done
+echo "hid: attached after $i attempt(s) at $(cut -d' ' -f1 /proc/uptime) s of guest uptime"
+chroot /host {viewer} device list 2>&1 | sed 's/^/hid: viewer device list: /'
+chroot /host {xtask} hid-guest-session {root} 2>&1
+echo "hid: guest done at $(cut -d' ' -f1 /proc/uptime) s of guest uptime"
+poweroff -f
+"#,
+        modules = modules.join(" "),
+        xtask = abs(xtask)?,
+        usbip = abs(&usbip)?,
+        viewer = abs(viewer)?,
+        root = abs(root)?,
+    ))
+}
+
+/// Writes the guest's initramfs: an uncompressed cpio archive ("newc") of busybox with its
+/// applets, the modules and `/init`.
+fn write_initramfs(path: &Path, unpacked: &Path, init: &str) -> Result<(), String> {
+    let busybox = std::fs::read(unpacked.join("bin").join("busybox"))
+        .map_err(|e| format!("hid: busybox-static's bin/busybox: {e}"))?;
+    let mut cpio = Cpio::default();
+    for d in ["bin", "dev", "proc", "sys", "tmp", "lib", "lib/modules"] {
+        cpio.dir(d);
+    }
+    cpio.file("bin/busybox", 0o755, &busybox);
+    for applet in [
+        "sh", "mount", "insmod", "ls", "cat", "cut", "sleep", "ip", "poweroff", "echo", "mkdir",
+        "chroot", "grep", "sed",
+    ] {
+        cpio.symlink(&format!("bin/{applet}"), "busybox");
+    }
+    for (name, bytes) in modules_in_order(unpacked)? {
+        cpio.file(&format!("lib/modules/{name}.ko"), 0o644, &bytes);
+    }
+    cpio.file("init", 0o755, init.as_bytes());
+    std::fs::write(path, cpio.finish()).map_err(|e| format!("hid: {}: {e}", path.display()))
+}
+
+/// A cpio archive in the "newc" format the kernel unpacks as its initramfs.
+#[derive(Default)]
+struct Cpio {
+    out: Vec<u8>,
+    ino: u32,
+}
+
+impl Cpio {
+    fn entry(&mut self, name: &str, mode: u32, data: &[u8]) {
+        self.ino += 1;
+        let header = format!(
+            "070701{:08X}{:08X}{:08X}{:08X}{:08X}{:08X}{:08X}{:08X}{:08X}{:08X}{:08X}{:08X}{:08X}",
+            self.ino,
+            mode,
+            0,
+            0,
+            1,
+            0,
+            data.len(),
+            0,
+            0,
+            0,
+            0,
+            name.len() + 1,
+            0
+        );
+        self.out.extend_from_slice(header.as_bytes());
+        self.out.extend_from_slice(name.as_bytes());
+        self.out.push(0);
+        self.pad();
+        self.out.extend_from_slice(data);
+        self.pad();
+    }
+
+    fn pad(&mut self) {
+        while !self.out.len().is_multiple_of(4) {
+            self.out.push(0);
+        }
+    }
+
+    fn dir(&mut self, name: &str) {
+        self.entry(name, 0o040_755, &[]);
+    }
+
+    fn file(&mut self, name: &str, perm: u32, data: &[u8]) {
+        self.entry(name, 0o100_000 | perm, data);
+    }
+
+    fn symlink(&mut self, name: &str, to: &str) {
+        self.entry(name, 0o120_777, to.as_bytes());
+    }
+
+    fn finish(mut self) -> Vec<u8> {
+        self.entry("TRAILER!!!", 0, &[]);
+        self.out
+    }
+}
+
+/// Kills QEMU however the check ends.
+struct Guest(Child);
+
+impl Drop for Guest {
+    fn drop(&mut self) {
+        let _ = self.0.kill();
+        let _ = self.0.wait();
+    }
+}
+
+/// Boots the guest with accelerator `accel` and reads its console until it powers off.
+/// With `boot_timeout`, a guest that has not printed its init's first line by then is
+/// abandoned ("did not reach its init").
+fn boot(
+    kernel: &Path,
+    initrd: &Path,
+    accel: &str,
+    boot_timeout: Option<Duration>,
+) -> Result<(String, Vec<String>, Duration), String> {
+    let args: Vec<String> = [
+        "-accel",
+        accel,
+        "-m",
+        "1024",
+        "-smp",
+        "2",
+        "-nographic",
+        "-no-reboot",
+        "-nic",
+        "none",
+        "-virtfs",
+        "local,path=/,mount_tag=host,security_model=none,readonly=on,multidevs=remap",
+        "-append",
+        "console=ttyS0 quiet panic=-1",
+    ]
+    .iter()
+    .map(|s| s.to_string())
+    .collect();
+    println!(
+        "\n==> qemu-system-x86_64 {} -kernel {} -initrd {}",
+        args.join(" "),
+        kernel.display(),
+        initrd.display()
+    );
+    let start = Instant::now();
+    let mut child = Command::new("qemu-system-x86_64")
+        .args(&args)
+        .arg("-kernel")
+        .arg(kernel)
+        .arg("-initrd")
+        .arg(initrd)
+        .stdin(Stdio::null())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::inherit())
+        .spawn()
+        .map_err(|e| format!("hid: cannot start qemu-system-x86_64: {e}"))?;
+    let stdout = child.stdout.take().ok_or("hid: QEMU's console")?;
+    let _guest = Guest(child);
+    let (tx, rx) = mpsc::channel();
+    std::thread::spawn(move || {
+        for line in BufReader::new(stdout).split(b'\n').map_while(Result::ok) {
+            if tx.send(String::from_utf8_lossy(&line).into_owned()).is_err() {
+                break;
+            }
+        }
+    });
+    let mut console = Vec::new();
+    let mut booted = false;
+    let out = std::io::stdout();
+    loop {
+        let limit = match (booted, boot_timeout) {
+            (false, Some(t)) => t,
+            _ => GUEST_TIMEOUT,
+        };
+        let left = limit.saturating_sub(start.elapsed());
+        match rx.recv_timeout(left) {
+            Ok(line) => {
+                // The firmware's screen clearing (escape sequences) may precede a line.
+                let line = line.replace('\r', "");
+                let line = match line.find("hid") {
+                    Some(at) => line[at..].to_string(),
+                    None => line,
+                };
+                if line.starts_with("hid") {
+                    let _ = writeln!(out.lock(), "guest | {line}");
+                }
+                booted |= line.starts_with("hid: guest booted");
+                console.push(line);
+            }
+            Err(mpsc::RecvTimeoutError::Disconnected) => break,
+            Err(mpsc::RecvTimeoutError::Timeout) if !booted && boot_timeout.is_some() => {
+                return Err(format!("did not reach its init within {limit:?}"));
+            }
+            Err(mpsc::RecvTimeoutError::Timeout) => {
+                return Err(format!(
+                    "hid: the guest ran past {GUEST_TIMEOUT:?}; its console:\n{}",
+                    console.join("\n")
+                ));
+            }
+        }
+    }
+    Ok((accel.to_string(), console, start.elapsed()))
+}
+
+/// In the guest (`xtask hid-guest-device`): the board's USB device on USB/IP, the simulated
+/// pantograph behind it, until the guest powers off.
+pub fn guest_device() -> Result<(), String> {
+    use device::host::{SimConfig, SimLink};
+    use device::safety::SafetyConfig;
+    use device::usb::HidPort;
+    use usb_device::bus::UsbBusAllocator;
+    let config = SimConfig {
+        // The board's telemetry rate with one tick per frame: an emulated guest keeps pace
+        // with it (10 kHz ticks are the firmware's, measured under QEMU by `cargo xtask qemu`).
+        safety: SafetyConfig {
+            period_s: 1e-3,
+            heartbeat_timeout_s: GUEST_WATCHDOG_US as f32 * 1e-6,
+            ..SafetyConfig::default()
+        },
+        ..SimConfig::default()
+    };
+    let mut reports = SimLink::spawn(config)
+        .map_err(|e| format!("hid-guest-device: {e}"))?
+        .into_reports();
+    let bus = UsbBusAllocator::new(usbip_device::UsbIpBus::new());
+    let mut port =
+        HidPort::new(&bus, "usbip").map_err(|e| format!("hid-guest-device: {e:?}"))?;
+    while reports.running() {
+        port.poll(&mut reports);
+        // USB/IP takes one request per poll: poll often, but let the device's thread run.
+        std::thread::sleep(Duration::from_micros(50));
+    }
+    Err("hid-guest-device: the simulated device stopped".into())
+}
+
+/// In the guest (`xtask hid-guest-session ROOT`): the host side over hidraw, printing
+/// `hid: ...` lines and `hid: PASSED` when every check held.
+pub fn guest_session(root: &Path) -> Result<(), String> {
+    let result = session(root);
+    match &result {
+        Ok(lines) => {
+            for l in lines {
+                println!("hid: {l}");
+            }
+            println!("hid: PASSED");
+        }
+        Err(e) => println!("hid: FAILED: {e}"),
+    }
+    result.map(|_| ())
+}
+
+fn session(root: &Path) -> Result<Vec<String>, String> {
+    let mut lines = Vec::new();
+    let start = Instant::now();
+    let devices = loop {
+        let found = list_hid().map_err(|e| format!("hidapi: {e}"))?;
+        if !found.is_empty() {
+            break found;
+        }
+        if start.elapsed() > Duration::from_secs(20) {
+            return Err("no HID device with the board's VID:PID within 20 s".into());
+        }
+        std::thread::sleep(Duration::from_millis(200));
+    };
+    let info = &devices[0];
+    lines.push(format!(
+        "found {} {:04x}:{:04x} product={:?} serial={:?}",
+        info.path, info.vendor_id, info.product_id, info.product, info.serial_number
+    ));
+    let link = HidLink::open(&info.path).map_err(|e| format!("open {}: {e}", info.path))?;
+    let mut host = Host::new(link);
+    let hello = host
+        .link
+        .hello(Duration::from_secs(5))
+        .map_err(|e| format!("hello: {e}"))?;
+    lines.push(format!(
+        "hello software={:?} scene_capacity={}",
+        hello.software, hello.scene_capacity
+    ));
+    let scene_path = root.join("scenes").join("thesis-2d.json");
+    let scene = Scene::load(&scene_path).map_err(|e| format!("{}: {e}", scene_path.display()))?;
+    let wire = host::upload::wire_scene(&scene, 0).map_err(|e| format!("wire scene: {e}"))?;
+    let above = Vec2::new(0.01, 0.11);
+    host.request(&Message::ClearFaults { mask: 0xFFFF }, above)?;
+    host.request(&Message::Calibrate, above)?;
+    host.upload(&wire, above)?;
+    host.request(&Message::EnableForces, above)?;
+    let crc = host.scene_crc(above)?;
+    if crc != device::protocol::crc32(&wire) {
+        return Err(format!(
+            "the device's scene CRC {crc:#x} is not the uploaded scene's {:#x}",
+            device::protocol::crc32(&wire)
+        ));
+    }
+    lines.push(format!(
+        "calibrated, cleared, scene of {} B uploaded and committed (CRC {crc:#010x}), forces on",
+        wire.len()
+    ));
+
+    // Round trips: a heartbeat, then frames until its ack.
+    let mut rtt = Vec::with_capacity(ROUND_TRIPS);
+    for _ in 0..ROUND_TRIPS {
+        let sent = Instant::now();
+        let seq = host
+            .link
+            .send(&Message::Heartbeat { uptime_ms: 0 })
+            .map_err(|e| format!("heartbeat: {e}"))?;
+        loop {
+            match host.link.recv(Duration::from_secs(2)).map_err(|e| format!("link: {e}"))? {
+                Some(f) if f.message == (Message::Ack { seq }) => break,
+                Some(_) => {}
+                None => return Err("a heartbeat was not acked within 2 s".into()),
+            }
+        }
+        rtt.push(sent.elapsed().as_secs_f64() * 1e3);
+    }
+    rtt.sort_by(f64::total_cmp);
+    let pick = |q: f64| rtt[((rtt.len() - 1) as f64 * q).round() as usize];
+    lines.push(format!(
+        "round trip (heartbeat to ack, {ROUND_TRIPS} times): median {:.2} ms, 99th percentile {:.2} ms, max {:.2} ms",
+        pick(0.5),
+        pick(0.99),
+        pick(1.0)
+    ));
+
+    // Into the right arc (the circle of radius 40 mm about (−20, 60) mm), 4 mm deep at
+    // 41.4°, then telemetry counted for 10 s in contact.
+    let inside = Vec2::new(-0.02, 0.06) + Vec2::new(41.4f32.to_radians().cos(), 41.4f32.to_radians().sin()) * 0.036;
+    host.pump(Duration::from_millis(500), |t| above + (inside - above) * t)?;
+    host.pump(Duration::from_millis(300), |_| inside)?;
+    host.telemetry.clear();
+    host.pump(TELEMETRY_WINDOW, |_| inside)?;
+    let frames: &[Telemetry] = &host.telemetry;
+    let (first, last) = match (frames.first(), frames.last()) {
+        (Some(f), Some(l)) => (f.time_us, l.time_us),
+        _ => return Err("no telemetry in 10 s with forces on".into()),
+    };
+    // One frame per millisecond of device time: what the device sent from the first frame to
+    // the last, against what arrived.
+    let span_ms = u64::from(last.wrapping_sub(first)) / 1000;
+    let expected = span_ms + 1;
+    let lost = expected.saturating_sub(frames.len() as u64);
+    let rate = frames.len() as f64 / TELEMETRY_WINDOW.as_secs_f64();
+    let pressing = frames.iter().filter(|t| t.force_n.length() > 0.1).count();
+    lines.push(format!(
+        "telemetry over {:.0} s: {} frames ({rate:.0} per second), device time {span_ms} ms, {lost} lost; {pressing} frames with a contact force over 0.1 N",
+        TELEMETRY_WINDOW.as_secs_f64(),
+        frames.len()
+    ));
+    if lost != 0 || rate < 950.0 || pressing < frames.len() / 2 {
+        return Err(format!(
+            "telemetry: {lost} frames lost, {rate:.0} frames per second (1 kHz expected), {pressing} of {} in contact",
+            frames.len()
+        ));
+    }
+
+    // Garbage: an output report that is no frame gets a nack, and the device runs on.
+    host.nacks.clear();
+    host.link
+        .send_raw(&[0x05, 0x01, 0x02, 0x03, 0x04, 0x00])
+        .map_err(|e| format!("raw report: {e}"))?;
+    let before = host.telemetry.len();
+    host.pump(Duration::from_millis(300), |_| inside)?;
+    let after = host.telemetry.len() - before;
+    lines.push(format!(
+        "garbage report: nacks {:?}, {after} telemetry frames in the 300 ms after it",
+        host.nacks
+    ));
+    if host.nacks.is_empty() || after < 250 {
+        return Err(format!(
+            "garbage report: nacks {:?} and {after} frames after it (a nack and the device running on expected)",
+            host.nacks
+        ));
+    }
+
+    lines.push(watchdog_phase(&mut host, inside, GUEST_WATCHDOG_US)?);
+    Ok(lines)
+}
