@@ -41,9 +41,19 @@ fn main() -> ExitCode {
                 ExitCode::FAILURE
             }
         },
+        Some("gui") => match window_tests() {
+            Ok(()) => {
+                println!("xtask gui: done");
+                ExitCode::SUCCESS
+            }
+            Err(e) => {
+                eprintln!("xtask gui: FAILED: {e}");
+                ExitCode::FAILURE
+            }
+        },
         _ => {
             eprintln!(
-                "usage: cargo xtask ci | qemu [--opt-level 3|s|3,s] [--session] [--serve HOST:PORT]\n\n\
+                "usage: cargo xtask ci | gui | qemu [--opt-level 3|s|3,s] [--session] [--serve HOST:PORT]\n\n\
                  ci    install what is missing (rustup target {EMBEDDED_TARGET}, clippy, rustfmt),\n\
                  \x20     then: cargo fmt --check, clippy -D warnings, cargo test --workspace,\n\
                  \x20     cross-build every no_std crate for {EMBEDDED_TARGET}, and check\n\
@@ -51,6 +61,9 @@ fn main() -> ExitCode {
                  \x20     {EMBEDDED_TARGET}), build the board binary (release) and check its\n\
                  \x20     size (flash <= 128 KiB, RAM <= 32 KiB with a stack reserve), then\n\
                  \x20     `qemu` below\n\
+                 gui   the viewer's window under Xvfb (as `ci` runs it, with the viewer the\n\
+                 \x20     tests built, target/debug/viewer): it closes itself after its frames,\n\
+                 \x20     and SIGINT ends `viewer gui --record` with exit 130 and whole rows\n\
                  qemu  install qemu-system-arm when missing, build firmware/ (release, LTO) at\n\
                  \x20     each opt-level (default 3), run the thesis-2d scenario at 10 kHz on\n\
                  \x20     QEMU's netduinoplus2 with -icount shift=5, compare its telemetry\n\
@@ -122,11 +135,7 @@ fn ci() -> Result<(), String> {
             CI_ENV,
         )?;
     }
-    gui::window_test(
-        &host_target_dir(&qemu::workspace_root()?)
-            .join("debug")
-            .join("viewer"),
-    )?;
+    window_tests()?;
     qemu::check_firmware(&cargo)?;
     board::check_board(&cargo)?;
     // The firmware under QEMU: the thesis-2d scenario in the emulated MCU compared frame by
@@ -134,6 +143,16 @@ fn ci() -> Result<(), String> {
     qemu::qemu(&qemu::Options::default())?;
     report_disk("at the end", None)?;
     Ok(())
+}
+
+/// The viewer's real window under Xvfb, run by the binary `cargo test --workspace` built:
+/// it closes itself after its frames, and Ctrl-C ends a `--record`ing with complete rows.
+fn window_tests() -> Result<(), String> {
+    let viewer = host_target_dir(&qemu::workspace_root()?)
+        .join("debug")
+        .join("viewer");
+    gui::window_test(&viewer)?;
+    gui::record_interrupt_test(&viewer)
 }
 
 /// The environment of CI's cargo runs: no incremental caches. A one-off build gains nothing
