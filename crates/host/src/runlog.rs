@@ -753,6 +753,40 @@ mod tests {
         assert!(parse_complete(&format!("{header}\n{row}\n"), path).is_ok());
     }
 
+    /// What reaches the file between two flushes is whole rows only: after rows worth
+    /// several [`ROWS_BUFFER`]s and no flush, the file (as a process killed now leaves it)
+    /// ends with a newline and reads back completely, and it holds the rest after the
+    /// flush. A `BufWriter` would have written its full buffers, the last one cut mid-row.
+    #[test]
+    fn a_log_reaches_its_file_in_whole_rows() {
+        let dir = std::env::temp_dir().join(format!("viewer-rows-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).expect("temp dir");
+        let path = dir.join("rows.csv");
+        let mut log = LogWriter::create(&path, Space::Planar).expect("create");
+        let session = Session::new(thesis_2d()).expect("session");
+        let mut haptic = HapticLoop::new(session, START_HIP).expect("loop");
+        let ticks = 3000;
+        for _ in 0..ticks {
+            log.write(&haptic.step()).expect("write");
+        }
+        let on_disk = std::fs::read_to_string(&path).expect("read");
+        let rows = parse_complete(&on_disk, &path)
+            .unwrap_or_else(|e| panic!("{e}"))
+            .run
+            .ticks
+            .len();
+        assert!(
+            on_disk.len() >= 2 * ROWS_BUFFER && rows < ticks,
+            "{rows} rows, {} bytes before the flush",
+            on_disk.len()
+        );
+        log.finish().expect("finish");
+        let text = std::fs::read_to_string(&path).expect("read");
+        let log = parse_complete(&text, &path).unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(log.run.ticks.len(), ticks);
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+
     /// The recorder writes the header of `sim --device` logs and one row per tick, readable
     /// by `viewer plot`'s reader; rows reach the file while it runs (the flush period is
     /// 0.5 s: polled for up to 10 s, so a loaded machine does not fail it), and all of them
