@@ -13,7 +13,7 @@
 //!   tick period and jitter) is printed.
 
 use std::path::Path;
-use std::process::Command;
+use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
 
 /// Debian packages the GUI checks need, and why.
@@ -54,33 +54,12 @@ pub(crate) fn window_test(viewer: &Path) -> Result<(), String> {
             viewer.display()
         ));
     }
-    let viewer = viewer.to_string_lossy();
-    let args = [
-        "-a",
-        "-s",
-        "-screen 0 1600x1000x24",
-        &viewer,
-        "gui",
-        "--demo",
-        "--quit-after-frames",
-        WINDOW_FRAMES,
-    ];
-    println!("\n==> xvfb-run {}", args.join(" "));
-    // winit asks for a runtime directory, which a CI shell may not have.
-    let runtime = std::env::temp_dir().join("xtask-gui-runtime");
-    std::fs::create_dir_all(&runtime)
-        .and_then(|()| {
-            use std::os::unix::fs::PermissionsExt;
-            std::fs::set_permissions(&runtime, std::fs::Permissions::from_mode(0o700))
-        })
-        .map_err(|e| format!("{}: {e}", runtime.display()))?;
     let started = Instant::now();
-    let mut child = Command::new("xvfb-run")
-        .args(args)
-        .envs(crate::CI_ENV.iter().copied())
-        .env("XDG_RUNTIME_DIR", &runtime)
-        .spawn()
-        .map_err(|e| format!("cannot start xvfb-run: {e}"))?;
+    let mut child = spawn_under_xvfb(
+        viewer,
+        &["gui", "--demo", "--quit-after-frames", WINDOW_FRAMES],
+        Stdio::inherit(),
+    )?;
     loop {
         match child.try_wait() {
             Ok(Some(status)) if status.success() => {
@@ -107,4 +86,177 @@ pub(crate) fn window_test(viewer: &Path) -> Result<(), String> {
             Err(e) => return Err(format!("waiting for xvfb-run: {e}")),
         }
     }
+}
+
+/// Starts `viewer ARGS` under Xvfb (`xvfb-run -a` picks a free display), its standard error
+/// to `stderr`. The viewer is xvfb-run's child, and xvfb-run exits with its status.
+fn spawn_under_xvfb(viewer: &Path, args: &[&str], stderr: Stdio) -> Result<Child, String> {
+    let viewer = viewer.to_string_lossy();
+    let mut all = vec!["-a", "-s", "-screen 0 1600x1000x24", &viewer];
+    all.extend(args);
+    println!("\n==> xvfb-run {}", all.join(" "));
+    // winit asks for a runtime directory, which a CI shell may not have.
+    let runtime = std::env::temp_dir().join("xtask-gui-runtime");
+    std::fs::create_dir_all(&runtime)
+        .and_then(|()| {
+            use std::os::unix::fs::PermissionsExt;
+            std::fs::set_permissions(&runtime, std::fs::Permissions::from_mode(0o700))
+        })
+        .map_err(|e| format!("{}: {e}", runtime.display()))?;
+    Command::new("xvfb-run")
+        .args(all)
+        .envs(crate::CI_ENV.iter().copied())
+        .env("XDG_RUNTIME_DIR", &runtime)
+        .stderr(stderr)
+        .spawn()
+        .map_err(|e| format!("cannot start xvfb-run: {e}"))
+}
+
+/// The process `parent` started whose command name is `name` (from `/proc/PID/stat`).
+fn child_named(parent: u32, name: &str) -> Option<u32> {
+    std::fs::read_dir("/proc").ok()?.find_map(|entry| {
+        let pid: u32 = entry.ok()?.file_name().to_str()?.parse().ok()?;
+        let stat = std::fs::read_to_string(format!("/proc/{pid}/stat")).ok()?;
+        // `PID (COMM) STATE PPID …`; COMM may hold spaces and parentheses.
+        let (head, tail) = stat.rsplit_once(") ")?;
+        let comm = head.split_once(" (")?.1;
+        let ppid: u32 = tail.split(' ').nth(1)?.parse().ok()?;
+        (ppid == parent && comm == name).then_some(pid)
+    })
+}
+
+/// Rows the recording holds before the signal is sent: a second of the 1 kHz loop.
+const RECORD_ROWS_BEFORE_SIGNAL: usize = 1000;
+
+/// Ctrl-C ends a recording cleanly: `viewer gui --demo --record run.csv` under Xvfb, sent
+/// SIGINT (with `kill`, to the viewer itself) once its run log holds
+/// [`RECORD_ROWS_BEFORE_SIGNAL`] rows, must close its window, complete the recording (it says
+/// `recorded N ticks` on standard error, which a viewer killed by the signal never does) and
+/// exit with 130; every row of the run log must be complete
+/// ([`host::runlog::parse_complete`]), and at least as many as before the signal.
+pub(crate) fn record_interrupt_test(viewer: &Path) -> Result<(), String> {
+    let dir = std::env::temp_dir().join(format!("xtask-gui-record-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).map_err(|e| format!("{}: {e}", dir.display()))?;
+    let record = dir.join("run.csv");
+    let record_arg = record.to_string_lossy().into_owned();
+    let mut child = spawn_under_xvfb(
+        viewer,
+        &["gui", "--demo", "--record", &record_arg],
+        Stdio::piped(),
+    )?;
+    // The viewer's standard error, echoed and kept.
+    let stderr = child.stderr.take();
+    let echo = std::thread::spawn(move || {
+        use std::io::BufRead;
+        let mut said = String::new();
+        for line in stderr
+            .map(std::io::BufReader::new)
+            .into_iter()
+            .flat_map(|r| r.lines().map_while(Result::ok))
+        {
+            eprintln!("{line}");
+            said.push_str(&line);
+            said.push('\n');
+        }
+        said
+    });
+    let mut viewer_pid = None;
+    let interrupted = interrupt_recording(&mut child, &record, &mut viewer_pid);
+    if child.try_wait().ok().flatten().is_none() {
+        // Failed on the way: end the viewer (xvfb-run then stops its X server) and xvfb-run.
+        if let Some(pid) = viewer_pid {
+            let _ = Command::new("kill")
+                .args(["-KILL", &pid.to_string()])
+                .status();
+        }
+        let _ = child.kill();
+        let _ = child.wait();
+    }
+    let said = echo.join().unwrap_or_default();
+    let result = interrupted.and_then(|status| check_interrupted_recording(status, &record, &said));
+    let _ = std::fs::remove_dir_all(&dir);
+    result
+}
+
+/// Waits for the recording to hold [`RECORD_ROWS_BEFORE_SIGNAL`] rows, sends the viewer
+/// SIGINT and waits for xvfb-run to exit.
+fn interrupt_recording(
+    child: &mut Child,
+    record: &Path,
+    viewer_pid: &mut Option<u32>,
+) -> Result<std::process::ExitStatus, String> {
+    let started = Instant::now();
+    let rows = || {
+        std::fs::read(record).map_or(0, |t| {
+            t.iter().filter(|&&b| b == b'\n').count().saturating_sub(1)
+        })
+    };
+    while viewer_pid.is_none() || rows() < RECORD_ROWS_BEFORE_SIGNAL {
+        if let Some(status) = child.try_wait().map_err(|e| format!("xvfb-run: {e}"))? {
+            return Err(format!("the viewer exited with {status} before the signal"));
+        }
+        if started.elapsed() > WINDOW_TIMEOUT {
+            return Err(format!(
+                "{}: {} rows after {} s, {RECORD_ROWS_BEFORE_SIGNAL} wanted",
+                record.display(),
+                rows(),
+                WINDOW_TIMEOUT.as_secs()
+            ));
+        }
+        if viewer_pid.is_none() {
+            *viewer_pid = child_named(child.id(), "viewer");
+        }
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    let pid = viewer_pid.unwrap_or_default().to_string();
+    let before = rows();
+    println!("xtask: {before} rows recorded; kill -INT {pid} (the viewer)");
+    let sent = Command::new("kill")
+        .args(["-INT", &pid])
+        .status()
+        .map_err(|e| format!("cannot run kill: {e}"))?;
+    if !sent.success() {
+        return Err(format!("kill -INT {pid} failed"));
+    }
+    let signalled = Instant::now();
+    loop {
+        if let Some(status) = child.try_wait().map_err(|e| format!("xvfb-run: {e}"))? {
+            return Ok(status);
+        }
+        if signalled.elapsed() > Duration::from_secs(60) {
+            return Err("the viewer did not exit within 60 s of SIGINT".into());
+        }
+        std::thread::sleep(Duration::from_millis(50));
+    }
+}
+
+fn check_interrupted_recording(
+    status: std::process::ExitStatus,
+    record: &Path,
+    said: &str,
+) -> Result<(), String> {
+    let text = std::fs::read_to_string(record).map_err(|e| format!("{}: {e}", record.display()))?;
+    let log = host::runlog::parse_complete(&text, record)
+        .map_err(|e| format!("the recording interrupted by SIGINT: {e}"))?;
+    let rows = log.run.ticks.len();
+    if rows < RECORD_ROWS_BEFORE_SIGNAL {
+        return Err(format!(
+            "{rows} rows after SIGINT, fewer than the {RECORD_ROWS_BEFORE_SIGNAL} before it"
+        ));
+    }
+    // xvfb-run exits with the viewer's status; a shell reports 130 for a child killed by
+    // SIGINT too, so the summary line is what tells a clean stop.
+    if !said.contains("viewer gui: recorded ") {
+        return Err(format!(
+            "the viewer did not complete its recording after SIGINT (exit {status}); it said:\n{said}"
+        ));
+    }
+    if status.code() != Some(130) {
+        return Err(format!(
+            "the viewer exited with {status} after SIGINT, not 130"
+        ));
+    }
+    println!("xtask: SIGINT closed the viewer's window: exit 130, {rows} complete rows recorded");
+    Ok(())
 }

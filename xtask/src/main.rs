@@ -42,6 +42,16 @@ fn main() -> ExitCode {
                 ExitCode::FAILURE
             }
         },
+        Some("gui") => match window_tests() {
+            Ok(()) => {
+                println!("xtask gui: done");
+                ExitCode::SUCCESS
+            }
+            Err(e) => {
+                eprintln!("xtask gui: FAILED: {e}");
+                ExitCode::FAILURE
+            }
+        },
         Some("hid") => match hid_standalone() {
             Ok(()) => {
                 println!("xtask hid: done");
@@ -69,7 +79,7 @@ fn main() -> ExitCode {
         }
         _ => {
             eprintln!(
-                "usage: cargo xtask ci | hid | qemu [--opt-level 3|s|3,s] [--session] [--serve HOST:PORT]\n\n\
+                "usage: cargo xtask ci | gui | hid | qemu [--opt-level 3|s|3,s] [--session] [--serve HOST:PORT]\n\n\
                  ci    install what is missing (rustup target {EMBEDDED_TARGET}, clippy, rustfmt),\n\
                  \x20     then: cargo fmt --check, clippy -D warnings, cargo test --workspace,\n\
                  \x20     cross-build every no_std crate for {EMBEDDED_TARGET}, and check\n\
@@ -77,6 +87,9 @@ fn main() -> ExitCode {
                  \x20     {EMBEDDED_TARGET}), build the board binary (release) and check its\n\
                  \x20     size (flash <= 128 KiB, RAM <= 32 KiB with a stack reserve), then\n\
                  \x20     `qemu` below\n\
+                 gui   the viewer's window under Xvfb (as `ci` runs it, with the viewer the\n\
+                 \x20     tests built, target/debug/viewer): it closes itself after its frames,\n\
+                 \x20     and SIGINT ends `viewer gui --record` with exit 130 and whole rows\n\
                  qemu  install qemu-system-arm when missing, build firmware/ (release, LTO) at\n\
                  \x20     each opt-level (default 3), run the thesis-2d scenario at 10 kHz on\n\
                  \x20     QEMU's netduinoplus2 with -icount shift=5, compare its telemetry\n\
@@ -148,11 +161,11 @@ fn ci() -> Result<(), String> {
             CI_ENV,
         )?;
     }
-    let root = qemu::workspace_root()?;
-    let target = host_target_dir(&root);
-    gui::window_test(&target.join("debug").join("viewer"))?;
+    window_tests()?;
     // The USB HID link end to end: the board's USB device over USB/IP, a Linux guest's
     // hidraw, the viewer and HidLink.
+    let root = qemu::workspace_root()?;
+    let target = host_target_dir(&root);
     for line in hid::run(&root, &target, &target.join("debug").join("viewer"))? {
         println!("{line}");
     }
@@ -213,6 +226,16 @@ pub(crate) fn ensure_packages(packages: &[(&str, &str)], what: &str) -> Result<(
     args.extend(&names);
     run_in(Path::new("."), "apt-get", &args, &env)
         .map_err(|e| format!("could not install {}: {e}", names.join(", ")))
+}
+
+/// The viewer's real window under Xvfb, run by the binary `cargo test --workspace` built:
+/// it closes itself after its frames, and Ctrl-C ends a `--record`ing with complete rows.
+fn window_tests() -> Result<(), String> {
+    let viewer = host_target_dir(&qemu::workspace_root()?)
+        .join("debug")
+        .join("viewer");
+    gui::window_test(&viewer)?;
+    gui::record_interrupt_test(&viewer)
 }
 
 /// The environment of CI's cargo runs: no incremental caches. A one-off build gains nothing

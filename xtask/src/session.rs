@@ -83,6 +83,9 @@ impl Drop for Qemu {
 pub(crate) struct Host<L: Link> {
     pub(crate) link: L,
     pub(crate) heartbeats: bool,
+    /// Whether [`Host::pump`] sends the hand's target (every [`TARGET_PERIOD`]); off, the
+    /// hand holds its last target and the link carries heartbeats only.
+    pub(crate) targets: bool,
     last_heartbeat: Instant,
     last_target: Instant,
     /// Telemetry received, in order.
@@ -97,7 +100,7 @@ pub(crate) struct Host<L: Link> {
     /// The last heartbeat's sequence number, and the index in `telemetry` of the first frame
     /// after its ack: the tick that stamped it.
     heartbeat_seq: Option<u16>,
-    stamp_index: Option<usize>,
+    pub(crate) stamp_index: Option<usize>,
 }
 
 impl<L: Link> Host<L> {
@@ -106,6 +109,7 @@ impl<L: Link> Host<L> {
         Host {
             link,
             heartbeats: true,
+            targets: true,
             last_heartbeat: Instant::now(),
             last_target: Instant::now(),
             telemetry: Vec::new(),
@@ -133,7 +137,7 @@ impl<L: Link> Host<L> {
                 self.stamp_index = None;
                 self.last_heartbeat = Instant::now();
             }
-            if self.last_target.elapsed() >= TARGET_PERIOD {
+            if self.targets && self.last_target.elapsed() >= TARGET_PERIOD {
                 self.link
                     .send(&Message::HandTarget {
                         target_m: target(t),
@@ -181,8 +185,11 @@ impl<L: Link> Host<L> {
         self.awaited = None;
         self.answer.take().ok_or_else(|| {
             format!(
-                "session: no answer to {:?} within {REPLY:?}",
-                m.message_type()
+                "session: no answer to {:?} (seq {seq}) within {REPLY:?} ({} telemetry frames \
+                 so far, unawaited nacks {:?})",
+                m.message_type(),
+                self.telemetry.len(),
+                self.nacks
             )
         })
     }

@@ -18,8 +18,8 @@ use tracker::{Chain, ChainTracker, Object as TrackedObject, Shell, ShellTracker}
 use device::controller::{Controller, ControllerError};
 
 use crate::sim::{
-    DeviceHand, DeviceRun, HipSamples, Run, SimError, Trajectory, drive_device, ready_controller,
-    validate, validate_device,
+    DeviceHand, DeviceRun, HipSamples, Proceed, Run, SimError, Trajectory, drive_device,
+    ready_controller, validate, validate_device,
 };
 use crate::tick::{Tick, device_tick, point, render_tick};
 
@@ -465,12 +465,13 @@ impl Views for ShellViews {
 /// object's current shape; its force, reversed, loads the object at the CP; the object steps
 /// every `⌊rate / DYNAMICS_RATE_HZ⌋` ticks (at least every tick) under the mean of those
 /// ticks' loads; the ticks record the object's displacement at the CP ([`Tick::deform`]).
-pub fn run(
+/// `progress` may end the run after a tick ([`Proceed`]).
+pub fn run<P: Proceed>(
     scene: &Scene,
     index: usize,
     trajectory: &Trajectory,
     rate_hz: f64,
-    progress: impl FnMut(usize, usize),
+    progress: impl FnMut(usize, usize) -> P,
 ) -> Result<Run, DeformError> {
     let n = validate(scene, index, trajectory, rate_hz)?;
     let deformer = Deformer::new(scene, index)?;
@@ -478,10 +479,10 @@ pub fn run(
     let material = object.material().friction_material();
     let ticks = match trajectory.space() {
         Space::Planar => {
-            simulate::<ChainViews>(deformer, material, trajectory, rate_hz, n, progress)?
+            simulate::<ChainViews, P>(deformer, material, trajectory, rate_hz, n, progress)?
         }
         Space::Spatial => {
-            simulate::<ShellViews>(deformer, material, trajectory, rate_hz, n, progress)?
+            simulate::<ShellViews, P>(deformer, material, trajectory, rate_hz, n, progress)?
         }
     };
     Ok(Run {
@@ -641,13 +642,13 @@ pub fn ticks_per_step(rate_hz: f64) -> usize {
     ((rate_hz / DYNAMICS_RATE_HZ).floor() as usize).max(1)
 }
 
-fn simulate<V: Views>(
+fn simulate<V: Views, P: Proceed>(
     mut deformer: Deformer,
     material: FrictionMaterial,
     trajectory: &Trajectory,
     rate_hz: f64,
     n: usize,
-    mut progress: impl FnMut(usize, usize),
+    mut progress: impl FnMut(usize, usize) -> P,
 ) -> Result<Vec<Tick>, DeformError> {
     let index = deformer.index();
     let period_s = (1.0 / rate_hz) as f32;
@@ -673,7 +674,9 @@ fn simulate<V: Views>(
             tick.deform = Some(deformer.feed(&tick));
             ticks.push(tick);
             i += 1;
-            progress(i, n);
+            if !progress(i, n).proceed() {
+                return Ok(ticks);
+            }
         }
         deformer.step(dt_s)?;
         let next = deformer.shape()?;
@@ -750,14 +753,14 @@ pub(crate) fn carry_from(
 /// (the controller's rendering of it, the handle's true HIP) and stepped every
 /// `⌊rate / DYNAMICS_RATE_HZ⌋` ticks, the controller moved onto each new shape between two
 /// ticks ([`Controller::reshape`]), as a board does with the control-point updates a host
-/// sends.
-pub fn run_device(
+/// sends. `progress` may end the run after a tick ([`Proceed`]).
+pub fn run_device<P: Proceed>(
     scene: &Scene,
     index: usize,
     trajectory: &Trajectory,
     rate_hz: f64,
     hand: impl Into<DeviceHand>,
-    progress: impl FnMut(usize, usize),
+    progress: impl FnMut(usize, usize) -> P,
 ) -> Result<DeviceRun, DeformError> {
     let hand: DeviceHand = hand.into();
     let n = validate_device(scene, index, trajectory, rate_hz)?;

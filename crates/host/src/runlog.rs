@@ -1,13 +1,14 @@
 //! The run-log format, in one place: one CSV row per tick with the tick's internals. `viewer
 //! sim` writes a whole [`Run`] ([`Run::write_csv`]); the app records its loops while they run
 //! ([`Recorder`], fed by the loops through a bounded channel, flushed every
-//! [`FLUSH_PERIOD`]); `viewer plot` and the app's replay read a log back ([`read`]) into a
+//! [`FLUSH_PERIOD`], whole rows only, so a file cut short by a killed process never ends
+//! mid-row); `viewer plot` and the app's replay read a log back ([`read`]) into a
 //! [`Run`] whose ticks carry every logged column. What the log does not hold (velocities,
 //! normals, tangents, CP and GO parameters, the feature) is zero; [`RunLog::has_parameters`]
 //! is false.
 
 use std::fs::File;
-use std::io::{self, BufWriter, Write};
+use std::io::{self, Write};
 use std::path::{Path, PathBuf};
 use std::sync::mpsc::{self, Receiver, SyncSender};
 use std::thread::JoinHandle;
@@ -61,6 +62,12 @@ pub enum RunLogError {
         /// What is wrong.
         message: String,
     },
+    /// The text does not end with a newline: its last row may have been cut.
+    #[error("{}: the last row has no newline (cut short?)", path.display())]
+    Unterminated {
+        /// The file.
+        path: PathBuf,
+    },
     /// No rows.
     #[error("{}: the run log has no rows", path.display())]
     Empty {
@@ -76,6 +83,19 @@ pub fn read(path: &Path) -> Result<RunLog, RunLogError> {
         error,
     })?;
     parse(&text, path)
+}
+
+/// [`parse`], and the text ends with a newline: a run log a writer finished, every row
+/// complete, not one cut where a killed process stopped writing (a row cut inside its last
+/// number would still parse). The tests that interrupt `viewer sim`, `gui --record` and their
+/// like check their files with this.
+pub fn parse_complete(text: &str, path: &Path) -> Result<RunLog, RunLogError> {
+    if !text.ends_with('\n') {
+        return Err(RunLogError::Unterminated {
+            path: path.to_owned(),
+        });
+    }
+    parse(text, path)
 }
 
 /// Parses a run log's text; errors name `path` and the line.
@@ -537,9 +557,17 @@ impl Recorder {
     }
 }
 
-/// One run log being written by the [`Recorder`].
+/// Bytes of rows a [`LogWriter`] gathers before it writes them to its file.
+const ROWS_BUFFER: usize = 64 * 1024;
+
+/// One run log being written by the [`Recorder`], whole rows at a time: rows gather in
+/// `rows` and reach the file together, only ever at a row boundary (when [`ROWS_BUFFER`]
+/// bytes have gathered, every [`FLUSH_PERIOD`], and at the end). A `BufWriter` would write
+/// whenever its buffer fills, mid-row, and a process killed before its next flush left the
+/// log's last row cut.
 struct LogWriter {
-    out: BufWriter<File>,
+    file: File,
+    rows: Vec<u8>,
     space: Space,
     /// The time column of the last row written (s), and what is added to the loop's time.
     last_t_s: Option<f64>,
@@ -558,15 +586,16 @@ impl LogWriter {
     /// Creates `path` with the header of a log of `space` (the planar one with the device's
     /// columns: the planar loop is the device's).
     fn create(path: &Path, space: Space) -> io::Result<Self> {
-        let mut out = BufWriter::new(File::create(path)?);
-        write_csv_header(&mut out, space, Self::columns(space))?;
-        out.flush()?;
-        Ok(LogWriter {
-            out,
+        let mut log = LogWriter {
+            file: File::create(path)?,
+            rows: Vec::with_capacity(ROWS_BUFFER + 1024),
             space,
             last_t_s: None,
             offset_s: 0.0,
-        })
+        };
+        write_csv_header(&mut log.rows, space, Self::columns(space))?;
+        log.flush()?;
+        Ok(log)
     }
 
     /// Writes `tick`, its time continued past the last row when the loop restarted.
@@ -579,15 +608,27 @@ impl LogWriter {
             t_s = last + 1.0 / RATE_HZ;
         }
         self.last_t_s = Some(t_s);
-        Tick { t_s, ..*tick }.write_csv_row(&mut self.out, self.space, Self::columns(self.space))
+        Tick { t_s, ..*tick }.write_csv_row(
+            &mut self.rows,
+            self.space,
+            Self::columns(self.space),
+        )?;
+        if self.rows.len() >= ROWS_BUFFER {
+            self.flush()?;
+        }
+        Ok(())
+    }
+
+    /// Writes the rows gathered so far to the file, in one piece.
+    fn flush(&mut self) -> io::Result<()> {
+        self.file.write_all(&self.rows)?;
+        self.rows.clear();
+        Ok(())
     }
 
     fn finish(mut self) -> io::Result<()> {
-        self.out.flush()?;
-        self.out
-            .into_inner()
-            .map_err(|e| e.into_error())?
-            .sync_all()
+        self.flush()?;
+        self.file.sync_all()
     }
 }
 
@@ -618,9 +659,9 @@ fn record(
             Err(mpsc::RecvTimeoutError::Disconnected) => break,
         }
         if flushed.elapsed() >= FLUSH_PERIOD {
-            planar.out.flush()?;
+            planar.flush()?;
             if let Some(log) = &mut spatial {
-                log.out.flush()?;
+                log.flush()?;
             }
             flushed = Instant::now();
         }
@@ -700,6 +741,50 @@ mod tests {
         );
         let e = parse(&format!("{header}\n"), path).expect_err("empty");
         assert!(e.to_string().contains("no rows"), "{e}");
+        // Cut inside the last number: it parses, but is not complete.
+        let row = "0,0.0,0.1,0.0,0.0,0.0,0.0,-1,free,none,0.0,0.0,0.0,0.0,0.0,0.0,0.25";
+        let cut = format!("{header}\n{}", &row[..row.len() - 1]);
+        assert!(parse(&cut, path).is_ok());
+        let e = parse_complete(&cut, path).expect_err("cut");
+        assert_eq!(
+            e.to_string(),
+            "r.csv: the last row has no newline (cut short?)"
+        );
+        assert!(parse_complete(&format!("{header}\n{row}\n"), path).is_ok());
+    }
+
+    /// What reaches the file between two flushes is whole rows only: after rows worth
+    /// several [`ROWS_BUFFER`]s and no flush, the file (as a process killed now leaves it)
+    /// ends with a newline and reads back completely, and it holds the rest after the
+    /// flush. A `BufWriter` would have written its full buffers, the last one cut mid-row.
+    #[test]
+    fn a_log_reaches_its_file_in_whole_rows() {
+        let dir = std::env::temp_dir().join(format!("viewer-rows-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).expect("temp dir");
+        let path = dir.join("rows.csv");
+        let mut log = LogWriter::create(&path, Space::Planar).expect("create");
+        let session = Session::new(thesis_2d()).expect("session");
+        let mut haptic = HapticLoop::new(session, START_HIP).expect("loop");
+        let ticks = 3000;
+        for _ in 0..ticks {
+            log.write(&haptic.step()).expect("write");
+        }
+        let on_disk = std::fs::read_to_string(&path).expect("read");
+        let rows = parse_complete(&on_disk, &path)
+            .unwrap_or_else(|e| panic!("{e}"))
+            .run
+            .ticks
+            .len();
+        assert!(
+            on_disk.len() >= 2 * ROWS_BUFFER && rows < ticks,
+            "{rows} rows, {} bytes before the flush",
+            on_disk.len()
+        );
+        log.finish().expect("finish");
+        let text = std::fs::read_to_string(&path).expect("read");
+        let log = parse_complete(&text, &path).unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(log.run.ticks.len(), ticks);
+        let _ = std::fs::remove_dir_all(&dir);
     }
 
     /// The recorder writes the header of `sim --device` logs and one row per tick, readable

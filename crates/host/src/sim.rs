@@ -17,6 +17,8 @@
 //! [`Run::write_csv`] writes the run log: one row per tick, columns [`csv_header`](crate::runlog::csv_header), followed
 //! by [`DEVICE_COLUMNS`](crate::runlog::DEVICE_COLUMNS) for device runs.
 
+use std::ops::ControlFlow;
+
 use device::controller::{Controller, ControllerError};
 use device::kinematics::KinematicsError;
 use device::protocol::Telemetry;
@@ -39,6 +41,27 @@ pub const DEFAULT_RATE_HZ: f64 = 1000.0;
 
 /// Largest number of ticks of one run (about 2 GB of records; 2.8 h at 1 kHz).
 pub const MAX_TICKS: usize = 10_000_000;
+
+/// What a run's `progress(done, total)` returns: `()` to run on to the end, or a
+/// [`ControlFlow`] whose `Break` ends the run after the tick just done (`viewer sim`
+/// interrupted by Ctrl-C keeps the ticks run so far). The check is the caller's, between two
+/// ticks, not inside one.
+pub trait Proceed {
+    /// Whether the run goes on.
+    fn proceed(self) -> bool;
+}
+
+impl Proceed for () {
+    fn proceed(self) -> bool {
+        true
+    }
+}
+
+impl Proceed for ControlFlow<()> {
+    fn proceed(self) -> bool {
+        self.is_continue()
+    }
+}
 
 /// A whole simulation.
 #[derive(Clone, Debug, PartialEq)]
@@ -323,13 +346,14 @@ pub fn check_rate(rate_hz: f64) -> Result<(), SimError> {
 }
 
 /// Runs object `object` of `scene` with its material along `trajectory` at `rate_hz`.
-/// `progress(done, total)` is called after every tick.
-pub fn run(
+/// `progress(done, total)` is called after every tick, and may end the run there
+/// ([`Proceed`]).
+pub fn run<P: Proceed>(
     scene: &Scene,
     object: usize,
     trajectory: &Trajectory,
     rate_hz: f64,
-    progress: impl FnMut(usize, usize),
+    progress: impl FnMut(usize, usize) -> P,
 ) -> Result<Run, SimError> {
     let n = validate(scene, object, trajectory, rate_hz)?;
     let o = &scene.objects()[object];
@@ -399,13 +423,13 @@ fn prescribed(
 /// The tick loop, once for chains and shells: `hip_at(i, last)` gives tick `i`'s time and
 /// HIP from the previous tick's record (`None` at tick 0), or ends the run; the HIP velocity
 /// is the backward difference of the HIPs (zero at the first tick). At most [`MAX_TICKS`].
-fn simulate<O: TrackedObject>(
+fn simulate<O: TrackedObject, P: Proceed>(
     object: &O,
     material: FrictionMaterial,
     rate_hz: f64,
     expected: usize,
     mut hip_at: impl FnMut(usize, Option<&Tick>) -> Option<(f64, [f64; 3])>,
-    mut progress: impl FnMut(usize, usize),
+    mut progress: impl FnMut(usize, usize) -> P,
 ) -> Vec<Tick> {
     let period_s = (1.0 / rate_hz) as f32;
     let mut ticks: Vec<Tick> = Vec::with_capacity(expected);
@@ -430,7 +454,9 @@ fn simulate<O: TrackedObject>(
             point::<O::P>(velocity),
             period_s,
         ));
-        progress(ticks.len(), expected);
+        if !progress(ticks.len(), expected).proceed() {
+            break;
+        }
         next = if ticks.len() < MAX_TICKS {
             hip_at(ticks.len(), ticks.last())
         } else {
@@ -513,12 +539,12 @@ pub(crate) fn ready_controller<'a>(
 /// started where the trajectory starts and held by `hand`, whose target follows the
 /// trajectory; each tick is `tick(arm, t_s, now_us, target)` (the device clock in whole
 /// microseconds, as a board's timer), its frames folded by the board's decimator.
-pub(crate) fn drive_device<E: From<SimError>>(
+pub(crate) fn drive_device<E: From<SimError>, P: Proceed>(
     trajectory: &Trajectory,
     rate_hz: f64,
     hand: DeviceHand,
     n: usize,
-    mut progress: impl FnMut(usize, usize),
+    mut progress: impl FnMut(usize, usize) -> P,
     mut tick: impl FnMut(&mut SimulatedPantograph, f64, u64, Vec2) -> Result<(Tick, Telemetry), E>,
 ) -> Result<(Vec<Tick>, Vec<Telemetry>), E> {
     let start = trajectory.at(trajectory.start_s());
@@ -538,7 +564,9 @@ pub(crate) fn drive_device<E: From<SimError>>(
         let (record, frame) = tick(&mut arm, t_s, now_us, target)?;
         ticks.push(record);
         telemetry.extend(decimator.push(&frame).copied());
-        progress(i + 1, n);
+        if !progress(i + 1, n).proceed() {
+            break;
+        }
     }
     Ok((ticks, telemetry))
 }
@@ -646,14 +674,15 @@ fn with_chain<R>(
 /// start), and the simulated pantograph then moves for one period under the controller's
 /// currents and the hand. The ticks' HIP and HIP velocity are the handle's
 /// true ones (not the target's), `force` the force after the safety layer, the other
-/// rendering fields the renderer's. `progress(done, total)` is called after every tick.
-pub fn run_device(
+/// rendering fields the renderer's. `progress(done, total)` is called after every tick, and
+/// may end the run there ([`Proceed`]).
+pub fn run_device<P: Proceed>(
     scene: &Scene,
     object: usize,
     trajectory: &Trajectory,
     rate_hz: f64,
     hand: impl Into<DeviceHand>,
-    progress: impl FnMut(usize, usize),
+    progress: impl FnMut(usize, usize) -> P,
 ) -> Result<DeviceRun, SimError> {
     let hand: DeviceHand = hand.into();
     let n = validate_device(scene, object, trajectory, rate_hz)?;

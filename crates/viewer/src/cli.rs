@@ -19,6 +19,8 @@ Exit status:
   1  a bad input line (eval), or the output could not be written
   2  bad command line, unreadable or invalid scene or trajectory, bad --object/--patch
      index
+  130, 143  sim, gui and device monitor: stopped by Ctrl-C (SIGINT) or SIGTERM, their
+     output written up to there in whole rows (a second signal ends them at once)
 
 Without a subcommand the desktop app starts (`viewer gui` on the bundled thesis-2d scene).";
 
@@ -414,8 +416,10 @@ and the forces switch. If the link drops, the app says so and the device's watch
 forces off.
 
 --record writes one run-log row per tick with the columns of `viewer sim --device` (see \
-`viewer sim --help`), flushed at least every 0.5 s and completed when the window closes; \
-`viewer plot` draws it. The 3-D view's ticks go to a second log beside it, RUN.3d.csv, with \
+`viewer sim --help`), whole rows only, flushed at least every 0.5 s and completed when the \
+window closes; `viewer plot` draws it. Ctrl-C (SIGINT) or SIGTERM closes the window as a \
+click would, so the recording is completed (a second signal ends the app at once; the rows \
+flushed by then are whole). The 3-D view's ticks go to a second log beside it, RUN.3d.csv, with \
 the columns of `viewer sim` on a scene of surfaces. Each log's time runs on when a loop \
 restarts (another scene, another device), so a recording stays one run at one rate.
 
@@ -425,6 +429,7 @@ loop's tick period and jitter, and the telemetry frames dropped.
 Exit status:
   0  the window was closed
   1  the window could not be opened, or the recording could not be written
+  130  Ctrl-C (SIGINT) closed the window (143: SIGTERM); the recording is complete
   2  bad command line (an unknown --device), unreadable or invalid scene, or a --record
      file that cannot be created
 
@@ -628,15 +633,18 @@ Output, one line each:
                                      a gap in the device's sequence numbers
   faults: <list>                     the latched faults changed (`-` when none)
   nack: frame <s>: <reason>          the device rejected a frame
-A last line `received <n> telemetry frames, dropped <m>` ends the run.
+A last line `received <n> telemetry frames, dropped <m>` ends the run, also one that Ctrl-C
+(SIGINT) or SIGTERM stops. Each line is written whole, so output cut short never ends
+mid-line.
 
 The monitor is the host: it sends a heartbeat every 50 ms, which keeps the device's watchdog
 fed. With --sim the simulated pantograph runs in real time (calibrated at once, forces off, no
 scene) and its virtual hand moves on a slow 1 cm circle.
 
 Exit status:
-  0  ran for --seconds (or until interrupted)
+  0  ran for --seconds
   1  the link failed during the run, or the output could not be written
+  130  stopped by Ctrl-C (SIGINT); 143 by SIGTERM (a second signal ends it at once)
   2  bad command line, or the device could not be opened or did not answer the hello
 
 Examples:
@@ -839,11 +847,17 @@ the joint torques against time (a third panel).
 The run log and the plot are written to temporary files beside them and renamed into place
 only when both are complete: a run that fails leaves existing files as they were.
 
+Ctrl-C (SIGINT) or SIGTERM stops the run after the tick it is on: the ticks run so far are
+written as above (the run log in whole rows, and the plot), a line on standard error says so,
+and the exit status is 130 (SIGINT) or 143 (SIGTERM). A second signal ends it at once, leaving
+existing files as they were.
+
 Progress goes to standard error, every 10%.
 
 Exit status:
   0  run log (and plot) written
   1  the run log or the plot could not be written
+  130  stopped by Ctrl-C (SIGINT), the ticks so far written; 143 by SIGTERM
   2  bad command line (--rate-hz must be finite and > 0, with it and its period within f32,
      and give at least 2 ticks), unreadable or invalid scene or
      trajectory (the message names the file and line), bad --object, or a trajectory whose

@@ -10,6 +10,8 @@ use device::protocol::{Frame, Message, Telemetry};
 use device::safety::Faults;
 use friction::Mode;
 use host::devices::{Found, HEARTBEAT_PERIOD};
+
+use crate::interrupt::Interrupt;
 use nurbs::Vec2;
 
 /// Writes the table of `device list`, or `no devices found`.
@@ -80,15 +82,24 @@ fn telemetry_line(seq: u16, t: &Telemetry) -> String {
     )
 }
 
-/// Monitors `link` for `duration` (forever when `None`): writes every `every`-th telemetry
-/// frame as a line, a line for every gap in the sequence numbers, every change of the fault
-/// flags, and nacks; sends a heartbeat every [`HEARTBEAT_PERIOD`] (the monitor is the host,
-/// so it keeps the watchdog fed). `hand` is called with the elapsed time and may move the
-/// simulated hand.
+/// Writes `line` and its newline to `out` in one write, so that output cut short (the process
+/// killed) never ends mid-line: through the standard output's line buffer, or a file.
+fn write_line(out: &mut impl Write, line: std::fmt::Arguments<'_>) -> std::io::Result<()> {
+    let mut text = line.to_string();
+    text.push('\n');
+    out.write_all(text.as_bytes())
+}
+
+/// Monitors `link` for `duration` (forever when `None`) or until `interrupt` is raised
+/// (Ctrl-C): writes every `every`-th telemetry frame as a line, a line for every gap in the
+/// sequence numbers, every change of the fault flags, and nacks, each line whole; sends a
+/// heartbeat every [`HEARTBEAT_PERIOD`] (the monitor is the host, so it keeps the watchdog
+/// fed). `hand` is called with the elapsed time and may move the simulated hand.
 pub fn monitor(
     link: &mut dyn Link,
     duration: Option<Duration>,
     every: u64,
+    interrupt: &Interrupt,
     mut hand: impl FnMut(Duration) -> Result<(), LinkError>,
     mut out: impl Write,
 ) -> anyhow::Result<MonitorSummary> {
@@ -101,7 +112,7 @@ pub fn monitor(
     loop {
         let now = Instant::now();
         let elapsed = now - start;
-        if duration.is_some_and(|d| elapsed >= d) {
+        if duration.is_some_and(|d| elapsed >= d) || interrupt.requested() {
             break;
         }
         if now >= next_heartbeat {
@@ -114,7 +125,7 @@ pub fn monitor(
             Ok(Some(frame)) => frame,
             Ok(None) => continue,
             Err(LinkError::Frame(e)) => {
-                writeln!(out, "bad frame: {}", e.code)?;
+                write_line(&mut out, format_args!("bad frame: {}", e.code))?;
                 continue;
             }
             Err(e) => return Err(e.into()),
@@ -123,30 +134,36 @@ pub fn monitor(
         let restarts = gaps.restarts;
         let gap = gaps.observe(seq);
         if gaps.restarts > restarts {
-            writeln!(
-                out,
-                "the device restarted its frame numbering at seq {seq} (a reset?); nothing counted as dropped"
+            write_line(
+                &mut out,
+                format_args!(
+                    "the device restarted its frame numbering at seq {seq} (a reset?); nothing counted as dropped"
+                ),
             )?;
         }
         if gap > 0 {
-            writeln!(
-                out,
-                "dropped {gap} frame(s) before seq {seq} (total {})",
-                gaps.dropped
+            write_line(
+                &mut out,
+                format_args!(
+                    "dropped {gap} frame(s) before seq {seq} (total {})",
+                    gaps.dropped
+                ),
             )?;
         }
         match message {
             Message::Telemetry(t) => {
                 if last_faults != Some(t.faults) {
-                    writeln!(out, "faults: {}", faults_text(t.faults))?;
+                    write_line(&mut out, format_args!("faults: {}", faults_text(t.faults)))?;
                     last_faults = Some(t.faults);
                 }
                 if summary.telemetry % every == 0 {
-                    writeln!(out, "{}", telemetry_line(seq, &t))?;
+                    write_line(&mut out, format_args!("{}", telemetry_line(seq, &t)))?;
                 }
                 summary.telemetry += 1;
             }
-            Message::Nack(n) => writeln!(out, "nack: frame {}: {}", n.seq, n.code)?,
+            Message::Nack(n) => {
+                write_line(&mut out, format_args!("nack: frame {}: {}", n.seq, n.code))?
+            }
             _ => {}
         }
     }
@@ -196,6 +213,7 @@ mod tests {
             &mut Replay(frames),
             Some(Duration::from_millis(50)),
             1,
+            &Interrupt::default(),
             |_| Ok(()),
             &mut out,
         )

@@ -9,6 +9,7 @@ pub mod eval;
 pub mod experiment_plot;
 #[cfg(feature = "gui")]
 pub mod gui;
+pub mod interrupt;
 pub mod output;
 pub mod plot;
 pub mod stribeck;

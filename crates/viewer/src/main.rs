@@ -14,6 +14,7 @@ use viewer::cli::{
 };
 use viewer::closest;
 use viewer::eval::{self, EvalError};
+use viewer::interrupt::Interrupt;
 use viewer::output::AtomicFile;
 use viewer::plot;
 
@@ -512,11 +513,14 @@ fn gui_command(args: &GuiArgs) -> ExitCode {
         device: args.device.0.clone(),
         demo: args.demo,
         mesh: args.mesh.clone(),
+        // Ctrl-C or SIGTERM closes the window as a click would; the recording is completed.
+        interrupt: Some(interrupt_or_default("viewer gui")),
     };
+    let interrupt = options.interrupt.clone().unwrap_or_default();
     match viewer::gui::run(options) {
         Ok(summary) => {
             eprintln!("viewer gui: {summary}");
-            ExitCode::SUCCESS
+            interrupted_or_success(&interrupt)
         }
         Err(e) => fail(&e, EXIT_BAD_INPUT),
     }
@@ -625,12 +629,19 @@ fn sim_command(args: &SimArgs) -> ExitCode {
         Some(Ok(f)) => Some(f),
         Some(Err(e)) => return fail(&e, EXIT_BAD_INPUT),
     };
+    // Ctrl-C or SIGTERM ends the run after the tick it is on; the ticks so far are written.
+    let interrupt = interrupt_or_default("sim");
     let mut shown = 0;
     let progress = |done: usize, total: usize| {
         let tenths = done * 10 / total.max(1);
         if tenths > shown {
             shown = tenths;
             eprintln!("sim: {:>3}% ({done}/{total} ticks)", tenths * 10);
+        }
+        if interrupt.requested() {
+            std::ops::ControlFlow::Break(())
+        } else {
+            std::ops::ControlFlow::Continue(())
         }
     };
     let rate_hz = args.rate_hz();
@@ -677,6 +688,13 @@ fn sim_command(args: &SimArgs) -> ExitCode {
         Ok(run) => run,
         Err(e) => return fail(&e, EXIT_BAD_SETUP),
     };
+    if let Some(signal) = interrupt.signal_name() {
+        eprintln!(
+            "sim: interrupted by {signal} after {} ticks (t = {} s); writing them",
+            run.ticks.len(),
+            run.ticks.last().map_or(0.0, |k| k.t_s)
+        );
+    }
     if let Err(e) = out
         .file()
         .and_then(|f| run.write_csv(f))
@@ -700,9 +718,28 @@ fn sim_command(args: &SimArgs) -> ExitCode {
             _ => Ok(()),
         });
     match committed {
-        Ok(()) => ExitCode::SUCCESS,
+        Ok(()) => interrupted_or_success(&interrupt),
         Err(e) => fail(&e, EXIT_BAD_INPUT),
     }
+}
+
+/// [`Interrupt::install`], or, if the handlers cannot be installed, a flag that never rises
+/// (Ctrl-C then ends `command` as it would without them).
+fn interrupt_or_default(command: &str) -> Interrupt {
+    Interrupt::install().unwrap_or_else(|e| {
+        eprintln!(
+            "{command}: warning: cannot handle Ctrl-C and SIGTERM ({e}); they end it at once"
+        );
+        Interrupt::default()
+    })
+}
+
+/// The exit status of a command that finished its output: 128 + the signal's number if a
+/// signal stopped it (130 SIGINT, 143 SIGTERM), else 0.
+fn interrupted_or_success(interrupt: &Interrupt) -> ExitCode {
+    interrupt
+        .exit_code()
+        .map_or(ExitCode::SUCCESS, ExitCode::from)
 }
 
 /// The selected patch and a label naming it: `object 1 ("circle"), patch 0 (planar curve)`.
@@ -829,21 +866,29 @@ fn device_monitor(args: &viewer::cli::MonitorArgs) -> ExitCode {
         None => Ok(()),
     };
     let duration = args.seconds;
+    let interrupt = interrupt_or_default("device monitor");
     let mut out = io::stdout().lock();
     match devices::monitor(
         opened.link.as_mut(),
         duration,
         args.every,
+        &interrupt,
         move_hand,
         &mut out,
     ) {
         Ok(summary) => {
-            let _ = writeln!(
-                out,
-                "received {} telemetry frames, dropped {}",
-                summary.telemetry, summary.dropped
+            let _ = out.write_all(
+                format!(
+                    "received {} telemetry frames, dropped {}\n",
+                    summary.telemetry, summary.dropped
+                )
+                .as_bytes(),
             );
-            ExitCode::SUCCESS
+            let _ = out.flush();
+            if let Some(signal) = interrupt.signal_name() {
+                eprintln!("device monitor: interrupted by {signal}");
+            }
+            interrupted_or_success(&interrupt)
         }
         // The reader went away (`| head`): not an error of ours.
         Err(e)

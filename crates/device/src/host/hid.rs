@@ -102,7 +102,10 @@ impl Link for HidLink {
         let deadline = super::deadline(timeout);
         loop {
             let left = deadline.saturating_duration_since(Instant::now());
-            let ms = i32::try_from(left.as_millis()).unwrap_or(i32::MAX);
+            // Whole milliseconds, rounded up: rounding down would poll with a zero timeout
+            // for the deadline's last millisecond, a busy loop that takes a core from
+            // whatever should be sending the report.
+            let ms = i32::try_from(left.as_micros().div_ceil(1000)).unwrap_or(i32::MAX);
             let mut buf = [0u8; MAX_FRAME];
             let n = self.device.read_timeout(&mut buf, ms)?;
             if n > 0 {

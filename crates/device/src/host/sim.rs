@@ -469,8 +469,10 @@ impl SimDevice {
     }
 }
 
-/// Sends one frame to the host. Paced, a full queue drops the frame (its sequence number is
-/// spent, so the host sees the gap); unpaced, it waits for the host.
+/// Sends one frame to the host. Paced, a full queue drops a telemetry frame (its sequence
+/// number is spent, so the host sees the gap), as a board drops telemetry its link cannot
+/// carry; replies (acks, nacks, status, hello) wait for room, as a board's reply queue is
+/// served before its telemetry. Unpaced, every frame waits for the host.
 fn emit(
     paced: bool,
     frames: &SyncSender<[u8; MAX_FRAME]>,
@@ -478,7 +480,7 @@ fn emit(
     message: &Message,
 ) -> Result<(), ()> {
     let (report, _, _) = seq.encode(message);
-    if paced {
+    if paced && matches!(message, Message::Telemetry(_)) {
         match frames.try_send(report) {
             Ok(()) | Err(mpsc::TrySendError::Full(_)) => Ok(()),
             Err(mpsc::TrySendError::Disconnected(_)) => Err(()),
@@ -491,13 +493,20 @@ fn emit(
 /// The simulated device's frames as the reports of the board's USB HID device
 /// ([`crate::usb::HidPort`]) run on the host, over USB/IP in `cargo xtask hid`: host reports
 /// go to the device's thread as a board's OUT reports go to its protocol task, and the
-/// device's frames (acks, nacks, status, telemetry, numbered by the device) come out one per
-/// IN report. Feature `usb`.
+/// device's frames come out one per IN report as a board sends them (`firmware::usb::Usb`):
+/// a reply (ack, nack, status, hello) before any telemetry, telemetry in a queue of
+/// [`SimReports::FRAMES`] frames that drops the newest frame when full (the host sees the
+/// missing millisecond in the frames' device time), every report numbered with the device's
+/// sequence when it is sent. Feature `usb`.
 #[cfg(feature = "usb")]
 #[derive(Debug)]
 pub struct SimReports {
     link: SimLink,
-    next: Option<[u8; MAX_FRAME]>,
+    replies: std::collections::VecDeque<Message>,
+    frames: std::collections::VecDeque<Message>,
+    seq: u16,
+    sent: u64,
+    dropped: u64,
 }
 
 #[cfg(feature = "usb")]
@@ -506,16 +515,54 @@ impl SimLink {
     pub fn into_reports(self) -> SimReports {
         SimReports {
             link: self,
-            next: None,
+            replies: std::collections::VecDeque::new(),
+            frames: std::collections::VecDeque::new(),
+            seq: 0,
+            sent: 0,
+            dropped: 0,
         }
     }
 }
 
 #[cfg(feature = "usb")]
 impl SimReports {
+    /// Telemetry frames waiting for the IN endpoint, as the board's queue
+    /// (`firmware::protocol_task::FRAMES`).
+    pub const FRAMES: usize = 4;
+
     /// Whether the device's thread still runs (it stops when it cannot send).
     pub fn running(&self) -> bool {
         self.link.thread.as_ref().is_some_and(|t| !t.is_finished())
+    }
+
+    /// Reports sent so far.
+    pub fn sent_count(&self) -> u64 {
+        self.sent
+    }
+
+    /// Telemetry frames dropped so far because the queue was full.
+    pub fn dropped_count(&self) -> u64 {
+        self.dropped
+    }
+
+    /// Moves what the device's thread sent into the reply and telemetry queues.
+    fn collect(&mut self) {
+        let Some(from_device) = &self.link.from_device else {
+            return;
+        };
+        while let Ok(report) = from_device.try_recv() {
+            // The device's own frames: they decode.
+            let Ok(frame) = Frame::decode(&report) else {
+                continue;
+            };
+            match frame.message {
+                Message::Telemetry(_) if self.frames.len() >= Self::FRAMES => {
+                    self.dropped += 1;
+                }
+                m @ Message::Telemetry(_) => self.frames.push_back(m),
+                m => self.replies.push_back(m),
+            }
+        }
     }
 }
 
@@ -531,20 +578,28 @@ impl crate::usb::ReportPump for SimReports {
     }
 
     fn next_report(&mut self) -> Option<[u8; MAX_FRAME]> {
-        if self.next.is_none() {
-            self.next = self.link.from_device.as_ref()?.try_recv().ok();
-        }
-        self.next
+        self.collect();
+        let message = *self.replies.front().or(self.frames.front())?;
+        Some(
+            Frame {
+                seq: self.seq,
+                message,
+            }
+            .to_report()
+            .0,
+        )
     }
 
     fn sent(&mut self) {
-        self.next = None;
+        if self.replies.pop_front().is_none() {
+            self.frames.pop_front();
+        }
+        self.seq = self.seq.wrapping_add(1);
+        self.sent += 1;
     }
 
     fn drop_frames(&mut self) {
-        self.next = None;
-        if let Some(from_device) = &self.link.from_device {
-            while from_device.try_recv().is_ok() {}
-        }
+        self.collect();
+        self.frames.clear();
     }
 }

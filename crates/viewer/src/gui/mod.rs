@@ -24,6 +24,7 @@ use std::time::{Duration, Instant};
 
 use eframe::egui;
 
+use crate::interrupt::Interrupt;
 use host::runlog::Recorder;
 use host::trajectory::Trajectory;
 use panels::{
@@ -221,6 +222,9 @@ pub struct GuiOptions {
     pub device: Option<host::devices::Target>,
     /// An OBJ mesh to open instead of the scene.
     pub mesh: Option<PathBuf>,
+    /// Close the window when this rises (Ctrl-C or SIGTERM: [`Interrupt::install`]), as if
+    /// the user had closed it: the loops stop and the recording is completed.
+    pub interrupt: Option<Interrupt>,
 }
 
 /// What a session measured, printed when the window closes.
@@ -314,6 +318,11 @@ impl eframe::App for ViewerApp {
             .options
             .quit_after_frames
             .is_some_and(|n| self.frames >= n)
+            || self
+                .options
+                .interrupt
+                .as_ref()
+                .is_some_and(Interrupt::requested)
         {
             ui.ctx().send_viewport_cmd(egui::ViewportCommand::Close);
         }
@@ -352,6 +361,23 @@ impl eframe::App for ViewerApp {
         }
         self.ui.state.shutdown();
     }
+}
+
+/// A thread that asks `ctx` for a frame as soon as `interrupt` rises: the frame sees the flag
+/// and closes the window, even when the app had no reason to draw one.
+fn wake_on_interrupt(interrupt: Interrupt, ctx: egui::Context) -> std::io::Result<()> {
+    std::thread::Builder::new()
+        .name("interrupt".into())
+        .spawn(move || {
+            while !interrupt.requested() {
+                std::thread::sleep(Duration::from_millis(50));
+            }
+            if let Some(signal) = interrupt.signal_name() {
+                eprintln!("viewer gui: {signal}: closing the window (again to quit at once)");
+            }
+            ctx.request_repaint();
+        })
+        .map(drop)
 }
 
 /// Runs the app until its window closes; returns what it measured. Errors name what could
@@ -418,6 +444,9 @@ pub fn run(options: GuiOptions) -> anyhow::Result<Summary> {
         "nurbs-haptics-viewer",
         native,
         Box::new(move |cc| {
+            if let Some(interrupt) = app.options.interrupt.clone() {
+                wake_on_interrupt(interrupt, cc.egui_ctx.clone())?;
+            }
             cc.egui_ctx.set_theme(egui::Theme::Light);
             if let Some(render_state) = cc.wgpu_render_state.as_ref() {
                 view3d::install(render_state);
