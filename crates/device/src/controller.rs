@@ -299,6 +299,9 @@ pub struct Controller<O: Object<P = Vec2>> {
     next_generation: u32,
     /// An identification run, while one lasts.
     excitation: Option<ExcitationRun>,
+    /// The (mode, cause) the last tick's telemetry reported: a tick that renders nothing
+    /// after contact reports the switch to free as [`SwitchCause::Released`].
+    reported: (Mode, SwitchCause),
 }
 
 impl<O: Object<P = Vec2>> Controller<O> {
@@ -326,6 +329,7 @@ impl<O: Object<P = Vec2>> Controller<O> {
             last_currents_a: [0.0; 2],
             next_generation: 0,
             excitation: None,
+            reported: (Mode::Free, SwitchCause::None),
         })
     }
 
@@ -668,6 +672,7 @@ impl<O: Object<P = Vec2>> Controller<O> {
             last_currents_a: self.last_currents_a,
             next_generation: self.next_generation,
             excitation: self.excitation,
+            reported: self.reported,
         }
     }
 
@@ -893,6 +898,12 @@ impl<O: Object<P = Vec2>> Controller<O> {
             telemetry.mode = Mode::Free;
             telemetry.cause = SwitchCause::None;
         }
+        // The cause is why the mode last changed, across renderers: a tick that renders
+        // nothing (awaiting an acquisition after a material change, no pose, an
+        // identification run) or a fresh renderer that has not switched yet names none, and
+        // the contact it ends is released.
+        telemetry.cause = telemetry.cause.or_carried(telemetry.mode, self.reported);
+        self.reported = (telemetry.mode, telemetry.cause);
 
         // Safety, every tick, then Jᵀ F → currents.
         let safe = self.safety.apply(&SafetyInput {

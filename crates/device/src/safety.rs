@@ -318,6 +318,19 @@ impl WallLimits {
         }
     }
 
+    /// The wall damping |B| at and beyond which no stiffness is accepted, with or without the
+    /// passivity controller (N·s/m): `b + f_c / v`, where `2 (b + f_c / v − |B|) / T` reaches
+    /// 0, or the controller's demonstrated damping if that is larger.
+    pub fn max_damping_ns_per_m(passivity: &PassivityConfig, controller: bool) -> f32 {
+        let d = &passivity.device;
+        let passive = d.damping_n_s_per_m + d.coulomb_n / passivity.impact_speed_m_per_s;
+        if controller {
+            passive.max(passivity.controller_damping_ns_per_m)
+        } else {
+            passive
+        }
+    }
+
     /// The largest stiffness accepted, with or without the passivity controller, and the
     /// bound that sets it.
     pub fn max(&self, controller: bool) -> (f32, Bound) {
@@ -598,6 +611,21 @@ pub enum PassivityError {
         /// controller setting), if any.
         renders_at_hz: Option<u32>,
     },
+    /// The wall damping alone is beyond the device: with it no stiffness is accepted at any
+    /// rate (the largest stiffness would be 0 N/m), so it is the damping that must come down.
+    TooDamped {
+        /// The wall damping asked for, N·s/m.
+        damping_ns_per_m: f32,
+        /// The stiffness asked for, N/m.
+        stiffness_n_per_m: f32,
+        /// The largest |B| any stiffness is accepted with, N·s/m
+        /// ([`WallLimits::max_damping_ns_per_m`]).
+        max_damping_ns_per_m: f32,
+        /// Whether the passivity controller was counted.
+        controller: bool,
+        /// The figures the bounds used.
+        passivity: PassivityConfig,
+    },
     /// An argument is non-finite or out of range (stiffness < 0, period ≤ 0).
     InvalidParameter(&'static str),
 }
@@ -614,8 +642,48 @@ impl fmt::Display for PassivityError {
             renders_at_hz,
         } = self
         else {
-            if let Self::InvalidParameter(name) = self {
-                write!(f, "wall check: invalid {name}")?;
+            match self {
+                Self::InvalidParameter(name) => write!(f, "wall check: invalid {name}")?,
+                Self::TooDamped {
+                    damping_ns_per_m: damping,
+                    stiffness_n_per_m: k,
+                    max_damping_ns_per_m: max,
+                    controller,
+                    passivity: p,
+                } => {
+                    let d = &p.device;
+                    write!(
+                        f,
+                        "damping |B| = {:.3} N·s/m is beyond what this device renders at any \
+                         rate: the sampled-data passivity bound K < 2 (b + f_c/v - |B|) / T \
+                         leaves no stiffness (not even K = {k:.0} N/m) once |B| reaches \
+                         b + f_c/v = {:.3} N·s/m (the device's own damping b = {:.4} N·s/m and \
+                         Coulomb friction f_c = {:.4} N counted up to v = {} m/s)",
+                        libm::fabsf(*damping),
+                        d.damping_n_s_per_m + d.coulomb_n / p.impact_speed_m_per_s,
+                        d.damping_n_s_per_m,
+                        d.coulomb_n,
+                        p.impact_speed_m_per_s,
+                    )?;
+                    let demonstrated = p.controller_damping_ns_per_m;
+                    if *controller {
+                        write!(
+                            f,
+                            ", and the passivity controller is demonstrated up to |B| = \
+                             {demonstrated} N·s/m; lower the damping to {max:.3} N·s/m or less"
+                        )?;
+                    } else {
+                        write!(f, "; lower the damping below {max:.3} N·s/m")?;
+                        if demonstrated > *max {
+                            write!(
+                                f,
+                                " or enable the passivity controller (demonstrated up to \
+                                 |B| = {demonstrated} N·s/m)"
+                            )?;
+                        }
+                    }
+                }
+                Self::TooStiff { .. } => {}
             }
             return Ok(());
         };
@@ -693,6 +761,17 @@ pub fn check_wall(
     let (ok, max, bound) = accepted(period_s);
     if ok {
         return Ok(());
+    }
+    // No stiffness at all: the damping is what is beyond the device, and no rate helps
+    // (b + f_c/v − |B| does not depend on T, nor does the controller's demonstrated |B|).
+    if max <= 0.0 && bound != Bound::Quantisation {
+        return Err(PassivityError::TooDamped {
+            damping_ns_per_m,
+            stiffness_n_per_m,
+            max_damping_ns_per_m: WallLimits::max_damping_ns_per_m(passivity, controller),
+            controller,
+            passivity: *passivity,
+        });
     }
     let renders_at_hz = RATES_HZ
         .into_iter()

@@ -13,7 +13,7 @@ use device::controller::{Controller, TickOutput, acquire};
 use device::safety::{Faults, SafetyConfig};
 use device::simulator::{SimParams, SimulatedPantograph};
 use device::spec::DeviceSpec;
-use friction::FrictionMaterial;
+use friction::{FrictionMaterial, Mode, SwitchCause};
 use nurbs::{CurveBuf, Vec2, construct};
 use tracker::{Chain, Object};
 
@@ -751,4 +751,28 @@ fn an_identification_run_commands_its_square_waves_then_hands_back_to_the_scene(
     assert!(out.render.is_none());
     let out = tick(&mut c, counts, t0 + 13_000);
     assert!(out.render.is_some(), "the renderer runs again");
+}
+
+/// A contact the renderer ends by stopping (a material change restarts it from a fresh
+/// acquisition) is a switch to free whose cause is `released`, as when the HIP leaves the
+/// object, not `none`; the renderer that starts again switches back by `contact`.
+#[test]
+fn a_contact_ended_by_a_material_change_is_released() {
+    let arcs = arcs();
+    let views = [arcs[0].view(), arcs[1].view()];
+    let chain = Chain::new(&views).unwrap();
+    let (mut c, counts, mut now) = pressing(chain, 0);
+    let mut next = |c: &mut Controller<Chain<'_>>| {
+        c.heartbeat();
+        let out = c.tick(counts, now);
+        now += PERIOD_US;
+        (out.telemetry.mode, out.telemetry.cause)
+    };
+    assert_eq!(next(&mut c), (Mode::Stuck, SwitchCause::Contact));
+    c.set_material(material(), true).unwrap();
+    for _ in 0..3 {
+        assert_eq!(next(&mut c), (Mode::Free, SwitchCause::Released));
+    }
+    assert!(c.acquire_now());
+    assert_eq!(next(&mut c), (Mode::Stuck, SwitchCause::Contact));
 }

@@ -590,6 +590,37 @@ fn wall_bounds_match_hand_computed_limits() {
     assert!(check_wall(-1.0, 0.0, 1e-3, &p, false).is_err());
 }
 
+/// A wall damping the device cannot render with any stiffness is refused naming the damping
+/// and its bound, not a stiffness limit of 0 N/m. The bound by hand: K < 2 (b + f_c/v − |B|) / T
+/// leaves some K > 0 only while |B| < b + f_c/v = 0.005 + 0.02 / 0.1 = 0.205 N·s/m; with the
+/// passivity controller, also while |B| is within its demonstrated 1 N·s/m.
+#[test]
+fn a_damping_beyond_the_device_is_named_with_its_bound() {
+    let p = device(0.005, 0.02, 20e-6);
+    // Just below the bound a soft wall passes (2 · 0.002 / 0.001 = 4 N/m > 1 N/m).
+    assert!(check_wall(1.0, 0.203, 1e-3, &p, false).is_ok());
+    for (damping, controller, bound) in [(0.207, false, "0.205"), (1.01, true, "1.000")] {
+        let e = check_wall(1.0, damping, 1e-3, &p, controller).unwrap_err();
+        assert!(
+            matches!(e, PassivityError::TooDamped { max_damping_ns_per_m, .. }
+                if close(max_damping_ns_per_m, bound.parse().unwrap(), 1e-6)),
+            "{e:?}"
+        );
+        let message = e.to_string();
+        for part in ["damping", bound, "N·s/m", "lower the damping"] {
+            assert!(message.contains(part), "{part:?} in {message}");
+        }
+        assert!(
+            !message.contains("0 N/m"),
+            "no stiffness limit of 0: {message}"
+        );
+        assert!(!message.contains("lower K"), "{message}");
+    }
+    assert!(check_wall(1.0, -0.207, 1e-3, &p, false).is_err());
+    // With the controller, up to its demonstrated damping still passes.
+    assert!(check_wall(10.0, 0.99, 1e-3, &p, true).is_ok());
+}
+
 /// The sampled-spring scenario: the HIP is driven along x = A sin(ωt) (an ideal velocity
 /// source, the user's hand) through a spring F = −K x rendered at period T with zero-order
 /// hold. Returns the work the device did on the user over each cycle, in J.

@@ -144,7 +144,8 @@ pub enum SwitchCause {
     Reversed,
     /// Dynamic → stuck: the normal force jumped, `μ_d F_N[k] > μ_s F_N[k−1]`.
     NormalForceJump,
-    /// Contact → free: the HIP left the object.
+    /// Contact → free: the HIP left the object (or, as [`SwitchCause::or_carried`] reports
+    /// it, the contact ended with the renderer: a material change, a lost pose).
     Released,
 }
 
@@ -160,6 +161,20 @@ impl SwitchCause {
             SwitchCause::Reversed => "reversed",
             SwitchCause::NormalForceJump => "normal_force_jump",
             SwitchCause::Released => "released",
+        }
+    }
+
+    /// The cause to report with `mode` when the tick's source named `self`, given the
+    /// (mode, cause) reported the tick before. A source that names no cause (a renderer
+    /// restarted or not running, a stateless penalty baseline) still switches: into contact
+    /// by [`SwitchCause::Contact`], out of it by [`SwitchCause::Released`]; with the mode
+    /// unchanged the earlier cause stays (it is why the mode last changed).
+    pub fn or_carried(self, mode: Mode, previous: (Mode, SwitchCause)) -> SwitchCause {
+        match (self, previous) {
+            (SwitchCause::None, (before, cause)) if before == mode => cause,
+            (SwitchCause::None, _) if mode == Mode::Free => SwitchCause::Released,
+            (SwitchCause::None, _) => SwitchCause::Contact,
+            (cause, _) => cause,
         }
     }
 

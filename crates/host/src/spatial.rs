@@ -17,7 +17,7 @@
 
 use std::sync::Arc;
 
-use friction::{FrictionMaterial, FrictionRenderer, Mode};
+use friction::{FrictionMaterial, FrictionRenderer, Mode, SwitchCause};
 use nurbs::{Vec2, Vec3};
 use tracker::{Contact, Feature, Penalty, Shell, TriMesh};
 
@@ -266,6 +266,8 @@ pub struct SpatialLoop {
     deforming: Option<SpatialDeforming>,
     shape: Arc<SharedShape>,
     last_error: Option<String>,
+    /// The (mode, cause) the last tick reported ([`SwitchCause::or_carried`]).
+    reported: (Mode, SwitchCause),
 }
 
 /// Why a mesh was not taken for rendering.
@@ -314,6 +316,7 @@ impl SpatialLoop {
             deforming: None,
             shape: SharedShape::new(),
             last_error: None,
+            reported: (Mode::Free, SwitchCause::None),
         }
     }
 
@@ -350,6 +353,10 @@ impl SpatialLoop {
                 None => free_tick(t_s, hip, velocity),
             }),
         };
+        // The mesh baseline names no cause, nor does a renderer restarted by a material
+        // change or the switch between the mesh and the NURBS object.
+        tick.cause = tick.cause.or_carried(tick.mode, self.reported);
+        self.reported = (tick.mode, tick.cause);
         if !self.forces_enabled {
             tick.force = Vec3::ZERO;
         }
@@ -762,6 +769,64 @@ mod tests {
         assert!(
             (k.force - Vec3::new(0.0, 0.0, 2.0)).length() < 1e-5,
             "{k:?}"
+        );
+    }
+
+    /// Every switch names its cause, also where no renderer names one: the mesh baseline
+    /// enters contact by `contact` and leaves it by `released`, and a contact ended by a
+    /// material change (the renderer restarts) is `released` too, never `none`.
+    #[test]
+    fn switches_without_a_renderer_of_their_own_name_their_cause() {
+        let scene = floor();
+        let start = start_hip(control_points(&scene, 0));
+        let mesh = tessellate_object(&scene, 0, 1e-4).expect("mesh");
+        let session = SpatialSession::nurbs(scene, 0, start).expect("session");
+        let mut spatial = SpatialLoop::new(session, start);
+        let pressed = Vec3::new(start.x, start.y, -0.002);
+        let mut ticks: Vec<Tick> = Vec::new();
+        let mut run = |spatial: &mut SpatialLoop, n: usize| {
+            let from = ticks.len();
+            ticks.extend((0..n).map(|_| spatial.step()));
+            // (from, to, cause) of each switch in these ticks (and at their first).
+            ticks[from.max(1) - 1..]
+                .windows(2)
+                .filter(|w| w[0].mode != w[1].mode)
+                .map(|w| (w[0].mode, w[1].mode, w[1].cause))
+                .collect::<Vec<_>>()
+        };
+        // The NURBS renderer stuck, its material changed (it restarts): free by `released`
+        // if it shows free at all, stuck again by `contact`.
+        spatial.set_hand_target(pressed);
+        run(&mut spatial, 140);
+        let material = FrictionMaterial {
+            mu_dynamic: 0.3,
+            ..spatial.material
+        };
+        assert!(spatial.set_material(material).is_ok());
+        for (from, to, cause) in run(&mut spatial, 20) {
+            let expected = if to == Mode::Free {
+                SwitchCause::Released
+            } else {
+                SwitchCause::Contact
+            };
+            assert_eq!(cause, expected, "{from:?} -> {to:?}");
+        }
+        // The mesh: out, in, out.
+        spatial.set_mesh(Some(mesh)).expect("mesh taken");
+        spatial.set_hand_target(start);
+        let mut seen = run(&mut spatial, 100);
+        spatial.set_hand_target(pressed);
+        seen.extend(run(&mut spatial, 100));
+        spatial.set_hand_target(start);
+        seen.extend(run(&mut spatial, 100));
+        let last: Vec<(Mode, SwitchCause)> = seen.iter().map(|s| (s.1, s.2)).collect();
+        assert!(
+            last.ends_with(&[
+                (Mode::Free, SwitchCause::Released),
+                (Mode::Slip, SwitchCause::Contact),
+                (Mode::Free, SwitchCause::Released),
+            ]),
+            "{seen:?}"
         );
     }
 

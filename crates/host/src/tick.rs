@@ -226,6 +226,9 @@ fn device_record(t_s: f64, hip: Vec2, hip_velocity: Vec2, out: &TickOutput) -> T
         },
     };
     tick.force = vec3(out.telemetry.force_n);
+    // The controller's (mode, cause), which names a contact ended by the renderer stopping.
+    tick.mode = out.telemetry.mode;
+    tick.cause = out.telemetry.cause;
     tick.device = Some(DeviceSample {
         theta_rad: out.joint_angles_rad.unwrap_or([0.0; 2]),
         tau_nm: out.joint_torques_nm,

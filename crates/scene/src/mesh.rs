@@ -35,16 +35,9 @@ pub enum ObjError {
         line: usize,
         /// What is wrong.
         message: String,
-        /// The line's text.
+        /// The line's text (its first [`EXCERPT_CHARS`] characters and its length, when
+        /// longer).
         text: String,
-    },
-    /// `tobj` refused the file for a reason not tied to one line.
-    #[error("{}: {error}", path.display())]
-    Obj {
-        /// The file.
-        path: PathBuf,
-        /// tobj's error.
-        error: tobj::LoadError,
     },
     /// No triangle of nonzero area.
     #[error("{}: no triangle of nonzero area (faces need at least 3 vertices)", path.display())]
@@ -53,6 +46,9 @@ pub enum ObjError {
         path: PathBuf,
     },
 }
+
+/// The characters of a line an error quotes; a longer line is cut there, its length given.
+pub const EXCERPT_CHARS: usize = 80;
 
 /// A mesh read from an OBJ file.
 #[derive(Clone, Debug, PartialEq)]
@@ -74,29 +70,38 @@ pub fn load_obj(path: &Path) -> Result<ObjMesh, ObjError> {
 }
 
 /// Reads OBJ text, `path` naming it in errors. Every line is checked first (a vertex of three
-/// finite numbers, faces of at least three vertex indices that exist), so that an error names
-/// its line; then `tobj` reads the file, triangulating polygons (as fans).
+/// finite numbers, with a nonzero w or a colour, faces of at least three vertex indices that
+/// exist), so that an error says what is wrong on which line; then `tobj` reads the file,
+/// triangulating polygons (as fans). Whatever else `tobj` refuses is reported the same way,
+/// at the line it stopped on.
 pub fn parse_obj(text: &str, path: &Path) -> Result<ObjMesh, ObjError> {
-    check_lines(text).map_err(|(line, message)| ObjError::Line {
+    let line_error = |line: usize, message: String| ObjError::Line {
         path: path.to_owned(),
         line,
         message,
-        text: text.lines().nth(line - 1).unwrap_or("").trim().to_owned(),
-    })?;
+        text: excerpt(text.lines().nth(line - 1).unwrap_or("").trim()),
+    };
+    check_lines(text).map_err(|(line, message)| line_error(line, message))?;
     let options = tobj::LoadOptions {
         triangulate: true,
         ignore_points: true,
         ignore_lines: true,
         ..tobj::LoadOptions::default()
     };
-    // Materials (`mtllib`) are not needed for haptics and not read.
+    // Materials (`mtllib`) are not needed for haptics and not read. tobj reads line by line
+    // and stops at the line it refuses: what it consumed of `rest` ends with that line.
+    let mut rest = text.as_bytes();
     let (models, _) =
-        tobj::load_obj_buf(&mut text.as_bytes(), &options, |_| Ok(Default::default())).map_err(
-            |error| ObjError::Obj {
-                path: path.to_owned(),
-                error,
-            },
-        )?;
+        tobj::load_obj_buf(&mut rest, &options, |_| Ok(Default::default())).map_err(|error| {
+            let read = &text.as_bytes()[..text.len() - rest.len()];
+            let newlines = read.iter().filter(|&&b| b == b'\n').count();
+            let line = if read.last().is_none_or(|&b| b != b'\n') {
+                newlines + 1
+            } else {
+                newlines
+            };
+            line_error(line.max(1), error.to_string())
+        })?;
     let (mut vertices, mut params, mut triangles) = (Vec::new(), Vec::new(), Vec::new());
     for model in &models {
         let m = &model.mesh;
@@ -141,6 +146,14 @@ pub fn parse_obj(text: &str, path: &Path) -> Result<ObjMesh, ObjError> {
     Ok(ObjMesh { name, mesh })
 }
 
+/// `line`, or its first [`EXCERPT_CHARS`] characters and its length.
+fn excerpt(line: &str) -> String {
+    match line.char_indices().nth(EXCERPT_CHARS) {
+        Some((cut, _)) => format!("{}… ({} bytes)", line[..cut].trim_end(), line.len()),
+        None => line.to_owned(),
+    }
+}
+
 /// The first line (1-based) that is not a valid vertex or face, and why.
 fn check_lines(text: &str) -> Result<(), (usize, String)> {
     let (mut v, mut vt, mut vn) = (0usize, 0usize, 0usize);
@@ -170,7 +183,28 @@ fn check_lines(text: &str) -> Result<(), (usize, String)> {
         };
         match keyword {
             "v" => {
+                // x y z, then nothing, a homogeneous w (dividing x, y, z) or a colour r g b.
+                let values: Vec<&str> = words.clone().collect();
                 numbers(words, 3, "a vertex (v)")?;
+                match values.len() {
+                    3 | 6 => {}
+                    4 if values[3].parse::<f32>().is_ok_and(|w| w == 0.0) => {
+                        return Err((
+                            line,
+                            "a vertex (v): w = 0 (x, y and z are divided by w)".to_owned(),
+                        ));
+                    }
+                    4 => {}
+                    n => {
+                        return Err((
+                            line,
+                            format!(
+                                "a vertex (v) takes 3 numbers (x y z), 4 (x y z w) or 6 \
+                                 (x y z r g b), found {n}"
+                            ),
+                        ));
+                    }
+                }
                 v += 1;
             }
             "vt" => {
@@ -193,6 +227,15 @@ fn check_lines(text: &str) -> Result<(), (usize, String)> {
                     ));
                 }
                 for c in corners {
+                    if c.split('/').count() > 3 {
+                        return Err((
+                            line,
+                            format!(
+                                "face corner {c:?}: a corner is at most vertex/texture \
+                                 coordinate/normal (3 indices)"
+                            ),
+                        ));
+                    }
                     for (k, (part, count, what)) in c
                         .split('/')
                         .zip([(v, "vertex"), (vt, "texture coordinate"), (vn, "normal")])
@@ -307,6 +350,47 @@ mod tests {
         assert_eq!(
             err(ok),
             "m.obj: no triangle of nonzero area (faces need at least 3 vertices)"
+        );
+    }
+
+    /// Lines tobj refuses are refused naming the line and what is wrong, like every other
+    /// invalid line: a vertex with w = 0, a face corner of four indices, a vertex line of a
+    /// megabyte (quoted cut to its first characters), and what only tobj checks (a `vt` of
+    /// one number, a `usemtl` with no name) at the line tobj stopped on.
+    #[test]
+    fn lines_tobj_refuses_name_the_line() {
+        let ok = "v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nvn 0 0 1\n";
+        assert_eq!(
+            err(&format!("{ok}v 1 1 0 0\nf 1 2 3\n")),
+            "m.obj:6: a vertex (v): w = 0 (x, y and z are divided by w): \"v 1 1 0 0\""
+        );
+        assert_eq!(
+            err(&format!("{ok}f 1/1/1/1 2 3\n")),
+            "m.obj:6: face corner \"1/1/1/1\": a corner is at most vertex/texture \
+             coordinate/normal (3 indices): \"f 1/1/1/1 2 3\""
+        );
+        let long = format!("v 0 0 0{}", " 1".repeat(500_000));
+        let e = err(&format!("{ok}{long}\nf 1 2 3\n"));
+        assert!(
+            e.starts_with(
+                "m.obj:6: a vertex (v) takes 3 numbers (x y z), 4 (x y z w) or 6 (x y z r g b), \
+                 found 500003: \"v 0 0 0 1 1"
+            ),
+            "{}",
+            &e[..200]
+        );
+        assert!(
+            e.ends_with(&format!("1 1… ({} bytes)\"", long.len())),
+            "{e}"
+        );
+        assert!(e.len() < 300, "{e}");
+        assert_eq!(
+            err(&format!("{ok}vt 0.5\nf 1 2 3\n")),
+            "m.obj:6: texcoord parse error: \"vt 0.5\""
+        );
+        assert_eq!(
+            err(&format!("{ok}f 1 2 3\nusemtl\nf 1 2 3")),
+            "m.obj:7: material parse error: \"usemtl\""
         );
     }
 

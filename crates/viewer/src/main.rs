@@ -493,7 +493,7 @@ fn gui_command(args: &GuiArgs) -> ExitCode {
         return fail(&e, EXIT_BAD_SETUP);
     }
     if let Some(path) = &args.mesh
-        && let Err(e) = scene::mesh::load_obj(path).context("invalid mesh")
+        && let Err(e) = viewer::gui::spatial::load_mesh(path).context("invalid mesh")
     {
         return fail(&e, EXIT_BAD_SETUP);
     }

@@ -463,6 +463,69 @@ fn plot_draws_a_run_log_and_refuses_other_files() {
     );
 }
 
+/// Every mesh `viewer gui --mesh` refuses is refused the same way, before any window: exit 2
+/// and one short message naming the file, the line where one is at fault, and what is wrong.
+/// Lines tobj refuses (a vertex with w = 0, a face corner of four indices, a vertex line of
+/// a megabyte) and a mesh of 80,000 triangles, more than the loop scans in a tick.
+#[test]
+fn gui_refuses_every_invalid_mesh_with_exit_2_and_its_reason() {
+    let dir = std::env::temp_dir().join(format!("viewer-cli-obj-all-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("temp dir");
+    let head = "v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nvn 0 0 1\n";
+    let long = format!("v 0 0 0{}", " 1".repeat(500_000));
+    // 200 × 200 unit squares, two triangles each.
+    let n = 200;
+    let mut grid = String::new();
+    for j in 0..=n {
+        for i in 0..=n {
+            grid += &format!("v {i} {j} 0\n");
+        }
+    }
+    for j in 0..n {
+        for i in 0..n {
+            let a = j * (n + 1) + i + 1;
+            let (b, c, d) = (a + 1, a + n + 1, a + n + 2);
+            grid += &format!("f {a} {b} {d}\nf {a} {d} {c}\n");
+        }
+    }
+    let cases = [
+        (
+            "w0.obj",
+            format!("{head}v 1 1 0 0\nf 1 2 3\n"),
+            ":6:",
+            "w = 0",
+        ),
+        (
+            "corner.obj",
+            format!("{head}f 1/1/1/1 2 3\n"),
+            ":6:",
+            "face corner \"1/1/1/1\"",
+        ),
+        (
+            "long.obj",
+            format!("{head}{long}\nf 1 2 3\n"),
+            ":6:",
+            "a vertex (v) takes 3 numbers",
+        ),
+        ("big.obj", grid, ":", "80000 triangles"),
+    ];
+    for (name, text, line, reason) in cases {
+        let path = dir.join(name);
+        std::fs::write(&path, text).expect("write");
+        let path_text = path.to_str().expect("UTF-8 path");
+        let out = viewer(&["gui", "--mesh", path_text], "");
+        let err = stderr(&out);
+        assert_eq!(out.status.code(), Some(2), "{name}: {err}");
+        assert!(
+            err.starts_with(&format!("error: invalid mesh: {path_text}{line}")),
+            "{name}: {err}"
+        );
+        assert!(err.contains(reason), "{name}: {err}");
+        assert!(err.len() < 400, "{name}: a short message: {err}");
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
 /// `viewer gui --mesh FILE.obj` refuses an invalid mesh before opening a window, naming the
 /// file and the line (exit 2); a mesh and a scene together are refused by the command line.
 #[test]

@@ -277,3 +277,47 @@ fn a_released_handle_is_pushed_out_once_and_comes_to_rest() {
     assert_eq!(end.force, nurbs::Vec3::ZERO);
     assert_eq!(end.hip_velocity, nurbs::Vec3::ZERO, "at rest: {end:?}");
 }
+
+/// The telemetry panel's last switches are the running scene's: opening another scene (a
+/// bundled one, an OBJ mesh) forgets the previous one's, and the new scene's first sample is
+/// not a switch from the old scene's mode.
+#[test]
+fn opening_a_scene_forgets_the_previous_scenes_switches() {
+    let dir = std::env::temp_dir().join(format!("viewer-switches-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("temp dir");
+    let obj = dir.join("triangle.obj");
+    std::fs::write(&obj, "v 0 0.1 0\nv 0.01 0.1 0\nv 0 0.11 0\nf 1 2 3\n").expect("write");
+    type Open = fn(&mut viewer::gui::state::AppState, &std::path::Path);
+    let opens: [(&str, Open); 2] = [
+        ("examples", |s, _| s.open_bundled("examples")),
+        ("an OBJ mesh", |s, path| s.open_obj(path)),
+    ];
+    for (what, open) in opens {
+        let mut state = stepped();
+        press(&mut state);
+        assert!(
+            state.telemetry.switches.iter().any(|s| s.to == Mode::Stuck),
+            "{:?}",
+            state.telemetry.switches
+        );
+        let before = state.latest().expect("ticks").tick.t_s;
+        open(&mut state, &obj);
+        assert_eq!(state.files.error, None, "{what}");
+        assert!(
+            state.telemetry.switches.is_empty(),
+            "{what}: {:?}",
+            state.telemetry.switches
+        );
+        state.step(50);
+        assert!(
+            state
+                .telemetry
+                .switches
+                .iter()
+                .all(|s| s.t_s > before + 1e-3 && s.from != Mode::Stuck),
+            "{what}: {:?}",
+            state.telemetry.switches
+        );
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -18,6 +18,15 @@ use scene::{Scene, Space, tessellate_object};
 /// The chordal tolerance the mesh representation starts with (m).
 pub const DEFAULT_TOLERANCE_M: f32 = 1e-3;
 
+/// Reads the OBJ file at `path` and checks that the loop can feel it ([`check_mesh`]): what
+/// `viewer gui --mesh` checks before the window opens and the app's *Open* does, one message
+/// naming the file (and the line) for every refusal.
+pub fn load_mesh(path: &Path) -> anyhow::Result<ObjMesh> {
+    let obj = mesh::load_obj(path)?;
+    check_mesh(&obj.mesh).map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
+    Ok(obj)
+}
+
 /// The 3-D side of the app.
 #[derive(Debug)]
 pub struct SpatialState {

@@ -576,6 +576,7 @@ impl AppState {
             self.edit.reset();
             self.materials.edited = p.material.unwrap_or_default();
             self.materials.error = None;
+            self.telemetry.scene_opened();
         }
         // The loop renders the new object rigid, at rest: ask again when it deforms too.
         let felt = self.felt_object();
@@ -998,18 +999,16 @@ impl AppState {
     /// running scene.
     pub fn open_obj(&mut self, path: &Path) {
         let label = path.display().to_string();
-        let opened = scene::mesh::load_obj(path)
-            .map_err(anyhow::Error::from)
-            .and_then(|obj| {
-                let material = FrictionMaterial::default();
-                SpatialState::of_mesh(
-                    &label,
-                    obj,
-                    material,
-                    self.is_threaded(),
-                    self.spatial_record(),
-                )
-            });
+        let opened = super::spatial::load_mesh(path).and_then(|obj| {
+            let material = FrictionMaterial::default();
+            SpatialState::of_mesh(
+                &label,
+                obj,
+                material,
+                self.is_threaded(),
+                self.spatial_record(),
+            )
+        });
         let spatial = match opened {
             Ok(mut s) => {
                 s.set_forces(self.forces_requested);
@@ -1052,6 +1051,7 @@ impl AppState {
         self.spatial = Some(spatial);
         self.files.error = None;
         self.materials.error = None;
+        self.telemetry.scene_opened();
         self.deform.scene_shown(&self.scene.model, None);
     }
 

@@ -29,6 +29,9 @@ pub struct Telemetry {
     pub switches: VecDeque<Switch>,
     /// Samples received in all.
     pub received: u64,
+    /// The mode of the last sample pushed, which a switch is noted against; none after a
+    /// scene opened or the history was forgotten.
+    last_mode: Option<Mode>,
 }
 
 impl Telemetry {
@@ -48,19 +51,20 @@ impl Telemetry {
     /// Appends `s` to the history (noting a mode switch) and drops what is older than
     /// [`HISTORY_S`]: a live sample, or one of a replay's window.
     pub fn push(&mut self, s: Sample) {
-        if let Some(last) = self.history.back()
-            && last.tick.mode != s.tick.mode
+        if let Some(last) = self.last_mode
+            && last != s.tick.mode
         {
             if self.switches.len() == 64 {
                 self.switches.pop_front();
             }
             self.switches.push_back(Switch {
                 t_s: s.tick.t_s,
-                from: last.tick.mode,
+                from: last,
                 to: s.tick.mode,
                 cause: s.tick.cause,
             });
         }
+        self.last_mode = Some(s.tick.mode);
         self.history.push_back(s);
         while let Some(first) = self.history.front() {
             if s.tick.t_s - first.tick.t_s > HISTORY_S {
@@ -75,11 +79,21 @@ impl Telemetry {
     pub fn clear_history(&mut self) {
         self.history.clear();
         self.switches.clear();
+        self.last_mode = None;
+    }
+
+    /// Forgets the switches (another scene opened: they were the previous scene's), and the
+    /// mode they were noted against, so that the new scene's first sample is no switch.
+    /// The history stays for the plots, which scroll it out.
+    pub fn scene_opened(&mut self) {
+        self.switches.clear();
+        self.last_mode = None;
     }
 
     /// Forgets the history and the tick statistics (another loop starts: a device switch).
     pub fn restart(&mut self) {
         self.history.clear();
+        self.last_mode = None;
         self.recent_periods.clear();
         self.jitter = JitterStats::default();
     }
