@@ -71,7 +71,9 @@ fn main() -> ExitCode {
             }
         },
         Some("hid-guest-session") => {
-            let root = args.get(1).map_or_else(|| Path::new(".").to_path_buf(), Into::into);
+            let root = args
+                .get(1)
+                .map_or_else(|| Path::new(".").to_path_buf(), Into::into);
             match hid::guest_session(&root) {
                 Ok(()) => ExitCode::SUCCESS,
                 Err(_) => ExitCode::FAILURE,

@@ -124,7 +124,11 @@ impl<L: Link> Host<L> {
 
     /// Reads for `d`, sending heartbeats (while on, every [`HEARTBEAT`]) and the hand's target
     /// `target(t)` (`t` from 0 to 1 over `d`, every [`TARGET_PERIOD`]).
-    pub(crate) fn pump(&mut self, d: Duration, mut target: impl FnMut(f32) -> Vec2) -> Result<(), String> {
+    pub(crate) fn pump(
+        &mut self,
+        d: Duration,
+        mut target: impl FnMut(f32) -> Vec2,
+    ) -> Result<(), String> {
         let start = Instant::now();
         loop {
             let t = (start.elapsed().as_secs_f32() / d.as_secs_f32()).min(1.0);
@@ -171,7 +175,11 @@ impl<L: Link> Host<L> {
     }
 
     /// Sends `m` and pumps, the hand held at `at`, until the device answers it.
-    pub(crate) fn send_awaiting(&mut self, m: &Message, at: Vec2) -> Result<Result<(), ErrorCode>, String> {
+    pub(crate) fn send_awaiting(
+        &mut self,
+        m: &Message,
+        at: Vec2,
+    ) -> Result<Result<(), ErrorCode>, String> {
         let seq = self
             .link
             .send(m)

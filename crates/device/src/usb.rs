@@ -10,7 +10,9 @@
 //! (`device::host::sim::SimReports`).
 
 use usb_device::bus::{UsbBus, UsbBusAllocator};
-use usb_device::device::{StringDescriptors, UsbDevice, UsbDeviceBuilder, UsbDeviceState, UsbVidPid};
+use usb_device::device::{
+    StringDescriptors, UsbDevice, UsbDeviceBuilder, UsbDeviceState, UsbVidPid,
+};
 use usbd_hid::hid_class::HIDClass;
 
 use crate::protocol::{MAX_FRAME, REPORT_DESCRIPTOR, USB_PID, USB_VID};
@@ -55,10 +57,7 @@ impl<'a, B: UsbBus> HidPort<'a, B> {
     /// The HID class with the protocol's report descriptor, and the device with the board's
     /// ids ([`USB_VID`]:[`USB_PID`]), strings (serial number `serial`) and a 64-byte control
     /// endpoint. Errors only if the bus cannot hold the endpoints or the strings.
-    pub fn new(
-        bus: &'a UsbBusAllocator<B>,
-        serial: &'a str,
-    ) -> Result<Self, usb_device::UsbError> {
+    pub fn new(bus: &'a UsbBusAllocator<B>, serial: &'a str) -> Result<Self, usb_device::UsbError> {
         let hid = HIDClass::new(bus, REPORT_DESCRIPTOR, POLL_MS);
         let device = UsbDeviceBuilder::new(bus, UsbVidPid(USB_VID, USB_PID))
             .strings(&[StringDescriptors::default()

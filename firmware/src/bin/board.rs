@@ -11,7 +11,8 @@
 //!    allocates, logs or panics; it shares nothing with lower priorities but lock-free
 //!    single-producer single-consumer queues and atomics.
 //! 2. `usb` — the OTG_FS interrupt (and pended by the tick every millisecond): USB HID
-//!    (usb-device + usbd-hid), one 64-byte protocol frame per report ([`Usb`]); host reports
+//!    (`device::usb::HidPort`, usb-device + usbd-hid), one 64-byte protocol frame per report
+//!    ([`Usb`]); host reports
 //!    go to the protocol task, its replies and the tick's telemetry go out as IN reports, one
 //!    device sequence number over all of them.
 //! 0. `idle` — the lowest priority, the protocol task ([`Protocol`]): host frames through
@@ -321,9 +322,9 @@ struct Queues {
 #[rtic::app(device = stm32f4xx_hal::pac, peripherals = true)]
 mod app {
     use super::*;
+    use device::usb::HidPort;
     use heapless::spsc::Queue;
     use stm32f4xx_hal::otg_fs::{USB, UsbBusType};
-    use device::usb::HidPort;
     use usb_device::class_prelude::UsbBusAllocator;
 
     #[shared]

@@ -34,9 +34,9 @@ pub use hid::{HidDeviceInfo, HidLink, USB_PID, USB_VID, list_hid};
 pub use serial::{BAUD, SerialLink, SerialPortInfo, Stream, StreamLink, TcpLink, list_serial};
 #[cfg(unix)]
 pub use serial::{PseudoTerminal, pseudo_terminal};
-pub use sim::{SimConfig, SimHand, SimLink};
 #[cfg(feature = "usb")]
 pub use sim::SimReports;
+pub use sim::{SimConfig, SimHand, SimLink};
 
 use crate::controller::ControllerError;
 use crate::protocol::{
