@@ -65,8 +65,6 @@ const KVM_BOOT_TIMEOUT: Duration = Duration::from_secs(20);
 /// emulated board's, so that an emulated guest's stalls do not trip it while heartbeats flow
 /// every 50 ms.
 pub(crate) const GUEST_WATCHDOG_US: u32 = 250_000;
-/// The session's heartbeat period (µs), `session::HEARTBEAT`.
-const HEARTBEAT_US: u32 = 50_000;
 /// How long the session counts telemetry (the issue's 10 s).
 const TELEMETRY_WINDOW: Duration = Duration::from_secs(10);
 /// Round trips measured (heartbeat → its ack).
@@ -335,6 +333,12 @@ for d in proc sys dev; do mount --bind /$d /host/$d; done
 mount -t tmpfs tmp /host/tmp
 mount -t tmpfs run /host/run
 [ -L /host/var/run ] || mount -t tmpfs varrun /host/var/run
+# Loopback acks at once: usbip-device's socket leaves Nagle's algorithm on, so a small
+# report written while the previous one is unacknowledged waits for the kernel's delayed
+# ack (40 ms) whenever the host's output reports interleave with the input reports.
+for dst in 127.0.0.0/8 127.0.0.1; do
+  chroot /host /usr/sbin/ip route replace local $dst dev lo table local proto kernel scope host src 127.0.0.1 quickack 1 || echo "hid: loopback route $dst without quickack"
+done
 echo "hid-guest: starting the device"
 cd /
 chroot /host {xtask} hid-guest-device > /dev/ttyS0 2>&1 &
@@ -645,10 +649,11 @@ fn session(root: &Path) -> Result<Vec<String>, String> {
     let scene = Scene::load(&scene_path).map_err(|e| format!("{}: {e}", scene_path.display()))?;
     let wire = host::upload::wire_scene(&scene, 0).map_err(|e| format!("wire scene: {e}"))?;
     let above = Vec2::new(0.01, 0.11);
-    host.request(&Message::ClearFaults { mask: 0xFFFF }, above)?;
-    host.request(&Message::Calibrate, above)?;
-    host.upload(&wire, above)?;
-    host.request(&Message::EnableForces, above)?;
+    let mut retries = 0;
+    retries += ask(&mut host, &Message::ClearFaults { mask: 0xFFFF }, above)?;
+    retries += ask(&mut host, &Message::Calibrate, above)?;
+    retries += upload(&mut host, &wire, above)?;
+    retries += ask(&mut host, &Message::EnableForces, above)?;
     let crc = host.scene_crc(above)?;
     if crc != device::protocol::crc32(&wire) {
         return Err(format!(
@@ -697,11 +702,11 @@ fn session(root: &Path) -> Result<Vec<String>, String> {
         + Vec2::new(41.4f32.to_radians().cos(), 41.4f32.to_radians().sin()) * 0.036;
     // Faults latched meanwhile (a heartbeat late behind a slow emulated round trip trips
     // the watchdog) are cleared first, and the forces enabled again.
-    host.request(&Message::ClearFaults { mask: 0xFFFF }, above)?;
-    host.request(&Message::EnableForces, above)?;
+    retries += ask(&mut host, &Message::ClearFaults { mask: 0xFFFF }, above)?;
+    retries += ask(&mut host, &Message::EnableForces, above)?;
     for k in 1..=10 {
         let at = above + (inside - above) * (k as f32 / 10.0);
-        host.request(&Message::HandTarget { target_m: at }, at)?;
+        retries += ask(&mut host, &Message::HandTarget { target_m: at }, at)?;
         host.pump(Duration::from_millis(50), |_| at)?;
     }
     host.pump(Duration::from_millis(300), |_| inside)?;
@@ -770,59 +775,89 @@ fn session(root: &Path) -> Result<Vec<String>, String> {
         ));
     }
 
+    lines.push(format!(
+        "requests sent again after their answer did not come within 5 s: {retries}"
+    ));
     lines.push(watchdog(&mut host, inside)?);
     Ok(lines)
 }
 
+/// Attempts at a request before the session gives up.
+const ATTEMPTS: usize = 3;
+
+/// Sends `m` (an idempotent request) until the device answers, at most [`ATTEMPTS`] times;
+/// returns how many times it was sent again. An answer can be lost on the host: the kernel
+/// keeps 64 reports per hidraw reader and drops what comes while they are unread, acks
+/// included, when the emulated reader falls behind.
+fn ask(host: &mut Host<HidLink>, m: &Message, at: Vec2) -> Result<usize, String> {
+    let mut last = String::new();
+    for attempt in 0..ATTEMPTS {
+        match host.send_awaiting(m, at) {
+            Ok(Ok(())) => return Ok(attempt),
+            Ok(Err(code)) => return Err(format!("{:?} refused: {code}", m.message_type())),
+            // No answer: sent again.
+            Err(e) => last = e,
+        }
+    }
+    Err(last)
+}
+
+/// [`Host::upload`], the whole upload begun again (at most [`ATTEMPTS`] times) when an answer
+/// does not come; returns how many times it was begun again.
+fn upload(host: &mut Host<HidLink>, wire: &[u8], at: Vec2) -> Result<usize, String> {
+    let mut last = String::new();
+    for attempt in 0..ATTEMPTS {
+        match host.upload(wire, at) {
+            Ok(()) => return Ok(attempt),
+            Err(e) => last = e,
+        }
+    }
+    Err(last)
+}
+
 /// Heartbeat loss over HID: the force goes off once the watchdog's timeout has passed since
-/// the last heartbeat, not before. The device stamps a heartbeat on the tick after it handled
-/// it, which is within [`SimReports::FRAMES`](device::host::SimReports::FRAMES) + 1 ms of the
-/// first frame after its ack (a reply overtakes the telemetry queued before it, as on the
-/// board). The upper bound allows one heartbeat period more: over the emulated link the trip
-/// was measured up to 51 ms later than the acked heartbeat predicts (the device handled a
-/// heartbeat after the one whose ack the host matched; not explained, see the issue's note),
-/// which the QEMU board's session over its UART does not show (it checks the trip to the
-/// tick).
+/// the last heartbeat, and not before. The device handled the last heartbeat after every
+/// telemetry frame that reached the host before its ack (a reply overtakes queued telemetry,
+/// never the reverse), so the newest of those frames' device times is a lower bound `L` of
+/// the heartbeat's time: a faulted frame earlier than `L` + timeout would be a premature
+/// trip. The frames after the ack may be stale (the four-frame queue keeps its oldest frames
+/// when the link is slower than the telemetry), so the trip is measured from `L`, reported,
+/// and required within the 600 ms the host waits.
 fn watchdog(host: &mut Host<HidLink>, at: Vec2) -> Result<String, String> {
     host.heartbeats = false;
     host.pump(Duration::from_millis(600), |_| at)?;
-    let stamped = host
+    let split = host
         .stamp_index
-        .and_then(|i| host.telemetry.get(i..))
-        .ok_or("watchdog: no telemetry after the last heartbeat's ack")?;
-    let stamp = stamped[0].time_us;
+        .ok_or("watchdog: no ack of the last heartbeat")?;
+    let (before, after) = host.telemetry.split_at(split.min(host.telemetry.len()));
+    let lower = before
+        .iter()
+        .map(|t| t.time_us)
+        .max()
+        .ok_or("watchdog: no telemetry before the last heartbeat's ack")?;
     let tripped = |t: &Telemetry| {
         device::safety::Faults::from_bits_truncate(t.faults)
             .contains(device::safety::Faults::WATCHDOG)
     };
-    let k = stamped
+    let k = after
         .iter()
         .position(tripped)
-        .ok_or("watchdog: it never tripped without heartbeats")?;
-    let slack_us = (device::host::SimReports::FRAMES as u32 + 1) * 1000;
-    let at_trip = stamped[k].time_us.wrapping_sub(stamp);
-    let before = stamped[k.saturating_sub(1)].time_us.wrapping_sub(stamp);
-    let forced = stamped[k..]
+        .ok_or("watchdog: it never tripped in 600 ms without heartbeats")?;
+    let since = after[k].time_us.wrapping_sub(lower);
+    let forced = after[k..]
         .iter()
         .map(|t| t.force_n.length())
         .fold(0.0f32, f32::max);
-    let untripped_after = stamped[k..].iter().filter(|t| !tripped(t)).count();
+    let untripped_after = after[k..].iter().filter(|t| !tripped(t)).count();
     let line = format!(
-        "watchdog: tripped {:.1} ms after the frame after the last heartbeat's ack (timeout \
-         {:.0} ms), largest force from then on {forced} N",
-        f64::from(at_trip) / 1e3,
+        "watchdog: the first faulted frame is {:.1} ms after the newest frame before the last \
+         heartbeat's ack (timeout {:.0} ms); largest force from then on {forced} N",
+        f64::from(since) / 1e3,
         f64::from(GUEST_WATCHDOG_US) / 1e3
     );
-    if k == 0
-        || before > GUEST_WATCHDOG_US + HEARTBEAT_US + slack_us
-        || at_trip + slack_us < GUEST_WATCHDOG_US
-        || forced != 0.0
-        || untripped_after != 0
-    {
+    if since < GUEST_WATCHDOG_US || forced != 0.0 || untripped_after != 0 {
         return Err(format!(
-            "{line}: expected the trip between {} and {} ms, no force after it",
-            (GUEST_WATCHDOG_US - slack_us) / 1000,
-            (GUEST_WATCHDOG_US + HEARTBEAT_US + slack_us) / 1000
+            "{line}: a trip before the timeout, a force after it or the fault cleared by itself"
         ));
     }
     Ok(line)
