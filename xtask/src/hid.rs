@@ -45,7 +45,7 @@ const MODULES: &[&str] = &[
 /// is `linux-image-amd64`'s dependency of the day.
 const GUEST_PACKAGES: &[&str] = &["busybox-static", "usbip"];
 /// The host packages `cargo xtask hid` installs when missing.
-pub(crate) const HOST_PACKAGES: &[(&str, &str)] = &[
+const HOST_PACKAGES: &[(&str, &str)] = &[
     (
         "qemu-system-x86",
         "the guest that runs the USB HID check (`cargo xtask hid`)",
@@ -64,7 +64,7 @@ const KVM_BOOT_TIMEOUT: Duration = Duration::from_secs(20);
 /// The simulated device's heartbeat timeout in the guest (µs): a quarter second, as the
 /// emulated board's, so that an emulated guest's stalls do not trip it while heartbeats flow
 /// every 50 ms.
-pub(crate) const GUEST_WATCHDOG_US: u32 = 250_000;
+const GUEST_WATCHDOG_US: u32 = 250_000;
 /// How long the session counts telemetry (the 10 s).
 const TELEMETRY_WINDOW: Duration = Duration::from_secs(10);
 /// Round trips measured (heartbeat → its ack).

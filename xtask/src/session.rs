@@ -832,7 +832,7 @@ pub fn run(elf: &Path, root: &Path) -> Result<Vec<String>, String> {
 /// at `along`. The tick that stamped the last heartbeat is the first telemetry after its ack
 /// (the device acks a frame when it handles it, between ticks, and the next tick stamps the
 /// heartbeat). Returns the line it measured.
-pub(crate) fn watchdog_phase<L: Link>(
+fn watchdog_phase<L: Link>(
     host: &mut Host<L>,
     along: Vec2,
     timeout_us: u32,
