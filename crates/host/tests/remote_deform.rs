@@ -84,30 +84,40 @@ fn a_string_pushed_through_the_link_deforms_on_the_device() {
         std::thread::sleep(Duration::from_millis(10));
         poll(&mut status, &mut samples, &mut deforming);
     }
+    // Held for 1.5 s of the device's time: the string settles on the device's clock, which
+    // falls behind the wall's on a loaded machine (the simulated device waits for room to
+    // send its replies).
+    let device_now = |samples: &[Sample]| samples.last().map_or(0.0, |s| s.tick.t_s);
     let sent_before = link.counters().points_sent.load(Ordering::Relaxed);
+    let held_from = device_now(&samples);
     let hold = Instant::now();
-    while hold.elapsed() < Duration::from_millis(1500) {
+    while device_now(&samples) < held_from + 1.5 {
+        assert!(hold.elapsed() < PATIENCE, "the device's clock stalled");
         std::thread::sleep(Duration::from_millis(10));
         poll(&mut status, &mut samples, &mut deforming);
     }
     let sent = link.counters().points_sent.load(Ordering::Relaxed) - sent_before;
-    let rate = sent as f64 / hold.elapsed().as_secs_f64();
+    let rate = sent as f64 / (device_now(&samples) - held_from);
     assert_eq!(deforming, Some(true));
     assert!(rate >= 400.0, "{rate} shapes a second");
     let last = samples.last().expect("telemetry");
-    let depth = f64::from(last.tick.hip.y - Y);
-    let k = f64::from(last.tick.normal_force_n) / depth;
     let series = |k_o: f64| K_C * k_o / (K_C + k_o);
     let (k_o, h) = (4.0 * T / L, L / 9.0);
-    let quantum = 19.6e-6 / depth;
+    let quantum = 19.6e-6 / f64::from(last.tick.hip.y - Y);
     let (lo, hi) = (
         series(k_o * (1.0 + 0.45 * h / L)) * (1.0 - quantum),
         series(k_o * (1.0 + 0.6 * h / L)) * (1.0 + quantum),
     );
-    assert!(
-        (lo..=hi).contains(&k),
-        "F/d = {k} N/m at d = {depth} m, in [{lo}, {hi}]"
-    );
+    // Every frame of the hold's last 100 ms, not one that happens to be last.
+    for s in samples.iter().filter(|s| s.tick.t_s >= last.tick.t_s - 0.1) {
+        let depth = f64::from(s.tick.hip.y - Y);
+        let k = f64::from(s.tick.normal_force_n) / depth;
+        assert!(
+            (lo..=hi).contains(&k),
+            "F/d = {k} N/m at d = {depth} m (t = {} s), in [{lo}, {hi}]",
+            s.tick.t_s
+        );
+    }
     assert!(
         last.tick.deform.is_some_and(|d| d.y > 0.001),
         "{:?}",
