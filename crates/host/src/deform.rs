@@ -598,10 +598,14 @@ impl Deformer {
                 stiffness: k,
                 normal: None,
             };
-            let spring = self.body.coupling_force(&c);
+            // The remainder is measured against the spring the tick rendered, at the tick's
+            // own GO: on a device behind a link that GO lies on the shape the device was
+            // sent last, not on this one, and the spring's difference between the two shapes
+            // (k times the link's lag of the shape) is no force of the contact.
+            let go = tick.go.to_array().map(f64::from);
             let rendered = tick.force.to_array().map(|x| -f64::from(x));
             for a in 0..3 {
-                self.explicit[a] += rendered[a] - spring[a];
+                self.explicit[a] += rendered[a] - k * (hip[a] - go[a]);
             }
             self.coupling = Some(c);
         }
@@ -762,7 +766,25 @@ pub fn run_device<P: Proceed>(
     hand: impl Into<DeviceHand>,
     progress: impl FnMut(usize, usize) -> P,
 ) -> Result<DeviceRun, DeformError> {
+    run_device_lagged(scene, index, trajectory, rate_hz, hand, 0, progress)
+}
+
+/// [`run_device`] with the device `lag_steps` dynamics steps behind the object: the
+/// controller is moved onto the shape of `lag_steps` steps before, as a device behind a link
+/// renders the shape it was sent last (the update interval, the link's latency, a host
+/// thread held up by its machine).
+pub fn run_device_lagged<P: Proceed>(
+    scene: &Scene,
+    index: usize,
+    trajectory: &Trajectory,
+    rate_hz: f64,
+    hand: impl Into<DeviceHand>,
+    lag_steps: usize,
+    progress: impl FnMut(usize, usize) -> P,
+) -> Result<DeviceRun, DeformError> {
     let hand: DeviceHand = hand.into();
+    let mut in_flight: std::collections::VecDeque<Object> =
+        std::collections::VecDeque::with_capacity(lag_steps + 1);
     let n = validate_device(scene, index, trajectory, rate_hz)?;
     let mut deformer = Deformer::new(scene, index)?;
     let material = deformer.rest().material().friction_material();
@@ -793,7 +815,13 @@ pub fn run_device<P: Proceed>(
             i += 1;
             if i % per_step == 0 {
                 deformer.step(dt_s)?;
-                let next = deformer.shape()?;
+                in_flight.push_back(deformer.shape()?);
+                if in_flight.len() <= lag_steps {
+                    return Ok((tick, frame));
+                }
+                let Some(next) = in_flight.pop_front() else {
+                    return Ok((tick, frame));
+                };
                 let moved =
                     shape.with_dependent_mut(|_, r| carry_from(&mut r.controller, next, index));
                 shape = match moved {

@@ -387,3 +387,57 @@ fn pressed_drum_gives_and_stays_passive() {
     let work = work_on_hand(&run.ticks);
     assert!(work <= 1e-7, "{work} J on the hand");
 }
+
+/// The same press with the device rendering a shape `lag` milliseconds old, as a device
+/// behind a link does (its shape arrives as control-point updates): the object's side of the
+/// contact is the spring at the device's own GO, so the lag moves what the hand feels and
+/// never feeds the object a force of the lag itself (before, the object was loaded with the
+/// rendered force minus the spring on its own newer shape, `k` times the shape's lag, and the
+/// string pressed through 2 ms of lag bounced off the finger). Held, every tick of the last
+/// 0.2 s is in the series stiffness's band (above): a string still ringing leaves it.
+#[test]
+fn device_behind_a_lagging_link_pushes_the_string_at_the_series_stiffness() {
+    let scene = deformable();
+    let free = Y - 0.01;
+    let p = Y + 0.006;
+    let samples = [(0.0, free), (0.3, p), (1.5, p)];
+    let trajectory =
+        Trajectory::from_samples(Space::Planar, samples.map(|(t, y)| (t, [0.0, y, 0.0])))
+            .expect("valid trajectory");
+    for lag in [2, 8, 20] {
+        let run = deform::run_device_lagged(
+            &scene,
+            0,
+            &trajectory,
+            10_000.0,
+            host::sim::Hand::Grip.params(),
+            lag,
+            |_, _| {},
+        )
+        .expect("runs");
+        let ticks = &run.run.ticks;
+        let end = ticks.last().expect("ticks").t_s;
+        let series = |k_o: f64| K_C * k_o / (K_C + k_o);
+        let k_o = 4.0 * T / L;
+        let h = L / 9.0;
+        let peak = ticks.iter().map(|k| k.normal_force_n).fold(0.0, f32::max);
+        let (mut k_min, mut k_max) = (f64::MAX, f64::MIN);
+        for held in ticks.iter().filter(|k| k.t_s >= end - 0.2) {
+            let depth = f64::from(held.hip.y) - Y;
+            let k = f64::from(held.normal_force_n) / depth;
+            let quantum = 19.6e-6 / depth;
+            let (lo, hi) = (
+                series(k_o * (1.0 + 0.45 * h / L)) * (1.0 - quantum),
+                series(k_o * (1.0 + 0.6 * h / L)) * (1.0 + quantum),
+            );
+            k_min = k_min.min(k);
+            k_max = k_max.max(k);
+            assert!(
+                (lo..=hi).contains(&k),
+                "lag {lag} ms: F/d = {k} N/m at d = {depth} m (t = {} s), in [{lo}, {hi}]",
+                held.t_s
+            );
+        }
+        eprintln!("lag {lag} ms: held F/d {k_min:.2}..{k_max:.2} N/m, peak force {peak:.3} N");
+    }
+}
