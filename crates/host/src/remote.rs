@@ -623,14 +623,13 @@ impl Host {
 }
 
 /// Telemetry frames (1 ms each) between two control-point updates of a deforming object:
-/// 500 Hz. The device renders the contact against the shape the host sent last, so the hand,
-/// the host's object and the device's copy close a loop through the link's delay (a frame of
-/// telemetry, the update interval, the link); a stiff contact on a light object needs that
-/// delay short against the period of the object's mass on the contact spring (the bundled
-/// string: `√((k_c + k_o)/m) ≈ 560 rad/s`, 11 ms). Measured through the simulated device
-/// (`tests/remote_deform.rs`): every 4 frames (250 Hz) the string pressed by a grip rings in
-/// a limit cycle of 0–8 N; every 2 it settles at the series stiffness. A 12-point curve is 2
-/// frames an update: 1000 frames a second to the device.
+/// 500 Hz. The device renders the contact against the shape the host sent last, a shape that
+/// lags the host's object by the update interval, a frame of telemetry and the link: a
+/// delayed spring, which gives the hand energy that the object's damping must take. Measured
+/// through the simulated device (`host::deform::run_device_lagged`, `tests/deform.rs`): the
+/// bundled string (γ = 10 N·s/m²) stays passive over closed paths of the hand up to 4 ms of
+/// lag, an undamped one up to 1 ms. Every 2 frames keeps the bundled string's lag within
+/// that; a 12-point curve is 2 frames an update, so 1000 frames a second go to the device.
 pub const DEFORM_UPDATE_EVERY: u32 = 2;
 
 /// A deforming object behind a link.
