@@ -1,13 +1,12 @@
 //! How well a run recovers a participant's Weber fraction: runs a 2AFC plan with simulated
 //! participants of a known W (seeds 1..=N) through the haptic loop, analyses each run as
-//! `viewer experiment analyze` does (log-Gaussian with a lapse, parametric bootstrap), and
+//! `viewer experiment analyze` does (log-Gaussian with a lapse, the credible interval), and
 //! reports the bias of the fitted `weber_75` and the coverage of its 95 % interval.
 //!
 //! ```text
-//! cargo run --release -p experiment --example recovery -- [RUNS] [W] [PLAN] [RESAMPLES] [MODEL]
+//! cargo run --release -p experiment --example recovery -- [RUNS] [W] [PLAN] [MODEL]
 //! ```
-//! Defaults: 100 runs, W = 0.2, `experiments/stiffness-jnd.json`, 1000 resamples,
-//! `log-gaussian`.
+//! Defaults: 100 runs, W = 0.2, `experiments/stiffness-jnd.json`, `log-gaussian`.
 
 use std::path::PathBuf;
 
@@ -26,17 +25,12 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         || root.join("experiments/stiffness-jnd.json"),
         PathBuf::from,
     );
-    let resamples: usize = args.get(3).map_or(Ok(1000), |a| a.parse())?;
     let plan = Plan::load(&plan_path)?;
-    let model = match args.get(4).map(String::as_str) {
+    let model = match args.get(3).map(String::as_str) {
         None => Model::LogGaussian,
         Some(name) => experiment::analyze::parse_model(name).ok_or("model")?,
     };
-    let options = AnalyzeOptions {
-        model,
-        resamples,
-        seed: None,
-    };
+    let options = AnalyzeOptions { model };
     let (mut estimates, mut covered, mut intervals, mut trials) = (Vec::new(), 0, 0, 0);
     for seed in 1..=runs {
         let participant =

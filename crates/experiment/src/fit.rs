@@ -18,8 +18,17 @@
 //! stops improving; it is deterministic. The scale `s` is kept within `[10⁻⁶, 10³]` times the
 //! range of `u` over the data: a data set whose likelihood keeps rising towards a step
 //! function or a flat line (perfectly separated, or falling with the level) ends on that
-//! bound. [`bootstrap`] gives parametric-bootstrap percentile intervals of the 75 % threshold
-//! and the Weber fraction.
+//! bound.
+//!
+//! Intervals of the 75 % threshold and the Weber fraction: [`credible`], the central part of
+//! the Bayesian posterior under psignifit 4's default priors (what `analyze` reports), or
+//! [`bootstrap`], a parametric bootstrap's percentiles. Over simulated runs of the shipped
+//! staircase plan (two interleaved 2-down/1-up staircases, ~90 trials) the bootstrap's 95 %
+//! intervals covered the true Weber fraction in 158 of 200 runs (re-running the staircases in
+//! each resample) and the posterior's in 186; under constant stimuli 182 and 187 of 200. The
+//! bootstrap draws from the one best-fitting function, and a staircase's levels, clustered at
+//! the threshold, leave its slope poorly known: the posterior keeps the shallow functions the
+//! data allow, and they widen the interval as they should.
 
 pub use crate::rng::Prng;
 use thiserror::Error;
@@ -166,6 +175,9 @@ pub enum FitError {
     /// log scale).
     #[error("the fitted function is degenerate: its 75 % point or parameters are not finite")]
     NoThreshold,
+    /// An interval's coverage is not strictly between 0 and 1.
+    #[error("coverage {0} must lie strictly between 0 and 1")]
+    Coverage(f64),
     /// The bootstrap was asked for too few resamples.
     #[error("bootstrap needs at least 2 resamples, got {0}")]
     TooFewResamples(usize),
@@ -746,6 +758,251 @@ fn quantile_sorted(sorted: &[f64], q: f64) -> f64 {
     sorted[lo] + (h - lo as f64) * (sorted[hi] - sorted[lo])
 }
 
+/// Bayesian credible intervals ([`credible`]).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Credible {
+    /// Interval of `threshold_75`: the central `coverage` of its marginal posterior.
+    pub threshold_75: Interval,
+    /// Interval of `weber_75`, when the fit has a reference.
+    pub weber_75: Option<Interval>,
+    /// The posterior median of `threshold_75`.
+    pub median_threshold_75: f64,
+}
+
+/// Grid points per axis of [`credible`]'s posterior: threshold, width, lapse rate.
+const GRID: [usize; 3] = [121, 81, 11];
+
+/// psignifit 4's default prior of the threshold (the level where `F = ½`, in `u`): flat over
+/// the data's range `[u0, u1]`, falling off with a raised cosine to zero half the range
+/// beyond each end.
+fn threshold_prior(t: f64, u0: f64, u1: f64) -> f64 {
+    let spread = u1 - u0;
+    if t < u0 - 0.5 * spread || t > u1 + 0.5 * spread {
+        0.0
+    } else if t < u0 {
+        0.5 * (1.0 + (2.0 * std::f64::consts::PI * (u0 - t) / spread).cos())
+    } else if t > u1 {
+        0.5 * (1.0 + (2.0 * std::f64::consts::PI * (t - u1) / spread).cos())
+    } else {
+        1.0
+    }
+}
+
+/// psignifit 4's default prior of the width (from `F = 0.05` to `F = 0.95`, in `u`): flat
+/// from twice the smallest step between two levels, `w_min`, to the data's range `w_max`,
+/// rising from zero at `w_min` and falling to zero at `3 w_max` with raised cosines.
+fn width_prior(w: f64, w_min: f64, w_max: f64) -> f64 {
+    let rise = if w <= w_min {
+        0.0
+    } else if w < 2.0 * w_min {
+        0.5 * (1.0 - (std::f64::consts::PI * (w - w_min) / w_min).cos())
+    } else {
+        1.0
+    };
+    let fall = if w >= 3.0 * w_max {
+        0.0
+    } else if w > w_max {
+        0.5 * (1.0 + (0.5 * std::f64::consts::PI * (w - w_max) / w_max).cos())
+    } else {
+        1.0
+    };
+    rise * fall
+}
+
+/// One axis of the posterior's grid: `n` cell centres over `[lo, hi]`.
+fn axis(lo: f64, hi: f64, n: usize) -> impl Iterator<Item = f64> {
+    (0..n).map(move |i| lo + (hi - lo) * (i as f64 + 0.5) / n as f64)
+}
+
+/// The posterior's grid over a box of threshold, log width and lapse: each cell's
+/// `(threshold_75 in u, log weight)`, and the marginal log weights per threshold and width
+/// index (for the refined box).
+struct Grid {
+    cells: Vec<(f64, f64)>,
+    marginal_t: Vec<f64>,
+    marginal_w: Vec<f64>,
+}
+
+/// Bayesian credible intervals of the 75 % threshold and the Weber fraction, psignifit 4's
+/// method (Schütt, Harmeling, Macke & Wichmann 2016): the binomial likelihood of `data` times
+/// its default priors (threshold and width above, the lapse rate Beta(1, 10) on
+/// `[0, λ_max]`), integrated on a grid over threshold, width and lapse rate (the width's
+/// axis logarithmic), first over the priors' whole support and then over the box that holds
+/// the posterior's mass; the interval is the central `coverage` of the marginal posterior of
+/// `threshold_75` (the level where `ψ = 0.75`, computed in every cell).
+///
+/// Unlike a parametric bootstrap, which draws from the one best-fitting function, the
+/// posterior keeps every psychometric function the data allow: the shallow ones an adaptive
+/// run (whose levels cluster at the threshold) cannot exclude widen the interval as they
+/// should.
+pub fn credible(
+    data: &[Point],
+    model: Model,
+    options: FitOptions,
+    coverage: f64,
+) -> Result<Credible, FitError> {
+    if !(coverage > 0.0 && coverage < 1.0) {
+        return Err(FitError::Coverage(coverage));
+    }
+    validate(data, model, &options)?;
+    let prep = prepare(data, model)?;
+    let mut levels = prep.u.clone();
+    levels.sort_by(f64::total_cmp);
+    let w_min = levels
+        .windows(2)
+        .map(|w| w[1] - w[0])
+        .filter(|d| *d > 0.0)
+        .fold(f64::INFINITY, f64::min);
+    let (u0, u1) = (prep.u_min, prep.u_max);
+    let w_max = u1 - u0;
+    let span = model.quantile(0.95) - model.quantile(0.05);
+    let q50 = model.quantile(0.5);
+    let lapse_max = options.lapse_max.max(0.0);
+    let grid = |t: (f64, f64), lw: (f64, f64)| -> Grid {
+        let n_l = if lapse_max > 0.0 { GRID[2] } else { 1 };
+        let mut cells = Vec::with_capacity(GRID[0] * GRID[1] * n_l);
+        let mut marginal_t = vec![f64::NEG_INFINITY; GRID[0]];
+        let mut marginal_w = vec![f64::NEG_INFINITY; GRID[1]];
+        for (i, th) in axis(t.0, t.1, GRID[0]).enumerate() {
+            let prior_t = threshold_prior(th, u0, u1);
+            if prior_t <= 0.0 {
+                continue;
+            }
+            for (j, ln_w) in axis(lw.0, lw.1, GRID[1]).enumerate() {
+                let w = ln_w.exp();
+                // Flat in the width: its log axis carries the Jacobian w.
+                let prior_w = width_prior(w, w_min, w_max) * w;
+                if prior_w <= 0.0 {
+                    continue;
+                }
+                let s = w / span;
+                let m = th - s * q50;
+                for lapse in axis(0.0, lapse_max, n_l) {
+                    // Beta(1, 10) up to its constant; a fixed lapse (λ_max = 0) is λ = 0.
+                    let prior_l = (1.0 - lapse).powi(9);
+                    let log_w =
+                        prep.kernel(model, m, s, lapse) + (prior_t * prior_w * prior_l).ln();
+                    let f = (TARGET_75 - GUESS_2AFC) / (1.0 - GUESS_2AFC - lapse);
+                    cells.push((m + s * model.quantile(f), log_w));
+                    marginal_t[i] = log_add(marginal_t[i], log_w);
+                    marginal_w[j] = log_add(marginal_w[j], log_w);
+                }
+            }
+        }
+        Grid {
+            cells,
+            marginal_t,
+            marginal_w,
+        }
+    };
+    let t_full = (u0 - 0.5 * w_max, u1 + 0.5 * w_max);
+    let lw_full = (w_min.ln(), (3.0 * w_max).ln());
+    let coarse = grid(t_full, lw_full);
+    // The refined box: the cells whose marginal is within e⁻¹⁶ (1e-7) of the largest, one
+    // cell more on each side.
+    let refine = |marginal: &[f64], range: (f64, f64)| -> (f64, f64) {
+        let top = marginal.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+        let kept: Vec<usize> = (0..marginal.len())
+            .filter(|&i| marginal[i] >= top - 16.0)
+            .collect();
+        let (first, last) = (
+            kept.first().copied().unwrap_or(0),
+            kept.last().copied().unwrap_or(marginal.len() - 1),
+        );
+        let step = (range.1 - range.0) / marginal.len() as f64;
+        (
+            range.0 + step * first.saturating_sub(1) as f64,
+            range.0 + step * (last + 2).min(marginal.len()) as f64,
+        )
+    };
+    let fine = grid(
+        refine(&coarse.marginal_t, t_full),
+        refine(&coarse.marginal_w, lw_full),
+    );
+    let top = fine
+        .cells
+        .iter()
+        .map(|c| c.1)
+        .fold(f64::NEG_INFINITY, f64::max);
+    if !top.is_finite() {
+        return Err(FitError::NoThreshold);
+    }
+    let mut weighted: Vec<(f64, f64)> = fine
+        .cells
+        .iter()
+        .map(|&(t, lw)| (t, (lw - top).exp()))
+        .filter(|c| c.1 > 0.0 && c.0.is_finite())
+        .collect();
+    weighted.sort_by(|a, b| a.0.total_cmp(&b.0));
+    // Cells with the same threshold (every width's, with the lapse rate fixed) are one mass.
+    let mut masses: Vec<(f64, f64)> = Vec::with_capacity(weighted.len());
+    for (t, w) in weighted {
+        match masses.last_mut() {
+            Some(last) if last.0 == t => last.1 += w,
+            _ => masses.push((t, w)),
+        }
+    }
+    let total: f64 = masses.iter().map(|c| c.1).sum();
+    // Each mass spread evenly between the midpoints to its neighbours (half a spacing beyond
+    // the ends): the piecewise-linear CDF of the grid's histogram, centred on its cells.
+    let edge = |j: usize| -> f64 {
+        let n = masses.len();
+        if n < 2 {
+            return masses.first().map_or(f64::NAN, |c| c.0);
+        }
+        if j == 0 {
+            masses[0].0 - 0.5 * (masses[1].0 - masses[0].0)
+        } else if j == n {
+            masses[n - 1].0 + 0.5 * (masses[n - 1].0 - masses[n - 2].0)
+        } else {
+            0.5 * (masses[j - 1].0 + masses[j].0)
+        }
+    };
+    let quantile = |q: f64| -> f64 {
+        let goal = q * total;
+        let mut cum = 0.0;
+        for (j, &(_, w)) in masses.iter().enumerate() {
+            if cum + w >= goal {
+                let (a, b) = (edge(j), edge(j + 1));
+                return a + (b - a) * ((goal - cum) / w).clamp(0.0, 1.0);
+            }
+            cum += w;
+        }
+        edge(masses.len())
+    };
+    let tail = 0.5 * (1.0 - coverage);
+    let (lo, mid, hi) = (
+        model.level_of_u(quantile(tail)),
+        model.level_of_u(quantile(0.5)),
+        model.level_of_u(quantile(1.0 - tail)),
+    );
+    if !(lo.is_finite() && hi.is_finite() && mid.is_finite()) {
+        return Err(FitError::NoThreshold);
+    }
+    let threshold_75 = Interval {
+        lower: lo,
+        upper: hi,
+    };
+    Ok(Credible {
+        threshold_75,
+        weber_75: options.reference.map(|r| Interval {
+            lower: lo / r - 1.0,
+            upper: hi / r - 1.0,
+        }),
+        median_threshold_75: mid,
+    })
+}
+
+/// `ln(eᵃ + eᵇ)` without overflow.
+fn log_add(a: f64, b: f64) -> f64 {
+    let (hi, lo) = if a > b { (a, b) } else { (b, a) };
+    if lo == f64::NEG_INFINITY {
+        hi
+    } else {
+        hi + (lo - hi).exp().ln_1p()
+    }
+}
+
 /// Parametric bootstrap of `fit` on `data` (the data it was fitted to): each resample draws
 /// `k* ~ Binomial(n, ψ̂(x))` at every level and is refitted with the same model and options;
 /// the intervals are the percentiles of the refitted thresholds and Weber fractions.
@@ -829,36 +1086,4 @@ fn percentile_intervals(
         fitted: thresholds.len(),
         failed,
     })
-}
-
-/// Bootstrap of `fit` over whole data sets drawn by `resample(fit, rng)`: for an adaptive
-/// design the procedure itself re-run with the fitted observer, so that each resample's
-/// levels follow its own answers as the real run's did. A parametric bootstrap at the real
-/// run's levels ([`bootstrap`]) treats those levels as fixed, and its intervals come out too
-/// narrow for staircase data (over 100 simulated staircase runs its 95 % intervals covered
-/// the true Weber fraction 84 times; the same observers under constant stimuli, 95 times).
-/// Each resample is refitted with the fit's model and options; intervals as [`bootstrap`].
-pub fn bootstrap_procedure(
-    fit: &Fit,
-    options: &BootstrapOptions,
-    mut resample: impl FnMut(&Fit, &mut Prng) -> Vec<Point>,
-) -> Result<Bootstrap, FitError> {
-    if options.resamples < 2 {
-        return Err(FitError::TooFewResamples(options.resamples));
-    }
-    let mut rng = Prng::new(options.seed);
-    let mut thresholds = Vec::with_capacity(options.resamples);
-    let mut failed = 0;
-    for _ in 0..options.resamples {
-        let data = resample(fit, &mut rng);
-        if data.iter().all(|p| 2 * p.n_correct <= p.n_trials) {
-            failed += 1;
-            continue;
-        }
-        match self::fit(&data, fit.model, fit.options) {
-            Ok(f) => thresholds.push(f.threshold_75),
-            Err(_) => failed += 1,
-        }
-    }
-    percentile_intervals(thresholds, failed, options, fit.options.reference)
 }

@@ -361,14 +361,11 @@ fn constant_stimuli_recover_a_known_observers_weber_fraction() {
     let dir = write_run("constant", &constant_plan(&presented), &text);
     let options = AnalyzeOptions {
         model: Model::Gaussian,
-        resamples: 200,
-        seed: None,
     };
     let summary = analyze(&dir, &options).unwrap();
     assert_eq!(summary.trials, trial as usize);
     let afc = summary.two_afc.as_ref().unwrap();
     assert_eq!(afc.model, "gaussian");
-    assert_eq!(afc.seed, 5, "the plan's seed by default");
     let cell = &afc.cells[0];
     let levels: Vec<f64> = cell.points.iter().map(|p| p.level).collect();
     assert_eq!(
@@ -413,6 +410,18 @@ fn constant_stimuli_recover_a_known_observers_weber_fraction() {
     );
     let [lo, hi] = fit.ci95_weber.unwrap();
     assert!(lo < fit.weber_75 && fit.weber_75 < hi, "[{lo}, {hi}]");
+    // 3,300 trials: the posterior is nearly normal around the estimate (Bernstein–von Mises),
+    // its 95 % half-width 1.96 times the standard error above. That error takes the lapse
+    // rate as known; free in [0, 0.1] it costs some information at the upper levels
+    // (measured: 6 % wider). Not narrower than the known-lapse bound less the grid's 1 %,
+    // not wider by more than 15 %.
+    let ratio = 0.5 * (hi - lo) / (1.96 * se_weber);
+    assert!(
+        (0.99..1.15).contains(&ratio),
+        "half-width {} against 1.96 se {}",
+        0.5 * (hi - lo),
+        1.96 * se_weber
+    );
     assert!(cell.staircases.is_empty());
     let line = summary.to_string();
     assert!(line.contains("Weber fraction at 75 %"), "{line}");
@@ -467,14 +476,7 @@ fn staircase_tracks_and_reversals_read_by_hand() {
         ));
     }
     let dir = write_run("staircase", &staircase_plan(), &text);
-    let summary = summarize(
-        &dir,
-        &AnalyzeOptions {
-            resamples: 20,
-            ..AnalyzeOptions::default()
-        },
-    )
-    .unwrap();
+    let summary = summarize(&dir, &AnalyzeOptions::default()).unwrap();
     assert_eq!(summary.practice_trials, 1);
     let cell = &summary.two_afc.as_ref().unwrap().cells[0];
     let stairs = &cell.staircases;
@@ -661,16 +663,6 @@ reference,comparison_interval,response,correct,response_time_s,trace,t_start_s\n
     let e = summarize(&dir, &AnalyzeOptions::default()).unwrap_err();
     assert!(e.to_string().contains("plan.json"), "{e}");
     std::fs::remove_dir_all(&dir).unwrap();
-    // Too few resamples.
-    let e = summarize(
-        Path::new("."),
-        &AnalyzeOptions {
-            resamples: 1,
-            ..AnalyzeOptions::default()
-        },
-    )
-    .unwrap_err();
-    assert!(e.to_string().contains("--resamples 1"), "{e}");
 }
 
 #[test]

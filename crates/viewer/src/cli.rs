@@ -97,8 +97,9 @@ Fisher's exact test (two-sided) of their accuracies.
 2afc-staircase, constant-stimuli: levels below the reference r are folded onto its upper \
 side (r^2/x); the proportion correct per folded level is fitted by maximum likelihood (guess \
 rate 0.5, lapse rate in [0, 0.1]) with --model; the Weber fraction at 75 % correct \
-(threshold / r - 1) gets a 95 % parametric-bootstrap interval (--resamples, --seed); each \
-staircase's track and reversals are listed.
+(threshold / r - 1) gets a 95 % credible interval, the central 95 % of its Bayesian \
+posterior under psignifit 4's default priors; each staircase's track and reversals are \
+listed.
 
 Written: DIR/summary.json (its fields are documented in the experiment crate's analyze \
 module) and the figure (--figure, default DIR/summary.png): the confusion matrices as heat \
@@ -112,7 +113,7 @@ Exit status:
      number, an unknown stimulus, a duplicate trial, a design other than the plan's)
 
 Example:
-  viewer experiment analyze runs/sim1 --resamples 2000";
+  viewer experiment analyze runs/sim1 --model weibull";
 
 /// `viewer experiment analyze` arguments.
 #[derive(Debug, Args)]
@@ -123,13 +124,6 @@ pub struct ExperimentAnalyzeArgs {
     /// The psychometric function of 2AFC designs.
     #[arg(long, value_name = "MODEL", default_value = "log-gaussian", value_parser = ["gaussian", "log-gaussian", "weibull"])]
     pub model: String,
-    /// Bootstrap resamples for the 95 % interval (at least 2; 1000 or more for a reliable
-    /// interval).
-    #[arg(long, value_name = "N", default_value_t = 1000, value_parser = clap::value_parser!(u32).range(2..))]
-    pub resamples: u32,
-    /// The bootstrap's seed (default: the plan's seed).
-    #[arg(long, value_name = "SEED")]
-    pub seed: Option<u64>,
     /// The figure (PNG; default DIR/summary.png).
     #[arg(long, value_name = "PATH")]
     pub figure: Option<PathBuf>,

@@ -6,7 +6,7 @@
 //! - 2AFC: on the left the staircases' tracks (level against trial; filled dots answered
 //!   right, open dots wrong, red rings the reversals; the dashed line the reference), on the
 //!   right the proportion correct against the folded level with the fitted psychometric
-//!   function, its 75 % point and the point's 95 % bootstrap interval. A constant-stimuli run
+//!   function, its 75 % point and the point's 95 % credible interval. A constant-stimuli run
 //!   has no tracks: the right panel takes the whole figure.
 
 use std::path::Path;

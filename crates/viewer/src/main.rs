@@ -90,11 +90,7 @@ fn experiment_analyze_command(args: &viewer::cli::ExperimentAnalyzeArgs) -> Exit
             EXIT_BAD_SETUP,
         );
     };
-    let options = AnalyzeOptions {
-        model,
-        resamples: args.resamples as usize,
-        seed: args.seed,
-    };
+    let options = AnalyzeOptions { model };
     let figure = args
         .figure
         .clone()

@@ -112,8 +112,6 @@ fn bad_runs_and_options_are_refused_with_status_2() {
         "{err}"
     );
     assert!(!dir.join("summary.json").exists());
-    let (code, _, err) = analyze(&[dir.to_str().unwrap(), "--resamples", "1"]);
-    assert_eq!(code, 2, "{err}");
     let (code, _, err) = analyze(&[dir.to_str().unwrap(), "--model", "logistic"]);
     assert_eq!(code, 2, "{err}");
     std::fs::remove_dir_all(&dir).unwrap();
