@@ -11,7 +11,7 @@
 //!
 //! [`run_device`] closes the loop through the device instead: the trajectory moves the target
 //! of a virtual hand that holds the handle of a [`SimulatedPantograph`], and the device's own
-//! [`Controller`](device::controller::Controller) (encoder counts → kinematics → tracker → friction → safety → Jᵀ F → motor
+//! [`Controller`] (encoder counts → kinematics → tracker → friction → safety → Jᵀ F → motor
 //! currents) pushes back. Its ticks carry a [`DeviceSample`](crate::tick::DeviceSample) as well.
 //!
 //! [`Run::write_csv`] writes the run log: one row per tick, columns [`csv_header`](crate::runlog::csv_header), followed
