@@ -33,6 +33,27 @@ fn press(depth: f64) -> Trajectory {
         .expect("valid trajectory")
 }
 
+/// The grip's target from 10 mm below the rest line to 6 mm past it in 0.3 s, then held until
+/// `until_s`.
+fn grip_press(until_s: f64) -> Trajectory {
+    let samples = [(0.0, Y - 0.01), (0.3, Y + 0.006), (until_s, Y + 0.006)];
+    Trajectory::from_samples(Space::Planar, samples.map(|(t, y)| (t, [0.0, y, 0.0])))
+        .expect("valid trajectory")
+}
+
+/// The series stiffness's band (below) widened by the encoders' quantum over `depth` (19.6 µm
+/// at the handle: what the controller sees of the depth), `0` on the host's exact HIP.
+fn series_band(depth: f64, quantum_m: f64) -> (f64, f64) {
+    let series = |k_o: f64| K_C * k_o / (K_C + k_o);
+    let k_o = 4.0 * T / L;
+    let h = L / 9.0;
+    let q = quantum_m / depth;
+    (
+        series(k_o * (1.0 + 0.45 * h / L)) * (1.0 - q),
+        series(k_o * (1.0 + 0.6 * h / L)) * (1.0 + q),
+    )
+}
+
 /// Held at a depth `d` past the rest line, the contact spring `k_c` and the string's midpoint
 /// stiffness `k_o` share the push in series: `F = d k_c k_o / (k_c + k_o)`. `k_o` is the
 /// string's `4T/L` = 250 N/m stiffened by its discretisation by 0.45–0.6 of `h/L`
@@ -50,13 +71,7 @@ fn pushed_string_gives_the_series_stiffness_of_contact_and_string() {
         .rfind(|k| k.t_s <= 1.0)
         .expect("a tick of the hold");
     let k = f64::from(held.normal_force_n) / depth;
-    let series = |k_o: f64| K_C * k_o / (K_C + k_o);
-    let k_o = 4.0 * T / L;
-    let h = L / 9.0;
-    let (lo, hi) = (
-        series(k_o * (1.0 + 0.45 * h / L)),
-        series(k_o * (1.0 + 0.6 * h / L)),
-    );
+    let (lo, hi) = series_band(depth, 0.0);
     assert!(
         (lo..=hi).contains(&k),
         "F/d = {k} N/m, series stiffness in [{lo}, {hi}] N/m"
@@ -125,16 +140,10 @@ fn closed_path_does_no_work_on_the_hand_and_the_string_springs_back() {
 #[test]
 fn device_loop_pushes_the_string_at_the_series_stiffness() {
     let scene = deformable();
-    let free = Y - 0.01;
-    let p = Y + 0.006;
-    let samples = [(0.0, free), (0.3, p), (1.2, p)];
-    let trajectory =
-        Trajectory::from_samples(Space::Planar, samples.map(|(t, y)| (t, [0.0, y, 0.0])))
-            .expect("valid trajectory");
     let run = deform::run_device(
         &scene,
         0,
-        &trajectory,
+        &grip_press(1.2),
         10_000.0,
         host::sim::Hand::Grip.params(),
         |_, _| {},
@@ -143,14 +152,7 @@ fn device_loop_pushes_the_string_at_the_series_stiffness() {
     let held = run.run.ticks.last().expect("ticks");
     let depth = f64::from(held.hip.y) - Y;
     let k = f64::from(held.normal_force_n) / depth;
-    let series = |k_o: f64| K_C * k_o / (K_C + k_o);
-    let k_o = 4.0 * T / L;
-    let h = L / 9.0;
-    let quantum = 19.6e-6 / depth;
-    let (lo, hi) = (
-        series(k_o * (1.0 + 0.45 * h / L)) * (1.0 - quantum),
-        series(k_o * (1.0 + 0.6 * h / L)) * (1.0 + quantum),
-    );
+    let (lo, hi) = series_band(depth, 19.6e-6);
     assert!(
         (lo..=hi).contains(&k),
         "F/d = {k} N/m at d = {depth} m, in [{lo}, {hi}]"
@@ -413,12 +415,7 @@ fn pressed_drum_gives_and_stays_passive() {
 #[test]
 fn device_behind_a_lagging_link_pushes_the_string_at_the_series_stiffness() {
     let scene = deformable();
-    let free = Y - 0.01;
-    let p = Y + 0.006;
-    let samples = [(0.0, free), (0.3, p), (1.5, p)];
-    let trajectory =
-        Trajectory::from_samples(Space::Planar, samples.map(|(t, y)| (t, [0.0, y, 0.0])))
-            .expect("valid trajectory");
+    let trajectory = grip_press(1.5);
     for lag in [2, 8, 20] {
         let run = deform::run_device_lagged(
             &scene,
@@ -432,19 +429,12 @@ fn device_behind_a_lagging_link_pushes_the_string_at_the_series_stiffness() {
         .expect("runs");
         let ticks = &run.run.ticks;
         let end = ticks.last().expect("ticks").t_s;
-        let series = |k_o: f64| K_C * k_o / (K_C + k_o);
-        let k_o = 4.0 * T / L;
-        let h = L / 9.0;
         let peak = ticks.iter().map(|k| k.normal_force_n).fold(0.0, f32::max);
         let (mut k_min, mut k_max) = (f64::MAX, f64::MIN);
         for held in ticks.iter().filter(|k| k.t_s >= end - 0.2) {
             let depth = f64::from(held.hip.y) - Y;
             let k = f64::from(held.normal_force_n) / depth;
-            let quantum = 19.6e-6 / depth;
-            let (lo, hi) = (
-                series(k_o * (1.0 + 0.45 * h / L)) * (1.0 - quantum),
-                series(k_o * (1.0 + 0.6 * h / L)) * (1.0 + quantum),
-            );
+            let (lo, hi) = series_band(depth, 19.6e-6);
             k_min = k_min.min(k);
             k_max = k_max.max(k);
             assert!(
