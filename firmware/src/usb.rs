@@ -1,8 +1,8 @@
 //! The board's USB side, run in its USB interrupt: host reports in to the protocol task,
-//! replies and telemetry out as IN reports, one device sequence number over all of them.
-//! The HID device and its endpoints are `device::usb::HidPort` (the same code the host runs
-//! over USB/IP in `cargo xtask hid`); this is what the board puts behind it, the queueing and
-//! numbering ([`ReportPump`]).
+//! the protocol task's replies and the tick's telemetry out. The HID device, its endpoints
+//! and the order and numbering of what goes out are `device::usb::HidPort` and its `Outbox`
+//! (the same code the host runs over USB/IP in `cargo xtask hid`); this is what the board
+//! puts behind it, its queues ([`ReportPump`]).
 
 use device::protocol::{Frame, Message};
 use device::usb::ReportPump;
@@ -10,7 +10,7 @@ use heapless::spsc::{Consumer, Producer};
 
 use crate::protocol_task::{FRAMES, REPLIES, REPORTS, Report};
 
-/// The queues of the USB task and its sequence number.
+/// The queues of the USB task.
 pub struct Usb {
     /// Host reports to the protocol task.
     pub reports: Producer<'static, Report, REPORTS>,
@@ -18,50 +18,38 @@ pub struct Usb {
     pub replies: Consumer<'static, Message, REPLIES>,
     /// The tick's telemetry frames.
     pub frames: Consumer<'static, Report, FRAMES>,
-    /// Device sequence number, over every frame sent (the host counts gaps in it).
-    pub seq: u16,
 }
 
 impl core::fmt::Debug for Usb {
     fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
-        f.debug_struct("Usb")
-            .field("seq", &self.seq)
-            .finish_non_exhaustive()
+        f.debug_struct("Usb").finish_non_exhaustive()
     }
 }
 
 impl ReportPump for Usb {
-    /// The next report to send: a reply first, else the oldest telemetry frame; numbered
-    /// with the device's sequence. `None` when nothing is waiting.
-    fn next_report(&mut self) -> Option<Report> {
-        let message = match self.replies.peek() {
-            Some(m) => *m,
-            None => match self.frames.peek().map(|r| Frame::decode(r)) {
-                Some(Ok(frame)) => frame.message,
-                Some(Err(_)) => {
-                    // Unreachable (the tick encodes them); dropped rather than sent.
-                    let _ = self.frames.dequeue();
-                    return None;
-                }
-                None => return None,
-            },
-        };
-        Some(
-            Frame {
-                seq: self.seq,
-                message,
-            }
-            .to_report()
-            .0,
-        )
+    fn reply(&mut self) -> Option<Message> {
+        self.replies.peek().copied()
     }
 
-    /// The report of [`Usb::next_report`] was sent.
-    fn sent(&mut self) {
-        if self.replies.dequeue().is_none() {
-            let _ = self.frames.dequeue();
+    /// The oldest telemetry frame; one that does not decode (unreachable: the tick encodes
+    /// them) is dropped rather than sent.
+    fn frame(&mut self) -> Option<Message> {
+        loop {
+            match Frame::decode(self.frames.peek()?) {
+                Ok(frame) => return Some(frame.message),
+                Err(_) => {
+                    let _ = self.frames.dequeue();
+                }
+            }
         }
-        self.seq = self.seq.wrapping_add(1);
+    }
+
+    fn take_reply(&mut self) {
+        let _ = self.replies.dequeue();
+    }
+
+    fn take_frame(&mut self) {
+        let _ = self.frames.dequeue();
     }
 
     /// A host report, copied into a zero-padded [`Report`] for the protocol task; a full

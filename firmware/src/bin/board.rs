@@ -380,7 +380,6 @@ mod app {
             reports: report_tx,
             replies: reply_rx,
             frames: frame_rx,
-            seq: 0,
         };
         let protocol = Protocol {
             session,

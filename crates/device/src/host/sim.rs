@@ -493,18 +493,16 @@ fn emit(
 /// The simulated device's frames as the reports of the board's USB HID device
 /// ([`crate::usb::HidPort`]) run on the host, over USB/IP in `cargo xtask hid`: host reports
 /// go to the device's thread as a board's OUT reports go to its protocol task, and the
-/// device's frames come out one per IN report as a board sends them (`firmware::usb::Usb`):
-/// a reply (ack, nack, status, hello) before any telemetry, telemetry in a queue of
-/// [`SimReports::FRAMES`] frames that drops the newest frame when full (the host sees the
-/// missing millisecond in the frames' device time), every report numbered with the device's
-/// sequence when it is sent. Feature `usb`.
+/// device's frames wait in a board's two queues (`firmware::usb::Usb`): the replies (ack,
+/// nack, status, hello), and telemetry in a queue of [`SimReports::FRAMES`] frames that drops
+/// the newest frame when full (the host sees the missing millisecond in the frames' device
+/// time). The port's [`crate::usb::Outbox`] sends them in the board's order. Feature `usb`.
 #[cfg(feature = "usb")]
 #[derive(Debug)]
 pub struct SimReports {
     link: SimLink,
     replies: std::collections::VecDeque<Message>,
     frames: std::collections::VecDeque<Message>,
-    seq: u16,
     sent: u64,
     dropped: u64,
 }
@@ -517,7 +515,6 @@ impl SimLink {
             link: self,
             replies: std::collections::VecDeque::new(),
             frames: std::collections::VecDeque::new(),
-            seq: 0,
             sent: 0,
             dropped: 0,
         }
@@ -577,24 +574,23 @@ impl crate::usb::ReportPump for SimReports {
         let _ = self.link.command(ToDevice::Frame(frame));
     }
 
-    fn next_report(&mut self) -> Option<[u8; MAX_FRAME]> {
+    fn reply(&mut self) -> Option<Message> {
         self.collect();
-        let message = *self.replies.front().or(self.frames.front())?;
-        Some(
-            Frame {
-                seq: self.seq,
-                message,
-            }
-            .to_report()
-            .0,
-        )
+        self.replies.front().copied()
     }
 
-    fn sent(&mut self) {
-        if self.replies.pop_front().is_none() {
-            self.frames.pop_front();
-        }
-        self.seq = self.seq.wrapping_add(1);
+    fn frame(&mut self) -> Option<Message> {
+        self.collect();
+        self.frames.front().copied()
+    }
+
+    fn take_reply(&mut self) {
+        self.replies.pop_front();
+        self.sent += 1;
+    }
+
+    fn take_frame(&mut self) {
+        self.frames.pop_front();
         self.sent += 1;
     }
 
