@@ -240,11 +240,13 @@ fn index_modules(dir: &Path, out: &mut Vec<(String, PathBuf)>) {
     }
 }
 
-/// A module's dependencies, from its `.modinfo` section's `depends=` string.
+/// A module's dependencies, from its `.modinfo` section's `depends=` string (an entry of
+/// that NUL-separated list: the key at the start of one).
 fn depends(ko: &[u8]) -> Vec<String> {
     let key = b"depends=";
     ko.windows(key.len())
-        .position(|w| w == key)
+        .enumerate()
+        .position(|(at, w)| w == key && (at == 0 || ko[at - 1] == 0))
         .map(|at| {
             let rest = &ko[at + key.len()..];
             let end = rest.iter().position(|&b| b == 0).unwrap_or(rest.len());
@@ -861,4 +863,47 @@ fn watchdog(host: &mut Host<HidLink>, at: Vec2) -> Result<String, String> {
         ));
     }
     Ok(line)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The `.modinfo` entries are NUL-separated `key=value` strings; `depends=` lists the
+    /// modules to load first, comma-separated, with the kernel's dashes as underscores.
+    #[test]
+    fn depends_reads_the_modinfo_entry() {
+        let ko =
+            b"\x7fELF\0\0license=GPL\0xdepends=nothing\0depends=usbcore,hid-generic\0intree=Y\0";
+        assert_eq!(depends(ko), ["usbcore", "hid_generic"]);
+        assert!(depends(b"\0depends=\0name=x\0").is_empty());
+        assert!(depends(b"\0xdepends=usbcore\0").is_empty());
+        assert!(depends(b"no modinfo at all").is_empty());
+    }
+
+    /// The "newc" format as the kernel's buffer-format document gives it: "070701", then
+    /// thirteen 8-digit hexadecimal fields (ino, mode, uid, gid, nlink, mtime, filesize,
+    /// devmajor, devminor, rdevmajor, rdevminor, namesize with its NUL, check), the name and
+    /// its NUL padded to a multiple of four from the archive's start, the data padded the
+    /// same, and a last entry named TRAILER!!!. Written out by hand for one file "a" of
+    /// "xy", mode 0644.
+    #[test]
+    fn cpio_entries_are_newc_as_specified() {
+        let mut cpio = Cpio::default();
+        cpio.file("a", 0o644, b"xy");
+        let out = cpio.finish();
+        let mut expected = String::from("070701");
+        for field in [1, 0o100_644, 0, 0, 1, 0, 2, 0, 0, 0, 0, 2, 0] {
+            expected.push_str(&format!("{field:08X}"));
+        }
+        expected.push_str("a\0xy\0\0");
+        expected.push_str("070701");
+        for field in [2, 0, 0, 0, 1, 0, 0, 0, 0, 0, 0, 11, 0] {
+            expected.push_str(&format!("{field:08X}"));
+        }
+        expected.push_str("TRAILER!!!\0\0\0\0");
+        assert_eq!(String::from_utf8_lossy(&out), expected);
+        assert_eq!(out.len(), 240);
+        assert_eq!(&expected[6..22], "00000001000081A4");
+    }
 }
