@@ -35,11 +35,11 @@
 //! trials; the Weber fraction at 75 % correct is `threshold_75 / r − 1`, its 95 % interval
 //! the central 95 % of its Bayesian posterior under psignifit 4's default priors
 //! ([`fit::credible`]: a parametric bootstrap's intervals from a staircase run covered the
-//! true Weber fraction in only 79–84 % of simulated runs, the posterior's in 93 %). A staircase's reversals are read from its track:
-//! a trial is a reversal when the level's direction of change flips after it (levels equal
-//! to the one before do not count as a direction). A move blocked at a bound, or the move
-//! after the last trial, leaves no trace in the track, so this count can fall short of the
-//! runner's own by those.
+//! true Weber fraction in only 79–84 % of simulated runs, the posterior's in 93 %). A
+//! staircase's reversals are read from its track: a trial is a reversal when the level's
+//! direction of change flips after it (levels equal to the one before do not count as a
+//! direction). A move blocked at a bound, or the move after the last trial, leaves no trace
+//! in the track, so this count can fall short of the runner's own by those.
 //!
 //! # `summary.json`
 //!

@@ -251,6 +251,14 @@ impl Interval {
     pub fn contains(&self, x: f64) -> bool {
         self.lower <= x && x <= self.upper
     }
+
+    /// The interval of a threshold as Weber fractions against `reference`: `x / r − 1`.
+    fn weber(&self, reference: f64) -> Interval {
+        Interval {
+            lower: self.lower / reference - 1.0,
+            upper: self.upper / reference - 1.0,
+        }
+    }
 }
 
 /// Options of [`bootstrap`].
@@ -415,8 +423,14 @@ fn psi_u(model: Model, u: f64, m: f64, s: f64, lapse: f64) -> f64 {
 }
 
 fn level_at(model: Model, m: f64, s: f64, lapse: f64, p: f64) -> Option<f64> {
+    sigmoid_at(lapse, p).map(|z| model.level_of_u(m + s * model.quantile(z)))
+}
+
+/// The sigmoid's value `F` where `ψ = p` with lapse rate `lapse`, for `p` strictly between
+/// the guess rate and `1 − λ`.
+fn sigmoid_at(lapse: f64, p: f64) -> Option<f64> {
     let f = (p - GUESS_2AFC) / (1.0 - GUESS_2AFC - lapse);
-    (f > 0.0 && f < 1.0).then(|| model.level_of_u(m + s * model.quantile(f)))
+    (f > 0.0 && f < 1.0).then_some(f)
 }
 
 /// Validated data in the fit's coordinate `u`, with the binomial constants.
@@ -765,8 +779,6 @@ pub struct Credible {
     pub threshold_75: Interval,
     /// Interval of `weber_75`, when the fit has a reference.
     pub weber_75: Option<Interval>,
-    /// The posterior median of `threshold_75`.
-    pub median_threshold_75: f64,
 }
 
 /// Grid points per axis of [`credible`]'s posterior: threshold, width, lapse rate.
@@ -858,9 +870,17 @@ pub fn credible(
     let span = model.quantile(0.95) - model.quantile(0.05);
     let q50 = model.quantile(0.5);
     let lapse_max = options.lapse_max.max(0.0);
+    // Per lapse rate, once: its Beta(1, 10) prior up to its constant, and where the sigmoid
+    // puts the 75 % point (`z`: `threshold_75 = m + s z`); a fixed lapse (λ_max = 0) is λ = 0.
+    let lapses: Vec<(f64, f64, f64)> =
+        axis(0.0, lapse_max, if lapse_max > 0.0 { GRID[2] } else { 1 })
+            .filter_map(|lapse| {
+                let z = model.quantile(sigmoid_at(lapse, TARGET_75)?);
+                Some((lapse, (1.0 - lapse).powi(9), z))
+            })
+            .collect();
     let grid = |t: (f64, f64), lw: (f64, f64)| -> Grid {
-        let n_l = if lapse_max > 0.0 { GRID[2] } else { 1 };
-        let mut cells = Vec::with_capacity(GRID[0] * GRID[1] * n_l);
+        let mut cells = Vec::with_capacity(GRID[0] * GRID[1] * lapses.len());
         let mut marginal_t = vec![f64::NEG_INFINITY; GRID[0]];
         let mut marginal_w = vec![f64::NEG_INFINITY; GRID[1]];
         for (i, th) in axis(t.0, t.1, GRID[0]).enumerate() {
@@ -877,13 +897,10 @@ pub fn credible(
                 }
                 let s = w / span;
                 let m = th - s * q50;
-                for lapse in axis(0.0, lapse_max, n_l) {
-                    // Beta(1, 10) up to its constant; a fixed lapse (λ_max = 0) is λ = 0.
-                    let prior_l = (1.0 - lapse).powi(9);
+                for &(lapse, prior_l, z) in &lapses {
                     let log_w =
                         prep.kernel(model, m, s, lapse) + (prior_t * prior_w * prior_l).ln();
-                    let f = (TARGET_75 - GUESS_2AFC) / (1.0 - GUESS_2AFC - lapse);
-                    cells.push((m + s * model.quantile(f), log_w));
+                    cells.push((m + s * z, log_w));
                     marginal_t[i] = log_add(marginal_t[i], log_w);
                     marginal_w[j] = log_add(marginal_w[j], log_w);
                 }
@@ -971,25 +988,16 @@ pub fn credible(
         edge(masses.len())
     };
     let tail = 0.5 * (1.0 - coverage);
-    let (lo, mid, hi) = (
-        model.level_of_u(quantile(tail)),
-        model.level_of_u(quantile(0.5)),
-        model.level_of_u(quantile(1.0 - tail)),
-    );
-    if !(lo.is_finite() && hi.is_finite() && mid.is_finite()) {
+    let threshold_75 = Interval {
+        lower: model.level_of_u(quantile(tail)),
+        upper: model.level_of_u(quantile(1.0 - tail)),
+    };
+    if !(threshold_75.lower.is_finite() && threshold_75.upper.is_finite()) {
         return Err(FitError::NoThreshold);
     }
-    let threshold_75 = Interval {
-        lower: lo,
-        upper: hi,
-    };
     Ok(Credible {
         threshold_75,
-        weber_75: options.reference.map(|r| Interval {
-            lower: lo / r - 1.0,
-            upper: hi / r - 1.0,
-        }),
-        median_threshold_75: mid,
+        weber_75: options.reference.map(|r| threshold_75.weber(r)),
     })
 }
 
@@ -1076,10 +1084,7 @@ fn percentile_intervals(
         lower: quantile_sorted(&thresholds, tail),
         upper: quantile_sorted(&thresholds, 1.0 - tail),
     };
-    let weber_75 = reference.map(|r| Interval {
-        lower: threshold_75.lower / r - 1.0,
-        upper: threshold_75.upper / r - 1.0,
-    });
+    let weber_75 = reference.map(|r| threshold_75.weber(r));
     Ok(Bootstrap {
         threshold_75,
         weber_75,

@@ -816,10 +816,9 @@ pub fn run_device_lagged<P: Proceed>(
             if i % per_step == 0 {
                 deformer.step(dt_s)?;
                 in_flight.push_back(deformer.shape()?);
-                if in_flight.len() <= lag_steps {
-                    return Ok((tick, frame));
-                }
-                let Some(next) = in_flight.pop_front() else {
+                // The shape of `lag_steps` steps before, once there is one.
+                let lagged = (in_flight.len() > lag_steps).then(|| in_flight.pop_front());
+                let Some(next) = lagged.flatten() else {
                     return Ok((tick, frame));
                 };
                 let moved =
