@@ -94,7 +94,7 @@ use crate::material::{FrictionMaterial, ModelKind};
 use crate::models::{CoulombViscous, Dahl, FrictionLaw, Karnopp, LuGre, TangentialInput};
 use nurbs::Point;
 use nurbs::math::{self, sqrt};
-use tracker::{Contact, Frame, Object};
+use tracker::{Contact, Feature, Frame, Object};
 
 /// Friction mode.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -273,6 +273,17 @@ const REVERSAL_HYSTERESIS: f32 = 0.1;
 /// 20 mm/s slide at the default τ = 60 ms.
 const SLIP_SPEED_MEMORY: f32 = 1.0 / 3.0;
 
+/// A dynamic mode sticks once the GO has not slid for this long (s) with the spring inside the
+/// cone: a stop is read from the GO's own motion, and 5 ms of it, so that a stick is never
+/// undone by the next encoder count of a slow slide within 5 ms (one count of 19.6 µm every
+/// 5 ms is 4 mm/s, which keeps the GO sliding).
+const STOP_HOLD_S: f32 = 5e-3;
+
+/// The rounding of an f32 point of the surface in a workspace within 0.25 m (m): two ulps of
+/// 1.5e-8 m. A proxy step that seems to lengthen the spring by less than this is rounding, not
+/// geometry, and is taken (with the spring held at its length).
+const ROUNDING_M: f32 = 3e-8;
+
 /// Relative f32 slack of the cone test on `|F_T|²` (1e-5 on `|F_T|`): a spring the GO was just
 /// put on the edge of counts as inside.
 const CONE_SLACK: f32 = 2e-5;
@@ -282,13 +293,28 @@ const CONE_SLACK: f32 = 2e-5;
 pub struct FrictionRenderer<O: Object> {
     material: FrictionMaterial,
     cp: O::State,
-    /// The GO: the anchor of the friction spring, on the CP's tangent plane where it was put.
+    /// The proxy: a tracker in sliding mode, the point of the surface the GO slides about (the
+    /// frictionless god-object: the local closest point reached by sliding over the surface
+    /// from where the GO was, never by jumping across a Voronoi boundary).
+    proxy: O::State,
+    /// The GO: the anchor of the friction spring, in the proxy's tangent plane where it was
+    /// put.
     go: O::P,
-    /// The patch and parameters under the GO (one Gauss–Newton step from the CP it was put
-    /// beside), and that CP's frame: the sign reference of the friction.
+    /// The patch and parameters under the GO (one Gauss–Newton step from the proxy it was put
+    /// beside), and that proxy's frame: the cone's normal and the sign reference of the
+    /// friction.
     go_patch: usize,
     go_params: [f32; 2],
     go_frame: Frame<O::P>,
+    /// The position resolution of the HIP (m, the encoder quantum at the handle; 0 for exact
+    /// positions): the hysteresis of the mode decisions.
+    resolution_m: f32,
+    /// Time since the GO last slid (s).
+    since_slide_s: f32,
+    /// Whether the proxy (and the GO with it) is on a feature of its own, a valley's vertex or
+    /// edge: its normal is then the line from the HIP to it, whatever the HIP's place in the
+    /// feature's normal cone (the feature holds any force there, with no friction needed).
+    go_on_feature: bool,
     mode: Mode,
     cause: SwitchCause,
     law: LawState<O::P>,
@@ -306,30 +332,38 @@ pub fn cp_config() -> tracker::TrackerConfig {
     tracker::TrackerConfig::default()
 }
 
-/// The spring from the HIP to the GO, split about the true contact normal `n`: its normal part
-/// `a` (m, positive when the GO is outward of the HIP) and its tangential part `t`.
+/// The spring from the HIP to the GO, split about the GO's normal `n`: its tangential part `t`,
+/// and the normal force it carries with the damping, as a length: `a_n = F_N / K =
+/// max(0, a − (b/K) v·n)`, `a` its normal part (m, positive when the GO is outward of the HIP).
 #[derive(Clone, Copy, Debug)]
 struct Spring<P> {
-    v: P,
-    a: f32,
     t: P,
+    a_n: f32,
 }
 
 impl<P: Point> Spring<P> {
-    fn new(go: P, hip: P, n: P) -> Self {
+    /// `damping_m` is `(b/K) v·n`, the damping's share of the normal force as a length.
+    fn new(go: P, hip: P, n: P, damping_m: f32) -> Self {
         let v = go - hip;
         let a = v.dot(n);
-        Spring { v, a, t: v - n * a }
+        Spring {
+            t: v - n * a,
+            a_n: math::max(0.0, a - damping_m),
+        }
     }
 
-    /// Whether the spring's force lies outside the cone `|F_T| ≤ μ F_N` (or pulls inward).
-    fn outside(&self, mu: f32) -> bool {
-        self.a < 0.0 || self.t.length_squared() > square(mu * self.a) * (1.0 + CONE_SLACK)
+    /// Whether the force lies outside the cone `|F_T| ≤ μ F_N` widened by `margin_m` of
+    /// tangential stretch (`|t| > μ a_n + margin`): a spring that pulls, or whose damping
+    /// takes its normal force to zero, is outside unless it has no tangential part.
+    fn outside(&self, mu: f32, margin_m: f32) -> bool {
+        self.t.length_squared() > square(mu * self.a_n + margin_m) * (1.0 + CONE_SLACK)
     }
 
-    /// Whether it lies inside the cone of `μ` shrunk by the fraction `margin`.
-    fn inside(&self, mu: f32, margin: f32) -> bool {
-        !self.outside((1.0 - margin) * mu)
+    /// Whether it lies inside the cone of `μ` shrunk by the fraction `fraction` and by
+    /// `margin_m` of tangential stretch.
+    fn inside(&self, mu: f32, fraction: f32, margin_m: f32) -> bool {
+        let edge = (1.0 - fraction) * mu * self.a_n - margin_m;
+        edge >= 0.0 && self.t.length_squared() <= square(edge) * (1.0 + CONE_SLACK)
     }
 }
 
@@ -377,13 +411,19 @@ impl<O: Object> FrictionRenderer<O> {
             }),
         };
         let go_frame = object.frame(go_patch, go_params);
+        let mut proxy = cp;
+        O::set_sliding(&mut proxy, true);
         FrictionRenderer {
             material,
             cp,
+            proxy,
             go: go_frame.point,
             go_patch,
             go_params,
             go_frame,
+            resolution_m: 0.0,
+            since_slide_s: 0.0,
+            go_on_feature: false,
             mode: Mode::Free,
             cause: SwitchCause::None,
             law,
@@ -403,10 +443,14 @@ impl<O: Object> FrictionRenderer<O> {
         FrictionRenderer {
             material: self.material,
             cp: self.cp,
+            proxy: self.proxy,
             go: self.go,
             go_patch: self.go_patch,
             go_params: self.go_params,
             go_frame: self.go_frame,
+            resolution_m: self.resolution_m,
+            since_slide_s: self.since_slide_s,
+            go_on_feature: self.go_on_feature,
             mode: self.mode,
             cause: self.cause,
             law: self.law,
@@ -470,6 +514,8 @@ impl<O: Object> FrictionRenderer<O> {
         before: Anchors<O::P>,
         new: &O2,
     ) {
+        // The proxy is not evaluated again: its next step starts from its old jet and evaluates
+        // the new shape where it lands (one evaluation fewer at the tick boundary).
         new.refresh(&mut self.cp);
         let cp_shift = O2::state_point(&self.cp) - before.cp;
         let go_shift = match before.go {
@@ -484,6 +530,20 @@ impl<O: Object> FrictionRenderer<O> {
         if let Some(p) = self.prev_hip.as_mut() {
             *p += go_shift;
         }
+    }
+
+    /// Sets the HIP's position resolution (m): the encoder quantum at the handle of the device
+    /// whose positions reach [`FrictionRenderer::tick`] (0, the default, for exact positions).
+    /// Every mode decision gets that much hysteresis: a breakaway needs the spring `h` past
+    /// the static cone, a reversal `2 h` back inside the dynamic one, a normal-force jump
+    /// `K h` more than Algorithm 1's, and contact ends `h` outside the object, so that a
+    /// one-count step cannot flip a mode and the next undo it. Negative or non-finite: 0.
+    pub fn set_resolution(&mut self, resolution_m: f32) {
+        self.resolution_m = if resolution_m.is_finite() {
+            math::max(0.0, resolution_m)
+        } else {
+            0.0
+        };
     }
 
     /// Current mode.
@@ -517,20 +577,24 @@ impl<O: Object> FrictionRenderer<O> {
     }
 
     /// The state machine's edge this tick (Fig. 3.1.2), decided from the spring as the HIP left
-    /// it, before the GO moves: the new mode and its cause, or `None` to stay.
+    /// it, before the GO moves: the new mode and its cause, or `None` to stay. Each decision
+    /// has a hysteresis of [`FrictionRenderer::set_resolution`]'s quantum, so that a one-count
+    /// step of an encoder cannot undo it.
     fn edge(
         &self,
         spring: &Spring<O::P>,
         depth: f32,
-        normal_force: f32,
         hip_step: O::P,
         period_s: f32,
     ) -> Option<(Mode, SwitchCause)> {
         let m = &self.material;
+        let k = m.stiffness_n_per_m;
+        let h = self.resolution_m;
+        let normal_force = k * spring.a_n;
         match self.mode {
             Mode::Free => Some((Mode::Stuck, SwitchCause::Contact)),
             Mode::Stuck => spring
-                .outside(m.mu_static)
+                .outside(m.mu_static, h)
                 .then_some((Mode::Transition, SwitchCause::Breakaway)),
             Mode::Transition | Mode::Slip => {
                 let mu = if self.mode == Mode::Slip {
@@ -539,8 +603,9 @@ impl<O: Object> FrictionRenderer<O> {
                     self.transition_mu()
                 };
                 // Algorithm 1: μ_d F_N[k] > μ_s F_N[k−1]; a relative margin keeps f32 noise from
-                // firing it when μ_s = μ_d.
-                let jump = m.mu_dynamic * normal_force
+                // firing it when μ_s = μ_d, and the HIP's resolution (K h of normal force) one
+                // encoder count at light contact.
+                let jump = m.mu_dynamic * (normal_force - k * h)
                     > m.mu_static * self.prev_normal_force * (1.0 + 1e-4) + 1e-6;
                 // The HIP's step back towards the GO, in the tangent plane, faster than the
                 // stop speed.
@@ -548,11 +613,13 @@ impl<O: Object> FrictionRenderer<O> {
                 let back = back_m > 0.0
                     && square(back_m)
                         > square(m.stop_speed_m_per_s * period_s) * spring.t.length_squared();
-                if jump && spring.inside(m.mu_static, 0.0) {
+                if jump && spring.inside(m.mu_static, 0.0, 0.0) {
                     Some((Mode::Stuck, SwitchCause::NormalForceJump))
-                } else if back && spring.inside(mu, REVERSAL_HYSTERESIS) {
+                } else if back && spring.inside(mu, REVERSAL_HYSTERESIS, 2.0 * h) {
                     Some((Mode::Stuck, SwitchCause::Reversed))
-                } else if self.slip_speed < m.stop_speed_m_per_s && spring.inside(mu, 0.0) {
+                } else if self.since_slide_s >= STOP_HOLD_S - 0.5 * period_s
+                    && spring.inside(mu, 0.0, 0.0)
+                {
                     Some((Mode::Stuck, SwitchCause::Stopped))
                 } else if self.mode == Mode::Transition
                     && (mu - m.mu_dynamic) * depth <= m.converge_tol_m
@@ -565,14 +632,116 @@ impl<O: Object> FrictionRenderer<O> {
         }
     }
 
-    /// Puts the GO at `go` beside the CP, with the patch and parameters under it.
-    fn place_go(&mut self, object: &O, contact: &Contact<O::P>, go: O::P) {
-        let (patch, params) = O::position(&self.cp);
-        let frame = object.state_frame(&self.cp);
-        self.go_params = object.offset(patch, params, &frame, go - contact.point);
+    /// Puts the GO on the proxy (on contact): the proxy is the CP's tracker, sliding.
+    fn place_go_on_cp(&mut self, object: &O, contact: &Contact<O::P>, hip: O::P) {
+        self.proxy = self.cp;
+        O::set_sliding(&mut self.proxy, true);
+        let (patch, params) = O::position(&self.proxy);
+        self.go_frame = object.state_frame(&self.proxy);
+        // The HIP's foot in the CP's tangent plane: no tangential spring from the tracker's
+        // residual.
+        self.go_on_feature = !matches!(contact.feature, Feature::Patch(_));
+        if self.go_on_feature {
+            self.go_frame.normal = contact.normal;
+        }
+        let n = self.go_frame.normal;
+        self.go = hip + n * (self.go_frame.point - hip).dot(n);
+        self.go_patch = patch;
+        self.go_params = params;
+    }
+
+    /// The slide (Transition and Slip, spring outside the cone of `mu`): the proxy takes one
+    /// step over the surface towards the HIP, and the GO goes back from it towards where it
+    /// was, in the proxy's tangent plane, as far as the cone of `mu` about the proxy's normal
+    /// allows: `GO = P + s t̂`, `s = min(μ F_N / K, |t_back|)`. Never farther from the HIP than
+    /// before (the storage never rises): where that point would be, `s` shrinks to keep the
+    /// spring's length, and where the proxy itself would be (a step that overshoots, a
+    /// valley's floor the proxy cannot leave), the GO and the proxy stay. Returns the distance
+    /// the GO moved.
+    fn slide(
+        &mut self,
+        object: &O,
+        hip: O::P,
+        hip_velocity: O::P,
+        period_s: f32,
+        mu: f32,
+    ) -> f32 {
+        let m = &self.material;
+        let damping_per_k = m.damping_ns_per_m / m.stiffness_n_per_m;
+        let pc = object.track(&mut self.proxy, hip, period_s, true);
+        // At a valley's vertex the proxy's normal runs along the HIP's line to it (the
+        // vertex's normal cone holds the spring, with no friction needed).
+        let n = pc.normal;
+        let p = pc.point;
+        let on_feature = !matches!(pc.feature, Feature::Patch(_));
+        // The HIP's foot in the proxy's tangent plane: the GO goes back from it, so that the
+        // spring's tangential part is exactly the slide's (the proxy's own residual, a tracker
+        // step from converged, does not add friction).
+        let a_p = (p - hip).dot(n);
+        let foot = hip + n * a_p;
+        let a_n = math::max(0.0, a_p - damping_per_k * hip_velocity.dot(n));
+        let back = tangential(self.go - foot, n);
+        let back_sq = back.length_squared();
+        // The storage is ½ K (|t|² + max(0, a)²) (a spring that would pull renders no normal
+        // force); as lengths²: before, and its bound on |GO − HIP|² after (the GO in the
+        // proxy's tangent plane has the proxy's a).
+        let before = self.go - hip;
+        let a_before = before.dot(self.go_frame.normal);
+        let old_sq = before.length_squared() - square(math::min(0.0, a_before))
+            + square(math::min(0.0, a_p));
+        let (unit, back_len) = if back_sq > f32::MIN_POSITIVE && !on_feature {
+            let len = sqrt(back_sq);
+            (back * (1.0 / len), len)
+        } else {
+            (O::P::ZERO, 0.0)
+        };
+        let mut go = if a_p <= 0.0 {
+            // The HIP is out of the proxy's tangent plane (within the contact's hysteresis):
+            // the spring goes slack.
+            hip
+        } else if a_p * a_p > old_sq + 2.0 * ROUNDING_M * sqrt(old_sq) {
+            // The GO is nearer the HIP than the surface's closest point is (the proxy
+            // overshot, or the GO was left inside the object): it turns about the HIP into
+            // the cone at its length, storage unchanged, the slope μ F_N / (K a) of the cone.
+            let len = sqrt(old_sq);
+            let slope = mu * a_n / a_p;
+            let a = len / sqrt(1.0 + slope * slope);
+            hip + n * a + unit * math::min(slope * a, back_len)
+        } else {
+            // |foot + s t̂ − HIP|² = a² + s² ≤ |GO − HIP|²: the slide never lengthens the
+            // spring.
+            let s = math::min(
+                math::min(mu * a_n, back_len),
+                sqrt(math::max(0.0, old_sq - a_p * a_p)),
+            );
+            foot + unit * s
+        };
+        // The GO stays over the proxy's patch: a back-off past the patch's end (towards a
+        // GO that was on the far side of a valley's vertex) stops at the end, not in the
+        // tangent plane's extension inside the object.
+        let (patch, params) = O::position(&self.proxy);
+        let mut frame = object.state_frame(&self.proxy);
+        frame.normal = n;
+        let go_params = if on_feature {
+            params
+        } else {
+            let q = object.offset(patch, params, &frame, go - p);
+            go = p + frame.derivatives[0] * (q[0] - params[0])
+                + frame.derivatives[1] * (q[1] - params[1]);
+            q
+        };
+        // What rounding leaves over is taken off along the spring: the storage never rises.
+        let go_sq = (go - hip).length_squared();
+        if go_sq > old_sq {
+            go = hip + (go - hip) * sqrt(old_sq / go_sq);
+        }
+        let moved = sqrt((go - self.go).length_squared());
+        self.go_params = go_params;
         self.go_patch = patch;
         self.go_frame = frame;
         self.go = go;
+        self.go_on_feature = on_feature;
+        moved
     }
 
     /// One tick for a HIP at `hip` moving at `hip_velocity`, `period_s` after the last.
@@ -598,7 +767,15 @@ impl<O: Object> FrictionRenderer<O> {
         let hip_step = self.prev_hip.map_or(O::P::ZERO, |p| hip - p);
         self.prev_hip = Some(hip);
 
-        if !contact.inside {
+        // Contact ends once the HIP is out of the object by more than its resolution (one
+        // encoder count of noise does not end it; while it lasts the spring, pulling, renders
+        // no normal force and slides to nothing).
+        let released = if self.mode == Mode::Free || !matches!(self.law, LawState::StickSlip) {
+            !contact.inside
+        } else {
+            !contact.inside && contact.depth < -self.resolution_m
+        };
+        if released {
             self.switch(Mode::Free, SwitchCause::Released);
             self.prev_normal_force = 0.0;
             self.slip_speed = 0.0;
@@ -618,63 +795,64 @@ impl<O: Object> FrictionRenderer<O> {
             );
         }
 
-        let n = contact.normal;
         let depth = math::max(0.0, contact.depth);
-        // The damping acts on the normal velocity alone (it only dissipates).
-        let damping = -m.damping_ns_per_m * hip_velocity.dot(n);
-        let mut spring = Spring::new(self.go, hip, n);
+        // The damping acts on the normal velocity alone (it only dissipates), as a length.
+        let damping_per_k = m.damping_ns_per_m / k;
+        let spring_at = |go: O::P, n: O::P| Spring::new(go, hip, n, damping_per_k * hip_velocity.dot(n));
+        if self.mode != Mode::Free && self.go_on_feature {
+            // On a valley's feature the normal follows the HIP while the HIP stays in the
+            // feature's region; once it leaves, the normal stays the region boundary's (the
+            // face's), and the face's cone decides from there.
+            let saved = self.proxy;
+            let pc = object.track(&mut self.proxy, hip, period_s, true);
+            if matches!(pc.feature, Feature::Patch(_)) {
+                self.proxy = saved;
+            } else {
+                self.go_frame.normal = pc.normal;
+            }
+        }
+        let mut spring = spring_at(self.go, self.go_frame.normal);
 
         // 1. The edge, from the spring as the HIP left it.
-        let normal_force_before = math::max(0.0, k * spring.a + damping);
-        if let Some((mode, cause)) =
-            self.edge(&spring, depth, normal_force_before, hip_step, period_s)
-        {
+        if let Some((mode, cause)) = self.edge(&spring, depth, hip_step, period_s) {
             match cause {
                 SwitchCause::Contact => {
-                    self.place_go(object, &contact, hip + n * depth);
-                    spring = Spring::new(self.go, hip, n);
+                    self.place_go_on_cp(object, &contact, hip);
+                    spring = spring_at(self.go, self.go_frame.normal);
                     self.slip_speed = 0.0;
+                    self.since_slide_s = 0.0;
                 }
                 SwitchCause::Breakaway => {
                     // The contact starts sliding at the CP's speed; at least twice the stop
-                    // speed, so that the slip speed's lag keeps the transition going for τ·ln 2
-                    // or more before a stop can end it (no stuck ↔ transition chatter of a
-                    // creeping hand).
+                    // speed (what the slip speed reports while it catches up).
                     self.slip_speed = math::max(
                         2.0 * m.stop_speed_m_per_s,
                         sqrt(cp_velocity.length_squared()),
                     );
                     self.progress = 0.0;
+                    self.since_slide_s = 0.0;
                 }
                 _ => {}
             }
             self.switch(mode, cause);
         }
 
-        // 2. The GO moves as the mode says: stuck it stays; dynamic it slides to the cone's
-        // edge about the CP wherever the spring lies outside the cone, never lengthening it.
+        // 2. The GO moves as the mode says: stuck it stays; dynamic it slides over the surface
+        // wherever the spring lies outside the cone, never lengthening it.
         let mu = match self.mode {
             Mode::Transition => self.transition_mu(),
             Mode::Slip => m.mu_dynamic,
             _ => m.mu_static,
         };
         let mut slide = 0.0;
-        if matches!(self.mode, Mode::Transition | Mode::Slip) && spring.outside(mu) {
-            // On the cone's edge at the true depth, or nearer the CP where the spring is too
-            // short to reach it: |GO − HIP|² = d² + s² ≤ |v|².
-            let t_sq = spring.t.length_squared();
-            let reach_sq = math::max(0.0, spring.v.length_squared() - depth * depth);
-            let s = math::min(mu * depth, sqrt(reach_sq));
-            let along = if t_sq > f32::MIN_POSITIVE {
-                spring.t * (s / sqrt(t_sq))
-            } else {
-                O::P::ZERO
-            };
-            let a = depth;
-            let go = hip + n * a + along;
-            slide = sqrt((go - self.go).length_squared());
-            self.place_go(object, &contact, go);
-            spring = Spring::new(go, hip, n);
+        if matches!(self.mode, Mode::Transition | Mode::Slip) && spring.outside(mu, 0.0) {
+            slide = self.slide(object, hip, hip_velocity, period_s, mu);
+            spring = spring_at(self.go, self.go_frame.normal);
+        }
+        if slide > 0.0 {
+            self.since_slide_s = 0.0;
+        } else {
+            self.since_slide_s = math::min(self.since_slide_s + period_s, 1.0);
         }
 
         // 3. Frictional memory: the transition runs at min(1, v/v_s)/τ, and the slip speed
@@ -704,7 +882,8 @@ impl<O: Object> FrictionRenderer<O> {
             self.progress = math::min(1.0, self.progress + rate * pace);
         }
 
-        let normal_force = math::max(0.0, k * spring.a + damping);
+        let n = self.go_frame.normal;
+        let normal_force = k * spring.a_n;
         self.prev_normal_force = normal_force;
         let friction = spring.t * k;
         let total = n * normal_force + friction;
