@@ -104,29 +104,26 @@ fn wedge() -> ([nurbs::CurveBuf<Vec2>; 2], [Vec2; 2]) {
     ([a, b], [n_right, n_left])
 }
 
-/// The wedge's exact penalty force at `x` inside it near the apex: `K·d·n` of the nearer face
-/// (f64), the distance to each face's line being the depth there; both faces' within `tie` of
-/// the bisector, where either is the nearer to within the tracker's tick.
-fn wedge_penalty(x: Vec2, normals: [Vec2; 2], tie: f64) -> Vec<[f64; 2]> {
+/// The wedge's faces' exact penalty walls at `x` (f64): `K·d·n` of each face whose line `x`
+/// lies under (`d` the depth below the face's line) and whose projection of `x` falls on the
+/// face itself (within its reach), with how far inside the reach it projects.
+fn wedge_walls(x: Vec2, normals: [Vec2; 2]) -> Vec<([f64; 2], f64)> {
     let apex = [0.0f64, 0.09];
     let rel = [f64::from(x.x) - apex[0], f64::from(x.y) - apex[1]];
-    let depth = |n: Vec2| -(rel[0] * f64::from(n.x) + rel[1] * f64::from(n.y));
     let k = f64::from(K);
-    let force = |i: usize| {
-        let d = depth(normals[i]);
-        [
-            k * d * f64::from(normals[i].x),
-            k * d * f64::from(normals[i].y),
-        ]
-    };
-    let (d0, d1) = (depth(normals[0]), depth(normals[1]));
-    if (d0 - d1).abs() <= tie {
-        vec![force(0), force(1)]
-    } else if d0 < d1 {
-        vec![force(0)]
-    } else {
-        vec![force(1)]
+    let mut walls = Vec::new();
+    for n in normals {
+        let (nx, ny) = (f64::from(n.x), f64::from(n.y));
+        let d = -(rel[0] * nx + rel[1] * ny);
+        // Along the face away from the apex: the normal turned towards the outside of the
+        // other face (−n⊥ for the right face, whose normal has a positive x).
+        let along = if nx > 0.0 { [ny, -nx] } else { [-ny, nx] };
+        let reach = rel[0] * along[0] + rel[1] * along[1];
+        if d > 0.0 && reach >= 0.0 {
+            walls.push(([k * d * nx, k * d * ny], reach));
+        }
     }
+    walls
 }
 
 /// A square of side `side` centred at `centre`, clockwise or not.
@@ -169,49 +166,76 @@ fn wedge_loops() -> Vec<(String, Vec<Vec2>)> {
     loops
 }
 
-/// The wedge with μ = 0: on both sides of the bisector, whatever the history, the force is the
-/// penalty wall of the nearer face; around every loop it does no work but the trapezoid rule's
-/// error at the bisector.
+/// The wedge with μ = 0 is the god-object's wall: every tick in contact the force is the exact
+/// penalty wall `K·d·n` of one face that holds the HIP in its reach, the face the contact came
+/// in on for as long as it does (across the bisector too: no kick there); the GO changes face
+/// only when the HIP leaves its face's reach, and then the spring does not get longer (the
+/// storage falls); around every loop the force does no positive work beyond the rule's error.
 #[test]
-fn frictionless_wedge_is_the_penalty_wall_and_does_no_work() {
+fn frictionless_wedge_is_the_god_objects_wall_and_does_no_work() {
     let (curves, normals) = wedge();
     let views = [curves[0].view(), curves[1].view()];
     let chain = Chain::new(&views).unwrap();
     let h = WEDGE_STEP;
+    let mut crossed = 0;
     for (label, path) in wedge_loops() {
         let r = run(&chain, with_mu(0.0, 0.0), &path);
-        for (o, &x) in r.out.iter().zip(&path) {
+        let mut face: Option<usize> = None;
+        for (k, (o, &x)) in r.out.iter().zip(&path).enumerate() {
             if o.mode == Mode::Free {
+                face = None;
                 continue;
             }
-            let exact = wedge_penalty(x, normals, f64::from(h));
-            let err = exact
-                .iter()
-                .map(|e| {
-                    ((f64::from(o.total.x) - e[0]).powi(2) + (f64::from(o.total.y) - e[1]).powi(2))
-                        .sqrt()
-                })
-                .fold(f64::INFINITY, f64::min);
-            // The tracker lands on the nearer face within two ticks of the bisector (each
-            // tick's error K times the HIP's step, 1 mN); f32 positions of 0.1 m carry 1e-8 m,
-            // K × that = 1e-5 N.
-            assert!(
-                err <= f64::from(2.0 * K * h) + 1e-4,
-                "{label}, {x:?}: {:?} vs {exact:?}",
-                o.total
-            );
+            let walls = wedge_walls(x, normals);
+            // Which face's wall the force is: the tracker's one Gauss–Newton step on a line is
+            // exact, so the error is f32's: positions of 0.1 m carry 1e-8 m, K × that 1e-5 N
+            // (2e-5 N for the two coordinates).
+            let matched = walls.iter().position(|(e, _)| {
+                let err = ((f64::from(o.total.x) - e[0]).powi(2)
+                    + (f64::from(o.total.y) - e[1]).powi(2))
+                .sqrt();
+                err <= 2e-5 + 1e-3 * f64::from(o.total.length())
+            });
+            let Some(m) = matched else {
+                // One tick of contact outside every face's reach is the GO following the HIP
+                // off a face: the entry from free space lands where the HIP is.
+                assert!(
+                    walls.is_empty() || k == 0,
+                    "{label}, {x:?}: {:?} is no face's wall {walls:?}",
+                    o.total
+                );
+                continue;
+            };
+            let side = usize::from(walls[m].0[0] < 0.0);
+            if let Some(prev) = face
+                && prev != side
+            {
+                // The GO changed face: only where the HIP left the old face's reach, and with
+                // the spring no longer than the tick before at this HIP.
+                // (More than a step inside the reach: at the apex itself both faces hold it.)
+                let still = walls
+                    .iter()
+                    .any(|(e, reach)| usize::from(e[0] < 0.0) == prev && *reach > f64::from(h));
+                assert!(!still, "{label}, {x:?}: left face {prev} while in its reach");
+                let before = f64::from((r.out[k - 1].go - x).length());
+                let after = f64::from((o.go - x).length());
+                assert!(after <= before + 1e-8, "{label}: {before} -> {after}");
+                crossed += 1;
+            }
+            face = Some(side);
         }
-        // The jump at the bisector is the penalty wall's own, 2 sin(37°) K d ≤ 7.2 N at
-        // d ≤ 6 mm; the rule errs by ½ |ΔF| h at each of the two crossings.
+        // The rule errs by ½ |ΔF| h where the force jumps (a face change, at most 2 K d).
         let bound = r.max_jump_n * f64::from(h) + 1e-7;
         println!("μ = 0, {label}: {:+.3} µJ", r.work_j * 1e6);
         assert!(
-            r.work_j.abs() <= bound,
+            r.work_j <= bound,
             "{label}: {} µJ (bound {} µJ)",
             r.work_j * 1e6,
             bound * 1e6
         );
     }
+    // The 6 mm squares reach past a face's end: the face changes are exercised.
+    assert!(crossed > 0);
 }
 
 /// The wedge with the default friction, the same loops: the total force only takes energy out
@@ -321,7 +345,7 @@ where
     let r = run(object, material, path);
     for (k, o) in r.out.iter().enumerate() {
         prop_assert!(o.total.is_finite() && o.normal_force_n.is_finite());
-        prop_assert!(o.total.dot(o.contact.normal) >= -1e-5, "pulls in: {o:?}");
+        prop_assert!(o.total.dot(o.normal) >= -1e-5, "pulls in: {o:?}");
         let f_t = o.friction.length_squared().sqrt();
         // The renderer's cone test has a 1e-5 relative slack; f32 forces of a few N, 1e-5 N.
         let mu = if o.mode == Mode::Slip {
@@ -338,11 +362,13 @@ where
             .map(|j| &r.out[j])
             .filter(|p| p.mode != Mode::Free && o.mode != Mode::Free && p.go != o.go)
         {
-            // f32 positions near 0.1 m are 7.5 nm apart: two of them of slack.
+            // The renderer lets a slide lengthen the spring by the rounding of an f32 point of
+            // the surface, two ulps of coordinates below 0.25 m (2 × 1.5e-8 m), and the lengths
+            // here are rounded once more (|v| ≤ 10 mm: 1e-9 m).
             let before = (p.go - path[k]).length_squared().sqrt();
             let after = (o.go - path[k]).length_squared().sqrt();
             prop_assert!(
-                after <= before * (1.0 + 1e-5) + 1.5e-8,
+                after <= before + 3.1e-8,
                 "a slide lengthened the spring from {before} m to {after} m: {o:?}"
             );
         }
@@ -360,7 +386,7 @@ where
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig { cases: 32, ..ProptestConfig::default() })]
+    #![proptest_config(ProptestConfig { cases: 2000, ..ProptestConfig::default() })]
 
     /// Chains with a sharp vertex, a roof or a valley of random angle, random friction
     /// (μ = 0 included), random loops pressed in near the vertex at random depths, both ways.
