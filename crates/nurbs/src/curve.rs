@@ -50,14 +50,18 @@ const DEGENERATE_REL: f32 = 1e-5;
 
 impl<'a, P: Point> Curve<'a, P> {
     /// Validates a curve of `degree` with `knots` and homogeneous control points
-    /// `points[i] = (w_i·P_i, w_i)`.
+    /// `points[i] = (w_i·P_i, w_i)`. Besides the knots and every control point and weight,
+    /// the geometry: a curve of no length or with a span collapsed to a point is refused
+    /// ([`crate::MIN_EXTENT`]).
     pub fn new(degree: usize, knots: &'a [f32], points: &'a [P::Hom]) -> Result<Self, NurbsError> {
         let knots = Knots::validate(knots, degree, points.len(), Dir::Curve)?;
         let largest = largest_weight(points.iter().map(|&h| P::split(h).1));
         for (i, &h) in points.iter().enumerate() {
             check_homogeneous::<P>(At::I(i), h, largest)?;
         }
-        Ok(Curve { knots, points })
+        let curve = Curve { knots, points };
+        crate::extent::check_curve(&curve)?;
+        Ok(curve)
     }
 
     /// A view over data that was validated before (by an owned type).

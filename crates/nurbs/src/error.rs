@@ -182,6 +182,40 @@ pub enum NurbsError {
         /// Length of this row.
         found: usize,
     },
+    /// Every control point of a curve lies within [`crate::MIN_EXTENT`] of `points[0]`: the
+    /// curve is a single point, with no length (a closed curve whose points all collapsed).
+    ZeroLength {
+        /// The largest distance of a control point from `points[0]`.
+        extent: f32,
+    },
+    /// The control points of a knot span of a curve, `points[first]` to `points[last]`, all
+    /// lie within [`crate::MIN_EXTENT`] of the first: the span's image is a point.
+    CollapsedSpan {
+        /// Index of the span's first knot (the span is `knots[index]` to `knots[index + 1]`).
+        index: usize,
+        /// The span's first control point.
+        first: usize,
+        /// The span's last control point.
+        last: usize,
+        /// The largest distance of one of them from `points[first]`.
+        extent: f32,
+    },
+    /// A surface whose area over the diameter of its control net (a mean width) is less than
+    /// [`crate::MIN_EXTENT`]: it lies on a line, a curve or a point.
+    ZeroArea {
+        /// The mean width.
+        width: f32,
+    },
+    /// A cell of a surface (knot span `span.0` along u by `span.1` along v) whose area over the
+    /// diameter of its control points is less than [`crate::MIN_EXTENT`]: the cell collapsed
+    /// to a line, a curve or a point. (A side collapsed to a point, such as a sphere's pole,
+    /// leaves its cells their area.)
+    CollapsedCell {
+        /// Indices of the cell's first knots along u and v.
+        span: (usize, usize),
+        /// The cell's mean width.
+        width: f32,
+    },
     /// A control point has the wrong number of coordinates.
     Dimension {
         /// Position of the point.
@@ -302,6 +336,47 @@ impl fmt::Display for NurbsError {
                 expected,
                 found,
             } => write!(f, "points{at}: {found} coordinates, expected {expected}"),
+            ZeroLength { extent } => write!(
+                f,
+                "points: every control point lies within {extent:.1e} of points[0], less than \
+                 {:.0e} (1 µm in a scene): the curve has no length, it is a single point",
+                crate::MIN_EXTENT
+            ),
+            CollapsedSpan {
+                index,
+                first,
+                last,
+                extent,
+            } => write!(
+                f,
+                "knots[{index}] to knots[{}]: the span's control points points[{first}] to \
+                 points[{last}] all lie within {extent:.1e} of points[{first}], less than \
+                 {:.0e} (1 µm in a scene): the span collapses to a point, it has no length; \
+                 move them apart or remove the span",
+                index + 1,
+                crate::MIN_EXTENT
+            ),
+            ZeroArea { width } => write!(
+                f,
+                "points: the surface has no area: its area over the diameter of its control \
+                 net is {width:.1e}, less than {:.0e} (1 µm in a scene): it lies on a line, a \
+                 curve or a point",
+                crate::MIN_EXTENT
+            ),
+            CollapsedCell {
+                span: (i, j),
+                width,
+            } => write!(
+                f,
+                "{}[{i}] to [{}] by {}[{j}] to [{}]: the cell has no area: its area over the \
+                 diameter of its control points is {width:.1e}, less than {:.0e} (1 µm in a \
+                 scene): it collapses to a line, a curve or a point",
+                Field::KnotsU.name(),
+                i + 1,
+                Field::KnotsV.name(),
+                j + 1,
+                crate::MIN_EXTENT
+            ),
         }
     }
 }

@@ -12,6 +12,7 @@ pub mod construct;
 mod control;
 mod curve;
 mod error;
+mod extent;
 mod knots;
 pub mod math;
 #[cfg(feature = "alloc")]
@@ -55,5 +56,22 @@ pub const MIN_WEIGHT_RATIO: f32 = 1e-6;
 /// ([`MIN_SPAN_REL`]) of larger coordinates come near `f32::MAX` (a coordinate of 3e38
 /// evaluates to infinite derivatives). Validation rejects larger coordinates.
 pub const MAX_COORDINATE: f32 = 1e6;
+/// Smallest extent of geometry, in the model's unit (metres in a scene): a curve whose
+/// control points all lie within it of the first has no length, a knot span whose control
+/// points do collapses to a point, and a surface or a cell whose area over the diameter of
+/// its control net is less than it collapses to a line, a curve or a point; validation
+/// refuses them ([`NurbsError::ZeroLength`], [`NurbsError::CollapsedSpan`],
+/// [`NurbsError::ZeroArea`], [`NurbsError::CollapsedCell`]).
+///
+/// 1 µm, from `f32` at the workspace's scale. Scenes live within 0.25 m of the device's
+/// origin, where `f32` steps are at most 2⁻²⁶ m ≈ 15 nm; a control point stored as
+/// `(w·P, w)` and divided back lands within about two steps of where it was meant, so points
+/// meant to coincide lie within 0.05 µm of each other (√3 × 2 × 15 nm). 1 µm is twenty times
+/// that, so geometry collapsed in `f32` rounding is refused as surely as geometry collapsed
+/// exactly. It is also a twentieth of the pantograph's encoder quantum (19.6 µm at the
+/// handle) and far below anything a hand resolves, so no geometry that can be felt is
+/// refused. (Far from the origin, at coordinates of 10 m and more, `f32` rounding itself
+/// exceeds 1 µm and only geometry collapsed more exactly than that is caught.)
+pub const MIN_EXTENT: f32 = 1e-6;
 /// Highest derivative order evaluated.
 pub const MAX_DERIV: usize = 2;

@@ -43,7 +43,10 @@ const DEGENERATE_REL: f32 = 1e-4;
 
 impl<'a> Surface<'a> {
     /// Validates a surface of degrees `(p, q)` with knot vectors `(U, V)` and a control net of
-    /// `count_v` points along v (the count along u is `points.len() / count_v`).
+    /// `count_v` points along v (the count along u is `points.len() / count_v`). Besides the
+    /// knots and every control point and weight, the geometry: a surface of no area or with a
+    /// cell collapsed to a line, a curve or a point is refused ([`crate::MIN_EXTENT`]); a side
+    /// collapsed to a point (a pole) is not. Costs four evaluations per cell.
     pub fn new(
         degree: (usize, usize),
         knots: (&'a [f32], &'a [f32]),
@@ -65,7 +68,9 @@ impl<'a> Surface<'a> {
         for (k, &h) in points.iter().enumerate() {
             check_homogeneous::<Vec3>(At::Ij(k / count_v, k % count_v), h, largest)?;
         }
-        Ok(Surface { ku, kv, points })
+        let surface = Surface { ku, kv, points };
+        crate::extent::check_surface(&surface)?;
+        Ok(surface)
     }
 
     /// A view over data that was validated before (by an owned type).

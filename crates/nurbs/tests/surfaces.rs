@@ -270,15 +270,12 @@ fn handmade_sphere_poles() {
     assert_eq!(s.normal_from(0.3, 0.0, &d), s.normal(0.3, 0.0));
 }
 
-/// A net collapsed to a single point: no direction is defined; the normal is still a finite
-/// unit vector.
+/// A net collapsed to a single point defines no direction: it is refused at construction,
+/// so evaluation never sees it.
 #[test]
-fn point_surface_normal_is_finite() {
+fn point_surface_is_refused() {
     let pts = [Vec4::new(1.0, 2.0, 3.0, 1.0); 4];
     let k = [0.0, 0.0, 1.0, 1.0];
-    let s = Surface::new((1, 1), (&k, &k), 2, &pts).unwrap();
-    for (u, v) in [(0.0, 0.0), (0.5, 0.5), (1.0, 1.0), (f32::NAN, 2.0)] {
-        let n = s.normal(u, v);
-        assert!(n.is_finite() && (n.length() - 1.0).abs() <= 1e-6);
-    }
+    let s = Surface::new((1, 1), (&k, &k), 2, &pts);
+    assert_eq!(s, Err(nurbs::NurbsError::ZeroArea { width: 0.0 }));
 }

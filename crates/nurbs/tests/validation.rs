@@ -39,7 +39,7 @@ fn valid_baseline_is_accepted() {
     assert!(Curve::<Vec2>::new(2, &K, &pts4()).is_ok());
     // Interior multiplicity equal to the degree is allowed (C0 joint).
     let k = [0.0, 0.0, 0.0, 0.5, 0.5, 1.0, 1.0, 1.0];
-    let p5 = [hom2(0.0, 0.0, 1.0); 5];
+    let p5: Vec<Vec3> = (0..5).map(|i| hom2(i as f32, 0.0, 1.0)).collect();
     assert!(Curve::<Vec2>::new(2, &k, &p5).is_ok());
     // Any domain, negative included.
     let k = [-3.0, -3.0, -3.0, 7.0, 7.0, 7.0];
@@ -47,7 +47,7 @@ fn valid_baseline_is_accepted() {
     // Highest degree.
     let mut k = vec![0.0; MAX_DEGREE + 1];
     k.extend(vec![1.0; MAX_DEGREE + 1]);
-    let p = vec![hom2(0.0, 0.0, 1.0); MAX_DEGREE + 1];
+    let p: Vec<Vec3> = (0..=MAX_DEGREE).map(|i| hom2(i as f32, 0.0, 1.0)).collect();
     assert!(Curve::<Vec2>::new(MAX_DEGREE, &k, &p).is_ok());
 }
 
@@ -862,4 +862,186 @@ fn coordinates_beyond_the_bound_are_refused() {
             value: 2e6
         }
     );
+}
+
+// -------------------------------------------------------------------------------------------
+// Degenerate geometry (`nurbs::MIN_EXTENT`, 1 µm in a scene)
+// -------------------------------------------------------------------------------------------
+
+/// The exact rational circle of radius 2 cm about (0, 0.09) (9 points, degree 2, four
+/// quarter-circle spans) with its control points given as `f(i, P_i)`.
+fn ring_with(f: impl Fn(usize, Vec2) -> Vec2) -> Result<CurveBuf<Vec2>, NurbsError> {
+    let ring = nurbs::construct::circle(Vec2::new(0.0, 0.09), 0.02).unwrap();
+    let points: Vec<Vec3> = ring
+        .points()
+        .iter()
+        .enumerate()
+        .map(|(i, &h)| {
+            let p = f(i, h.truncate() / h.z);
+            p.extend(1.0) * h.z
+        })
+        .collect();
+    CurveBuf::new(2, ring.knots().to_vec(), points)
+}
+
+#[test]
+fn a_curve_of_no_length_is_refused() {
+    let centre = Vec2::new(0.0, 0.09);
+    // The measured case: all nine points at (0, 0.09). Stored as (w·P, w) with w = √½ and
+    // divided back, they land up to an f32 step (2⁻²⁷ m ≈ 7.5 nm at 0.09 m) apart: why the
+    // check needs a tolerance, not equality.
+    let e = ring_with(|_, _| centre).unwrap_err();
+    assert!(
+        matches!(e, NurbsError::ZeroLength { extent } if extent <= 7.5e-9),
+        "{e:?}"
+    );
+    says(e, &["points", "no length", "1e-6"]);
+    // Collapsed in f32: each point up to 3 f32 steps off (2⁻²⁷ m ≈ 7.5 nm at 0.09 m) along y
+    // and 1 nm along x, within 3 × 7.5 + 1 = 23.4 nm of points[0]: refused all the same.
+    let step = |k: u32| f32::from_bits(centre.y.to_bits() + k);
+    let e = ring_with(|i, _| Vec2::new(1e-9 * (i % 2) as f32, step(i as u32 % 4))).unwrap_err();
+    let NurbsError::ZeroLength { extent } = e else {
+        panic!("{e:?}")
+    };
+    assert!(extent > 0.0 && extent <= 2.4e-8, "{extent}");
+    // The same for a spatial curve (a wire), and for a line whose two ends are 0.5 µm apart,
+    // while ends 2 µm apart make a line.
+    let wire = nurbs::construct::line(Vec3::new(0.0, 0.09, 0.0), Vec3::new(0.0, 0.09, 5e-7));
+    assert!(
+        matches!(wire, Err(NurbsError::ZeroLength { extent }) if (extent - 5e-7).abs() < 1e-12),
+        "{wire:?}"
+    );
+    assert!(nurbs::construct::line(Vec2::new(0.0, 0.09), Vec2::new(2e-6, 0.09)).is_ok());
+    // The ring itself is valid.
+    assert!(ring_with(|_, p| p).is_ok());
+}
+
+#[test]
+fn a_span_collapsed_to_a_point_is_refused_by_its_knots() {
+    // Points 3 and 4 onto point 2: the span knots[4] to knots[5] = [0.25, 0.5], whose points
+    // are 2 to 4 (P&T: span i uses points i − p ..= i), is the point (0, 0.11).
+    let e = ring_with(|i, p| {
+        if (2..=4).contains(&i) {
+            Vec2::new(0.0, 0.11)
+        } else {
+            p
+        }
+    })
+    .unwrap_err();
+    assert!(
+        matches!(
+            e,
+            NurbsError::CollapsedSpan { index: 4, first: 2, last: 4, extent } if extent <= 7.5e-9
+        ),
+        "{e:?}"
+    );
+    says(
+        e,
+        &[
+            "knots[4] to knots[5]",
+            "points[2] to points[4]",
+            "no length",
+        ],
+    );
+    // A polyline with a repeated point: the middle segment (knots[2] to knots[3]).
+    let k = [0.0, 0.0, 0.3, 0.6, 1.0, 1.0];
+    let p = [
+        hom2(-0.02, 0.1, 1.0),
+        hom2(0.0, 0.08, 1.0),
+        hom2(0.0, 0.08, 1.0),
+        hom2(0.02, 0.1, 1.0),
+    ];
+    assert_eq!(
+        curve_err(1, &k, &p),
+        NurbsError::CollapsedSpan {
+            index: 2,
+            first: 1,
+            last: 2,
+            extent: 0.0
+        }
+    );
+    // A repeated point of a cubic is a cusp, not a collapsed span: every span keeps three
+    // distinct points of its four.
+    let k = [0.0, 0.0, 0.0, 0.0, 0.5, 1.0, 1.0, 1.0, 1.0];
+    let p = [
+        hom2(-0.02, 0.1, 1.0),
+        hom2(-0.01, 0.08, 1.0),
+        hom2(0.0, 0.08, 1.0),
+        hom2(0.0, 0.08, 1.0),
+        hom2(0.02, 0.1, 1.0),
+    ];
+    assert!(Curve::<Vec2>::new(3, &k, &p).is_ok());
+    // A zero-length span in parameter (a repeated knot) is no span at all.
+    let k = [0.0, 0.0, 0.0, 0.5, 0.5, 1.0, 1.0, 1.0];
+    let p: Vec<Vec3> = (0..5).map(|i| hom2(0.01 * i as f32, 0.09, 1.0)).collect();
+    assert!(Curve::<Vec2>::new(2, &k, &p).is_ok());
+}
+
+/// A degree (1, 2) surface of two cells along v (V = {0,0,0,½,1,1,1}), rows `i` = 0, 1 at
+/// x = 0 and 1 cm, `f(i, j)` the point (j along v).
+fn two_cells(f: impl Fn(usize, usize) -> Vec3) -> Result<Surface<'static>, NurbsError> {
+    const KV2: [f32; 7] = [0.0, 0.0, 0.0, 0.5, 1.0, 1.0, 1.0];
+    let pts: Vec<Vec4> = (0..8).map(|k| f(k / 4, k % 4).extend(1.0)).collect();
+    Surface::new((1, 2), (&KU, &KV2), 4, Vec::leak(pts))
+}
+
+#[test]
+fn a_surface_of_no_area_or_with_a_collapsed_cell_is_refused() {
+    let flat = |i: usize, j: usize| Vec3::new(0.01 * i as f32, 0.08 + 0.01 * j as f32, 0.0);
+    assert!(two_cells(flat).is_ok());
+    // Collapsed to a point, to a line (both rows on one segment), onto a curve (both rows the
+    // same parabola-like arc: no two points on a line, the area is zero all the same).
+    type Net = Box<dyn Fn(usize, usize) -> Vec3>;
+    let cases: [(&str, Net); 3] = [
+        ("a point", Box::new(|_, _| Vec3::new(0.0, 0.09, 0.0))),
+        ("a line", Box::new(move |_, j| flat(0, j))),
+        (
+            "a curve",
+            Box::new(|_, j: usize| Vec3::new(0.01 * j as f32, 0.08, 0.001 * (j * j) as f32)),
+        ),
+    ];
+    for (what, f) in cases {
+        let e = two_cells(f).unwrap_err();
+        assert!(matches!(e, NurbsError::ZeroArea { .. }), "{what}: {e:?}");
+        says(e, &["points", "no area"]);
+    }
+    // One cell collapsed: the v-span [½, 1] (knots[1] (v)[3], points j = 1 to 3) of both rows
+    // onto one line; the other cell keeps its point (1, 0).
+    let e = two_cells(|i, j| if j >= 1 { flat(0, j) } else { flat(i, j) }).unwrap_err();
+    assert!(
+        matches!(e, NurbsError::CollapsedCell { span: (1, 3), width } if width < 1e-8),
+        "{e:?}"
+    );
+    says(
+        e,
+        &[
+            "knots[0] (u)[1] to [2] by knots[1] (v)[3] to [4]",
+            "no area",
+        ],
+    );
+    // A cell 2 µm wide has area; 0.5 µm does not. Mean width of the 1 cm × w strip: its area
+    // over its diagonal, w · 1 cm / √(1 cm² + w²) ≈ w.
+    for (w, ok) in [(2e-6f32, true), (5e-7, false)] {
+        let strip = two_cells(|i, j| Vec3::new(w * i as f32, 0.08 + 0.005 * j as f32, 0.0));
+        assert_eq!(strip.is_ok(), ok, "{w}: {strip:?}");
+    }
+}
+
+#[test]
+fn collapsed_sides_are_legitimate() {
+    // A sphere's poles and a disk's centre (a side collapsed to a point) and a cone's apex:
+    // the cells beside them keep their area.
+    let sphere = nurbs::construct::sphere(Vec3::new(0.0, 0.09, 0.0), 0.02);
+    assert!(sphere.is_ok(), "{sphere:?}");
+    let sphere = nurbs::construct::sphere(Vec3::ZERO, 1e-4);
+    assert!(sphere.is_ok(), "a 0.1 mm sphere: {sphere:?}");
+    let radius = nurbs::construct::line(Vec3::ZERO, Vec3::new(0.02, 0.0, 0.0)).unwrap();
+    let disk = nurbs::construct::revolve(&radius, Vec3::ZERO, Vec3::Z, std::f32::consts::TAU);
+    assert!(disk.is_ok(), "{disk:?}");
+    let slant = nurbs::construct::line(Vec3::ZERO, Vec3::new(0.02, 0.0, 0.03)).unwrap();
+    let cone = nurbs::construct::revolve(&slant, Vec3::ZERO, Vec3::Z, std::f32::consts::PI);
+    assert!(cone.is_ok(), "{cone:?}");
+    // Every torus and cylinder of the constructors too.
+    assert!(nurbs::construct::torus(Vec3::ZERO, 0.03, 0.01).is_ok());
+    assert!(nurbs::construct::cylinder(Vec3::ZERO, Vec3::Z, 0.01, 0.02).is_ok());
 }
