@@ -766,6 +766,176 @@ fn free_space_gets_no_force_and_empties_the_tank() {
     }
 }
 
+/// The energy a wall of stiffness `k` capped at `f_max` gives back from depth `d`, in f64:
+/// the integral of `min(k x, f_max)` over `[0, d]` summed in 200,000 slices by the midpoint
+/// rule (exact on the linear and the constant part; the one slice across the kink at
+/// `f_max / k` errs by at most `k h² / 8`, 7e-14 J here), an independent reference for the
+/// closed form the safety layer uses.
+fn capped_wall_work_j(k: f64, f_max: f64, d: f64) -> f64 {
+    let n = 200_000;
+    let h = d / n as f64;
+    (0..n)
+        .map(|i| (k * (i as f64 + 0.5) * h).min(f_max) * h)
+        .sum()
+}
+
+/// Issue 29: when a fault clears with the handle deep inside, the tank opened with the
+/// energy of the *requested* force, `|F|² / 2K`, not with what the force-capped wall can give
+/// back; the wall then had credit to throw the handle out faster than it came in. Here: K =
+/// 1000 N/m, the force capped at 3 N, the handle 10.6 mm in (the wall asks for 10.6 N). The
+/// capped wall gives back 3² / 2000 + 3 (0.0106 − 0.003) = 27.3 mJ; the old opening balance
+/// was 10.6² / 2000 = 56.2 mJ.
+#[test]
+fn a_tank_opened_deep_inside_holds_what_the_capped_wall_gives_back() {
+    let (k, f_max, depth) = (1000.0f32, 3.0f32, 0.0106f32);
+    let mut config = no_ramp();
+    config.max_force_n = f_max;
+    config.passivity.output_delay_ticks = 0;
+    let mut safety = Safety::new(config).unwrap();
+    safety.set_wall_stiffness(k);
+    safety.set_passivity_control(true);
+    // A velocity fault latches and clears with the handle at rest 10.6 mm inside.
+    let inside = HOME;
+    let mut input = tick(Vec2::new(0.0, k * depth));
+    input.hip_in_device_m = inside;
+    input.hip_velocity_m_per_s = Vec2::new(0.0, 2.0);
+    assert_eq!(safety.apply(&input).faults, Faults::VELOCITY);
+    input.hip_velocity_m_per_s = Vec2::ZERO;
+    safety.apply(&input);
+    assert_eq!(safety.clear_faults(), Faults::empty());
+    let out = safety.apply(&input);
+    assert!(
+        out.force_n.y > 0.0 && out.force_n.y <= f_max,
+        "{:?}",
+        out.force_n
+    );
+
+    let stored = capped_wall_work_j(k as f64, f_max as f64, depth as f64);
+    assert!((stored - 0.0273).abs() < 1e-9, "{stored}");
+    // f32: the closed form's few roundings, 4 ε relative.
+    let opened = safety.observed_energy_j() as f64;
+    assert!(
+        (opened - stored).abs() <= 4.0 * f32::EPSILON as f64 * stored,
+        "the tank opened with {opened:e} J; the capped wall gives back {stored:e} J \
+         (uncapped ½ K d² = {:e} J)",
+        0.5 * k as f64 * (depth as f64).powi(2)
+    );
+    // Below the cap the opening balance is the spring's ½ K d² (2 mm: 2 mJ).
+    let mut shallow = Safety::new(config).unwrap();
+    shallow.set_wall_stiffness(k);
+    shallow.set_passivity_control(true);
+    shallow.apply(&tick(Vec2::new(0.0, k * 0.002)));
+    let opened = shallow.observed_energy_j() as f64;
+    assert!(
+        (opened - 2e-3).abs() <= 4.0 * f32::EPSILON as f64 * 2e-3,
+        "{opened}"
+    );
+
+    // The handle then leaves along the force at 10 mm/s (10 µm a tick) to the surface: the
+    // tank lets the capped wall give back what it holds, and no more. The device's work
+    // (the held force over each step, a left sum of the capped spring) exceeds the integral
+    // by at most K d_cap h / 2 = 15 µJ on the linear part; the tank cuts that excess.
+    let step = 1e-5f32;
+    let mut given = 0.0f64;
+    let mut position = inside;
+    let mut depth_now = depth;
+    let mut held = out.force_n;
+    while depth_now > step {
+        position.y += step;
+        depth_now -= step;
+        given += held.y as f64 * step as f64;
+        let mut next = tick(Vec2::new(0.0, k * depth_now));
+        next.hip_in_device_m = position;
+        next.hip_velocity_m_per_s = Vec2::new(0.0, 0.01);
+        held = safety.apply(&next).force_n;
+    }
+    let slack = 0.5 * k as f64 * (f_max / k) as f64 * step as f64;
+    assert!(
+        given <= stored + slack && given >= stored - 2.0 * slack,
+        "the wall gave back {given:e} J of the {stored:e} J it holds"
+    );
+}
+
+/// A scripted impact: the handle enters a wall of K = 1000 N/m (the force capped at 3 N, the
+/// default 2000 N/s rate limit) at `speed`, for 15 ms, turns back at once and leaves at the
+/// same speed, at `rate_hz` with `delay` ticks of output delay. Returns the work the user
+/// did on the wall and the work the wall did on the user (J), each as the held force over
+/// each step (with the delay, the force of the tick before), in f64.
+fn impact_work(rate_hz: f32, speed: f32, delay: u32) -> (f64, f64, usize) {
+    let period = 1.0 / rate_hz;
+    let mut config = no_ramp();
+    config.period_s = period;
+    config.max_force_n = 3.0;
+    config.max_velocity_m_per_s = 2.0;
+    config.passivity.output_delay_ticks = delay;
+    let mut safety = Safety::new(config).unwrap();
+    safety.set_wall_stiffness(1000.0);
+    safety.set_passivity_control(true);
+    let n = (0.015 * rate_hz) as usize;
+    let depth = |i: usize| speed * period * (if i <= n { i } else { 2 * n - i }) as f32;
+    let (mut received, mut given) = (0.0f64, 0.0f64);
+    let mut held = [Vec2::ZERO; 2];
+    for i in 0..=2 * n + 1 {
+        // Past the surface (i = 2n + 1) the renderer asks for nothing.
+        let d = if i > 2 * n { -speed * period } else { depth(i) };
+        if i > 0 {
+            let previous = if i - 1 > 2 * n { 0.0 } else { depth(i - 1) };
+            // +y is out of the wall: the step out is the depth lost.
+            let step_out = (previous - d) as f64;
+            let acting = if delay > 0 { held[0] } else { held[1] };
+            let work = acting.y as f64 * step_out;
+            if work > 0.0 {
+                given += work;
+            } else {
+                received -= work;
+            }
+        }
+        let mut input = tick(if d > 0.0 {
+            Vec2::new(0.0, 1000.0 * d)
+        } else {
+            Vec2::ZERO
+        });
+        input.hip_in_device_m = HOME - Vec2::new(0.0, d);
+        input.hip_velocity_m_per_s = Vec2::new(0.0, speed);
+        let out = safety.apply(&input);
+        assert!(out.faults.is_empty(), "{:?}", out.faults);
+        held = [held[1], out.force_n];
+    }
+    (received, given, 2 * n + 2)
+}
+
+/// Issue 29: an impact at 0.86 m/s (8.6 × the demonstrated speed) returned more than the
+/// hand put in. One cause the tank can close: the rate limiter ran after it, so a cut of the
+/// force to what the tank holds (3 N to nothing) took two ticks at 1 kHz (2 N a tick) and
+/// fifteen at 10 kHz, the force held above the tank's meanwhile (0.14 mJ more out than in at
+/// 1 kHz, 0.30 mJ at 10 kHz with a tick of delay, in this scripted bounce). Now the cut goes
+/// through; the wall gives back what it received, to f32 rounding of the tank's balance: at
+/// most 4 ε of the 35 mJ it holds per tick, 4 µJ over the 302 ticks at 10 kHz.
+#[test]
+fn a_fast_impact_gives_back_no_more_than_it_received() {
+    for rate_hz in [1_000.0, 10_000.0] {
+        for delay in [0, 1] {
+            let (received, given, ticks) = impact_work(rate_hz, 0.86, delay);
+            let rounding = ticks as f64 * 4.0 * f32::EPSILON as f64 * 0.035;
+            assert!(
+                received > 0.02,
+                "{rate_hz} Hz: the wall was pressed: {received:e} J"
+            );
+            assert!(
+                given <= received + rounding,
+                "{rate_hz} Hz, delay {delay}: gave {given:e} J for {received:e} J received \
+                 ({:e} J more)",
+                given - received
+            );
+            // And the tank renders the wall: it gives back nearly all it received.
+            assert!(
+                given >= 0.9 * received,
+                "{rate_hz} Hz: gave {given:e} J of {received:e}"
+            );
+        }
+    }
+}
+
 fn scalar() -> impl Strategy<Value = f32> {
     prop_oneof![
         30 => -0.2f32..0.2,
