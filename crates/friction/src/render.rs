@@ -706,22 +706,23 @@ impl<O: Object> FrictionRenderer<O> {
             // The HIP is out of the proxy's tangent plane (within the contact's hysteresis):
             // the spring goes slack.
             hip
-        } else if a_p * a_p > old_sq + slack_sq {
-            // The GO is nearer the HIP than the surface's closest point is (the proxy
-            // overshot, or the GO was left inside the object): it turns about the HIP into
-            // the cone at its length, storage unchanged, the slope μ F_N / (K a) of the cone.
-            let len = sqrt(old_sq);
-            let slope = mu * a_n / a_p;
-            let a = len / sqrt(1.0 + slope * slope);
-            hip + n * a + unit * math::min(slope * a, back_len)
         } else {
-            // |foot + s t̂ − HIP|² = a² + s² ≤ |GO − HIP|²: the slide never lengthens the
-            // spring.
-            let s = math::min(
-                math::min(mu * a_n, back_len),
-                sqrt(math::max(0.0, old_sq - a_p * a_p)),
-            );
-            foot + unit * s
+            // On the cone's edge, `a n + s t̂` from the HIP with `s = (μ F_N / K a) a`, at the
+            // true depth `a = a_p` where the spring before was at least that long; where it
+            // was shorter (the GO below the proxy's tangent plane, as a GO stuck on a convex
+            // patch is once the hand has moved on, or left inside the object), at the old
+            // spring's length: turned about the HIP onto the cone's edge, the storage
+            // unchanged. Either way the force lies on the edge of the cone (friction μ F_N)
+            // and the spring is never longer than before; it climbs back to the true depth as
+            // the hand draws it out.
+            let slope = mu * a_n / a_p;
+            let edge_sq = a_p * a_p * (1.0 + slope * slope);
+            let a = if edge_sq <= old_sq + slack_sq {
+                a_p
+            } else {
+                sqrt(old_sq / (1.0 + slope * slope))
+            };
+            hip + n * a + unit * math::min(slope * a, back_len)
         };
         // The GO stays over the proxy's patch: a back-off past the patch's end (towards a
         // GO that was on the far side of a valley's vertex) stops at the end, not in the
@@ -732,8 +733,11 @@ impl<O: Object> FrictionRenderer<O> {
         let go_params = if on_feature {
             params
         } else {
+            // (The clamp is on the tangential part; the GO keeps its height over the plane.)
             let q = object.offset(patch, params, &frame, go - p);
-            go = p + frame.derivatives[0] * (q[0] - params[0])
+            go = p
+                + n * (go - p).dot(n)
+                + frame.derivatives[0] * (q[0] - params[0])
                 + frame.derivatives[1] * (q[1] - params[1]);
             q
         };
@@ -806,6 +810,23 @@ impl<O: Object> FrictionRenderer<O> {
         // The damping acts on the normal velocity alone (it only dissipates), as a length.
         let damping_per_k = m.damping_ns_per_m / k;
         let spring_at = |go: O::P, n: O::P| Spring::new(go, hip, n, damping_per_k * hip_velocity.dot(n));
+        if self.mode != Mode::Free
+            && !self.go_on_feature
+            && matches!(contact.feature, Feature::Patch(i) if usize::from(i) == O::position(&self.proxy).0)
+        {
+            // The CP is on the GO's own patch: it is where the proxy would slide to (the
+            // patch's local closest point), and its normal is the interaction surface's under
+            // the hand. The proxy takes it, converged, and the cone turns with it: a
+            // breakaway after a long stick on a curved patch then neither starts the proxy
+            // from where the GO was put nor turns the force by the arc between the two. Off
+            // the GO's patch (past a vertex) the GO's face keeps its last normal.
+            self.proxy = self.cp;
+            O::set_sliding(&mut self.proxy, true);
+            let frame = object.state_frame(&self.cp);
+            self.go_frame.normal = frame.normal;
+            self.go_frame.tangent = frame.tangent;
+            self.go_frame.bitangent = frame.bitangent;
+        }
         if self.mode != Mode::Free && self.go_on_feature {
             // On a valley's feature the normal follows the HIP while the HIP stays in the
             // feature's region; once it leaves, the normal stays the region boundary's (the
