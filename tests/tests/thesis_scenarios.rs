@@ -40,7 +40,6 @@ const MU_D: f64 = 0.5;
 /// The material's defaults (the scenes set only K, μ_s, μ_d): frictional memory τ, the stop
 /// speed.
 const TAU_S: f64 = 0.06;
-const V_STOP: f64 = 5e-4;
 const T: f64 = 1e-3;
 const R: f64 = 0.04;
 const C0: [f64; 2] = [-0.02, 0.06];
@@ -65,21 +64,9 @@ fn true_depth(p: [f64; 2]) -> f64 {
     (R - norm(sub(p, C0))).min(R - norm(sub(p, C1)))
 }
 
-/// The roof's true contact normal at `p`: radial from the centre of the nearer arc.
-fn true_normal(p: [f64; 2]) -> [f64; 2] {
-    let c = if R - norm(sub(p, C0)) <= R - norm(sub(p, C1)) {
-        C0
-    } else {
-        C1
-    };
-    let r = sub(p, c);
-    [r[0] / norm(r), r[1] / norm(r)]
-}
-
-/// The exact spring `K (G − HIP)` to a GO `g` split about the true contact normal at the HIP:
+/// The exact spring `K (G − HIP)` to a GO `g` split about the unit normal `n`:
 /// `(normal part, |tangential part|)` (N).
-fn spring_parts(g: [f64; 2], hip: [f64; 2]) -> (f64, f64) {
-    let n = true_normal(hip);
+fn spring_parts(g: [f64; 2], hip: [f64; 2], n: [f64; 2]) -> (f64, f64) {
     let s = sub(g, hip);
     let along = dot(s, n);
     (
@@ -88,16 +75,29 @@ fn spring_parts(g: [f64; 2], hip: [f64; 2]) -> (f64, f64) {
     )
 }
 
+/// The last tick at or before `k` that set the normal the GO's friction cone is about: the GO
+/// put (contact) or moved (a slide puts it beside the proxy, the GO's patch's closest point to
+/// the HIP), or the CP on the GO's patch (the cone turns with the surface under the hand while
+/// the CP is on the GO's patch; past a vertex it keeps its last normal).
+fn placed(r: &Run, k: usize) -> usize {
+    (1..=k)
+        .rev()
+        .find(|&j| {
+            let (a, b) = (&r.ticks[j - 1], &r.ticks[j]);
+            a.mode == Mode::Free || a.go != b.go || b.cp_patch == b.go_patch
+        })
+        .unwrap_or(0)
+}
+
+/// The roof's arc a GO on patch `patch` is on: its centre.
+fn arc_centre(patch: usize) -> [f64; 2] {
+    if patch == 0 { C0 } else { C1 }
+}
+
 /// Ticks of a transition at or above the Stribeck speed at `depth`: it runs τ/T ticks on the
 /// linear shape and ends once `(μ − μ_d)·depth ≤ converge_tol` (10 µm).
 fn transition_ticks(depth: f64) -> usize {
     ((1.0 - 1e-5 / ((MU_S - MU_D) * depth)) * TAU_S / T).ceil() as usize
-}
-
-/// Ticks for the slip speed, lagged by τ/3, to fall from `v` to the stop speed once the GO
-/// stops sliding: `v (1 − 3T/τ)^k < v_stop`.
-fn stop_ticks(v: f64) -> usize {
-    ((V_STOP / v).ln() / (1.0 - 3.0 * T / TAU_S).ln()).ceil() as usize
 }
 
 /// §3.2.1, Fig. 3.2.2 and 3.2.4: the events, in the thesis's order and for the thesis's
@@ -143,12 +143,15 @@ fn thesis_2d_events_in_order_with_their_causes() {
     // 9: leaving from 4 mm inside to 5 mm outside over 0.2 s from 1.4 s: out at 4/9 of it.
     assert_eq!(at(7), 1489);
     // 2 and 6: the first tick where the exact spring to the pinned GO leaves the cone of μ_s
-    // about the true normal (f32 rounding: 1e-5 relative).
+    // about the GO's normal: its arc's radial through the HIP where the GO was put (f32
+    // rounding: 1e-5 relative).
     for (stretch, from) in [(2usize, at(1)), (5, at(4))] {
-        let g = xy(r.ticks[at(stretch) - 1].go);
+        let k0 = at(stretch) - 1;
+        let g = xy(r.ticks[k0].go);
+        let (_, n) = roof(&r, k0);
         let predicted = (from..r.ticks.len())
             .find(|&k| {
-                let (f_n, f_t) = spring_parts(g, xy(r.ticks[k].hip));
+                let (f_n, f_t) = spring_parts(g, xy(r.ticks[k].hip), [n[0], n[1]]);
                 f_t > MU_S * f_n * (1.0 + 1e-5)
             })
             .unwrap();
@@ -164,18 +167,18 @@ fn thesis_2d_events_in_order_with_their_causes() {
             "transition {stretch} lasted {len} ticks, τ takes {n}"
         );
     }
-    // 4: pressing deeper (from 0.7 s) stops the GO; slip ends once the slip speed, lagged by
-    // τ/3, has fallen from the GO's speed to the stop speed. The hand turns 15° about the
-    // arc's centre in 0.5 s at R − d = 38 mm; the GO, at d n + μ_d d t̂ from it, turns with it
-    // at √(R² + (μ_d d)²) from the centre: 20.96 mm/s.
-    let omega = 15f64.to_radians() / 0.5;
-    let v_slide = omega * (R * R + (MU_D * 0.002f64).powi(2)).sqrt();
-    let stop = 700 + stop_ticks(v_slide);
+    // 4: pressing deeper from 0.7 s, along the normal, the spring goes into the cone and the
+    // GO stops sliding (its last slide within a tick or two of 0.7 s); a stop is 5 ms without
+    // a slide, so the sixth tick after the last slide sticks.
+    let last_slide = (1..at(4))
+        .rev()
+        .find(|&j| r.ticks[j - 1].go != r.ticks[j].go)
+        .unwrap();
     assert!(
-        (stop - 1..=stop + 1).contains(&at(4)),
-        "stuck at tick {}, predicted {stop}",
-        at(4)
+        (699..=702).contains(&last_slide),
+        "the GO last slid at tick {last_slide}"
     );
+    assert_eq!(at(4), last_slide + 6, "stuck at tick {}", at(4));
     check_friction_laws(&r, roof);
     check_continuity(&r, roof);
 }
@@ -217,24 +220,37 @@ fn thesis_3d_stick_slip_along_v() {
     }
 }
 
-/// The true contact of a tick: depth (m) and unit normal, from a reference the renderer did
-/// not produce.
-type Reference = fn(&Tick) -> (f64, [f64; 3]);
+/// The GO's surface at tick `k` of a run, from a reference the renderer did not produce: the
+/// HIP's depth under it (m) and the unit normal the friction cone is about, the normal of the
+/// GO's patch at its closest point to the HIP on the tick [`placed`] finds.
+type Reference = fn(&Run, usize) -> (f64, [f64; 3]);
 
-/// Thesis-2d's reference: the roof's exact circles.
-fn roof(t: &Tick) -> (f64, [f64; 3]) {
-    let p = xy(t.hip);
-    let n = true_normal(p);
-    (true_depth(p), [n[0], n[1], 0.0])
+/// Thesis-2d's reference: the GO's exact circle (its patch's), the normal radial through the
+/// HIP of that tick, the depth the HIP's under that circle now.
+fn roof(r: &Run, k: usize) -> (f64, [f64; 3]) {
+    let t = &r.ticks[k];
+    let c = arc_centre(t.go_patch);
+    let at = sub(xy(r.ticks[placed(r, k)].hip), c);
+    let n = [at[0] / norm(at), at[1] / norm(at)];
+    (R - norm(sub(xy(t.hip), c)), [n[0], n[1], 0.0])
 }
 
-/// Thesis-3d's: the bicubic bump has no closed form, so the tracked closest point, checked
-/// here to be one (the HIP lies along its normal to within a tenth of the HIP's step, what one
-/// Gauss–Newton step a tick leaves behind on the bump, plus 1 µm) and its depth the distance
-/// between them.
-fn tracked(t: &Tick) -> (f64, [f64; 3]) {
+/// Thesis-3d's: the bicubic bump has no closed form, so its normal is evaluated (crate nurbs)
+/// at the tracked closest point of the tick the GO was put, checked here to be a closest
+/// point (the HIP lies along the evaluated normal to within a tenth of the HIP's step, what
+/// one Gauss–Newton step a tick leaves behind on the bump, plus 1 µm); the depth is the
+/// tracked one.
+fn tracked(r: &Run, k: usize) -> (f64, [f64; 3]) {
+    static SCENE: std::sync::OnceLock<Scene> = std::sync::OnceLock::new();
+    let scene = SCENE.get_or_init(|| load("thesis-3d").0);
+    let surfaces = scene.objects()[0].surface_views().unwrap();
     let v = |a: nurbs::Vec3| [f64::from(a.x), f64::from(a.y), f64::from(a.z)];
-    let (cp, hip, n) = (v(t.cp), v(t.hip), v(t.normal));
+    let normal_at = |t: &Tick| {
+        let n = surfaces[t.cp_patch].normal(t.cp_params[0], t.cp_params[1]);
+        v(n)
+    };
+    let t = &r.ticks[k];
+    let (cp, hip, n) = (v(t.cp), v(t.hip), normal_at(t));
     let d = [cp[0] - hip[0], cp[1] - hip[1], cp[2] - hip[2]];
     let along = d[0] * n[0] + d[1] * n[1] + d[2] * n[2];
     let off = [
@@ -247,7 +263,7 @@ fn tracked(t: &Tick) -> (f64, [f64; 3]) {
         (off[0] * off[0] + off[1] * off[1] + off[2] * off[2]).sqrt() <= 0.1 * step + 1e-6,
         "the tracked CP is not a closest point: {t:?}"
     );
-    (along, n)
+    (along, normal_at(&r.ticks[placed(r, k)]))
 }
 
 /// Each mode's friction law against the reference contact, with lower as well as upper bounds:
@@ -266,7 +282,7 @@ fn check_friction_laws(r: &Run, reference: Reference) {
             assert_eq!(t.force.length(), 0.0, "tick {k}");
             continue;
         }
-        let (depth, n) = reference(t);
+        let (depth, n) = reference(r, k);
         let (go, hip) = (v(t.go), v(t.hip));
         let s = [go[0] - hip[0], go[1] - hip[1], go[2] - hip[2]];
         let a = s[0] * n[0] + s[1] * n[1] + s[2] * n[2];
@@ -278,11 +294,15 @@ fn check_friction_laws(r: &Run, reference: Reference) {
         // The tracker's normal lags the true one by what one Gauss–Newton step a tick leaves,
         // a tenth of the HIP's step over the 38 mm from the arc's centre: the split turns by
         // that angle, which moves up to |F| times it between the parts.
-        // On a Voronoi switch the tracker starts on the new curve and closes in on its CP over
-        // the next ticks (crates/tracker's tests): the three ticks from a switch are not split.
+        // Where the GO goes over to the other curve, or the CP whose normal the cone follows,
+        // its tracker starts there and closes in on the closest point over the next ticks
+        // (crates/tracker's tests): the three ticks from a switch are not split.
         let lag = 0.1 * f64::from(t.hip_velocity.length()) * T / (R - depth.min(0.01));
         let split = eps + f64::from(t.force.length()) * lag;
-        if (k.saturating_sub(3)..k).any(|j| r.ticks[j].feature != r.ticks[j + 1].feature) {
+        if (k.saturating_sub(3)..k).any(|j| {
+            let (a, b) = (&r.ticks[j], &r.ticks[j + 1]);
+            a.go_patch != b.go_patch || a.feature != b.feature
+        }) {
             continue;
         }
         assert!(
@@ -318,17 +338,19 @@ fn check_friction_laws(r: &Run, reference: Reference) {
                 "tick {k}: {f_t} > μ F_N"
             );
             if slid && t.mode == prev.map_or(t.mode, |p| p.mode) {
-                // A slide puts the GO at the true depth on the cone's edge, or nearer the CP
-                // where the spring before it (the last GO, this HIP) was too short to reach.
+                // A slide puts the spring on the cone's edge, F_T = μ F_N, at the true depth,
+                // or, where the spring before it (the last GO, this HIP) was shorter than that
+                // edge's `d √(1 + μ²)`, at that length: F_N = K min(d, |GO − HIP| / √(1 + μ²)).
                 let before = f64::from(prev.map_or(0.0, |p| (p.go - t.hip).length()));
-                let reach = K * (before * before - depth * depth).max(0.0).sqrt();
+                let reach = depth.min(before / (1.0 + mu * mu).sqrt());
                 assert!(
-                    f_t >= (mu * f_n).min(reach) - split - 1e-3,
-                    "tick {k}: slid to {f_t} < μ F_N and the reach {reach}"
+                    (f_t - mu * f_n).abs() <= split + 1e-3,
+                    "tick {k}: slid to {f_t}, not μ F_N = {}",
+                    mu * f_n
                 );
                 assert!(
-                    (f_n - K * depth).abs() < 1e-3,
-                    "tick {k}: F_N {f_n} vs K × true depth"
+                    (f_n - K * reach).abs() < 1e-3,
+                    "tick {k}: F_N {f_n} vs K × {reach} (true depth {depth})"
                 );
             }
         }
@@ -354,8 +376,8 @@ fn check_continuity(r: &Run, reference: Reference) {
         }
         let df = f64::from((b.force - a.force).length());
         let dx = f64::from((b.hip - a.hip).length());
-        let (depth, n1) = reference(b);
-        let (_, n0) = reference(a);
+        let (depth, n1) = reference(r, k);
+        let (_, n0) = reference(r, k - 1);
         let settle = (K * depth - f64::from(a.normal_force_n)).abs() * (1.0 + MU_S * MU_S).sqrt();
         // Where the true normal jumps (the bisector under the vertex) the cone turns with it,
         // and a force that leaves it turns onto its edge: by at most that jump, |Δn| |F|.
@@ -409,16 +431,15 @@ fn thesis_2d_slip_to_stuck_keeps_the_friction_force() {
 
 /// §3.1.2, Fig. 3.2.1(k): near the corner the HIP crosses the Voronoi boundary between the
 /// curves (the bisector x = 0 of this symmetric roof) while stuck. The GO stays pinned on the
-/// first curve (static friction at the corner) for as long as its spring lies in the cone of
-/// μ_s about the true contact normal, the second curve's past the boundary: here the hand moves
-/// on towards the second curve, so the spring leans back across the vertex, 60° and more from
-/// the second curve's normal, beyond the cone's 35°, and breaks away at the crossing itself,
-/// on the tick the exact geometry predicts. The force keeps its magnitude or loses some (a
-/// slide never lengthens the spring) and turns onto the second curve's cone: from within 35°
-/// of the first curve's normal to the edge nearest it, by at most the angle between the two
-/// curves' normals at the CPs, a jump of about |F| (what the cone about the true normal costs
-/// at a sharp convex vertex, the penalty wall's own jump there being `2 sin(33°) K d`; see
-/// `crates/friction/src/render.rs`); it never collapses, and the GO ends on the second curve.
+/// first curve, which stays the interaction surface (the thesis keeps it while stuck until
+/// breakaway): the cone is about the first curve's normal at the GO, so the crossing itself
+/// changes nothing and the force stays the spring to the pinned GO. It breaks away on the tick
+/// that cone predicts; the GO then slides over the first curve while the HIP is within its
+/// reach, and goes over to the second curve once the HIP leaves it, with the spring no longer
+/// than the tick before (the storage falls). Within both curves' reach the force changes per
+/// tick by at most `3 K |ΔHIP| + 0.25 N` (the single spring about the CP's normal turned by
+/// the whole angle between the normals there: 4.3 N at this corner); it never collapses, and
+/// the GO ends on the second curve.
 #[test]
 fn thesis_2d_static_friction_at_the_corner() {
     let r = simulate("thesis-2d");
@@ -434,41 +455,57 @@ fn thesis_2d_static_friction_at_the_corner() {
         assert_eq!(t.go, g, "the GO stays pinned while stuck");
         assert_eq!(t.go_patch, 0);
     }
+    let crossing = corner.iter().position(|t| t.hip.x < 0.0).unwrap();
+    assert!(crossing < breakaway, "stuck across the bisector");
     let predicted = corner
         .iter()
-        .position(|t| {
-            let (f_n, f_t) = spring_parts(xy(g), xy(t.hip));
+        .enumerate()
+        .position(|(i, t)| {
+            let (_, n) = roof(&r, last_free + 1 + i);
+            let (f_n, f_t) = spring_parts(xy(g), xy(t.hip), [n[0], n[1]]);
             f_t > MU_S * f_n * (1.0 + 1e-5)
         })
         .unwrap();
     assert_eq!(breakaway, predicted);
-    let crossing = corner.iter().position(|t| t.hip.x < 0.0).unwrap();
     println!(
         "corner: breakaway {} ticks after the HIP crossed the bisector",
-        breakaway as i64 - crossing as i64
+        breakaway - crossing
     );
-    assert!(
-        corner[breakaway - 1].patch == Some(1) || breakaway == crossing,
-        "breakaway past the boundary"
-    );
-    let mut largest = 0.0f64;
+    // Within an arc's reach: inside its disc, at an angle from its centre within its 60°.
+    let in_reach = |p: [f64; 2], c: [f64; 2], from_deg: f64| {
+        let d = sub(p, c);
+        let phi = d[1].atan2(d[0]).to_degrees();
+        norm(d) < R && (from_deg..=from_deg + 60.0).contains(&phi)
+    };
+    let both = |p: [f64; 2]| in_reach(p, C0, 0.0) && in_reach(p, C1, 120.0);
+    let (mut largest, mut switches) = (0.0f64, 0);
     for w in corner.windows(2) {
         let df = f64::from((w[1].force - w[0].force).length());
-        // The turn is at most the angle between the true normals on the two ticks (66° at the
-        // CPs 3 mm under this vertex): 2 sin(Δθ/2) |F|, |F| growing by at most K |ΔHIP|.
         let dx = f64::from((w[1].hip - w[0].hip).length());
-        let (n0, n1) = (true_normal(xy(w[0].hip)), true_normal(xy(w[1].hip)));
-        let half_turn = 0.5 * norm(sub(n1, n0));
-        let f = (f64::from(w[0].force.length()) + K * dx)
-            .max(K * true_depth(xy(w[1].hip)) * (1.0 + MU_S * MU_S).sqrt());
-        let bound = 2.0 * half_turn * f + (1.0 + MU_S) * 2.0 * K * dx + 1e-4;
-        assert!(df <= bound, "|ΔF| = {df} N > {bound} N");
-        largest = largest.max(df);
+        if w[0].go_patch != w[1].go_patch {
+            switches += 1;
+            let before = f64::from((w[0].go - w[1].hip).length());
+            let after = f64::from((w[1].go - w[1].hip).length());
+            assert!(after <= before + 3e-8, "the switch lengthened the spring");
+            assert!(
+                !in_reach(xy(w[1].hip), C0, 0.0),
+                "left the first curve within its reach"
+            );
+        } else if both(xy(w[0].hip)) && both(xy(w[1].hip)) {
+            let bound = 3.0 * K * dx + 0.25;
+            assert!(
+                df <= bound,
+                "|ΔF| = {df} N > {bound} N at {:.3} s",
+                w[1].t_s
+            );
+            largest = largest.max(df);
+        }
     }
-    println!("corner: largest |ΔF| per tick {largest:.3} N");
+    println!("corner: largest |ΔF| per tick within both reaches {largest:.3} N");
+    assert_eq!(switches, 1);
     assert_eq!(corner.last().unwrap().go_patch, 1);
     // No collapse: from breakaway to the end of the slide the force stays within what the
-    // true depth gives (between F_N and √(1 + μ_s²) F_N).
+    // spring on the cone gives (between F_N and √(1 + μ_s²) F_N).
     for t in &corner[breakaway..] {
         let f = f64::from(t.force.length());
         let f_n = f64::from(t.normal_force_n);
@@ -477,10 +514,9 @@ fn thesis_2d_static_friction_at_the_corner() {
 }
 
 /// The closed loop through the simulated pantograph (a stiff 2000 N/m hand): no mode flips
-/// back within a few ticks, every switch has its own cause, and the corner event reaches slip.
+/// back within 10 ms, every switch has its own cause, and the corner event reaches slip.
 /// A stuck → transition → stuck cycle needs the spring to load by (μ_s − μ_d) F_N between the
-/// two ends, and a transition lasts at least τ ln 2 (its slip speed starts at twice the stop
-/// speed or more): 14 ticks at τ = 20 ms.
+/// two ends, and a stop needs 5 ms without a slide.
 #[test]
 fn closed_loop_modes_do_not_chatter() {
     let (scene, traj) = load("thesis-2d");
@@ -491,12 +527,8 @@ fn closed_loop_modes_do_not_chatter() {
     };
     let result = run_device(&scene, 0, &traj, 1000.0, hand, |_, _| {}).unwrap();
     let seq = stretches(&result.run.ticks);
-    let min_dwell = (2f64.ln() / -(1.0 - T / TAU_S).ln()).floor() as usize;
     for w in seq.windows(2) {
         let len = w[1].2 - w[0].2;
-        if w[0].0 == Mode::Transition {
-            assert!(len >= min_dwell, "{:?} lasted {len} ticks: {seq:?}", w[0]);
-        }
         assert!(len >= 10, "{:?} lasted {len} ticks: {seq:?}", w[0]);
     }
     let last_free = seq.iter().rposition(|s| s.0 == Mode::Free).unwrap();

@@ -662,14 +662,13 @@ impl<O: Object> FrictionRenderer<O> {
     fn slide(
         &mut self,
         object: &O,
+        pc: Contact<O::P>,
         hip: O::P,
         hip_velocity: O::P,
-        period_s: f32,
         mu: f32,
     ) -> f32 {
         let m = &self.material;
         let damping_per_k = m.damping_ns_per_m / m.stiffness_n_per_m;
-        let pc = object.track(&mut self.proxy, hip, period_s, true);
         // At a valley's vertex the proxy's normal runs along the HIP's line to it (the
         // vertex's normal cone holds the spring, with no friction needed).
         let n = pc.normal;
@@ -809,34 +808,37 @@ impl<O: Object> FrictionRenderer<O> {
         let depth = math::max(0.0, contact.depth);
         // The damping acts on the normal velocity alone (it only dissipates), as a length.
         let damping_per_k = m.damping_ns_per_m / k;
-        let spring_at = |go: O::P, n: O::P| Spring::new(go, hip, n, damping_per_k * hip_velocity.dot(n));
-        if self.mode != Mode::Free
-            && !self.go_on_feature
-            && matches!(contact.feature, Feature::Patch(i) if usize::from(i) == O::position(&self.proxy).0)
-        {
-            // The CP is on the GO's own patch: it is where the proxy would slide to (the
-            // patch's local closest point), and its normal is the interaction surface's under
-            // the hand. The proxy takes it, converged, and the cone turns with it: a
-            // breakaway after a long stick on a curved patch then neither starts the proxy
-            // from where the GO was put nor turns the force by the arc between the two. Off
-            // the GO's patch (past a vertex) the GO's face keeps its last normal.
-            self.proxy = self.cp;
-            O::set_sliding(&mut self.proxy, true);
-            let frame = object.state_frame(&self.cp);
-            self.go_frame.normal = frame.normal;
-            self.go_frame.tangent = frame.tangent;
-            self.go_frame.bitangent = frame.bitangent;
-        }
-        if self.mode != Mode::Free && self.go_on_feature {
-            // On a valley's feature the normal follows the HIP while the HIP stays in the
-            // feature's region; once it leaves, the normal stays the region boundary's (the
-            // face's), and the face's cone decides from there.
-            let saved = self.proxy;
-            let pc = object.track(&mut self.proxy, hip, period_s, true);
-            if matches!(pc.feature, Feature::Patch(_)) {
-                self.proxy = saved;
+        let spring_at =
+            |go: O::P, n: O::P| Spring::new(go, hip, n, damping_per_k * hip_velocity.dot(n));
+        // The proxy this tick (in contact): the CP itself where the CP is on the GO's own
+        // patch (it is where the proxy would slide to, the patch's local closest point, and
+        // its normal is the interaction surface's under the hand: the proxy takes it,
+        // converged, no evaluation, and the cone turns with it, so that a breakaway after a
+        // long stick on a curved patch neither starts the proxy from where the GO was put nor
+        // turns the force by the arc between the two); elsewhere (the CP past a vertex, the
+        // GO on a valley's feature) one step of its own, every tick, so that it is never
+        // stale when the GO slides.
+        let mut proxy_contact = None;
+        if self.mode != Mode::Free {
+            let same_patch = matches!(contact.feature,
+                Feature::Patch(i) if usize::from(i) == O::position(&self.proxy).0);
+            if same_patch && !self.go_on_feature {
+                self.proxy = self.cp;
+                O::set_sliding(&mut self.proxy, true);
+                let frame = object.state_frame(&self.cp);
+                self.go_frame.normal = frame.normal;
+                self.go_frame.tangent = frame.tangent;
+                self.go_frame.bitangent = frame.bitangent;
+                proxy_contact = Some(contact);
             } else {
-                self.go_frame.normal = pc.normal;
+                let pc = object.track(&mut self.proxy, hip, period_s, true);
+                if self.go_on_feature && !matches!(pc.feature, Feature::Patch(_)) {
+                    // On a valley's feature the normal follows the HIP while the HIP stays
+                    // in the feature's region; once it leaves, the normal stays the region
+                    // boundary's (the face's), and the face's cone decides from there.
+                    self.go_frame.normal = pc.normal;
+                }
+                proxy_contact = Some(pc);
             }
         }
         let mut spring = spring_at(self.go, self.go_frame.normal);
@@ -874,7 +876,11 @@ impl<O: Object> FrictionRenderer<O> {
         };
         let mut slide = 0.0;
         if matches!(self.mode, Mode::Transition | Mode::Slip) && spring.outside(mu, 0.0) {
-            slide = self.slide(object, hip, hip_velocity, period_s, mu);
+            let pc = match proxy_contact {
+                Some(pc) => pc,
+                None => object.track(&mut self.proxy, hip, period_s, true),
+            };
+            slide = self.slide(object, pc, hip, hip_velocity, mu);
             spring = spring_at(self.go, self.go_frame.normal);
         }
         if slide > 0.0 {

@@ -170,7 +170,12 @@ fn the_force_is_continuous_across_a_convex_vertex() {
     .unwrap();
     let reach = [
         arc_reach(Vec2::new(-0.02, 0.06), r_arc, 0.0, 60f32.to_radians()),
-        arc_reach(Vec2::new(0.02, 0.06), r_arc, 120f32.to_radians(), 180f32.to_radians()),
+        arc_reach(
+            Vec2::new(0.02, 0.06),
+            r_arc,
+            120f32.to_radians(),
+            180f32.to_radians(),
+        ),
     ];
     shapes.push(("thesis-2d".into(), [arc1, arc2], 60.0, reach));
     for (label, curves, theta, faces) in &shapes {
@@ -187,10 +192,7 @@ fn the_force_is_continuous_across_a_convex_vertex() {
             let w = 0.5 * depth / half.sin();
             let (p1, p2) = (centre + Vec2::new(w, 0.0), centre - Vec2::new(w, 0.0));
             let h = 1e-5;
-            let path = polyline(
-                &[p1 + n_right * 0.003, p1, p2, p2 + n_left * 0.003],
-                h,
-            );
+            let path = polyline(&[p1 + n_right * 0.003, p1, p2, p2 + n_left * 0.003], h);
             for mu in [0.0f32, 0.5] {
                 let r = run(&chain, material(mu, mu), &path);
                 let (worst, excess, counted) = worst_step_within_reach(&r, &path, faces);
@@ -278,7 +280,10 @@ fn the_valley_loop_that_pumped_now_dissipates() {
         r.go_travel_m * 1e3
     );
     assert!(r.work_j <= s, "{} µJ of work on the hand", r.work_j * 1e6);
-    assert!(r.out.iter().any(|o| o.mode == Mode::Slip), "the loop slides");
+    assert!(
+        r.out.iter().any(|o| o.mode == Mode::Slip),
+        "the loop slides"
+    );
 }
 
 /// A small deterministic generator (xorshift32) for the search: the test needs no seed from
@@ -333,7 +338,11 @@ fn a_search_finds_no_loop_that_gains_energy_at_a_vertex() {
             let rise = if valley { 1.0 } else { -1.0 } * (90.0 - theta / 2.0).to_radians().tan();
             let inside = |c: Vec2| {
                 let r = c - apex;
-                let r = if r.length() > 0.005 { r * (0.005 / r.length()) } else { r };
+                let r = if r.length() > 0.005 {
+                    r * (0.005 / r.length())
+                } else {
+                    r
+                };
                 let surface = rise * r.x.abs();
                 let cos = (1.0 / (1.0 + rise * rise)).sqrt();
                 apex + Vec2::new(r.x, r.y.min(surface - 0.0005 / cos))
@@ -350,7 +359,9 @@ fn a_search_finds_no_loop_that_gains_energy_at_a_vertex() {
                         .map(|(x, d): (f32, f32)| inside(apex + Vec2::new(x, -d) * (scale * 1e-3)))
                 } else {
                     core::array::from_fn(|_| {
-                        inside(apex + Vec2::new(0.004 * rng.next(), -0.00225 + 0.00175 * rng.next()))
+                        inside(
+                            apex + Vec2::new(0.004 * rng.next(), -0.00225 + 0.00175 * rng.next()),
+                        )
                     })
                 };
                 let mut here = evaluate(&corners);

@@ -216,7 +216,10 @@ fn frictionless_wedge_is_the_god_objects_wall_and_does_no_work() {
                 let still = walls
                     .iter()
                     .any(|(e, reach)| usize::from(e[0] < 0.0) == prev && *reach > f64::from(h));
-                assert!(!still, "{label}, {x:?}: left face {prev} while in its reach");
+                assert!(
+                    !still,
+                    "{label}, {x:?}: left face {prev} while in its reach"
+                );
                 let before = f64::from((r.out[k - 1].go - x).length());
                 let after = f64::from((o.go - x).length());
                 assert!(after <= before + 1e-8, "{label}: {before} -> {after}");

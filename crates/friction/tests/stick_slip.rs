@@ -261,7 +261,10 @@ fn slip_sticks_when_the_hand_stops_for_cause_stopped() {
     // A stop is read from the GO's own motion: the last slide is on the last tick the hand
     // moves (tick 399, the path's 400th point); ticks 400–404 are the 5 ms hold without a
     // slide, and tick 405 sticks. No tick more than 5 ms after a slide is labelled slip.
-    let last_slide = (1..k).rev().find(|&j| r.out[j].go != r.out[j - 1].go).unwrap();
+    let last_slide = (1..k)
+        .rev()
+        .find(|&j| r.out[j].go != r.out[j - 1].go)
+        .unwrap();
     assert_eq!((last_slide, k), (399, 405));
     // The friction force carries over: μ_d F_N = 1 N against the motion, unchanged.
     assert!((r.out[k].friction - Vec2::new(-1.0, 0.0)).length() < 1e-3);
