@@ -189,9 +189,8 @@ fn reversal_sticks_then_breaks_away_the_other_way() {
 
 use friction::SwitchCause;
 
-/// The material's defaults these tests rely on: frictional memory τ, stop and Stribeck speeds.
+/// The material's defaults these tests rely on: frictional memory τ, the Stribeck speed.
 const TAU: f32 = 0.06;
-const V_STOP: f32 = 5e-4;
 const V_S: f32 = 0.01;
 
 /// Indices where the mode changed, with the new mode and the cause reported.
