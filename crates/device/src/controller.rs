@@ -505,13 +505,12 @@ impl<O: Object<P = Vec2>> Controller<O> {
         {
             return false;
         }
-        scene.state = SceneState::Rendering {
-            renderer: FrictionRenderer::from_tracking(
-                &scene.object,
-                scene.material,
-                acquisition.state,
-            ),
-        };
+        let mut renderer =
+            FrictionRenderer::from_tracking(&scene.object, scene.material, acquisition.state);
+        // The renderer's mode decisions get the hysteresis of the encoder's quantum at the
+        // handle (its worst over the workspace): one count of noise cannot flip a mode.
+        renderer.set_resolution(self.safety.config().passivity.device.resolution_m);
+        scene.state = SceneState::Rendering { renderer };
         self.safety.restart_ramp_and_observer();
         true
     }

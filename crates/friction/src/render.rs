@@ -273,10 +273,10 @@ const REVERSAL_HYSTERESIS: f32 = 0.1;
 /// 20 mm/s slide at the default τ = 60 ms.
 const SLIP_SPEED_MEMORY: f32 = 1.0 / 3.0;
 
-/// A dynamic mode sticks once the GO has not slid for this long (s) with the spring inside the
-/// cone: a stop is read from the GO's own motion, and 5 ms of it, so that a stick is never
-/// undone by the next encoder count of a slow slide within 5 ms (one count of 19.6 µm every
-/// 5 ms is 4 mm/s, which keeps the GO sliding).
+/// A dynamic mode sticks once the GO has travelled less than the stop speed's worth over this
+/// long (s), with the spring inside the cone: a stop is read from the GO's own motion, and 5 ms
+/// of it, so that a stick is never undone by the next encoder count of a slow slide within
+/// 5 ms (one count of 19.6 µm every 5 ms is 4 mm/s, which keeps the GO sliding).
 const STOP_HOLD_S: f32 = 5e-3;
 
 /// The rounding of an f32 point of the surface in a workspace within 0.25 m (m): two ulps of
@@ -310,8 +310,14 @@ pub struct FrictionRenderer<O: Object> {
     /// The position resolution of the HIP (m, the encoder quantum at the handle; 0 for exact
     /// positions): the hysteresis of the mode decisions.
     resolution_m: f32,
-    /// Time since the GO last slid (s).
+    /// Time since the GO last slid (s): since the GO's travel last reached the stop speed
+    /// times [`STOP_HOLD_S`].
     since_slide_s: f32,
+    /// The GO's travel since then (m).
+    held_travel_m: f32,
+    /// The CP's speed over the object (m/s), low-passed over [`STOP_HOLD_S`]: the transition's
+    /// pace.
+    cp_speed_m_per_s: f32,
     /// Whether the proxy (and the GO with it) is on a feature of its own, a valley's vertex or
     /// edge: its normal is then the line from the HIP to it, whatever the HIP's place in the
     /// feature's normal cone (the feature holds any force there, with no friction needed).
@@ -424,6 +430,8 @@ impl<O: Object> FrictionRenderer<O> {
             go_frame,
             resolution_m: 0.0,
             since_slide_s: 0.0,
+            held_travel_m: 0.0,
+            cp_speed_m_per_s: 0.0,
             go_on_feature: false,
             mode: Mode::Free,
             cause: SwitchCause::None,
@@ -451,6 +459,8 @@ impl<O: Object> FrictionRenderer<O> {
             go_frame: self.go_frame,
             resolution_m: self.resolution_m,
             since_slide_s: self.since_slide_s,
+            held_travel_m: self.held_travel_m,
+            cp_speed_m_per_s: self.cp_speed_m_per_s,
             go_on_feature: self.go_on_feature,
             mode: self.mode,
             cause: self.cause,
@@ -851,6 +861,7 @@ impl<O: Object> FrictionRenderer<O> {
                     spring = spring_at(self.go, self.go_frame.normal);
                     self.slip_speed = 0.0;
                     self.since_slide_s = 0.0;
+                    self.held_travel_m = 0.0;
                 }
                 SwitchCause::Breakaway => {
                     // The contact starts sliding at the CP's speed; at least twice the stop
@@ -861,6 +872,7 @@ impl<O: Object> FrictionRenderer<O> {
                     );
                     self.progress = 0.0;
                     self.since_slide_s = 0.0;
+                    self.held_travel_m = 0.0;
                 }
                 _ => {}
             }
@@ -883,8 +895,13 @@ impl<O: Object> FrictionRenderer<O> {
             slide = self.slide(object, pc, hip, hip_velocity, mu);
             spring = spring_at(self.go, self.go_frame.normal);
         }
-        if slide > 0.0 {
+        // A stop is the GO's own: less than the stop speed's worth of travel over the hold
+        // (a GO creeping by nanometres as μ falls in a transition under a still hand is
+        // stopped; one that keeps up with a slow hand is not).
+        self.held_travel_m += slide;
+        if self.held_travel_m > m.stop_speed_m_per_s * STOP_HOLD_S {
             self.since_slide_s = 0.0;
+            self.held_travel_m = 0.0;
         } else {
             self.since_slide_s = math::min(self.since_slide_s + period_s, 1.0);
         }
@@ -906,13 +923,18 @@ impl<O: Object> FrictionRenderer<O> {
         };
         self.slip_speed +=
             per_tau(m.transition_time_s * SLIP_SPEED_MEMORY) * (go_speed - self.slip_speed);
+        // The contact's speed over the object (the CP's), low-passed over the stop hold: at
+        // 10 kHz an encoder reports a slow hand's motion a count at a time (a 19.6 µm step
+        // every tenth tick at 19.6 mm/s), and the pace's cap at v_s, applied to those bursts
+        // one tick at a time, would run the transition at a tenth of its rate.
+        self.cp_speed_m_per_s +=
+            per_tau(STOP_HOLD_S) * (sqrt(cp_velocity.length_squared()) - self.cp_speed_m_per_s);
         if self.mode == Mode::Transition {
-            // The pace is the contact's speed over the object (the CP's), not the GO's: the
-            // spring's own unloading as μ falls would otherwise speed the transition up and
-            // snap every slide through it at full pace.
-            let v_sq = cp_velocity.length_squared();
+            // The pace is the contact's speed, not the GO's: the spring's own unloading as μ
+            // falls would otherwise speed the transition up and snap every slide through it
+            // at full pace.
             let vs = m.stribeck_speed_m_per_s;
-            let pace = if v_sq < vs * vs { sqrt(v_sq) / vs } else { 1.0 };
+            let pace = math::min(1.0, self.cp_speed_m_per_s / vs);
             self.progress = math::min(1.0, self.progress + rate * pace);
         }
 
