@@ -266,7 +266,8 @@ fn tracked(r: &Run, k: usize) -> (f64, [f64; 3]) {
     (along, normal_at(&r.ticks[placed(r, k)]))
 }
 
-/// Each mode's friction law against the reference contact, with lower as well as upper bounds:
+/// Each mode's friction law against the reference contact, with lower as well as upper bounds
+/// (and each dynamic tick within 5 ms of a slide):
 /// the force is the spring `K (GO − HIP)` split about the true normal (its normal part is the
 /// normal force, the rest the friction); stuck, within the cone of μ_s; in the transition μ
 /// between μ_d and μ_s and never rising; in slip μ = μ_d; on every tick the GO slid, the
@@ -281,6 +282,15 @@ fn check_friction_laws(r: &Run, reference: Reference) {
         if t.mode == Mode::Free {
             assert_eq!(t.force.length(), 0.0, "tick {k}");
             continue;
+        }
+        // Honest labels: a tick labelled transition or slip is within the 5 ms stop hold
+        // (five ticks at 1 kHz) of a tick on which the GO slid.
+        if matches!(t.mode, Mode::Transition | Mode::Slip) {
+            assert!(
+                (k.saturating_sub(5)..=k).any(|j| j > 0 && r.ticks[j - 1].go != r.ticks[j].go),
+                "tick {k}: labelled {:?} 5 ms after the GO last slid",
+                t.mode
+            );
         }
         let (depth, n) = reference(r, k);
         let (go, hip) = (v(t.go), v(t.hip));
