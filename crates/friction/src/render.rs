@@ -971,9 +971,23 @@ impl<O: Object> FrictionRenderer<O> {
         }
 
         let n = self.go_frame.normal;
+        if spring.a_n <= 0.0 && spring.t != O::P::ZERO {
+            // No normal force (the HIP out of the GO's tangent plane within the contact's
+            // hysteresis, or the damping taking it all while the hand withdraws): no friction
+            // either. The GO goes slack over the HIP, which takes the tangential part out of
+            // the storage rather than out of the force alone.
+            self.go = hip + n * (self.go - hip).dot(n);
+            spring = spring_at(self.go, n);
+        }
         let normal_force = k * spring.a_n;
         self.prev_normal_force = normal_force;
-        let friction = spring.t * k;
+        // (What f32 leaves of the tangential part of a slack spring, a nanometre, is not
+        // rendered: no normal force, no force.)
+        let friction = if spring.a_n > 0.0 {
+            spring.t * k
+        } else {
+            O::P::ZERO
+        };
         let total = n * normal_force + friction;
         let tangent = reference(&self.go_frame, friction);
         FrictionOutput {

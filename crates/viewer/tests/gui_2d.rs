@@ -35,16 +35,22 @@ fn dragging_into_and_along_the_curve_sticks_then_slips() {
         seq[0] == Mode::Free && stuck.is_some() && transition > stuck && slip > transition,
         "free → stuck → transition → slip, got {seq:?}"
     );
-    // And nothing else: the relaxed hand's handle (300 N/m on some 50 g, ringing at about
-    // 12 Hz) follows the transition's 60 ms fall of the friction without ringing back, so it
-    // slips on to the end of the slide instead of sticking again (at a 20 ms transition it
-    // rang back and stuck twice in this second, cause `reversed`).
-    assert_eq!(
-        seq,
-        [Mode::Free, Mode::Stuck, Mode::Transition, Mode::Slip],
-        "{:?}",
-        state.telemetry.switches
-    );
+    // And then only what the handle does: the relaxed hand (300 N/m on some 50 g, ringing at
+    // about 12 Hz) throws the handle forward as the friction falls, and it comes to a
+    // standstill (its speed exactly zero for milliseconds, the hand's spring loading up) before
+    // the next breakaway: a stop is read from the GO's motion, so each of those is a stick
+    // (cause `stopped`) and the hand breaks away again, a stick–slip of the compliant hand.
+    // No mode is undone within 5 ms, and every stick between slips is a stop.
+    let switches: Vec<_> = state.telemetry.switches.iter().cloned().collect();
+    for w in switches.windows(2) {
+        assert!(
+            w[1].t_s - w[0].t_s >= 5e-3,
+            "a mode undone within 5 ms: {switches:?}"
+        );
+    }
+    for s in switches.iter().filter(|s| s.from == Mode::Slip) {
+        assert_eq!(s.cause, friction::SwitchCause::Stopped, "{switches:?}");
+    }
     assert!(
         state
             .telemetry
@@ -118,9 +124,16 @@ fn an_invalid_material_is_refused_and_the_old_one_keeps_running() {
     );
     // The old material is what the loop renders: slip at μ_d = 0.5 and F_N = K depth with
     // K = 1000 N/m (tolerance as above).
+    // (The last slip tick: the relaxed hand's handle may be stuck at the end, see above.)
     slide(&mut state, 0.03, 30.0, 55.0, 1000);
-    let last = state.latest().expect("ticks").tick;
-    assert_eq!((last.mode, last.mu), (Mode::Slip, 0.5), "{last:?}");
+    let last = state
+        .telemetry
+        .history
+        .iter()
+        .map(|s| s.tick)
+        .rfind(|k| k.mode == Mode::Slip)
+        .expect("a slip tick");
+    assert_eq!(last.mu, 0.5, "{last:?}");
     assert!(penalty_within_curvature(&last), "{last:?}");
 
     // A valid one takes effect at once: μ_d = 0.3 in the next slip.
