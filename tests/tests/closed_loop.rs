@@ -106,7 +106,9 @@ fn closed_loop(
     Ok(samples)
 }
 
-/// Reversals of the force (consecutive non-zero forces more than 90° apart), contacts
+/// Reversals of the force (consecutive forces more than 90° apart, each above the f32 rounding
+/// of a spring between positions under 0.25 m, `K × 3e-8 m`: a slack spring's nanometre is
+/// no force), contacts
 /// (free → contact, counted once the contact's force exceeds one encoder count's worth of
 /// penalty, `K Δ`: a handle grazing the surface within one count of it toggles in and out of
 /// contact at the encoders' resolution, which is no bounce), and the largest force while the
@@ -120,7 +122,7 @@ fn chatter(samples: &[Sample], k_n_per_m: f32) -> (usize, usize, f32) {
     // Since the last free tick: whether this contact was counted yet.
     let mut counted = true;
     for s in samples {
-        if s.force_n != Vec2::ZERO {
+        if s.force_n.length() > k_n_per_m * 3e-8 {
             if last.is_some_and(|l| l.dot(s.force_n) < 0.0) {
                 reversals += 1;
             }

@@ -350,9 +350,11 @@ pub struct FrictionRenderer<O: Object> {
     since_slide_s: f32,
     /// The GO's travel since then (m).
     held_travel_m: f32,
-    /// The CP's speed over the object (m/s), low-passed over [`STOP_HOLD_S`]: the transition's
-    /// pace.
-    cp_speed_m_per_s: f32,
+    /// The CP's feature on the last tick.
+    cp_feature: Feature,
+    /// The CP's velocity over the object (m/s), low-passed over [`STOP_HOLD_S`]: the
+    /// transition's pace.
+    cp_velocity: O::P,
     /// Whether the proxy (and the GO with it) is on a feature of its own, a valley's vertex or
     /// edge: its normal is then the line from the HIP to it, whatever the HIP's place in the
     /// feature's normal cone (the feature holds any force there, with no friction needed).
@@ -466,7 +468,8 @@ impl<O: Object> FrictionRenderer<O> {
             resolution_m: 0.0,
             since_slide_s: 0.0,
             held_travel_m: 0.0,
-            cp_speed_m_per_s: 0.0,
+            cp_feature: O::feature(&cp),
+            cp_velocity: O::P::ZERO,
             go_on_feature: false,
             mode: Mode::Free,
             cause: SwitchCause::None,
@@ -495,7 +498,8 @@ impl<O: Object> FrictionRenderer<O> {
             resolution_m: self.resolution_m,
             since_slide_s: self.since_slide_s,
             held_travel_m: self.held_travel_m,
-            cp_speed_m_per_s: self.cp_speed_m_per_s,
+            cp_feature: self.cp_feature,
+            cp_velocity: self.cp_velocity,
             go_on_feature: self.go_on_feature,
             mode: self.mode,
             cause: self.cause,
@@ -742,7 +746,13 @@ impl<O: Object> FrictionRenderer<O> {
         // What f32 rounding of a surface point can add to the spring's length², allowed: a
         // GO held off the surface by every tick's rounding would ratchet into the object
         // (1 µm in 5,000 ticks of a withdrawing hand, measured), and rounding has no sign.
-        let slack_sq = ROUNDING_M * (2.0 * sqrt(old_sq) + ROUNDING_M);
+        // (2 |v| ≤ |v|²/a + a for any a > 0: with the proxy's depth, a division instead of a
+        // square root, and within 6 % of 2 |v| for a spring on the cone's edge of μ ≤ 1.)
+        let slack_sq = if a_p > 0.0 {
+            ROUNDING_M * (old_sq / a_p + a_p + ROUNDING_M)
+        } else {
+            ROUNDING_M * (2.0 * sqrt(old_sq) + ROUNDING_M)
+        };
         let mut go = if a_p <= 0.0 {
             // The HIP is out of the proxy's tangent plane (within the contact's hysteresis):
             // the spring goes slack.
@@ -769,8 +779,22 @@ impl<O: Object> FrictionRenderer<O> {
         // GO that was on the far side of a valley's vertex) stops at the end, not in the
         // tangent plane's extension inside the object.
         let (patch, params) = O::position(&self.proxy);
-        let mut frame = object.state_frame(&self.proxy);
-        frame.normal = n;
+        // The proxy's frame from its own evaluation, the normal its contact's (no second
+        // normalisation of the normal).
+        let derivatives = O::state_derivatives(&self.proxy);
+        let in_plane = |d: O::P| Point::try_normalize(d - n * d.dot(n)).unwrap_or(n);
+        let tangent = in_plane(derivatives[0]);
+        let frame = Frame {
+            point: p,
+            normal: n,
+            tangent,
+            bitangent: if derivatives[1] == derivatives[0] {
+                tangent
+            } else {
+                in_plane(derivatives[1])
+            },
+            derivatives,
+        };
         let go_params = if on_feature {
             params
         } else {
@@ -861,17 +885,23 @@ impl<O: Object> FrictionRenderer<O> {
         // GO on a valley's feature) one step of its own, every tick, so that it is never
         // stale when the GO slides.
         let mut proxy_contact = None;
+        let cp_switched = self.cp_feature != contact.feature;
+        self.cp_feature = contact.feature;
         if self.mode != Mode::Free {
             let same_patch = matches!(contact.feature,
                 Feature::Patch(i) if usize::from(i) == O::position(&self.proxy).0);
             if same_patch && !self.go_on_feature {
                 self.proxy = self.cp;
                 O::set_sliding(&mut self.proxy, true);
-                let frame = object.state_frame(&self.cp);
-                self.go_frame.normal = frame.normal;
-                self.go_frame.tangent = frame.tangent;
-                self.go_frame.bitangent = frame.bitangent;
-                proxy_contact = Some(contact);
+                // (The frame's tangents, the friction's sign reference only, stay the GO's.)
+                self.go_frame.normal = contact.normal;
+                proxy_contact = Some(if cp_switched {
+                    // The CP has just gone over to this patch and stands at its end this tick
+                    // (no evaluation): the proxy takes its own step from there.
+                    object.track(&mut self.proxy, hip, period_s, true)
+                } else {
+                    contact
+                });
             } else {
                 let pc = object.track(&mut self.proxy, hip, period_s, true);
                 if self.go_on_feature && !matches!(pc.feature, Feature::Patch(_)) {
@@ -892,6 +922,7 @@ impl<O: Object> FrictionRenderer<O> {
                     self.place_go_on_cp(object, &contact, hip);
                     spring = spring_at(self.go, self.go_frame.normal);
                     self.slip_speed = 0.0;
+                    self.cp_velocity = cp_velocity;
                     self.since_slide_s = 0.0;
                     self.held_travel_m = 0.0;
                 }
@@ -955,18 +986,18 @@ impl<O: Object> FrictionRenderer<O> {
         };
         self.slip_speed +=
             per_tau(m.transition_time_s * SLIP_SPEED_MEMORY) * (go_speed - self.slip_speed);
-        // The contact's speed over the object (the CP's), low-passed over the stop hold: at
+        // The contact's velocity over the object (the CP's), low-passed over the stop hold: at
         // 10 kHz an encoder reports a slow hand's motion a count at a time (a 19.6 µm step
         // every tenth tick at 19.6 mm/s), and the pace's cap at v_s, applied to those bursts
         // one tick at a time, would run the transition at a tenth of its rate.
-        self.cp_speed_m_per_s +=
-            per_tau(STOP_HOLD_S) * (sqrt(cp_velocity.length_squared()) - self.cp_speed_m_per_s);
+        self.cp_velocity += (cp_velocity - self.cp_velocity) * per_tau(STOP_HOLD_S);
         if self.mode == Mode::Transition {
             // The pace is the contact's speed, not the GO's: the spring's own unloading as μ
             // falls would otherwise speed the transition up and snap every slide through it
             // at full pace.
             let vs = m.stribeck_speed_m_per_s;
-            let pace = math::min(1.0, self.cp_speed_m_per_s / vs);
+            let v_sq = self.cp_velocity.length_squared();
+            let pace = if v_sq < vs * vs { sqrt(v_sq) / vs } else { 1.0 };
             self.progress = math::min(1.0, self.progress + rate * pace);
         }
 

@@ -634,6 +634,8 @@ pub struct ChainTracker {
     tracker: Tracker<Vec2, 1>,
     curve: usize,
     sliding: bool,
+    /// A switch decided on the last tick, taken on this one (the feature across vertex `.1`).
+    pending: Option<(Feature, u16)>,
 }
 
 /// Most feature switches in one tick (enough to cross a vertex into the next curve).
@@ -648,6 +650,7 @@ impl ChainTracker {
             tracker: chain.tracker_on(i, u, cfg),
             curve: i,
             sliding: false,
+            pending: None,
         }
     }
 
@@ -661,6 +664,11 @@ impl ChainTracker {
     /// by jumping across a region boundary. That is how a god-object moves.
     pub fn set_sliding(&mut self, sliding: bool) {
         self.sliding = sliding;
+        // A sliding point goes over only where it comes to its curve's end, never on a
+        // region test's pending switch.
+        if sliding {
+            self.pending = None;
+        }
     }
 
     /// The curve the tracker is on and its parameter.
@@ -687,6 +695,7 @@ impl ChainTracker {
         self.curve = i;
         self.feature = Feature::Patch(i as u16);
         self.tracker = chain.tracker_on(i, u, *self.tracker.config());
+        self.pending = None;
     }
 
     /// One tick: track the closest point to `hip` and switch features as the HIP crosses
@@ -700,6 +709,20 @@ impl ChainTracker {
         allow_switch: bool,
     ) -> Contact<Vec2> {
         let curves = chain.curves();
+        if let Some((next, k)) = self.pending.take() {
+            // The switch decided on the last tick, if the HIP is still across the boundary:
+            // onto the next curve at its end (the vertex), where the tracker stands this tick,
+            // the contact from the curve's end jet (the chain's, no evaluation: the depth under
+            // the new curve's tangent at the vertex, right to first order); it closes in on its
+            // closest point from the next. So no tick evaluates two curves.
+            let v = chain.vertices[usize::from(k).min(chain.n_vertices - 1)];
+            if allow_switch && v.region(k, hip) == next {
+                self.enter(chain, next, &v);
+                if matches!(next, Feature::Patch(_)) {
+                    return self.here(chain, hip);
+                }
+            }
+        }
         for _ in 0..MAX_SWITCHES {
             match self.feature {
                 Feature::Vertex(k) => {
@@ -732,11 +755,29 @@ impl ChainTracker {
                                 let v = chain.vertices[k];
                                 let next = v.region(k as u16, hip);
                                 if next != Feature::Patch(self.curve as u16) {
+                                    if !self.sliding
+                                        && matches!(next, Feature::Patch(_))
+                                        && v.kind != VertexKind::Smooth
+                                    {
+                                        // Across a corner to the next curve (the closest
+                                        // point jumps there anyway): taken on the next tick,
+                                        // this one having evaluated this curve already. Across
+                                        // a smooth join the closest point moves on
+                                        // continuously and the tracker follows at once.
+                                        self.pending = Some((next, k as u16));
+                                        break;
+                                    }
                                     self.enter(chain, next, &v);
                                     switched = true;
                                     break;
                                 }
                             }
+                        }
+                        if switched && self.sliding && matches!(self.feature, Feature::Patch(_)) {
+                            // Sliding, the point has come to its curve's end and goes on from
+                            // the same point of the next, standing there this tick (the end
+                            // jet, no evaluation), as a point on the surface does.
+                            return self.here(chain, hip);
                         }
                         if switched {
                             continue;
@@ -757,9 +798,14 @@ impl ChainTracker {
             }
         }
         // Out of switches this tick: report where we are without moving further.
-        let c = &curves[self.curve];
-        let jet = c.jet(self.tracker.t(), 1);
-        let n = c.normal(self.tracker.t(), &jet);
+        self.here(chain, hip)
+    }
+
+    /// The contact where the tracker stands, from its own jet there (no evaluation).
+    fn here(&self, chain: &Chain<'_>, hip: Vec2) -> Contact<Vec2> {
+        let c = &chain.curves()[self.curve];
+        let jet = self.tracker.jet();
+        let n = c.normal(self.tracker.t(), jet);
         let depth = (jet.point - hip).dot(n);
         Contact {
             feature: self.feature,

@@ -83,6 +83,11 @@ pub trait Object {
     /// [`Object::position`], not evaluated again).
     fn state_point(state: &Self::State) -> Self::P;
 
+    /// The partial derivatives `∂S/∂u`, `∂S/∂v` where a state's tracker stands (`∂C/∂u` twice
+    /// on curves), from its last evaluation: [`Frame::derivatives`] without the frame's
+    /// normalisations.
+    fn state_derivatives(state: &Self::State) -> [Self::P; 2];
+
     /// Re-evaluates a state's tracker on this object where it stands (same patch, same
     /// parameters, same feature): for a state made on an object of the same topology whose
     /// control points have since moved, so that its next step starts from this geometry.
@@ -171,6 +176,11 @@ impl Object for Chain<'_> {
         state.jet().point
     }
 
+    fn state_derivatives(state: &ChainTracker) -> [Vec2; 2] {
+        let d = state.jet().d[0];
+        [d, d]
+    }
+
     fn refresh(&self, state: &mut ChainTracker) {
         state.refresh(self);
     }
@@ -252,6 +262,10 @@ impl Object for Shell<'_> {
 
     fn state_point(state: &ShellTracker) -> Vec3 {
         state.jet().point
+    }
+
+    fn state_derivatives(state: &ShellTracker) -> [Vec3; 2] {
+        state.jet().d
     }
 
     fn refresh(&self, state: &mut ShellTracker) {

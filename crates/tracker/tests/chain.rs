@@ -214,8 +214,10 @@ fn inside_path_switches_at_bisectors_both_ways() {
             .iter()
             .filter(|(x, c)| nearest_feature(&curves, *x) != c.feature)
             .count();
+        // A switch across a corner is taken on the tick after it is decided (no tick evaluates
+        // two curves): one tick late at each of the three, and as many ties at the bisectors.
         assert!(
-            mismatches <= 3,
+            mismatches <= 6,
             "{mismatches} ticks disagree with the nearest feature"
         );
     }
