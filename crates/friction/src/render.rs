@@ -746,13 +746,7 @@ impl<O: Object> FrictionRenderer<O> {
         // What f32 rounding of a surface point can add to the spring's length², allowed: a
         // GO held off the surface by every tick's rounding would ratchet into the object
         // (1 µm in 5,000 ticks of a withdrawing hand, measured), and rounding has no sign.
-        // (2 |v| ≤ |v|²/a + a for any a > 0: with the proxy's depth, a division instead of a
-        // square root, and within 6 % of 2 |v| for a spring on the cone's edge of μ ≤ 1.)
-        let slack_sq = if a_p > 0.0 {
-            ROUNDING_M * (old_sq / a_p + a_p + ROUNDING_M)
-        } else {
-            ROUNDING_M * (2.0 * sqrt(old_sq) + ROUNDING_M)
-        };
+        let slack_sq = ROUNDING_M * (2.0 * sqrt(old_sq) + ROUNDING_M);
         let mut go = if a_p <= 0.0 {
             // The HIP is out of the proxy's tangent plane (within the contact's hysteresis):
             // the spring goes slack.

@@ -359,15 +359,25 @@ where
             material.mu_static
         };
         // Where the contact goes over from one patch to the next, the trackers take the new
-        // patch a tick late (no tick evaluates two patches): for the tick of the switch and
-        // the one after, the GO may lag the cone's edge by the HIP's step, K |ΔHIP| of
-        // friction.
-        let switching = (k.saturating_sub(2)..k).any(|j| {
-            let (a, b) = (&r.out[j], &r.out[j + 1]);
-            a.contact.feature != b.contact.feature || a.go_patch != b.go_patch
-        });
+        // patch a tick late and stand a tick at its end (no tick evaluates two patches): for
+        // those ticks the GO may lag the cone's edge by the HIP's last two steps, K |ΔHIP| a
+        // step of friction.
+        // (Every patch here has the domain [0, 1]: a tracker standing at a patch's end has a
+        // parameter of 0 or 1.)
+        let at_end = |q: [f32; 2]| q.iter().any(|&t| t <= 0.0 || t >= 1.0);
+        let switching = at_end(o.go_params)
+            || at_end(o.contact.params)
+            || (k.saturating_sub(2)..k).any(|j| {
+                let (a, b) = (&r.out[j], &r.out[j + 1]);
+                a.contact.feature != b.contact.feature || a.go_patch != b.go_patch
+            });
         let lag = if switching {
-            material.stiffness_n_per_m * (path[k] - path[k.saturating_sub(1)]).length()
+            let step = |j: usize| {
+                (path[j] - path[j.saturating_sub(1)])
+                    .length_squared()
+                    .sqrt()
+            };
+            material.stiffness_n_per_m * (step(k) + step(k.saturating_sub(1)))
         } else {
             0.0
         };
