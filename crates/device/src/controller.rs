@@ -222,6 +222,9 @@ struct Scene<O: Object<P = Vec2>> {
 /// Where a loaded scene's renderer is: waiting for the acquisition that starts it, or
 /// rendering. (The object stays in [`Scene`]: a chain is a few KiB, and moving it from one
 /// variant to the other would copy it on the tick's stack.)
+// One of these lives in the controller, in place (no allocation on the board): the renderer's
+// size (its CP and proxy trackers) is the controller's, whichever variant is current.
+#[allow(clippy::large_enum_variant)]
 #[derive(Debug)]
 enum SceneState<O: Object<P = Vec2>> {
     /// No renderer yet: the tick renders no force and publishes an [`AcquisitionRequest`]

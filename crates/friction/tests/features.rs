@@ -93,6 +93,10 @@ fn two_faces(apex: Vec2, theta_deg: f32, valley: bool) -> ([CurveBuf<Vec2>; 2], 
 /// A face's reach: whether `x` is under it and its foot on the face falls on the face.
 type Reach = Box<dyn Fn(Vec2) -> bool>;
 
+/// A corner to cross: its name, its two faces, the angle between their normals at the corner
+/// (degrees) and their reaches.
+type Shape = (String, [CurveBuf<Vec2>; 2], f32, [Reach; 2]);
+
 /// The reach of the segment `a`–`b` with outward normal `n`.
 fn segment_reach(a: Vec2, b: Vec2, n: Vec2) -> Reach {
     Box::new(move |x: Vec2| {
@@ -139,7 +143,7 @@ fn worst_step_within_reach(r: &Run, path: &[Vec2], faces: &[Reach]) -> (f32, f32
 #[test]
 fn the_force_is_continuous_across_a_convex_vertex() {
     let apex = Vec2::new(0.0, 0.09);
-    let mut shapes: Vec<(String, [CurveBuf<Vec2>; 2], f32, [Reach; 2])> = Vec::new();
+    let mut shapes: Vec<Shape> = Vec::new();
     for theta in [60.0f32, 90.0, 120.0] {
         let (c, n) = two_faces(apex, theta, false);
         let ends = [c[0].view().point(0.0), c[1].view().point(1.0)];
