@@ -183,16 +183,27 @@ fn the_receiver_refuses_to_commit_a_collapsed_ring() {
         assert!(matches!(reply, Message::Ack { .. }), "{what}: {reply:?}");
         assert_eq!(event, Event::SceneCommitted, "{what}");
         let before = device.active();
-        let (event, reply) = device.upload(&bytes);
-        let n = nack_of(reply);
-        assert_eq!(
-            (n.code, n.object, n.patch),
-            (ErrorCode::ScenePatch, 0, 0),
-            "{what}"
-        );
-        assert_eq!(event, Event::None, "{what}");
-        assert_eq!(device.active(), before, "{what}: the active scene changed");
+        let reply = device.upload(&bytes);
+        refused_unchanged(&device, reply, &before, what);
     }
+}
+
+/// The reply refuses patch 0 of object 0 (`ScenePatch`), nothing happened, and the device's
+/// active scene and its CRC are still `before`.
+fn refused_unchanged(
+    device: &Device,
+    (event, reply): (Event, Message),
+    before: &(Vec<u8>, u32),
+    what: &str,
+) {
+    let n = nack_of(reply);
+    assert_eq!(
+        (n.code, n.object, n.patch),
+        (ErrorCode::ScenePatch, 0, 0),
+        "{what}"
+    );
+    assert_eq!(event, Event::None, "{what}");
+    assert_eq!(&device.active(), before, "{what}: the active scene changed");
 }
 
 #[test]
@@ -215,15 +226,8 @@ fn a_points_update_that_collapses_the_ring_is_refused_and_changes_nothing() {
         for m in points_update(0, &[(0, first, to)]) {
             last = Some(device.handle(m));
         }
-        let (event, reply) = last.unwrap();
-        let n = nack_of(reply);
-        assert_eq!(
-            (n.code, n.object, n.patch),
-            (ErrorCode::ScenePatch, 0, 0),
-            "{what}"
-        );
-        assert_eq!(event, Event::None, "{what}");
-        assert_eq!(device.active(), before, "{what}: the active scene changed");
+        let reply = last.unwrap();
+        refused_unchanged(&device, reply, &before, what);
         // The device goes on: moving the top point 1 mm along the top edge of the control
         // polygon (the ring stays smooth, its topology the same) is applied.
         let nudged = [points[2] + Vec2::new(1e-3, 0.0)];

@@ -8,11 +8,13 @@
 //! (½ K h per metre the GO travels, ½ |ΔF| h per jump), derived there.
 #![allow(clippy::unwrap_used)]
 
-use friction::{FrictionMaterial, FrictionOutput, FrictionRenderer, Mode, SwitchCause};
+mod common;
+
+use common::{Run, T, run, segment};
+use friction::{FrictionMaterial, Mode, SwitchCause};
 use nurbs::{CurveBuf, Vec2, construct};
 use tracker::Chain;
 
-const T: f32 = 1e-3;
 const K: f32 = 1000.0;
 
 fn material(mu_static: f32, mu_dynamic: f32) -> FrictionMaterial {
@@ -21,12 +23,6 @@ fn material(mu_static: f32, mu_dynamic: f32) -> FrictionMaterial {
         mu_dynamic,
         ..FrictionMaterial::default()
     }
-}
-
-/// `a → b` in steps of at most `h`, without `a`.
-fn segment(a: Vec2, b: Vec2, h: f32) -> impl Iterator<Item = Vec2> {
-    let n = ((b - a).length() / h).ceil().max(1.0) as usize;
-    (1..=n).map(move |k| a + (b - a) * (k as f32 / n as f32))
 }
 
 /// Through `pts` in order, in steps of at most `h`, starting at `pts[0]`.
@@ -38,39 +34,8 @@ fn polyline(pts: &[Vec2], h: f32) -> Vec<Vec2> {
     path
 }
 
-struct Run {
-    out: Vec<FrictionOutput<Vec2>>,
-    work_j: f64,
-    go_travel_m: f64,
-    max_jump_n: f64,
-}
-
-fn run(chain: &Chain<'_>, m: FrictionMaterial, path: &[Vec2]) -> Run {
-    let mut r = FrictionRenderer::new(chain, m, path[0]);
-    let mut out: Vec<FrictionOutput<Vec2>> = Vec::with_capacity(path.len());
-    let (mut work, mut travel, mut jump) = (0.0f64, 0.0f64, 0.0f64);
-    for (k, &x) in path.iter().enumerate() {
-        let prev_x = if k > 0 { path[k - 1] } else { x };
-        let o = r.tick(chain, x, (x - prev_x) * (1.0 / T), T);
-        if let Some(p) = out.last() {
-            work += f64::from((p.total + o.total).dot(x - prev_x)) * 0.5;
-            if p.mode != Mode::Free && o.mode != Mode::Free {
-                travel += f64::from((o.go - p.go).length());
-            }
-            jump = jump.max(f64::from((o.total - p.total).length()));
-        }
-        out.push(o);
-    }
-    Run {
-        out,
-        work_j: work,
-        go_travel_m: travel,
-        max_jump_n: jump,
-    }
-}
-
 /// The trapezoid rule's slack for a run with HIP step `h` (see `passivity.rs`).
-fn slack(r: &Run, h: f32) -> f64 {
+fn slack(r: &Run<Vec2>, h: f32) -> f64 {
     0.5 * f64::from(K * h) * r.go_travel_m + 2.0 * r.max_jump_n * f64::from(h) + 1e-8
 }
 
@@ -119,7 +84,7 @@ fn arc_reach(centre: Vec2, r: f32, from_rad: f32, to_rad: f32) -> Reach {
 /// The largest force step over the ticks where the HIP is in contact and within both faces'
 /// reach (this tick and the last), against the bound `3 K |ΔHIP| + 0.25 N`: the spring's
 /// own change is `K |ΔHIP|`, and the rest is what a tracker step and a slide may add.
-fn worst_step_within_reach(r: &Run, path: &[Vec2], faces: &[Reach]) -> (f32, f32, usize) {
+fn worst_step_within_reach(r: &Run<Vec2>, path: &[Vec2], faces: &[Reach]) -> (f32, f32, usize) {
     let (mut worst, mut worst_excess, mut counted) = (0.0f32, f32::NEG_INFINITY, 0);
     for k in 1..path.len() {
         let (o, p) = (&r.out[k], &r.out[k - 1]);

@@ -14,12 +14,14 @@
 //!   counts as `½ K h · (GO's travel)` of work on the hand.
 #![allow(clippy::unwrap_used)]
 
-use friction::{FrictionMaterial, FrictionOutput, FrictionRenderer, Mode};
+mod common;
+
+use common::{run, segment};
+use friction::{FrictionMaterial, Mode};
 use nurbs::{Point, Vec2, Vec3, construct};
 use proptest::prelude::*;
 use tracker::{Chain, Object, Shell};
 
-const T: f32 = 1e-3;
 const K: f32 = 1000.0;
 
 /// The default material with both coefficients set to `mu`.
@@ -29,50 +31,6 @@ fn with_mu(mu_static: f32, mu_dynamic: f32) -> FrictionMaterial {
         mu_dynamic,
         ..FrictionMaterial::default()
     }
-}
-
-/// What a run of the renderer over `path` did: the outputs, the trapezoid work of the total
-/// force on the HIP (J, summed in f64), the GO's travel (m) and the largest force step (N).
-struct Run<P> {
-    out: Vec<FrictionOutput<P>>,
-    work_j: f64,
-    go_travel_m: f64,
-    max_jump_n: f64,
-}
-
-fn run<O: Object>(object: &O, material: FrictionMaterial, path: &[O::P]) -> Run<O::P>
-where
-    O::P: Point,
-{
-    let mut r = FrictionRenderer::new(object, material, path[0]);
-    let mut out: Vec<FrictionOutput<O::P>> = Vec::with_capacity(path.len());
-    let mut work = 0.0f64;
-    let mut travel = 0.0f64;
-    let mut jump = 0.0f64;
-    for (k, &x) in path.iter().enumerate() {
-        let prev_x = if k > 0 { path[k - 1] } else { x };
-        let o = r.tick(object, x, (x - prev_x) * (1.0 / T), T);
-        if let Some(p) = out.last() {
-            work += f64::from((p.total + o.total).dot(x - prev_x)) * 0.5;
-            if p.mode != Mode::Free && o.mode != Mode::Free {
-                travel += f64::from((o.go - p.go).length_squared()).sqrt();
-            }
-            jump = jump.max(f64::from((o.total - p.total).length_squared()).sqrt());
-        }
-        out.push(o);
-    }
-    Run {
-        out,
-        work_j: work,
-        go_travel_m: travel,
-        max_jump_n: jump,
-    }
-}
-
-/// `a → b` in steps of at most `h`, without `a`.
-fn segment<P: Point>(a: P, b: P, h: f32) -> impl Iterator<Item = P> {
-    let n = ((b - a).length_squared().sqrt() / h).ceil().max(1.0) as usize;
-    (1..=n).map(move |k| a + (b - a) * (k as f32 / n as f32))
 }
 
 /// Through the corners `pts` in order and back to the first, in steps of at most `h`, from
