@@ -687,6 +687,12 @@ impl<O: Object> FrictionRenderer<O> {
         }
     }
 
+    /// The stop hold starts again: the GO has just slid (or started to).
+    fn restart_stop_clock(&mut self) {
+        self.since_slide_s = 0.0;
+        self.held_travel_m = 0.0;
+    }
+
     /// Puts the GO on the proxy (on contact): the proxy is the CP's tracker, sliding.
     fn place_go_on_cp(&mut self, object: &O, contact: &Contact<O::P>, hip: O::P) {
         self.proxy = self.cp;
@@ -842,12 +848,7 @@ impl<O: Object> FrictionRenderer<O> {
         let hip_step = self.prev_hip.map_or(O::P::ZERO, |p| hip - p);
         self.prev_hip = Some(hip);
         // (Every tick, free too: contact starts with the hand's recent velocity.)
-        let per_hold = if STOP_HOLD_S > period_s {
-            period_s / STOP_HOLD_S
-        } else {
-            1.0
-        };
-        self.hip_velocity += (hip_velocity - self.hip_velocity) * per_hold;
+        self.hip_velocity += (hip_velocity - self.hip_velocity) * per_tau(period_s, STOP_HOLD_S);
 
         // Contact ends once the HIP is out of the object by more than its resolution (one
         // encoder count of noise does not end it; while it lasts the spring, pulling, renders
@@ -934,8 +935,7 @@ impl<O: Object> FrictionRenderer<O> {
                     spring = spring_at(self.go, self.go_frame.normal);
                     self.slip_speed = 0.0;
                     self.cp_velocity = cp_velocity;
-                    self.since_slide_s = 0.0;
-                    self.held_travel_m = 0.0;
+                    self.restart_stop_clock();
                 }
                 SwitchCause::Breakaway => {
                     // The contact starts sliding at the CP's speed; at least twice the stop
@@ -945,8 +945,7 @@ impl<O: Object> FrictionRenderer<O> {
                         sqrt(cp_velocity.length_squared()),
                     );
                     self.progress = 0.0;
-                    self.since_slide_s = 0.0;
-                    self.held_travel_m = 0.0;
+                    self.restart_stop_clock();
                 }
                 _ => {}
             }
@@ -961,11 +960,11 @@ impl<O: Object> FrictionRenderer<O> {
             _ => m.mu_static,
         };
         let mut slide = 0.0;
-        if matches!(self.mode, Mode::Transition | Mode::Slip) && spring.outside(mu, 0.0) {
-            let pc = match proxy_contact {
-                Some(pc) => pc,
-                None => object.track(&mut self.proxy, hip, period_s, true),
-            };
+        // (A dynamic mode is only reached in contact, where the proxy has its contact.)
+        if let Some(pc) = proxy_contact
+            && matches!(self.mode, Mode::Transition | Mode::Slip)
+            && spring.outside(mu, 0.0)
+        {
             slide = self.slide(object, pc, hip, hip_velocity, mu);
             spring = spring_at(self.go, self.go_frame.normal);
         }
@@ -974,34 +973,26 @@ impl<O: Object> FrictionRenderer<O> {
         // stopped; one that keeps up with a slow hand is not).
         self.held_travel_m += slide;
         if self.held_travel_m > m.stop_speed_m_per_s * STOP_HOLD_S {
-            self.since_slide_s = 0.0;
-            self.held_travel_m = 0.0;
+            self.restart_stop_clock();
         } else {
             self.since_slide_s = math::min(self.since_slide_s + period_s, 1.0);
         }
 
         // 3. Frictional memory: the transition runs at min(1, v/v_s)/τ, and the slip speed
         // follows the GO's over a third of τ.
-        let per_tau = |time_s: f32| {
-            if time_s > period_s {
-                period_s / time_s
-            } else {
-                1.0
-            }
-        };
-        let rate = per_tau(m.transition_time_s);
+        let rate = per_tau(period_s, m.transition_time_s);
         let go_speed = if period_s > 0.0 {
             slide / period_s
         } else {
             0.0
         };
-        self.slip_speed +=
-            per_tau(m.transition_time_s * SLIP_SPEED_MEMORY) * (go_speed - self.slip_speed);
+        self.slip_speed += per_tau(period_s, m.transition_time_s * SLIP_SPEED_MEMORY)
+            * (go_speed - self.slip_speed);
         // The contact's velocity over the object (the CP's), low-passed over the stop hold: at
         // 10 kHz an encoder reports a slow hand's motion a count at a time (a 19.6 µm step
         // every tenth tick at 19.6 mm/s), and the pace's cap at v_s, applied to those bursts
         // one tick at a time, would run the transition at a tenth of its rate.
-        self.cp_velocity += (cp_velocity - self.cp_velocity) * per_tau(STOP_HOLD_S);
+        self.cp_velocity += (cp_velocity - self.cp_velocity) * per_tau(period_s, STOP_HOLD_S);
         if self.mode == Mode::Transition {
             // The pace is the contact's speed, not the GO's: the spring's own unloading as μ
             // falls would otherwise speed the transition up and snap every slide through it
@@ -1146,6 +1137,17 @@ fn reference<P: Point>(fr: &Frame<P>, f: P) -> P {
         fr.bitangent
     } else {
         fr.tangent
+    }
+}
+
+/// A first-order low-pass's gain per tick of `period_s` for a time constant `time_s` (one
+/// Euler step, capped at taking the new value whole).
+#[inline]
+fn per_tau(period_s: f32, time_s: f32) -> f32 {
+    if time_s > period_s {
+        period_s / time_s
+    } else {
+        1.0
     }
 }
 

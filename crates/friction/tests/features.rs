@@ -10,20 +10,12 @@
 
 mod common;
 
-use common::{Run, T, run, segment};
+use common::{Run, T, run, segment, with_mu as material};
 use friction::{FrictionMaterial, Mode, SwitchCause};
 use nurbs::{CurveBuf, Vec2, construct};
 use tracker::Chain;
 
 const K: f32 = 1000.0;
-
-fn material(mu_static: f32, mu_dynamic: f32) -> FrictionMaterial {
-    FrictionMaterial {
-        mu_static,
-        mu_dynamic,
-        ..FrictionMaterial::default()
-    }
-}
 
 /// Through `pts` in order, in steps of at most `h`, starting at `pts[0]`.
 fn polyline(pts: &[Vec2], h: f32) -> Vec<Vec2> {

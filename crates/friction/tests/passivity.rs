@@ -16,22 +16,13 @@
 
 mod common;
 
-use common::{run, segment};
+use common::{run, segment, with_mu};
 use friction::{FrictionMaterial, Mode};
 use nurbs::{Point, Vec2, Vec3, construct};
 use proptest::prelude::*;
 use tracker::{Chain, Object, Shell};
 
 const K: f32 = 1000.0;
-
-/// The default material with both coefficients set to `mu`.
-fn with_mu(mu_static: f32, mu_dynamic: f32) -> FrictionMaterial {
-    FrictionMaterial {
-        mu_static,
-        mu_dynamic,
-        ..FrictionMaterial::default()
-    }
-}
 
 /// Through the corners `pts` in order and back to the first, in steps of at most `h`, from
 /// `start` (outside) in to the first corner and back out to `start`.

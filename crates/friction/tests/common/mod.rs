@@ -9,6 +9,15 @@ use tracker::Object;
 /// The tick period of every run (s).
 pub const T: f32 = 1e-3;
 
+/// The default material with its coefficients set.
+pub fn with_mu(mu_static: f32, mu_dynamic: f32) -> FrictionMaterial {
+    FrictionMaterial {
+        mu_static,
+        mu_dynamic,
+        ..FrictionMaterial::default()
+    }
+}
+
 /// What a run of the renderer over `path` did: the outputs, the trapezoid work of the total
 /// force on the HIP (J, summed in f64), the GO's travel (m) and the largest force step (N).
 pub struct Run<P> {
