@@ -7,13 +7,12 @@
 use device::controller::{
     Acquisition, AcquisitionRequest, Controller, ControllerError, TickOutput, acquire,
 };
-use device::protocol::{ErrorCode, Frame, MAX_FRAME, Message, SceneStore};
+use device::protocol::{ErrorCode, Frame, MAX_FRAME, Message, SceneError, SceneFault, SceneStore};
 use device::safety::SafetyConfig;
 use device::session::Command;
 use device::spec::DeviceSpec;
 use device::telemetry::TelemetryDecimator;
-use nurbs::{Curve, Vec2};
-use tracker::{Chain, ChainError, MAX_CHAIN_CURVES, Object};
+use tracker::{Chain, ChainError, ChainTracker};
 
 use crate::board::Board;
 
@@ -64,10 +63,12 @@ impl core::fmt::Display for AppError {
     }
 }
 
-/// The app: the controller of the default pantograph with one object of a validated scene.
+/// The app: the controller of the default pantograph with one object of a validated scene,
+/// which it holds as its own copy ([`tracker::Chain`] of `K` knots and `C` control points,
+/// a store's capacities: any object of a `SceneStore<K, C, _>` fits).
 #[derive(Debug)]
-pub struct App<'s> {
-    controller: Controller<Chain<'s>>,
+pub struct App<const K: usize, const C: usize> {
+    controller: Controller<Chain<K, C>>,
     seq: u16,
     /// The tick's output, written in place by every tick (`Controller::tick_into`).
     out: TickOutput,
@@ -79,13 +80,13 @@ pub struct App<'s> {
 /// heartbeat kept) and the link's sequence counter. A firmware that swaps its scene storage
 /// parks the app (dropping its view of the old store), swaps, and loads the new store.
 #[derive(Debug)]
-pub struct Parked {
-    controller: Controller<Chain<'static>>,
+pub struct Parked<const K: usize, const C: usize> {
+    controller: Controller<Chain<K, C>>,
     seq: u16,
     decimator: TelemetryDecimator,
 }
 
-impl Parked {
+impl<const K: usize, const C: usize> Parked<K, C> {
     /// The default [`DeviceSpec`] at `period_s`, the safety layer's ramp-in over `ramp_time_s`
     /// and its other limits the defaults; no scene.
     pub fn new(period_s: f32, ramp_time_s: f32) -> Result<Self, AppError> {
@@ -113,21 +114,20 @@ impl Parked {
     /// material stiffer than the device renders passively is loaded with the passivity
     /// controller on ([`App::passivity_control`]). On error the app runs without a scene (no
     /// force) and the error says why.
-    pub fn load<const K: usize, const C: usize, const S: usize>(
+    pub fn load<const S: usize>(
         self,
         store: &SceneStore<K, C, S>,
         object: usize,
-    ) -> (App<'_>, Result<(), AppError>) {
+    ) -> (App<K, C>, Result<(), AppError>) {
         let mut app = self.unloaded();
         let loaded = app.load(store, object);
         (app, loaded)
     }
 
-    /// The app with no scene loaded (no force until one is, see [`App::load`]), for views of
-    /// any lifetime (a board's `'static` stores).
-    pub fn unloaded<'s>(self) -> App<'s> {
+    /// The app with no scene loaded (no force until one is, see [`App::load`]).
+    pub fn unloaded(self) -> App<K, C> {
         App {
-            controller: self.controller.rebind(),
+            controller: self.controller,
             seq: self.seq,
             out: TickOutput::IDLE,
             decimator: self.decimator,
@@ -135,12 +135,12 @@ impl Parked {
     }
 }
 
-impl<'s> App<'s> {
+impl<const K: usize, const C: usize> App<K, C> {
     /// The default [`DeviceSpec`] at `period_s` with object `object` of `store` loaded, the
     /// safety layer's ramp-in over `ramp_time_s` and its other limits the defaults (see
     /// [`Parked::load`]).
-    pub fn new<const K: usize, const C: usize, const S: usize>(
-        store: &'s SceneStore<K, C, S>,
+    pub fn new<const S: usize>(
+        store: &SceneStore<K, C, S>,
         object: usize,
         period_s: f32,
         ramp_time_s: f32,
@@ -152,24 +152,15 @@ impl<'s> App<'s> {
     /// Loads object `object` of `store` in place of the current scene (at a tick boundary:
     /// the renderer waits for its acquisition, then the force ramps in), the passivity
     /// controller on when the material needs it. On error the current scene stays loaded.
-    pub fn load<const K: usize, const C: usize, const S: usize>(
+    pub fn load<const S: usize>(
         &mut self,
-        store: &'s SceneStore<K, C, S>,
+        store: &SceneStore<K, C, S>,
         object: usize,
     ) -> Result<(), AppError> {
-        let (curves, n) = curves(store, object)?;
+        let chain = store.chain(object).map_err(|e| app_error(e, object))?;
         let material = store.material(object).ok_or(AppError::NoObject(object))?;
-        let given = curves
-            .get(..n)
-            .ok_or(AppError::Chain(ChainError::TooManyCurves { count: n }))?;
-        // The chain borrowed where `Chain::new` put it (a chain is a few KiB of stack).
-        let built = Chain::new(given);
-        let chain = match &built {
-            Ok(chain) => chain,
-            Err(e) => return Err(AppError::Chain(*e)),
-        };
         self.controller
-            .load_scene_as_needed(*chain, material, true)
+            .load_scene_as_needed(chain, material, true)
             .map_err(AppError::Controller)?;
         Ok(())
     }
@@ -178,25 +169,16 @@ impl<'s> App<'s> {
     /// control points moved (a control-point update, validated with its topology against the
     /// scene before by the link, `device::protocol::SceneStore::decode_reshaped`), at a tick
     /// boundary. The chain is moved in place ([`Controller::reshape_object`] with
-    /// [`Chain::reshape`]: no second chain built or copied, four evaluations a curve) and the
-    /// renderer carries on, on the new shape (no acquisition, no ramp-in); no view of the
-    /// store before is left. On error (no scene loaded, another topology) nothing changes and
-    /// the chain still views the store before.
-    pub fn reshape<const K: usize, const C: usize, const S: usize>(
+    /// [`Chain::reshape`]: no second chain built, four evaluations a curve, the new points
+    /// copied into the chain) and the renderer carries on, on the new shape (no acquisition,
+    /// no ramp-in); the store is not borrowed after. On error (no scene loaded, another
+    /// topology) nothing changes.
+    pub fn reshape<const S: usize>(
         &mut self,
-        store: &'s SceneStore<K, C, S>,
+        store: &SceneStore<K, C, S>,
         object: usize,
     ) -> Result<(), AppError> {
-        // The views built here, not returned from `curves` (a copy of the array): this runs
-        // between two ticks.
-        let n = store
-            .patch_count(object)
-            .ok_or(AppError::NoObject(object))?;
-        let first = store.curve(object, 0).ok_or(AppError::NotPlanar(object))?;
-        let mut curves = [first; MAX_CHAIN_CURVES];
-        for (p, c) in curves.iter_mut().enumerate().take(n).skip(1) {
-            *c = store.curve(object, p).ok_or(AppError::NotPlanar(object))?;
-        }
+        let (curves, n) = store.curves(object).map_err(|e| app_error(e, object))?;
         let given = curves
             .get(..n)
             .ok_or(AppError::Chain(ChainError::TooManyCurves { count: n }))?;
@@ -212,10 +194,11 @@ impl<'s> App<'s> {
         command.apply(&mut self.controller, home_counts, true)
     }
 
-    /// The app without its scene, to swap the scene storage.
-    pub fn park(self) -> Parked {
+    /// The app without its scene.
+    pub fn park(mut self) -> Parked<K, C> {
+        self.controller.unload_scene();
         Parked {
-            controller: self.controller.rebind(),
+            controller: self.controller,
             seq: self.seq,
             decimator: self.decimator,
         }
@@ -239,12 +222,12 @@ impl<'s> App<'s> {
     }
 
     /// The controller.
-    pub fn controller(&self) -> &Controller<Chain<'s>> {
+    pub fn controller(&self) -> &Controller<Chain<K, C>> {
         &self.controller
     }
 
     /// The controller (for commands the link delivers: calibration, forces, faults).
-    pub fn controller_mut(&mut self) -> &mut Controller<Chain<'s>> {
+    pub fn controller_mut(&mut self) -> &mut Controller<Chain<K, C>> {
         &mut self.controller
     }
 
@@ -290,8 +273,8 @@ impl<'s> App<'s> {
 /// LTO's inlining.
 #[cfg_attr(feature = "tick-not-inlined", inline(never))]
 #[cfg_attr(not(feature = "tick-not-inlined"), inline(always))]
-fn controller_tick(
-    controller: &mut Controller<Chain<'_>>,
+fn controller_tick<const K: usize, const C: usize>(
+    controller: &mut Controller<Chain<K, C>>,
     counts: [i32; 2],
     now_us: u64,
     out: &mut TickOutput,
@@ -299,41 +282,18 @@ fn controller_tick(
     controller.tick_into(counts, now_us, out);
 }
 
-/// Object `object` of `store` as a chain of planar curves: the object [`App::new`] and
-/// [`App::load`] give the controller (the same views for the same store, so a task that runs
-/// the acquisition on its own copy searches the controller's object).
-pub fn chain<'s, const K: usize, const C: usize, const S: usize>(
-    store: &'s SceneStore<K, C, S>,
-    object: usize,
-) -> Result<Chain<'s>, AppError> {
-    let (curves, n) = curves(store, object)?;
-    let given = curves
-        .get(..n)
-        .ok_or(AppError::Chain(ChainError::TooManyCurves { count: n }))?;
-    Chain::new(given).map_err(AppError::Chain)
-}
-
-/// The curves [`chain`] builds its chain of, and how many: for a caller that builds the chain
-/// itself and borrows `Chain::new`'s result in place (a chain is a few KiB: every move of
-/// one is stack).
-pub fn curves<'s, const K: usize, const C: usize, const S: usize>(
-    store: &'s SceneStore<K, C, S>,
-    object: usize,
-) -> Result<([Curve<'s, Vec2>; MAX_CHAIN_CURVES], usize), AppError> {
-    let n = store
-        .patch_count(object)
-        .ok_or(AppError::NoObject(object))?;
-    let first = store.curve(object, 0).ok_or(AppError::NotPlanar(object))?;
-    let mut curves = [first; MAX_CHAIN_CURVES];
-    for (p, c) in curves.iter_mut().enumerate().take(n).skip(1) {
-        *c = store.curve(object, p).ok_or(AppError::NotPlanar(object))?;
+/// What a store's refusal to give object `object` as a chain means to the app.
+fn app_error(e: SceneError, object: usize) -> AppError {
+    match e.fault {
+        SceneFault::Chain(e) => AppError::Chain(e),
+        SceneFault::MixedKinds => AppError::NotPlanar(object),
+        _ => AppError::NoObject(object),
     }
-    Ok((curves, n))
 }
 
 /// The result of the global closest-point search on a chain, for
 /// `Controller::complete_acquisition`.
-pub type ChainAcquisition = Acquisition<<Chain<'static> as Object>::State>;
+pub type ChainAcquisition = Acquisition<ChainTracker>;
 
 /// What a board's tick asks its acquisition task for: the global closest-point search on
 /// object 0 of the store it renders, from the request's HIP. Made only by
@@ -366,15 +326,7 @@ pub struct JobDone {
 pub fn run_job<const K: usize, const C: usize, const S: usize>(
     job: AcquisitionJob<SceneStore<K, C, S>>,
 ) -> JobDone {
-    let search = || {
-        let (curves, n) = curves(job.store, 0).ok()?;
-        // Borrowed in place: no copy of the chain on the stack.
-        match &Chain::new(curves.get(..n)?) {
-            Ok(chain) => Some(acquire(chain, job.request)),
-            Err(_) => None,
-        }
-    };
     JobDone {
-        acquisition: search(),
+        acquisition: job.store.chain(0).ok().map(|c| acquire(&c, job.request)),
     }
 }

@@ -202,7 +202,7 @@ impl<T> TickScenes<T> {
 /// tick's do not add up on the stack.
 #[inline(never)]
 fn load<const K: usize, const C: usize, const S: usize>(
-    app: &mut App<'static>,
+    app: &mut App<K, C>,
     store: &'static SceneStore<K, C, S>,
 ) -> Result<(), AppError> {
     app.load(store, 0)
@@ -212,7 +212,7 @@ fn load<const K: usize, const C: usize, const S: usize>(
 /// ([`App::reshape`]). Not inlined, as [`load`].
 #[inline(never)]
 fn reshape<const K: usize, const C: usize, const S: usize>(
-    app: &mut App<'static>,
+    app: &mut App<K, C>,
     store: &'static SceneStore<K, C, S>,
 ) -> Result<(), AppError> {
     app.reshape(store, 0)
@@ -280,7 +280,7 @@ impl<const K: usize, const C: usize, const S: usize> TickScenes<SceneStore<K, C,
     /// (which builds a chain) never waits on a job's store.
     pub fn swap_in(
         &mut self,
-        app: &mut App<'static>,
+        app: &mut App<K, C>,
         next: impl FnOnce() -> Option<Staging<SceneStore<K, C, S>>>,
     ) -> Option<Swapped<SceneStore<K, C, S>>> {
         if self.job_out {
@@ -326,7 +326,7 @@ impl<const K: usize, const C: usize, const S: usize> TickScenes<SceneStore<K, C,
     /// nothing, not even call `next`, while a job is out (it reads the store rendered now).
     pub fn reshape_in(
         &mut self,
-        app: &mut App<'static>,
+        app: &mut App<K, C>,
         next: impl FnOnce() -> Option<Staging<SceneStore<K, C, S>>>,
     ) -> Option<Swapped<SceneStore<K, C, S>>> {
         if self.job_out {
@@ -368,7 +368,7 @@ impl<const K: usize, const C: usize, const S: usize> TickScenes<SceneStore<K, C,
     /// [`TickScenes::swap_in`] or [`TickScenes::reshape_in`], as `incoming` says.
     pub fn take_in(
         &mut self,
-        app: &mut App<'static>,
+        app: &mut App<K, C>,
         incoming: Incoming,
         next: impl FnOnce() -> Option<Staging<SceneStore<K, C, S>>>,
     ) -> Option<Swapped<SceneStore<K, C, S>>> {

@@ -71,7 +71,7 @@ fn closed_loop(
         ramp_time_s: 0.02,
         ..SafetyConfig::default()
     };
-    let mut controller: Controller<Chain<'_>> = Controller::new(spec, safety).unwrap();
+    let mut controller: Controller<Chain> = Controller::new(spec, safety).unwrap();
     let material = FrictionMaterial {
         stiffness_n_per_m: k_n_per_m,
         ..object.material().friction_material()

@@ -20,7 +20,7 @@ use tracker::Chain;
 const T: f32 = 1e-3;
 const PERIOD_US: u64 = 1000;
 
-fn controller<'a>(spec: DeviceSpec, chain: Chain<'a>) -> Controller<Chain<'a>> {
+fn controller<'a>(spec: DeviceSpec, chain: Chain) -> Controller<Chain> {
     let safety = SafetyConfig {
         period_s: T,
         ramp_time_s: 0.02,
@@ -38,7 +38,7 @@ fn controller<'a>(spec: DeviceSpec, chain: Chain<'a>) -> Controller<Chain<'a>> {
 
 /// The encoder counts of ticks `record` of the closed loop whose hand target is `target(t)`.
 fn closed_loop_counts(
-    chain: &Chain<'_>,
+    chain: &Chain,
     target: impl Fn(f32) -> Vec2,
     record: std::ops::Range<usize>,
 ) -> Vec<[i32; 2]> {
@@ -64,14 +64,14 @@ fn closed_loop_counts(
 fn bench_counts<'a>(
     c: &mut Criterion,
     name: &str,
-    chain: &Chain<'a>,
+    chain: &Chain,
     counts: &[[i32; 2]],
     in_contact: bool,
 ) {
-    let mut ctl: Controller<Chain<'a>> = controller(DeviceSpec::default(), *chain);
+    let mut ctl: Controller<Chain> = controller(DeviceSpec::default(), *chain);
     let n = counts.len();
     let mut k = 0;
-    let tick = |ctl: &mut Controller<Chain<'a>>, k: usize| {
+    let tick = |ctl: &mut Controller<Chain>, k: usize| {
         // The clock runs on while the counts cycle; only the watchdog reads it.
         ctl.heartbeat();
         let out = ctl.tick(black_box(counts[k % n]), k as u64 * PERIOD_US);

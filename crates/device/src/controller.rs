@@ -619,7 +619,7 @@ impl<O: Object<P = Vec2>> Controller<O> {
     }
 
     /// [`Controller::replace_object`] for a new object of another type with the same
-    /// tracking state and topology (views of other storage, `Chain<'b>` for `Chain<'a>`):
+    /// tracking state and topology (views of other storage, `Chain` for `Chain`):
     /// the same controller, renderer and all, rendering `object`. For a host that swaps its
     /// scene storage and whose views' lifetime changes with it; the old object is dropped.
     /// Refused as `replace_object` is, handing the controller back untouched.

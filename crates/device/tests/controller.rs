@@ -69,7 +69,7 @@ fn safety() -> SafetyConfig {
 }
 
 /// A calibrated controller with forces enabled (no scene).
-fn controller<'a>(spec: DeviceSpec, safety: SafetyConfig) -> Controller<Chain<'a>> {
+fn controller<'a>(spec: DeviceSpec, safety: SafetyConfig) -> Controller<Chain> {
     let mut c = Controller::new(spec, safety).unwrap();
     let stops = spec.end_stop_counts();
     c.calibrate(stops).unwrap();
@@ -122,7 +122,7 @@ fn an_unreachable_encoder_sample_latches_and_the_force_comes_back_ramped() {
     let bad = counts_of_joints(spec, [PI, 0.0]);
 
     let mut now_us = 0;
-    let mut step = |c: &mut Controller<Chain<'_>>, counts| {
+    let mut step = |c: &mut Controller<Chain>, counts| {
         c.heartbeat();
         let out = tick(c, counts, now_us);
         now_us += PERIOD_US;
@@ -225,7 +225,7 @@ fn the_force_limit_is_the_smaller_of_device_and_safety_limits() {
 
 /// A controller pressing 4 mm into the right arc (4 N at K = 1000 N/m, under the 5 N limit
 /// of a 5 N device), with forces fully ramped in by `start_us + 100 ms`.
-fn pressing<'a>(chain: Chain<'a>, start_us: u64) -> (Controller<Chain<'a>>, [i32; 2], u64) {
+fn pressing<'a>(chain: Chain, start_us: u64) -> (Controller<Chain>, [i32; 2], u64) {
     let spec = DeviceSpec {
         max_force_n: 5.0,
         ..DeviceSpec::default()
@@ -247,7 +247,7 @@ fn pressing<'a>(chain: Chain<'a>, start_us: u64) -> (Controller<Chain<'a>>, [i32
 /// number of ticks (from 1) until the first with the watchdog fault, checking the force is
 /// on before and zero from then.
 fn ticks_until_watchdog(
-    c: &mut Controller<Chain<'_>>,
+    c: &mut Controller<Chain>,
     counts: [i32; 2],
     mut now: u64,
     step_us: u64,
@@ -347,7 +347,7 @@ fn a_heartbeat_is_stamped_by_the_next_tick() {
 
 #[test]
 fn telemetry_time_wraps_modulo_two_to_the_32_microseconds() {
-    let mut c: Controller<Chain<'_>> = controller(DeviceSpec::default(), safety());
+    let mut c: Controller<Chain> = controller(DeviceSpec::default(), safety());
     let counts = counts_at(DeviceSpec::default(), Vec2::new(0.0, 0.09));
     // 71.6 min: the last µs before the wrap, then the wrap itself, then 5 µs past it.
     for (now_us, time_us) in [
@@ -622,8 +622,8 @@ fn tick_into_overwrites_everything_a_fresh_tick_gives() {
     let mut buffer = tick(&mut pressed, counts, now);
     assert!(buffer.render.is_some() && buffer.telemetry.force_n.length() > 1.0);
 
-    let mut fresh: Controller<Chain<'_>> = Controller::new(spec, safety()).unwrap();
-    let mut reused: Controller<Chain<'_>> = Controller::new(spec, safety()).unwrap();
+    let mut fresh: Controller<Chain> = Controller::new(spec, safety()).unwrap();
+    let mut reused: Controller<Chain> = Controller::new(spec, safety()).unwrap();
     let inside = counts_at(spec, Vec2::new(0.0125, 0.075));
     let outside = counts_at(spec, Vec2::new(0.0, 0.06));
     // Counts no pose gives (both joints a half turn away): an encoder fault once calibrated.
@@ -697,7 +697,7 @@ fn an_identification_run_commands_its_square_waves_then_hands_back_to_the_scene(
         half_period_us: [3_000, 5_000],
         duration_us: 12_000,
     };
-    let mut raw: Controller<Chain<'_>> = Controller::new(spec, safety()).unwrap();
+    let mut raw: Controller<Chain> = Controller::new(spec, safety()).unwrap();
     assert!(matches!(
         raw.excite(excitation),
         Err(ControllerError::Excitation("not calibrated"))
@@ -762,7 +762,7 @@ fn a_contact_ended_by_a_material_change_is_released() {
     let views = [arcs[0].view(), arcs[1].view()];
     let chain = Chain::new(&views).unwrap();
     let (mut c, counts, mut now) = pressing(chain, 0);
-    let mut next = |c: &mut Controller<Chain<'_>>| {
+    let mut next = |c: &mut Controller<Chain>| {
         c.heartbeat();
         let out = c.tick(counts, now);
         now += PERIOD_US;

@@ -83,7 +83,7 @@ fn safety() -> SafetyConfig {
 }
 
 /// A calibrated controller with forces on and `chain` loaded.
-fn loaded<'a>(chain: Chain<'a>) -> Controller<Chain<'a>> {
+fn loaded<'a>(chain: Chain) -> Controller<Chain> {
     let spec = DeviceSpec::default();
     let mut c = Controller::new(spec, safety()).unwrap();
     c.calibrate(spec.end_stop_counts()).unwrap();
@@ -102,7 +102,7 @@ fn held_counts() -> [i32; 2] {
 }
 
 /// One tick at tick `k` with a heartbeat, then the acquisition outside it.
-fn tick(c: &mut Controller<Chain<'_>>, counts: [i32; 2], k: usize) -> TickOutput {
+fn tick(c: &mut Controller<Chain>, counts: [i32; 2], k: usize) -> TickOutput {
     c.heartbeat();
     let out = c.tick(counts, k as u64 * PERIOD_US);
     c.acquire_now();
@@ -123,8 +123,7 @@ fn reference(shape: &[CurveBuf<Vec2>; 2], x: Vec2) -> (Vec2, f32) {
 #[test]
 fn the_renderer_follows_a_curve_moving_under_a_held_hand() {
     let k = material().stiffness_n_per_m;
-    // Every shape the stream goes through, built before the controller borrows them: out by
-    // 100 steps of 10 µm, then back.
+    // Every shape the stream goes through: out by 100 steps of 10 µm, then back.
     let offsets: Vec<f32> = (0..=STEPS)
         .chain((0..STEPS).rev())
         .map(|i| i as f32 * STEP_M)
@@ -150,8 +149,8 @@ fn the_renderer_follows_a_curve_moving_under_a_held_hand() {
     let mut i = SETTLE;
     for (j, view) in views.iter().enumerate().skip(1) {
         let old = c.replace_object(Chain::new(view).unwrap()).unwrap();
-        // The replaced object's views of the previous shape.
-        assert_eq!(old.curves()[0].points(), shapes[j - 1][0].points());
+        // The replaced object is the previous shape (its own copy of it).
+        assert_eq!(old.curve(0).points(), shapes[j - 1][0].points());
         let moved_m = STEP_M;
         for t in 0..EVERY {
             let out = tick(&mut c, counts, i);
@@ -262,7 +261,7 @@ fn a_topology_change_is_refused_and_changes_nothing() {
     }
     // Without a scene there is nothing to reshape.
     let spec = DeviceSpec::default();
-    let mut empty: Controller<Chain<'_>> = Controller::new(spec, safety()).unwrap();
+    let mut empty: Controller<Chain> = Controller::new(spec, safety()).unwrap();
     assert_eq!(
         empty.replace_object(Chain::new(&views).unwrap()).err(),
         Some(ControllerError::NoScene)

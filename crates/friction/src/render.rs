@@ -487,7 +487,7 @@ impl<O: Object> FrictionRenderer<O> {
     }
 
     /// The same renderer, state for state, for an object of another type with the same
-    /// states (a view of other storage: `Chain<'b>` for `Chain<'a>`). Holds no borrow, so
+    /// states (a view of other storage: `Chain` for `Chain`). Holds no borrow, so
     /// this is a plain copy; it is up to the caller that the object it ticks next is the one
     /// the state belongs to (or [`FrictionRenderer::reshape`] it there).
     pub fn rebind<O2: Object<P = O::P, State = O::State>>(self) -> FrictionRenderer<O2> {

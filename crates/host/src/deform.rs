@@ -442,10 +442,10 @@ struct ChainViews;
 struct ShellViews;
 
 impl Views for ChainViews {
-    type O<'a> = Chain<'a>;
+    type O<'a> = Chain;
     type State = ChainTracker;
     type P = nurbs::Vec2;
-    fn view(object: &Object, index: usize) -> Result<Chain<'_>, SimError> {
+    fn view(object: &Object, index: usize) -> Result<Chain, SimError> {
         let curves = object.curve_views().unwrap_or_default();
         Chain::new(&curves).map_err(|error| SimError::Chain { index, error })
     }
@@ -694,62 +694,25 @@ fn simulate<V: Views, P: Proceed>(
     Ok(ticks)
 }
 
-/// The device's controller rendering one shape of a deformable object, borrowing the curves
-/// of the shape (`None` only while it is being moved onto the next shape).
-#[derive(Debug)]
-pub(crate) struct ShapeRendering<'a> {
-    pub(crate) controller: Option<Controller<Chain<'a>>>,
-}
-
-self_cell::self_cell!(
-    /// A shape of a deformable object and the device's controller rendering it.
-    pub(crate) struct ShapeCell {
-        owner: Object,
-        #[not_covariant]
-        dependent: ShapeRendering,
-    }
-);
-
-/// `controller` carried onto `shape`, object `index` with its control points moved, in a cell
-/// of its own ([`Controller::reshape`]: the same renderer, no search, no ramp-in), or handed
-/// back with the reason.
+/// `controller` moved onto `shape`, object `index` with its control points moved
+/// ([`Controller::replace_object`]: the same renderer, no search, no ramp-in; the controller
+/// keeps its own copy of the new chain), or the reason, with the controller unchanged.
 ///
 /// The chain is built from the shape's curves directly, not re-encoded through the upload
 /// (`upload::wire_scene`, `upload::receive`) as a session's rest shape is: the device would
 /// decode the same f32 points, and framing, checking and decoding the object every
 /// millisecond would cost the loop more than the step itself.
-#[allow(
-    clippy::result_large_err,
-    reason = "the error hands the controller back; it is moved, not copied, once per step"
-)]
 pub(crate) fn carry(
-    controller: Controller<Chain<'_>>,
-    shape: Object,
+    controller: &mut Controller<Chain>,
+    shape: &Object,
     index: usize,
-) -> Result<ShapeCell, (Controller<Chain<'_>>, DeformChangeError)> {
-    ShapeCell::try_new(shape, move |o| match ChainViews::view(o, index) {
-        Ok(chain) => match controller.reshape(chain) {
-            Ok(c) => Ok(ShapeRendering {
-                controller: Some(c),
-            }),
-            Err((c, e)) => Err((c, DeformChangeError::Controller(e))),
-        },
-        Err(e) => Err((controller, DeformChangeError::Object(DeformError::Sim(e)))),
-    })
-}
-
-/// The controller in `slot` carried onto `shape` ([`carry`]); refused, it goes back into the
-/// slot. An empty slot (no object rendered) is [`DeformChangeError::NoObject`].
-pub(crate) fn carry_from(
-    slot: &mut Option<Controller<Chain<'_>>>,
-    shape: Object,
-    index: usize,
-) -> Result<ShapeCell, DeformChangeError> {
-    let controller = slot.take().ok_or(DeformChangeError::NoObject)?;
-    carry(controller, shape, index).map_err(|(c, e)| {
-        *slot = Some(c);
-        e
-    })
+) -> Result<(), DeformChangeError> {
+    let chain = ChainViews::view(shape, index)
+        .map_err(|e| DeformChangeError::Object(DeformError::Sim(e)))?;
+    controller
+        .replace_object(chain)
+        .map(drop)
+        .map_err(DeformChangeError::Controller)
 }
 
 /// [`crate::sim::run_device`] with object `index` deformable: the closed loop through the
@@ -791,14 +754,8 @@ pub fn run_device_lagged<P: Proceed>(
     let period_s = (1.0 / rate_hz) as f32;
     let per_step = ticks_per_step(rate_hz);
     let dt_s = per_step as f64 / rate_hz;
-    let mut passivity_control = false;
-    let mut shape = ShapeCell::try_new(deformer.rest().clone(), |o| {
-        let (controller, on) = ready_controller(ChainViews::view(o, index)?, material, rate_hz)?;
-        passivity_control = on;
-        Ok::<_, SimError>(ShapeRendering {
-            controller: Some(controller),
-        })
-    })?;
+    let (mut controller, passivity_control) =
+        ready_controller(ChainViews::view(deformer.rest(), index)?, material, rate_hz)?;
     let mut i = 0;
     let (ticks, telemetry) = drive_device(
         trajectory,
@@ -807,10 +764,8 @@ pub fn run_device_lagged<P: Proceed>(
         n,
         progress,
         |arm, t_s, now_us, target| {
-            let (mut tick, frame) = shape.with_dependent_mut(|_, r| match &mut r.controller {
-                Some(c) => device_tick(c, arm, t_s, now_us, target, period_s),
-                None => Err(SimError::Controller(ControllerError::NoScene)),
-            })?;
+            let (mut tick, frame) =
+                device_tick(&mut controller, arm, t_s, now_us, target, period_s)?;
             tick.deform = Some(deformer.feed(&tick));
             i += 1;
             if i % per_step == 0 {
@@ -821,10 +776,8 @@ pub fn run_device_lagged<P: Proceed>(
                 let Some(next) = lagged.flatten() else {
                     return Ok((tick, frame));
                 };
-                let moved =
-                    shape.with_dependent_mut(|_, r| carry_from(&mut r.controller, next, index));
-                shape = match moved {
-                    Ok(cell) => cell,
+                match carry(&mut controller, &next, index) {
+                    Ok(()) => {}
                     Err(DeformChangeError::Object(e)) => return Err(e),
                     Err(DeformChangeError::Controller(e)) => {
                         return Err(SimError::Controller(e).into());

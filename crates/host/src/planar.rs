@@ -8,13 +8,13 @@
 //! A deformable object (one with a `"dynamics"` block) deforms under the hand on
 //! [`Command::Deform`]: every device tick feeds a [`Deformer`], every step (1 ms, ten device
 //! ticks) steps it, and the controller is carried onto the new shape
-//! ([`Controller::reshape`]: its renderer, feature, friction state and safety ramp stay; no
-//! search, no ramp-in). The shape reaches the UI through a [`SharedShape`].
+//! ([`Controller::replace_object`]: its renderer, feature, friction state and safety ramp
+//! stay; no search, no ramp-in). The shape reaches the UI through a [`SharedShape`].
 
 use std::sync::Arc;
 
 use device::controller::{Controller, ControllerError};
-use device::protocol::SceneStore;
+use device::protocol::{SceneFault, SceneStore};
 use device::safety::Faults;
 use device::simulator::{SimParams, SimulatedPantograph, VirtualHand};
 use device::spec::DeviceSpec;
@@ -23,9 +23,7 @@ use nurbs::Vec2;
 use tracker::Chain;
 
 use crate::backend::{Command, RATE_HZ, Reply, Sample, Steppable};
-use crate::deform::{
-    DeformChangeError, DeformStatus, Deformer, ShapeCell, SharedShape, carry_from,
-};
+use crate::deform::{DeformChangeError, DeformStatus, Deformer, SharedShape, carry};
 
 /// The device's tick rate in the loop (Hz): the board's. The loop thread wakes at
 /// [`RATE_HZ`] and runs [`TICKS_PER_STEP`] device ticks per wake.
@@ -46,34 +44,14 @@ pub const START_HIP: Vec2 = Vec2::new(0.0, 0.11);
 pub const MAX_HAND_SPEED_M_PER_S: f32 = device::simulator::MAX_HAND_SPEED_M_PER_S;
 
 /// A scene the loop renders: the scene, the index of the object the device renders (the
-/// first planar one; `None` when the scene has none), and the controller built for it.
-pub struct Session(SessionCell);
-
-/// The controller of a [`Session`], borrowing the scene's curves; `None` while the object
-/// deforms (the controller then renders its current shape, in a [`ShapeCell`]).
-#[derive(Debug)]
-struct Rendering<'a> {
-    controller: Option<Controller<Chain<'a>>>,
-    passivity_control: bool,
-}
-
-self_cell::self_cell!(
-    struct SessionCell {
-        owner: SceneChoice,
-        // The controller's state names the object type (`Controller<Chain<'a>>` is not
-        // covariant in 'a): it is reached through closures only.
-        #[not_covariant]
-        dependent: Rendering,
-    }
-);
-
-/// The owner of a [`Session`]: the scene, the object chosen, and that object as the device
-/// received it (its wire scene, the store the device decoded it into, the CRC it reports).
-#[derive(Debug)]
-struct SceneChoice {
+/// first planar one; `None` when the scene has none), that object as the device received it,
+/// and the controller built for it (which holds its own copy of the object: nothing borrowed).
+pub struct Session {
     scene: Scene,
     object: Option<usize>,
     received: Option<Received>,
+    controller: Controller<Chain>,
+    passivity_control: bool,
 }
 
 /// An object as the device received it ([`upload::receive`]).
@@ -130,58 +108,57 @@ impl Session {
             }
             None => None,
         };
-        let choice = SceneChoice {
+        let (controller, passivity_control) = build_controller(received.as_ref(), object)?;
+        Ok(Session {
             scene,
             object,
             received,
-        };
-        let cell = SessionCell::try_new(choice, build_controller)?;
-        Ok(Session(cell))
+            controller,
+            passivity_control,
+        })
     }
 
     /// The scene.
     pub fn scene(&self) -> &Scene {
-        &self.0.borrow_owner().scene
+        &self.scene
     }
 
     /// The index of the object the device renders, if any.
     pub fn object(&self) -> Option<usize> {
-        self.0.borrow_owner().object
+        self.object
     }
 
     /// The wire scene the device received (the rendered object alone), if it renders one:
     /// what an upload to a board carries.
     pub fn wire(&self) -> Option<&[u8]> {
-        self.0
-            .borrow_owner()
-            .received
-            .as_ref()
-            .map(|r| r.wire.as_slice())
+        self.received.as_ref().map(|r| r.wire.as_slice())
     }
 
     /// The CRC-32 the device reports for its active scene (`Status::scene_crc32`), if it
     /// renders one.
     pub fn scene_crc32(&self) -> Option<u32> {
-        self.0.borrow_owner().received.as_ref().map(|r| r.crc32)
+        self.received.as_ref().map(|r| r.crc32)
     }
 
     /// Whether the controller renders the material with the passivity controller on (the
     /// material is stiffer than the device renders passively at [`DEVICE_RATE_HZ`]).
     pub fn passivity_control(&self) -> bool {
-        self.0.with_dependent(|_, r| r.passivity_control)
+        self.passivity_control
     }
 }
 
-fn build_controller(choice: &SceneChoice) -> Result<Rendering<'_>, SessionError> {
+/// The controller of the default device for what the device received (nothing rendered
+/// without an object), calibrated on its end stops, forces enabled, and whether it runs the
+/// passivity controller.
+fn build_controller(
+    received: Option<&Received>,
+    object: Option<usize>,
+) -> Result<(Controller<Chain>, bool), SessionError> {
     let spec = DeviceSpec::default();
-    let (mut controller, passivity_control) = match store_chain(choice) {
-        Some(chain) => {
-            let material = choice
-                .received
-                .as_ref()
-                .and_then(|r| r.store.material(0))
-                .unwrap_or_default();
-            tick::device_controller(chain?, material, DEVICE_RATE_HZ)?
+    let (mut controller, passivity_control) = match received {
+        Some(r) => {
+            let material = r.store.material(0).unwrap_or_default();
+            tick::device_controller(store_chain(r, object)?, material, DEVICE_RATE_HZ)?
         }
         None => {
             let safety = device::safety::SafetyConfig {
@@ -199,26 +176,22 @@ fn build_controller(choice: &SceneChoice) -> Result<Rendering<'_>, SessionError>
         .calibrate(tick::end_stop_counts(&spec))
         .map_err(SimError::Controller)?;
     controller.set_forces_enabled(true);
-    Ok(Rendering {
-        controller: Some(controller),
-        passivity_control,
+    Ok((controller, passivity_control))
+}
+
+/// The chain of the object the device decoded (object 0 of its store; `object` of the
+/// scene, named in the error).
+fn store_chain(received: &Received, object: Option<usize>) -> Result<Chain, SessionError> {
+    let index = object.unwrap_or(0);
+    received.store.chain(0).map_err(|e| match e.fault {
+        SceneFault::Chain(error) => SimError::Chain { index, error }.into(),
+        _ => UploadError::Refused(e.code()).into(),
     })
 }
 
-/// The chain of the curves the device decoded, when it received an object.
-fn store_chain(choice: &SceneChoice) -> Option<Result<Chain<'_>, SimError>> {
-    let store = &choice.received.as_ref()?.store;
-    let curves: Vec<_> = (0..store.patch_count(0).unwrap_or(0))
-        .filter_map(|p| store.curve(0, p))
-        .collect();
-    let index = choice.object.unwrap_or(0);
-    Some(Chain::new(&curves).map_err(|error| SimError::Chain { index, error }))
-}
-
-/// A deforming object in the loop: its dynamics and the controller on its current shape.
+/// A deforming object in the loop: its dynamics (the controller renders its current shape).
 struct Deforming {
     deformer: Deformer,
-    cell: ShapeCell,
     /// Steps since the shape was last published.
     since_publish: u32,
 }
@@ -308,30 +281,17 @@ impl HapticLoop {
         // The device clock: integer microseconds, as a board's timer.
         let now_us = (self.tick as f64 * 1e6 / DEVICE_RATE_HZ).round() as u64;
         let period_s = self.period_s;
-        let arm = &mut self.arm;
-        let result = match &mut self.deforming {
-            Some(d) => d.cell.with_dependent_mut(|_, r| {
-                r.controller
-                    .as_mut()
-                    .map(|c| tick::device_tick(c, arm, t_s, now_us, target, period_s))
-            }),
-            None => self.session.0.with_dependent_mut(|_, r| {
-                r.controller
-                    .as_mut()
-                    .map(|c| tick::device_tick(c, arm, t_s, now_us, target, period_s))
-            }),
-        };
+        let controller = &mut self.session.controller;
+        let result = tick::device_tick(controller, &mut self.arm, t_s, now_us, target, period_s);
         self.tick += 1;
         let error = match result {
-            Some(Ok((mut tick, _))) => {
+            Ok((mut tick, _)) => {
                 if let Some(d) = &mut self.deforming {
                     tick.deform = Some(d.deformer.feed(&tick));
                 }
                 return tick;
             }
-            Some(Err(e)) => e.to_string(),
-            // Only while a controller is carried between shapes, never at a tick.
-            None => "the loop has no controller".to_owned(),
+            Err(e) => e.to_string(),
         };
         self.last_error = Some(error);
         let hip = self.arm.hip().map(|(p, _)| p).unwrap_or(target);
@@ -353,14 +313,11 @@ impl HapticLoop {
         let index = d.deformer.index();
         let dt_s = f64::from(TICKS_PER_STEP) / DEVICE_RATE_HZ;
         let moved = match d.deformer.step(dt_s).and_then(|()| d.deformer.shape()) {
-            Ok(next) => d
-                .cell
-                .with_dependent_mut(|_, r| carry_from(&mut r.controller, next, index)),
+            Ok(next) => carry(&mut self.session.controller, &next, index),
             Err(e) => Err(e.into()),
         };
         match moved {
-            Ok(cell) => {
-                d.cell = cell;
+            Ok(()) => {
                 self.shape
                     .publish_when_due(&mut d.since_publish, &d.deformer, t_s);
             }
@@ -423,16 +380,11 @@ impl HapticLoop {
         }
         let deformer = self.rest_deformer()?;
         let rest = deformer.shape()?;
-        let index = deformer.index();
-        let cell = self
-            .session
-            .0
-            .with_dependent_mut(|_, r| carry_from(&mut r.controller, rest, index))?;
+        carry(&mut self.session.controller, &rest, deformer.index())?;
         self.shape
             .start(&deformer, self.tick as f64 / DEVICE_RATE_HZ);
         self.deforming = Some(Deforming {
             deformer,
-            cell,
             since_publish: 0,
         });
         Ok(())
@@ -440,48 +392,25 @@ impl HapticLoop {
 
     /// The controller back on the session's rest shape (the device's received curves).
     fn stop_deforming(&mut self) -> Result<(), DeformChangeError> {
-        let Some(mut d) = self.deforming.take() else {
+        if self.deforming.is_none() {
             return Ok(());
-        };
-        let session = &mut self.session;
-        let back = d.cell.with_dependent_mut(|_, shape| {
-            let Some(controller) = shape.controller.take() else {
-                return Ok(());
-            };
-            session.0.with_dependent_mut(|owner, r| {
-                let chain = match store_chain(owner) {
-                    Some(Ok(chain)) => chain,
-                    Some(Err(e)) => {
-                        shape.controller = Some(controller);
-                        return Err(DeformChangeError::Object(e.into()));
-                    }
-                    None => {
-                        shape.controller = Some(controller);
-                        return Err(DeformChangeError::NoObject);
-                    }
-                };
-                match controller.reshape(chain) {
-                    Ok(c) => {
-                        r.controller = Some(c);
-                        Ok(())
-                    }
-                    Err((c, e)) => {
-                        shape.controller = Some(c);
-                        Err(DeformChangeError::Controller(e))
-                    }
-                }
-            })
-        });
-        match back {
-            Ok(()) => {
-                self.shape.stop(self.tick as f64 / DEVICE_RATE_HZ);
-                Ok(())
-            }
-            Err(e) => {
-                self.deforming = Some(d);
-                Err(e)
-            }
         }
+        let session = &mut self.session;
+        let received = session
+            .received
+            .as_ref()
+            .ok_or(DeformChangeError::NoObject)?;
+        let rest = store_chain(received, session.object).map_err(|e| match e {
+            SessionError::Sim(e) => DeformChangeError::Object(e.into()),
+            SessionError::Upload(_) => DeformChangeError::NoObject,
+        })?;
+        session
+            .controller
+            .replace_object(rest)
+            .map_err(DeformChangeError::Controller)?;
+        self.deforming = None;
+        self.shape.stop(self.tick as f64 / DEVICE_RATE_HZ);
+        Ok(())
     }
 
     /// A deforming object back at rest with the running material's contact stiffness (after a
@@ -492,14 +421,10 @@ impl HapticLoop {
         }
         let deformer = self.rest_deformer()?;
         let rest = deformer.shape()?;
-        let index = deformer.index();
         let Some(d) = self.deforming.as_mut() else {
             return Ok(());
         };
-        let cell = d
-            .cell
-            .with_dependent_mut(|_, r| carry_from(&mut r.controller, rest, index))?;
-        d.cell = cell;
+        carry(&mut self.session.controller, &rest, deformer.index())?;
         d.deformer = deformer;
         d.since_publish = 0;
         self.shape
@@ -507,31 +432,14 @@ impl HapticLoop {
         Ok(())
     }
 
-    /// `f` on the controller, wherever it is (the session's, or the deforming shape's).
-    fn with_controller<R>(&self, f: impl for<'a> FnOnce(&Controller<Chain<'a>>) -> R) -> Option<R> {
-        match &self.deforming {
-            Some(d) => d.cell.with_dependent(|_, r| r.controller.as_ref().map(f)),
-            None => self
-                .session
-                .0
-                .with_dependent(|_, r| r.controller.as_ref().map(f)),
-        }
+    /// The controller.
+    fn controller(&self) -> &Controller<Chain> {
+        &self.session.controller
     }
 
-    /// `f` on the controller, wherever it is.
-    fn with_controller_mut<R>(
-        &mut self,
-        f: impl for<'a> FnOnce(&mut Controller<Chain<'a>>) -> R,
-    ) -> Option<R> {
-        match &mut self.deforming {
-            Some(d) => d
-                .cell
-                .with_dependent_mut(|_, r| r.controller.as_mut().map(f)),
-            None => self
-                .session
-                .0
-                .with_dependent_mut(|_, r| r.controller.as_mut().map(f)),
-        }
+    /// The controller, to command.
+    fn controller_mut(&mut self) -> &mut Controller<Chain> {
+        &mut self.session.controller
     }
 
     /// Commands the virtual hand's target (m, device frame): from the next tick it moves
@@ -581,12 +489,10 @@ impl HapticLoop {
             return Err(MaterialChangeError::NoObject);
         }
         let passivity = self
-            .with_controller_mut(|c| c.set_material_as_needed(material, true))
-            .ok_or(MaterialChangeError::NoObject)?
+            .controller_mut()
+            .set_material_as_needed(material, true)
             .map_err(MaterialChangeError::Controller)?;
-        self.session
-            .0
-            .with_dependent_mut(|_, r| r.passivity_control = passivity);
+        self.session.passivity_control = passivity;
         self.material = Some(material);
         if let Err(e) = self.restart_deforming() {
             let stopped = self.stop_deforming();
@@ -623,32 +529,30 @@ impl HapticLoop {
 
     /// Enables or disables the forces.
     pub fn set_forces_enabled(&mut self, enabled: bool) {
-        self.with_controller_mut(|c| c.set_forces_enabled(enabled));
+        self.controller_mut().set_forces_enabled(enabled);
     }
 
     /// Whether forces are enabled.
     pub fn forces_enabled(&self) -> bool {
-        self.with_controller(|c| c.forces_enabled())
-            .unwrap_or(false)
+        self.controller().forces_enabled()
     }
 
     /// Clears the latched faults whose condition is gone; returns those still latched.
     pub fn clear_faults(&mut self) -> Faults {
-        self.with_controller_mut(|c| c.clear_faults())
-            .unwrap_or_default()
+        self.controller_mut().clear_faults()
     }
 
     /// Calibrates the controller on the simulated arm's end stops (where it was homed).
     pub fn calibrate(&mut self) {
         let counts = tick::end_stop_counts(&DeviceSpec::default());
-        if let Some(Err(e)) = self.with_controller_mut(|c| c.calibrate(counts)) {
+        if let Err(e) = self.controller_mut().calibrate(counts) {
             self.last_error = Some(e.to_string());
         }
     }
 
     /// The latched faults.
     pub fn faults(&self) -> Faults {
-        self.with_controller(|c| c.faults()).unwrap_or_default()
+        self.controller().faults()
     }
 
     /// Why the last tick could not move the arm, if it could not.

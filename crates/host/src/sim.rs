@@ -523,10 +523,10 @@ pub fn explore(
 /// ([`device_controller`]), calibrated on the end stops and with forces on, as a closed-loop
 /// run starts it; and whether the passivity controller is on.
 pub(crate) fn ready_controller<'a>(
-    chain: Chain<'a>,
+    chain: Chain,
     material: FrictionMaterial,
     rate_hz: f64,
-) -> Result<(Controller<Chain<'a>>, bool), SimError> {
+) -> Result<(Controller<Chain>, bool), SimError> {
     let (mut controller, passivity_control) = device_controller(chain, material, rate_hz)?;
     controller
         .calibrate(end_stop_counts(&DeviceSpec::default()))
@@ -647,7 +647,7 @@ pub fn validate_device(
 fn with_chain<R>(
     scene: &Scene,
     object: usize,
-    f: impl FnOnce(Chain<'_>) -> Result<R, SimError>,
+    f: impl FnOnce(Chain) -> Result<R, SimError>,
 ) -> Result<R, SimError> {
     let o = &scene.objects()[object];
     let curves = o.curve_views().ok_or_else(|| SimError::Surface {

@@ -149,16 +149,16 @@ pub const DEVICE_RAMP_TIME_S: f32 = 0.02;
 /// The default device at `rate_hz` with `chain` and `material` loaded, the passivity
 /// controller on only when the material needs it (returned as the flag).
 pub fn device_controller<'a>(
-    chain: Chain<'a>,
+    chain: Chain,
     material: FrictionMaterial,
     rate_hz: f64,
-) -> Result<(Controller<Chain<'a>>, bool), SimError> {
+) -> Result<(Controller<Chain>, bool), SimError> {
     let safety = SafetyConfig {
         period_s: (1.0 / rate_hz) as f32,
         ramp_time_s: DEVICE_RAMP_TIME_S,
         ..SafetyConfig::default()
     };
-    let mut controller: Controller<Chain<'a>> =
+    let mut controller: Controller<Chain> =
         Controller::new(DeviceSpec::default(), safety).map_err(SimError::Controller)?;
     let passivity_control = controller
         .load_scene_as_needed(chain, material, true)

@@ -112,7 +112,7 @@ pub fn impact_on(spec: DeviceSpec, cell: &Impact) -> Result<Outcome, SimError> {
     let curve = wall();
     let curves = [curve.view()];
     let chain = Chain::new(&curves).map_err(|error| SimError::Chain { index: 0, error })?;
-    let mut controller: Controller<Chain<'_>> =
+    let mut controller: Controller<Chain> =
         Controller::new(spec, safety).map_err(SimError::Controller)?;
     let start = Vec2::new(0.0, WALL_Y_M - START_GAP_M);
     let mut arm =

@@ -86,6 +86,22 @@ impl<'a, P: Point> Curve<'a, P> {
         }
     }
 
+    /// The curve of `knots` (a window or the whole vector, e.g. from
+    /// [`Knots::window_unchecked`]) and its homogeneous control points, for storage that
+    /// validated both with [`Curve::new`] before and kept them unchanged: O(1), no check in
+    /// release builds. Points of another count than the knots need make a curve whose
+    /// evaluation may panic; debug builds check.
+    #[inline]
+    pub fn from_knots_unchecked(knots: Knots<'a>, points: &'a [P::Hom]) -> Self {
+        debug_assert!(
+            points.len() == knots.n_points(),
+            "Curve::from_knots_unchecked: {} points for knots of {}",
+            points.len(),
+            knots.n_points()
+        );
+        Curve { knots, points }
+    }
+
     /// Degree.
     #[inline]
     pub fn degree(&self) -> usize {

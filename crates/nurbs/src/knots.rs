@@ -154,6 +154,38 @@ impl<'a> Knots<'a> {
         Self::whole(knots, degree)
     }
 
+    /// The window's bounds: the index of the last knot equal to its start and of the first
+    /// equal to its end (`(degree, knots.len() − 1 − degree)` for the whole vector). With the
+    /// knot values and the degree they are all a window is, so an owner that keeps its knots
+    /// in fixed-capacity storage (a tracker's chain) keeps a window as these two numbers and
+    /// makes it again with [`Knots::window_unchecked`].
+    #[inline]
+    pub fn bounds(&self) -> (usize, usize) {
+        (self.first, self.last)
+    }
+
+    /// The window `bounds` ([`Knots::bounds`]) onto `knots` of `degree`, a vector
+    /// [`Knots::new`] accepted before and its owner kept unchanged since, without validating
+    /// it again: O(1), for views made in a haptic tick. Data `Knots::new` refuses, or bounds
+    /// that are not a window's, make a view whose evaluation may panic; debug builds check.
+    #[inline]
+    pub fn window_unchecked(knots: &'a [f32], degree: usize, bounds: (usize, usize)) -> Self {
+        debug_assert!(
+            knots.len() > degree + 1
+                && Self::validate(knots, degree, knots.len() - degree - 1, Dir::Curve).is_ok()
+                && degree <= bounds.0
+                && bounds.0 < bounds.1
+                && bounds.1 < knots.len() - degree,
+            "Knots::window_unchecked on data Knots::new refuses"
+        );
+        Knots {
+            knots,
+            degree,
+            first: bounds.0,
+            last: bounds.1,
+        }
+    }
+
     /// Whether this is the whole domain, not a window onto part of it.
     #[inline]
     pub fn is_whole(&self) -> bool {

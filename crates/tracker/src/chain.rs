@@ -35,7 +35,7 @@ use crate::contact::{Contact, Feature};
 use crate::global::{GlobalConfig, closest_point};
 use crate::patch::{Jet, Patch};
 use crate::track::{PERIODIC_TOL, Tracker, TrackerConfig};
-use nurbs::{Curve, Point, Vec2};
+use nurbs::{Curve, Knots, Point, Vec2, Vec3};
 
 /// Largest number of curves in a chain (fixed storage, no allocation).
 pub const MAX_CHAIN_CURVES: usize = 32;
@@ -70,6 +70,17 @@ pub enum ChainError {
     },
     /// A closed chain runs clockwise, so its normals `t × k̂` would point inward.
     Clockwise,
+    /// The curves' knots or control points do not fit the chain's fixed storage.
+    Capacity {
+        /// Knots of all the curves together.
+        knots: usize,
+        /// Control points of all the curves together.
+        points: usize,
+        /// Knots the chain holds.
+        knot_capacity: usize,
+        /// Control points the chain holds.
+        point_capacity: usize,
+    },
 }
 
 impl core::fmt::Display for ChainError {
@@ -92,6 +103,15 @@ impl core::fmt::Display for ChainError {
             ChainError::Clockwise => write!(
                 f,
                 "patches: the closed chain runs clockwise, so its normals point inward; reverse the order of the curves and of their points"
+            ),
+            ChainError::Capacity {
+                knots,
+                points,
+                knot_capacity,
+                point_capacity,
+            } => write!(
+                f,
+                "patches: {knots} knots and {points} control points in all, at most {knot_capacity} and {point_capacity} per object"
             ),
         }
     }
@@ -187,12 +207,42 @@ impl Vertex {
     }
 }
 
+/// Knot capacity of a [`Chain`] by default: the protocol's per-scene limit, so any object a
+/// device takes fits.
+pub const CHAIN_KNOTS: usize = 512;
+
+/// Control-point capacity of a [`Chain`] by default (as [`CHAIN_KNOTS`]).
+pub const CHAIN_POINTS: usize = 512;
+
+/// Where one piece of a [`Chain`] lives in the chain's own storage: its curve's knots and
+/// homogeneous control points (ranges of [`Chain`]'s arrays), and the piece's window onto those
+/// knots ([`nurbs::Knots::bounds`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+struct Piece {
+    degree: u8,
+    knots: (u16, u16),
+    points: (u16, u16),
+    window: (u16, u16),
+}
+
 /// A validated chain of planar curves, oriented so that `n = t × k̂` points out of the object
 /// (counter-clockwise when closed), with its vertex regions.
+///
+/// The chain owns its data: the curves' knots and control points are copied into
+/// fixed-capacity arrays (`KNOTS` knots and `POINTS` control points for all its curves
+/// together; no allocation, no borrow), and every piece is a window onto them, made into a
+/// [`Curve`] view when it is evaluated ([`Chain::curve`]). So whoever holds a chain (a
+/// controller, a loop thread, a board's tick) holds its scene, with nothing borrowed to keep
+/// alive. A board gives it capacities its RAM affords; the defaults ([`CHAIN_KNOTS`],
+/// [`CHAIN_POINTS`]) take any object of a scene the protocol carries.
 #[derive(Clone, Copy, Debug)]
-pub struct Chain<'a> {
-    /// The curves split at their corners (full-multiplicity interior knots).
-    curves: [Curve<'a, Vec2>; MAX_CHAIN_CURVES],
+pub struct Chain<const KNOTS: usize = CHAIN_KNOTS, const POINTS: usize = CHAIN_POINTS> {
+    /// The given curves' knot vectors, one after the other.
+    knots: [f32; KNOTS],
+    /// The given curves' homogeneous control points, one after the other.
+    points: [Vec3; POINTS],
+    /// The curves split at their corners (full-multiplicity interior knots), as windows.
+    pieces: [Piece; MAX_CHAIN_CURVES],
     n_curves: usize,
     /// Index of the given curve each piece comes from.
     source: [u16; MAX_CHAIN_CURVES],
@@ -207,51 +257,29 @@ pub struct Chain<'a> {
     end_jets: [[Jet<Vec2, 1>; 2]; MAX_CHAIN_CURVES],
 }
 
-impl<'a> Chain<'a> {
-    /// Splits the curves at their corners (interior knots of full multiplicity), checks that
-    /// consecutive curves join, detects whether the chain closes, checks the orientation of
-    /// closed chains and computes the vertex regions.
-    pub fn new(given: &[Curve<'a, Vec2>]) -> Result<Self, ChainError> {
-        let Some(&first) = given.first() else {
+impl Chain {
+    /// The chain of `given` at the default capacities ([`Chain::from_curves`]).
+    pub fn new(given: &[Curve<'_, Vec2>]) -> Result<Self, ChainError> {
+        Self::from_curves(given)
+    }
+}
+
+impl<const KNOTS: usize, const POINTS: usize> Chain<KNOTS, POINTS> {
+    /// Copies the curves' data into the chain, splits the curves at their corners (interior
+    /// knots of full multiplicity), checks that consecutive curves join, detects whether the
+    /// chain closes, checks the orientation of closed chains and computes the vertex regions.
+    pub fn from_curves(given: &[Curve<'_, Vec2>]) -> Result<Self, ChainError> {
+        if given.is_empty() {
             return Err(ChainError::Empty);
-        };
+        }
         if given.len() > MAX_CHAIN_CURVES {
             return Err(ChainError::TooManyCurves { count: given.len() });
         }
-        let mut pieces = [first; MAX_CHAIN_CURVES];
-        let mut source = [0u16; MAX_CHAIN_CURVES];
-        let mut n = 0;
-        for (i, c) in given.iter().enumerate() {
-            crate::split::curve_pieces(c, |piece| {
-                if n < MAX_CHAIN_CURVES {
-                    pieces[n] = piece;
-                    source[n] = i as u16;
-                }
-                n += 1;
-            });
-        }
-        if n > MAX_CHAIN_CURVES {
-            return Err(ChainError::TooManyPieces {
-                count: given.len(),
-                pieces: n,
-            });
-        }
-        let curves = &pieces[..n];
-        let start = |c: &Curve<'a, Vec2>| c.point(c.domain().0);
-        let end = |c: &Curve<'a, Vec2>| c.point(c.domain().1);
-        for i in 1..n {
-            let gap = (start(&curves[i]) - end(&curves[i - 1])).length();
-            if gap > JOIN_TOL_M {
-                return Err(ChainError::Gap {
-                    curve: usize::from(source[i]),
-                    gap_m: gap,
-                });
-            }
-        }
-        let closed = (start(&curves[0]) - end(&curves[n - 1])).length() <= JOIN_TOL_M;
-        if closed && signed_area(curves) < 0.0 {
-            return Err(ChainError::Clockwise);
-        }
+        let zero = Jet {
+            point: Vec2::ZERO,
+            d: [Vec2::ZERO],
+            dd: [[Vec2::ZERO]],
+        };
         let blank = Vertex {
             position: Vec2::ZERO,
             incoming: None,
@@ -260,53 +288,121 @@ impl<'a> Chain<'a> {
             t_out: Vec2::X,
             kind: VertexKind::End,
         };
-        let mut vertices = [blank; MAX_CHAIN_CURVES + 1];
-        let n_vertices = if closed { n } else { n + 1 };
+        let mut chain = Chain {
+            knots: [0.0; KNOTS],
+            points: [Vec3::ZERO; POINTS],
+            pieces: [Piece::default(); MAX_CHAIN_CURVES],
+            n_curves: 0,
+            source: [0; MAX_CHAIN_CURVES],
+            periodic: [false; MAX_CHAIN_CURVES],
+            closed: false,
+            vertices: [blank; MAX_CHAIN_CURVES + 1],
+            n_vertices: 0,
+            end_jets: [[zero; 2]; MAX_CHAIN_CURVES],
+        };
+        let (n_knots, n_points) = given.iter().fold((0, 0), |(k, p), c| {
+            (k + c.knots().as_slice().len(), p + c.points().len())
+        });
+        if n_knots > KNOTS || n_points > POINTS || n_knots > usize::from(u16::MAX) {
+            return Err(ChainError::Capacity {
+                knots: n_knots,
+                points: n_points,
+                knot_capacity: KNOTS,
+                point_capacity: POINTS,
+            });
+        }
+        let (mut k0, mut p0) = (0, 0);
+        let mut n = 0;
+        for (i, c) in given.iter().enumerate() {
+            let (knots, points) = (c.knots().as_slice(), c.points());
+            let (k1, p1) = (k0 + knots.len(), p0 + points.len());
+            chain.knots[k0..k1].copy_from_slice(knots);
+            chain.points[p0..p1].copy_from_slice(points);
+            crate::split::curve_pieces(c, |piece| {
+                if let Some(slot) = chain.pieces.get_mut(n) {
+                    let (first, last) = piece.knots().bounds();
+                    *slot = Piece {
+                        degree: c.degree() as u8,
+                        knots: (k0 as u16, k1 as u16),
+                        points: (p0 as u16, p1 as u16),
+                        window: (first as u16, last as u16),
+                    };
+                    chain.source[n] = i as u16;
+                }
+                n += 1;
+            });
+            (k0, p0) = (k1, p1);
+        }
+        if n > MAX_CHAIN_CURVES {
+            return Err(ChainError::TooManyPieces {
+                count: given.len(),
+                pieces: n,
+            });
+        }
+        chain.n_curves = n;
+        let start = |c: &Curve<'_, Vec2>| c.point(c.domain().0);
+        let end = |c: &Curve<'_, Vec2>| c.point(c.domain().1);
+        for i in 1..n {
+            let gap = (start(&chain.curve(i)) - end(&chain.curve(i - 1))).length();
+            if gap > JOIN_TOL_M {
+                return Err(ChainError::Gap {
+                    curve: usize::from(chain.source[i]),
+                    gap_m: gap,
+                });
+            }
+        }
+        let closed = (start(&chain.curve(0)) - end(&chain.curve(n - 1))).length() <= JOIN_TOL_M;
+        if closed && signed_area(&chain) < 0.0 {
+            return Err(ChainError::Clockwise);
+        }
+        chain.closed = closed;
+        chain.n_vertices = if closed { n } else { n + 1 };
+        for i in 0..n {
+            let c = chain.curve(i);
+            let (a, b) = c.domain();
+            let (periodic, jets) = (c.is_closed(PERIODIC_TOL), [c.jet([a], 2), c.jet([b], 2)]);
+            chain.periodic[i] = periodic;
+            chain.end_jets[i] = jets;
+        }
+        let this = &chain;
         let tangent = |i: usize, at_end: bool| {
-            let c = &curves[i];
+            let c = this.curve(i);
             let (a, b) = c.domain();
             c.frame(if at_end { b } else { a }).tangent
         };
         let point = |i: usize, at_end: bool| {
-            if at_end {
-                end(&curves[i])
-            } else {
-                start(&curves[i])
-            }
+            let c = this.curve(i);
+            if at_end { end(&c) } else { start(&c) }
         };
-        for (k, v) in vertices.iter_mut().enumerate().take(n_vertices) {
+        let mut vertices = [blank; MAX_CHAIN_CURVES + 1];
+        for (k, v) in vertices.iter_mut().enumerate().take(chain.n_vertices) {
             *v = vertex(k, n, closed, tangent, point);
         }
-        let mut periodic = [false; MAX_CHAIN_CURVES];
-        for (p, c) in periodic.iter_mut().zip(curves) {
-            *p = c.is_closed(PERIODIC_TOL);
-        }
-        let zero = Jet {
-            point: Vec2::ZERO,
-            d: [Vec2::ZERO],
-            dd: [[Vec2::ZERO]],
-        };
-        let mut end_jets = [[zero; 2]; MAX_CHAIN_CURVES];
-        for (jets, c) in end_jets.iter_mut().zip(curves) {
-            let (a, b) = c.domain();
-            *jets = [c.jet([a], 2), c.jet([b], 2)];
-        }
-        Ok(Chain {
-            curves: pieces,
-            n_curves: n,
-            source,
-            periodic,
-            closed,
-            vertices,
-            n_vertices,
-            end_jets,
-        })
+        chain.vertices = vertices;
+        Ok(chain)
     }
 
-    /// The curves, split at their corners (see the module docs): windows onto the curves
-    /// given to [`Chain::new`].
-    pub fn curves(&self) -> &[Curve<'a, Vec2>] {
-        &self.curves[..self.n_curves]
+    /// Piece `i` of the chain (the last one past the end): a view onto the chain's data.
+    #[inline]
+    pub fn curve(&self, i: usize) -> Curve<'_, Vec2> {
+        let p = &self.pieces[i.min(self.n_curves.max(1) - 1)];
+        let knots = &self.knots[usize::from(p.knots.0)..usize::from(p.knots.1)];
+        let points = &self.points[usize::from(p.points.0)..usize::from(p.points.1)];
+        let window = (usize::from(p.window.0), usize::from(p.window.1));
+        Curve::from_knots_unchecked(
+            Knots::window_unchecked(knots, usize::from(p.degree), window),
+            points,
+        )
+    }
+
+    /// The curves, split at their corners (see the module docs), in order.
+    pub fn curves(&self) -> impl ExactSizeIterator<Item = Curve<'_, Vec2>> + '_ {
+        (0..self.n_curves).map(|i| self.curve(i))
+    }
+
+    /// Number of curves (pieces) of the chain.
+    pub fn curve_count(&self) -> usize {
+        self.n_curves
     }
 
     /// Index of the curve given to [`Chain::new`] that curve `i` of the chain is a piece of.
@@ -316,7 +412,7 @@ impl<'a> Chain<'a> {
 
     /// A tracker on curve `i` at `u`, with the curve's closedness known from load.
     fn tracker_on(&self, i: usize, u: f32, cfg: TrackerConfig) -> Tracker<Vec2, 1> {
-        let c = &self.curves[i];
+        let c = &self.curve(i);
         let (a, b) = c.domain();
         let topology = ([self.periodic[i]], [[false; 2]]);
         match self.end_jets.get(i) {
@@ -391,14 +487,11 @@ impl<'a> Chain<'a> {
     /// [`ChainError::Clockwise`], a sampling of the whole chain): a move that turns a closed
     /// chain inside out is the caller's to refuse (a device validates every update with
     /// `Chain::new` before it gets here).
-    pub fn reshape(&mut self, given: &[Curve<'a, Vec2>]) -> bool {
+    pub fn reshape(&mut self, given: &[Curve<'_, Vec2>]) -> bool {
         /// Pieces whose end jets the first pass keeps for the second.
         const KEPT: usize = 4;
         let n = self.n_curves;
-        let Some(&first) = given.first() else {
-            return false;
-        };
-        if given.len() > MAX_CHAIN_CURVES {
+        if given.is_empty() || given.len() > MAX_CHAIN_CURVES {
             return false;
         }
         let zero = Jet {
@@ -406,13 +499,13 @@ impl<'a> Chain<'a> {
             d: [Vec2::ZERO],
             dd: [[Vec2::ZERO]],
         };
-        let ends = |c: &Curve<'a, Vec2>| {
+        let ends = |c: &Curve<'_, Vec2>| {
             let (a, b) = c.domain();
             [c.jet([a], 2), c.jet([b], 2)]
         };
         // A jet's point and derivatives at an end are `Curve::derivs(u, 2)` there, which give
         // the `Curve::point` and `Curve::frame` that `Chain::new` computes.
-        let tangent_of = |c: &Curve<'a, Vec2>, j: &Jet<Vec2, 1>, at_end: bool| {
+        let tangent_of = |c: &Curve<'_, Vec2>, j: &Jet<Vec2, 1>, at_end: bool| {
             let (a, b) = c.domain();
             let d = nurbs::CurveDerivs {
                 point: j.point,
@@ -429,16 +522,23 @@ impl<'a> Chain<'a> {
         let mut kept = [[zero; 2]; KEPT];
         let mut count = 0;
         let mut fits = true;
-        let mut first_start: Option<(Curve<'a, Vec2>, Jet<Vec2, 1>)> = None;
-        let mut last_end: Option<(Curve<'a, Vec2>, Jet<Vec2, 1>)> = None;
+        let mut first_start: Option<(Curve<'_, Vec2>, Jet<Vec2, 1>)> = None;
+        let mut last_end: Option<(Curve<'_, Vec2>, Jet<Vec2, 1>)> = None;
         for (i, c) in given.iter().enumerate() {
             crate::split::curve_pieces(c, |piece| {
                 let k = count;
                 count += 1;
+                // The same storage: a curve of the same degree, knot count and point count.
+                let same_storage = |p: &Piece| {
+                    usize::from(p.degree) == c.degree()
+                        && usize::from(p.knots.1 - p.knots.0) == c.knots().as_slice().len()
+                        && usize::from(p.points.1 - p.points.0) == c.points().len()
+                };
                 if !fits
                     || k >= n
                     || usize::from(self.source[k]) != i
-                    || piece.domain() != self.curves[k].domain()
+                    || !same_storage(&self.pieces[k])
+                    || piece.domain() != self.curve(k).domain()
                 {
                     fits = false;
                     return;
@@ -473,28 +573,35 @@ impl<'a> Chain<'a> {
                 return false;
             }
         }
-        // Second pass: the chain, as `Chain::new` fills it (its padding with `given[0]`: no
-        // view of the storage before is left).
+        // Second pass: the chain, as `Chain::new` fills it: each curve's data copied over its
+        // own (the first pass checked the sizes), the pieces' windows, their end jets.
         let mut k = 0;
         for c in given {
+            let p = self.pieces[k.min(n - 1)];
+            let (k0, k1) = (usize::from(p.knots.0), usize::from(p.knots.1));
+            let (p0, p1) = (usize::from(p.points.0), usize::from(p.points.1));
+            self.knots[k0..k1].copy_from_slice(c.knots().as_slice());
+            self.points[p0..p1].copy_from_slice(c.points());
             crate::split::curve_pieces(c, |piece| {
-                if let Some(slot) = self.curves.get_mut(k) {
-                    *slot = piece;
+                if let Some(slot) = self.pieces.get_mut(k) {
+                    let (first, last) = piece.knots().bounds();
+                    slot.window = (first as u16, last as u16);
                     self.end_jets[k] = kept.get(k).copied().unwrap_or_else(|| ends(&piece));
                 }
                 k += 1;
             });
         }
-        for slot in self.curves.iter_mut().skip(n) {
-            *slot = first;
-        }
-        let (curves, jets) = (&self.curves, &self.end_jets);
+        let this = &*self;
+        let jets = &this.end_jets;
         let point = |i: usize, at_end: bool| jets[i][usize::from(at_end)].point;
-        let tangent =
-            |i: usize, at_end: bool| tangent_of(&curves[i], &jets[i][usize::from(at_end)], at_end);
-        for (k, v) in self.vertices.iter_mut().enumerate().take(self.n_vertices) {
+        let tangent = |i: usize, at_end: bool| {
+            tangent_of(&this.curve(i), &jets[i][usize::from(at_end)], at_end)
+        };
+        let mut vertices = self.vertices;
+        for (k, v) in vertices.iter_mut().enumerate().take(self.n_vertices) {
             *v = vertex(k, n, closed, tangent, point);
         }
+        self.vertices = vertices;
         true
     }
 
@@ -524,8 +631,8 @@ impl<'a> Chain<'a> {
     pub fn nearest(&self, x: Vec2) -> (usize, f32) {
         let cfg = GlobalConfig::default();
         let mut best = (0, 0.0, f32::INFINITY);
-        for (i, c) in self.curves().iter().enumerate() {
-            let r = closest_point(c, x, &cfg);
+        for (i, c) in self.curves().enumerate() {
+            let r = closest_point(&c, x, &cfg);
             if r.distance_squared < best.2 {
                 best = (i, r.t[0], r.distance_squared);
             }
@@ -611,10 +718,10 @@ impl ChainTopology {
 }
 
 /// Signed area of a closed chain, from a sampled polygon (positive counter-clockwise).
-fn signed_area(curves: &[Curve<'_, Vec2>]) -> f32 {
+fn signed_area<const K: usize, const P: usize>(chain: &Chain<K, P>) -> f32 {
     const SAMPLES: usize = 32;
     let mut area = 0.0;
-    for c in curves {
+    for c in chain.curves() {
         let (a, b) = c.domain();
         let mut prev = c.point(a);
         for s in 1..=SAMPLES {
@@ -643,7 +750,11 @@ const MAX_SWITCHES: usize = 4;
 
 impl ChainTracker {
     /// Starts on the curve nearest to `hip` (found by the global search).
-    pub fn new(chain: &Chain<'_>, hip: Vec2, cfg: TrackerConfig) -> Self {
+    pub fn new<const K: usize, const P: usize>(
+        chain: &Chain<K, P>,
+        hip: Vec2,
+        cfg: TrackerConfig,
+    ) -> Self {
         let (i, u) = chain.nearest(hip);
         ChainTracker {
             feature: Feature::Patch(i as u16),
@@ -684,13 +795,13 @@ impl ChainTracker {
     /// Re-evaluates the tracker on `chain` where it is, keeping the feature (see
     /// [`Tracker::refresh`]): `chain` is the one the state was made on with its control
     /// points moved ([`Chain::topology`] unchanged).
-    pub fn refresh(&mut self, chain: &Chain<'_>) {
+    pub fn refresh<const K: usize, const P: usize>(&mut self, chain: &Chain<K, P>) {
         let i = self.curve.min(chain.n_curves - 1);
-        self.tracker.refresh(&chain.curves[i]);
+        self.tracker.refresh(&chain.curve(i));
     }
 
     /// Puts the tracker on curve `i` at parameter `u` (e.g. to pin a god-object).
-    pub fn reset(&mut self, chain: &Chain<'_>, i: usize, u: f32) {
+    pub fn reset<const K: usize, const P: usize>(&mut self, chain: &Chain<K, P>, i: usize, u: f32) {
         let i = i.min(chain.n_curves - 1);
         self.curve = i;
         self.feature = Feature::Patch(i as u16);
@@ -701,14 +812,13 @@ impl ChainTracker {
     /// One tick: track the closest point to `hip` and switch features as the HIP crosses
     /// region boundaries (unless `allow_switch` is false, as during static friction at a
     /// corner, when the tracker stays on its curve and clamps at its ends).
-    pub fn update(
+    pub fn update<const K: usize, const P: usize>(
         &mut self,
-        chain: &Chain<'_>,
+        chain: &Chain<K, P>,
         hip: Vec2,
         period_s: f32,
         allow_switch: bool,
     ) -> Contact<Vec2> {
-        let curves = chain.curves();
         if let Some((next, k)) = self.pending.take() {
             // The switch decided on the last tick, if the HIP is still across the boundary:
             // onto the next curve at its end (the vertex), where the tracker stands this tick,
@@ -740,7 +850,7 @@ impl ChainTracker {
                     self.enter(chain, next, &v);
                 }
                 _ => {
-                    let c = &curves[self.curve];
+                    let c = &chain.curve(self.curve);
                     let tr = self.tracker.update(c, hip, period_s);
                     if allow_switch && (!self.sliding || tr.at_boundary[0] != 0) {
                         // The vertex at the end the closest point is nearer to (the region
@@ -802,8 +912,12 @@ impl ChainTracker {
     }
 
     /// The contact where the tracker stands, from its own jet there (no evaluation).
-    fn here(&self, chain: &Chain<'_>, hip: Vec2) -> Contact<Vec2> {
-        let c = &chain.curves()[self.curve];
+    fn here<const K: usize, const P: usize>(
+        &self,
+        chain: &Chain<K, P>,
+        hip: Vec2,
+    ) -> Contact<Vec2> {
+        let c = &chain.curve(self.curve);
         let jet = self.tracker.jet();
         let n = c.normal(self.tracker.t(), jet);
         let depth = (jet.point - hip).dot(n);
@@ -821,10 +935,15 @@ impl ChainTracker {
 
     /// Switches to `next`, a neighbour across vertex `v`, initialising the tracker at the
     /// matching end of the new curve.
-    fn enter(&mut self, chain: &Chain<'_>, next: Feature, v: &Vertex) {
+    fn enter<const K: usize, const P: usize>(
+        &mut self,
+        chain: &Chain<K, P>,
+        next: Feature,
+        v: &Vertex,
+    ) {
         match next {
             Feature::Patch(i) => {
-                let (a, b) = chain.curves[i as usize].domain();
+                let (a, b) = chain.curve(i as usize).domain();
                 let u = if Some(i) == v.outgoing { a } else { b };
                 self.curve = i as usize;
                 self.tracker = chain.tracker_on(self.curve, u, *self.tracker.config());
@@ -832,9 +951,9 @@ impl ChainTracker {
             Feature::Vertex(_) => {
                 // Stay on the curve the vertex was reached from, parked at that end.
                 let (i, u) = match v.incoming {
-                    Some(a) if a as usize == self.curve => (a, chain.curves[a as usize].domain().1),
+                    Some(a) if a as usize == self.curve => (a, chain.curve(a as usize).domain().1),
                     _ => match v.outgoing {
-                        Some(b) => (b, chain.curves[b as usize].domain().0),
+                        Some(b) => (b, chain.curve(b as usize).domain().0),
                         None => (self.curve as u16, self.tracker.t()[0]),
                     },
                 };

@@ -19,8 +19,8 @@ mod split;
 mod track;
 
 pub use chain::{
-    Chain, ChainError, ChainTopology, ChainTracker, JOIN_TOL_M, MAX_CHAIN_CURVES, Vertex,
-    VertexKind,
+    CHAIN_KNOTS, CHAIN_POINTS, Chain, ChainError, ChainTopology, ChainTracker, JOIN_TOL_M,
+    MAX_CHAIN_CURVES, Vertex, VertexKind,
 };
 pub use contact::{Contact, Feature, Penalty};
 pub use global::{

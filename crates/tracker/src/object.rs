@@ -95,7 +95,7 @@ pub trait Object {
     fn refresh(&self, state: &mut Self::State);
 }
 
-impl Object for Chain<'_> {
+impl<const K: usize, const P: usize> Object for Chain<K, P> {
     type P = Vec2;
     type State = ChainTracker;
 
@@ -131,13 +131,13 @@ impl Object for Chain<'_> {
     }
 
     fn frame(&self, patch: usize, params: [f32; 2]) -> Frame<Vec2> {
-        let c = &self.curves()[patch.min(self.curves().len() - 1)];
+        let c = &self.curve(patch);
         frame_of(c, [params[0]])
     }
 
     fn state_frame(&self, state: &ChainTracker) -> Frame<Vec2> {
         let (i, u) = state.position();
-        let c = &self.curves()[i.min(self.curves().len() - 1)];
+        let c = &self.curve(i);
         frame_from(c, [u], state.jet())
     }
 
@@ -148,13 +148,13 @@ impl Object for Chain<'_> {
         at: &Frame<Vec2>,
         displacement: Vec2,
     ) -> [f32; 2] {
-        let c = &self.curves()[patch.min(self.curves().len() - 1)];
+        let c = &self.curve(patch);
         let t = offset_on(c, [params[0]], at, displacement);
         [t[0], 0.0]
     }
 
     fn patch_count(&self) -> usize {
-        self.curves().len()
+        self.curve_count()
     }
 
     fn source_patch(&self, patch: usize) -> usize {
@@ -169,7 +169,7 @@ impl Object for Chain<'_> {
 
     fn point(&self, patch: usize, params: [f32; 2]) -> Vec2 {
         // Evaluation clamps into the domain itself (NaN to its start).
-        self.curves()[patch.min(self.curves().len() - 1)].point(params[0])
+        self.curve(patch).point(params[0])
     }
 
     fn state_point(state: &ChainTracker) -> Vec2 {

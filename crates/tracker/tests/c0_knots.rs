@@ -40,8 +40,8 @@ fn roof_apex_is_a_convex_vertex() {
     assert_eq!((chain.source_curve(0), chain.source_curve(1)), (0, 0));
     assert_eq!(tracker::Object::source_patch(&chain, 1), 0);
     // The pieces share the curve's parameters: each is a window onto its domain.
-    assert_eq!(chain.curves()[0].domain(), (0.0, 1.0));
-    assert_eq!(chain.curves()[1].domain(), (1.0, 2.0));
+    assert_eq!(chain.curve(0).domain(), (0.0, 1.0));
+    assert_eq!(chain.curve(1).domain(), (1.0, 2.0));
     let apex = chain.vertices()[1];
     assert_eq!(apex.kind, VertexKind::Convex);
     // The apex is the middle control point, interpolated at the double knot.
@@ -181,7 +181,7 @@ fn tangent_continuous_full_multiplicity_knots_stay_whole() {
     let views = [circle.view()];
     let chain = Chain::new(&views).unwrap();
     assert_eq!(chain.curves().len(), 1);
-    assert_eq!(chain.curves()[0], circle.view());
+    assert_eq!(chain.curve(0), circle.view());
 
     let sphere = nurbs::construct::sphere(Vec3::new(0.0, 0.09, 0.0), 0.03).unwrap();
     assert!(sphere.view().c0_pieces().count() > 1);

@@ -83,6 +83,8 @@ const PWM_HZ: u32 = 20_000;
 /// scene with a surface is refused as `SceneCapacity`, which also keeps the shell's
 /// validation, 10 KiB of stack, out of the link task). About 3 KiB.
 type BoardStore = SceneStore<128, 96, 0>;
+/// The app on a [`BoardStore`]'s object (its own copy of it, at the store's capacities).
+type BoardApp = App<128, 96>;
 /// The largest wire scene the board receives (bytes); the receiver holds two.
 const SCENE_CAPACITY: usize = 1792;
 type Link = Session<SCENE_CAPACITY>;
@@ -336,7 +338,7 @@ mod app {
         watchdog: IndependentWatchdog,
         hw: Hw,
         led: Led,
-        app: App<'static>,
+        app: BoardApp,
         /// The store the tick renders and the acquisition job that reads it.
         scenes: TickScenes<BoardStore>,
         tick: TickQueues,
@@ -601,7 +603,7 @@ mod app {
 /// One [`App::tick`], returning the tick's latched faults; not inlined, so that its frame and
 /// the swap's (`TickScenes::swap_in`, which builds a chain) do not add up on the stack.
 #[inline(never)]
-fn run_tick(app: &mut App<'static>, hw: &mut Hw) -> u16 {
+fn run_tick(app: &mut BoardApp, hw: &mut Hw) -> u16 {
     app.tick(hw).telemetry.faults
 }
 

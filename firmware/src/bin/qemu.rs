@@ -38,7 +38,7 @@ use friction::FrictionRenderer;
 use friction::Mode;
 use nurbs::Vec2;
 #[cfg(feature = "stages")]
-use tracker::{Chain, ChainTracker, Object};
+use tracker::{CHAIN_KNOTS, CHAIN_POINTS, Chain, ChainTracker, Object};
 
 /// The scene as the device's wire format (`device::protocol::scene`), written by
 /// `cargo xtask qemu` from the scene JSON with the host crates; validated here as an upload.
@@ -269,14 +269,14 @@ impl Board for QemuBoard {
 /// moves the tick's own count (by about 2 %), so the headline counts come from the build
 /// without it.
 #[cfg(feature = "stages")]
-struct Shadow<'s> {
+struct Shadow {
     spec: DeviceSpec,
     arm: Pantograph,
     calibration: Calibration,
-    object: Chain<'s>,
+    object: Chain,
     material: FrictionMaterial,
     period_s: f32,
-    renderer: Option<FrictionRenderer<Chain<'s>>>,
+    renderer: Option<FrictionRenderer<Chain>>,
     /// A third CP tracker, started where the renderer's is and fed the same HIPs: the tracker's
     /// share of the renderer's tick.
     cp: Option<ChainTracker>,
@@ -298,7 +298,7 @@ const STAGE_NAMES: [&str; 6] = [
 ];
 
 #[cfg(feature = "stages")]
-impl<'s> Shadow<'s> {
+impl Shadow {
     /// One tick's stages; `tick` is the tick's own count (bracket subtracted).
     fn stages(
         &mut self,
@@ -377,12 +377,12 @@ impl<'s> Shadow<'s> {
 
 /// The shadow of the tick's stages on the app's object.
 #[cfg(feature = "stages")]
-fn shadow<'s>(
-    app: &App<'s>,
+fn shadow(
+    app: &App<CHAIN_KNOTS, CHAIN_POINTS>,
     store: &SceneStore,
     scenario: &Scenario<'_>,
     period_s: f32,
-) -> Shadow<'s> {
+) -> Shadow {
     let Some(object) = app.controller().object().copied() else {
         fail(format_args!("scene {}: no object loaded", scenario.name));
     };
@@ -709,6 +709,8 @@ fn main() -> ! {
 
 /// The board's scene store (`firmware/src/bin/board.rs`): planar curves only.
 type BoardStore = SceneStore<128, 96, 0>;
+/// The app on a [`BoardStore`]'s object (its own copy of it, at the store's capacities).
+type BoardApp = App<128, 96>;
 /// The board's scene receiver capacity (bytes).
 const BOARD_SCENE_CAPACITY: usize = 1792;
 
@@ -757,7 +759,7 @@ fn points_run(board: &mut QemuBoard, scenario: &Scenario<'_>) {
     // SAFETY: this run is the only user of `app` and `scenes`; it copies no view out of the
     // app's controller, loads and reshapes it only through `scenes`, and lends no job.
     let mut scenes = unsafe { TickScenes::new() };
-    let mut app: App<'static> = match Parked::new(period_s, scenario.ramp_time_s) {
+    let mut app: BoardApp = match Parked::new(period_s, scenario.ramp_time_s) {
         Ok(p) => p.unloaded(),
         Err(e) => fail(format_args!("scene {name}: {e}")),
     };
@@ -788,7 +790,7 @@ fn points_run(board: &mut QemuBoard, scenario: &Scenario<'_>) {
     };
     // Swaps or reshapes at a tick boundary, as the board's tick: the freed store goes back.
     let mut take_in =
-        |app: &mut App<'static>, staging: &mut Option<Staging<BoardStore>>, incoming: Incoming| {
+        |app: &mut BoardApp, staging: &mut Option<Staging<BoardStore>>, incoming: Incoming| {
             let mut next = staging.take();
             let swapped = scenes.take_in(app, incoming, || next.take());
             let freed = match swapped {
@@ -833,8 +835,7 @@ fn points_run(board: &mut QemuBoard, scenario: &Scenario<'_>) {
     let Some(p1) = app
         .controller()
         .object()
-        .and_then(|c| c.curves().first())
-        .and_then(|c| c.control_point(1))
+        .and_then(|c| c.curve(0).control_point(1))
         .map(|(p, _)| p)
     else {
         fail_at("no right arc");

@@ -8,15 +8,13 @@
 //! at 1 kHz, the ticks folded into it at a faster rate (`crate::telemetry`). Every accepted frame is acked (rejected ones
 //! nacked); a hello is also answered with the device's hello, a heartbeat with a status.
 //!
-//! The thread owns the decoded [`SceneStore`]; the controller holds the chain, a view of it,
-//! for one scene: at every swap the controller is [rebound](Controller::rebind) (dropping the
-//! old view), the stores are swapped and the new chain is loaded. A control-point update
-//! ([`Message::ScenePoints`]) keeps the renderer: the controller is
-//! [reshaped](Controller::reshape) onto the chain of the scratch store the update was
-//! validated into, the scratch is copied into the store and the controller reshaped back onto
-//! it (the copy has the same shape: nothing moves the second time), between two ticks. The
-//! device clock is the
-//! tick count times the period in integer microseconds, as a board's timer. The first object
+//! The thread validates (decodes) uploads into its [`SceneStore`]; a committed scene's
+//! object is loaded into the controller, which keeps its own copy of it
+//! ([`SceneStore::chain`]), so the store is free for the next upload at once. A control-point
+//! update ([`Message::ScenePoints`]) keeps the renderer: the controller's chain is moved onto
+//! the updated store's curves in place ([`Controller::reshape_object`]), between two ticks.
+//! The device clock is the tick count times the period in integer microseconds, as a
+//! board's timer. The first object
 //! of the scene is rendered, when it is a chain of planar curves (the pantograph is planar:
 //! surfaces are accepted but render nothing).
 
@@ -25,13 +23,13 @@ use std::sync::mpsc::{self, Receiver, RecvTimeoutError, Sender, SyncSender, TryR
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
-use nurbs::{Curve, Vec2};
+use nurbs::Vec2;
 use tracker::Chain;
 
 use super::serial::{Packets, Stream, read_packets, write_packet};
 use super::{Link, LinkError, Sequencer, cobs, software_version};
 use crate::controller::{Controller, ControllerError};
-use crate::protocol::{Frame, MAX_FRAME, Message, SceneStore};
+use crate::protocol::{ErrorCode, Frame, MAX_FRAME, Message, SceneStore};
 use crate::safety::SafetyConfig;
 use crate::session::{DeviceState, Event, Session};
 use crate::simulator::{SimParams, SimulatedPantograph, VirtualHand};
@@ -107,7 +105,7 @@ pub struct SimLink {
 impl SimLink {
     /// Starts the simulated device (uncalibrated, forces off, no scene).
     pub fn spawn(config: SimConfig) -> Result<Self, LinkError> {
-        let controller: Controller<Chain<'static>> = Controller::new(config.spec, config.safety)?;
+        let controller: Controller<Chain> = Controller::new(config.spec, config.safety)?;
         let mut arm = SimulatedPantograph::new(config.spec, config.params, config.start_hip)?;
         if config.released {
             arm.release();
@@ -262,7 +260,7 @@ impl Link for SimLink {
     }
 }
 
-/// Why the thread left a scene epoch.
+/// Why the thread stopped ticking.
 enum EpochEnd {
     /// A scene upload was committed into `scratch`.
     Swap,
@@ -279,7 +277,7 @@ struct SimDevice {
     arm: SimulatedPantograph,
     hand: VirtualHand,
     session: Box<Session<SCENE_CAPACITY>>,
-    /// Where commits are validated (decoded); swapped with the active store on success.
+    /// Where uploads and updates are validated (decoded), then loaded from.
     scratch: Box<SceneStore>,
     seq: Sequencer,
     tick: u64,
@@ -288,85 +286,44 @@ struct SimDevice {
     decimator: TelemetryDecimator,
 }
 
-/// The first object's curves, when it is a planar chain.
-fn chain_curves(store: &SceneStore) -> Vec<Curve<'_, Vec2>> {
-    let n = store.patch_count(0).unwrap_or(0);
-    (0..n).map_while(|p| store.curve(0, p)).collect()
-}
-
-/// `parked` with object 0 of `store` loaded afresh (the renderer waits for its acquisition).
-fn reload<'s>(
-    parked: Controller<Chain<'static>>,
-    store: &'s SceneStore,
-    config: &SimConfig,
-) -> Controller<Chain<'s>> {
-    let mut c = parked.rebind();
-    let curves = chain_curves(store);
-    if let (Ok(chain), Some(material)) = (Chain::new(&curves), store.material(0)) {
-        let _ = c.load_scene_as_needed(chain, material, config.passivity_control);
-    }
-    c
-}
-
 impl SimDevice {
-    fn run(&mut self, controller: Controller<Chain<'static>>) {
-        let mut store = Box::new(SceneStore::new());
-        let mut parked = controller;
+    /// Ticks until the host leaves; a committed scene or an update goes to the controller
+    /// between two ticks, as on a board.
+    fn run(&mut self, mut controller: Controller<Chain>) {
         loop {
-            // The controller holds the chain, a view of `store`, for one epoch; rebinding it
-            // drops the view before the store is swapped.
-            let curves = chain_curves(&store);
-            let mut active: Controller<Chain<'_>> = parked.rebind();
-            if let (Ok(chain), Some(material)) = (Chain::new(&curves), store.material(0))
-                && active
-                    .load_scene_as_needed(chain, material, self.config.passivity_control)
-                    .is_err()
-            {
-                self.session
-                    .note_error(crate::protocol::ErrorCode::BadMaterial);
-            }
-            let end = loop {
-                match self.epoch(&mut active) {
-                    // The pantograph renders object 0; the others' points change nothing here.
-                    EpochEnd::Points { object: 0 } => {
-                        let curves = chain_curves(&self.scratch);
-                        let Ok(chain) = Chain::new(&curves) else {
-                            continue;
-                        };
-                        match active.reshape(chain) {
-                            Ok(mid) => {
-                                // `mid` renders the scratch store: copy it into the store and
-                                // come back onto that (the same shape: nothing moves).
-                                store.clone_from(&self.scratch);
-                                let curves = chain_curves(&store);
-                                let back = match Chain::new(&curves) {
-                                    Ok(chain) => mid.reshape(chain),
-                                    Err(_) => Err((mid, ControllerError::NoScene)),
-                                };
-                                active = match back {
-                                    Ok(c) => c,
-                                    // Not expected (the same scene): start the renderer anew.
-                                    Err((mid, _)) => reload(mid.rebind(), &store, &self.config),
-                                };
-                            }
-                            Err((back, _)) => {
-                                // No scene loaded (its material was refused): nothing renders.
-                                active = back;
-                                self.session
-                                    .note_error(crate::protocol::ErrorCode::TopologyChanged);
-                            }
-                        }
-                    }
-                    EpochEnd::Points { .. } => {}
-                    end => break end,
-                }
-            };
-            parked = active.rebind();
-            match end {
+            match self.epoch(&mut controller) {
                 EpochEnd::Stop => return,
-                EpochEnd::Swap => std::mem::swap(&mut store, &mut self.scratch),
+                EpochEnd::Swap => self.load(&mut controller),
+                // The pantograph renders object 0; the others' points change nothing here.
+                EpochEnd::Points { object: 0 } => self.reshape(&mut controller),
                 EpochEnd::Points { .. } => {}
             }
+        }
+    }
+
+    /// Loads object 0 of the committed scene afresh (the renderer waits for its
+    /// acquisition); without one (a scene of surfaces) nothing renders.
+    fn load(&mut self, controller: &mut Controller<Chain>) {
+        controller.unload_scene();
+        if let (Ok(chain), Some(material)) = (self.scratch.chain(0), self.scratch.material(0))
+            && controller
+                .load_scene_as_needed(chain, material, self.config.passivity_control)
+                .is_err()
+        {
+            self.session.note_error(ErrorCode::BadMaterial);
+        }
+    }
+
+    /// Moves the rendered object onto the updated scene's object 0, the renderer carried on
+    /// ([`Controller::reshape_object`] with [`Chain::reshape`]).
+    fn reshape(&mut self, controller: &mut Controller<Chain>) {
+        let moved = match self.scratch.curves(0) {
+            Ok((curves, n)) => controller.reshape_object(|chain| chain.reshape(&curves[..n])),
+            Err(_) => Err(ControllerError::Topology),
+        };
+        if moved.is_err() {
+            // No scene loaded (its material was refused), or another topology.
+            self.session.note_error(ErrorCode::TopologyChanged);
         }
     }
 
@@ -376,7 +333,7 @@ impl SimDevice {
     }
 
     /// Ticks on the current scene until a new one is committed or the host leaves.
-    fn epoch(&mut self, controller: &mut Controller<Chain<'_>>) -> EpochEnd {
+    fn epoch(&mut self, controller: &mut Controller<Chain>) -> EpochEnd {
         let period_s = self.config.safety.period_s;
         loop {
             loop {
@@ -430,7 +387,7 @@ impl SimDevice {
     /// Handles one host frame; `Ok(Some(_))` when it committed a scene or applied an update.
     fn handle(
         &mut self,
-        controller: &mut Controller<Chain<'_>>,
+        controller: &mut Controller<Chain>,
         bytes: &[u8],
     ) -> Result<Option<EpochEnd>, ()> {
         // The simulated joints "rest on their end stops": the counts read there.

@@ -374,21 +374,50 @@ impl<const K: usize, const C: usize, const S: usize> SceneStore<K, C, S> {
         Ok(())
     }
 
-    /// `f` of `object` as a chain (it was validated, so it is one). Not inlined: the chain
-    /// it builds exists only while it runs, borrowed where `Chain::new` put it (a chain is a
-    /// few KiB: every move of one is stack).
-    #[inline(never)]
-    fn with_chain<R>(&self, object: usize, f: impl FnOnce(&Chain<'_>) -> R) -> Option<R> {
-        let n = self.patch_count(object)?;
-        let first = self.curve(object, 0)?;
+    /// Object `object` as a chain of planar curves, holding its own copy of the object's
+    /// data at the store's capacities (so any object of the store fits): the one conversion
+    /// from a store to what a controller renders. Refused with the fault that says why: no
+    /// such object, an object of surfaces, curves that do not make a chain.
+    pub fn chain(&self, object: usize) -> Result<Chain<K, C>, SceneError> {
+        let (curves, n) = self.curves(object)?;
+        Chain::from_curves(&curves[..n])
+            .map_err(|e| SceneError::at(object, None, SceneFault::Chain(e)))
+    }
+
+    /// Object `object`'s curves as views of the store and how many (a chain's worth of
+    /// views, no chain built): what [`Chain::reshape`] takes to move a chain onto this
+    /// store's shape of the object.
+    pub fn curves(
+        &self,
+        object: usize,
+    ) -> Result<([Curve<'_, Vec2>; MAX_CHAIN_CURVES], usize), SceneError> {
+        let at = |fault| SceneError::at(object, None, fault);
+        let rec = self.object(object).ok_or(at(SceneFault::Format))?;
+        if rec.kind() != Some(PatchKind::Curve2) {
+            return Err(at(SceneFault::MixedKinds));
+        }
+        let count = rec.n_patches;
+        if count > MAX_CHAIN_CURVES {
+            return Err(at(SceneFault::Chain(ChainError::TooManyCurves { count })));
+        }
+        let patch = |p: usize| {
+            // Every patch was validated while parsing, so each is a curve.
+            self.curve(object, p)
+                .ok_or(SceneError::at(object, Some(p), SceneFault::Format))
+        };
+        let first = patch(0)?;
         let mut curves = [first; MAX_CHAIN_CURVES];
-        for (p, c) in curves.iter_mut().enumerate().take(n).skip(1) {
-            *c = self.curve(object, p)?;
+        for (p, c) in curves.iter_mut().enumerate().take(count).skip(1) {
+            *c = patch(p)?;
         }
-        match &Chain::new(curves.get(..n)?) {
-            Ok(chain) => Some(f(chain)),
-            Err(_) => None,
-        }
+        Ok((curves, count))
+    }
+
+    /// `f` of `object` as a chain (it was validated, so it is one). Not inlined: the chain
+    /// it builds exists only while it runs (a chain is a few KiB: every move of one is stack).
+    #[inline(never)]
+    fn with_chain<R>(&self, object: usize, f: impl FnOnce(&Chain<K, C>) -> R) -> Option<R> {
+        self.chain(object).ok().map(|chain| f(&chain))
     }
 
     /// The topology of `object` when it is a shell.
@@ -579,18 +608,7 @@ impl<const K: usize, const C: usize, const S: usize> SceneStore<K, C, S> {
             match rec.kind() {
                 None => return Err(SceneError::at(o, None, SceneFault::Format)),
                 Some(PatchKind::Curve2) => {
-                    if rec.n_patches > MAX_CHAIN_CURVES {
-                        let count = rec.n_patches;
-                        let fault = SceneFault::Chain(ChainError::TooManyCurves { count });
-                        return Err(SceneError::at(o, None, fault));
-                    }
-                    let first = self.curve(o, 0).ok_or_else(|| patch_fault(0))?;
-                    let mut curves = [first; MAX_CHAIN_CURVES];
-                    for (p, c) in curves.iter_mut().enumerate().take(rec.n_patches) {
-                        *c = self.curve(o, p).ok_or_else(|| patch_fault(p))?;
-                    }
-                    Chain::new(&curves[..rec.n_patches])
-                        .map_err(|e| SceneError::at(o, None, SceneFault::Chain(e)))?;
+                    self.chain(o)?;
                 }
                 // A store without room for surface points never holds a surface object (its
                 // patches were refused while parsing); said here too, so that such a store
