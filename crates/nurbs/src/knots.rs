@@ -228,7 +228,7 @@ impl<'a> Knots<'a> {
     }
 
     /// The pieces of the domain (or window) between consecutive C⁰ breaks
-    /// ([`Self::is_c0_break`]), in order, as windows: one piece, equal to `self`, when there is
+    /// (interior knots of multiplicity at least the degree), in order, as windows: one piece, equal to `self`, when there is
     /// no break. Each piece is smooth (at least C¹) inside.
     ///
     /// A B-spline of degree `p` is `C^(p−m)` at a knot of multiplicity `m` (Piegl & Tiller
