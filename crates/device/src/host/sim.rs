@@ -125,7 +125,8 @@ impl SimLink {
                     hand: VirtualHand::at(config.start_hip),
                     session: Box::new(Session::new(true)),
                     scratch: Box::new(SceneStore::new()),
-                    seq: Sequencer::default(),
+                    // A device's numbering, which the host's gap counter expects.
+                    seq: Sequencer::device(),
                     tick: 0,
                     started: Instant::now(),
                     decimator: TelemetryDecimator::for_period_s(config.safety.period_s),
