@@ -78,11 +78,15 @@ pub enum ErrorCode {
     /// A frame of a control-point update after an earlier frame of the same update was
     /// refused: the whole update is dropped, up to and including its apply frame.
     UpdateAborted = 28,
+    /// A frame of a control-point update after a scene upload began between its frames: the
+    /// update was dropped whole (its points were for the scene before the upload), and its
+    /// frames are refused up to and including its apply frame.
+    UpdateInterrupted = 29,
 }
 
 impl ErrorCode {
     /// Every code, in wire order.
-    pub const ALL: [ErrorCode; 28] = [
+    pub const ALL: [ErrorCode; 29] = [
         ErrorCode::BadLength,
         ErrorCode::BadCrc,
         ErrorCode::BadVersion,
@@ -111,6 +115,7 @@ impl ErrorCode {
         ErrorCode::TopologyChanged,
         ErrorCode::StagingBusy,
         ErrorCode::UpdateAborted,
+        ErrorCode::UpdateInterrupted,
     ];
 
     /// The code with wire value `value`, if any.
@@ -153,6 +158,9 @@ impl ErrorCode {
                 "staging is busy: an upload, or an update of another object, is in progress"
             }
             ErrorCode::UpdateAborted => "an earlier frame of this update was refused",
+            ErrorCode::UpdateInterrupted => {
+                "a scene upload began between this update's frames: the update was dropped"
+            }
         }
     }
 }
