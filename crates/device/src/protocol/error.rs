@@ -82,11 +82,18 @@ pub enum ErrorCode {
     /// update was dropped whole (its points were for the scene before the upload), and its
     /// frames are refused up to and including its apply frame.
     UpdateInterrupted = 29,
+    /// An identification run ([`Message::Excite`](super::Message)) on a device not calibrated
+    /// (its joint angles, and so the run's forces, are unknown).
+    NotCalibrated = 30,
+    /// An identification run whose torque on a joint is beyond what its motor gives at its
+    /// current limit (the device description's `current_limit_a` × `torque_constant_nm_per_a`
+    /// × `transmission_ratio`).
+    TorqueBeyondMotor = 31,
 }
 
 impl ErrorCode {
     /// Every code, in wire order.
-    pub const ALL: [ErrorCode; 29] = [
+    pub const ALL: [ErrorCode; 31] = [
         ErrorCode::BadLength,
         ErrorCode::BadCrc,
         ErrorCode::BadVersion,
@@ -116,6 +123,8 @@ impl ErrorCode {
         ErrorCode::StagingBusy,
         ErrorCode::UpdateAborted,
         ErrorCode::UpdateInterrupted,
+        ErrorCode::NotCalibrated,
+        ErrorCode::TorqueBeyondMotor,
     ];
 
     /// The code with wire value `value`, if any.
@@ -160,6 +169,10 @@ impl ErrorCode {
             ErrorCode::UpdateAborted => "an earlier frame of this update was refused",
             ErrorCode::UpdateInterrupted => {
                 "a scene upload began between this update's frames: the update was dropped"
+            }
+            ErrorCode::NotCalibrated => "not calibrated: calibrate the device first",
+            ErrorCode::TorqueBeyondMotor => {
+                "excitation torque beyond the motor's torque at its current limit"
             }
         }
     }
