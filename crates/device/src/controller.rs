@@ -188,7 +188,57 @@ pub struct Excitation {
     pub duration_us: u64,
 }
 
+/// Why a device refuses an identification run ([`Excitation::check`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ExcitationRefusal {
+    /// The device is not calibrated.
+    NotCalibrated,
+    /// The torque on joint `joint` (0 or 1) is not finite or beyond the motor's torque at its
+    /// current limit ([`DeviceSpec::max_joint_torque_nm`]).
+    TorqueBeyondMotor {
+        /// The joint.
+        joint: usize,
+    },
+    /// A half-period or the duration is zero.
+    ZeroPeriodOrDuration,
+}
+
+impl ExcitationRefusal {
+    /// What [`ControllerError::Excitation`] says.
+    pub fn reason(self) -> &'static str {
+        match self {
+            ExcitationRefusal::NotCalibrated => "not calibrated",
+            ExcitationRefusal::TorqueBeyondMotor { joint: 0 } => "torque_nm[0] beyond the motor",
+            ExcitationRefusal::TorqueBeyondMotor { .. } => "torque_nm[1] beyond the motor",
+            ExcitationRefusal::ZeroPeriodOrDuration => "zero period or duration",
+        }
+    }
+}
+
 impl Excitation {
+    /// Whether a device whose joints give at most `max_torque_nm`
+    /// ([`DeviceSpec::max_joint_torque_nm`]) and is `calibrated` or not runs this: the one
+    /// check of [`Controller::excite`] and of the link's session, which refuses a run before
+    /// it acks it (`crate::session`).
+    pub fn check(
+        &self,
+        max_torque_nm: [f32; 2],
+        calibrated: bool,
+    ) -> Result<(), ExcitationRefusal> {
+        if !calibrated {
+            return Err(ExcitationRefusal::NotCalibrated);
+        }
+        for (joint, (&tau, &most)) in self.torque_nm.iter().zip(&max_torque_nm).enumerate() {
+            if !(tau.is_finite() && libm::fabsf(tau) <= most) {
+                return Err(ExcitationRefusal::TorqueBeyondMotor { joint });
+            }
+        }
+        if self.half_period_us.contains(&0) || self.duration_us == 0 {
+            return Err(ExcitationRefusal::ZeroPeriodOrDuration);
+        }
+        Ok(())
+    }
+
     /// The joint torques `elapsed_us` into the run.
     pub fn torques_at(&self, elapsed_us: u64) -> [f32; 2] {
         [0, 1].map(|i| {
@@ -710,26 +760,12 @@ impl<O: Object<P = Vec2>> Controller<O> {
     /// energy tank. Refused when not calibrated or when a torque is not finite or beyond the
     /// motor's torque at its current limit. Forces must be on for anything to move.
     pub fn excite(&mut self, excitation: Excitation) -> Result<(), ControllerError> {
-        if !self.calibration.is_calibrated() {
-            return Err(ControllerError::Excitation("not calibrated"));
-        }
-        for i in 0..2 {
-            let s = &self.spec;
-            let most =
-                s.current_limit_a[i] * s.torque_constant_nm_per_a[i] * s.transmission_ratio[i];
-            let tau = excitation.torque_nm[i];
-            if !(tau.is_finite() && libm::fabsf(tau) <= most) {
-                return Err(ControllerError::Excitation(
-                    [
-                        "torque_nm[0] beyond the motor",
-                        "torque_nm[1] beyond the motor",
-                    ][i],
-                ));
-            }
-        }
-        if excitation.half_period_us.contains(&0) || excitation.duration_us == 0 {
-            return Err(ControllerError::Excitation("zero period or duration"));
-        }
+        excitation
+            .check(
+                self.spec.max_joint_torque_nm(),
+                self.calibration.is_calibrated(),
+            )
+            .map_err(|r| ControllerError::Excitation(r.reason()))?;
         self.excitation = Some(ExcitationRun {
             excitation,
             started_us: None,

@@ -105,7 +105,10 @@
 //! non-finite coordinate, [`ErrorCode::StagingBusy`], [`ErrorCode::TopologyChanged`], a
 //! validation's own code) and drops the whole update, its later frames refused with
 //! [`ErrorCode::UpdateAborted`] up to its apply frame; the active scene, its CRC and the
-//! controller stay as they were. [`points_update`] produces the frames.
+//! controller stay as they were. A scene upload that begins between an update's frames drops
+//! the update too, its later frames refused with [`ErrorCode::UpdateInterrupted`] up to its
+//! apply frame: no part of it lands on the uploaded scene. [`points_update`] produces the
+//! frames.
 //!
 //! # Scene on the wire
 //!

@@ -17,10 +17,12 @@ use friction::FrictionMaterial;
 use nurbs::Vec2;
 use tracker::Object;
 
-use crate::controller::{Controller, ControllerError, Excitation};
+use crate::controller::{Controller, ControllerError, Excitation, ExcitationRefusal};
 use crate::protocol::{
-    ErrorCode, Hello, MAX_PAYLOAD, Message, SceneReceiver, SceneValidator, Status,
+    ErrorCode, Frame, Hello, MAX_PAYLOAD, Message, NO_INDEX, Nack, SceneReceiver, SceneValidator,
+    Status, UNKNOWN_SEQ,
 };
+use crate::spec::DeviceSpec;
 
 /// A command for the controller, from a frame the session accepted. A single-threaded
 /// device applies it at once ([`Command::apply`]); a board queues it to its tick, which owns
@@ -65,6 +67,14 @@ impl Command {
                 controller.clear_faults();
             }
             Command::Excite(excitation) => {
+                // The session's check again, on the controller as it is now (a board's tick
+                // runs this after the session acked): the same refusal, the same code.
+                excitation
+                    .check(
+                        controller.spec().max_joint_torque_nm(),
+                        controller.is_calibrated(),
+                    )
+                    .map_err(excitation_code)?;
                 controller
                     .excite(excitation)
                     .map_err(|_| ErrorCode::BadField)?;
@@ -79,6 +89,16 @@ impl Command {
             }
         }
         Ok(())
+    }
+}
+
+/// The code of a nack or a `last_error` for an identification run refused.
+fn excitation_code(refusal: ExcitationRefusal) -> ErrorCode {
+    match refusal {
+        ExcitationRefusal::NotCalibrated => ErrorCode::NotCalibrated,
+        ExcitationRefusal::TorqueBeyondMotor { .. } => ErrorCode::TorqueBeyondMotor,
+        // The decoder refuses a zero period or duration already.
+        ExcitationRefusal::ZeroPeriodOrDuration => ErrorCode::BadField,
     }
 }
 
@@ -158,6 +178,11 @@ pub enum Event {
 pub struct Session<const N: usize> {
     receiver: SceneReceiver<N>,
     last_error: u8,
+    /// Each joint's torque at its motor's current limit (N·m,
+    /// [`DeviceSpec::max_joint_torque_nm`]): an identification run beyond it is nacked.
+    /// Zero until [`Session::set_motor_limits`]: a device that does not say refuses every
+    /// run that moves anything.
+    max_torque_nm: [f32; 2],
 }
 
 impl<const N: usize> Session<N> {
@@ -172,6 +197,7 @@ impl<const N: usize> Session<N> {
                 SceneReceiver::new()
             },
             last_error: 0,
+            max_torque_nm: [0.0; 2],
         }
     }
 
@@ -180,7 +206,14 @@ impl<const N: usize> Session<N> {
         &self.receiver
     }
 
-    /// Records why a command failed for the next status (`last_error`).
+    /// The device's motors, for the check of an identification run before it is acked: the
+    /// description the device's controller runs (`spec`).
+    pub fn set_motor_limits(&mut self, spec: &DeviceSpec) {
+        self.max_torque_nm = spec.max_joint_torque_nm();
+    }
+
+    /// Records why a command failed for the next status (`last_error`): it stays until a
+    /// status carried it or a later request was accepted.
     pub fn note_error(&mut self, code: ErrorCode) {
         self.last_error = code as u8;
     }
@@ -203,11 +236,44 @@ impl<const N: usize> Session<N> {
         }
     }
 
+    /// A frame the receiver accepted, or the nack of a command the device would refuse
+    /// (an identification run it cannot run), in sequence: its number is used up, as any
+    /// refused frame's.
+    fn check_command(&self, frame: Frame, state: &DeviceState) -> Result<Frame, Nack> {
+        let Message::Excite {
+            torque_nm,
+            half_period_ms,
+            duration_ms,
+        } = frame.message
+        else {
+            return Ok(frame);
+        };
+        excitation(torque_nm, half_period_ms, duration_ms)
+            .check(self.max_torque_nm, state.calibrated)
+            .map(|()| frame)
+            .map_err(|refusal| Nack {
+                seq: frame.seq,
+                code: excitation_code(refusal),
+                object: NO_INDEX,
+                patch: NO_INDEX,
+                expected_seq: self.receiver.expected_seq().unwrap_or(UNKNOWN_SEQ),
+            })
+    }
+
     /// Handles one frame from the host (`bytes`, undelimited). `scratch` validates a commit
     /// (decoding it into the store that becomes active on [`Event::SceneCommitted`]); `state`
     /// is the device's, for a hello or a heartbeat's status; `reply` sends a message to the
     /// host. A
     /// rejected frame changes nothing but the status's `last_error`.
+    ///
+    /// `last_error` is the latest refusal not yet reported: a heartbeat's status carries it
+    /// and clears it (read), and an accepted request clears it (superseded) — not a heartbeat
+    /// nor a hand target, which stream on their own and would wipe it before a status could
+    /// say it. An identification run is checked here ([`Excitation::check`], with `state`'s
+    /// calibration and [`Session::set_motor_limits`]) and a refusal nacked with its code, so
+    /// the host is not told the run started. (A board's `state` is its tick's last, at most a
+    /// tick old: a calibration it has not applied yet reads as not calibrated; the tick
+    /// checks the run again, `Command::apply`.)
     pub fn handle(
         &mut self,
         bytes: &[u8],
@@ -215,7 +281,10 @@ impl<const N: usize> Session<N> {
         state: DeviceState,
         reply: &mut impl FnMut(&Message),
     ) -> Event {
-        let outcome = self.receiver.receive(bytes, scratch);
+        let outcome = self
+            .receiver
+            .receive(bytes, scratch)
+            .and_then(|frame| self.check_command(frame, &state));
         reply(&SceneReceiver::<N>::reply(&outcome));
         let frame = match outcome {
             Ok(frame) => frame,
@@ -224,6 +293,12 @@ impl<const N: usize> Session<N> {
                 return Event::None;
             }
         };
+        if !matches!(
+            frame.message,
+            Message::Heartbeat { .. } | Message::HandTarget { .. }
+        ) {
+            self.last_error = 0;
+        }
         match frame.message {
             Message::Hello(_) => reply(&Message::Hello(Hello {
                 software: state.software,
@@ -232,6 +307,7 @@ impl<const N: usize> Session<N> {
             })),
             Message::Heartbeat { .. } => {
                 reply(&Message::Status(self.status(state)));
+                self.last_error = 0;
                 return Event::Command(Command::Heartbeat);
             }
             Message::SceneCommit => return Event::SceneCommitted,
@@ -256,14 +332,24 @@ impl<const N: usize> Session<N> {
                 half_period_ms,
                 duration_ms,
             } => {
-                return Event::Command(Command::Excite(Excitation {
+                return Event::Command(Command::Excite(excitation(
                     torque_nm,
-                    half_period_us: half_period_ms.map(|ms| u32::from(ms) * 1000),
-                    duration_us: u64::from(duration_ms) * 1000,
-                }));
+                    half_period_ms,
+                    duration_ms,
+                )));
             }
             _ => {}
         }
         Event::None
+    }
+}
+
+/// The run an [`Message::Excite`] asks for: milliseconds on the wire, microseconds for the
+/// controller.
+fn excitation(torque_nm: [f32; 2], half_period_ms: [u16; 2], duration_ms: u32) -> Excitation {
+    Excitation {
+        torque_nm,
+        half_period_us: half_period_ms.map(|ms| u32::from(ms) * 1000),
+        duration_us: u64::from(duration_ms) * 1000,
     }
 }

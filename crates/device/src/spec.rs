@@ -338,6 +338,15 @@ impl DeviceSpec {
         [0, 1].map(|i| self.encoder_counts_per_rev[i] as f32 * self.transmission_ratio[i] / TAU)
     }
 
+    /// Each joint's torque at its motor's current limit (N·m): `current_limit_a` ×
+    /// `torque_constant_nm_per_a` × `transmission_ratio`, the most an identification run may
+    /// ask for ([`Excitation::check`](crate::controller::Excitation::check)).
+    pub fn max_joint_torque_nm(&self) -> [f32; 2] {
+        [0, 1].map(|i| {
+            self.current_limit_a[i] * self.torque_constant_nm_per_a[i] * self.transmission_ratio[i]
+        })
+    }
+
     /// The raw counts the encoders read with both joints resting on their end stops
     /// ([`DeviceSpec::end_stop_rad`]): what a calibration of an arm on its stops records, and
     /// what the simulated pantograph's calibration uses.

@@ -441,3 +441,37 @@ fn gap_counter_tells_losses_from_a_restart() {
     assert_eq!(g.observe(6), 2);
     assert_eq!((g.dropped, g.restarts), (2, 1));
 }
+
+/// A lossless run across the wrap of the device's numbering loses nothing. Devices number
+/// every value (the board's `App::send` and `usb::Outbox`: `wrapping_add(1)`), hosts skip
+/// 0xFFFF on their own frames (it is a nack's "unknown"), and the host's gap counter follows
+/// the device's rule; the simulated device numbered its frames with the host's rule, so
+/// every 65,536 frames the host counted one lost (0xFFFE → 0). At 1 kHz every tick is a
+/// frame and nobody sends to the device (no reply is interleaved), so its `k`-th frame must
+/// be numbered `k mod 65,536`: the reference is a count, not the sequencer under test.
+#[test]
+fn a_lossless_run_across_the_wrap_loses_no_frame() {
+    let mut link = SimLink::spawn(SimConfig {
+        paced: false,
+        safety: device::safety::SafetyConfig {
+            period_s: 1e-3,
+            ..device::safety::SafetyConfig::default()
+        },
+        start_hip: Vec2::new(0.03, 0.075),
+        ..SimConfig::default()
+    })
+    .unwrap();
+    let mut gaps = GapCounter::default();
+    // Past the wrap and a few frames on.
+    let frames = 0x1_0000u32 + 8;
+    for k in 0..frames {
+        let Frame { seq, message } = link.recv(TIMEOUT).unwrap().expect("a frame");
+        assert!(matches!(message, Message::Telemetry(_)), "{message:?}");
+        assert_eq!(u32::from(seq), k % 0x1_0000, "frame {k}");
+        gaps.observe(seq);
+    }
+    assert_eq!(
+        (gaps.received, gaps.dropped, gaps.restarts),
+        (u64::from(frames), 0, 0)
+    );
+}

@@ -594,8 +594,8 @@ fn each_faulty_update_has_its_code_and_changes_nothing() {
     let (_, reply) = device.handle(&mut host, planar(0, 0, 1, true, &here));
     assert_eq!(nack_of(reply).code, ErrorCode::StagingBusy);
     assert_eq!(device.active(), before);
-    // A new upload drops an update not yet applied: its apply frame finds nothing staged
-    // and applies itself alone.
+    // A hello (a new session) drops an update not yet applied, the upload's begin before
+    // it too: the new session's update applies alone.
     let (mut device, mut host) = loaded();
     let moved = p1 + Vec2::new(1e-3, 0.0);
     device.handle(&mut host, planar(0, 0, 1, false, &[moved]));
@@ -604,6 +604,75 @@ fn each_faulty_update_has_its_code_and_changes_nothing() {
     let (event, _) = device.handle(&mut host, planar(0, 1, 0, true, &[point(&arcs[1], 0)]));
     assert_eq!(event, Event::ScenePointsUpdated { object: 0 });
     assert_eq!(device.active().0, scene(), "the dropped point did not land");
+}
+
+/// A scene upload between the frames of a multi-frame update drops the update whole: its
+/// remaining frames are refused with [`ErrorCode::UpdateInterrupted`] up to and including its
+/// apply frame, and the scene the upload brought stays as uploaded. Before, the upload reset
+/// the update, and its apply frame, arriving after the commit, applied its own points alone to
+/// the new scene: half an update. Frames written out by hand (the wave's ten points: six in
+/// the first frame, four in the apply frame), and the upload's scene as the reference.
+#[test]
+fn an_upload_between_the_frames_of_an_update_drops_it_whole() {
+    let wave = wave();
+    let lifted: Vec<Vec2> = (0..10)
+        .map(|i| point(&wave, i) + Vec2::new(0.0, 1e-3))
+        .collect();
+    let first = planar(1, 0, 0, false, &lifted[..6]);
+    let last = planar(1, 0, 6, true, &lifted[6..]);
+    // The upload brings a scene whose left arc's free end moved 1 mm: another scene than
+    // the one the update's first frame was staged on.
+    let arcs = arcs();
+    let uploaded = scene_of(
+        &[
+            arcs[0].clone(),
+            arcs[1]
+                .with_point(2, point(&arcs[1], 2) + Vec2::new(0.0, -1e-3))
+                .unwrap(),
+        ],
+        &wave,
+    );
+    assert_ne!(uploaded, scene());
+
+    // The upload whole between the two frames, and the upload's begin alone.
+    for whole in [true, false] {
+        let (mut device, mut host) = loaded();
+        let (event, reply) = device.handle(&mut host, first);
+        assert!(matches!(reply, Message::Ack { .. }), "{reply:?}");
+        assert_eq!(event, Event::None);
+        let expected = if whole {
+            device.upload(&mut host, &uploaded);
+            (uploaded.clone(), crc32(&uploaded))
+        } else {
+            let begin = Message::SceneBegin {
+                total_len: uploaded.len() as u32,
+                crc32: crc32(&uploaded),
+            };
+            let (_, reply) = device.handle(&mut host, begin);
+            assert!(matches!(reply, Message::Ack { .. }), "{reply:?}");
+            device.active()
+        };
+        let (event, reply) = device.handle(&mut host, last);
+        let n = nack_of(reply);
+        assert_eq!(
+            (n.code, n.object, n.patch),
+            (ErrorCode::UpdateInterrupted, 1, NO_INDEX),
+            "whole upload: {whole}"
+        );
+        assert_eq!(event, Event::None);
+        assert_eq!(device.active(), expected, "whole upload: {whole}");
+        assert_eq!(
+            device.session.status(DeviceState::default()).last_error,
+            ErrorCode::UpdateInterrupted as u8
+        );
+        // The update ended with its apply frame: after the upload, the next one, whole, is
+        // applied.
+        if whole {
+            let (event, reply) = send_update(&mut device, &mut host, &[first, last]);
+            assert!(matches!(reply, Message::Ack { .. }), "{reply:?}");
+            assert_eq!(event, Event::ScenePointsUpdated { object: 1 });
+        }
+    }
 }
 
 // ---------------------------------------------------------------------------------------

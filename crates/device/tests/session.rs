@@ -99,15 +99,25 @@ fn each_accepted_frame_is_acked_and_asks_the_device_for_what_it_says() {
     let target = Vec2::new(0.01, 0.08);
     let (event, _) = handle(&mut s, 14, Message::HandTarget { target_m: target });
     assert_eq!(event, Event::HandTarget(target));
-    // An identification run: milliseconds on the wire, microseconds for the controller.
-    let (event, replies) = handle(
-        &mut s,
-        15,
-        Message::Excite {
-            torque_nm: [0.008, -0.007],
-            half_period_ms: [150, 210],
-            duration_ms: 6000,
+    // An identification run: milliseconds on the wire, microseconds for the controller (a
+    // calibrated device whose motors give the torques).
+    s.set_motor_limits(&device::spec::DeviceSpec::default());
+    let mut replies = Vec::new();
+    let event = s.handle(
+        &frame(
+            15,
+            Message::Excite {
+                torque_nm: [0.008, -0.007],
+                half_period_ms: [150, 210],
+                duration_ms: 6000,
+            },
+        ),
+        &mut never,
+        DeviceState {
+            calibrated: true,
+            ..STATE
         },
+        &mut |m: &Message| replies.push(*m),
     );
     assert_eq!(replies, [Message::Ack { seq: 15 }]);
     assert_eq!(
@@ -191,4 +201,122 @@ fn device_state_survives_its_word_and_the_word_has_the_documented_layout() {
         DeviceState::from_word(software, 0xFFFC_0000),
         state(false, false, 0)
     );
+}
+
+/// An identification run the device would refuse is nacked with the reason's code, not acked
+/// (before, it was acked and the refusal showed only in a `last_error` that never cleared), and
+/// `last_error` clears once a status has carried it or a later request was accepted. The
+/// board's session runs this code (`firmware::protocol_task`), so its path is this one.
+#[test]
+fn a_refused_excitation_is_nacked_with_its_reason_and_the_reason_clears() {
+    use device::controller::Excitation;
+    use device::spec::DeviceSpec;
+    let spec = DeviceSpec::default();
+    // The motors' torque at their current limit, from the description's own numbers:
+    // 2 A × 23.4 mN·m/A × 10 = 0.468 N·m.
+    assert_eq!(
+        (
+            spec.current_limit_a,
+            spec.torque_constant_nm_per_a,
+            spec.transmission_ratio
+        ),
+        ([2.0; 2], [0.0234; 2], [10.0; 2])
+    );
+    let calibrated = DeviceState {
+        calibrated: true,
+        ..STATE
+    };
+    let excite = |torque_nm: [f32; 2]| Message::Excite {
+        torque_nm,
+        half_period_ms: [150, 210],
+        duration_ms: 6000,
+    };
+    let handle_in = |s: &mut Session<1024>, state: DeviceState, seq: u16, m: Message| {
+        let mut replies = Vec::new();
+        let event = s.handle(&frame(seq, m), &mut never, state, &mut |r: &Message| {
+            replies.push(*r)
+        });
+        (event, replies)
+    };
+    let nack = |replies: &[Message]| match replies {
+        [Message::Nack(n)] => *n,
+        other => panic!("not one nack: {other:?}"),
+    };
+    for simulated_plant in [true, false] {
+        let mut s = Session::<1024>::new(simulated_plant);
+        s.set_motor_limits(&spec);
+        // (torque, state, code): 1e30 N·m; just past the limit on joint 1 (0.47 > 0.468);
+        // a good torque on a device not calibrated.
+        for (seq, torque, state, code) in [
+            (1, [1e30, 0.0], calibrated, ErrorCode::TorqueBeyondMotor),
+            (2, [0.0, 0.47], calibrated, ErrorCode::TorqueBeyondMotor),
+            (3, [0.008, 0.007], STATE, ErrorCode::NotCalibrated),
+        ] {
+            let (event, replies) = handle_in(&mut s, state, seq, excite(torque));
+            let n = nack(&replies);
+            assert_eq!((n.seq, n.code, n.expected_seq), (seq, code, seq + 1));
+            assert_eq!(event, Event::None, "{torque:?}");
+            assert_eq!(s.status(state).last_error, code as u8);
+        }
+        // Read by a status: the heartbeat's carries it, the next one's is clear.
+        let status_of = |replies: &[Message]| match replies {
+            [Message::Ack { .. }, Message::Status(st)] => *st,
+            other => panic!("{other:?}"),
+        };
+        let (_, replies) = handle_in(&mut s, calibrated, 4, Message::Heartbeat { uptime_ms: 0 });
+        assert_eq!(
+            status_of(&replies).last_error,
+            ErrorCode::NotCalibrated as u8
+        );
+        let (_, replies) = handle_in(&mut s, calibrated, 5, Message::Heartbeat { uptime_ms: 0 });
+        assert_eq!(status_of(&replies).last_error, 0);
+        // Superseded: a refused run, then one the device takes, acked and passed on.
+        handle_in(&mut s, calibrated, 6, excite([1e30, 0.0]));
+        assert_eq!(
+            s.status(calibrated).last_error,
+            ErrorCode::TorqueBeyondMotor as u8
+        );
+        let (event, replies) = handle_in(&mut s, calibrated, 7, excite([0.468, -0.468]));
+        assert_eq!(replies, [Message::Ack { seq: 7 }]);
+        assert_eq!(
+            event,
+            Event::Command(Command::Excite(Excitation {
+                torque_nm: [0.468, -0.468],
+                half_period_us: [150_000, 210_000],
+                duration_us: 6_000_000,
+            }))
+        );
+        assert_eq!(s.status(calibrated).last_error, 0);
+    }
+}
+
+/// The controller's own refusal (the tick's path on a board, `Command::apply`) has the same
+/// codes as the session's nack, not a generic bad field.
+#[test]
+fn the_controller_refuses_an_excitation_with_the_sessions_codes() {
+    use device::controller::{Controller, Excitation};
+    use device::safety::SafetyConfig;
+    use device::spec::DeviceSpec;
+    use tracker::Chain;
+    let spec = DeviceSpec::default();
+    let mut c: Controller<Chain<'static>> = Controller::new(spec, SafetyConfig::default()).unwrap();
+    let run = |torque_nm| {
+        Command::Excite(Excitation {
+            torque_nm,
+            half_period_us: [150_000, 210_000],
+            duration_us: 6_000_000,
+        })
+    };
+    let home = spec.end_stop_counts();
+    assert_eq!(
+        run([0.008, 0.007]).apply(&mut c, home, true),
+        Err(ErrorCode::NotCalibrated)
+    );
+    Command::Calibrate.apply(&mut c, home, true).unwrap();
+    assert_eq!(
+        run([1e30, 0.0]).apply(&mut c, home, true),
+        Err(ErrorCode::TorqueBeyondMotor)
+    );
+    assert_eq!(run([0.008, 0.007]).apply(&mut c, home, true), Ok(()));
+    assert!(c.exciting());
 }

@@ -76,6 +76,27 @@ pub enum IdentifyError {
     /// The device did not run the excitation (not calibrated, forces held off by a fault).
     #[error("the device did not start the run: {0}")]
     NotStarted(String),
+    /// The run did not end by the host's deadline ([`identify_link`]: its duration and
+    /// [`RUN_MARGIN`] of wall time): the device's clock stalled, or the device went silent.
+    /// The forces were turned off and nothing was fitted.
+    #[error(
+        "the run did not end within {waited_ms} ms of wall time (its {duration_ms} ms and \
+         {margin_ms} ms for the link): {}, {device_ms} ms into it by the device's clock",
+        if *.silent { "the device went silent" } else { "the device's clock stalled" }
+    )]
+    Overdue {
+        /// The run's duration (ms).
+        duration_ms: u32,
+        /// How far the device's clock went from the run's first frame to its last (ms).
+        device_ms: u32,
+        /// Wall time from the run's ack to the deadline's check (ms).
+        waited_ms: u64,
+        /// The margin past the duration ([`RUN_MARGIN`], ms).
+        margin_ms: u64,
+        /// No frame came for [`LINK_TIMEOUT`] before the deadline (else frames kept coming,
+        /// their clock not moving on).
+        silent: bool,
+    },
     /// Too few usable samples, or an excitation that does not separate the unknowns.
     #[error("joint {joint}: {reason}")]
     Fit {
@@ -134,6 +155,20 @@ pub fn identify_simulated(
     fit(&angles, &applied, dt)
 }
 
+/// How long [`identify_link`] waits for the device's answer to a request, and the longest a
+/// frame may take to arrive before the device counts as silent.
+pub const LINK_TIMEOUT: Duration = Duration::from_secs(1);
+/// A device's telemetry period behind a link (one frame per millisecond).
+const FRAME_PERIOD: Duration = Duration::from_millis(1);
+/// What the host's deadline of a run through a link adds to the run's duration, on the wall
+/// clock (the run's own end is measured on the device's clock, which may stall). The run
+/// starts at the device's first tick after it sent the `Excite`'s ack, so no later than a tick
+/// after the host got the ack (where the host's clock starts); its last frame leaves the
+/// device by a frame period after its duration, the frame that shows it over one more, and
+/// each reaches the host within the link's timeout ([`LINK_TIMEOUT`], past which a device
+/// counts as silent): the timeout and two frame periods.
+pub const RUN_MARGIN: Duration = LINK_TIMEOUT.saturating_add(FRAME_PERIOD.saturating_mul(2));
+
 /// Frames per local fit of a run through a link (40 ms at one frame per millisecond: the
 /// frames are ten times sparser than the ticks, so the window is twice the tick fit's).
 pub const LINK_WINDOW: usize = 41;
@@ -144,13 +179,15 @@ pub const LINK_WINDOW: usize = 41;
 /// fits. The joint angles come from each frame's HIP by `spec`'s inverse kinematics, the
 /// torques that acted from its force, `τ = Jᵀ F` (the force the safety layer let through,
 /// so a saturated or rate-limited tick counts as what it was); the segments of constant
-/// excitation from the torques' signs.
+/// excitation from the torques' signs. The run's end is read on the device's clock and
+/// bounded on the host's: past its duration and [`RUN_MARGIN`] the forces go off and the
+/// result is [`IdentifyError::Overdue`] (the device's clock stalled, or it went silent).
 pub fn identify_link(
     link: &mut dyn Link,
     spec: &DeviceSpec,
     excitation: &Excitation,
 ) -> Result<IdentifiedJoints, IdentifyError> {
-    let timeout = Duration::from_secs(1);
+    let timeout = LINK_TIMEOUT;
     let arm = spec
         .pantograph()
         .map_err(|e| IdentifyError::Plant(e.to_string()))?;
@@ -178,7 +215,11 @@ pub fn identify_link(
         },
     )?;
     let started = Instant::now();
-    let wall_limit = Duration::from_millis(u64::from(duration_ms)) + Duration::from_secs(3);
+    // The run's end is read on the device's clock (the frames' time); this bounds it on the
+    // host's, should that clock stall or the device fall silent (see `RUN_MARGIN`).
+    let deadline = started + Duration::from_millis(u64::from(duration_ms)) + RUN_MARGIN;
+    let mut heard = started;
+    let mut overdue: Option<(Duration, bool)> = None;
     let mut next_heartbeat = started;
     // The device's own clock of the last heartbeat: a device that runs faster than real time
     // (a simulation not paced) needs them by its time, not the host's.
@@ -192,7 +233,8 @@ pub fn identify_link(
     };
     loop {
         let now = Instant::now();
-        if now - started > wall_limit {
+        if now >= deadline {
+            overdue = Some((now - started, now - heard > LINK_TIMEOUT));
             break;
         }
         if now >= next_heartbeat {
@@ -205,6 +247,7 @@ pub fn identify_link(
         let Message::Telemetry(t) = message else {
             continue;
         };
+        heard = Instant::now();
         // Every 20 ms of the device's time: a device running ahead of what the host has read
         // (a simulation not paced, up to its 64-frame queue) still gets one within its
         // 100 ms timeout.
@@ -229,6 +272,18 @@ pub fn identify_link(
             "no frame with a force (is it calibrated, and are its faults clear?)".to_owned(),
         ));
     };
+    if let Some((waited, silent)) = overdue {
+        // The frames of a stalled clock share one time: nothing to fit on.
+        return Err(IdentifyError::Overdue {
+            duration_ms,
+            device_ms: frames
+                .last()
+                .map_or(0, |t| t.time_us.wrapping_sub(first) / 1000),
+            waited_ms: u64::try_from(waited.as_millis()).unwrap_or(u64::MAX),
+            margin_ms: u64::try_from(RUN_MARGIN.as_millis()).unwrap_or(u64::MAX),
+            silent,
+        });
+    }
     let mut times = Vec::with_capacity(frames.len());
     let mut angles = Vec::with_capacity(frames.len());
     let mut torques = Vec::with_capacity(frames.len());
@@ -532,6 +587,98 @@ mod tests {
             .expect("calibrated");
         let found = identify_link(&mut link, &truth, &EXCITATION).expect("identified");
         check(&truth, &found, 0.2);
+    }
+
+    /// A device whose clock stops 40 ms into a 100 ms run: it acks every request and sends a
+    /// telemetry frame with a force every millisecond (of wall time), but their device time
+    /// stays put once stalled.
+    #[derive(Debug)]
+    struct StalledClock {
+        time_us: u32,
+        stall_at_us: u32,
+        seq: u16,
+        acks: Vec<u16>,
+        sent: Vec<(Instant, Message)>,
+    }
+
+    impl Link for StalledClock {
+        fn send(&mut self, message: &Message) -> Result<u16, LinkError> {
+            self.seq = self.seq.wrapping_add(1);
+            self.sent.push((Instant::now(), *message));
+            self.acks.push(self.seq);
+            Ok(self.seq)
+        }
+
+        fn recv(&mut self, _timeout: Duration) -> Result<Option<Frame>, LinkError> {
+            if let Some(seq) = self.acks.pop() {
+                return Ok(Some(Frame {
+                    seq: 0,
+                    message: Message::Ack { seq },
+                }));
+            }
+            std::thread::sleep(Duration::from_millis(1));
+            self.time_us = (self.time_us + 1000).min(self.stall_at_us);
+            let mut t = device::controller::TickOutput::IDLE.telemetry;
+            t.time_us = self.time_us;
+            t.hip_m = Vec2::new(0.0, 0.09);
+            t.force_n = Vec2::new(0.1, 0.05);
+            Ok(Some(Frame {
+                seq: 0,
+                message: Message::Telemetry(t),
+            }))
+        }
+    }
+
+    /// A run whose device clock stalls ends by the host's wall-clock deadline (the run's
+    /// duration and the margin for the link), with an error that says the clock stalled and
+    /// where, and the forces turned off; before, the run ended only 3 s after its duration,
+    /// with no word of the stall, and went on to fit the stalled frames.
+    #[test]
+    fn a_run_whose_device_clock_stalls_ends_by_the_deadline_and_says_so() {
+        let mut link = StalledClock {
+            time_us: 5_000_000,
+            stall_at_us: 5_040_000,
+            seq: 0,
+            acks: Vec::new(),
+            sent: Vec::new(),
+        };
+        let excitation = Excitation {
+            duration_us: 100_000,
+            ..EXCITATION
+        };
+        let started = Instant::now();
+        let result = identify_link(&mut link, &DeviceSpec::default(), &excitation);
+        let waited = started.elapsed();
+        match result {
+            Err(IdentifyError::Overdue {
+                duration_ms: 100,
+                device_ms,
+                silent: false,
+                ..
+            }) => {
+                // The first frame with a force is 5 001 ms; the clock stops at 5 040 ms.
+                assert_eq!(device_ms, 39);
+            }
+            other => panic!("{other:?}"),
+        }
+        // Not before the deadline: the run's 100 ms plus the link's margin.
+        assert!(
+            waited >= Duration::from_millis(100) + RUN_MARGIN,
+            "{waited:?}"
+        );
+        let (disabled_at, _) = link
+            .sent
+            .iter()
+            .rev()
+            .find(|(_, m)| *m == Message::DisableForces)
+            .expect("the forces were turned off");
+        let excited_at = link
+            .sent
+            .iter()
+            .find(|(_, m)| matches!(m, Message::Excite { .. }))
+            .expect("the run was asked for")
+            .0;
+        assert!(*disabled_at - excited_at >= Duration::from_millis(100) + RUN_MARGIN);
     }
 
     fn recovers(truth: DeviceSpec) {

@@ -36,6 +36,27 @@ pub fn uniform_knots(n_points: usize, degree: usize) -> Vec<f32> {
 }
 
 /// The straight segment from `a` to `b`, degree 1, domain [0, 1].
+///
+/// ```
+/// use nurbs::{Vec3, construct};
+///
+/// let (a, b) = (Vec3::new(1.0, 2.0, 3.0), Vec3::new(4.0, -2.0, 3.0));
+/// let line = construct::line(a, b)?;
+/// let c = line.view();
+/// for u in [0.0, 0.3, 0.5, 1.0] {
+///     let f = c.frame(u);
+///     // C(u) = a + u (b − a); a lerp of values ≤ 4 in f32 (ε = 1.2e-7): 1e-6 absolute.
+///     assert!((f.derivs.point - a.lerp(b, u)).length() <= 1e-6);
+///     // The derivative is the chord over the domain's length 1 (exact: b − a is exact),
+///     // and a straight line has no curvature.
+///     assert_eq!(f.derivs.du, b - a);
+///     assert_eq!(f.derivs.duu, Vec3::ZERO);
+///     assert_eq!(f.curvature, 0.0);
+///     // Unit tangent (b − a) / 5 after `math::sqrt` (≤ 4 ε): 1e-6 is about 8 ε.
+///     assert!((f.tangent - (b - a) / 5.0).length() <= 1e-6);
+/// }
+/// # Ok::<(), nurbs::NurbsError>(())
+/// ```
 pub fn line<P: Point>(a: P, b: P) -> Result<CurveBuf<P>, NurbsError> {
     CurveBuf::from_cartesian(1, vec![0.0, 0.0, 1.0, 1.0], &[a, b], None)
 }
@@ -97,6 +118,36 @@ pub fn arc<P: Point>(
 
 /// The full counter-clockwise circle of `radius` around `center`, starting at angle 0,
 /// rational quadratic with 9 control points.
+///
+/// Four 90° arcs (Piegl & Tiller A7.1): the middle control point of each lies where the
+/// arc's end tangents meet, with weight cos 45°, which makes every arc exact.
+///
+/// ```
+/// use nurbs::{Vec2, construct};
+///
+/// let (center, r) = (Vec2::new(0.1, -0.05), 0.03);
+/// let circle = construct::circle(center, r)?;
+/// let c = circle.view();
+/// assert!(c.is_closed(1e-9));
+/// for i in 0..=40 {
+///     let f = c.frame(i as f32 / 40.0);
+///     let radial = f.derivs.point - center;
+///     // Exact in real arithmetic; in f32 the points are rounded at coordinates up to
+///     // 0.13, where an ulp is 1.5e-8, and C − c cancels the centre: 1e-7 absolute (about
+///     // 7 ulp, 3.3e-6 relative to r).
+///     assert!((radial.length() - r).abs() <= 1e-7, "|C − c| = {}", radial.length());
+///     // Counter-clockwise, so the signed curvature is +1/r and the normal t × k̂ points
+///     // out along the radius. The curvature divides by |C'|³ after the rational second
+///     // derivative (P&T A4.2) and `math::sqrt` (≤ 4 ε): 1e-5 relative, about 80 ε.
+///     assert!((f.curvature * r - 1.0).abs() <= 1e-5, "κ r = {}", f.curvature * r);
+///     // The radial direction carries the 3.3e-6 above: 5e-6 on a unit vector.
+///     assert!((f.normal - radial / r).length() <= 5e-6);
+/// }
+/// // The quarters start at angles 0, π/2, π and 3π/2, at u = 0, 1/4, 1/2 and 3/4.
+/// let top = c.point(0.25);
+/// assert!((top - (center + Vec2::new(0.0, r))).length() <= 1e-6 * r);
+/// # Ok::<(), nurbs::NurbsError>(())
+/// ```
 pub fn circle(center: Vec2, radius: f32) -> Result<CurveBuf<Vec2>, NurbsError> {
     arc(
         center,
@@ -189,6 +240,29 @@ fn radial(axis: Vec3) -> Vec3 {
 
 /// The lateral surface of a cylinder: base circle around `base_center` in the plane normal to
 /// `axis`, `height` along `axis`. Outward normals.
+///
+/// ```
+/// use nurbs::{Vec3, construct};
+///
+/// let (base, axis, r, h) = (Vec3::new(0.0, 0.0, 0.1), Vec3::Z, 0.04, 0.2);
+/// let cylinder = construct::cylinder(base, axis, r, h)?;
+/// let s = cylinder.view();
+/// for i in 0..=8 {
+///     for j in 0..=4 {
+///         let (u, v) = (i as f32 / 8.0, j as f32 / 4.0);
+///         let p = s.point(u, v) - base;
+///         let radial = Vec3::new(p.x, p.y, 0.0);
+///         // Distance r from the axis and height v h along it, to f32 rounding of
+///         // coordinates ≤ 0.3 (ulp 3e-8): 1e-6 relative to r is 4e-8.
+///         assert!((radial.length() - r).abs() <= 1e-6 * r, "radius {}", radial.length());
+///         assert!((p.z - v * h).abs() <= 1e-7);
+///         // Outward normal: the radial direction (a cross product and `math::sqrt`,
+///         // ≤ 4 ε: 1e-6 on a unit vector is about 8 ε).
+///         assert!((s.normal(u, v) - radial / r).length() <= 1e-6);
+///     }
+/// }
+/// # Ok::<(), nurbs::NurbsError>(())
+/// ```
 pub fn cylinder(
     base_center: Vec3,
     axis: Vec3,
@@ -204,6 +278,30 @@ pub fn cylinder(
 
 /// The sphere of `radius` around `center`, poles on the z axis (`v = 0` south, `v = 1`
 /// north). Outward normals, finite at the poles.
+///
+/// ```
+/// use nurbs::{Vec3, construct};
+///
+/// let (center, r) = (Vec3::new(1.0, 2.0, -1.0), 0.5);
+/// let sphere = construct::sphere(center, r)?;
+/// let s = sphere.view();
+/// for i in 0..=8 {
+///     for j in 0..=8 {
+///         let (u, v) = (i as f32 / 8.0, j as f32 / 8.0);
+///         let p = s.point(u, v);
+///         // |S − c| = r everywhere; the centre's coordinates (ulp ≤ 2.4e-7 at 2) limit
+///         // this: 2e-6 relative to r is 1e-6, four ulp.
+///         assert!(((p - center).length() - r).abs() <= 2e-6 * r);
+///         // The outward normal is the radius direction, also at the poles v = 0, 1
+///         // (their finite limit): the 2e-6 above plus a normalisation, 5e-6.
+///         assert!((s.normal(u, v) - (p - center) / r).length() <= 5e-6, "n({u}, {v})");
+///     }
+/// }
+/// // v = 0 is the south pole, v = 1 the north pole, whatever u.
+/// assert!((s.point(0.3, 0.0) - (center - r * Vec3::Z)).length() <= 1e-6);
+/// assert!((s.normal(0.3, 1.0) - Vec3::Z).length() <= 5e-6);
+/// # Ok::<(), nurbs::NurbsError>(())
+/// ```
 pub fn sphere(center: Vec3, radius: f32) -> Result<SurfaceBuf, NurbsError> {
     let x = radial(Vec3::Z);
     let meridian = arc(

@@ -65,6 +65,30 @@ impl fmt::Display for At {
 }
 
 /// Why a curve or surface definition was rejected.
+///
+/// Each variant names the field (and the index) at fault, and its `Display` text uses the
+/// names of a `scene/1` file, so a loader can pass it on to whoever wrote the file.
+///
+/// ```
+/// use nurbs::{At, Curve, NurbsError, Vec2, Vec3};
+///
+/// let knots = [0.0, 0.0, 0.0, 1.0, 1.0, 1.0];
+/// // A zero weight on the middle point: the rational quotient would divide by zero there.
+/// let points = [Vec3::new(0.0, 0.0, 1.0), Vec3::new(0.0, 0.0, 0.0), Vec3::new(1.0, 0.0, 1.0)];
+/// let err = Curve::<Vec2>::new(2, &knots, &points).unwrap_err();
+/// assert_eq!(err, NurbsError::Weight { at: At::I(1), value: 0.0 });
+/// assert_eq!(err.to_string(), "weights[1]: weight 0 must be finite and > 0");
+///
+/// // A weight a million times smaller than the others is refused too (`MIN_WEIGHT_RATIO`).
+/// let points = [Vec3::new(0.0, 0.0, 1.0), Vec3::new(0.0, 0.0, 1e-7), Vec3::new(1.0, 0.0, 1.0)];
+/// assert!(matches!(
+///     Curve::<Vec2>::new(2, &knots, &points),
+///     Err(NurbsError::WeightTooSmall { at: At::I(1), largest: 1.0, .. })
+/// ));
+/// // Degree 8 is above `MAX_DEGREE`.
+/// let err = Curve::<Vec2>::new(8, &knots, &points).unwrap_err();
+/// assert_eq!(err.to_string(), "degree: degree 8 is not supported (must be 1..=7)");
+/// ```
 #[derive(Clone, Copy, Debug, PartialEq)]
 #[non_exhaustive]
 pub enum NurbsError {

@@ -51,6 +51,40 @@ pub struct Knots<'a> {
 
 impl<'a> Knots<'a> {
     /// Validates `knots` for a curve of `degree` with `n_points` control points.
+    ///
+    /// The count rule is Piegl & Tiller §3.2, `m = n + p + 1` (`m + 1` knots for `n + 1`
+    /// control points); clamping (ends of multiplicity `p + 1`) makes the curve start
+    /// and end at its first and last control points.
+    ///
+    /// ```
+    /// use nurbs::{Field, Knots, NurbsError};
+    ///
+    /// // Quadratic, 4 control points: 4 + 2 + 1 = 7 knots, domain [0, 2].
+    /// let k = Knots::new(&[0.0, 0.0, 0.0, 1.0, 2.0, 2.0, 2.0], 2, 4)?;
+    /// assert_eq!((k.degree(), k.n_points(), k.domain()), (2, 4, (0.0, 2.0)));
+    /// // Span search (P&T A2.1): knots[i] <= u < knots[i + 1]; the end of the domain
+    /// // belongs to the last non-empty span.
+    /// assert_eq!(k.find_span(0.5), 2);
+    /// assert_eq!(k.find_span(1.0), 3);
+    /// assert_eq!(k.find_span(2.0), 3);
+    ///
+    /// // One knot short: the error says how many were needed.
+    /// assert_eq!(
+    ///     Knots::new(&[0.0, 0.0, 0.0, 1.0, 2.0, 2.0], 2, 4),
+    ///     Err(NurbsError::KnotCount { field: Field::Knots, expected: 7, found: 6 })
+    /// );
+    /// // An interior knot of multiplicity 3 > p = 2 would tear the curve apart.
+    /// assert_eq!(
+    ///     Knots::new(&[0.0, 0.0, 0.0, 1.0, 1.0, 1.0, 2.0, 2.0, 2.0], 2, 6),
+    ///     Err(NurbsError::KnotMultiplicity { field: Field::Knots, index: 3, multiplicity: 3 })
+    /// );
+    /// // Not clamped: the curve would not pass through its end points.
+    /// assert_eq!(
+    ///     Knots::new(&[0.0, 0.0, 0.5, 1.0, 1.0, 1.0], 2, 3),
+    ///     Err(NurbsError::NotClamped { field: Field::Knots })
+    /// );
+    /// # Ok::<(), NurbsError>(())
+    /// ```
     pub fn new(knots: &'a [f32], degree: usize, n_points: usize) -> Result<Self, NurbsError> {
         Self::validate(knots, degree, n_points, Dir::Curve)
     }
@@ -226,8 +260,29 @@ impl<'a> Knots<'a> {
     }
 
     /// The pieces of the domain (or window) between consecutive C⁰ breaks
-    /// ([`Self::is_c0_break`]), in order, as windows: one piece, equal to `self`, when there is
+    /// (interior knots of multiplicity at least the degree), in order, as windows: one piece, equal to `self`, when there is
     /// no break. Each piece is smooth (at least C¹) inside.
+    ///
+    /// A B-spline of degree `p` is `C^(p−m)` at a knot of multiplicity `m` (Piegl & Tiller
+    /// §2.2, P2.5), so the breaks are the interior knots with `m >= p`.
+    ///
+    /// ```
+    /// use nurbs::Knots;
+    ///
+    /// // Quadratic: 1.0 has multiplicity 2 = p (a C⁰ break), 2.0 only 1 (C¹, no break).
+    /// let k = Knots::new(&[0.0, 0.0, 0.0, 1.0, 1.0, 2.0, 3.0, 3.0, 3.0], 2, 6)?;
+    /// let domains: Vec<_> = k.c0_pieces().map(|w| w.domain()).collect();
+    /// assert_eq!(domains, [(0.0, 1.0), (1.0, 3.0)]);
+    /// assert!(k.c0_pieces().all(|w| !w.is_whole()));
+    /// // The pieces join again into the whole domain.
+    /// let mut pieces = k.c0_pieces();
+    /// let (a, b) = (pieces.next().unwrap(), pieces.next().unwrap());
+    /// assert_eq!(a.extend_to(b), Some(k));
+    /// // A window's span search stays inside it: at the break, the first piece answers with
+    /// // its own last span (the limit from the left), the whole vector with the next one.
+    /// assert_eq!((a.find_span(1.0), k.find_span(1.0)), (2, 4));
+    /// # Ok::<(), nurbs::NurbsError>(())
+    /// ```
     pub fn c0_pieces(&self) -> impl Iterator<Item = Knots<'a>> + use<'a> {
         let this = *self;
         let mut start = self.first;

@@ -166,6 +166,32 @@ impl<P: Point> CurveBuf<P> {
 
     /// The same curve with the knot `u` inserted once (one more control point), for `u`
     /// strictly inside the domain and of multiplicity below the degree.
+    ///
+    /// ```
+    /// use nurbs::{RefineError, Vec2, construct};
+    ///
+    /// let (p0, p1, p2) = (Vec2::new(0.0, 0.0), Vec2::new(1.0, 2.0), Vec2::new(3.0, 1.0));
+    /// let c = construct::bezier_curve(&[p0, p1, p2])?;
+    /// let r = c.insert_knot(0.5)?;
+    /// // Boehm (P&T eq. 5.15) on [0,0,0,1,1,1] at u = 1/2: both α are 1/2, so the new
+    /// // polygon is P0, (P0 + P1)/2, (P1 + P2)/2, P2 (exact in f32: halves of small
+    /// // integers).
+    /// assert_eq!(r.knots(), [0.0, 0.0, 0.0, 0.5, 1.0, 1.0, 1.0]);
+    /// let want = [p0, (p0 + p1) / 2.0, (p1 + p2) / 2.0, p2].map(|p| p.extend(1.0));
+    /// assert_eq!(r.points(), want);
+    /// // The shape is unchanged: both evaluate alike, to a few f32 roundings (1e-6 absolute
+    /// // on coordinates ≤ 3 is about 4 ulp).
+    /// for i in 0..=10 {
+    ///     let u = i as f32 / 10.0;
+    ///     assert!((r.view().point(u) - c.view().point(u)).length() <= 1e-6);
+    /// }
+    /// // A knot of full multiplicity (the degree) refuses one more.
+    /// assert_eq!(
+    ///     r.insert_knot(0.5)?.insert_knot(0.5),
+    ///     Err(RefineError::MultiplicityFull { u: 0.5, multiplicity: 2 })
+    /// );
+    /// # Ok::<(), RefineError>(())
+    /// ```
     pub fn insert_knot(&self, u: f32) -> Result<Self, RefineError> {
         self.interior(u)?;
         let mut raw = self.raw();
@@ -181,6 +207,28 @@ impl<P: Point> CurveBuf<P> {
     /// piece on `[u, b]`, which keep their parameters: `u` is inserted until it has
     /// multiplicity `degree` (P&T §5.3: the curve then passes through the control point there,
     /// `C(u)`, which both pieces share as their end and start).
+    ///
+    /// ```
+    /// use nurbs::{Vec2, construct};
+    ///
+    /// let (p0, p1, p2) = (Vec2::new(0.0, 0.0), Vec2::new(1.0, 2.0), Vec2::new(3.0, 1.0));
+    /// let c = construct::bezier_curve(&[p0, p1, p2])?;
+    /// let (left, right) = c.split_at(0.5)?;
+    /// // De Casteljau at 1/2 (P&T §1.3): the left half's polygon is P0, (P0 + P1)/2, M and
+    /// // the right half's M, (P1 + P2)/2, P2, with M = C(1/2) = (P0 + 2 P1 + P2)/4.
+    /// // Exact in f32 (quarters of small integers).
+    /// let m = (p0 + 2.0 * p1 + p2) / 4.0;
+    /// let h = |q: [Vec2; 3]| q.map(|p| p.extend(1.0));
+    /// assert_eq!(left.points(), h([p0, (p0 + p1) / 2.0, m]));
+    /// assert_eq!(right.points(), h([m, (p1 + p2) / 2.0, p2]));
+    /// assert_eq!(left.knots(), [0.0, 0.0, 0.0, 0.5, 0.5, 0.5]);
+    /// assert_eq!(right.knots(), [0.5, 0.5, 0.5, 1.0, 1.0, 1.0]);
+    /// // Joined again, they are the curve with 1/2 inserted twice: the same shape.
+    /// let joined = left.join(&right, 0.0)?;
+    /// assert_eq!(joined.points().len(), 5);
+    /// assert!((joined.view().point(0.3) - c.view().point(0.3)).length() <= 1e-6);
+    /// # Ok::<(), nurbs::RefineError>(())
+    /// ```
     pub fn split_at(&self, u: f32) -> Result<(Self, Self), RefineError> {
         self.interior(u)?;
         let mut raw = self.raw();

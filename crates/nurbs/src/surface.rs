@@ -47,6 +47,33 @@ impl<'a> Surface<'a> {
     /// knots and every control point and weight, the geometry: a surface of no area or with a
     /// cell collapsed to a line, a curve or a point is refused ([`crate::MIN_EXTENT`]); a side
     /// collapsed to a point (a pole) is not. Costs four evaluations per cell.
+    ///
+    /// ```
+    /// use nurbs::{Field, NurbsError, Surface, Vec3};
+    ///
+    /// // A bilinear patch (degrees (1, 1), a hyperbolic paraboloid):
+    /// // S(u, v) = (1−u)(1−v) P00 + u(1−v) P10 + (1−u)v P01 + uv P11 (the tensor product
+    /// // of the linear bases), which for these corners is (2u, v, uv).
+    /// let (p00, p10) = (Vec3::new(0.0, 0.0, 0.0), Vec3::new(2.0, 0.0, 0.0));
+    /// let (p01, p11) = (Vec3::new(0.0, 1.0, 0.0), Vec3::new(2.0, 1.0, 1.0));
+    /// let knots = [0.0, 0.0, 1.0, 1.0];
+    /// // Row-major with i along u: [P00, P01, P10, P11], weights 1.
+    /// let net = [p00, p01, p10, p11].map(|p| p.extend(1.0));
+    /// let s = Surface::new((1, 1), (&knots, &knots), 2, &net)?;
+    /// assert_eq!(s.counts(), (2, 2));
+    /// for (u, v) in [(0.0, 0.0), (0.25, 0.75), (0.5, 0.5), (1.0, 0.3)] {
+    ///     let want = Vec3::new(2.0 * u, v, u * v);
+    ///     // Four products of values ≤ 2 summed in f32 (ε = 1.2e-7): 1e-6 absolute.
+    ///     assert!((s.point(u, v) - want).length() <= 1e-6, "S({u}, {v}) = {}", s.point(u, v));
+    /// }
+    ///
+    /// // The errors name the direction: here the u knot vector is one short.
+    /// assert_eq!(
+    ///     Surface::new((1, 1), (&knots[..3], &knots), 2, &net),
+    ///     Err(NurbsError::KnotCount { field: Field::KnotsU, expected: 4, found: 3 })
+    /// );
+    /// # Ok::<(), NurbsError>(())
+    /// ```
     pub fn new(
         degree: (usize, usize),
         knots: (&'a [f32], &'a [f32]),
@@ -161,6 +188,34 @@ impl<'a> Surface<'a> {
     /// the degree in either direction, where it generally has a crease), as windows onto it:
     /// `u` pieces outer, `v` pieces inner; the surface itself when it has none. No copy, no
     /// allocation.
+    ///
+    /// ```
+    /// use nurbs::{Surface, Vec3};
+    ///
+    /// // A sheet folded along u = 1/2 (knot of multiplicity 1 = p): flat on z = 0 for
+    /// // u ≤ 1/2, S = (2u, v, 0), then up the plane x = 1, S = (1, v, 2u − 1).
+    /// let rows = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [1.0, 0.0, 1.0]].map(Vec3::from);
+    /// // Row i along u holds [P_i0, P_i1] = [P_i, P_i + (0, 1, 0)], weights 1.
+    /// let net: Vec<_> = rows
+    ///     .iter()
+    ///     .flat_map(|&p| [p.extend(1.0), (p + Vec3::Y).extend(1.0)])
+    ///     .collect();
+    /// let (ku, kv) = ([0.0, 0.0, 0.5, 1.0, 1.0], [0.0, 0.0, 1.0, 1.0]);
+    /// let s = Surface::new((1, 1), (&ku, &kv), 2, &net)?;
+    /// let pieces: Vec<_> = s.c0_pieces().collect();
+    /// assert_eq!(pieces.len(), 2);
+    /// assert_eq!(pieces[1].domain(), ((0.5, 1.0), (0.0, 1.0)));
+    /// // S_u × S_v = (2, 0, 0) × (0, 1, 0) = (0, 0, 2) on the first piece and
+    /// // (0, 0, 2) × (0, 1, 0) = (−2, 0, 0) on the second; at the crease each piece gives
+    /// // its own side's normal. The derivatives are exact here; the normalisation's
+    /// // `math::sqrt` is within 4 ε = 4.8e-7 relative.
+    /// assert!((pieces[0].normal(0.5, 0.5) - Vec3::Z).length() <= 1e-6);
+    /// assert!((pieces[1].normal(0.5, 0.5) + Vec3::X).length() <= 1e-6);
+    /// // Each piece's box is the box of its own part of the net.
+    /// let b = pieces[1].bounding_box();
+    /// assert_eq!((b.min, b.max), (Vec3::new(1.0, 0.0, 0.0), Vec3::new(1.0, 1.0, 1.0)));
+    /// # Ok::<(), nurbs::NurbsError>(())
+    /// ```
     pub fn c0_pieces(&self) -> impl Iterator<Item = Self> + use<'a> {
         let (kv, points) = (self.kv, self.points);
         self.ku
@@ -176,6 +231,25 @@ impl<'a> Surface<'a> {
 
     /// `S` and its partial derivatives up to total order `order` (at most [`MAX_DERIV`])
     /// (Piegl & Tiller A3.6 on the homogeneous surface, then A4.4).
+    ///
+    /// ```
+    /// # use nurbs::{Surface, Vec3};
+    /// # let (p00, p10) = (Vec3::new(0.0, 0.0, 0.0), Vec3::new(2.0, 0.0, 0.0));
+    /// # let (p01, p11) = (Vec3::new(0.0, 1.0, 0.0), Vec3::new(2.0, 1.0, 1.0));
+    /// # let knots = [0.0, 0.0, 1.0, 1.0];
+    /// # let net = [p00, p01, p10, p11].map(|p| p.extend(1.0));
+    /// # let s = Surface::new((1, 1), (&knots, &knots), 2, &net)?;
+    /// // The bilinear patch of `Surface::new`: S(u, v) = (2u, v, uv).
+    /// // S_u = (2, 0, v), S_v = (0, 1, u), S_uv = (0, 0, 1), S_uu = S_vv = 0.
+    /// let (u, v) = (0.25, 0.75);
+    /// let d = s.derivs(u, v, 2);
+    /// // Sums of four products of values ≤ 2 (ε = 1.2e-7 each): 1e-6 absolute.
+    /// assert!((d.du - Vec3::new(2.0, 0.0, v)).length() <= 1e-6);
+    /// assert!((d.dv - Vec3::new(0.0, 1.0, u)).length() <= 1e-6);
+    /// assert!((d.duv - Vec3::Z).length() <= 1e-6);
+    /// assert!(d.duu.length() <= 1e-6 && d.dvv.length() <= 1e-6);
+    /// # Ok::<(), nurbs::NurbsError>(())
+    /// ```
     #[inline]
     pub fn derivs(&self, u: f32, v: f32, order: usize) -> SurfaceDerivs {
         // Monomorphised per order so the small loops unroll.
@@ -216,6 +290,24 @@ impl<'a> Surface<'a> {
     }
 
     /// Unit normal `S_u × S_v / |S_u × S_v|` at `(u, v)`; see [`Surface::normal_from`].
+    ///
+    /// ```
+    /// # use nurbs::{Surface, Vec3};
+    /// # let (p00, p10) = (Vec3::new(0.0, 0.0, 0.0), Vec3::new(2.0, 0.0, 0.0));
+    /// # let (p01, p11) = (Vec3::new(0.0, 1.0, 0.0), Vec3::new(2.0, 1.0, 1.0));
+    /// # let knots = [0.0, 0.0, 1.0, 1.0];
+    /// # let net = [p00, p01, p10, p11].map(|p| p.extend(1.0));
+    /// # let s = Surface::new((1, 1), (&knots, &knots), 2, &net)?;
+    /// // The bilinear patch of `Surface::new`: S(u, v) = (2u, v, uv).
+    /// // S_u × S_v = (2, 0, v) × (0, 1, u) = (−v, −2u, 2).
+    /// for (u, v) in [(0.0, 0.0), (0.25, 0.75), (1.0, 1.0)] {
+    ///     let want = Vec3::new(-v, -2.0 * u, 2.0).normalize();
+    ///     // A cross product and a normalisation (`math::sqrt`, ≤ 4 ε) of values ≤ 2:
+    ///     // 1e-6 on a unit vector is about 8 ε.
+    ///     assert!((s.normal(u, v) - want).length() <= 1e-6, "n({u}, {v}) = {}", s.normal(u, v));
+    /// }
+    /// # Ok::<(), nurbs::NurbsError>(())
+    /// ```
     #[inline]
     pub fn normal(&self, u: f32, v: f32) -> Vec3 {
         let d = self.derivs(u, v, 1);

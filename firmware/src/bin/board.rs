@@ -471,6 +471,8 @@ mod app {
             Err(e) => panic!("controller: {e}"),
         };
         let full_scale_a = app.controller().spec().current_limit_a;
+        // An identification run beyond the app's motors is nacked before it is acked.
+        protocol.session.set_motor_limits(app.controller().spec());
 
         assert!(rcc.clocks.is_pll48clk_valid(), "USB needs a 48 MHz clock");
         let port = usb_start(

@@ -152,6 +152,8 @@ fn main() -> ! {
     let mut scenes = unsafe { TickScenes::new() };
     // No scene before the first upload: the app runs without force.
     let mut app = parked.unloaded();
+    // An identification run beyond the app's motors is nacked before it is acked.
+    session.set_motor_limits(app.controller().spec());
     let mut hand = VirtualHand::at(START_M);
     let mut packet = Packet {
         bytes: [0; cobs::max_encoding_length(MAX_FRAME) + 1],

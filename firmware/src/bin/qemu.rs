@@ -730,10 +730,11 @@ const POINTS_STREAM_S: f64 = 1.0;
 const POINTS_AMPLITUDE_M: f32 = 1e-3;
 const POINTS_FREQUENCY_HZ: f32 = 2.0;
 
-/// A host frame: `message` numbered `seq`, encoded into `buf`; its bytes.
+/// A host frame: `message` numbered `seq`, encoded into `buf`; its bytes. Numbered as a
+/// host numbers (`next_seq`: skipping 0xFFFF), which the board's receiver expects.
 fn host_frame(buf: &mut [u8; FRAME_BYTES], seq: &mut u16, message: Message) -> usize {
     let n = Frame { seq: *seq, message }.encode(buf);
-    *seq = seq.wrapping_add(1);
+    *seq = device::protocol::next_seq(*seq);
     n
 }
 

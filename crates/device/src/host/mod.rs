@@ -97,17 +97,38 @@ fn software_version() -> [u8; 3] {
 }
 
 /// Numbers the frames one sender sends (wrapping u16) and encodes them.
+///
+/// The two ends number by different rules, and each end's gap check knows the other's: a
+/// host ([`Sequencer::default`]) skips [`UNKNOWN_SEQ`](crate::protocol::UNKNOWN_SEQ)
+/// ([`next_seq`](crate::protocol::next_seq): a nack's expected number must never read as
+/// "unknown"), which the device's receiver expects; a device ([`Sequencer::device`], as the
+/// board's `App::send` and `usb::Outbox`) numbers every value, which the host's
+/// [`GapCounter`] expects.
 #[derive(Clone, Copy, Debug, Default)]
 pub struct Sequencer {
     next: u16,
+    /// Number every value (a device's frames) instead of skipping 0xFFFF (a host's).
+    every_value: bool,
 }
 
 impl Sequencer {
+    /// The sequencer of a device's frames (the simulated device's): every value, wrapping.
+    pub fn device() -> Self {
+        Sequencer {
+            next: 0,
+            every_value: true,
+        }
+    }
+
     /// Encodes `message` as the next frame into a zero-padded 64-byte report; returns the
     /// report, the frame's length and its sequence number.
     pub fn encode(&mut self, message: &Message) -> ([u8; MAX_FRAME], usize, u16) {
         let seq = self.next;
-        self.next = crate::protocol::next_seq(self.next);
+        self.next = if self.every_value {
+            self.next.wrapping_add(1)
+        } else {
+            crate::protocol::next_seq(self.next)
+        };
         let (report, n) = Frame {
             seq,
             message: *message,
@@ -233,7 +254,10 @@ pub trait Link: core::fmt::Debug {
     }
 }
 
-/// Counts the frames lost between sequence numbers (wrapping), and the device's restarts.
+/// Counts the frames lost between a device's sequence numbers (wrapping), and the device's
+/// restarts. A device numbers every value ([`Sequencer::device`]), so 0xFFFF → 0 is the next
+/// frame and 0xFFFE → 0 one lost (a host's frames, which skip 0xFFFF, are the device's
+/// receiver's to check, not this counter's).
 ///
 /// A number behind the last one (a wrapping step of half the range or more) is the device
 /// starting its numbering again (a reset, a reflash, a new session on a shared link), not

@@ -115,15 +115,18 @@ impl SimLink {
         let thread = std::thread::Builder::new()
             .name("sim-device".into())
             .spawn(move || {
+                let mut session = Box::new(Session::new(true));
+                session.set_motor_limits(&config.spec);
                 let mut device = SimDevice {
                     config,
                     commands,
                     frames,
                     arm,
                     hand: VirtualHand::at(config.start_hip),
-                    session: Box::new(Session::new(true)),
+                    session,
                     scratch: Box::new(SceneStore::new()),
-                    seq: Sequencer::default(),
+                    // A device's numbering, which the host's gap counter expects.
+                    seq: Sequencer::device(),
                     tick: 0,
                     started: Instant::now(),
                     decimator: TelemetryDecimator::for_period_s(config.safety.period_s),

@@ -78,11 +78,22 @@ pub enum ErrorCode {
     /// A frame of a control-point update after an earlier frame of the same update was
     /// refused: the whole update is dropped, up to and including its apply frame.
     UpdateAborted = 28,
+    /// A frame of a control-point update after a scene upload began between its frames: the
+    /// update was dropped whole (its points were for the scene before the upload), and its
+    /// frames are refused up to and including its apply frame.
+    UpdateInterrupted = 29,
+    /// An identification run ([`Message::Excite`](super::Message)) on a device not calibrated
+    /// (its joint angles, and so the run's forces, are unknown).
+    NotCalibrated = 30,
+    /// An identification run whose torque on a joint is beyond what its motor gives at its
+    /// current limit (the device description's `current_limit_a` × `torque_constant_nm_per_a`
+    /// × `transmission_ratio`).
+    TorqueBeyondMotor = 31,
 }
 
 impl ErrorCode {
     /// Every code, in wire order.
-    pub const ALL: [ErrorCode; 28] = [
+    pub const ALL: [ErrorCode; 31] = [
         ErrorCode::BadLength,
         ErrorCode::BadCrc,
         ErrorCode::BadVersion,
@@ -111,6 +122,9 @@ impl ErrorCode {
         ErrorCode::TopologyChanged,
         ErrorCode::StagingBusy,
         ErrorCode::UpdateAborted,
+        ErrorCode::UpdateInterrupted,
+        ErrorCode::NotCalibrated,
+        ErrorCode::TorqueBeyondMotor,
     ];
 
     /// The code with wire value `value`, if any.
@@ -153,6 +167,13 @@ impl ErrorCode {
                 "staging is busy: an upload, or an update of another object, is in progress"
             }
             ErrorCode::UpdateAborted => "an earlier frame of this update was refused",
+            ErrorCode::UpdateInterrupted => {
+                "a scene upload began between this update's frames: the update was dropped"
+            }
+            ErrorCode::NotCalibrated => "not calibrated: calibrate the device first",
+            ErrorCode::TorqueBeyondMotor => {
+                "excitation torque beyond the motor's torque at its current limit"
+            }
         }
     }
 }

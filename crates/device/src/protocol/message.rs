@@ -322,7 +322,8 @@ pub struct Status {
     pub upload_received: u32,
     /// Sequence number the device expects next from the host.
     pub expected_seq: u16,
-    /// Wire value of the last error code, 0 if none.
+    /// Wire value of the latest refusal's code, 0 if none: cleared once a status carried it,
+    /// or when a later request was accepted (`device::session::Session::handle`).
     pub last_error: u8,
 }
 
@@ -496,8 +497,9 @@ pub enum Message {
     },
     /// → dev: an identification run ([`Excitation`](crate::controller::Excitation)): the
     /// motors apply square waves of joint torque for a while instead of rendering; the
-    /// telemetry shows the motion and the force. Refused (status `last_error`) when the device
-    /// is not calibrated or the torque is beyond its motors.
+    /// telemetry shows the motion and the force. Nacked, not acked, when the device is not
+    /// calibrated ([`ErrorCode::NotCalibrated`]) or a torque is beyond its motors
+    /// ([`ErrorCode::TorqueBeyondMotor`]).
     Excite {
         /// Square-wave amplitude per joint (N·m, finite, checked on decode).
         torque_nm: [f32; 2],

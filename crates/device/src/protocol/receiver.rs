@@ -66,6 +66,11 @@ enum Points {
     /// A frame of the update was refused: its other frames are too, up to and including its
     /// apply frame.
     Aborted,
+    /// A scene upload began between the update's frames: the staged points were for the
+    /// scene before it, so the update is dropped and its other frames are refused, up to and
+    /// including its apply frame (applied to the uploaded scene, they would be a part of an
+    /// update).
+    Interrupted,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -108,8 +113,12 @@ struct Upload {
 ///   result that fails validation (its [`SceneError`]'s code) or changes the topology
 ///   ([`ErrorCode::TopologyChanged`]). A refused frame drops its whole update: the update's
 ///   later frames are refused too ([`ErrorCode::UpdateAborted`]), up to and including its
-///   apply frame. A `SceneBegin` or a `Hello` drops an update not yet applied. An update
-///   whose apply frame never arrived (lost on the way: the next frame is a sequence gap)
+///   apply frame. A `SceneBegin` between an update's frames drops the update whole: its
+///   later frames are refused ([`ErrorCode::UpdateInterrupted`]) up to and including its
+///   apply frame, so no part of it lands on the uploaded scene (the wire names no update, so
+///   a host that abandons an update half-sent and uploads has its next update refused so
+///   too, or says `Hello` first). A `Hello` (a new session) drops an update not yet applied,
+///   interrupted or not. An update whose apply frame never arrived (lost on the way: the next frame is a sequence gap)
 ///   stays staged, and the object's next update is applied over it: an update that sends
 ///   every point of the patches it moves (a deformable model's whole shape) is whole
 ///   whatever came before.
@@ -217,7 +226,12 @@ impl<const N: usize> SceneReceiver<N> {
                 self.points = Points::Idle;
             }
             Message::SceneBegin { total_len, crc32 } => {
-                self.points = Points::Idle;
+                // The wire names no update: the frames after this one may be the rest of the
+                // staged update, which must not land part-way on another scene. (An update
+                // already aborted stays so, for the same reason.)
+                if matches!(self.points, Points::Staged { .. }) {
+                    self.points = Points::Interrupted;
+                }
                 self.begin(total_len, crc32, seq)?;
             }
             Message::SceneChunk(ref chunk) => self.chunk(chunk, seq)?,
@@ -280,7 +294,7 @@ impl<const N: usize> SceneReceiver<N> {
         if points.apply {
             // Applied or refused, the update ends with its apply frame.
             self.points = Points::Idle;
-        } else if result.is_err() {
+        } else if result.is_err() && self.points != Points::Interrupted {
             self.points = Points::Aborted;
         }
         result
@@ -295,8 +309,10 @@ impl<const N: usize> SceneReceiver<N> {
         let refuse = |this: &Self, code, patch: bool| {
             Err(this.nack_at(seq, code, p.object, patch.then_some(p.patch)))
         };
-        if self.points == Points::Aborted {
-            return refuse(self, ErrorCode::UpdateAborted, false);
+        match self.points {
+            Points::Aborted => return refuse(self, ErrorCode::UpdateAborted, false),
+            Points::Interrupted => return refuse(self, ErrorCode::UpdateInterrupted, false),
+            Points::Idle | Points::Staged { .. } => {}
         }
         if self.active_len == 0 {
             return refuse(self, ErrorCode::NoActiveScene, false);
