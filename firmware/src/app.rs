@@ -178,12 +178,12 @@ impl<const K: usize, const C: usize> App<K, C> {
         store: &SceneStore<K, C, S>,
         object: usize,
     ) -> Result<(), AppError> {
-        let (curves, n) = store.curves(object).map_err(|e| app_error(e, object))?;
-        let given = curves
-            .get(..n)
-            .ok_or(AppError::Chain(ChainError::TooManyCurves { count: n }))?;
-        self.controller
-            .reshape_object(|chain| chain.reshape(given))
+        let controller = &mut self.controller;
+        store
+            .with_curves(object, |curves| {
+                controller.reshape_object(|chain| chain.reshape(curves))
+            })
+            .map_err(|e| app_error(e, object))?
             .map_err(AppError::Controller)
     }
 

@@ -591,17 +591,22 @@ impl<const KNOTS: usize, const POINTS: usize> Chain<KNOTS, POINTS> {
                 k += 1;
             });
         }
-        let this = &*self;
-        let jets = &this.end_jets;
+        // The pieces' unit tangents at their ends, then the vertices from them (no copy of
+        // the vertices: a device does this between two ticks).
+        let mut tangents = [[Vec2::X; 2]; MAX_CHAIN_CURVES];
+        for (i, t) in tangents.iter_mut().enumerate().take(n) {
+            let (c, jets) = (self.curve(i), &self.end_jets[i]);
+            *t = [
+                tangent_of(&c, &jets[0], false),
+                tangent_of(&c, &jets[1], true),
+            ];
+        }
+        let jets = &self.end_jets;
         let point = |i: usize, at_end: bool| jets[i][usize::from(at_end)].point;
-        let tangent = |i: usize, at_end: bool| {
-            tangent_of(&this.curve(i), &jets[i][usize::from(at_end)], at_end)
-        };
-        let mut vertices = self.vertices;
-        for (k, v) in vertices.iter_mut().enumerate().take(self.n_vertices) {
+        let tangent = |i: usize, at_end: bool| tangents[i][usize::from(at_end)];
+        for (k, v) in self.vertices.iter_mut().enumerate().take(self.n_vertices) {
             *v = vertex(k, n, closed, tangent, point);
         }
-        self.vertices = vertices;
         true
     }
 

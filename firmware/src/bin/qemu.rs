@@ -38,7 +38,7 @@ use friction::FrictionRenderer;
 use friction::Mode;
 use nurbs::Vec2;
 #[cfg(feature = "stages")]
-use tracker::{CHAIN_KNOTS, CHAIN_POINTS, Chain, ChainTracker, Object};
+use tracker::{Chain, ChainTracker, Object};
 
 /// The scene as the device's wire format (`device::protocol::scene`), written by
 /// `cargo xtask qemu` from the scene JSON with the host crates; validated here as an upload.
@@ -273,10 +273,10 @@ struct Shadow {
     spec: DeviceSpec,
     arm: Pantograph,
     calibration: Calibration,
-    object: Chain,
+    object: Chain<128, 96>,
     material: FrictionMaterial,
     period_s: f32,
-    renderer: Option<FrictionRenderer<Chain>>,
+    renderer: Option<FrictionRenderer<Chain<128, 96>>>,
     /// A third CP tracker, started where the renderer's is and fed the same HIPs: the tracker's
     /// share of the renderer's tick.
     cp: Option<ChainTracker>,
@@ -377,12 +377,7 @@ impl Shadow {
 
 /// The shadow of the tick's stages on the app's object.
 #[cfg(feature = "stages")]
-fn shadow(
-    app: &App<CHAIN_KNOTS, CHAIN_POINTS>,
-    store: &SceneStore,
-    scenario: &Scenario<'_>,
-    period_s: f32,
-) -> Shadow {
+fn shadow(app: &BoardApp, store: &BoardStore, scenario: &Scenario<'_>, period_s: f32) -> Shadow {
     let Some(object) = app.controller().object().copied() else {
         fail(format_args!("scene {}: no object loaded", scenario.name));
     };
@@ -531,8 +526,9 @@ fn main() -> ! {
         Ok(s) => s,
         Err(e) => fail(format_args!("{e}")),
     };
-    // The scene store lives in main's frame, which never returns (no `.data` image of it).
-    let mut store = SceneStore::new();
+    // The scene store lives in main's frame, which never returns (no `.data` image of it), at
+    // the board's capacities, so the app holds the board's chain.
+    let mut store = BoardStore::empty();
     let (result, decode) = meter.instructions(|| store.decode(SCENE));
     if let Err(e) = result {
         fail(format_args!("scene {}: {e}", scenario.name));

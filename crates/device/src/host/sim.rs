@@ -28,7 +28,7 @@ use tracker::Chain;
 
 use super::serial::{Packets, Stream, read_packets, write_packet};
 use super::{Link, LinkError, Sequencer, cobs, software_version};
-use crate::controller::{Controller, ControllerError};
+use crate::controller::Controller;
 use crate::protocol::{ErrorCode, Frame, MAX_FRAME, Message, SceneStore};
 use crate::safety::SafetyConfig;
 use crate::session::{DeviceState, Event, Session};
@@ -320,11 +320,10 @@ impl SimDevice {
     /// Moves the rendered object onto the updated scene's object 0, the renderer carried on
     /// ([`Controller::reshape_object`] with [`Chain::reshape`]).
     fn reshape(&mut self, controller: &mut Controller<Chain>) {
-        let moved = match self.scratch.curves(0) {
-            Ok((curves, n)) => controller.reshape_object(|chain| chain.reshape(&curves[..n])),
-            Err(_) => Err(ControllerError::Topology),
-        };
-        if moved.is_err() {
+        let moved = self.scratch.with_curves(0, |curves| {
+            controller.reshape_object(|chain| chain.reshape(curves))
+        });
+        if !matches!(moved, Ok(Ok(()))) {
             // No scene loaded (its material was refused), or another topology.
             self.session.note_error(ErrorCode::TopologyChanged);
         }

@@ -379,18 +379,18 @@ impl<const K: usize, const C: usize, const S: usize> SceneStore<K, C, S> {
     /// from a store to what a controller renders. Refused with the fault that says why: no
     /// such object, an object of surfaces, curves that do not make a chain.
     pub fn chain(&self, object: usize) -> Result<Chain<K, C>, SceneError> {
-        let (curves, n) = self.curves(object)?;
-        Chain::from_curves(&curves[..n])
+        self.with_curves(object, Chain::from_curves)?
             .map_err(|e| SceneError::at(object, None, SceneFault::Chain(e)))
     }
 
-    /// Object `object`'s curves as views of the store and how many (a chain's worth of
-    /// views, no chain built): what [`Chain::reshape`] takes to move a chain onto this
-    /// store's shape of the object.
-    pub fn curves(
+    /// `f` of object `object`'s curves as views of the store (a chain's worth of views, no
+    /// chain built, built in place: no array of views copied out): what [`Chain::reshape`]
+    /// takes to move a chain onto this store's shape of the object.
+    pub fn with_curves<R>(
         &self,
         object: usize,
-    ) -> Result<([Curve<'_, Vec2>; MAX_CHAIN_CURVES], usize), SceneError> {
+        f: impl FnOnce(&[Curve<'_, Vec2>]) -> R,
+    ) -> Result<R, SceneError> {
         let at = |fault| SceneError::at(object, None, fault);
         let rec = self.object(object).ok_or(at(SceneFault::Format))?;
         if rec.kind() != Some(PatchKind::Curve2) {
@@ -410,7 +410,15 @@ impl<const K: usize, const C: usize, const S: usize> SceneStore<K, C, S> {
         for (p, c) in curves.iter_mut().enumerate().take(count).skip(1) {
             *c = patch(p)?;
         }
-        Ok((curves, count))
+        Ok(f(&curves[..count]))
+    }
+
+    /// Whether `object` makes a chain ([`SceneStore::chain`]). Not inlined: the chain it
+    /// builds is in its own frame, which exists only while it runs (a caller's frame, such as
+    /// a decode of surfaces, does not hold a chain it never builds).
+    #[inline(never)]
+    fn check_chain(&self, object: usize) -> Result<(), SceneError> {
+        self.chain(object).map(drop)
     }
 
     /// `f` of `object` as a chain (it was validated, so it is one). Not inlined: the chain
@@ -607,9 +615,7 @@ impl<const K: usize, const C: usize, const S: usize> SceneStore<K, C, S> {
             };
             match rec.kind() {
                 None => return Err(SceneError::at(o, None, SceneFault::Format)),
-                Some(PatchKind::Curve2) => {
-                    self.chain(o)?;
-                }
+                Some(PatchKind::Curve2) => self.check_chain(o)?,
                 // A store without room for surface points never holds a surface object (its
                 // patches were refused while parsing); said here too, so that such a store
                 // does not link the shell's validation at all.
