@@ -6,9 +6,10 @@
 #![allow(clippy::unwrap_used)]
 
 use device::controller::{Controller, ControllerError};
-use device::safety::{Bound, PassivityError, SafetyConfig, WallLimits};
+use device::safety::SafetyConfig;
 use device::simulator::{SimParams, SimulatedPantograph};
 use device::spec::DeviceSpec;
+use device::wall::{Bound, PassivityError, WallLimits};
 use friction::{FrictionMaterial, Mode};
 use host::trajectory::Trajectory;
 use nurbs::Vec2;

@@ -17,3 +17,4 @@ pub mod spec;
 pub mod telemetry;
 #[cfg(feature = "usb")]
 pub mod usb;
+pub mod wall;

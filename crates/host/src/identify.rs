@@ -1,5 +1,5 @@
 //! Identification of the mechanism's own damping and Coulomb friction at the joints: what
-//! the wall acceptance counts on (`device::safety::PassivityConfig`), measured instead of
+//! the wall acceptance counts on (`device::wall::PassivityConfig`), measured instead of
 //! assumed.
 //!
 //! # The experiment

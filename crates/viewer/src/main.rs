@@ -349,7 +349,8 @@ fn print_identified(
     spec: &device::spec::DeviceSpec,
     truth: Option<&device::spec::DeviceSpec>,
 ) -> ExitCode {
-    use device::safety::{PassivityConfig, SafetyConfig, WallLimits};
+    use device::safety::SafetyConfig;
+    use device::wall::{PassivityConfig, WallLimits};
     for i in 0..2 {
         let known = |value: f32| match truth {
             Some(_) => format!(" (simulator {value:.3e})"),
