@@ -1,5 +1,5 @@
 //! The board-independent app: builds the controller on a validated scene exactly as the
-//! host's `viewer sim --device` does (`host::sim::run_device`), and runs one tick against a
+//! host's `viewer sim --device` does (`host::closed_loop::run_device`), and runs one tick against a
 //! [`Board`]. The board binary and the QEMU binary share it, so the emulated run exercises the
 //! code the board runs. The board's acquisition job ([`AcquisitionJob`], [`run_job`]), which
 //! runs the same search as [`App::acquire`] in another task, is here too.

@@ -29,9 +29,9 @@ use nurbs::{Vec2, Vec3};
 use tracker::TriMesh;
 
 use crate::deform::{DeformChangeError, DeformStatus};
-use crate::planar::{MaterialChangeError, Session};
+use crate::error::{MaterialChangeError, MeshError};
+use crate::planar::Session;
 use crate::runlog::RecordTx;
-use crate::spatial::MeshError;
 use crate::tick::Tick;
 
 /// The loop's tick rate (Hz).
@@ -68,7 +68,7 @@ pub enum Command<S = Session> {
     Calibrate,
     /// Who holds the simulated pantograph's handle (a released hand lets go at once). The
     /// simulated device in the app only.
-    Hand(crate::sim::Hand),
+    Hand(crate::hand::Hand),
     /// Move control points of the device's scene in place (a deformable model's new shape,
     /// [`PointsUpdate`]): the device's renderer carries on, on the new shape, with no new
     /// acquisition or ramp. A device behind a link only ([`crate::remote`]): sent at once,

@@ -17,10 +17,10 @@ use tracker::{Chain, ChainTracker, Object as TrackedObject, Shell, ShellTracker}
 
 use device::controller::{Controller, ControllerError};
 
-use crate::sim::{
-    DeviceHand, DeviceRun, HipSamples, Proceed, Run, SimError, Trajectory, drive_device,
-    ready_controller, validate, validate_device,
-};
+use crate::closed_loop::{DeviceRun, drive_device, ready_controller, validate_device};
+use crate::error::SimError;
+use crate::hand::DeviceHand;
+use crate::sim::{HipSamples, Proceed, Run, Trajectory, validate};
 use crate::tick::{Tick, device_tick, point, render_tick};
 
 /// The slowest rate the object steps at in a loop (Hz): a loop at up to twice this steps the
@@ -752,7 +752,7 @@ pub(crate) fn carry_from(
     })
 }
 
-/// [`crate::sim::run_device`] with object `index` deformable: the closed loop through the
+/// [`crate::closed_loop::run_device`] with object `index` deformable: the closed loop through the
 /// simulated pantograph and the device's controller at `rate_hz`, the object fed every tick
 /// (the controller's rendering of it, the handle's true HIP) and stepped every
 /// `⌊rate / DYNAMICS_RATE_HZ⌋` ticks, the controller moved onto each new shape between two

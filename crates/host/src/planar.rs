@@ -13,7 +13,7 @@
 
 use std::sync::Arc;
 
-use device::controller::{Controller, ControllerError};
+use device::controller::Controller;
 use device::protocol::SceneStore;
 use device::safety::Faults;
 use device::simulator::{SimParams, SimulatedPantograph, VirtualHand};
@@ -32,10 +32,10 @@ use crate::deform::{
 pub const DEVICE_RATE_HZ: f64 = 10_000.0;
 /// Device ticks per step of the loop (per 1 ms wake).
 pub const TICKS_PER_STEP: u32 = (DEVICE_RATE_HZ / RATE_HZ) as u32;
-use crate::sim::SimError;
+use crate::error::{MaterialChangeError, SimError};
 use crate::tick::{self, Tick};
 use crate::upload::{self, UploadError};
-use scene::{Material, MaterialError, Scene, Space};
+use scene::{Material, Scene, Space};
 
 /// Where the handle (and the hand's target) starts: in the middle of the default device's
 /// workspace, above the bundled planar scenes.
@@ -230,24 +230,6 @@ impl std::fmt::Debug for Deforming {
             .field("since_publish", &self.since_publish)
             .finish_non_exhaustive()
     }
-}
-
-/// Why a material was not applied. The running material is unchanged.
-#[derive(Clone, Debug, PartialEq, thiserror::Error)]
-pub enum MaterialChangeError {
-    /// A value is out of its range (the message names the field).
-    #[error("{0}")]
-    Invalid(#[from] MaterialError),
-    /// The device's controller refused it (a stiffness beyond the device; the message names
-    /// the limit).
-    #[error("device controller: {0}")]
-    Controller(ControllerError),
-    /// The scene has no object the device renders.
-    #[error("the scene has no object of planar curves for the device to render")]
-    NoObject,
-    /// The device behind the link refused it (its reason).
-    #[error("the device refused the material: {0}")]
-    Device(String),
 }
 
 /// The loop's state: the session, the simulated arm and the hand, and the object's dynamics
@@ -542,9 +524,9 @@ impl HapticLoop {
 
     /// Who holds the handle from the next tick: a grip or a fingertip takes it (at its
     /// current target), a released hand lets go.
-    pub fn set_hand(&mut self, hand: crate::sim::Hand) {
+    pub fn set_hand(&mut self, hand: crate::hand::Hand) {
         match hand {
-            crate::sim::Hand::Released => self.arm.release(),
+            crate::hand::Hand::Released => self.arm.release(),
             held => {
                 let p = held.params();
                 self.arm

@@ -47,7 +47,7 @@ use tracker::Feature;
 use crate::backend::{Command, LinkEvent, LoopEnds, LoopThread, PointsUpdate, Reply, Sample};
 use crate::deform::{DeformChangeError, DeformStatus, Deformer, SharedShape};
 use crate::devices::{HEARTBEAT_PERIOD, Opened};
-use crate::planar::MaterialChangeError;
+use crate::error::MaterialChangeError;
 use crate::tick::{DeviceSample, Tick};
 use scene::Scene;
 

@@ -264,7 +264,7 @@ pub fn parse(text: &str, path: &Path) -> Result<RunLog, RunLogError> {
 // ---------------------------------------------------------------------------------------------
 // Writing.
 
-/// The columns a device run ([`run_device`](crate::sim::run_device)) appends to [`csv_header`]: the measured joint
+/// The columns a device run ([`run_device`](crate::closed_loop::run_device)) appends to [`csv_header`]: the measured joint
 /// angles (rad), the joint torques (N·m) and the latched fault bits as a decimal number.
 pub const DEVICE_COLUMNS: &str = "theta1_rad,theta2_rad,tau1_nm,tau2_nm,faults";
 
@@ -447,7 +447,7 @@ impl Run {
             .find_map(|(i, k)| k.non_finite_column().map(|c| (i, c)))
     }
 
-    /// Whether this is a closed-loop run of the device ([`run_device`](crate::sim::run_device)): its ticks carry a
+    /// Whether this is a closed-loop run of the device ([`run_device`](crate::closed_loop::run_device)): its ticks carry a
     /// [`DeviceSample`].
     pub fn is_device_run(&self) -> bool {
         self.ticks.first().is_some_and(|k| k.device.is_some())
@@ -674,6 +674,7 @@ fn record(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::closed_loop::run_device;
     use crate::planar::{HapticLoop, START_HIP, Session};
     use crate::sim::{self, Trajectory};
     use crate::test_scenes::thesis_2d;
@@ -686,7 +687,7 @@ mod tests {
             .unwrap_or_else(|e| panic!("{e}"));
         let trajectory = Trajectory::parse("t,x,y\n0,0.0,0.1\n0.3,0.0,0.09\n", Path::new("t.csv"))
             .unwrap_or_else(|e| panic!("{e}"));
-        let run = sim::run_device(
+        let run = run_device(
             &scene,
             0,
             &trajectory,

@@ -23,16 +23,11 @@ use tracker::{Contact, Feature, Penalty, Shell, TriMesh};
 
 use crate::backend::{Command, RATE_HZ, Reply, Sample, Steppable};
 use crate::deform::{DeformChangeError, DeformStatus, Deformer, SharedShape};
-use crate::planar::{MAX_HAND_SPEED_M_PER_S, MaterialChangeError};
-use crate::sim::SimError;
+pub use crate::error::MAX_HAPTIC_TRIANGLES;
+use crate::error::{MaterialChangeError, MeshError, SimError};
+use crate::planar::MAX_HAND_SPEED_M_PER_S;
 use crate::tick::{self, Tick};
 use scene::{Material, Object, Scene, Space};
-
-/// Most triangles a mesh the loop renders may have: the baseline scans every triangle each
-/// tick, measured at 30 to 42 ns a triangle in the test profile on the project's 2-core
-/// machine under load (`measure_tick_costs` below), so 10 000 take about 0.4 ms of the 1 ms
-/// tick.
-pub const MAX_HAPTIC_TRIANGLES: usize = 10_000;
 
 /// Height of the hand's start above the top of the object (m).
 pub const START_CLEARANCE_M: f32 = 0.01;
@@ -268,23 +263,6 @@ pub struct SpatialLoop {
     last_error: Option<String>,
     /// The (mode, cause) the last tick reported ([`SwitchCause::or_carried`]).
     reported: (Mode, SwitchCause),
-}
-
-/// Why a mesh was not taken for rendering.
-#[derive(Clone, Debug, PartialEq, thiserror::Error)]
-pub enum MeshError {
-    /// More triangles than the loop scans in a tick.
-    #[error(
-        "{triangles} triangles: the polygonal baseline scans every triangle each tick, at most \
-         {MAX_HAPTIC_TRIANGLES}; use a coarser chordal tolerance or a smaller mesh"
-    )]
-    TooManyTriangles {
-        /// Triangles in the mesh.
-        triangles: usize,
-    },
-    /// No triangle of nonzero area.
-    #[error("the mesh has no triangle of nonzero area")]
-    Empty,
 }
 
 /// Checks that the loop can render `mesh` in a tick.

@@ -1,4 +1,4 @@
-//! `sim::run_device`: the thesis-2d scenario closed through the simulated pantograph and the
+//! `closed_loop::run_device`: the thesis-2d scenario closed through the simulated pantograph and the
 //! device's `Controller` (kinematics → tracker → friction → safety → Jᵀ F → currents), held
 //! by the relaxed hand of `viewer sim --device` and by a firm one. The command's run log and
 //! messages are `crates/viewer/tests/sim_cli.rs`; the stiffness sweep and the released handle
@@ -9,7 +9,9 @@ use std::path::PathBuf;
 use device::kinematics::Pantograph;
 use device::spec::DeviceSpec;
 use friction::Mode;
-use host::sim::{self, SimParams};
+use host::closed_loop;
+use host::error::SimError;
+use host::sim::SimParams;
 use host::trajectory::Trajectory;
 use nurbs::Vec2;
 use scene::Scene;
@@ -74,7 +76,7 @@ fn thesis_2d_closed_loop() {
     ];
     for hand in hands {
         let label = format!("hand {} N/m", hand.hand_stiffness_n_per_m);
-        let result = sim::run_device(&scene, 0, &trajectory, 1000.0, hand, |_, _| {})
+        let result = closed_loop::run_device(&scene, 0, &trajectory, 1000.0, hand, |_, _| {})
             .expect("closed loop runs");
         // K = 1000 N/m, b = 0 at 1 kHz needs b > K T / 2 = 0.5 N·s/m: at the bound of the
         // default device's damping, so the scene is refused without the passivity controller
@@ -170,7 +172,7 @@ fn thesis_2d_closed_loop() {
 fn surfaces_are_refused() {
     let scene = Scene::load(scenes("thesis-3d.json")).expect("scene");
     let trajectory = Trajectory::load(scenes("thesis-3d.csv")).expect("trajectory");
-    let e = sim::run_device(
+    let e = closed_loop::run_device(
         &scene,
         0,
         &trajectory,
@@ -179,7 +181,7 @@ fn surfaces_are_refused() {
         |_, _| {},
     )
     .expect_err("a surface");
-    assert!(matches!(e, sim::SimError::Surface { index: 0, .. }), "{e}");
+    assert!(matches!(e, SimError::Surface { index: 0, .. }), "{e}");
     assert!(e.to_string().contains("2-DoF"), "{e}");
 }
 
@@ -192,7 +194,7 @@ fn surfaces_are_refused() {
 fn thesis_2d_at_10_khz_sends_one_folded_frame_per_millisecond() {
     let scene = Scene::load(scenes("thesis-2d.json")).expect("scene");
     let trajectory = Trajectory::load(scenes("thesis-2d.csv")).expect("trajectory");
-    let result = sim::run_device(
+    let result = closed_loop::run_device(
         &scene,
         0,
         &trajectory,

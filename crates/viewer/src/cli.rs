@@ -365,7 +365,7 @@ fn rate(text: &str) -> Result<f64, String> {
     let hz: f64 = text
         .parse()
         .map_err(|_| format!("{text:?} is not a number"))?;
-    host::sim::check_rate(hz).map_err(|e| e.to_string())?;
+    host::error::check_rate(hz).map_err(|e| e.to_string())?;
     // Each of the sweep's 156 cells runs about a second of device time: a rate past 100 kHz
     // would run for hours, below 100 Hz the plant's 1 m/s limit is a step of 10 mm.
     if !(100.0..=100_000.0).contains(&hz) {
@@ -900,10 +900,10 @@ pub struct SimArgs {
         long,
         value_name = "HAND",
         default_value = "grip",
-        value_parser = host::sim::DeviceHand::parse,
+        value_parser = host::hand::DeviceHand::parse,
         requires = "device"
     )]
-    pub hand: host::sim::DeviceHand,
+    pub hand: host::hand::DeviceHand,
     /// With --device: the virtual hand's stiffness in N/m (finite, > 0), in place of the
     /// hand model's own.
     #[arg(
@@ -929,7 +929,7 @@ impl SimArgs {
     }
 
     /// The hand of a --device run: the model, with --hand-stiffness in place of its own.
-    pub fn device_hand(&self) -> host::sim::DeviceHand {
+    pub fn device_hand(&self) -> host::hand::DeviceHand {
         let mut hand = self.hand;
         if let Some(k) = self.hand_stiffness {
             hand.params.hand_stiffness_n_per_m = k as f32;
@@ -954,9 +954,9 @@ fn hand_stiffness(text: &str) -> Result<f64, String> {
 
 fn tick_rate(text: &str) -> Result<f64, String> {
     match text.trim().parse::<f64>() {
-        Ok(r) => host::sim::check_rate(r)
+        Ok(r) => host::error::check_rate(r)
             .map(|()| r)
-            .map_err(|_| host::sim::rate_rule()),
+            .map_err(|_| host::error::rate_rule()),
         Err(e) => Err(format!("{e}")),
     }
 }

@@ -35,9 +35,10 @@ fn main() -> ExitCode {
 }
 
 fn experiment_command(command: &viewer::cli::ExperimentCommand) -> ExitCode {
+    use experiment::error::RunError;
     use experiment::participant::SimParticipant;
     use experiment::plan::Plan;
-    use experiment::runner::{RunError, run};
+    use experiment::runner::run;
     use viewer::cli::ExperimentCommand;
     let args = match command {
         ExperimentCommand::Run(args) => args,
@@ -124,8 +125,8 @@ fn experiment_analyze_command(args: &viewer::cli::ExperimentAnalyzeArgs) -> Exit
 /// ([`viewer::gui::participant`]).
 #[cfg(feature = "gui")]
 fn participant_command(args: &viewer::cli::ExperimentRunArgs) -> ExitCode {
+    use experiment::error::RunError;
     use experiment::plan::Plan;
-    use experiment::runner::RunError;
     use viewer::gui::participant::{ParticipantRun, run_window};
     if args.participant.trim().is_empty() {
         return fail(
@@ -591,7 +592,7 @@ fn sim_command(args: &SimArgs) -> ExitCode {
         Err(e) => return fail(&e, EXIT_BAD_SETUP),
     };
     let checked = if args.device {
-        sim::validate_device(&scene, args.object, &trajectory, args.rate_hz())
+        host::closed_loop::validate_device(&scene, args.object, &trajectory, args.rate_hz())
     } else {
         sim::validate(&scene, args.object, &trajectory, args.rate_hz())
     };
@@ -654,7 +655,7 @@ fn sim_command(args: &SimArgs) -> ExitCode {
         .map(|device_run| device_run.run)
         .map_err(anyhow::Error::new)
     } else if args.device {
-        sim::run_device(
+        host::closed_loop::run_device(
             &scene,
             args.object,
             &trajectory,

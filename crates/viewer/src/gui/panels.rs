@@ -56,7 +56,7 @@ pub enum DeviceAction {
     /// Drive a device behind a link ([`AppState::connect`]).
     Connect(Target),
     /// Who holds the simulated handle ([`AppState::set_hand`]).
-    Hand(host::sim::Hand),
+    Hand(host::hand::Hand),
 }
 
 impl DevicePanel {
@@ -65,7 +65,7 @@ impl DevicePanel {
         &mut self,
         ui: &mut egui::Ui,
         device: &DeviceChoice,
-        hand: host::sim::Hand,
+        hand: host::hand::Hand,
     ) -> Option<DeviceAction> {
         ui.heading("Device");
         let mut chosen = None;
@@ -76,17 +76,17 @@ impl DevicePanel {
                     ui.label("hand:");
                     for (option, text, hover) in [
                         (
-                            host::sim::Hand::Grip,
+                            host::hand::Hand::Grip,
                             "grip",
                             "a relaxed grip: 300 N/m, 2 N·s/m",
                         ),
                         (
-                            host::sim::Hand::Finger,
+                            host::hand::Hand::Finger,
                             "fingertip",
                             "a light fingertip: 100 N/m, 0.1 N·s/m",
                         ),
                         (
-                            host::sim::Hand::Released,
+                            host::hand::Hand::Released,
                             "released",
                             "nobody holds the handle: its own mass, the device's friction",
                         ),

@@ -22,7 +22,8 @@ use super::spatial::SpatialState;
 use super::telemetry::Telemetry;
 use host::backend::{Backend, Command, LinkEvent, Reply, Sample};
 use host::devices::{self, Target};
-use host::planar::{HapticLoop, MaterialChangeError, START_HIP, Session};
+use host::error::MaterialChangeError;
+use host::planar::{HapticLoop, START_HIP, Session};
 use host::runlog::RecordTx;
 use scene::bundled::BUNDLED;
 use scene::{Material, Object, Patch, Scene, Space};
@@ -299,7 +300,7 @@ pub struct AppState {
     /// The hand's target as last set (m).
     pub hand_target: Vec2,
     /// Who holds the simulated handle, as last set.
-    pub hand: host::sim::Hand,
+    pub hand: host::hand::Hand,
     /// Whether the user is dragging the hand.
     pub dragging: bool,
     /// Forces on, as last asked.
@@ -365,7 +366,7 @@ impl AppState {
         Ok(AppState {
             backend,
             device: DeviceChoice::Simulated,
-            hand: host::sim::Hand::Grip,
+            hand: host::hand::Hand::Grip,
             link: LinkState::default(),
             pending: None,
             replay: None,
@@ -632,7 +633,7 @@ impl AppState {
             Ok(backend) => {
                 self.backend = backend;
                 self.device = DeviceChoice::Simulated;
-                self.hand = host::sim::Hand::Grip;
+                self.hand = host::hand::Hand::Grip;
                 self.link = LinkState::default();
                 self.forces_requested = true;
                 self.telemetry.restart();
@@ -695,7 +696,7 @@ impl AppState {
     /// (released: the handle goes on under its own mass, the device's friction and the
     /// rendered force). The simulated device in the app only; a board's handle is in a
     /// person's hand.
-    pub fn set_hand(&mut self, hand: host::sim::Hand) {
+    pub fn set_hand(&mut self, hand: host::hand::Hand) {
         if self.device == DeviceChoice::Simulated {
             self.hand = hand;
             self.command(Command::Hand(hand));
