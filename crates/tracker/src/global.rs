@@ -63,8 +63,8 @@
 mod bezier;
 mod polish;
 
-pub use bezier::{BezierPiece, BezierSplit, CurvePiece, SurfacePiece};
 use bezier::midpoint;
+pub use bezier::{BezierPiece, BezierSplit, CurvePiece, SurfacePiece};
 use polish::projected_newton;
 
 use crate::newton::NewtonConfig;

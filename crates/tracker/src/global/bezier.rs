@@ -162,7 +162,11 @@ pub(super) fn de_casteljau<H: Copy + Add<Output = H> + Mul<f32, Output = H>>(
 
 /// See [`BezierPiece::lower_bound`].
 #[inline]
-pub(super) fn hull_lower_bound<P: Point>(points: impl Iterator<Item = P>, x: P, bb: &Aabb<P>) -> f32 {
+pub(super) fn hull_lower_bound<P: Point>(
+    points: impl Iterator<Item = P>,
+    x: P,
+    bb: &Aabb<P>,
+) -> f32 {
     let box_lb = bb.distance_squared(x);
     let v = bb.center() - x;
     let v2 = v.length_squared();
