@@ -47,7 +47,7 @@ const BOARD_CLOCK_HZ: f64 = 96e6;
 const BUDGET_2D_MAX: f64 = 4000.0;
 const BUDGET_SURFACE_MEAN: f64 = 6000.0;
 const SURFACE_NAME: &str = "bump";
-/// The control-point run of the firmware (`points_run` in `firmware/src/bin/qemu.rs`): a
+/// The control-point run of the firmware (`points_run` in `firmware/src/bin/qemu/points.rs`): a
 /// 100 Hz stream of shapes under the held hand, through the board's session, double buffer
 /// and tick. Its ticks are held to [`BUDGET_2D_MAX`]; an update's tick boundary plus the tick
 /// after it to one period's cycles at one instruction per cycle (the update is applied in the
