@@ -2,10 +2,10 @@
 //!
 //! The board's USB device (`device::usb::HidPort`: its descriptor, endpoints and report pump,
 //! the code the firmware runs) runs on the host's simulated pantograph
-//! (`device::host::sim::SimReports`) over USB/IP (`usbip-device`). A Linux kernel attaches it
+//! (`device::link::simulated::SimReports`) over USB/IP (`usbip-device`). A Linux kernel attaches it
 //! with `usbip attach` (`vhci-hcd`), parses its report descriptor (`usbhid`, `hid-generic`)
 //! and gives it a `/dev/hidraw` node, which the host side uses unchanged: `viewer device list`
-//! and a session over `device::host::HidLink` (hidapi's hidraw backend).
+//! and a session over `device::link::HidLink` (hidapi's hidraw backend).
 //!
 //! The machine's own kernel has no `vhci-hcd`, so all of this runs in a small guest:
 //! `qemu-system-x86_64` (KVM when it boots, TCG otherwise) on Debian's `linux-image-amd64`
@@ -23,7 +23,7 @@ use std::process::{Child, Command, Stdio};
 use std::sync::mpsc;
 use std::time::{Duration, Instant};
 
-use device::host::{HidLink, Link, list_hid};
+use device::link::{HidLink, Link, list_hid};
 use device::protocol::{Message, Telemetry};
 use nurbs::Vec2;
 use scene::Scene;
@@ -557,7 +557,7 @@ fn boot(
 /// In the guest (`xtask hid-guest-device`): the board's USB device on USB/IP, the simulated
 /// pantograph behind it, until the guest powers off.
 pub fn guest_device() -> Result<(), String> {
-    use device::host::{SimConfig, SimLink};
+    use device::link::{SimConfig, SimLink};
     use device::safety::SafetyConfig;
     use device::usb::HidPort;
     use usb_device::bus::UsbBusAllocator;

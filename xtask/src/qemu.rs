@@ -16,7 +16,7 @@ use std::process::{Command, Stdio};
 use std::thread;
 use std::time::{Duration, Instant};
 
-use device::host::cobs;
+use device::link::cobs;
 use device::protocol::{Frame, Message, Telemetry, WireObject, WirePatch, encode_scene};
 use device::simulator::SimParams;
 use device::spec::DeviceSpec;

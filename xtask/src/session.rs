@@ -1,6 +1,6 @@
 //! The host ↔ firmware session of `cargo xtask qemu`: the QEMU binary `qemu-serve` with its
 //! UART on a TCP port, driven through the real protocol by the host's own link
-//! (`device::host::TcpLink`), as `viewer device monitor --tcp` does: hello, scene upload and
+//! (`device::link::TcpLink`), as `viewer device monitor --tcp` does: hello, scene upload and
 //! commit, forces on, the virtual hand into the object and along it (stuck → slip in the
 //! telemetry), malformed and out-of-order frames refused with the device running on and its
 //! scene unchanged, a second scene swapped in while in contact, the curve moving under the
@@ -15,7 +15,7 @@ use std::time::{Duration, Instant};
 
 use std::collections::HashMap;
 
-use device::host::{Link, TcpLink};
+use device::link::{Link, TcpLink};
 use device::protocol::{
     ErrorCode, Message, Nack, SceneChunk, Status, Telemetry, crc32, points_update, scene_upload,
 };

@@ -1,5 +1,5 @@
 //! The device side of a link, once for every device: the host's simulator
-//! ([`host::sim`](crate::host)), the firmware under QEMU and the board. A [`Session`] takes
+//! ([`host::sim`](crate::link)), the firmware under QEMU and the board. A [`Session`] takes
 //! each frame the host sent through its [`SceneReceiver`] (sequence numbers, scene upload),
 //! acks or nacks it, answers a hello with the device's hello and a heartbeat with a status.
 //! What it asks of the device comes back as an [`Event`]: a [`Command`] for the controller

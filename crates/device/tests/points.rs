@@ -8,7 +8,7 @@
 
 use std::time::Duration;
 
-use device::host::{GapCounter, Link, SimConfig, SimLink};
+use device::link::{GapCounter, Link, SimConfig, SimLink};
 use device::protocol::*;
 use device::session::{DeviceState, Event, Session};
 use friction::{FrictionMaterial, Mode};
@@ -600,7 +600,7 @@ fn each_faulty_update_has_its_code_and_changes_nothing() {
     let moved = p1 + Vec2::new(1e-3, 0.0);
     device.handle(&mut host, planar(0, 0, 1, false, &[moved]));
     device.handle(&mut host, begin);
-    device.handle(&mut host, Message::Hello(device::host::host_hello()));
+    device.handle(&mut host, Message::Hello(device::link::host_hello()));
     let (event, _) = device.handle(&mut host, planar(0, 1, 0, true, &[point(&arcs[1], 0)]));
     assert_eq!(event, Event::ScenePointsUpdated { object: 0 });
     assert_eq!(device.active().0, scene(), "the dropped point did not land");

@@ -7,7 +7,7 @@
 //! that does not survive the wire format (f32, the device's capacities and checks) is refused
 //! before it reaches the loop, with the device's reason.
 
-use device::host::Sequencer;
+use device::link::Sequencer;
 use device::protocol::{
     ErrorCode, Message, SceneError, SceneStore, WireObject, WirePatch, encode_scene, scene_upload,
 };
@@ -80,7 +80,7 @@ pub fn wire_scene(scene: &Scene, index: usize) -> Result<Vec<u8>, UploadError> {
 }
 
 /// The simulated device's side of uploading `wire`: every frame of the upload (begin,
-/// chunks, commit, as [`device::host::Link::upload_scene`] sends them to a board), encoded
+/// chunks, commit, as [`device::link::Link::upload_scene`] sends them to a board), encoded
 /// with sequence numbers and handled by a device [`Session`] of [`SIM_SCENE_CAPACITY`]
 /// bytes, which validates the commit by decoding it into a [`SceneStore`]. Returns that
 /// store and the CRC-32 the device reports for its active scene.

@@ -1,7 +1,7 @@
 //! A deformable object on a device behind a link (`Command::Deform` to the host of a remote
 //! device): the host steps the string on the device's telemetry (locating the CP on its copy
 //! of the shape) and streams the shape back as control-point updates; the simulated device
-//! (`device::host::SimLink`, the protocol a board speaks) renders it. Real time.
+//! (`device::link::SimLink`, the protocol a board speaks) renders it. Real time.
 
 #![allow(clippy::unwrap_used)]
 
@@ -40,7 +40,7 @@ fn a_string_pushed_through_the_link_deforms_on_the_device() {
     let session = Session::with_object(scene.clone(), Some(0)).unwrap();
     let link = host::remote::spawn(
         "sim".to_owned(),
-        || open_sim(device::host::SimConfig::default()),
+        || open_sim(device::link::SimConfig::default()),
         true,
         None,
     )

@@ -1,5 +1,5 @@
 //! The host of a device behind a link streaming a moving shape ([`Command::ScenePoints`]) to
-//! the simulated device ([`device::host::SimLink`], the protocol a board speaks), real time,
+//! the simulated device ([`device::link::SimLink`], the protocol a board speaks), real time,
 //! 100 shapes a second: every update sent is applied, the hand stays in contact on the same
 //! arc, and the device's scene ends as the host's own scene edited the same way and uploaded
 //! (`scene::edit::move_point`, `host::upload::wire_scene`: an independent path to the bytes).
@@ -40,7 +40,7 @@ fn a_moving_shape_streams_to_the_device_and_lands_as_the_host_edits_it() {
     let session = Session::new(scene.clone()).unwrap();
     let link = host::remote::spawn(
         "sim".to_owned(),
-        || open_sim(device::host::SimConfig::default()),
+        || open_sim(device::link::SimConfig::default()),
         true,
         None,
     )

@@ -288,7 +288,7 @@ fn deform_command(args: &viewer::cli::DeformArgs) -> ExitCode {
 }
 
 fn device_identify(args: &viewer::cli::DeviceIdentifyArgs) -> ExitCode {
-    use device::host::SimConfig;
+    use device::link::SimConfig;
     use device::spec::DeviceSpec;
     use host::devices::Target;
     let spec = DeviceSpec::default();
@@ -799,10 +799,10 @@ fn device_command(command: &viewer::cli::DeviceCommand) -> ExitCode {
 
 #[cfg(unix)]
 fn device_sim_pty(args: &viewer::cli::SimPtyArgs) -> ExitCode {
-    use device::host::{SimConfig, SimLink};
+    use device::link::{SimConfig, SimLink};
     use std::sync::Arc;
     use std::sync::atomic::{AtomicBool, Ordering};
-    let pty = match device::host::pseudo_terminal().context("cannot open a pseudo-terminal") {
+    let pty = match device::link::pseudo_terminal().context("cannot open a pseudo-terminal") {
         Ok(pty) => pty,
         Err(e) => return fail(&e, EXIT_BAD_SETUP),
     };

@@ -55,7 +55,7 @@ const RAMP_TIME_S: f32 = 0.02;
 const HEARTBEAT_TIMEOUT_S: f32 = 0.25;
 /// The scene receiver's capacity (bytes).
 const SCENE_CAPACITY: usize = 4096;
-/// Where the handle starts (m): as the host's simulator, `device::host::SimConfig`.
+/// Where the handle starts (m): as the host's simulator, `device::link::SimConfig`.
 const START_M: Vec2 = Vec2::new(0.0, 0.09);
 
 /// The two scene stores, as the board's (`firmware::swap`) at the host's capacity: one
@@ -118,7 +118,7 @@ fn main() -> ! {
     syst.enable_counter();
 
     let spec = DeviceSpec::default();
-    // A firm hand, as the host's simulator (`device::host::SimConfig::default`).
+    // A firm hand, as the host's simulator (`device::link::SimConfig::default`).
     let hand = SimParams {
         hand_stiffness_n_per_m: 2000.0,
         hand_damping_ns_per_m: 5.0,

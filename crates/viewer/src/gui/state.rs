@@ -591,7 +591,7 @@ impl AppState {
     /// uploaded to it, and a device with a simulated plant (the host's simulator, the
     /// firmware under QEMU) has its faults cleared, is calibrated and has its forces
     /// enabled. A board waits for Calibrate and the forces switch. `Target::Sim` here is
-    /// the host's simulated device behind the protocol ([`device::host::SimLink`]).
+    /// the host's simulated device behind the protocol ([`device::link::SimLink`]).
     pub fn connect(&mut self, target: Target) {
         let setup = !matches!(target, Target::Hid | Target::Serial(_));
         self.connect_with(describe(&target), move || devices::open(&target), setup);
@@ -602,7 +602,7 @@ impl AppState {
     pub fn connect_with(
         &mut self,
         device: String,
-        open: impl FnOnce() -> Result<devices::Opened, device::host::LinkError> + Send + 'static,
+        open: impl FnOnce() -> Result<devices::Opened, device::link::LinkError> + Send + 'static,
         setup: bool,
     ) {
         match host::remote::spawn(device.clone(), open, setup, self.record.clone()) {
