@@ -9,7 +9,7 @@ use device::controller::{
 };
 use device::protocol::{ErrorCode, Frame, MAX_FRAME, Message, SceneStore};
 use device::safety::SafetyConfig;
-use device::session::Command;
+use device::session::DeviceCommand;
 use device::spec::DeviceSpec;
 use device::telemetry::TelemetryDecimator;
 use nurbs::{Curve, Vec2};
@@ -205,10 +205,14 @@ impl<'s> App<'s> {
             .map_err(AppError::Controller)
     }
 
-    /// Applies a command of the link ([`device::session::Command::apply`]): calibration on
+    /// Applies a command of the link ([`device::session::DeviceCommand::apply`]): calibration on
     /// `home_counts`, a material with the passivity controller on where it needs it (as
     /// [`App::load`]). The error is the code for the status's `last_error`.
-    pub fn apply(&mut self, command: Command, home_counts: [i32; 2]) -> Result<(), ErrorCode> {
+    pub fn apply(
+        &mut self,
+        command: DeviceCommand,
+        home_counts: [i32; 2],
+    ) -> Result<(), ErrorCode> {
         command.apply(&mut self.controller, home_counts, true)
     }
 

@@ -10,7 +10,7 @@ use std::time::Duration;
 
 use device::link::{GapCounter, Link, SimConfig, SimLink};
 use device::protocol::*;
-use device::session::{DeviceState, Event, Session};
+use device::session::{DeviceSession, DeviceState, Event};
 use friction::{FrictionMaterial, Mode};
 use nurbs::construct::{arc, bezier_patch};
 use nurbs::{CurveBuf, SurfaceBuf, Vec2, Vec3};
@@ -109,7 +109,7 @@ fn point(c: &CurveBuf<Vec2>, i: usize) -> Vec2 {
 
 /// The device side: a session, its scratch store, and the frames it answered.
 struct Device {
-    session: Box<Session<4096>>,
+    session: Box<DeviceSession<4096>>,
     scratch: Box<SceneStore>,
 }
 
@@ -133,7 +133,7 @@ impl Host {
 impl Device {
     fn new() -> Self {
         Device {
-            session: Box::new(Session::new(false)),
+            session: Box::new(DeviceSession::new(false)),
             scratch: Box::new(SceneStore::new()),
         }
     }

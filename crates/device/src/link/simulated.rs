@@ -33,7 +33,7 @@ use super::{Link, LinkError, Sequencer, cobs, software_version};
 use crate::controller::{Controller, ControllerError};
 use crate::protocol::{Frame, MAX_FRAME, Message, SceneStore};
 use crate::safety::SafetyConfig;
-use crate::session::{DeviceState, Event, Session};
+use crate::session::{DeviceSession, DeviceState, Event};
 use crate::simulator::{SimParams, SimulatedPantograph, VirtualHand};
 use crate::spec::DeviceSpec;
 use crate::telemetry::TelemetryDecimator;
@@ -117,7 +117,7 @@ impl SimLink {
         let thread = std::thread::Builder::new()
             .name("sim-device".into())
             .spawn(move || {
-                let mut session = Box::new(Session::new(true));
+                let mut session = Box::new(DeviceSession::new(true));
                 session.set_motor_limits(&config.spec);
                 let mut device = SimDevice {
                     config,
@@ -281,7 +281,7 @@ struct SimDevice {
     frames: SyncSender<[u8; MAX_FRAME]>,
     arm: SimulatedPantograph,
     hand: VirtualHand,
-    session: Box<Session<SCENE_CAPACITY>>,
+    session: Box<DeviceSession<SCENE_CAPACITY>>,
     /// Where commits are validated (decoded); swapped with the active store on success.
     scratch: Box<SceneStore>,
     seq: Sequencer,
@@ -456,7 +456,7 @@ impl SimDevice {
                 self.hand.command(target);
                 None
             }
-            Event::Command(command) => {
+            Event::DeviceCommand(command) => {
                 if let Err(code) = command.apply(controller, home, self.config.passivity_control) {
                     self.session.note_error(code);
                 }

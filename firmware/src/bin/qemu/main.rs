@@ -28,7 +28,7 @@ use cortex_m_rt::{ExceptionFrame, entry, exception};
 use cortex_m_semihosting::{debug, hprintln};
 use device::protocol::{Frame, MAX_FRAME as FRAME_BYTES, Message, SceneStore, points_update};
 use device::protocol::{crc32, scene_upload, write_points};
-use device::session::{DeviceState, Event, Session};
+use device::session::{DeviceSession, DeviceState, Event};
 use device::simulator::{SimParams, SimulatedPantograph};
 use device::spec::DeviceSpec;
 #[cfg(feature = "stages")]
