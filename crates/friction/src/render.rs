@@ -136,7 +136,7 @@ use crate::models::{CoulombViscous, Dahl, Karnopp, LuGre};
 use laws::LawState;
 use nurbs::Point;
 use nurbs::math::{self, sqrt};
-use tracker::{Contact, Feature, Frame, Object};
+use tracker::{Contact, Feature, Object, PatchFrame};
 
 /// How far the spring must relax inside the cone of the dynamic mode's μ (as a fraction of
 /// `μ F_N`), with the HIP moving back towards the GO, before the motion counts as reversed: the
@@ -182,7 +182,7 @@ pub struct FrictionRenderer<O: Object> {
     /// friction.
     go_patch: usize,
     go_params: [f32; 2],
-    go_frame: Frame<O::P>,
+    go_frame: PatchFrame<O::P>,
     /// The position resolution of the HIP (m, the encoder quantum at the handle; 0 for exact
     /// positions): the hysteresis of the mode decisions.
     resolution_m: f32,
@@ -629,7 +629,7 @@ impl<O: Object> FrictionRenderer<O> {
         let derivatives = O::state_derivatives(&self.proxy);
         let in_plane = |d: O::P| Point::try_normalize(d - n * d.dot(n)).unwrap_or(n);
         let tangent = in_plane(derivatives[0]);
-        let frame = Frame {
+        let frame = PatchFrame {
             point: p,
             normal: n,
             tangent,
@@ -888,7 +888,7 @@ impl<O: Object> FrictionRenderer<O> {
         &self,
         contact: Contact<O::P>,
         (patch, params): (usize, [f32; 2]),
-        frame: &Frame<O::P>,
+        frame: &PatchFrame<O::P>,
         normal_force_n: f32,
         friction: O::P,
         mu: f32,
@@ -918,7 +918,7 @@ impl<O: Object> FrictionRenderer<O> {
 /// The sign reference for a friction force: the frame's tangent or bitangent, whichever `f`
 /// lies closer to.
 #[inline]
-fn reference<P: Point>(fr: &Frame<P>, f: P) -> P {
+fn reference<P: Point>(fr: &PatchFrame<P>, f: P) -> P {
     if f.dot(fr.bitangent).abs() > f.dot(fr.tangent).abs() {
         fr.bitangent
     } else {
