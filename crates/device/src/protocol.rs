@@ -156,8 +156,8 @@ pub use message::{
 pub use receiver::{SceneReceiver, SceneValidator};
 pub use scene::{
     KIND_CURVE2, KIND_SURFACE, MAX_CURVE_POINTS, MAX_KNOTS, MAX_OBJECTS, MAX_PATCHES,
-    MAX_SURFACE_POINTS, PatchKind, PointSpan, SCENE_MAGIC, SCENE_VERSION, SceneError, SceneFault,
-    SceneStore, decode_scene, patch_points, points_span, write_points,
+    MAX_SURFACE_POINTS, PatchKind, PointSpan, SCENE_MAGIC, SCENE_VERSION, SceneFault, SceneStore,
+    WireSceneError, decode_scene, patch_points, points_span, write_points,
 };
 #[cfg(feature = "std")]
 pub use scene::{WireObject, WirePatch, encode_scene};

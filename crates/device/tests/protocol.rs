@@ -959,11 +959,11 @@ proptest! {
 
 type Receiver = SceneReceiver<4096>;
 
-fn never(_: &[u8]) -> Result<(), SceneError> {
+fn never(_: &[u8]) -> Result<(), WireSceneError> {
     panic!("the validator must not run")
 }
 
-fn accept_all(_: &[u8]) -> Result<(), SceneError> {
+fn accept_all(_: &[u8]) -> Result<(), WireSceneError> {
     Ok(())
 }
 

@@ -3,7 +3,9 @@
 
 #![allow(clippy::unwrap_used)]
 
-use device::protocol::{ErrorCode, Frame, Hello, MAX_PAYLOAD, Message, Nack, SceneError, Status};
+use device::protocol::{
+    ErrorCode, Frame, Hello, MAX_PAYLOAD, Message, Nack, Status, WireSceneError,
+};
 use device::session::{DeviceCommand, DeviceSession, DeviceState, Event};
 use friction::FrictionMaterial;
 use nurbs::Vec2;
@@ -13,7 +15,7 @@ fn frame(seq: u16, message: Message) -> Vec<u8> {
     report[..n].to_vec()
 }
 
-fn never(_: &[u8]) -> Result<(), SceneError> {
+fn never(_: &[u8]) -> Result<(), WireSceneError> {
     panic!("no commit in these tests")
 }
 

@@ -9,7 +9,8 @@
 
 use device::link::Sequencer;
 use device::protocol::{
-    ErrorCode, Message, SceneError, SceneStore, WireObject, WirePatch, encode_scene, scene_upload,
+    ErrorCode, Message, SceneStore, WireObject, WirePatch, WireSceneError, encode_scene,
+    scene_upload,
 };
 use device::session::{DeviceSession, DeviceState, Event};
 
@@ -46,7 +47,7 @@ pub enum UploadError {
         /// Its name.
         name: String,
         /// What the encoder refused.
-        error: SceneError,
+        error: WireSceneError,
     },
     /// The device refused a frame of the upload.
     #[error("the device refused the upload: {}", .0.message())]
