@@ -76,7 +76,7 @@ pub enum DeformError {
     Sim(#[from] SimError),
 }
 
-/// Why a loop did not take a [`Command::Deform`](crate::backend::Command::Deform): the object
+/// Why a loop did not take a [`LoopCommand::Deform`](crate::backend::LoopCommand::Deform): the object
 /// it renders is unchanged.
 #[derive(Debug, thiserror::Error)]
 pub enum DeformChangeError {
@@ -94,7 +94,7 @@ pub enum DeformChangeError {
     Controller(ControllerError),
 }
 
-/// What a loop answers a [`Command::Deform`](crate::backend::Command::Deform) it took.
+/// What a loop answers a [`LoopCommand::Deform`](crate::backend::LoopCommand::Deform) it took.
 #[derive(Clone, Debug)]
 pub struct DeformStatus {
     /// Whether the object now deforms (`false`: rigid, at its rest shape).

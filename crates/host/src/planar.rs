@@ -1,12 +1,12 @@
 //! The planar loop the app runs on the simulated pantograph: the device's [`Controller`] on
 //! one planar object of a scene, stepped one tick at a time ([`HapticLoop::step`], the same
 //! [`tick::device_tick`] as `viewer sim --device`), driven by a virtual hand whose target the
-//! UI moves. The scene reaches it as the device's upload ([`Session`]): the in-process
+//! UI moves. The scene reaches it as the device's upload ([`PlanarSession`]): the in-process
 //! simulator decodes it with the device's own receiver, as a board would. It runs on a
 //! [`Backend`](crate::backend::Backend) like every loop the app drives.
 //!
 //! A deformable object (one with a `"dynamics"` block) deforms under the hand on
-//! [`Command::Deform`]: every device tick feeds a [`Deformer`], every step (1 ms, ten device
+//! [`LoopCommand::Deform`]: every device tick feeds a [`Deformer`], every step (1 ms, ten device
 //! ticks) steps it, and the controller is carried onto the new shape
 //! ([`Controller::reshape`]: its renderer, feature, friction state and safety ramp stay; no
 //! search, no ramp-in). The shape reaches the UI through a [`SharedShape`].
@@ -22,7 +22,7 @@ use friction::FrictionMaterial;
 use nurbs::Vec2;
 use tracker::Chain;
 
-use crate::backend::{Command, RATE_HZ, Reply, Sample, Steppable};
+use crate::backend::{LoopCommand, RATE_HZ, Reply, Sample, Steppable};
 use crate::deform::{
     DeformChangeError, DeformStatus, Deformer, ShapeCell, SharedShape, carry_from,
 };
@@ -47,9 +47,9 @@ pub const MAX_HAND_SPEED_M_PER_S: f32 = device::simulator::MAX_HAND_SPEED_M_PER_
 
 /// A scene the loop renders: the scene, the index of the object the device renders (the
 /// first planar one; `None` when the scene has none), and the controller built for it.
-pub struct Session(SessionCell);
+pub struct PlanarSession(SessionCell);
 
-/// The controller of a [`Session`], borrowing the scene's curves; `None` while the object
+/// The controller of a [`PlanarSession`], borrowing the scene's curves; `None` while the object
 /// deforms (the controller then renders its current shape, in a [`ShapeCell`]).
 #[derive(Debug)]
 struct Rendering<'a> {
@@ -67,7 +67,7 @@ self_cell::self_cell!(
     }
 );
 
-/// The owner of a [`Session`]: the scene, the object chosen, and that object as the device
+/// The owner of a [`PlanarSession`]: the scene, the object chosen, and that object as the device
 /// received it (its wire scene, the store the device decoded it into, the CRC it reports).
 #[derive(Debug)]
 struct SceneChoice {
@@ -84,9 +84,9 @@ struct Received {
     crc32: u32,
 }
 
-impl std::fmt::Debug for Session {
+impl std::fmt::Debug for PlanarSession {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.debug_struct("Session")
+        f.debug_struct("PlanarSession")
             .field("object", &self.object())
             .field("passivity_control", &self.passivity_control())
             .finish_non_exhaustive()
@@ -104,7 +104,7 @@ pub enum SessionError {
     Upload(#[from] UploadError),
 }
 
-impl Session {
+impl PlanarSession {
     /// The default device at [`DEVICE_RATE_HZ`], calibrated on its end stops, forces enabled, with
     /// the first object of planar curves of `scene` loaded (none when it has none: the
     /// pantograph is planar, so a scene of surfaces renders nothing). The controller's own
@@ -117,7 +117,7 @@ impl Session {
         Self::with_object(scene, object)
     }
 
-    /// [`Session::new`] with object `object` (which must be planar), or none. The object
+    /// [`PlanarSession::new`] with object `object` (which must be planar), or none. The object
     /// reaches the controller as a board's would: its wire scene ([`upload::wire_scene`])
     /// goes frame by frame through the device's receiver ([`upload::receive`]), and the
     /// controller renders the store the device decoded.
@@ -136,7 +136,7 @@ impl Session {
             received,
         };
         let cell = SessionCell::try_new(choice, build_controller)?;
-        Ok(Session(cell))
+        Ok(PlanarSession(cell))
     }
 
     /// The scene.
@@ -236,7 +236,7 @@ impl std::fmt::Debug for Deforming {
 /// while it deforms. Stepped one tick at a time.
 #[derive(Debug)]
 pub struct HapticLoop {
-    session: Session,
+    session: PlanarSession,
     material: Option<FrictionMaterial>,
     arm: SimulatedPantograph,
     hand: VirtualHand,
@@ -250,7 +250,7 @@ pub struct HapticLoop {
 impl HapticLoop {
     /// A loop on `session` with the handle at rest at `start_hip`, held by the default
     /// relaxed hand of `viewer sim --device` ([`SimParams::default`], 300 N/m).
-    pub fn new(session: Session, start_hip: Vec2) -> Result<Self, SessionError> {
+    pub fn new(session: PlanarSession, start_hip: Vec2) -> Result<Self, SessionError> {
         let arm = SimulatedPantograph::new(DeviceSpec::default(), SimParams::default(), start_hip)
             .map_err(SimError::Simulator)?;
         let material = material_of(&session);
@@ -588,7 +588,7 @@ impl HapticLoop {
     /// Renders `session` from the next tick; the arm, the hand and the forces' switch stay
     /// as they are. A deforming object is dropped with the old session: the new one renders
     /// its object rigid, at rest, until it is asked to deform.
-    pub fn swap_session(&mut self, session: Session) {
+    pub fn swap_session(&mut self, session: PlanarSession) {
         let forces = self.forces_enabled();
         if self.deforming.take().is_some() {
             self.shape.stop(self.tick as f64 / DEVICE_RATE_HZ);
@@ -599,7 +599,7 @@ impl HapticLoop {
     }
 
     /// The session.
-    pub fn session(&self) -> &Session {
+    pub fn session(&self) -> &PlanarSession {
         &self.session
     }
 
@@ -639,7 +639,7 @@ impl HapticLoop {
     }
 }
 
-fn material_of(session: &Session) -> Option<FrictionMaterial> {
+fn material_of(session: &PlanarSession) -> Option<FrictionMaterial> {
     session
         .object()
         .and_then(|i| session.scene().object(i))
@@ -647,37 +647,39 @@ fn material_of(session: &Session) -> Option<FrictionMaterial> {
 }
 
 impl Steppable for HapticLoop {
-    type Session = Session;
+    type Session = PlanarSession;
 
-    fn apply(&mut self, command: Command) -> Option<Reply> {
+    fn apply(&mut self, command: LoopCommand) -> Option<Reply> {
         match command {
-            Command::HandTarget(t) => {
+            LoopCommand::HandTarget(t) => {
                 self.set_hand_target(Vec2::new(t.x, t.y));
                 None
             }
-            Command::SetMaterial(m) => Some(Reply::Material(self.set_material(m))),
-            Command::Swap(session) => {
+            LoopCommand::SetMaterial(m) => Some(Reply::Material(self.set_material(m))),
+            LoopCommand::Swap(session) => {
                 self.swap_session(*session);
                 Some(Reply::Swapped)
             }
             // The app's own simulated device takes shapes as sessions (`Swap`) or from its own
             // deforming object (`Deform`); control-point updates are the protocol's, for a
             // device behind a link.
-            Command::Mesh(_) | Command::ScenePoints(_) => Some(Reply::Unsupported(command.name())),
-            Command::Forces(on) => {
+            LoopCommand::Mesh(_) | LoopCommand::ScenePoints(_) => {
+                Some(Reply::Unsupported(command.name()))
+            }
+            LoopCommand::Forces(on) => {
                 self.set_forces_enabled(on);
                 None
             }
-            Command::ClearFaults => Some(Reply::FaultsCleared(self.clear_faults())),
-            Command::Calibrate => {
+            LoopCommand::ClearFaults => Some(Reply::FaultsCleared(self.clear_faults())),
+            LoopCommand::Calibrate => {
                 self.calibrate();
                 None
             }
-            Command::Hand(hand) => {
+            LoopCommand::Hand(hand) => {
                 self.set_hand(hand);
                 None
             }
-            Command::Deform(on) => Some(Reply::Deform(self.set_deforming(on))),
+            LoopCommand::Deform(on) => Some(Reply::Deform(self.set_deforming(on))),
         }
     }
 

@@ -675,7 +675,7 @@ fn record(
 mod tests {
     use super::*;
     use crate::closed_loop::run_device;
-    use crate::planar::{HapticLoop, START_HIP, Session};
+    use crate::planar::{HapticLoop, PlanarSession, START_HIP};
     use crate::sim::{self, Trajectory};
     use crate::test_scenes::thesis_2d;
     use scene::Scene;
@@ -764,7 +764,7 @@ mod tests {
         std::fs::create_dir_all(&dir).expect("temp dir");
         let path = dir.join("rows.csv");
         let mut log = LogWriter::create(&path, Space::Planar).expect("create");
-        let session = Session::new(thesis_2d()).expect("session");
+        let session = PlanarSession::new(thesis_2d()).expect("session");
         let mut haptic = HapticLoop::new(session, START_HIP).expect("loop");
         let ticks = 3000;
         for _ in 0..ticks {
@@ -798,7 +798,7 @@ mod tests {
         std::fs::create_dir_all(&dir).expect("temp dir");
         let path = dir.join("rec.csv");
         let (recorder, tx) = Recorder::start(&path).expect("start");
-        let session = Session::new(thesis_2d()).expect("session");
+        let session = PlanarSession::new(thesis_2d()).expect("session");
         let mut haptic = HapticLoop::new(session, START_HIP).expect("loop");
         for _ in 0..300 {
             assert!(tx.send(haptic.step()), "recorder alive");
@@ -851,7 +851,7 @@ mod tests {
         let (recorder, tx) = Recorder::start(&path).expect("start");
         let spatial_tx = tx.for_space(Space::Spatial);
         for _ in 0..2 {
-            let session = Session::new(thesis_2d()).expect("session");
+            let session = PlanarSession::new(thesis_2d()).expect("session");
             let mut haptic = HapticLoop::new(session, START_HIP).expect("loop");
             for _ in 0..150 {
                 assert!(tx.send(haptic.step()), "recorder alive");

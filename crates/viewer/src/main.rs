@@ -9,8 +9,8 @@ use clap::Parser;
 use host::sim::{self, Trajectory};
 use scene::{Patch, Scene};
 use viewer::cli::{
-    Cli, ClosestArgs, Command, EXIT_BAD_INPUT, EXIT_BAD_SETUP, EvalArgs, GuiArgs, PatchSelection,
-    PlotArgs, SimArgs,
+    Cli, CliCommand, ClosestArgs, EXIT_BAD_INPUT, EXIT_BAD_SETUP, EvalArgs, GuiArgs,
+    PatchSelection, PlotArgs, SimArgs,
 };
 use viewer::closest;
 use viewer::eval::{self, EvalError};
@@ -21,28 +21,28 @@ use viewer::plot;
 fn main() -> ExitCode {
     match Cli::parse().command {
         None => gui_command(&GuiArgs::default()),
-        Some(Command::Gui(args)) => gui_command(&args),
-        Some(Command::Plot(args)) => plot_command(&args),
-        Some(Command::Eval(args)) => eval_command(&args),
-        Some(Command::Sim(args)) => sim_command(&args),
-        Some(Command::Closest(args)) => closest_command(&args),
-        Some(Command::Device(command)) => device_command(&command),
-        Some(Command::Zwidth(args)) => zwidth_command(&args),
-        Some(Command::Identify(args)) => identify_command(&args),
-        Some(Command::Deform(args)) => deform_command(&args),
-        Some(Command::Experiment(command)) => experiment_command(&command),
+        Some(CliCommand::Gui(args)) => gui_command(&args),
+        Some(CliCommand::Plot(args)) => plot_command(&args),
+        Some(CliCommand::Eval(args)) => eval_command(&args),
+        Some(CliCommand::Sim(args)) => sim_command(&args),
+        Some(CliCommand::Closest(args)) => closest_command(&args),
+        Some(CliCommand::Device(command)) => device_command(&command),
+        Some(CliCommand::Zwidth(args)) => zwidth_command(&args),
+        Some(CliCommand::Identify(args)) => identify_command(&args),
+        Some(CliCommand::Deform(args)) => deform_command(&args),
+        Some(CliCommand::Experiment(command)) => experiment_command(&command),
     }
 }
 
-fn experiment_command(command: &viewer::cli::ExperimentCommand) -> ExitCode {
+fn experiment_command(command: &viewer::cli::ExperimentSubcommand) -> ExitCode {
     use experiment::error::RunError;
     use experiment::participant::SimParticipant;
     use experiment::plan::Plan;
     use experiment::runner::run;
-    use viewer::cli::ExperimentCommand;
+    use viewer::cli::ExperimentSubcommand;
     let args = match command {
-        ExperimentCommand::Run(args) => args,
-        ExperimentCommand::Analyze(args) => return experiment_analyze_command(args),
+        ExperimentSubcommand::Run(args) => args,
+        ExperimentSubcommand::Analyze(args) => return experiment_analyze_command(args),
     };
     let participant = match SimParticipant::parse(&args.participant) {
         Some(Ok(p)) => p,
@@ -776,11 +776,11 @@ fn fail(error: &anyhow::Error, code: u8) -> ExitCode {
     ExitCode::from(code)
 }
 
-fn device_command(command: &viewer::cli::DeviceCommand) -> ExitCode {
-    use viewer::cli::DeviceCommand;
+fn device_command(command: &viewer::cli::DeviceSubcommand) -> ExitCode {
+    use viewer::cli::DeviceSubcommand;
     use viewer::devices;
     match command {
-        DeviceCommand::List => {
+        DeviceSubcommand::List => {
             let (found, problems) = host::devices::find_devices();
             for p in problems {
                 eprintln!("device list: {p}");
@@ -791,9 +791,9 @@ fn device_command(command: &viewer::cli::DeviceCommand) -> ExitCode {
                 Err(e) => fail(&anyhow::Error::new(e), EXIT_BAD_INPUT),
             }
         }
-        DeviceCommand::Monitor(args) => device_monitor(args),
-        DeviceCommand::Identify(args) => device_identify(args),
-        DeviceCommand::SimPty(args) => device_sim_pty(args),
+        DeviceSubcommand::Monitor(args) => device_monitor(args),
+        DeviceSubcommand::Identify(args) => device_identify(args),
+        DeviceSubcommand::SimPty(args) => device_sim_pty(args),
     }
 }
 

@@ -18,10 +18,10 @@ use super::panels::{DevicePanel, FilePanel, MaterialPanel, ReplayPanel};
 use super::replay::Replay;
 use super::spatial::SpatialState;
 use super::telemetry::Telemetry;
-use host::backend::{Backend, Command, LinkEvent, Reply, Sample};
+use host::backend::{Backend, LinkEvent, LoopCommand, Reply, Sample};
 use host::devices::{self, Target};
 use host::error::MaterialChangeError;
-use host::planar::{HapticLoop, START_HIP, Session};
+use host::planar::{HapticLoop, PlanarSession, START_HIP};
 use host::runlog::RecordTx;
 use scene::bundled::BUNDLED;
 use scene::{Material, Scene, Space};
@@ -135,7 +135,7 @@ impl AppState {
         threaded: bool,
         record: Option<RecordTx>,
     ) -> anyhow::Result<Self> {
-        let session = Session::new(scene.clone())?;
+        let session = PlanarSession::new(scene.clone())?;
         let view = SceneView::new(label, &scene, session.object());
         let haptic = HapticLoop::new(session, START_HIP)?;
         let spatial = if view.is_planar() {
@@ -203,7 +203,7 @@ impl AppState {
 
     /// Gives `command` to the planar loop (a stepped loop's reply is taken in at once);
     /// false when it was dropped.
-    pub(super) fn command(&mut self, command: Command) -> bool {
+    pub(super) fn command(&mut self, command: LoopCommand) -> bool {
         let sent = self.backend.command(command);
         let taken = sent.taken();
         if let Some(reply) = sent.reply() {
@@ -267,7 +267,7 @@ impl AppState {
             if let Some(reply) = spatial.deform(on) {
                 self.on_reply(reply);
             }
-        } else if !self.command(Command::Deform(on)) {
+        } else if !self.command(LoopCommand::Deform(on)) {
             self.deform.error = Some("the haptic loop did not take it (its queue is full)".into());
             self.deform.refused();
         }
@@ -318,7 +318,9 @@ impl AppState {
                 self.deform.on_reply(r);
                 self.refresh_deform();
             }
-            Reply::Unsupported(what) if what == Command::<Session>::Deform(true).name() => {
+            Reply::Unsupported(what)
+                if what == LoopCommand::<PlanarSession>::Deform(true).name() =>
+            {
                 self.deform.error = Some(format!("this device does not support {what}"));
                 self.deform.refused();
                 self.refresh_deform();
@@ -408,7 +410,7 @@ impl AppState {
                 self.link = LinkState::default();
                 self.forces_requested = setup;
                 // The virtual hand of a simulated plant goes where the app's hand is.
-                self.command(Command::HandTarget(self.hand_target.extend(0.0)));
+                self.command(LoopCommand::HandTarget(self.hand_target.extend(0.0)));
                 self.telemetry.restart();
                 let scene = self.scene.model.clone();
                 let label = self.scene.label.clone();
@@ -420,7 +422,7 @@ impl AppState {
 
     /// Drives the simulated pantograph in this process again, on the running scene.
     pub fn use_simulated(&mut self) {
-        let rebuilt = Session::new(self.scene.model.clone())
+        let rebuilt = PlanarSession::new(self.scene.model.clone())
             .map_err(anyhow::Error::from)
             .and_then(|s| Ok(HapticLoop::new(s, START_HIP)?))
             .and_then(|h| Ok(Backend::start(h, true, self.record.clone())?));
@@ -484,7 +486,7 @@ impl AppState {
 
     /// Calibrates the device (a board must sit at its end stops).
     pub fn calibrate(&mut self) {
-        self.command(Command::Calibrate);
+        self.command(LoopCommand::Calibrate);
     }
 
     /// Who holds the simulated pantograph's handle: a grip, a light fingertip, or nobody
@@ -494,7 +496,7 @@ impl AppState {
     pub fn set_hand(&mut self, hand: host::hand::Hand) {
         if self.device == DeviceChoice::Simulated {
             self.hand = hand;
-            self.command(Command::Hand(hand));
+            self.command(LoopCommand::Hand(hand));
         }
     }
 
@@ -581,7 +583,7 @@ impl AppState {
             return false;
         }
         self.hand_target = target;
-        self.command(Command::HandTarget(target.extend(0.0)))
+        self.command(LoopCommand::HandTarget(target.extend(0.0)))
     }
 
     /// Applies the material editor's values: validated field by field here (the message names
@@ -603,7 +605,7 @@ impl AppState {
             self.materials.error = Some(MaterialChangeError::NoObject.to_string());
             return;
         }
-        if !self.command(Command::SetMaterial(m)) {
+        if !self.command(LoopCommand::SetMaterial(m)) {
             self.materials.error =
                 Some("the haptic loop did not take the material (its queue is full)".into());
         }
@@ -673,7 +675,7 @@ impl AppState {
     }
 
     /// Sends `scene` (rendering `object`, the first planar one when `None`) to the loop as
-    /// the device's upload ([`Session::with_object`]); it is shown once the loop took it (at
+    /// the device's upload ([`PlanarSession::with_object`]); it is shown once the loop took it (at
     /// once for a stepped loop). `edited`: an edit of the running scene, which keeps the edit
     /// history and the material editor. An error names the scene (`label`) and says the
     /// running scene is unchanged.
@@ -688,9 +690,9 @@ impl AppState {
         let felt_in_3d =
             object.filter(|&i| scene.object(i).is_some_and(super::spatial::can_be_felt));
         let built = match (object, felt_in_3d) {
-            (_, Some(_)) => Session::with_object(scene.clone(), None),
-            (Some(i), None) => Session::with_object(scene.clone(), Some(i)),
-            (None, None) => Session::new(scene.clone()),
+            (_, Some(_)) => PlanarSession::with_object(scene.clone(), None),
+            (Some(i), None) => PlanarSession::with_object(scene.clone(), Some(i)),
+            (None, None) => PlanarSession::new(scene.clone()),
         };
         let session = built.map_err(|e| format!("{label}: {e}; the running scene is unchanged"))?;
         let view = SceneView::new(&self.scene_label(label, edited), &scene, session.object());
@@ -713,7 +715,7 @@ impl AppState {
             .and_then(|i| scene.object(i))
             .map(|o| o.material().friction_material())
             .or_else(|| spatial.as_ref().and_then(SpatialState::material));
-        if !self.command(Command::Swap(Box::new(session))) {
+        if !self.command(LoopCommand::Swap(Box::new(session))) {
             return Err(format!(
                 "{label}: the haptic loop did not take the scene (its queue is full)"
             ));
@@ -783,7 +785,7 @@ impl AppState {
     /// Enables or disables the forces.
     pub fn set_forces(&mut self, on: bool) {
         self.forces_requested = on;
-        self.command(Command::Forces(on));
+        self.command(LoopCommand::Forces(on));
         if let Some(spatial) = &mut self.spatial {
             spatial.set_forces(on);
         }
@@ -823,8 +825,8 @@ impl AppState {
         else {
             return;
         };
-        if let Ok(idle) = Session::with_object(idle_scene.clone(), None) {
-            self.command(Command::Swap(Box::new(idle)));
+        if let Ok(idle) = PlanarSession::with_object(idle_scene.clone(), None) {
+            self.command(LoopCommand::Swap(Box::new(idle)));
         }
         self.pending = None;
         self.scene = SceneView {
@@ -853,7 +855,7 @@ impl AppState {
 
     /// Clears the latched faults whose condition is gone.
     pub fn clear_faults(&mut self) {
-        self.command(Command::ClearFaults);
+        self.command(LoopCommand::ClearFaults);
     }
 
     /// Samples the UI channel dropped, commands dropped, and ticks the recorder dropped.
@@ -937,7 +939,7 @@ mod tests {
                 .expect("the scene file");
             assert_eq!(on_disk, b.json, "{} is embedded as it is on disk", b.name);
             let scene = Scene::from_json_str(b.json).unwrap_or_else(|e| panic!("{}: {e}", b.name));
-            let session = Session::new(scene).unwrap_or_else(|e| panic!("{}: {e}", b.name));
+            let session = PlanarSession::new(scene).unwrap_or_else(|e| panic!("{}: {e}", b.name));
             let planar = !matches!(b.name, "thesis-3d" | "torus");
             assert_eq!(session.object().is_some(), planar, "{}", b.name);
         }
