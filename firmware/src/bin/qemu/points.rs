@@ -34,7 +34,7 @@ fn host_frame(buf: &mut [u8; FRAME_BYTES], seq: &mut u16, message: Message) -> u
 }
 
 /// A control-point stream under a held hand through the board's code, counted: the scene
-/// uploaded through a board's [`Session`] (its receiver, the board's capacities) into the
+/// uploaded through a board's [`DeviceSession`] (its receiver, the board's capacities) into the
 /// board's double buffer and swapped in ([`TickScenes`]), the hand pressed into the right arc,
 /// then 100 updates a second, each through the session (the link task's part: staging, CRC,
 /// the validation and topology check, counted alone) and applied at the next tick boundary
@@ -59,12 +59,12 @@ pub(crate) fn points_run(board: &mut QemuBoard, scenario: &Scenario<'_>) {
         Ok(p) => p.unloaded(),
         Err(e) => fail(format_args!("scene {name}: {e}")),
     };
-    let mut session: Session<BOARD_SCENE_CAPACITY> = Session::new(false);
+    let mut session: DeviceSession<BOARD_SCENE_CAPACITY> = DeviceSession::new(false);
     let mut seq = 0u16;
     let mut buf = [0u8; FRAME_BYTES];
     let state = DeviceState::default();
     // What a frame does: its event (a refusal fails the run).
-    let handle = |session: &mut Session<BOARD_SCENE_CAPACITY>,
+    let handle = |session: &mut DeviceSession<BOARD_SCENE_CAPACITY>,
                   staging: &mut Option<Staging<BoardStore>>,
                   bytes: &[u8]|
      -> Event {
