@@ -892,3 +892,50 @@ proptest! {
         }
     }
 }
+
+/// The wall pressed deeper during the ramp-in is whole after it, with the passivity
+/// controller's tank on. A flaky `cargo xtask hid` (3.98 N asked, 0.08 N given for 10 s, no
+/// fault) suggested that a handle going in while the ramp scales the force puts in less work
+/// than the wall then stores, so that the tank would cut the force at the ramp's end for
+/// good. This checks that suspicion and finds it does not hold. Here K = 1000 N/m, the contact
+/// starts 0.5 mm in, the handle goes 3.5 mm further over the first 0.2 s of the 0.5 s ramp,
+/// then holds 4 mm in, where the wall asks 4 N (under the 5 N cap).
+#[test]
+fn a_wall_pressed_in_during_the_ramp_is_whole_after_it() {
+    let k = 1000.0f32;
+    let mut config = SafetyConfig::default();
+    config.passivity.output_delay_ticks = 0;
+    let period_s = config.period_s;
+    let mut safety = Safety::new(config).unwrap();
+    safety.set_wall_stiffness(k);
+    safety.set_passivity_control(true);
+    let surface_y = HOME.y + 0.0005;
+    let depth_at = |tick: u32| 0.0005 + 0.0035 * (tick as f32 / 200.0).min(1.0);
+    let mut last = Vec2::ZERO;
+    for i in 0..1000u32 {
+        let depth = depth_at(i);
+        let mut input = tick(Vec2::new(0.0, k * depth));
+        input.hip_in_device_m = Vec2::new(0.0, surface_y - depth);
+        let speed = if i < 200 { 0.0035 / (200.0 * period_s) } else { 0.0 };
+        input.hip_velocity_m_per_s = Vec2::new(0.0, -speed);
+        last = safety.apply(&input).force_n;
+        if i >= 600 {
+            // 0.1 s after the ramp's end: the whole wall, 4 N (f32 of the products: 1e-5 N).
+            assert!(
+                close(last.y, k * 0.004, 1e-3),
+                "tick {i}: the wall gives {} N of {} N",
+                last.y,
+                k * 0.004
+            );
+        }
+    }
+    // And no more than the wall holds: the tank's credit is at most what the wall stores at
+    // 4 mm, ½ K d² = 8 mJ (f32: 4 ε relative).
+    let stored = 0.5 * k * 0.004f32 * 0.004;
+    assert!(
+        safety.observed_energy_j() <= stored * (1.0 + 4.0 * f32::EPSILON),
+        "{} J credited, the wall stores {stored} J",
+        safety.observed_energy_j()
+    );
+    assert!(last.y > 0.0);
+}
