@@ -916,7 +916,11 @@ fn a_wall_pressed_in_during_the_ramp_is_whole_after_it() {
         let depth = depth_at(i);
         let mut input = tick(Vec2::new(0.0, k * depth));
         input.hip_in_device_m = Vec2::new(0.0, surface_y - depth);
-        let speed = if i < 200 { 0.0035 / (200.0 * period_s) } else { 0.0 };
+        let speed = if i < 200 {
+            0.0035 / (200.0 * period_s)
+        } else {
+            0.0
+        };
         input.hip_velocity_m_per_s = Vec2::new(0.0, -speed);
         last = safety.apply(&input).force_n;
         if i >= 600 {
