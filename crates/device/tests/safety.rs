@@ -8,9 +8,12 @@
 use device::safety::{
     ConfigError, Faults, Flags, Safety, SafetyConfig, SafetyInput, ThermalConfig,
 };
-use device::wall::{AtHandle, PassivityConfig, WallLimits};
+use device::wall::WallLimits;
 use nurbs::Vec2;
 use proptest::prelude::*;
+
+mod common;
+use common::device;
 
 const T: f32 = 1e-3;
 /// A HIP position well inside the default workspace box.
@@ -483,22 +486,6 @@ fn thermal_model_clamps_current_to_peak() {
         b.apply(&input);
     }
     assert_eq!(a.thermal_state(), b.thermal_state());
-}
-
-/// A device with b = 0.005 N·s/m, f_c = 0.02 N and Δ = 20 µm at the handle, the bound
-/// covering impacts up to v = 0.1 m/s: b + f_c / v = 0.205 N·s/m.
-fn device(b: f32, f_c: f32, delta: f32) -> PassivityConfig {
-    PassivityConfig {
-        device: AtHandle {
-            damping_n_s_per_m: b,
-            coulomb_n: f_c,
-            resolution_m: delta,
-        },
-        impact_speed_m_per_s: 0.1,
-        controller_stiffness_n_per_m: 1000.0,
-        controller_damping_ns_per_m: 1.0,
-        output_delay_ticks: 0,
-    }
 }
 
 /// The sampled-spring scenario: the HIP is driven along x = A sin(ωt) (an ideal velocity

@@ -469,6 +469,20 @@ fn mode_index(mode: Mode) -> usize {
 
 const MODE_NAMES: [&str; 4] = ["free", "stuck", "transition", "slip"];
 
+/// One `instructions_by_mode` line per friction mode the run ticked in.
+fn print_by_mode(name: &str, by_mode: &[Stats; 4]) {
+    for (mode, stats) in MODE_NAMES.iter().zip(by_mode) {
+        if stats.n > 0 {
+            hprintln!(
+                "instructions_by_mode scene={} mode={} {}",
+                name,
+                mode,
+                stats
+            );
+        }
+    }
+}
+
 fn fail(what: core::fmt::Arguments<'_>) -> ! {
     hprintln!("qemu: FAILED: {}", what);
     debug::exit(debug::EXIT_FAILURE);
@@ -652,16 +666,7 @@ fn main() -> ! {
         name,
         after_first
     );
-    for (mode, stats) in MODE_NAMES.iter().zip(by_mode) {
-        if stats.n > 0 {
-            hprintln!(
-                "instructions_by_mode scene={} mode={} {}",
-                name,
-                mode,
-                stats
-            );
-        }
-    }
+    print_by_mode(name, &by_mode);
     #[cfg(feature = "stages")]
     if shadow.mismatches == 0 {
         for (stage, stats) in STAGE_NAMES.iter().zip(shadow.stats) {

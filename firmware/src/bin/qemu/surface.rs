@@ -87,14 +87,5 @@ pub(crate) fn surface_run(meter: &mut Meter, rate_hz: f64) {
         search.ok().map(|n| n.saturating_sub(overhead))
     );
     hprintln!("instructions_per_tick scene={} {}", name, all);
-    for (mode, stats) in MODE_NAMES.iter().zip(by_mode) {
-        if stats.n > 0 {
-            hprintln!(
-                "instructions_by_mode scene={} mode={} {}",
-                name,
-                mode,
-                stats
-            );
-        }
-    }
+    print_by_mode(name, &by_mode);
 }
