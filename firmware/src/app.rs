@@ -1,5 +1,5 @@
 //! The board-independent app: builds the controller on a validated scene exactly as the
-//! host's `viewer sim --device` does (`host::sim::run_device`), and runs one tick against a
+//! host's `viewer sim --device` does (`host::closed_loop::run_device`), and runs one tick against a
 //! [`Board`]. The board binary and the QEMU binary share it, so the emulated run exercises the
 //! code the board runs. The board's acquisition job ([`AcquisitionJob`], [`run_job`]), which
 //! runs the same search as [`App::acquire`] in another task, is here too.
@@ -9,7 +9,7 @@ use device::controller::{
 };
 use device::protocol::{ErrorCode, Frame, MAX_FRAME, Message, SceneError, SceneFault, SceneStore};
 use device::safety::SafetyConfig;
-use device::session::Command;
+use device::session::DeviceCommand;
 use device::spec::DeviceSpec;
 use device::telemetry::TelemetryDecimator;
 use tracker::{Chain, ChainError, ChainTracker};
@@ -187,10 +187,14 @@ impl<const K: usize, const C: usize> App<K, C> {
             .map_err(AppError::Controller)
     }
 
-    /// Applies a command of the link ([`device::session::Command::apply`]): calibration on
+    /// Applies a command of the link ([`device::session::DeviceCommand::apply`]): calibration on
     /// `home_counts`, a material with the passivity controller on where it needs it (as
     /// [`App::load`]). The error is the code for the status's `last_error`.
-    pub fn apply(&mut self, command: Command, home_counts: [i32; 2]) -> Result<(), ErrorCode> {
+    pub fn apply(
+        &mut self,
+        command: DeviceCommand,
+        home_counts: [i32; 2],
+    ) -> Result<(), ErrorCode> {
         command.apply(&mut self.controller, home_counts, true)
     }
 

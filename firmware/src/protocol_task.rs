@@ -12,7 +12,7 @@
 use core::sync::atomic::{AtomicU8, AtomicU32, Ordering};
 
 use device::protocol::{ErrorCode, MAX_FRAME, Message, SceneStore};
-use device::session::{Command, DeviceState, Event, Session};
+use device::session::{DeviceCommand, DeviceSession, DeviceState, Event};
 use heapless::spsc::{Consumer, Producer};
 
 use crate::app::{AcquisitionJob, JobDone, run_job};
@@ -110,7 +110,7 @@ pub enum Step {
 /// The protocol task's state: a session with scene capacity `N` validating into stores `T`.
 pub struct Protocol<const N: usize, T: 'static> {
     /// The device side of the link.
-    pub session: &'static mut Session<N>,
+    pub session: &'static mut DeviceSession<N>,
     /// What the tick shares with this task.
     pub shared: &'static TickShared,
     /// The store the next commit is validated into; `None` while both are with the tick.
@@ -120,7 +120,7 @@ pub struct Protocol<const N: usize, T: 'static> {
     /// Replies to USB.
     pub replies: Producer<'static, Message, REPLIES>,
     /// Commands to the tick.
-    pub commands: Producer<'static, Command, COMMANDS>,
+    pub commands: Producer<'static, DeviceCommand, COMMANDS>,
     /// Committed stores to the tick.
     pub commits: Producer<'static, Staging<T>, STORES>,
     /// Stores the tick is done with.
@@ -205,7 +205,7 @@ impl<const N: usize, const K: usize, const C: usize, const S: usize>
             Event::SceneCommitted | Event::ScenePointsUpdated { .. } => {}
             // A board's session refuses hand targets (no virtual hand here).
             Event::HandTarget(_) | Event::None => {}
-            Event::Command(command) => {
+            Event::DeviceCommand(command) => {
                 if self.commands.enqueue(command).is_err() {
                     // The tick takes every command each tick; a full queue means a flood.
                     self.session.note_error(ErrorCode::UnexpectedMessage);

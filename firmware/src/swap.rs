@@ -32,7 +32,7 @@ use core::cell::UnsafeCell;
 use core::sync::atomic::{AtomicBool, Ordering};
 
 use device::controller::AcquisitionRequest;
-use device::protocol::{SceneError, SceneFault, SceneStore, SceneValidator};
+use device::protocol::{SceneFault, SceneStore, SceneValidator, WireSceneError};
 
 use crate::app::{AcquisitionJob, App, AppError, ChainAcquisition, JobDone};
 
@@ -247,7 +247,7 @@ impl<'a, T> Validator<'a, T> {
     }
 }
 
-const BUSY: SceneError = SceneError {
+const BUSY: WireSceneError = WireSceneError {
     object: None,
     patch: None,
     fault: SceneFault::Busy,
@@ -256,7 +256,7 @@ const BUSY: SceneError = SceneError {
 impl<const K: usize, const C: usize, const S: usize> SceneValidator
     for Validator<'_, SceneStore<K, C, S>>
 {
-    fn validate(&mut self, scene: &[u8]) -> Result<(), SceneError> {
+    fn validate(&mut self, scene: &[u8]) -> Result<(), WireSceneError> {
         self.store.as_mut().ok_or(BUSY)?.decode(scene)
     }
 
@@ -265,7 +265,7 @@ impl<const K: usize, const C: usize, const S: usize> SceneValidator
         active: &[u8],
         reshaped: &[u8],
         object: u8,
-    ) -> Result<(), SceneError> {
+    ) -> Result<(), WireSceneError> {
         self.store
             .as_mut()
             .ok_or(BUSY)?

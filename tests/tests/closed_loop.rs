@@ -1,14 +1,15 @@
 //! The thesis-2d scenario closed through the real dynamics: the trajectory moves the virtual
 //! hand's target, the simulated pantograph carries the handle, and the device's `Controller`
 //! (kinematics → tracker → friction → safety → Jᵀ F → currents) pushes back, at stiffnesses
-//! and grips other than the scene's. The scene as it is, through `host::sim::run_device`, is
+//! and grips other than the scene's. The scene as it is, through `host::closed_loop::run_device`, is
 //! `crates/host/tests/run_device.rs`.
 #![allow(clippy::unwrap_used)]
 
 use device::controller::{Controller, ControllerError};
-use device::safety::{Bound, PassivityError, SafetyConfig, WallLimits};
+use device::safety::SafetyConfig;
 use device::simulator::{SimParams, SimulatedPantograph};
 use device::spec::DeviceSpec;
+use device::wall::{Bound, PassivityError, WallLimits};
 use friction::{FrictionMaterial, Mode};
 use host::trajectory::Trajectory;
 use nurbs::Vec2;

@@ -6,7 +6,8 @@
 #![allow(clippy::unwrap_used)]
 
 use friction::{Mode, SwitchCause};
-use host::sim::{Run, SimParams, run, run_device};
+use host::closed_loop::run_device;
+use host::sim::{Run, SimParams, run};
 use host::tick::Tick;
 use host::trajectory::Trajectory;
 use scene::Scene;

@@ -1,12 +1,11 @@
-//! The Z-width cells that the wall acceptance counts on (`device::safety::PassivityConfig`):
+//! The Z-width cells that the wall acceptance counts on (`device::wall::PassivityConfig`):
 //! impacts at 100 mm/s through the simulated pantograph (zero-order hold, a tick of delay,
 //! encoder quantisation, the device's own Coulomb friction and damping), for a released
 //! handle, a light fingertip and a grip, at 1 and 10 kHz (`host::zwidth`).
 #![allow(clippy::unwrap_used)]
 
-use device::safety::{
-    CONTROLLER_DAMPING_NS_PER_M, CONTROLLER_STIFFNESS_N_PER_M, SafetyConfig, WallLimits,
-};
+use device::safety::SafetyConfig;
+use device::wall::{CONTROLLER_DAMPING_NS_PER_M, CONTROLLER_STIFFNESS_N_PER_M, WallLimits};
 use host::zwidth::{Hand, Impact, impact};
 
 fn stable(rate_hz: f64, hand: Hand, k: f32, b: f32, controller: bool) -> bool {

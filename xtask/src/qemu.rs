@@ -16,11 +16,11 @@ use std::process::{Command, Stdio};
 use std::thread;
 use std::time::{Duration, Instant};
 
-use device::host::cobs;
+use device::link::cobs;
 use device::protocol::{Frame, Message, Telemetry, WireObject, WirePatch, encode_scene};
 use device::simulator::SimParams;
 use device::spec::DeviceSpec;
-use host::sim::{run_device, validate_device};
+use host::closed_loop::{run_device, validate_device};
 use host::tick::{DEVICE_RAMP_TIME_S, end_stop_counts};
 use host::trajectory::Trajectory;
 use scene::Scene;
@@ -47,7 +47,7 @@ const BOARD_CLOCK_HZ: f64 = 96e6;
 const BUDGET_2D_MAX: f64 = 4000.0;
 const BUDGET_SURFACE_MEAN: f64 = 6000.0;
 const SURFACE_NAME: &str = "bump";
-/// The control-point run of the firmware (`points_run` in `firmware/src/bin/qemu.rs`): a
+/// The control-point run of the firmware (`points_run` in `firmware/src/bin/qemu/points.rs`): a
 /// 100 Hz stream of shapes under the held hand, through the board's session, double buffer
 /// and tick. Its ticks are held to [`BUDGET_2D_MAX`]; an update's tick boundary plus the tick
 /// after it to one period's cycles at one instruction per cycle (the update is applied in the
@@ -472,7 +472,7 @@ fn surface_inputs(root: &Path) -> Result<(Vec<u8>, Vec<u8>), String> {
 }
 
 /// The firmware's scenario table (layout in `firmware/src/scenario.rs`): the setup and the
-/// per-tick hand targets `host::sim::run_device` uses, as the f32 values its loop takes.
+/// per-tick hand targets `host::closed_loop::run_device` uses, as the f32 values its loop takes.
 fn scenario_table(trajectory: &Trajectory, ticks: usize) -> Result<Vec<u8>, String> {
     let xy = |p: [f64; 3]| [p[0] as f32, p[1] as f32];
     let mut out = Vec::with_capacity(64 + 8 * ticks);
@@ -607,7 +607,7 @@ fn check_budgets(lines: &[String], build: &str) -> Result<Vec<String>, String> {
 }
 
 /// Compares the firmware's telemetry (the frames its UART sent, in `serial`) frame by frame
-/// with the host's run of the same scenario at the same [`RATE_HZ`] (`host::sim::run_device`,
+/// with the host's run of the same scenario at the same [`RATE_HZ`] (`host::closed_loop::run_device`,
 /// the code behind `viewer sim --device`, whose frames are decimated to 1 kHz as the
 /// firmware's): the same code on the same f32 inputs, so the goal is identical frames. Returns the result lines: the number of identical frames and, per field, the
 /// largest difference; fails when a frame is missing or a discrete field (mode, cause,

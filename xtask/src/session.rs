@@ -1,6 +1,6 @@
 //! The host ↔ firmware session of `cargo xtask qemu`: the QEMU binary `qemu-serve` with its
 //! UART on a TCP port, driven through the real protocol by the host's own link
-//! (`device::host::TcpLink`), as `viewer device monitor --tcp` does: hello, scene upload and
+//! (`device::link::TcpLink`), as `viewer device monitor --tcp` does: hello, scene upload and
 //! commit, forces on, the virtual hand into the object and along it (stuck → slip in the
 //! telemetry), malformed and out-of-order frames refused with the device running on and its
 //! scene unchanged, a second scene swapped in while in contact, the curve moving under the
@@ -15,7 +15,7 @@ use std::time::{Duration, Instant};
 
 use std::collections::HashMap;
 
-use device::host::{Link, TcpLink};
+use device::link::{Link, TcpLink};
 use device::protocol::{
     ErrorCode, Message, Nack, SceneChunk, Status, Telemetry, crc32, points_update, scene_upload,
 };
@@ -533,9 +533,9 @@ fn start(elf: &Path, address: &str, wait: bool, what: &str) -> Result<Qemu, Stri
 /// force) without a fault. (The app's own wiring of this thread is tested against the
 /// simulated device on a pseudo-terminal in `crates/viewer/tests/device_link.rs`.)
 pub fn app(elf: &Path, root: &Path) -> Result<Vec<String>, String> {
-    use host::backend::{Command, LinkEvent, Reply, Sample};
+    use host::backend::{LinkEvent, LoopCommand, Reply, Sample};
     use host::devices::Target;
-    use host::planar::Session;
+    use host::planar::PlanarSession;
     let address = free_address()?;
     let _qemu = start(elf, &address, false, "the desktop app's link")?;
     // The board is up once QEMU listens (its emulation runs without waiting for a client);
@@ -551,7 +551,7 @@ pub fn app(elf: &Path, root: &Path) -> Result<Vec<String>, String> {
     let scene_path = root.join("scenes").join("thesis-2d.json");
     let scene = Scene::load(&scene_path).map_err(|e| format!("{}: {e}", scene_path.display()))?;
     let wire = host::upload::wire_scene(&scene, 0).map_err(|e| format!("app: {e}"))?;
-    let session = Session::new(scene).map_err(|e| format!("app: {e}"))?;
+    let session = PlanarSession::new(scene).map_err(|e| format!("app: {e}"))?;
     let target = Target::Tcp(address.clone());
     let link = host::remote::spawn(
         format!("tcp {address}"),
@@ -561,8 +561,8 @@ pub fn app(elf: &Path, root: &Path) -> Result<Vec<String>, String> {
     )
     .map_err(|e| format!("app: cannot start the link's thread: {e}"))?;
     let above = Vec2::new(0.01, 0.11);
-    link.send(Command::HandTarget(above.extend(0.0)));
-    link.send(Command::Swap(Box::new(session)));
+    link.send(LoopCommand::HandTarget(above.extend(0.0)));
+    link.send(LoopCommand::Swap(Box::new(session)));
 
     // What the app's state keeps of the link: the newest status and sample, the history.
     let mut status = None;
@@ -609,7 +609,7 @@ pub fn app(elf: &Path, root: &Path) -> Result<Vec<String>, String> {
     let inside = centre + Vec2::new(a.cos(), a.sin()) * 0.036;
     let steps = 50;
     for i in 0..=steps {
-        link.send(Command::HandTarget(
+        link.send(LoopCommand::HandTarget(
             (above + (inside - above) * (i as f32 / steps as f32)).extend(0.0),
         ));
         std::thread::sleep(Duration::from_millis(10));

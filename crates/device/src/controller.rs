@@ -63,10 +63,9 @@ use tracker::Object;
 
 use crate::kinematics::Pantograph;
 use crate::protocol::Telemetry;
-use crate::safety::{
-    Bound, ConfigError, Faults, PassivityConfig, PassivityError, Safety, SafetyConfig, SafetyInput,
-};
+use crate::safety::{ConfigError, Faults, Safety, SafetyConfig, SafetyInput};
 use crate::spec::{Calibration, CalibrationError, DeviceSpec, SpecError};
+use crate::wall::{Bound, PassivityConfig, PassivityError};
 
 /// Why a controller could not be built or a command was refused.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -76,13 +75,13 @@ pub enum ControllerError {
     /// The safety limits are invalid.
     Safety(ConfigError),
     /// The material fails the device's sampled-data passivity bound at this rate and the
-    /// passivity controller is off ([`crate::safety::check_wall`]).
+    /// passivity controller is off ([`crate::wall::check_wall`]).
     Passivity(PassivityError),
     /// Calibration failed.
     Calibration(CalibrationError),
     /// The material is beyond what the device renders even with the passivity controller on:
     /// the quantisation bound, or stiffer than the controller is demonstrated to
-    /// ([`crate::safety::check_wall`]).
+    /// ([`crate::wall::check_wall`]).
     BeyondDevice(PassivityError),
     /// A material was set with no scene loaded.
     NoScene,
@@ -431,7 +430,7 @@ impl<O: Object<P = Vec2>> Controller<O> {
     /// `passivity_control` is on, in which case the time-domain passivity controller is
     /// enabled for this scene; even then a wall past the quantisation bound or what the
     /// controller is demonstrated to is refused ([`ControllerError::BeyondDevice`], naming
-    /// the bound; [`crate::safety::check_wall`]). On error the previous scene stays loaded.
+    /// the bound; [`crate::wall::check_wall`]). On error the previous scene stays loaded.
     pub fn load_scene(
         &mut self,
         object: O,

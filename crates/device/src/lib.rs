@@ -4,9 +4,9 @@
 pub mod board_io;
 pub mod controller;
 pub mod error;
-#[cfg(feature = "std")]
-pub mod host;
 pub mod kinematics;
+#[cfg(feature = "std")]
+pub mod link;
 /// The tick's elementary functions, from `nurbs` (the lowest crate on the tick path).
 pub use nurbs::math;
 pub mod protocol;
@@ -17,3 +17,4 @@ pub mod spec;
 pub mod telemetry;
 #[cfg(feature = "usb")]
 pub mod usb;
+pub mod wall;

@@ -156,8 +156,8 @@ pub use message::{
 pub use receiver::{SceneReceiver, SceneValidator};
 pub use scene::{
     KIND_CURVE2, KIND_SURFACE, MAX_CURVE_POINTS, MAX_KNOTS, MAX_OBJECTS, MAX_PATCHES,
-    MAX_SURFACE_POINTS, PatchKind, PointSpan, SCENE_MAGIC, SCENE_VERSION, SceneError, SceneFault,
-    SceneStore, decode_scene, patch_points, points_span, write_points,
+    MAX_SURFACE_POINTS, PatchKind, PointSpan, SCENE_MAGIC, SCENE_VERSION, SceneFault, SceneStore,
+    WireSceneError, decode_scene, patch_points, points_span, write_points,
 };
 #[cfg(feature = "std")]
 pub use scene::{WireObject, WirePatch, encode_scene};
@@ -167,7 +167,7 @@ use nurbs::{Vec2, Vec3};
 
 /// USB vendor id of the board (its HID interface carries the frames, one per 64-byte report):
 /// pid.codes' open-source vendor id. A placeholder until the project has a product id of its
-/// own. Here (no_std) so that the firmware and the host (`device::host`) share it.
+/// own. Here (no_std) so that the firmware and the host (`device::link`) share it.
 pub const USB_VID: u16 = 0x1209;
 /// USB product id of the board: pid.codes' test PID (`0x0001`), reserved for development and
 /// not unique; replace it with an allocated one before boards leave the lab.
@@ -175,7 +175,7 @@ pub const USB_PID: u16 = 0x0001;
 
 /// The board's USB HID report descriptor: one vendor-defined collection with a 64-byte
 /// ([`MAX_FRAME`]) input and a 64-byte output report and no report ids, so every report is one
-/// frame. The board's firmware presents it; the host's `HidLink` (`device::host`, feature
+/// frame. The board's firmware presents it; the host's `HidLink` (`device::link`, feature
 /// `std`) relies on it (it writes report id 0 before each frame and reads bare frames).
 #[rustfmt::skip]
 pub const REPORT_DESCRIPTOR: &[u8] = &[

@@ -1,9 +1,9 @@
 //! The device side of a link, once for every device: the host's simulator
-//! ([`host::sim`](crate::host)), the firmware under QEMU and the board. A [`Session`] takes
+//! ([`link::SimLink`](crate::link::SimLink)), the firmware under QEMU and the board. A [`DeviceSession`] takes
 //! each frame the host sent through its [`SceneReceiver`] (sequence numbers, scene upload),
 //! acks or nacks it, answers a hello with the device's hello and a heartbeat with a status.
-//! What it asks of the device comes back as an [`Event`]: a [`Command`] for the controller
-//! (applied at once by a single-threaded device, [`Command::apply`], or queued to a board's
+//! What it asks of the device comes back as an [`Event`]: a [`DeviceCommand`] for the controller
+//! (applied at once by a single-threaded device, [`DeviceCommand::apply`], or queued to a board's
 //! tick, which owns the controller), a committed scene (the caller swaps its scene storage at
 //! a tick boundary), a control-point update applied to the active scene (the caller gives the
 //! controller the updated object at a tick boundary, keeping its renderer) or a hand target
@@ -25,10 +25,10 @@ use crate::protocol::{
 use crate::spec::DeviceSpec;
 
 /// A command for the controller, from a frame the session accepted. A single-threaded
-/// device applies it at once ([`Command::apply`]); a board queues it to its tick, which owns
+/// device applies it at once ([`DeviceCommand::apply`]); a board queues it to its tick, which owns
 /// the controller.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub enum Command {
+pub enum DeviceCommand {
     /// The host is alive ([`Controller::heartbeat`]).
     Heartbeat,
     /// A new material for object 0.
@@ -43,7 +43,7 @@ pub enum Command {
     Excite(Excitation),
 }
 
-impl Command {
+impl DeviceCommand {
     /// Applies the command to `controller`. A calibration records `home_counts` (the encoder
     /// counts with the joints on their end stops); a material is loaded with the passivity
     /// controller on only where it needs it and `allow_passivity_control`
@@ -56,17 +56,17 @@ impl Command {
         allow_passivity_control: bool,
     ) -> Result<(), ErrorCode> {
         match self {
-            Command::Heartbeat => controller.heartbeat(),
-            Command::Forces(on) => controller.set_forces_enabled(on),
-            Command::Calibrate => {
+            DeviceCommand::Heartbeat => controller.heartbeat(),
+            DeviceCommand::Forces(on) => controller.set_forces_enabled(on),
+            DeviceCommand::Calibrate => {
                 controller
                     .calibrate(home_counts)
                     .map_err(|_| ErrorCode::BadField)?;
             }
-            Command::ClearFaults => {
+            DeviceCommand::ClearFaults => {
                 controller.clear_faults();
             }
-            Command::Excite(excitation) => {
+            DeviceCommand::Excite(excitation) => {
                 // The session's check again, on the controller as it is now (a board's tick
                 // runs this after the session acked): the same refusal, the same code.
                 excitation
@@ -79,7 +79,7 @@ impl Command {
                     .excite(excitation)
                     .map_err(|_| ErrorCode::BadField)?;
             }
-            Command::SetMaterial(material) => {
+            DeviceCommand::SetMaterial(material) => {
                 // Without a scene there is nothing to set (the next upload brings its own).
                 if let Err(ControllerError::Passivity(_) | ControllerError::BeyondDevice(_)) =
                     controller.set_material_as_needed(material, allow_passivity_control)
@@ -150,7 +150,7 @@ impl DeviceState {
     }
 }
 
-/// What the caller must do after [`Session::handle`].
+/// What the caller must do after [`DeviceSession::handle`].
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Event {
     /// Nothing beyond what the session did.
@@ -170,27 +170,27 @@ pub enum Event {
     /// The virtual hand's new target (m, device frame); only from a simulated plant's session.
     HandTarget(Vec2),
     /// A command for the controller.
-    Command(Command),
+    DeviceCommand(DeviceCommand),
 }
 
 /// The device side of one link.
 #[derive(Clone, Debug)]
-pub struct Session<const N: usize> {
+pub struct DeviceSession<const N: usize> {
     receiver: SceneReceiver<N>,
     last_error: u8,
     /// Each joint's torque at its motor's current limit (N·m,
     /// [`DeviceSpec::max_joint_torque_nm`]): an identification run beyond it is nacked.
-    /// Zero until [`Session::set_motor_limits`]: a device that does not say refuses every
+    /// Zero until [`DeviceSession::set_motor_limits`]: a device that does not say refuses every
     /// run that moves anything.
     max_torque_nm: [f32; 2],
 }
 
-impl<const N: usize> Session<N> {
+impl<const N: usize> DeviceSession<N> {
     /// A session of a device whose plant is simulated or not (a board's session refuses
     /// hand targets with [`ErrorCode::NotSimulated`]). A board's is all zero bits (a static
     /// of it needs no image in flash).
     pub const fn new(simulated_plant: bool) -> Self {
-        Session {
+        DeviceSession {
             receiver: if simulated_plant {
                 SceneReceiver::for_simulated_plant()
             } else {
@@ -270,10 +270,10 @@ impl<const N: usize> Session<N> {
     /// and clears it (read), and an accepted request clears it (superseded) — not a heartbeat
     /// nor a hand target, which stream on their own and would wipe it before a status could
     /// say it. An identification run is checked here ([`Excitation::check`], with `state`'s
-    /// calibration and [`Session::set_motor_limits`]) and a refusal nacked with its code, so
+    /// calibration and [`DeviceSession::set_motor_limits`]) and a refusal nacked with its code, so
     /// the host is not told the run started. (A board's `state` is its tick's last, at most a
     /// tick old: a calibration it has not applied yet reads as not calibrated; the tick
-    /// checks the run again, `Command::apply`.)
+    /// checks the run again, `DeviceCommand::apply`.)
     pub fn handle(
         &mut self,
         bytes: &[u8],
@@ -308,7 +308,7 @@ impl<const N: usize> Session<N> {
             Message::Heartbeat { .. } => {
                 reply(&Message::Status(self.status(state)));
                 self.last_error = 0;
-                return Event::Command(Command::Heartbeat);
+                return Event::DeviceCommand(DeviceCommand::Heartbeat);
             }
             Message::SceneCommit => return Event::SceneCommitted,
             Message::ScenePoints(p) if p.apply => {
@@ -317,22 +317,22 @@ impl<const N: usize> Session<N> {
             Message::SetMaterial {
                 object: 0,
                 material,
-            } => return Event::Command(Command::SetMaterial(material)),
+            } => return Event::DeviceCommand(DeviceCommand::SetMaterial(material)),
             Message::SetMaterial { .. } => {
                 // One object is rendered: object 0.
                 self.last_error = ErrorCode::BadField as u8;
             }
-            Message::EnableForces => return Event::Command(Command::Forces(true)),
-            Message::DisableForces => return Event::Command(Command::Forces(false)),
-            Message::Calibrate => return Event::Command(Command::Calibrate),
-            Message::ClearFaults { .. } => return Event::Command(Command::ClearFaults),
+            Message::EnableForces => return Event::DeviceCommand(DeviceCommand::Forces(true)),
+            Message::DisableForces => return Event::DeviceCommand(DeviceCommand::Forces(false)),
+            Message::Calibrate => return Event::DeviceCommand(DeviceCommand::Calibrate),
+            Message::ClearFaults { .. } => return Event::DeviceCommand(DeviceCommand::ClearFaults),
             Message::HandTarget { target_m } => return Event::HandTarget(target_m),
             Message::Excite {
                 torque_nm,
                 half_period_ms,
                 duration_ms,
             } => {
-                return Event::Command(Command::Excite(excitation(
+                return Event::DeviceCommand(DeviceCommand::Excite(excitation(
                     torque_nm,
                     half_period_ms,
                     duration_ms,

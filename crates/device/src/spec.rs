@@ -275,7 +275,7 @@ impl DeviceSpec {
 
     /// What the mechanism itself does at the handle, at the worst pose of the guaranteed
     /// workspace (the 11 × 11 grid [`DeviceSpec::validate`] checks): the figures the
-    /// acceptance of a wall counts on ([`crate::safety::check_wall`]). Setup, not the tick
+    /// acceptance of a wall counts on ([`crate::wall::check_wall`]). Setup, not the tick
     /// (square roots, f64 inside). See [`AtHandle`].
     pub fn at_handle(&self) -> Result<AtHandle, SpecError> {
         self.at_handle_of(&self.validate()?)
@@ -644,7 +644,7 @@ mod tests {
     #[test]
     fn the_safety_default_is_the_default_pantograph_at_the_handle() {
         let computed = DeviceSpec::default().at_handle().unwrap();
-        let default = crate::safety::PassivityConfig::default().device;
+        let default = crate::wall::PassivityConfig::default().device;
         for (a, b) in [
             (computed.damping_n_s_per_m, default.damping_n_s_per_m),
             (computed.coulomb_n, default.coulomb_n),

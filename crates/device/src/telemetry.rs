@@ -28,7 +28,7 @@
 //!   window than the force fields.
 //!
 //! With `N = 1` every frame is its tick's, unchanged. The decimator runs on the device (the
-//! firmware's app) and in the host's run of the device (`host::sim::run_device`) alike, so
+//! firmware's app) and in the host's run of the device (`host::closed_loop::run_device`) alike, so
 //! the emulated board's frames can be compared with the host's bit for bit.
 //!
 //! No allocation, no panic; a push costs a comparison of |F|² and at most one copy of a frame.

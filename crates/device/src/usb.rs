@@ -7,7 +7,7 @@
 //!
 //! What sits behind the port is a [`ReportPump`]: the board's queues to its protocol task
 //! and tick (`firmware::usb::Usb`), or the host's simulated pantograph
-//! (`device::host::sim::SimReports`); the port's [`Outbox`] sends what waits in them in one
+//! (`device::link::simulated::SimReports`); the port's [`Outbox`] sends what waits in them in one
 //! order for both.
 
 use usb_device::bus::{UsbBus, UsbBusAllocator};

@@ -8,7 +8,7 @@
 #![allow(clippy::unwrap_used)]
 
 use device::protocol::*;
-use device::session::{DeviceState, Event, Session};
+use device::session::{DeviceSession, DeviceState, Event};
 use friction::FrictionMaterial;
 use nurbs::construct::circle;
 use nurbs::{CurveBuf, Vec2};
@@ -57,7 +57,7 @@ fn ring_scene_moved(to: impl Fn(usize) -> Vec2) -> Vec<u8> {
 
 /// The device side: a session and its scratch store.
 struct Device {
-    session: Box<Session<4096>>,
+    session: Box<DeviceSession<4096>>,
     scratch: Box<SceneStore>,
     seq: u16,
 }
@@ -65,7 +65,7 @@ struct Device {
 impl Device {
     fn new() -> Self {
         Device {
-            session: Box::new(Session::new(false)),
+            session: Box::new(DeviceSession::new(false)),
             scratch: Box::new(SceneStore::new()),
             seq: 0,
         }

@@ -4,7 +4,7 @@
 
 use std::time::Duration;
 
-use device::host::{GapCounter, Link, SimConfig, SimLink, cobs, list_hid, list_serial};
+use device::link::{GapCounter, Link, SimConfig, SimLink, cobs, list_hid, list_serial};
 use device::protocol::{Frame, Message, WireObject, WirePatch, encode_scene};
 use device::safety::Faults;
 use friction::{FrictionMaterial, Mode};
@@ -111,7 +111,7 @@ fn enumeration_never_panics() {
             for d in devices {
                 assert_eq!(
                     (d.vendor_id, d.product_id),
-                    (device::host::USB_VID, device::host::USB_PID)
+                    (device::link::USB_VID, device::link::USB_PID)
                 );
             }
         }
@@ -287,7 +287,7 @@ fn sim_link_nacks_a_bad_scene_and_paced_link_answers_hello() {
     let mut scene = thesis_2d_scene();
     scene[0] = b'X';
     match link.upload_scene(&scene, TIMEOUT) {
-        Err(device::host::LinkError::Nack(n)) => {
+        Err(device::link::LinkError::Nack(n)) => {
             assert_eq!(n.code, device::protocol::ErrorCode::SceneFormat)
         }
         other => panic!("{other:?}"),
@@ -325,7 +325,7 @@ fn hello_skips_the_tail_of_a_frame_on_a_stream_joined_mid_frame() {
             unpaced().serve(stream, &stop)
         })
     };
-    let mut link = device::host::TcpLink::connect(&address, TIMEOUT).unwrap();
+    let mut link = device::link::TcpLink::connect(&address, TIMEOUT).unwrap();
     let hello = link.hello(TIMEOUT).unwrap();
     assert_eq!(hello.max_payload, 57);
     // The session goes on as usual after it.
@@ -369,7 +369,7 @@ fn huge_materials_are_refused_and_the_largest_accepted_renders_finite_frames() {
             material: huge,
         };
         match link.request(&message, TIMEOUT) {
-            Err(device::host::LinkError::Nack(n)) => {
+            Err(device::link::LinkError::Nack(n)) => {
                 assert_eq!(n.code, ErrorCode::BadMaterial, "{huge:?}")
             }
             other => panic!("{huge:?}: {other:?}"),

@@ -8,9 +8,9 @@
 
 use std::time::Duration;
 
-use device::host::{GapCounter, Link, SimConfig, SimLink};
+use device::link::{GapCounter, Link, SimConfig, SimLink};
 use device::protocol::*;
-use device::session::{DeviceState, Event, Session};
+use device::session::{DeviceSession, DeviceState, Event};
 use friction::{FrictionMaterial, Mode};
 use nurbs::construct::{arc, bezier_patch};
 use nurbs::{CurveBuf, SurfaceBuf, Vec2, Vec3};
@@ -109,7 +109,7 @@ fn point(c: &CurveBuf<Vec2>, i: usize) -> Vec2 {
 
 /// The device side: a session, its scratch store, and the frames it answered.
 struct Device {
-    session: Box<Session<4096>>,
+    session: Box<DeviceSession<4096>>,
     scratch: Box<SceneStore>,
 }
 
@@ -133,7 +133,7 @@ impl Host {
 impl Device {
     fn new() -> Self {
         Device {
-            session: Box::new(Session::new(false)),
+            session: Box::new(DeviceSession::new(false)),
             scratch: Box::new(SceneStore::new()),
         }
     }
@@ -600,7 +600,7 @@ fn each_faulty_update_has_its_code_and_changes_nothing() {
     let moved = p1 + Vec2::new(1e-3, 0.0);
     device.handle(&mut host, planar(0, 0, 1, false, &[moved]));
     device.handle(&mut host, begin);
-    device.handle(&mut host, Message::Hello(device::host::host_hello()));
+    device.handle(&mut host, Message::Hello(device::link::host_hello()));
     let (event, _) = device.handle(&mut host, planar(0, 1, 0, true, &[point(&arcs[1], 0)]));
     assert_eq!(event, Event::ScenePointsUpdated { object: 0 });
     assert_eq!(device.active().0, scene(), "the dropped point did not land");

@@ -959,11 +959,11 @@ proptest! {
 
 type Receiver = SceneReceiver<4096>;
 
-fn never(_: &[u8]) -> Result<(), SceneError> {
+fn never(_: &[u8]) -> Result<(), WireSceneError> {
     panic!("the validator must not run")
 }
 
-fn accept_all(_: &[u8]) -> Result<(), SceneError> {
+fn accept_all(_: &[u8]) -> Result<(), WireSceneError> {
     Ok(())
 }
 
@@ -1507,7 +1507,7 @@ fn report_descriptor_declares_one_frame_each_way_without_report_ids() {
 /// next 50 frames were accepted.
 #[test]
 fn a_lost_frame_costs_one_nack_anywhere_in_the_numbering() {
-    use device::host::Sequencer;
+    use device::link::Sequencer;
     for lost in [0x1234u16, 0xFFFD, 0xFFFE, 0x0000, 0x0001] {
         let mut rx = Box::new(Receiver::new());
         let mut host = Sequencer::default();

@@ -1,15 +1,19 @@
-//! Scripted scenarios for each rule of the safety layer, the passivity bound against hand
-//! computed values, the sampled-spring energy leak against its closed form, and a property
-//! test that no input gets a non-finite or oversized force through.
+//! Scripted scenarios for each rule of the safety layer, the sampled-spring energy leak
+//! against its closed form (and the passivity bound's margin against it), and a property
+//! test that no input gets a non-finite or oversized force through. The wall acceptance's
+//! bounds against hand-computed values are in `wall.rs`.
 
 #![allow(clippy::unwrap_used)]
 
 use device::safety::{
-    AtHandle, Bound, ConfigError, Faults, Flags, PassivityConfig, PassivityError, Safety,
-    SafetyConfig, SafetyInput, ThermalConfig, WallLimits, check_wall,
+    ConfigError, Faults, Flags, Safety, SafetyConfig, SafetyInput, ThermalConfig,
 };
+use device::wall::WallLimits;
 use nurbs::Vec2;
 use proptest::prelude::*;
+
+mod common;
+use common::device;
 
 const T: f32 = 1e-3;
 /// A HIP position well inside the default workspace box.
@@ -484,143 +488,6 @@ fn thermal_model_clamps_current_to_peak() {
     assert_eq!(a.thermal_state(), b.thermal_state());
 }
 
-/// A device with b = 0.005 N·s/m, f_c = 0.02 N and Δ = 20 µm at the handle, the bound
-/// covering impacts up to v = 0.1 m/s: b + f_c / v = 0.205 N·s/m.
-fn device(b: f32, f_c: f32, delta: f32) -> PassivityConfig {
-    PassivityConfig {
-        device: AtHandle {
-            damping_n_s_per_m: b,
-            coulomb_n: f_c,
-            resolution_m: delta,
-        },
-        impact_speed_m_per_s: 0.1,
-        controller_stiffness_n_per_m: 1000.0,
-        controller_damping_ns_per_m: 1.0,
-        output_delay_ticks: 0,
-    }
-}
-
-#[test]
-fn wall_bounds_match_hand_computed_limits() {
-    let p = device(0.005, 0.02, 20e-6);
-    // Passivity at 1 kHz: 2 · 0.205 / 0.001 = 410 N/m; at 10 kHz 4100 N/m. Quantisation:
-    // 2 · 0.02 / 20e-6 = 2000 N/m at any rate.
-    let at_1k = WallLimits::new(&p, 0.0, 1e-3);
-    assert!(close(at_1k.passive_n_per_m, 410.0, 1e-2));
-    assert!(close(at_1k.quantisation_n_per_m, 2000.0, 1e-2));
-    assert!(close(
-        WallLimits::new(&p, 0.0, 1e-4).passive_n_per_m,
-        4100.0,
-        0.1
-    ));
-    assert!(check_wall(409.0, 0.0, 1e-3, &p, false).is_ok());
-    match check_wall(411.0, 0.0, 1e-3, &p, false) {
-        Err(PassivityError::TooStiff {
-            stiffness_n_per_m,
-            max_stiffness_n_per_m,
-            bound,
-            renders_at_hz,
-            ..
-        }) => {
-            assert_eq!(stiffness_n_per_m, 411.0);
-            assert!(close(max_stiffness_n_per_m, 410.0, 1e-2));
-            assert_eq!(bound, Bound::Passivity);
-            // 2 kHz: 820 N/m.
-            assert_eq!(renders_at_hz, Some(2000));
-        }
-        other => panic!("{other:?}"),
-    }
-    // At 10 kHz quantisation binds before passivity: 2000 passes, 2001 does not, at any rate.
-    assert!(check_wall(2000.0, 0.0, 1e-4, &p, false).is_ok());
-    match check_wall(2001.0, 0.0, 1e-4, &p, false) {
-        Err(PassivityError::TooStiff {
-            bound: Bound::Quantisation,
-            renders_at_hz: None,
-            ..
-        }) => {}
-        other => panic!("{other:?}"),
-    }
-    // Wall damping B = ±0.1 N·s/m: 2 (0.205 − 0.1) / 0.001 = 210 N/m; its sign does not matter.
-    for damping in [0.1, -0.1] {
-        assert!(close(
-            WallLimits::new(&p, damping, 1e-3).passive_n_per_m,
-            210.0,
-            1e-2
-        ));
-        assert!(check_wall(209.0, damping, 1e-3, &p, false).is_ok());
-        assert!(check_wall(211.0, damping, 1e-3, &p, false).is_err());
-    }
-    // Wall damping beyond the device's: nothing passes passivity, the controller takes over
-    // up to its demonstrated K = 1000 N/m and |B| = 1 N·s/m.
-    assert!(check_wall(1.0, 0.3, 1e-3, &p, false).is_err());
-    assert!(check_wall(1000.0, 0.3, 1e-3, &p, true).is_ok());
-    match check_wall(1001.0, 0.3, 1e-3, &p, true) {
-        Err(PassivityError::TooStiff {
-            bound: Bound::Controller,
-            max_stiffness_n_per_m,
-            ..
-        }) => assert_eq!(max_stiffness_n_per_m, 1000.0),
-        other => panic!("{other:?}"),
-    }
-    assert!(check_wall(10.0, 1.5, 1e-3, &p, true).is_err());
-    // The message names the bound, its numbers and what raises it.
-    let message = check_wall(600.0, 0.0, 1e-3, &p, false)
-        .unwrap_err()
-        .to_string();
-    for part in [
-        "passivity bound",
-        "410 N/m",
-        "b = 0.0050",
-        "f_c = 0.0200",
-        "1000 Hz",
-        "renders at 2000 Hz",
-    ] {
-        assert!(message.contains(part), "{part:?} in {message}");
-    }
-    let message = check_wall(2500.0, 0.0, 1e-4, &p, true)
-        .unwrap_err()
-        .to_string();
-    for part in ["quantisation", "2000 N/m", "20.0 µm"] {
-        assert!(message.contains(part), "{part:?} in {message}");
-    }
-    assert!(matches!(
-        check_wall(1.0, 0.0, 0.0, &p, false),
-        Err(PassivityError::InvalidParameter("period"))
-    ));
-    assert!(check_wall(-1.0, 0.0, 1e-3, &p, false).is_err());
-}
-
-/// A wall damping the device cannot render with any stiffness is refused naming the damping
-/// and its bound, not a stiffness limit of 0 N/m. The bound by hand: K < 2 (b + f_c/v − |B|) / T
-/// leaves some K > 0 only while |B| < b + f_c/v = 0.005 + 0.02 / 0.1 = 0.205 N·s/m; with the
-/// passivity controller, also while |B| is within its demonstrated 1 N·s/m.
-#[test]
-fn a_damping_beyond_the_device_is_named_with_its_bound() {
-    let p = device(0.005, 0.02, 20e-6);
-    // Just below the bound a soft wall passes (2 · 0.002 / 0.001 = 4 N/m > 1 N/m).
-    assert!(check_wall(1.0, 0.203, 1e-3, &p, false).is_ok());
-    for (damping, controller, bound) in [(0.207, false, "0.205"), (1.01, true, "1.000")] {
-        let e = check_wall(1.0, damping, 1e-3, &p, controller).unwrap_err();
-        assert!(
-            matches!(e, PassivityError::TooDamped { max_damping_ns_per_m, .. }
-                if close(max_damping_ns_per_m, bound.parse().unwrap(), 1e-6)),
-            "{e:?}"
-        );
-        let message = e.to_string();
-        for part in ["damping", bound, "N·s/m", "lower the damping"] {
-            assert!(message.contains(part), "{part:?} in {message}");
-        }
-        assert!(
-            !message.contains("0 N/m"),
-            "no stiffness limit of 0: {message}"
-        );
-        assert!(!message.contains("lower K"), "{message}");
-    }
-    assert!(check_wall(1.0, -0.207, 1e-3, &p, false).is_err());
-    // With the controller, up to its demonstrated damping still passes.
-    assert!(check_wall(10.0, 0.99, 1e-3, &p, true).is_ok());
-}
-
 /// The sampled-spring scenario: the HIP is driven along x = A sin(ωt) (an ideal velocity
 /// source, the user's hand) through a spring F = −K x rendered at period T with zero-order
 /// hold. Returns the work the device did on the user over each cycle, in J.
@@ -1011,4 +878,55 @@ proptest! {
             prop_assert!(safety.observed_energy_j().is_finite());
         }
     }
+}
+
+/// The wall pressed deeper during the ramp-in is whole after it, with the passivity
+/// controller's tank on. A flaky `cargo xtask hid` (3.98 N asked, 0.08 N given for 10 s, no
+/// fault) suggested that a handle going in while the ramp scales the force puts in less work
+/// than the wall then stores, so that the tank would cut the force at the ramp's end for
+/// good. This checks that suspicion and finds it does not hold. Here K = 1000 N/m, the contact
+/// starts 0.5 mm in, the handle goes 3.5 mm further over the first 0.2 s of the 0.5 s ramp,
+/// then holds 4 mm in, where the wall asks 4 N (under the 5 N cap).
+#[test]
+fn a_wall_pressed_in_during_the_ramp_is_whole_after_it() {
+    let k = 1000.0f32;
+    let mut config = SafetyConfig::default();
+    config.passivity.output_delay_ticks = 0;
+    let period_s = config.period_s;
+    let mut safety = Safety::new(config).unwrap();
+    safety.set_wall_stiffness(k);
+    safety.set_passivity_control(true);
+    let surface_y = HOME.y + 0.0005;
+    let depth_at = |tick: u32| 0.0005 + 0.0035 * (tick as f32 / 200.0).min(1.0);
+    let mut last = Vec2::ZERO;
+    for i in 0..1000u32 {
+        let depth = depth_at(i);
+        let mut input = tick(Vec2::new(0.0, k * depth));
+        input.hip_in_device_m = Vec2::new(0.0, surface_y - depth);
+        let speed = if i < 200 {
+            0.0035 / (200.0 * period_s)
+        } else {
+            0.0
+        };
+        input.hip_velocity_m_per_s = Vec2::new(0.0, -speed);
+        last = safety.apply(&input).force_n;
+        if i >= 600 {
+            // 0.1 s after the ramp's end: the whole wall, 4 N (f32 of the products: 1e-5 N).
+            assert!(
+                close(last.y, k * 0.004, 1e-3),
+                "tick {i}: the wall gives {} N of {} N",
+                last.y,
+                k * 0.004
+            );
+        }
+    }
+    // And no more than the wall holds: the tank's credit is at most what the wall stores at
+    // 4 mm, ½ K d² = 8 mJ (f32: 4 ε relative).
+    let stored = 0.5 * k * 0.004f32 * 0.004;
+    assert!(
+        safety.observed_energy_j() <= stored * (1.0 + 4.0 * f32::EPSILON),
+        "{} J credited, the wall stores {stored} J",
+        safety.observed_energy_j()
+    );
+    assert!(last.y > 0.0);
 }

@@ -1,10 +1,12 @@
-//! The device side of a link ([`device::session::Session`]): what each accepted frame asks of
+//! The device side of a link ([`device::session::DeviceSession`]): what each accepted frame asks of
 //! the device, what is answered, and what a board's session refuses.
 
 #![allow(clippy::unwrap_used)]
 
-use device::protocol::{ErrorCode, Frame, Hello, MAX_PAYLOAD, Message, Nack, SceneError, Status};
-use device::session::{Command, DeviceState, Event, Session};
+use device::protocol::{
+    ErrorCode, Frame, Hello, MAX_PAYLOAD, Message, Nack, Status, WireSceneError,
+};
+use device::session::{DeviceCommand, DeviceSession, DeviceState, Event};
 use friction::FrictionMaterial;
 use nurbs::Vec2;
 
@@ -13,7 +15,7 @@ fn frame(seq: u16, message: Message) -> Vec<u8> {
     report[..n].to_vec()
 }
 
-fn never(_: &[u8]) -> Result<(), SceneError> {
+fn never(_: &[u8]) -> Result<(), WireSceneError> {
     panic!("no commit in these tests")
 }
 
@@ -25,7 +27,7 @@ const STATE: DeviceState = DeviceState {
 };
 
 /// Handles `message` as frame `seq`; returns the event and the replies.
-fn handle(session: &mut Session<1024>, seq: u16, message: Message) -> (Event, Vec<Message>) {
+fn handle(session: &mut DeviceSession<1024>, seq: u16, message: Message) -> (Event, Vec<Message>) {
     let mut replies = Vec::new();
     let event = session.handle(
         &frame(seq, message),
@@ -38,7 +40,7 @@ fn handle(session: &mut Session<1024>, seq: u16, message: Message) -> (Event, Ve
 
 #[test]
 fn each_accepted_frame_is_acked_and_asks_the_device_for_what_it_says() {
-    let mut s = Session::<1024>::new(true);
+    let mut s = DeviceSession::<1024>::new(true);
     let host = Hello {
         software: [0, 1, 0],
         scene_capacity: 0,
@@ -60,7 +62,7 @@ fn each_accepted_frame_is_acked_and_asks_the_device_for_what_it_says() {
     );
     // A heartbeat: the status made of the caller's state, and the heartbeat for the controller.
     let (event, replies) = handle(&mut s, 8, Message::Heartbeat { uptime_ms: 5 });
-    assert_eq!(event, Event::Command(Command::Heartbeat));
+    assert_eq!(event, Event::DeviceCommand(DeviceCommand::Heartbeat));
     assert_eq!(replies[0], Message::Ack { seq: 8 });
     let Message::Status(Status {
         forces_enabled,
@@ -79,21 +81,25 @@ fn each_accepted_frame_is_acked_and_asks_the_device_for_what_it_says() {
     );
     let material = FrictionMaterial::default();
     for (seq, message, command) in [
-        (9, Message::EnableForces, Command::Forces(true)),
-        (10, Message::DisableForces, Command::Forces(false)),
-        (11, Message::Calibrate, Command::Calibrate),
-        (12, Message::ClearFaults { mask: 1 }, Command::ClearFaults),
+        (9, Message::EnableForces, DeviceCommand::Forces(true)),
+        (10, Message::DisableForces, DeviceCommand::Forces(false)),
+        (11, Message::Calibrate, DeviceCommand::Calibrate),
+        (
+            12,
+            Message::ClearFaults { mask: 1 },
+            DeviceCommand::ClearFaults,
+        ),
         (
             13,
             Message::SetMaterial {
                 object: 0,
                 material,
             },
-            Command::SetMaterial(material),
+            DeviceCommand::SetMaterial(material),
         ),
     ] {
         let (event, replies) = handle(&mut s, seq, message);
-        assert_eq!(event, Event::Command(command), "{message:?}");
+        assert_eq!(event, Event::DeviceCommand(command), "{message:?}");
         assert_eq!(replies, [Message::Ack { seq }]);
     }
     let target = Vec2::new(0.01, 0.08);
@@ -122,7 +128,7 @@ fn each_accepted_frame_is_acked_and_asks_the_device_for_what_it_says() {
     assert_eq!(replies, [Message::Ack { seq: 15 }]);
     assert_eq!(
         event,
-        Event::Command(Command::Excite(device::controller::Excitation {
+        Event::DeviceCommand(DeviceCommand::Excite(device::controller::Excitation {
             torque_nm: [0.008, -0.007],
             half_period_us: [150_000, 210_000],
             duration_us: 6_000_000,
@@ -134,7 +140,7 @@ fn each_accepted_frame_is_acked_and_asks_the_device_for_what_it_says() {
 fn refusals_are_nacked_and_noted_for_the_status() {
     // A board's session: a hand target is refused with its own code, and the next status says
     // so; a material for another object than the rendered one is noted as a bad field.
-    let mut s = Session::<1024>::new(false);
+    let mut s = DeviceSession::<1024>::new(false);
     let (event, replies) = handle(
         &mut s,
         1,
@@ -231,7 +237,7 @@ fn a_refused_excitation_is_nacked_with_its_reason_and_the_reason_clears() {
         half_period_ms: [150, 210],
         duration_ms: 6000,
     };
-    let handle_in = |s: &mut Session<1024>, state: DeviceState, seq: u16, m: Message| {
+    let handle_in = |s: &mut DeviceSession<1024>, state: DeviceState, seq: u16, m: Message| {
         let mut replies = Vec::new();
         let event = s.handle(&frame(seq, m), &mut never, state, &mut |r: &Message| {
             replies.push(*r)
@@ -243,7 +249,7 @@ fn a_refused_excitation_is_nacked_with_its_reason_and_the_reason_clears() {
         other => panic!("not one nack: {other:?}"),
     };
     for simulated_plant in [true, false] {
-        let mut s = Session::<1024>::new(simulated_plant);
+        let mut s = DeviceSession::<1024>::new(simulated_plant);
         s.set_motor_limits(&spec);
         // (torque, state, code): 1e30 N·m; just past the limit on joint 1 (0.47 > 0.468);
         // a good torque on a device not calibrated.
@@ -280,7 +286,7 @@ fn a_refused_excitation_is_nacked_with_its_reason_and_the_reason_clears() {
         assert_eq!(replies, [Message::Ack { seq: 7 }]);
         assert_eq!(
             event,
-            Event::Command(Command::Excite(Excitation {
+            Event::DeviceCommand(DeviceCommand::Excite(Excitation {
                 torque_nm: [0.468, -0.468],
                 half_period_us: [150_000, 210_000],
                 duration_us: 6_000_000,
@@ -290,7 +296,7 @@ fn a_refused_excitation_is_nacked_with_its_reason_and_the_reason_clears() {
     }
 }
 
-/// The controller's own refusal (the tick's path on a board, `Command::apply`) has the same
+/// The controller's own refusal (the tick's path on a board, `DeviceCommand::apply`) has the same
 /// codes as the session's nack, not a generic bad field.
 #[test]
 fn the_controller_refuses_an_excitation_with_the_sessions_codes() {
@@ -299,9 +305,9 @@ fn the_controller_refuses_an_excitation_with_the_sessions_codes() {
     use device::spec::DeviceSpec;
     use tracker::Chain;
     let spec = DeviceSpec::default();
-    let mut c: Controller<Chain<'static>> = Controller::new(spec, SafetyConfig::default()).unwrap();
+    let mut c: Controller<Chain> = Controller::new(spec, SafetyConfig::default()).unwrap();
     let run = |torque_nm| {
-        Command::Excite(Excitation {
+        DeviceCommand::Excite(Excitation {
             torque_nm,
             half_period_us: [150_000, 210_000],
             duration_us: 6_000_000,
@@ -312,7 +318,7 @@ fn the_controller_refuses_an_excitation_with_the_sessions_codes() {
         run([0.008, 0.007]).apply(&mut c, home, true),
         Err(ErrorCode::NotCalibrated)
     );
-    Command::Calibrate.apply(&mut c, home, true).unwrap();
+    DeviceCommand::Calibrate.apply(&mut c, home, true).unwrap();
     assert_eq!(
         run([1e30, 0.0]).apply(&mut c, home, true),
         Err(ErrorCode::TorqueBeyondMotor)

@@ -3,6 +3,7 @@
 
 pub mod analyze;
 pub mod csv;
+pub mod error;
 pub mod fit;
 pub mod participant;
 pub mod plan;

@@ -44,9 +44,9 @@ use std::path::{Path, PathBuf};
 
 use scene::Scene;
 
+use crate::error::RunError;
 use crate::plan::{Design, Interval, Plan, StaircaseSpec, StepKind, StopSpec, TrialSpec};
 use crate::rng::Prng;
-use crate::runner::RunError;
 use crate::staircase::{Interleaved, Staircase, StaircaseConfig, Step, Stop};
 
 /// The header of `trials.csv`.

@@ -4,9 +4,10 @@
 
 use std::path::{Path, PathBuf};
 
+use experiment::error::RunError;
 use experiment::participant::SimParticipant;
 use experiment::plan::Plan;
-use experiment::runner::{RunError, TRIALS_HEADER, run};
+use experiment::runner::{TRIALS_HEADER, run};
 
 fn root() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")

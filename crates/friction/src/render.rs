@@ -126,177 +126,17 @@
 //!   Algorithm 1's `μ_d F_N[k] > μ_s F_N[k−1]` is used (the text's ratio, read literally, would
 //!   fire on a fall of the normal force, contradicting its own "sudden increase").
 
+mod laws;
+mod output;
+
+pub use output::{Anchors, FrictionOutput, Mode, SwitchCause};
+
 use crate::material::{FrictionMaterial, ModelKind};
-use crate::models::{CoulombViscous, Dahl, FrictionLaw, Karnopp, LuGre, TangentialInput};
+use crate::models::{CoulombViscous, Dahl, Karnopp, LuGre};
+use laws::LawState;
 use nurbs::Point;
 use nurbs::math::{self, sqrt};
-use tracker::{Contact, Feature, Frame, Object};
-
-/// Friction mode.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Mode {
-    /// No contact.
-    Free,
-    /// Static friction, GO pinned.
-    Stuck,
-    /// Stuck → slip: the GO slides, μ falls along the Stribeck curve.
-    Transition,
-    /// Dynamic friction: the GO slides at μ_d.
-    Slip,
-}
-
-impl Mode {
-    /// Lower-case name used in run logs.
-    pub fn name(self) -> &'static str {
-        match self {
-            Mode::Free => "free",
-            Mode::Stuck => "stuck",
-            Mode::Transition => "transition",
-            Mode::Slip => "slip",
-        }
-    }
-
-    /// Every mode, in the order of its wire code.
-    pub const ALL: [Mode; 4] = [Mode::Free, Mode::Stuck, Mode::Transition, Mode::Slip];
-}
-
-/// Why the renderer last changed mode (each edge of the state machine of Fig. 3.1.2 has its
-/// own cause).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum SwitchCause {
-    /// No switch yet.
-    None,
-    /// Free → stuck: the HIP entered the object.
-    Contact,
-    /// Stuck → transition: `|F_T| > μ_s F_N`; for the velocity-based laws, stuck → slip.
-    Breakaway,
-    /// Transition → slip: μ reached μ_d (the GO is within `converge_tol_m` of its slip
-    /// position).
-    Converged,
-    /// Dynamic → stuck: the GO's slip speed fell below the stop speed (the hand stopped or
-    /// pressed in); for the velocity-based laws, the CP's speed did.
-    Stopped,
-    /// Dynamic → stuck: the HIP's step went back towards the GO.
-    Reversed,
-    /// Dynamic → stuck: the normal force jumped, `μ_d F_N[k] > μ_s F_N[k−1]`.
-    NormalForceJump,
-    /// Contact → free: the HIP left the object (or, as [`SwitchCause::or_carried`] reports
-    /// it, the contact ended with the renderer: a material change, a lost pose).
-    Released,
-}
-
-impl SwitchCause {
-    /// Lower-case name used in run logs.
-    pub fn name(self) -> &'static str {
-        match self {
-            SwitchCause::None => "none",
-            SwitchCause::Contact => "contact",
-            SwitchCause::Breakaway => "breakaway",
-            SwitchCause::Converged => "converged",
-            SwitchCause::Stopped => "stopped",
-            SwitchCause::Reversed => "reversed",
-            SwitchCause::NormalForceJump => "normal_force_jump",
-            SwitchCause::Released => "released",
-        }
-    }
-
-    /// The cause to report with `mode` when the tick's source named `self`, given the
-    /// (mode, cause) reported the tick before. A source that names no cause (a renderer
-    /// restarted or not running, a stateless penalty baseline) still switches: into contact
-    /// by [`SwitchCause::Contact`], out of it by [`SwitchCause::Released`]; with the mode
-    /// unchanged the earlier cause stays (it is why the mode last changed).
-    pub fn or_carried(self, mode: Mode, previous: (Mode, SwitchCause)) -> SwitchCause {
-        match (self, previous) {
-            (SwitchCause::None, (before, cause)) if before == mode => cause,
-            (SwitchCause::None, _) if mode == Mode::Free => SwitchCause::Released,
-            (SwitchCause::None, _) => SwitchCause::Contact,
-            (cause, _) => cause,
-        }
-    }
-
-    /// Every cause, in the order of its wire code.
-    pub const ALL: [SwitchCause; 8] = [
-        SwitchCause::None,
-        SwitchCause::Contact,
-        SwitchCause::Breakaway,
-        SwitchCause::Converged,
-        SwitchCause::Stopped,
-        SwitchCause::Reversed,
-        SwitchCause::NormalForceJump,
-        SwitchCause::Released,
-    ];
-}
-
-/// Everything one tick produced.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct FrictionOutput<P> {
-    /// Friction mode after this tick.
-    pub mode: Mode,
-    /// Why the mode last changed (this tick or earlier).
-    pub cause: SwitchCause,
-    /// Contact geometry at the closest point.
-    pub contact: Contact<P>,
-    /// The god-object (equal to the CP when free).
-    pub go: P,
-    /// The GO's patch.
-    pub go_patch: u16,
-    /// The GO's parameters.
-    pub go_params: [f32; 2],
-    /// Where the force acts (the GO).
-    pub point_of_application: P,
-    /// Unit normal at the point of application (turning across a crease).
-    pub normal: P,
-    /// Unit tangent at the point of application, the sign reference of `friction_force_n`:
-    /// the curve's tangent in 2-D; in 3-D whichever parameter direction (u or v) the friction
-    /// lies closer to.
-    pub tangent: P,
-    /// Normal force (N), ≥ 0.
-    pub normal_force_n: f32,
-    /// Friction force (N): its magnitude, signed by its component along `tangent`.
-    pub friction_force_n: f32,
-    /// Friction force vector (N).
-    pub friction: P,
-    /// Total force on the HIP (N).
-    pub total: P,
-    /// The friction coefficient in use.
-    pub mu: f32,
-    /// The CP tracker's projection error Ψ (thesis eq. 2.8, `[Ψ_u]` on curves): 0 once the
-    /// closest point has converged.
-    pub psi: f32,
-    /// The GO's slip speed (m/s, low-passed over [`FrictionMaterial::transition_time_s`]): a
-    /// dynamic mode sticks once it falls below the stop speed.
-    pub slip_speed_m_per_s: f32,
-}
-
-/// The points of an object under what rides on its surface ([`FrictionRenderer::anchors`]).
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Anchors<P> {
-    /// The point under the CP tracker.
-    pub cp: P,
-    /// The point under the GO, `None` when free.
-    pub go: Option<P>,
-}
-
-/// Per-model state of the velocity-based laws.
-#[derive(Clone, Copy, Debug)]
-enum LawState<P> {
-    StickSlip,
-    Coulomb(CoulombViscous),
-    Karnopp(Karnopp),
-    Dahl(Dahl<P>),
-    LuGre(LuGre<P>),
-}
-
-impl<P: Point> LawState<P> {
-    /// Forgets the bristle state of the laws that have one (contact lost).
-    fn reset(&mut self) {
-        match self {
-            LawState::Dahl(l) => FrictionLaw::<P>::reset(l),
-            LawState::LuGre(l) => FrictionLaw::<P>::reset(l),
-            _ => {}
-        }
-    }
-}
+use tracker::{Contact, Feature, Object, PatchFrame};
 
 /// How far the spring must relax inside the cone of the dynamic mode's μ (as a fraction of
 /// `μ F_N`), with the HIP moving back towards the GO, before the motion counts as reversed: the
@@ -342,7 +182,7 @@ pub struct FrictionRenderer<O: Object> {
     /// friction.
     go_patch: usize,
     go_params: [f32; 2],
-    go_frame: Frame<O::P>,
+    go_frame: PatchFrame<O::P>,
     /// The position resolution of the HIP (m, the encoder quantum at the handle; 0 for exact
     /// positions): the hysteresis of the mode decisions.
     resolution_m: f32,
@@ -789,7 +629,7 @@ impl<O: Object> FrictionRenderer<O> {
         let derivatives = O::state_derivatives(&self.proxy);
         let in_plane = |d: O::P| Point::try_normalize(d - n * d.dot(n)).unwrap_or(n);
         let tangent = in_plane(derivatives[0]);
-        let frame = Frame {
+        let frame = PatchFrame {
             point: p,
             normal: n,
             tangent,
@@ -1043,66 +883,12 @@ impl<O: Object> FrictionRenderer<O> {
         }
     }
 
-    /// The velocity-based laws: penalty normal force at the CP, friction from the law.
-    fn velocity_law_tick(
-        &mut self,
-        object: &O,
-        contact: Contact<O::P>,
-        cp_velocity: O::P,
-        hip: O::P,
-        hip_velocity: O::P,
-        period_s: f32,
-    ) -> FrictionOutput<O::P> {
-        let m = self.material;
-        let (cp_patch, cp_params) = O::position(&self.cp);
-        let fr = object.state_frame(&self.cp);
-        let f_n = math::max(
-            0.0,
-            m.stiffness_n_per_m * contact.depth
-                - m.damping_ns_per_m * hip_velocity.dot(contact.normal),
-        );
-        // The user's tangential push, for Karnopp: the tangential part of the hand's motion
-        // against the surface stiffness is not observable in a position-input device, so
-        // the HIP's tangential offset from the CP stands in for it.
-        let offset = hip - contact.point;
-        let applied = (offset - contact.normal * offset.dot(contact.normal)) * m.stiffness_n_per_m;
-        let input = TangentialInput {
-            velocity: cp_velocity,
-            normal_force_n: f_n,
-            applied,
-            period_s,
-        };
-        let friction = match &mut self.law {
-            LawState::Coulomb(l) => l.force(&input),
-            LawState::Karnopp(l) => l.force(&input),
-            LawState::Dahl(l) => l.force(&input),
-            LawState::LuGre(l) => l.force(&input),
-            LawState::StickSlip => O::P::ZERO,
-        };
-        // Each edge with its own cause: whichever mode contact starts in, it is the contact.
-        let moving = cp_velocity.length_squared() >= square(m.stop_speed_m_per_s);
-        let (mode, cause) = match (self.mode, moving) {
-            (Mode::Free, false) => (Mode::Stuck, SwitchCause::Contact),
-            (Mode::Free, true) => (Mode::Slip, SwitchCause::Contact),
-            (_, false) => (Mode::Stuck, SwitchCause::Stopped),
-            (_, true) => (Mode::Slip, SwitchCause::Breakaway),
-        };
-        self.switch(mode, cause);
-        self.prev_normal_force = f_n;
-        let mu = if f_n > 0.0 {
-            sqrt(friction.length_squared()) / f_n
-        } else {
-            0.0
-        };
-        self.at_cp(contact, (cp_patch, cp_params), &fr, f_n, friction, mu)
-    }
-
     /// The output when the force acts at the closest point (free, and the velocity-based laws).
     fn at_cp(
         &self,
         contact: Contact<O::P>,
         (patch, params): (usize, [f32; 2]),
-        frame: &Frame<O::P>,
+        frame: &PatchFrame<O::P>,
         normal_force_n: f32,
         friction: O::P,
         mu: f32,
@@ -1132,7 +918,7 @@ impl<O: Object> FrictionRenderer<O> {
 /// The sign reference for a friction force: the frame's tangent or bitangent, whichever `f`
 /// lies closer to.
 #[inline]
-fn reference<P: Point>(fr: &Frame<P>, f: P) -> P {
+fn reference<P: Point>(fr: &PatchFrame<P>, f: P) -> P {
     if f.dot(fr.bitangent).abs() > f.dot(fr.tangent).abs() {
         fr.bitangent
     } else {

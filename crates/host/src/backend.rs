@@ -1,5 +1,5 @@
 //! Every loop the app runs (the planar device of [`crate::planar`], the spatial hand of
-//! [`crate::spatial`], the host of a device behind a link in [`crate::remote`]) takes the same [`Command`] and answers with the
+//! [`crate::spatial`], the host of a device behind a link in [`crate::remote`]) takes the same [`LoopCommand`] and answers with the
 //! same [`Reply`] and [`Sample`]; a loop is [`Steppable`], and [`Backend`] runs any of them on
 //! its own thread ([`LoopThread`]) or steps it in place (tests).
 //!
@@ -29,9 +29,9 @@ use nurbs::{Vec2, Vec3};
 use tracker::TriMesh;
 
 use crate::deform::{DeformChangeError, DeformStatus};
-use crate::planar::{MaterialChangeError, Session};
+use crate::error::{MaterialChangeError, MeshError};
+use crate::planar::PlanarSession;
 use crate::runlog::RecordTx;
-use crate::spatial::MeshError;
 use crate::tick::Tick;
 
 /// The loop's tick rate (Hz).
@@ -45,11 +45,11 @@ pub const COMMAND_CAPACITY: usize = 256;
 pub const RECORD_CAPACITY: usize = 4096;
 
 /// What the UI asks of a loop: one command type for every loop, generic over the session a
-/// loop swaps in (`S`: [`Session`] for the planar device and the host of a device behind a
+/// loop swaps in (`S`: [`PlanarSession`] for the planar device and the host of a device behind a
 /// link, [`crate::spatial::SpatialSession`] for the spatial hand). A loop answers a command
 /// it does not support with [`Reply::Unsupported`] and changes nothing.
 #[derive(Debug)]
-pub enum Command<S = Session> {
+pub enum LoopCommand<S = PlanarSession> {
     /// Move the hand's target (m, device frame); a planar loop takes x and y.
     HandTarget(Vec3),
     /// Set the rendered object's material ([`HapticLoop::set_material`](crate::planar::HapticLoop::set_material)).
@@ -68,7 +68,7 @@ pub enum Command<S = Session> {
     Calibrate,
     /// Who holds the simulated pantograph's handle (a released hand lets go at once). The
     /// simulated device in the app only.
-    Hand(crate::sim::Hand),
+    Hand(crate::hand::Hand),
     /// Move control points of the device's scene in place (a deformable model's new shape,
     /// [`PointsUpdate`]): the device's renderer carries on, on the new shape, with no new
     /// acquisition or ramp. A device behind a link only ([`crate::remote`]): sent at once,
@@ -83,7 +83,7 @@ pub enum Command<S = Session> {
 }
 
 /// New control points for patches of one object of the device's scene
-/// ([`Command::ScenePoints`], [`device::protocol::points_update`]). Send whole patches (or at
+/// ([`LoopCommand::ScenePoints`], [`device::protocol::points_update`]). Send whole patches (or at
 /// least every point that moved since the device's last applied shape): an update replaced
 /// by a newer one before it went out is never sent.
 #[derive(Clone, Debug, PartialEq)]
@@ -97,20 +97,20 @@ pub struct PointsUpdate {
     pub patches: Vec<(u8, u16, Vec<Vec2>)>,
 }
 
-impl<S> Command<S> {
+impl<S> LoopCommand<S> {
     /// What the command asks, as [`Reply::Unsupported`] names it.
     pub fn name(&self) -> &'static str {
         match self {
-            Command::HandTarget(_) => "the hand's target",
-            Command::SetMaterial(_) => "the material",
-            Command::Swap(_) => "the scene swap",
-            Command::Mesh(_) => "a mesh",
-            Command::Forces(_) => "forces on/off",
-            Command::ClearFaults => "clearing the faults",
-            Command::Calibrate => "the calibration",
-            Command::Hand(_) => "the hand model",
-            Command::ScenePoints(_) => "the control-point update",
-            Command::Deform(_) => "deforming the object",
+            LoopCommand::HandTarget(_) => "the hand's target",
+            LoopCommand::SetMaterial(_) => "the material",
+            LoopCommand::Swap(_) => "the scene swap",
+            LoopCommand::Mesh(_) => "a mesh",
+            LoopCommand::Forces(_) => "forces on/off",
+            LoopCommand::ClearFaults => "clearing the faults",
+            LoopCommand::Calibrate => "the calibration",
+            LoopCommand::Hand(_) => "the hand model",
+            LoopCommand::ScenePoints(_) => "the control-point update",
+            LoopCommand::Deform(_) => "deforming the object",
         }
     }
 }
@@ -118,19 +118,19 @@ impl<S> Command<S> {
 /// What the loop answers.
 #[derive(Debug)]
 pub enum Reply {
-    /// The result of a [`Command::SetMaterial`].
+    /// The result of a [`LoopCommand::SetMaterial`].
     Material(Result<FrictionMaterial, MaterialChangeError>),
-    /// A [`Command::Swap`] took effect.
+    /// A [`LoopCommand::Swap`] took effect.
     Swapped,
-    /// Faults still latched after a [`Command::ClearFaults`].
+    /// Faults still latched after a [`LoopCommand::ClearFaults`].
     FaultsCleared(Faults),
-    /// The result of a [`Command::Mesh`]: a mesh the loop cannot scan in a tick is refused
+    /// The result of a [`LoopCommand::Mesh`]: a mesh the loop cannot scan in a tick is refused
     /// and the running rendering stays.
     Mesh(Result<(), MeshError>),
-    /// The result of a [`Command::Deform`]: whether the object now deforms and where the loop
+    /// The result of a [`LoopCommand::Deform`]: whether the object now deforms and where the loop
     /// publishes its shape, or why it was refused (nothing changed).
     Deform(Result<DeformStatus, DeformChangeError>),
-    /// The loop does not support the command ([`Command::name`]); nothing changed.
+    /// The loop does not support the command ([`LoopCommand::name`]); nothing changed.
     Unsupported(&'static str),
     /// What a device behind a link said or did ([`crate::remote`]).
     Link(LinkEvent),
@@ -194,7 +194,7 @@ pub struct LoopCounters {
     pub link_bad_frames: AtomicU64,
     /// The latest heartbeat's round trip to a device behind a link (µs; 0 before one).
     pub link_rtt_us: AtomicU64,
-    /// Control-point updates ([`Command::ScenePoints`]) sent to a device behind a link.
+    /// Control-point updates ([`LoopCommand::ScenePoints`]) sent to a device behind a link.
     pub points_sent: AtomicU64,
     /// Control-point updates the device applied (the ack of their apply frame).
     pub points_applied: AtomicU64,
@@ -230,21 +230,21 @@ pub fn raise_priority() -> bool {
 /// A loop [`LoopThread`] and [`Backend`] run: the planar [`HapticLoop`](crate::planar::HapticLoop), or the spatial hand
 /// of [`crate::spatial`]. One tick at a time, commands applied between ticks.
 pub trait Steppable: Send + 'static {
-    /// What [`Command::Swap`] swaps in.
+    /// What [`LoopCommand::Swap`] swaps in.
     type Session: fmt::Debug + Send + 'static;
     /// Applies one command; the reply, if it has one. Every command gets an answer or a
     /// documented no-op: one the loop does not support is [`Reply::Unsupported`].
-    fn apply(&mut self, command: Command<Self::Session>) -> Option<Reply>;
+    fn apply(&mut self, command: LoopCommand<Self::Session>) -> Option<Reply>;
     /// Runs one tick; its sample without a period (the thread adds it).
     fn step_sample(&mut self) -> Sample;
 }
 
 /// A [`HapticLoop`](crate::planar::HapticLoop) (or another [`Steppable`], or the host of a device behind a link) on its
-/// own thread, ticking in real time at [`RATE_HZ`], taking [`Command`]s that swap in sessions
+/// own thread, ticking in real time at [`RATE_HZ`], taking [`LoopCommand`]s that swap in sessions
 /// of type `S`. Dropping it stops the thread (and, with it, the recorder's input).
 #[derive(Debug)]
-pub struct LoopThread<S: Send + 'static = Session> {
-    commands: SyncSender<Command<S>>,
+pub struct LoopThread<S: Send + 'static = PlanarSession> {
+    commands: SyncSender<LoopCommand<S>>,
     samples: Receiver<Sample>,
     replies: Receiver<Reply>,
     counters: Arc<LoopCounters>,
@@ -301,7 +301,7 @@ impl<S: Send + 'static> LoopThread<S> {
     }
 
     /// Sends a command without waiting; a full channel drops it (counted) and returns false.
-    pub fn send(&self, command: Command<S>) -> bool {
+    pub fn send(&self, command: LoopCommand<S>) -> bool {
         match self.commands.try_send(command) {
             Ok(()) => true,
             Err(TrySendError::Full(_) | TrySendError::Disconnected(_)) => {
@@ -347,9 +347,9 @@ impl<S: Send + 'static> Drop for LoopThread<S> {
 
 /// The loop thread's ends of its channels.
 #[derive(Debug)]
-pub struct LoopEnds<S = Session> {
+pub struct LoopEnds<S = PlanarSession> {
     /// Commands from the UI.
-    pub commands: Receiver<Command<S>>,
+    pub commands: Receiver<LoopCommand<S>>,
     samples: SyncSender<Sample>,
     /// Replies to the UI.
     pub replies: Sender<Reply>,
@@ -497,7 +497,7 @@ impl<L: Steppable> Backend<L> {
     }
 
     /// Sends the command to the thread without waiting, or applies it to the stepped loop.
-    pub fn command(&mut self, command: Command<L::Session>) -> Sent {
+    pub fn command(&mut self, command: LoopCommand<L::Session>) -> Sent {
         match self {
             Backend::Thread(t) => {
                 if t.send(command) {
@@ -578,15 +578,15 @@ mod tests {
     /// to 10 s of wall time (a loaded machine may be slow; nothing here is timed).
     #[test]
     fn loop_thread_ticks_and_answers() {
-        let session = Session::new(thesis_2d()).expect("session");
+        let session = PlanarSession::new(thesis_2d()).expect("session");
         let haptic = HapticLoop::new(session, START_HIP).expect("loop");
         let thread = LoopThread::spawn(haptic, None).expect("spawn");
-        assert!(thread.send(Command::HandTarget(Vec3::new(0.0, 0.105, 0.0))));
+        assert!(thread.send(LoopCommand::HandTarget(Vec3::new(0.0, 0.105, 0.0))));
         let bad = FrictionMaterial {
             mu_dynamic: 0.9,
             ..FrictionMaterial::default()
         };
-        assert!(thread.send(Command::SetMaterial(bad)));
+        assert!(thread.send(LoopCommand::SetMaterial(bad)));
         let waited = Instant::now();
         let (mut samples, mut replies) = (Vec::new(), Vec::new());
         while (samples.len() < 50 || replies.is_empty())
@@ -619,16 +619,16 @@ mod tests {
     /// not support included (nothing changes); a stopped one drops commands and runs no tick.
     #[test]
     fn a_stepped_backend_answers_every_command() {
-        let session = Session::new(thesis_2d()).expect("session");
+        let session = PlanarSession::new(thesis_2d()).expect("session");
         let haptic = HapticLoop::new(session, START_HIP).expect("loop");
         let mut backend = Backend::start(haptic, false, None).expect("start");
         assert!(!backend.is_threaded() && backend.is_running());
-        let sent = backend.command(Command::Mesh(None));
+        let sent = backend.command(LoopCommand::Mesh(None));
         assert!(matches!(
             sent,
             Sent::Applied(Some(Reply::Unsupported("a mesh")))
         ));
-        let sent = backend.command(Command::HandTarget(Vec3::new(0.0, 0.105, 0.5)));
+        let sent = backend.command(LoopCommand::HandTarget(Vec3::new(0.0, 0.105, 0.5)));
         assert!(matches!(sent, Sent::Applied(None)));
         assert_eq!(backend.step(3).len(), 3);
         // Each step is ten device ticks (10 kHz under a 1 kHz loop).
@@ -639,7 +639,7 @@ mod tests {
         assert!(backend.counters().is_none());
         backend.stop();
         assert!(!backend.is_running());
-        assert!(!backend.command(Command::ClearFaults).taken());
+        assert!(!backend.command(LoopCommand::ClearFaults).taken());
         assert!(backend.step(1).is_empty());
     }
 }

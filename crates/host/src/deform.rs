@@ -17,10 +17,10 @@ use tracker::{Chain, ChainTracker, Object as TrackedObject, Shell, ShellTracker}
 
 use device::controller::{Controller, ControllerError};
 
-use crate::sim::{
-    DeviceHand, DeviceRun, HipSamples, Proceed, Run, SimError, Trajectory, drive_device,
-    ready_controller, validate, validate_device,
-};
+use crate::closed_loop::{DeviceRun, drive_device, ready_controller, validate_device};
+use crate::error::SimError;
+use crate::hand::DeviceHand;
+use crate::sim::{HipSamples, Proceed, Run, Trajectory, validate};
 use crate::tick::{Tick, device_tick, point, render_tick};
 
 /// The slowest rate the object steps at in a loop (Hz): a loop at up to twice this steps the
@@ -76,7 +76,7 @@ pub enum DeformError {
     Sim(#[from] SimError),
 }
 
-/// Why a loop did not take a [`Command::Deform`](crate::backend::Command::Deform): the object
+/// Why a loop did not take a [`LoopCommand::Deform`](crate::backend::LoopCommand::Deform): the object
 /// it renders is unchanged.
 #[derive(Debug, thiserror::Error)]
 pub enum DeformChangeError {
@@ -94,7 +94,7 @@ pub enum DeformChangeError {
     Controller(ControllerError),
 }
 
-/// What a loop answers a [`Command::Deform`](crate::backend::Command::Deform) it took.
+/// What a loop answers a [`LoopCommand::Deform`](crate::backend::LoopCommand::Deform) it took.
 #[derive(Clone, Debug)]
 pub struct DeformStatus {
     /// Whether the object now deforms (`false`: rigid, at its rest shape).
@@ -715,7 +715,7 @@ pub(crate) fn carry(
         .map_err(DeformChangeError::Controller)
 }
 
-/// [`crate::sim::run_device`] with object `index` deformable: the closed loop through the
+/// [`crate::closed_loop::run_device`] with object `index` deformable: the closed loop through the
 /// simulated pantograph and the device's controller at `rate_hz`, the object fed every tick
 /// (the controller's rendering of it, the handle's true HIP) and stepped every
 /// `⌊rate / DYNAMICS_RATE_HZ⌋` ticks, the controller moved onto each new shape between two

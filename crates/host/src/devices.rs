@@ -3,7 +3,7 @@
 
 use std::time::Duration;
 
-use device::host::{
+use device::link::{
     HidLink, Link, LinkError, SerialLink, SimConfig, SimHand, SimLink, TcpLink, list_hid,
     list_serial,
 };

@@ -1,5 +1,5 @@
 //! Identification of the mechanism's own damping and Coulomb friction at the joints: what
-//! the wall acceptance counts on (`device::safety::PassivityConfig`), measured instead of
+//! the wall acceptance counts on (`device::wall::PassivityConfig`), measured instead of
 //! assumed.
 //!
 //! # The experiment
@@ -28,7 +28,7 @@
 
 use std::time::{Duration, Instant};
 
-use device::host::{Link, LinkError};
+use device::link::{Link, LinkError};
 use device::protocol::{Frame, Message};
 use device::simulator::{SimParams, SimulatedPantograph};
 use device::spec::DeviceSpec;
@@ -570,7 +570,7 @@ mod tests {
     /// the friction's 0–0.6 %.
     #[test]
     fn recovers_the_simulated_devices_damping_and_friction_through_a_link() {
-        use device::host::{SimConfig, SimLink};
+        use device::link::{SimConfig, SimLink};
         let truth = DeviceSpec {
             joint_damping_nms_per_rad: [2e-4, 2e-4],
             ..DeviceSpec::default()

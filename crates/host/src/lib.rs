@@ -2,8 +2,11 @@
 #![warn(missing_docs)]
 
 pub mod backend;
+pub mod closed_loop;
 pub mod deform;
 pub mod devices;
+pub mod error;
+pub mod hand;
 pub mod identify;
 pub mod planar;
 pub mod remote;

@@ -1,19 +1,19 @@
 //! The planar loop the app runs on the simulated pantograph: the device's [`Controller`] on
 //! one planar object of a scene, stepped one tick at a time ([`HapticLoop::step`], the same
 //! [`tick::device_tick`] as `viewer sim --device`), driven by a virtual hand whose target the
-//! UI moves. The scene reaches it as the device's upload ([`Session`]): the in-process
+//! UI moves. The scene reaches it as the device's upload ([`PlanarSession`]): the in-process
 //! simulator decodes it with the device's own receiver, as a board would. It runs on a
 //! [`Backend`](crate::backend::Backend) like every loop the app drives.
 //!
 //! A deformable object (one with a `"dynamics"` block) deforms under the hand on
-//! [`Command::Deform`]: every device tick feeds a [`Deformer`], every step (1 ms, ten device
+//! [`LoopCommand::Deform`]: every device tick feeds a [`Deformer`], every step (1 ms, ten device
 //! ticks) steps it, and the controller is carried onto the new shape
 //! ([`Controller::replace_object`]: its renderer, feature, friction state and safety ramp
 //! stay; no search, no ramp-in). The shape reaches the UI through a [`SharedShape`].
 
 use std::sync::Arc;
 
-use device::controller::{Controller, ControllerError};
+use device::controller::Controller;
 use device::protocol::{SceneFault, SceneStore};
 use device::safety::Faults;
 use device::simulator::{SimParams, SimulatedPantograph, VirtualHand};
@@ -22,7 +22,7 @@ use friction::FrictionMaterial;
 use nurbs::Vec2;
 use tracker::Chain;
 
-use crate::backend::{Command, RATE_HZ, Reply, Sample, Steppable};
+use crate::backend::{LoopCommand, RATE_HZ, Reply, Sample, Steppable};
 use crate::deform::{DeformChangeError, DeformStatus, Deformer, SharedShape, carry};
 
 /// The device's tick rate in the loop (Hz): the board's. The loop thread wakes at
@@ -30,10 +30,10 @@ use crate::deform::{DeformChangeError, DeformStatus, Deformer, SharedShape, carr
 pub const DEVICE_RATE_HZ: f64 = 10_000.0;
 /// Device ticks per step of the loop (per 1 ms wake).
 pub const TICKS_PER_STEP: u32 = (DEVICE_RATE_HZ / RATE_HZ) as u32;
-use crate::sim::SimError;
+use crate::error::{MaterialChangeError, SimError};
 use crate::tick::{self, Tick};
 use crate::upload::{self, UploadError};
-use scene::{Material, MaterialError, Scene, Space};
+use scene::{Material, Scene, Space};
 
 /// Where the handle (and the hand's target) starts: in the middle of the default device's
 /// workspace, above the bundled planar scenes.
@@ -46,7 +46,7 @@ pub const MAX_HAND_SPEED_M_PER_S: f32 = device::simulator::MAX_HAND_SPEED_M_PER_
 /// A scene the loop renders: the scene, the index of the object the device renders (the
 /// first planar one; `None` when the scene has none), that object as the device received it,
 /// and the controller built for it (which holds its own copy of the object: nothing borrowed).
-pub struct Session {
+pub struct PlanarSession {
     scene: Scene,
     object: Option<usize>,
     received: Option<Received>,
@@ -62,9 +62,9 @@ struct Received {
     crc32: u32,
 }
 
-impl std::fmt::Debug for Session {
+impl std::fmt::Debug for PlanarSession {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.debug_struct("Session")
+        f.debug_struct("PlanarSession")
             .field("object", &self.object())
             .field("passivity_control", &self.passivity_control())
             .finish_non_exhaustive()
@@ -82,7 +82,7 @@ pub enum SessionError {
     Upload(#[from] UploadError),
 }
 
-impl Session {
+impl PlanarSession {
     /// The default device at [`DEVICE_RATE_HZ`], calibrated on its end stops, forces enabled, with
     /// the first object of planar curves of `scene` loaded (none when it has none: the
     /// pantograph is planar, so a scene of surfaces renders nothing). The controller's own
@@ -95,7 +95,7 @@ impl Session {
         Self::with_object(scene, object)
     }
 
-    /// [`Session::new`] with object `object` (which must be planar), or none. The object
+    /// [`PlanarSession::new`] with object `object` (which must be planar), or none. The object
     /// reaches the controller as a board's would: its wire scene ([`upload::wire_scene`])
     /// goes frame by frame through the device's receiver ([`upload::receive`]), and the
     /// controller renders the store the device decoded.
@@ -109,7 +109,7 @@ impl Session {
             None => None,
         };
         let (controller, passivity_control) = build_controller(received.as_ref(), object)?;
-        Ok(Session {
+        Ok(PlanarSession {
             scene,
             object,
             received,
@@ -205,29 +205,11 @@ impl std::fmt::Debug for Deforming {
     }
 }
 
-/// Why a material was not applied. The running material is unchanged.
-#[derive(Clone, Debug, PartialEq, thiserror::Error)]
-pub enum MaterialChangeError {
-    /// A value is out of its range (the message names the field).
-    #[error("{0}")]
-    Invalid(#[from] MaterialError),
-    /// The device's controller refused it (a stiffness beyond the device; the message names
-    /// the limit).
-    #[error("device controller: {0}")]
-    Controller(ControllerError),
-    /// The scene has no object the device renders.
-    #[error("the scene has no object of planar curves for the device to render")]
-    NoObject,
-    /// The device behind the link refused it (its reason).
-    #[error("the device refused the material: {0}")]
-    Device(String),
-}
-
 /// The loop's state: the session, the simulated arm and the hand, and the object's dynamics
 /// while it deforms. Stepped one tick at a time.
 #[derive(Debug)]
 pub struct HapticLoop {
-    session: Session,
+    session: PlanarSession,
     material: Option<FrictionMaterial>,
     arm: SimulatedPantograph,
     hand: VirtualHand,
@@ -241,7 +223,7 @@ pub struct HapticLoop {
 impl HapticLoop {
     /// A loop on `session` with the handle at rest at `start_hip`, held by the default
     /// relaxed hand of `viewer sim --device` ([`SimParams::default`], 300 N/m).
-    pub fn new(session: Session, start_hip: Vec2) -> Result<Self, SessionError> {
+    pub fn new(session: PlanarSession, start_hip: Vec2) -> Result<Self, SessionError> {
         let arm = SimulatedPantograph::new(DeviceSpec::default(), SimParams::default(), start_hip)
             .map_err(SimError::Simulator)?;
         let material = material_of(&session);
@@ -450,9 +432,9 @@ impl HapticLoop {
 
     /// Who holds the handle from the next tick: a grip or a fingertip takes it (at its
     /// current target), a released hand lets go.
-    pub fn set_hand(&mut self, hand: crate::sim::Hand) {
+    pub fn set_hand(&mut self, hand: crate::hand::Hand) {
         match hand {
-            crate::sim::Hand::Released => self.arm.release(),
+            crate::hand::Hand::Released => self.arm.release(),
             held => {
                 let p = held.params();
                 self.arm
@@ -512,7 +494,7 @@ impl HapticLoop {
     /// Renders `session` from the next tick; the arm, the hand and the forces' switch stay
     /// as they are. A deforming object is dropped with the old session: the new one renders
     /// its object rigid, at rest, until it is asked to deform.
-    pub fn swap_session(&mut self, session: Session) {
+    pub fn swap_session(&mut self, session: PlanarSession) {
         let forces = self.forces_enabled();
         if self.deforming.take().is_some() {
             self.shape.stop(self.tick as f64 / DEVICE_RATE_HZ);
@@ -523,7 +505,7 @@ impl HapticLoop {
     }
 
     /// The session.
-    pub fn session(&self) -> &Session {
+    pub fn session(&self) -> &PlanarSession {
         &self.session
     }
 
@@ -561,7 +543,7 @@ impl HapticLoop {
     }
 }
 
-fn material_of(session: &Session) -> Option<FrictionMaterial> {
+fn material_of(session: &PlanarSession) -> Option<FrictionMaterial> {
     session
         .object()
         .and_then(|i| session.scene().object(i))
@@ -569,37 +551,39 @@ fn material_of(session: &Session) -> Option<FrictionMaterial> {
 }
 
 impl Steppable for HapticLoop {
-    type Session = Session;
+    type Session = PlanarSession;
 
-    fn apply(&mut self, command: Command) -> Option<Reply> {
+    fn apply(&mut self, command: LoopCommand) -> Option<Reply> {
         match command {
-            Command::HandTarget(t) => {
+            LoopCommand::HandTarget(t) => {
                 self.set_hand_target(Vec2::new(t.x, t.y));
                 None
             }
-            Command::SetMaterial(m) => Some(Reply::Material(self.set_material(m))),
-            Command::Swap(session) => {
+            LoopCommand::SetMaterial(m) => Some(Reply::Material(self.set_material(m))),
+            LoopCommand::Swap(session) => {
                 self.swap_session(*session);
                 Some(Reply::Swapped)
             }
             // The app's own simulated device takes shapes as sessions (`Swap`) or from its own
             // deforming object (`Deform`); control-point updates are the protocol's, for a
             // device behind a link.
-            Command::Mesh(_) | Command::ScenePoints(_) => Some(Reply::Unsupported(command.name())),
-            Command::Forces(on) => {
+            LoopCommand::Mesh(_) | LoopCommand::ScenePoints(_) => {
+                Some(Reply::Unsupported(command.name()))
+            }
+            LoopCommand::Forces(on) => {
                 self.set_forces_enabled(on);
                 None
             }
-            Command::ClearFaults => Some(Reply::FaultsCleared(self.clear_faults())),
-            Command::Calibrate => {
+            LoopCommand::ClearFaults => Some(Reply::FaultsCleared(self.clear_faults())),
+            LoopCommand::Calibrate => {
                 self.calibrate();
                 None
             }
-            Command::Hand(hand) => {
+            LoopCommand::Hand(hand) => {
                 self.set_hand(hand);
                 None
             }
-            Command::Deform(on) => Some(Reply::Deform(self.set_deforming(on))),
+            LoopCommand::Deform(on) => Some(Reply::Deform(self.set_deforming(on))),
         }
     }
 

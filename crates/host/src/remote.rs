@@ -1,18 +1,18 @@
 //! The app's loop on a device behind a link: the firmware under QEMU over TCP, a board over
-//! USB HID or serial, or the host's simulated device ([`device::host::SimLink`]). The device
+//! USB HID or serial, or the host's simulated device ([`device::link::SimLink`]). The device
 //! runs the haptic loop; this thread is its host: it keeps the watchdog fed, turns the UI's
-//! [`Command`]s into protocol messages, and each telemetry frame into a [`Sample`], through
+//! [`LoopCommand`]s into protocol messages, and each telemetry frame into a [`Sample`], through
 //! the same channels as the in-process loop ([`LoopThread::spawn_with`]), so the app does
 //! not care which it drives.
 //!
 //! - Requests (scene upload, material, forces, calibration, clearing faults) go one at a
 //!   time: the next is sent when the device acks the one in flight, as
-//!   [`Link::upload_scene`](device::host::Link::upload_scene) does, but without waiting, so telemetry keeps flowing. A nack is
+//!   [`Link::upload_scene`](device::link::Link::upload_scene) does, but without waiting, so telemetry keeps flowing. A nack is
 //!   a [`LinkEvent::Refused`] naming the device's reason (or a material error); the device's
 //!   state is unchanged.
 //! - Heartbeats go every [`HEARTBEAT_PERIOD`]; the device answers each with its status
 //!   ([`LinkEvent::Status`]), and its round trip is the link's latency.
-//! - Control-point updates ([`Command::ScenePoints`]: a deformable model's moving shape) go
+//! - Control-point updates ([`LoopCommand::ScenePoints`]: a deformable model's moving shape) go
 //!   without waiting, as soon as no upload is queued or in flight (the device's staging
 //!   buffer is the upload's until it commits): their frames are sent at once, several
 //!   updates may be in flight, and an update the UI replaces before it went out is never
@@ -37,17 +37,17 @@ use std::sync::atomic::Ordering;
 use std::sync::mpsc::TryRecvError;
 use std::time::{Duration, Instant};
 
-use device::host::{GapCounter, LinkError};
+use device::link::{GapCounter, LinkError};
 use device::protocol::{ErrorCode, Frame, Message, Status, Telemetry, points_update, scene_upload};
 use device::safety::Faults;
 use friction::Mode;
 use nurbs::{Vec2, Vec3};
 use tracker::Feature;
 
-use crate::backend::{Command, LinkEvent, LoopEnds, LoopThread, PointsUpdate, Reply, Sample};
+use crate::backend::{LinkEvent, LoopCommand, LoopEnds, LoopThread, PointsUpdate, Reply, Sample};
 use crate::deform::{DeformChangeError, DeformStatus, Deformer, SharedShape};
 use crate::devices::{HEARTBEAT_PERIOD, Opened};
-use crate::planar::MaterialChangeError;
+use crate::error::MaterialChangeError;
 use crate::tick::{DeviceSample, Tick};
 use scene::Scene;
 
@@ -143,7 +143,7 @@ struct Host {
     refused_now: Option<(Purpose, String)>,
     /// The newest control-point update not sent yet.
     points_pending: Option<PointsUpdate>,
-    /// The scene the device renders (its object's index), for a [`Command::Deform`].
+    /// The scene the device renders (its object's index), for a [`LoopCommand::Deform`].
     scene: Option<(Scene, usize)>,
     /// The deforming object, while it deforms: stepped on the device's telemetry, its shape
     /// sent back to the device ([`DEFORM_UPDATE_EVERY`]).
@@ -390,17 +390,17 @@ impl Host {
         format!("{}: {e}", self.device)
     }
 
-    fn command(&mut self, ends: &LoopEnds, command: Command) -> Result<(), LinkError> {
+    fn command(&mut self, ends: &LoopEnds, command: LoopCommand) -> Result<(), LinkError> {
         match command {
-            Command::HandTarget(t) => self.hand_command = Some(Vec2::new(t.x, t.y)),
-            Command::SetMaterial(m) => self.request(
+            LoopCommand::HandTarget(t) => self.hand_command = Some(Vec2::new(t.x, t.y)),
+            LoopCommand::SetMaterial(m) => self.request(
                 Message::SetMaterial {
                     object: 0,
                     material: m,
                 },
                 Purpose::Material(m),
             ),
-            Command::Swap(session) => match session.wire() {
+            LoopCommand::Swap(session) => match session.wire() {
                 Some(wire) => {
                     // The new object starts rigid (its upload brings its shape).
                     if self.deforming.take().is_some() {
@@ -423,7 +423,7 @@ impl Host {
                     ));
                 }
             },
-            Command::Forces(on) => self.request(
+            LoopCommand::Forces(on) => self.request(
                 if on {
                     Message::EnableForces
                 } else {
@@ -431,24 +431,26 @@ impl Host {
                 },
                 Purpose::Forces,
             ),
-            Command::ClearFaults => self.request(
+            LoopCommand::ClearFaults => self.request(
                 Message::ClearFaults {
                     mask: Faults::all().bits(),
                 },
                 Purpose::ClearFaults,
             ),
-            Command::Calibrate => self.request(Message::Calibrate, Purpose::Calibrate),
+            LoopCommand::Calibrate => self.request(Message::Calibrate, Purpose::Calibrate),
             // The device renders NURBS objects through the protocol; a mesh is the app's. The
             // hand on a board's handle is a person's.
-            Command::Mesh(_) | Command::Hand(_) => ends.reply(Reply::Unsupported(command.name())),
-            Command::ScenePoints(update) => {
+            LoopCommand::Mesh(_) | LoopCommand::Hand(_) => {
+                ends.reply(Reply::Unsupported(command.name()))
+            }
+            LoopCommand::ScenePoints(update) => {
                 if self.points_pending.replace(*update).is_some() {
                     ends.counters
                         .points_superseded
                         .fetch_add(1, Ordering::Relaxed);
                 }
             }
-            Command::Deform(on) => {
+            LoopCommand::Deform(on) => {
                 let reply = self.set_deforming(on);
                 ends.reply(Reply::Deform(reply));
             }
@@ -556,7 +558,7 @@ impl Host {
     }
 
     /// The UI's sample of a telemetry frame.
-    /// Makes the device's object deformable or rigid again ([`Command::Deform`]).
+    /// Makes the device's object deformable or rigid again ([`LoopCommand::Deform`]).
     fn set_deforming(&mut self, on: bool) -> Result<DeformStatus, DeformChangeError> {
         if on && self.deforming.is_none() {
             let (scene, object) = self.scene.as_ref().ok_or(DeformChangeError::NoObject)?;

@@ -264,7 +264,7 @@ pub fn parse(text: &str, path: &Path) -> Result<RunLog, RunLogError> {
 // ---------------------------------------------------------------------------------------------
 // Writing.
 
-/// The columns a device run ([`run_device`](crate::sim::run_device)) appends to [`csv_header`]: the measured joint
+/// The columns a device run ([`run_device`](crate::closed_loop::run_device)) appends to [`csv_header`]: the measured joint
 /// angles (rad), the joint torques (N·m) and the latched fault bits as a decimal number.
 pub const DEVICE_COLUMNS: &str = "theta1_rad,theta2_rad,tau1_nm,tau2_nm,faults";
 
@@ -447,7 +447,7 @@ impl Run {
             .find_map(|(i, k)| k.non_finite_column().map(|c| (i, c)))
     }
 
-    /// Whether this is a closed-loop run of the device ([`run_device`](crate::sim::run_device)): its ticks carry a
+    /// Whether this is a closed-loop run of the device ([`run_device`](crate::closed_loop::run_device)): its ticks carry a
     /// [`DeviceSample`].
     pub fn is_device_run(&self) -> bool {
         self.ticks.first().is_some_and(|k| k.device.is_some())
@@ -674,7 +674,8 @@ fn record(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::planar::{HapticLoop, START_HIP, Session};
+    use crate::closed_loop::run_device;
+    use crate::planar::{HapticLoop, PlanarSession, START_HIP};
     use crate::sim::{self, Trajectory};
     use crate::test_scenes::thesis_2d;
     use scene::Scene;
@@ -686,7 +687,7 @@ mod tests {
             .unwrap_or_else(|e| panic!("{e}"));
         let trajectory = Trajectory::parse("t,x,y\n0,0.0,0.1\n0.3,0.0,0.09\n", Path::new("t.csv"))
             .unwrap_or_else(|e| panic!("{e}"));
-        let run = sim::run_device(
+        let run = run_device(
             &scene,
             0,
             &trajectory,
@@ -763,7 +764,7 @@ mod tests {
         std::fs::create_dir_all(&dir).expect("temp dir");
         let path = dir.join("rows.csv");
         let mut log = LogWriter::create(&path, Space::Planar).expect("create");
-        let session = Session::new(thesis_2d()).expect("session");
+        let session = PlanarSession::new(thesis_2d()).expect("session");
         let mut haptic = HapticLoop::new(session, START_HIP).expect("loop");
         let ticks = 3000;
         for _ in 0..ticks {
@@ -797,7 +798,7 @@ mod tests {
         std::fs::create_dir_all(&dir).expect("temp dir");
         let path = dir.join("rec.csv");
         let (recorder, tx) = Recorder::start(&path).expect("start");
-        let session = Session::new(thesis_2d()).expect("session");
+        let session = PlanarSession::new(thesis_2d()).expect("session");
         let mut haptic = HapticLoop::new(session, START_HIP).expect("loop");
         for _ in 0..300 {
             assert!(tx.send(haptic.step()), "recorder alive");
@@ -850,7 +851,7 @@ mod tests {
         let (recorder, tx) = Recorder::start(&path).expect("start");
         let spatial_tx = tx.for_space(Space::Spatial);
         for _ in 0..2 {
-            let session = Session::new(thesis_2d()).expect("session");
+            let session = PlanarSession::new(thesis_2d()).expect("session");
             let mut haptic = HapticLoop::new(session, START_HIP).expect("loop");
             for _ in 0..150 {
                 assert!(tx.send(haptic.step()), "recorder alive");

@@ -9,38 +9,26 @@
 //! ones a shell of surfaces ([`tracker::Shell`]); [`Tick`] stores both as `Vec3` with `z = 0`
 //! for planar runs.
 //!
-//! [`run_device`] closes the loop through the device instead: the trajectory moves the target
-//! of a virtual hand that holds the handle of a [`SimulatedPantograph`], and the device's own
-//! [`Controller`] (encoder counts → kinematics → tracker → friction → safety → Jᵀ F → motor
-//! currents) pushes back. Its ticks carry a [`DeviceSample`](crate::tick::DeviceSample) as well.
+//! [`crate::closed_loop`] runs the same scenario through the simulated device instead
+//! (`viewer sim --device`), holding its handle by one of the hands of [`crate::hand`].
 //!
 //! [`Run::write_csv`] writes the run log: one row per tick, columns [`csv_header`](crate::runlog::csv_header), followed
 //! by [`DEVICE_COLUMNS`](crate::runlog::DEVICE_COLUMNS) for device runs.
 
 use std::ops::ControlFlow;
 
-use device::controller::{Controller, ControllerError};
-use device::kinematics::KinematicsError;
-use device::protocol::Telemetry;
 pub use device::simulator::SimParams;
-use device::simulator::{SimulatedPantograph, SimulatorError};
-use device::spec::DeviceSpec;
-use device::telemetry::TelemetryDecimator;
 use friction::{FrictionMaterial, FrictionRenderer};
-use nurbs::Vec2;
-use tracker::{Chain, ChainError, Object as TrackedObject, Shell, ShellError};
+use tracker::{Chain, Object as TrackedObject, Shell};
 
-use crate::tick::{
-    Tick, device_controller, device_tick, end_stop_counts, point, render_tick, vec2,
-};
+pub use crate::error::MAX_TICKS;
+use crate::error::{SimError, check_rate};
+use crate::tick::{Tick, point, render_tick};
 pub use crate::trajectory::{Trajectory, TrajectoryError, TrajectoryProblem};
 use scene::{Scene, Space};
 
 /// Default tick rate of `sim` (Hz).
 pub const DEFAULT_RATE_HZ: f64 = 1000.0;
-
-/// Largest number of ticks of one run (about 2 GB of records; 2.8 h at 1 kHz).
-pub const MAX_TICKS: usize = 10_000_000;
 
 /// What a run's `progress(done, total)` returns: `()` to run on to the end, or a
 /// [`ControlFlow`] whose `Break` ends the run after the tick just done (`viewer sim`
@@ -78,204 +66,6 @@ pub struct Run {
     pub rate_hz: f64,
     /// One record per tick.
     pub ticks: Vec<Tick>,
-}
-
-/// Why a simulation could not start.
-#[derive(Debug, PartialEq, thiserror::Error)]
-pub enum SimError {
-    /// No such object.
-    #[error("--object {index}: the scene has {count} object(s), indices 0..={}", count - 1)]
-    ObjectIndex {
-        /// Index asked for.
-        index: usize,
-        /// Objects in the scene (at least one).
-        count: usize,
-    },
-    /// The tick rate is not a positive finite number whose value and period are normal
-    /// `f32`s (the loop's type; see [`check_rate`]).
-    #[error("--rate-hz {rate_hz:e}: {}", rate_rule())]
-    Rate {
-        /// The rate given.
-        rate_hz: f64,
-    },
-    /// The trajectory lasts less than one period: one tick, no motion to simulate.
-    #[error(
-        "{duration_s} s at {rate_hz:e} Hz is a single tick; a run needs at least 2 (the HIP \
-         velocity is a backward difference): raise --rate-hz to at least {:e} Hz or lengthen \
-         the trajectory",
-        1.0 / duration_s
-    )]
-    TooFewTicks {
-        /// Trajectory duration (s).
-        duration_s: f64,
-        /// Rate (Hz).
-        rate_hz: f64,
-    },
-    /// The trajectory's dimension does not match the object's.
-    #[error(
-        "the trajectory is {trajectory} but object {index} ({name:?}) is {}; {}",
-        match object { Space::Planar => "a 2-D chain of planar curves",
-                       Space::Spatial => "a 3-D shell of surfaces" },
-        match trajectory { Space::Planar => "a t,x,y trajectory needs an object of planar curves",
-                           Space::Spatial => "a t,x,y,z trajectory needs an object of surfaces" }
-    )]
-    Space {
-        /// The trajectory's space.
-        trajectory: Space,
-        /// The object's space.
-        object: Space,
-        /// Object index.
-        index: usize,
-        /// Object name.
-        name: String,
-    },
-    /// The run would be too long to hold in memory.
-    #[error(
-        "{ticks} ticks ({duration_s} s at {rate_hz} Hz): at most {MAX_TICKS} per run; \
-         lower --rate-hz or shorten the trajectory"
-    )]
-    TooManyTicks {
-        /// Ticks the run would have.
-        ticks: f64,
-        /// Trajectory duration (s).
-        duration_s: f64,
-        /// Rate (Hz).
-        rate_hz: f64,
-    },
-    /// The object is not a valid chain (the scene loader rejects these already).
-    #[error("object {index}: {error}")]
-    Chain {
-        /// Object index.
-        index: usize,
-        /// What is wrong.
-        error: ChainError,
-    },
-    /// The object is not a valid shell (the scene loader rejects these already).
-    #[error("object {index}: {error}")]
-    Shell {
-        /// Object index.
-        index: usize,
-        /// What is wrong.
-        error: ShellError,
-    },
-    /// `--device` with an object of surfaces: the pantograph has two degrees of freedom.
-    #[error(
-        "--device: object {index} ({name:?}) is a 3-D shell of surfaces, but the pantograph \
-         is a 2-DoF planar device; it renders only objects of planar curves"
-    )]
-    Surface {
-        /// Object index.
-        index: usize,
-        /// Object name.
-        name: String,
-    },
-    /// The device controller refused its configuration or the material.
-    #[error("device controller: {0}")]
-    Controller(ControllerError),
-    /// The simulated pantograph could not start (the trajectory's first point out of reach,
-    /// or a bad parameter).
-    #[error("simulated pantograph: {0}")]
-    Simulator(SimulatorError),
-    /// The simulated arm was driven into a singular or unassembled configuration.
-    #[error("simulated pantograph at t = {t_s} s: {error}")]
-    Arm {
-        /// Time of the tick (s).
-        t_s: f64,
-        /// What happened.
-        error: KinematicsError,
-    },
-}
-
-/// Who holds the simulated pantograph's handle: the models of a user's hand.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Hand {
-    /// A relaxed grip (the simulator's default hand: 300 N/m, 2 N·s/m).
-    Grip,
-    /// A light fingertip ([`SimParams::fingertip`]: 100 N/m, 0.1 N·s/m).
-    Finger,
-    /// A grip that lets go ([`DeviceHand::release_at_s`]; in a Z-width cell just before the
-    /// impact): from then on nobody holds the handle (its own mass, the device's own friction
-    /// and damping).
-    Released,
-}
-
-impl Hand {
-    /// The plant's parameters for this hand (a released handle starts gripped).
-    pub fn params(self) -> SimParams {
-        match self {
-            Hand::Grip | Hand::Released => SimParams::default(),
-            Hand::Finger => SimParams::fingertip(),
-        }
-    }
-
-    /// `grip`, `finger` or `released`.
-    pub fn name(self) -> &'static str {
-        match self {
-            Hand::Grip => "grip",
-            Hand::Finger => "finger",
-            Hand::Released => "released",
-        }
-    }
-}
-
-impl std::str::FromStr for Hand {
-    type Err = String;
-
-    fn from_str(s: &str) -> Result<Self, Self::Err> {
-        match s {
-            "grip" => Ok(Hand::Grip),
-            "finger" => Ok(Hand::Finger),
-            "released" => Ok(Hand::Released),
-            other => Err(format!(
-                "unknown hand {other:?}: expected grip, finger or released"
-            )),
-        }
-    }
-}
-
-/// The hand of a closed-loop run: the plant's parameters (the hand's spring and damper) and
-/// when, if ever, it lets go.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct DeviceHand {
-    /// The simulated plant's parameters, with the hand's stiffness and damping.
-    pub params: SimParams,
-    /// When the hand lets go (s, trajectory time); `None`: it holds to the end.
-    pub release_at_s: Option<f64>,
-}
-
-impl From<SimParams> for DeviceHand {
-    /// A hand of these parameters that never lets go.
-    fn from(params: SimParams) -> Self {
-        DeviceHand {
-            params,
-            release_at_s: None,
-        }
-    }
-}
-
-impl DeviceHand {
-    /// `grip`, `finger` or `released:T` (a grip that lets go at T seconds, finite, ≥ 0).
-    pub fn parse(text: &str) -> Result<Self, String> {
-        if let Some(at) = text.strip_prefix("released:") {
-            let at_s: f64 = at
-                .trim()
-                .parse()
-                .map_err(|_| format!("released:{at}: {at:?} is not a time in seconds"))?;
-            if !(at_s.is_finite() && at_s >= 0.0) {
-                return Err(format!("released:{at}: the time must be finite and >= 0 s"));
-            }
-            return Ok(DeviceHand {
-                params: Hand::Released.params(),
-                release_at_s: Some(at_s),
-            });
-        }
-        match text.parse::<Hand>()? {
-            Hand::Released => {
-                Err("released needs the time the hand lets go: released:T (seconds)".to_owned())
-            }
-            hand => Ok(hand.params().into()),
-        }
-    }
 }
 
 /// Object `object` of `scene`, checked with the tick rate: what every run starts from.
@@ -321,28 +111,6 @@ pub fn validate(
         });
     }
     Ok(ticks as usize)
-}
-
-/// What [`check_rate`] asks of a tick rate, in words.
-pub fn rate_rule() -> String {
-    format!(
-        "the tick rate must be finite and > 0, and it and its period 1/rate must fit the f32 \
-         the loop computes in (about {:e} to {:e})",
-        f32::MIN_POSITIVE,
-        f32::MAX
-    )
-}
-
-/// A tick rate the loop can run at: finite and > 0, and both the rate and its period
-/// `1 / rate` positive normal `f32`s, since the loop computes in `f32` (`--rate-hz 1e-300`
-/// would have a period of 1e300 s, infinite in `f32`).
-pub fn check_rate(rate_hz: f64) -> Result<(), SimError> {
-    let fits = |v: f64| (v as f32).is_normal();
-    if rate_hz.is_finite() && rate_hz > 0.0 && fits(rate_hz) && fits(1.0 / rate_hz) {
-        Ok(())
-    } else {
-        Err(SimError::Rate { rate_hz })
-    }
 }
 
 /// Runs object `object` of `scene` with its material along `trajectory` at `rate_hz`.
@@ -519,58 +287,6 @@ pub fn explore(
     })
 }
 
-/// The default device's controller at `rate_hz` with `chain` and `material` loaded
-/// ([`device_controller`]), calibrated on the end stops and with forces on, as a closed-loop
-/// run starts it; and whether the passivity controller is on.
-pub(crate) fn ready_controller<'a>(
-    chain: Chain,
-    material: FrictionMaterial,
-    rate_hz: f64,
-) -> Result<(Controller<Chain>, bool), SimError> {
-    let (mut controller, passivity_control) = device_controller(chain, material, rate_hz)?;
-    controller
-        .calibrate(end_stop_counts(&DeviceSpec::default()))
-        .map_err(SimError::Controller)?;
-    controller.set_forces_enabled(true);
-    Ok((controller, passivity_control))
-}
-
-/// The closed loop's ticks: `n` ticks at `rate_hz` of the default simulated pantograph,
-/// started where the trajectory starts and held by `hand`, whose target follows the
-/// trajectory; each tick is `tick(arm, t_s, now_us, target)` (the device clock in whole
-/// microseconds, as a board's timer), its frames folded by the board's decimator.
-pub(crate) fn drive_device<E: From<SimError>, P: Proceed>(
-    trajectory: &Trajectory,
-    rate_hz: f64,
-    hand: DeviceHand,
-    n: usize,
-    mut progress: impl FnMut(usize, usize) -> P,
-    mut tick: impl FnMut(&mut SimulatedPantograph, f64, u64, Vec2) -> Result<(Tick, Telemetry), E>,
-) -> Result<(Vec<Tick>, Vec<Telemetry>), E> {
-    let start = trajectory.at(trajectory.start_s());
-    let mut arm = SimulatedPantograph::new(DeviceSpec::default(), hand.params, vec2(start))
-        .map_err(SimError::Simulator)?;
-    let mut ticks = Vec::with_capacity(n);
-    // The board's decimator, on the same period (firmware::app).
-    let mut decimator = TelemetryDecimator::for_period_s((1.0 / rate_hz) as f32);
-    let mut telemetry = Vec::with_capacity(n / decimator.ticks_per_frame() as usize + 1);
-    for i in 0..n {
-        let t_s = trajectory.tick_time_s(i, rate_hz);
-        let now_us = (i as f64 * 1e6 / rate_hz).round() as u64;
-        let target = vec2(trajectory.at(t_s));
-        if hand.release_at_s.is_some_and(|at| t_s >= at) && arm.is_held() {
-            arm.release();
-        }
-        let (record, frame) = tick(&mut arm, t_s, now_us, target)?;
-        ticks.push(record);
-        telemetry.extend(decimator.push(&frame).copied());
-        if !progress(i + 1, n).proceed() {
-            break;
-        }
-    }
-    Ok((ticks, telemetry))
-}
-
 /// The prescribed HIP of each tick: the trajectory at the tick's time, its velocity the
 /// backward difference of the sampled HIP (zero at the first tick).
 pub(crate) struct HipSamples<'a> {
@@ -600,120 +316,6 @@ impl<'a> HipSamples<'a> {
         self.previous = xyz;
         (t_s, point::<P>(xyz), point::<P>(velocity))
     }
-}
-
-/// A closed-loop run ([`run_device`]).
-#[derive(Clone, Debug, PartialEq)]
-pub struct DeviceRun {
-    /// The ticks, each with its [`DeviceSample`](crate::tick::DeviceSample).
-    pub run: Run,
-    /// Whether the material is stiffer than the device renders passively at this rate, so
-    /// that the controller renders it with the time-domain passivity controller on.
-    pub passivity_control: bool,
-    /// The telemetry frames a board sends: the ticks' frames as the controller made them,
-    /// folded by `device::telemetry::TelemetryDecimator` into one per millisecond (every
-    /// tick's at 1 kHz and below; a last window shorter than a millisecond sends none). The
-    /// firmware under QEMU is compared with them frame by frame by `cargo xtask qemu`.
-    pub telemetry: Vec<Telemetry>,
-}
-
-/// Checks everything [`run_device`] checks before its first tick, without running it; returns
-/// the number of ticks.
-pub fn validate_device(
-    scene: &Scene,
-    object: usize,
-    trajectory: &Trajectory,
-    rate_hz: f64,
-) -> Result<usize, SimError> {
-    if let Some(o) = scene.object(object)
-        && o.space() == Space::Spatial
-    {
-        return Err(SimError::Surface {
-            index: object,
-            name: o.name().to_owned(),
-        });
-    }
-    let ticks = validate(scene, object, trajectory, rate_hz)?;
-    // The controller's own checks (a stiffness beyond the device, among others) before the
-    // run, on the same setup `run_device` uses.
-    let material = scene.objects()[object].material().friction_material();
-    with_chain(scene, object, |chain| {
-        device_controller(chain, material, rate_hz).map(|_| ())
-    })?;
-    Ok(ticks)
-}
-
-/// Object `object`'s curves as a chain, handed to `f` (the chain borrows the curves).
-fn with_chain<R>(
-    scene: &Scene,
-    object: usize,
-    f: impl FnOnce(Chain) -> Result<R, SimError>,
-) -> Result<R, SimError> {
-    let o = &scene.objects()[object];
-    let curves = o.curve_views().ok_or_else(|| SimError::Surface {
-        index: object,
-        name: o.name().to_owned(),
-    })?;
-    let chain = Chain::new(&curves).map_err(|error| SimError::Chain {
-        index: object,
-        error,
-    })?;
-    f(chain)
-}
-
-/// The closed loop: object `object` of `scene` (planar curves only) on the default
-/// [`DeviceSpec`] at `rate_hz`, the virtual hand's target moving along `trajectory` and
-/// holding the handle with the grip of `hand`.
-///
-/// The controller calibrates on the end stops, enables forces (ramping in over
-/// [`DEVICE_RAMP_TIME_S`](crate::tick::DEVICE_RAMP_TIME_S)), gets a heartbeat every tick and renders the object's material,
-/// with the passivity controller on when the material is stiffer than the device renders
-/// passively ([`DeviceRun::passivity_control`]); a material stiffer than the device renders
-/// even with it is refused ([`ControllerError::BeyondDevice`], naming the limit). Each tick
-/// the controller reads the simulated encoders (on a clock of whole microseconds since the
-/// start), and the simulated pantograph then moves for one period under the controller's
-/// currents and the hand. The ticks' HIP and HIP velocity are the handle's
-/// true ones (not the target's), `force` the force after the safety layer, the other
-/// rendering fields the renderer's. `progress(done, total)` is called after every tick, and
-/// may end the run there ([`Proceed`]).
-pub fn run_device<P: Proceed>(
-    scene: &Scene,
-    object: usize,
-    trajectory: &Trajectory,
-    rate_hz: f64,
-    hand: impl Into<DeviceHand>,
-    progress: impl FnMut(usize, usize) -> P,
-) -> Result<DeviceRun, SimError> {
-    let hand: DeviceHand = hand.into();
-    let n = validate_device(scene, object, trajectory, rate_hz)?;
-    let o = &scene.objects()[object];
-    let material = o.material().friction_material();
-    with_chain(scene, object, |chain| {
-        let (mut controller, passivity_control) = ready_controller(chain, material, rate_hz)?;
-        let period_s = (1.0 / rate_hz) as f32;
-        let (ticks, telemetry) = drive_device(
-            trajectory,
-            rate_hz,
-            hand,
-            n,
-            progress,
-            |arm, t_s, now_us, target| {
-                device_tick(&mut controller, arm, t_s, now_us, target, period_s)
-            },
-        )?;
-        Ok(DeviceRun {
-            run: Run {
-                space: Space::Planar,
-                object,
-                object_name: o.name().to_owned(),
-                material,
-                rate_hz,
-                ticks,
-            },
-            passivity_control,
-            telemetry,
-        })
-    })
 }
 
 #[cfg(test)]

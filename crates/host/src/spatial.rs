@@ -7,11 +7,11 @@
 //!
 //! The loop runs on the thread of [`crate::backend::LoopThread`], or stepped in place, through
 //! the same [`crate::backend::Backend`] as the planar loop (it is a [`Steppable`]); its
-//! commands, replies and samples are the planar loop's ([`Command`], [`Reply`], [`Sample`]),
+//! commands, replies and samples are the planar loop's ([`LoopCommand`], [`Reply`], [`Sample`]),
 //! swapping in a [`SpatialSession`]. Tests step a [`SpatialLoop`] directly.
 //!
 //! A deformable object of surfaces (one with a `"dynamics"` block) deforms under the hand on
-//! [`Command::Deform`]: every tick feeds a [`Deformer`] and steps it (1 ms), and the renderer
+//! [`LoopCommand::Deform`]: every tick feeds a [`Deformer`] and steps it (1 ms), and the renderer
 //! is carried onto the new shape ([`FrictionRenderer::reshape`]: no search, no restart). The
 //! shape reaches the UI through a [`SharedShape`].
 
@@ -21,18 +21,13 @@ use friction::{FrictionMaterial, FrictionRenderer, Mode, SwitchCause};
 use nurbs::{Vec2, Vec3};
 use tracker::{Contact, Feature, Penalty, Shell, TriMesh};
 
-use crate::backend::{Command, RATE_HZ, Reply, Sample, Steppable};
+use crate::backend::{LoopCommand, RATE_HZ, Reply, Sample, Steppable};
 use crate::deform::{DeformChangeError, DeformStatus, Deformer, SharedShape};
-use crate::planar::{MAX_HAND_SPEED_M_PER_S, MaterialChangeError};
-use crate::sim::SimError;
+pub use crate::error::MAX_HAPTIC_TRIANGLES;
+use crate::error::{MaterialChangeError, MeshError, SimError};
+use crate::planar::MAX_HAND_SPEED_M_PER_S;
 use crate::tick::{self, Tick};
 use scene::{Material, Object, Scene, Space};
-
-/// Most triangles a mesh the loop renders may have: the baseline scans every triangle each
-/// tick, measured at 30 to 42 ns a triangle in the test profile on the project's 2-core
-/// machine under load (`measure_tick_costs` below), so 10 000 take about 0.4 ms of the 1 ms
-/// tick.
-pub const MAX_HAPTIC_TRIANGLES: usize = 10_000;
 
 /// Height of the hand's start above the top of the object (m).
 pub const START_CLEARANCE_M: f32 = 0.01;
@@ -268,23 +263,6 @@ pub struct SpatialLoop {
     last_error: Option<String>,
     /// The (mode, cause) the last tick reported ([`SwitchCause::or_carried`]).
     reported: (Mode, SwitchCause),
-}
-
-/// Why a mesh was not taken for rendering.
-#[derive(Clone, Debug, PartialEq, thiserror::Error)]
-pub enum MeshError {
-    /// More triangles than the loop scans in a tick.
-    #[error(
-        "{triangles} triangles: the polygonal baseline scans every triangle each tick, at most \
-         {MAX_HAPTIC_TRIANGLES}; use a coarser chordal tolerance or a smaller mesh"
-    )]
-    TooManyTriangles {
-        /// Triangles in the mesh.
-        triangles: usize,
-    },
-    /// No triangle of nonzero area.
-    #[error("the mesh has no triangle of nonzero area")]
-    Empty,
 }
 
 /// Checks that the loop can render `mesh` in a tick.
@@ -673,25 +651,25 @@ impl Steppable for SpatialLoop {
     /// object ([`Reply::Deform`]); clearing faults
     /// answers that none are latched (the spatial hand has no safety layer); calibrating is
     /// [`Reply::Unsupported`] (there is no arm).
-    fn apply(&mut self, command: Command<SpatialSession>) -> Option<Reply> {
+    fn apply(&mut self, command: LoopCommand<SpatialSession>) -> Option<Reply> {
         match command {
-            Command::HandTarget(t) => {
+            LoopCommand::HandTarget(t) => {
                 self.set_hand_target(t);
                 None
             }
-            Command::SetMaterial(m) => Some(Reply::Material(self.set_material(m))),
-            Command::Swap(session) => {
+            LoopCommand::SetMaterial(m) => Some(Reply::Material(self.set_material(m))),
+            LoopCommand::Swap(session) => {
                 self.swap(*session);
                 Some(Reply::Swapped)
             }
-            Command::Mesh(mesh) => Some(Reply::Mesh(self.set_mesh(mesh.map(|m| *m)))),
-            Command::Forces(on) => {
+            LoopCommand::Mesh(mesh) => Some(Reply::Mesh(self.set_mesh(mesh.map(|m| *m)))),
+            LoopCommand::Forces(on) => {
                 self.set_forces_enabled(on);
                 None
             }
-            Command::ClearFaults => Some(Reply::FaultsCleared(device::safety::Faults::empty())),
-            Command::Deform(on) => Some(Reply::Deform(self.set_deforming(on))),
-            Command::Calibrate | Command::Hand(_) | Command::ScenePoints(_) => {
+            LoopCommand::ClearFaults => Some(Reply::FaultsCleared(device::safety::Faults::empty())),
+            LoopCommand::Deform(on) => Some(Reply::Deform(self.set_deforming(on))),
+            LoopCommand::Calibrate | LoopCommand::Hand(_) | LoopCommand::ScenePoints(_) => {
                 Some(Reply::Unsupported(command.name()))
             }
         }
@@ -888,8 +866,8 @@ mod tests {
             stiffness_n_per_m: 500.0,
             ..FrictionMaterial::default()
         };
-        assert!(thread.send(Command::SetMaterial(softer)));
-        assert!(thread.send(Command::HandTarget(Vec3::new(start.x, start.y, -0.002))));
+        assert!(thread.send(LoopCommand::SetMaterial(softer)));
+        assert!(thread.send(LoopCommand::HandTarget(Vec3::new(start.x, start.y, -0.002))));
         let waited = Instant::now();
         let (mut last, mut replies) = (None, Vec::new());
         while waited.elapsed() < Duration::from_secs(10) {
@@ -948,17 +926,17 @@ mod tests {
         let session = SpatialSession::nurbs(scene, 0, start).expect("session");
         let mut backend =
             Backend::start(SpatialLoop::new(session, start), false, None).expect("start");
-        let sent = backend.command(Command::ClearFaults);
+        let sent = backend.command(LoopCommand::ClearFaults);
         assert!(
             matches!(sent, Sent::Applied(Some(Reply::FaultsCleared(f))) if f == Faults::empty())
         );
-        let sent = backend.command(Command::Calibrate);
+        let sent = backend.command(LoopCommand::Calibrate);
         assert!(matches!(
             sent,
             Sent::Applied(Some(Reply::Unsupported("the calibration")))
         ));
         let empty = TriMesh::from_triangles(Vec::new(), Vec::new(), &[]);
-        let sent = backend.command(Command::Mesh(Some(Box::new(empty))));
+        let sent = backend.command(LoopCommand::Mesh(Some(Box::new(empty))));
         assert!(matches!(
             sent,
             Sent::Applied(Some(Reply::Mesh(Err(MeshError::Empty))))

@@ -13,7 +13,7 @@ use friction::{FrictionMaterial, FrictionOutput, FrictionRenderer, Mode, SwitchC
 use nurbs::{Point, Vec2, Vec3};
 use tracker::{Chain, Feature, Object as TrackedObject};
 
-use crate::sim::SimError;
+use crate::error::SimError;
 
 /// What one tick of the pipeline produced. Vectors are in the device frame, `z = 0` in a
 /// planar run.
@@ -71,7 +71,7 @@ pub struct Tick {
     pub go_param: f32,
     /// Parameters of the GO (`[u, 0]` on curves).
     pub go_params: [f32; 2],
-    /// What the device did this tick, in a [`run_device`](crate::sim::run_device) run; `None` in a prescribed-HIP
+    /// What the device did this tick, in a [`run_device`](crate::closed_loop::run_device) run; `None` in a prescribed-HIP
     /// run.
     pub device: Option<DeviceSample>,
     /// The deformable object's displacement from its rest shape at the CP (m), in a run
@@ -166,7 +166,7 @@ pub fn device_controller<'a>(
     Ok((controller, passivity_control))
 }
 
-/// One closed-loop tick, the step of [`run_device`](crate::sim::run_device) and of the GUI's haptic loop: a heartbeat,
+/// One closed-loop tick, the step of [`run_device`](crate::closed_loop::run_device) and of the GUI's haptic loop: a heartbeat,
 /// one controller tick on the simulated encoders at `now_us` (the device clock), the
 /// acquisition a scene load asks for (between ticks, as a board's lower-priority task:
 /// `device::controller`, "Acquisition is not the tick's"), then the simulated pantograph moves
@@ -197,7 +197,7 @@ pub fn device_tick<O: TrackedObject<P = Vec2>>(
 }
 
 /// The raw counts the encoders of `spec` read with both joints resting on their end stops:
-/// what [`run_device`](crate::sim::run_device) calibrates on (and the firmware's QEMU run, through `cargo xtask qemu`);
+/// what [`run_device`](crate::closed_loop::run_device) calibrates on (and the firmware's QEMU run, through `cargo xtask qemu`);
 /// [`DeviceSpec::end_stop_counts`].
 pub fn end_stop_counts(spec: &DeviceSpec) -> [i32; 2] {
     spec.end_stop_counts()

@@ -1,17 +1,18 @@
 //! A scene as a device receives it: the wire scene of the object the device renders
 //! ([`wire_scene`]), and the device side of its upload for the simulated pantograph in this
 //! process ([`receive`]): the same frames a board gets, through the device's own receiver
-//! ([`device::session::Session`]), decoded into the device's own [`SceneStore`].
+//! ([`device::session::DeviceSession`]), decoded into the device's own [`SceneStore`].
 //!
 //! So every scene the app renders, on any device, is the one the upload carried: an edit
 //! that does not survive the wire format (f32, the device's capacities and checks) is refused
 //! before it reaches the loop, with the device's reason.
 
-use device::host::Sequencer;
+use device::link::Sequencer;
 use device::protocol::{
-    ErrorCode, Message, SceneError, SceneStore, WireObject, WirePatch, encode_scene, scene_upload,
+    ErrorCode, Message, SceneStore, WireObject, WirePatch, WireSceneError, encode_scene,
+    scene_upload,
 };
-use device::session::{DeviceState, Event, Session};
+use device::session::{DeviceSession, DeviceState, Event};
 
 use scene::Scene;
 
@@ -46,7 +47,7 @@ pub enum UploadError {
         /// Its name.
         name: String,
         /// What the encoder refused.
-        error: SceneError,
+        error: WireSceneError,
     },
     /// The device refused a frame of the upload.
     #[error("the device refused the upload: {}", .0.message())]
@@ -80,12 +81,12 @@ pub fn wire_scene(scene: &Scene, index: usize) -> Result<Vec<u8>, UploadError> {
 }
 
 /// The simulated device's side of uploading `wire`: every frame of the upload (begin,
-/// chunks, commit, as [`device::host::Link::upload_scene`] sends them to a board), encoded
-/// with sequence numbers and handled by a device [`Session`] of [`SIM_SCENE_CAPACITY`]
+/// chunks, commit, as [`device::link::Link::upload_scene`] sends them to a board), encoded
+/// with sequence numbers and handled by a device [`DeviceSession`] of [`SIM_SCENE_CAPACITY`]
 /// bytes, which validates the commit by decoding it into a [`SceneStore`]. Returns that
 /// store and the CRC-32 the device reports for its active scene.
 pub fn receive(wire: &[u8]) -> Result<(Box<SceneStore>, u32), UploadError> {
-    let mut session: Box<Session<SIM_SCENE_CAPACITY>> = Box::new(Session::new(true));
+    let mut session: Box<DeviceSession<SIM_SCENE_CAPACITY>> = Box::new(DeviceSession::new(true));
     let mut store = Box::new(SceneStore::new());
     let mut host = Sequencer::default();
     let state = DeviceState {

@@ -28,7 +28,7 @@ use friction::FrictionMaterial;
 use nurbs::{Vec2, construct};
 use tracker::Chain;
 
-use crate::sim::SimError;
+use crate::error::SimError;
 
 /// How long each cell runs after the first contact (s).
 pub const HOLD_S: f64 = 0.6;
@@ -42,7 +42,7 @@ const START_GAP_M: f32 = 0.015;
 /// releasing hand lets go (m).
 const HAND_MARGIN_M: f32 = 0.001;
 
-pub use crate::sim::Hand;
+pub use crate::hand::Hand;
 
 /// One cell of the sweep.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -95,7 +95,7 @@ pub fn impact(cell: &Impact) -> Result<Outcome, SimError> {
 
 /// Runs one impact on the pantograph `spec`.
 pub fn impact_on(spec: DeviceSpec, cell: &Impact) -> Result<Outcome, SimError> {
-    crate::sim::check_rate(cell.rate_hz)?;
+    crate::error::check_rate(cell.rate_hz)?;
     let period_s = (1.0 / cell.rate_hz) as f32;
     let safety = SafetyConfig {
         period_s,

@@ -6,7 +6,8 @@
 //! The hand is `viewer sim --device`'s relaxed grip (300 N/m, 2 N·s/m, `SimParams::default`).
 
 use friction::{Mode, SwitchCause};
-use host::sim::{self, SimParams};
+use host::closed_loop;
+use host::sim::SimParams;
 use host::tick::Tick;
 use host::trajectory::Trajectory;
 use scene::Scene;
@@ -96,7 +97,7 @@ fn lasting_modes(seq: &[(Mode, SwitchCause, f64)], min_s: f64) -> Vec<Mode> {
 }
 
 fn run(scene: &Scene, traj: &Trajectory, rate_hz: f64) -> Vec<Tick> {
-    sim::run_device(scene, 0, traj, rate_hz, SimParams::default(), |_, _| {})
+    closed_loop::run_device(scene, 0, traj, rate_hz, SimParams::default(), |_, _| {})
         .expect("the run")
         .run
         .ticks
@@ -214,7 +215,7 @@ fn every_bundled_planar_object_keeps_its_modes_at_10_khz() {
             // Single-scene runs: an object the device refuses at a rate is no finding here.
             let single = Scene::new(vec![object.clone()]).expect("one object");
             let runs = [10_000.0, 1000.0].map(|rate| {
-                sim::run_device(&single, 0, &traj, rate, SimParams::default(), |_, _| {})
+                closed_loop::run_device(&single, 0, &traj, rate, SimParams::default(), |_, _| {})
                     .map(|r| stretches(&r.run.ticks))
             });
             let [Ok(fast), Ok(slow)] = runs else {

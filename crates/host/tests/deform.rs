@@ -145,7 +145,7 @@ fn device_loop_pushes_the_string_at_the_series_stiffness() {
         0,
         &grip_press(1.2),
         10_000.0,
-        host::sim::Hand::Grip.params(),
+        host::hand::Hand::Grip.params(),
         |_, _| {},
     )
     .expect("runs");
@@ -190,7 +190,7 @@ fn located_parameters_match_the_trackers() {
         0,
         &trajectory,
         10_000.0,
-        host::sim::Hand::Grip.params(),
+        host::hand::Hand::Grip.params(),
         |_, _| {},
     )
     .expect("runs");
@@ -257,7 +257,7 @@ fn no_closed_path_does_positive_work() {
 #[test]
 fn no_closed_path_through_the_device_does_positive_work() {
     for (scene, lag) in [(undamped(), 0), (deformable(), 4)] {
-        for hand in [host::sim::Hand::Grip, host::sim::Hand::Finger] {
+        for hand in [host::hand::Hand::Grip, host::hand::Hand::Finger] {
             for depth in [0.004, 0.008] {
                 for speed in [0.02, 0.1] {
                     let trajectory = closed_path(depth, 0.025, speed);
@@ -293,8 +293,8 @@ fn released_handle_on_the_undamped_string_does_not_ring_up() {
     let scene = undamped();
     let trajectory = closed_path(0.006, 0.0, 0.05);
     let release_at_s = 0.35;
-    let hand = host::sim::DeviceHand {
-        params: host::sim::Hand::Released.params(),
+    let hand = host::hand::DeviceHand {
+        params: host::hand::Hand::Released.params(),
         release_at_s: Some(release_at_s),
     };
     let run = deform::run_device(&scene, 0, &trajectory, 10_000.0, hand, |_, _| {}).expect("runs");
@@ -422,7 +422,7 @@ fn device_behind_a_lagging_link_pushes_the_string_at_the_series_stiffness() {
             0,
             &trajectory,
             10_000.0,
-            host::sim::Hand::Grip.params(),
+            host::hand::Hand::Grip.params(),
             lag,
             |_, _| {},
         )

@@ -1,13 +1,13 @@
-//! The app's loops pushing a deformable object ([`Command::Deform`]): the planar loop (the
+//! The app's loops pushing a deformable object ([`LoopCommand::Deform`]): the planar loop (the
 //! device's controller on the simulated pantograph at 10 kHz, held by the relaxed 300 N/m
 //! grip) on the bundled taut string, and the spatial hand (an impedance point at 1 kHz) on the
 //! bundled drum skin. Held, each settles where the contact spring and the object share the
 //! push in series; the controller or renderer is carried onto every new shape (no ramp-in, no
 //! search, no feature change); turning deform off brings the rest shape back the same way.
 
-use host::backend::{Command, Reply, Steppable};
+use host::backend::{LoopCommand, Reply, Steppable};
 use host::deform::{DeformChangeError, ShapeFrame};
-use host::planar::{HapticLoop, Session};
+use host::planar::{HapticLoop, PlanarSession};
 use host::spatial::{SpatialLoop, SpatialSession, control_points, start_hip};
 use host::tick::Tick;
 use nurbs::{Vec2, Vec3};
@@ -51,9 +51,9 @@ fn string_band(k_c: f64, d: f64) -> (f64, f64) {
     )
 }
 
-/// A loop's answer to [`Command::Deform`]: whether the object deforms, or why not.
+/// A loop's answer to [`LoopCommand::Deform`]: whether the object deforms, or why not.
 fn deform(l: &mut impl Steppable, on: bool) -> Result<bool, DeformChangeError> {
-    match l.apply(Command::Deform(on)) {
+    match l.apply(LoopCommand::Deform(on)) {
         Some(Reply::Deform(r)) => r.map(|s| s.deforming),
         other => panic!("{other:?}"),
     }
@@ -90,7 +90,7 @@ fn rendered(t: &Tick) -> Vec3 {
 #[test]
 fn planar_loop_pushing_the_string_settles_at_the_series_stiffness() {
     let below = Vec2::new(0.0, 0.10);
-    let session = Session::with_object(deformable(), Some(0)).expect("session");
+    let session = PlanarSession::with_object(deformable(), Some(0)).expect("session");
     let mut l = HapticLoop::new(session, below).expect("loop");
     for _ in 0..300 {
         l.step();
@@ -199,7 +199,7 @@ fn planar_loop_pushing_the_string_settles_at_the_series_stiffness() {
 #[test]
 fn material_change_and_swap_while_deforming_start_from_rest() {
     let below = Vec2::new(0.0, 0.10);
-    let session = Session::with_object(deformable(), Some(0)).expect("session");
+    let session = PlanarSession::with_object(deformable(), Some(0)).expect("session");
     let mut l = HapticLoop::new(session, below).expect("loop");
     assert_eq!(deform_reply(&mut l, true), Ok(true));
     l.set_hand_target(Vec2::new(0.0, 0.125));
@@ -212,7 +212,7 @@ fn material_change_and_swap_while_deforming_start_from_rest() {
         stiffness_n_per_m: 500.0,
         ..l.material().expect("a material")
     };
-    match l.apply(Command::SetMaterial(softer)) {
+    match l.apply(LoopCommand::SetMaterial(softer)) {
         Some(Reply::Material(Ok(m))) => assert_eq!(m, softer),
         other => panic!("{other:?}"),
     }
@@ -232,9 +232,9 @@ fn material_change_and_swap_while_deforming_start_from_rest() {
         "F/d = {k} N/m, series in [{lo}, {hi}]"
     );
 
-    let session = Session::with_object(deformable(), Some(0)).expect("session");
+    let session = PlanarSession::with_object(deformable(), Some(0)).expect("session");
     assert!(matches!(
-        l.apply(Command::Swap(Box::new(session))),
+        l.apply(LoopCommand::Swap(Box::new(session))),
         Some(Reply::Swapped)
     ));
     assert!(!l.deforming());
@@ -255,13 +255,16 @@ fn a_rigid_object_is_refused() {
     let thesis = Bundled::find("thesis-2d")
         .and_then(|b| b.scene().ok())
         .expect("thesis-2d");
-    let mut l = HapticLoop::new(Session::new(thesis).expect("session"), Vec2::new(0.0, 0.11))
-        .expect("loop");
+    let mut l = HapticLoop::new(
+        PlanarSession::new(thesis).expect("session"),
+        Vec2::new(0.0, 0.11),
+    )
+    .expect("loop");
     let e = deform(&mut l, true).expect_err("rigid");
     assert!(e.to_string().contains("rigid"), "{e}");
     assert!(!l.deforming());
     l.step();
-    let none = Session::with_object(deformable(), None).expect("session");
+    let none = PlanarSession::with_object(deformable(), None).expect("session");
     l.swap_session(none);
     assert!(matches!(
         deform(&mut l, true),

@@ -1,7 +1,7 @@
-//! A deformable object on a device behind a link (`Command::Deform` to the host of a remote
+//! A deformable object on a device behind a link (`LoopCommand::Deform` to the host of a remote
 //! device): the host steps the string on the device's telemetry (locating the CP on its copy
 //! of the shape) and streams the shape back as control-point updates; the simulated device
-//! (`device::host::SimLink`, the protocol a board speaks) renders it. Real time.
+//! (`device::link::SimLink`, the protocol a board speaks) renders it. Real time.
 
 #![allow(clippy::unwrap_used)]
 
@@ -9,9 +9,9 @@ use std::sync::atomic::Ordering;
 use std::time::{Duration, Instant};
 
 use device::protocol::{Status, crc32};
-use host::backend::{Command, LinkEvent, Reply, Sample};
+use host::backend::{LinkEvent, LoopCommand, Reply, Sample};
 use host::devices::open_sim;
-use host::planar::Session;
+use host::planar::PlanarSession;
 use nurbs::Vec2;
 use scene::{Bundled, Scene};
 
@@ -37,17 +37,17 @@ fn deformable() -> Scene {
 #[test]
 fn a_string_pushed_through_the_link_deforms_on_the_device() {
     let scene = deformable();
-    let session = Session::with_object(scene.clone(), Some(0)).unwrap();
+    let session = PlanarSession::with_object(scene.clone(), Some(0)).unwrap();
     let link = host::remote::spawn(
         "sim".to_owned(),
-        || open_sim(device::host::SimConfig::default()),
+        || open_sim(device::link::SimConfig::default()),
         true,
         None,
     )
     .unwrap();
     let below = Vec2::new(0.0, Y - 0.01);
-    link.send(Command::HandTarget(below.extend(0.0)));
-    link.send(Command::Swap(Box::new(session)));
+    link.send(LoopCommand::HandTarget(below.extend(0.0)));
+    link.send(LoopCommand::Swap(Box::new(session)));
     let crc0 = crc32(&host::upload::wire_scene(&scene, 0).unwrap());
     let mut status: Option<Status> = None;
     let mut samples: Vec<Sample> = Vec::new();
@@ -73,12 +73,12 @@ fn a_string_pushed_through_the_link_deforms_on_the_device() {
         std::thread::sleep(Duration::from_millis(5));
         poll(&mut status, &mut samples, &mut deforming);
     }
-    link.send(Command::Deform(true));
+    link.send(LoopCommand::Deform(true));
     // The grip's target 6 mm past the rest line over half a second, then held for 1.5 s.
     let inside = Vec2::new(0.0, Y + 0.006);
     for i in 0..=50 {
         let t = i as f32 / 50.0;
-        link.send(Command::HandTarget(
+        link.send(LoopCommand::HandTarget(
             (below + (inside - below) * t).extend(0.0),
         ));
         std::thread::sleep(Duration::from_millis(10));
@@ -124,7 +124,7 @@ fn a_string_pushed_through_the_link_deforms_on_the_device() {
         last.tick.deform
     );
     // Rigid again: the device gets the rest shape back.
-    link.send(Command::Deform(false));
+    link.send(LoopCommand::Deform(false));
     let back = Instant::now();
     while !(deforming == Some(false) && status.is_some_and(|s| s.scene_crc32 == crc0)) {
         assert!(back.elapsed() < PATIENCE, "not back at rest: {status:?}");

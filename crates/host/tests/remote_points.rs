@@ -1,5 +1,5 @@
-//! The host of a device behind a link streaming a moving shape ([`Command::ScenePoints`]) to
-//! the simulated device ([`device::host::SimLink`], the protocol a board speaks), real time,
+//! The host of a device behind a link streaming a moving shape ([`LoopCommand::ScenePoints`]) to
+//! the simulated device ([`device::link::SimLink`], the protocol a board speaks), real time,
 //! 100 shapes a second: every update sent is applied, the hand stays in contact on the same
 //! arc, and the device's scene ends as the host's own scene edited the same way and uploaded
 //! (`scene::edit::move_point`, `host::upload::wire_scene`: an independent path to the bytes).
@@ -11,9 +11,9 @@ use std::time::{Duration, Instant};
 use device::protocol::{Status, crc32};
 use device::safety::Faults;
 use friction::Mode;
-use host::backend::{Command, LinkEvent, PointsUpdate, Reply, Sample};
+use host::backend::{LinkEvent, LoopCommand, PointsUpdate, Reply, Sample};
 use host::devices::open_sim;
-use host::planar::Session;
+use host::planar::PlanarSession;
 use nurbs::Vec2;
 use scene::Scene;
 use scene::edit::{PointRef, move_point};
@@ -37,17 +37,17 @@ fn p1(scene: &Scene) -> Vec2 {
 #[test]
 fn a_moving_shape_streams_to_the_device_and_lands_as_the_host_edits_it() {
     let scene = thesis_2d();
-    let session = Session::new(scene.clone()).unwrap();
+    let session = PlanarSession::new(scene.clone()).unwrap();
     let link = host::remote::spawn(
         "sim".to_owned(),
-        || open_sim(device::host::SimConfig::default()),
+        || open_sim(device::link::SimConfig::default()),
         true,
         None,
     )
     .unwrap();
     let above = Vec2::new(0.01, 0.11);
-    link.send(Command::HandTarget(above.extend(0.0)));
-    link.send(Command::Swap(Box::new(session)));
+    link.send(LoopCommand::HandTarget(above.extend(0.0)));
+    link.send(LoopCommand::Swap(Box::new(session)));
     let crc0 = crc32(&host::upload::wire_scene(&scene, 0).unwrap());
     let mut status: Option<Status> = None;
     let mut samples: Vec<Sample> = Vec::new();
@@ -75,7 +75,7 @@ fn a_moving_shape_streams_to_the_device_and_lands_as_the_host_edits_it() {
     let inside = Vec2::new(-0.02, 0.06) + Vec2::new(a.cos(), a.sin()) * 0.036;
     for i in 0..=50 {
         let t = i as f32 / 50.0;
-        link.send(Command::HandTarget(
+        link.send(LoopCommand::HandTarget(
             (above + (inside - above) * t).extend(0.0),
         ));
         std::thread::sleep(Duration::from_millis(10));
@@ -104,7 +104,7 @@ fn a_moving_shape_streams_to_the_device_and_lands_as_the_host_edits_it() {
         std::thread::sleep(due.saturating_duration_since(Instant::now()));
         let t = k as f32 * 0.01;
         last = p1 + out * (1e-3 * (2.0 * std::f32::consts::PI * 2.0 * t).sin());
-        link.send(Command::ScenePoints(Box::new(PointsUpdate {
+        link.send(LoopCommand::ScenePoints(Box::new(PointsUpdate {
             object: 0,
             patches: vec![(0, 1, vec![last])],
         })));

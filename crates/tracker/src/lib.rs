@@ -28,7 +28,7 @@ pub use global::{
     closest_point,
 };
 pub use newton::{NewtonConfig, NewtonResult, newton};
-pub use object::{Frame, Object};
+pub use object::{Object, PatchFrame};
 pub use patch::{Jet, Patch};
 #[cfg(feature = "alloc")]
 pub use polygon::{

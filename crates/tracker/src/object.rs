@@ -47,11 +47,11 @@ pub trait Object {
 
     /// [`Object::frame`] at a state's position ([`Object::position`]), from the evaluation
     /// its tracker already made: no evaluation.
-    fn state_frame(&self, state: &Self::State) -> Frame<Self::P>;
+    fn state_frame(&self, state: &Self::State) -> PatchFrame<Self::P>;
 
     /// Point, unit outward normal and unit tangent (along the first parameter) of `patch` at
     /// `params`.
-    fn frame(&self, patch: usize, params: [f32; 2]) -> Frame<Self::P>;
+    fn frame(&self, patch: usize, params: [f32; 2]) -> PatchFrame<Self::P>;
 
     /// Parameters of the point reached by moving `displacement` (tangential, small) from
     /// `params` on `patch`: one Gauss–Newton step, clamped into the domain. `at` is the frame
@@ -61,7 +61,7 @@ pub trait Object {
         &self,
         patch: usize,
         params: [f32; 2],
-        at: &Frame<Self::P>,
+        at: &PatchFrame<Self::P>,
         displacement: Self::P,
     ) -> [f32; 2];
 
@@ -84,7 +84,7 @@ pub trait Object {
     fn state_point(state: &Self::State) -> Self::P;
 
     /// The partial derivatives `∂S/∂u`, `∂S/∂v` where a state's tracker stands (`∂C/∂u` twice
-    /// on curves), from its last evaluation: [`Frame::derivatives`] without the frame's
+    /// on curves), from its last evaluation: [`PatchFrame::derivatives`] without the frame's
     /// normalisations.
     fn state_derivatives(state: &Self::State) -> [Self::P; 2];
 
@@ -130,12 +130,12 @@ impl<const K: usize, const P: usize> Object for Chain<K, P> {
         state.reset(self, patch, params[0]);
     }
 
-    fn frame(&self, patch: usize, params: [f32; 2]) -> Frame<Vec2> {
+    fn frame(&self, patch: usize, params: [f32; 2]) -> PatchFrame<Vec2> {
         let c = &self.curve(patch);
         frame_of(c, [params[0]])
     }
 
-    fn state_frame(&self, state: &ChainTracker) -> Frame<Vec2> {
+    fn state_frame(&self, state: &ChainTracker) -> PatchFrame<Vec2> {
         let (i, u) = state.position();
         let c = &self.curve(i);
         frame_from(c, [u], state.jet())
@@ -145,7 +145,7 @@ impl<const K: usize, const P: usize> Object for Chain<K, P> {
         &self,
         patch: usize,
         params: [f32; 2],
-        at: &Frame<Vec2>,
+        at: &PatchFrame<Vec2>,
         displacement: Vec2,
     ) -> [f32; 2] {
         let c = &self.curve(patch);
@@ -220,12 +220,12 @@ impl Object for Shell<'_> {
         state.reset(self, patch, params);
     }
 
-    fn frame(&self, patch: usize, params: [f32; 2]) -> Frame<Vec3> {
+    fn frame(&self, patch: usize, params: [f32; 2]) -> PatchFrame<Vec3> {
         let s = &self.patches()[patch.min(self.patches().len() - 1)];
         frame_of(s, params)
     }
 
-    fn state_frame(&self, state: &ShellTracker) -> Frame<Vec3> {
+    fn state_frame(&self, state: &ShellTracker) -> PatchFrame<Vec3> {
         let (i, t) = state.position();
         let s = &self.patches()[i.min(self.patches().len() - 1)];
         frame_from(s, t, state.jet())
@@ -235,7 +235,7 @@ impl Object for Shell<'_> {
         &self,
         patch: usize,
         params: [f32; 2],
-        at: &Frame<Vec3>,
+        at: &PatchFrame<Vec3>,
         displacement: Vec3,
     ) -> [f32; 2] {
         let s = &self.patches()[patch.min(self.patches().len() - 1)];
@@ -275,7 +275,7 @@ impl Object for Shell<'_> {
 
 /// Point, unit outward normal and unit tangent of a patch at a parameter.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Frame<P> {
+pub struct PatchFrame<P> {
     /// The point.
     pub point: P,
     /// Unit outward normal.
@@ -290,7 +290,7 @@ pub struct Frame<P> {
     pub derivatives: [P; 2],
 }
 
-fn frame_of<S: Patch<N>, const N: usize>(s: &S, t: [f32; N]) -> Frame<S::P> {
+fn frame_of<S: Patch<N>, const N: usize>(s: &S, t: [f32; N]) -> PatchFrame<S::P> {
     frame_from(s, t, &s.jet(t, 1))
 }
 
@@ -299,7 +299,7 @@ fn frame_from<S: Patch<N>, const N: usize>(
     s: &S,
     t: [f32; N],
     jet: &crate::patch::Jet<S::P, N>,
-) -> Frame<S::P> {
+) -> PatchFrame<S::P> {
     let normal = s.normal(t, jet);
     let in_plane = |d: S::P| {
         (d - normal * d.dot(normal))
@@ -307,7 +307,7 @@ fn frame_from<S: Patch<N>, const N: usize>(
             .unwrap_or(normal)
     };
     let tangent = in_plane(jet.d[0]);
-    Frame {
+    PatchFrame {
         point: jet.point,
         normal,
         tangent,
@@ -323,7 +323,7 @@ fn frame_from<S: Patch<N>, const N: usize>(
 fn offset_on<S: Patch<N>, const N: usize>(
     s: &S,
     t: [f32; N],
-    at: &Frame<S::P>,
+    at: &PatchFrame<S::P>,
     displacement: S::P,
 ) -> [f32; N] {
     let jet = crate::patch::Jet {

@@ -30,12 +30,12 @@ Without a subcommand the desktop app starts (`viewer gui` on the bundled thesis-
 pub struct Cli {
     /// What to do. Without a subcommand the desktop GUI starts (`viewer gui`).
     #[command(subcommand)]
-    pub command: Option<Command>,
+    pub command: Option<CliCommand>,
 }
 
 /// The subcommands.
 #[derive(Debug, Subcommand)]
-pub enum Command {
+pub enum CliCommand {
     /// Evaluate one patch of a scene at parameters read from standard input.
     #[command(long_about = EVAL_ABOUT, after_long_help = EVAL_AFTER)]
     Eval(EvalArgs),
@@ -47,7 +47,7 @@ pub enum Command {
     Sim(SimArgs),
     /// Talk to a haptic device: list the boards, monitor telemetry.
     #[command(subcommand)]
-    Device(DeviceCommand),
+    Device(DeviceSubcommand),
     /// The desktop app: feel a scene with the mouse on the simulated pantograph (the default
     /// without a subcommand).
     #[command(long_about = GUI_ABOUT, after_long_help = GUI_AFTER)]
@@ -69,12 +69,12 @@ pub enum Command {
     Deform(DeformArgs),
     /// Psychophysics experiments (plans of format `experiment/1`).
     #[command(subcommand)]
-    Experiment(ExperimentCommand),
+    Experiment(ExperimentSubcommand),
 }
 
 /// `experiment …` subcommands.
 #[derive(Debug, Subcommand)]
-pub enum ExperimentCommand {
+pub enum ExperimentSubcommand {
     /// Run a plan: headless with a simulated participant, or in the app's participant
     /// screen with a real one.
     #[command(after_long_help = EXPERIMENT_RUN_AFTER)]
@@ -365,7 +365,7 @@ fn rate(text: &str) -> Result<f64, String> {
     let hz: f64 = text
         .parse()
         .map_err(|_| format!("{text:?} is not a number"))?;
-    host::sim::check_rate(hz).map_err(|e| e.to_string())?;
+    host::error::check_rate(hz).map_err(|e| e.to_string())?;
     // Each of the sweep's 156 cells runs about a second of device time: a rate past 100 kHz
     // would run for hours, below 100 Hz the plant's 1 m/s limit is a step of 10 mm.
     if !(100.0..=100_000.0).contains(&hz) {
@@ -515,7 +515,7 @@ pub struct PlotArgs {
 
 /// `device …` subcommands.
 #[derive(Debug, Subcommand)]
-pub enum DeviceCommand {
+pub enum DeviceSubcommand {
     /// List the boards (USB HID and USB serial) that answer the protocol's hello.
     #[command(after_long_help = DEVICE_LIST_AFTER)]
     List,
@@ -900,10 +900,10 @@ pub struct SimArgs {
         long,
         value_name = "HAND",
         default_value = "grip",
-        value_parser = host::sim::DeviceHand::parse,
+        value_parser = host::hand::DeviceHand::parse,
         requires = "device"
     )]
-    pub hand: host::sim::DeviceHand,
+    pub hand: host::hand::DeviceHand,
     /// With --device: the virtual hand's stiffness in N/m (finite, > 0), in place of the
     /// hand model's own.
     #[arg(
@@ -929,7 +929,7 @@ impl SimArgs {
     }
 
     /// The hand of a --device run: the model, with --hand-stiffness in place of its own.
-    pub fn device_hand(&self) -> host::sim::DeviceHand {
+    pub fn device_hand(&self) -> host::hand::DeviceHand {
         let mut hand = self.hand;
         if let Some(k) = self.hand_stiffness {
             hand.params.hand_stiffness_n_per_m = k as f32;
@@ -954,9 +954,9 @@ fn hand_stiffness(text: &str) -> Result<f64, String> {
 
 fn tick_rate(text: &str) -> Result<f64, String> {
     match text.trim().parse::<f64>() {
-        Ok(r) => host::sim::check_rate(r)
+        Ok(r) => host::error::check_rate(r)
             .map(|()| r)
-            .map_err(|_| host::sim::rate_rule()),
+            .map_err(|_| host::error::rate_rule()),
         Err(e) => Err(format!("{e}")),
     }
 }
@@ -980,7 +980,7 @@ mod tests {
     #[test]
     fn gui_arguments() {
         let cli = Cli::try_parse_from(["viewer", "gui"]).expect("valid");
-        let Some(Command::Gui(args)) = cli.command else {
+        let Some(CliCommand::Gui(args)) = cli.command else {
             panic!("gui")
         };
         assert_eq!(
@@ -991,7 +991,7 @@ mod tests {
             "viewer", "gui", "s.json", "--device", "sim", "--record", "r.csv",
         ])
         .expect("valid");
-        let Some(Command::Gui(args)) = cli.command else {
+        let Some(CliCommand::Gui(args)) = cli.command else {
             panic!("gui")
         };
         assert_eq!(args.scene, Some(PathBuf::from("s.json")));
@@ -1003,7 +1003,7 @@ mod tests {
             ("tcp:localhost:4000", Target::Tcp("localhost:4000".into())),
         ] {
             let cli = Cli::try_parse_from(["viewer", "gui", "--device", text]).expect(text);
-            let Some(Command::Gui(args)) = cli.command else {
+            let Some(CliCommand::Gui(args)) = cli.command else {
                 panic!("gui")
             };
             assert_eq!(args.device, GuiDevice(Some(target)));
@@ -1031,7 +1031,7 @@ mod tests {
     #[test]
     fn plot_arguments() {
         let cli = Cli::try_parse_from(["viewer", "plot", "r.csv", "--out", "r.png"]).expect("ok");
-        let Some(Command::Plot(args)) = cli.command else {
+        let Some(CliCommand::Plot(args)) = cli.command else {
             panic!("plot")
         };
         assert_eq!(
@@ -1051,13 +1051,13 @@ mod tests {
         let cli =
             Cli::try_parse_from(["viewer", "eval", "s.json", "--object", "2", "--patch", "1"])
                 .expect("valid command line");
-        let Some(Command::Eval(args)) = cli.command else {
+        let Some(CliCommand::Eval(args)) = cli.command else {
             panic!("eval")
         };
         assert_eq!(args.scene, PathBuf::from("s.json"));
         assert_eq!((args.select.object, args.select.patch), (2, 1));
         let cli = Cli::try_parse_from(["viewer", "eval", "s.json"]).expect("defaults");
-        let Some(Command::Eval(args)) = cli.command else {
+        let Some(CliCommand::Eval(args)) = cli.command else {
             panic!("eval")
         };
         assert_eq!((args.select.object, args.select.patch), (0, 0));
@@ -1076,7 +1076,7 @@ mod tests {
             "r.csv",
         ])
         .expect("valid command line");
-        let Some(Command::Sim(args)) = cli.command else {
+        let Some(CliCommand::Sim(args)) = cli.command else {
             panic!("sim")
         };
         assert_eq!(args.scene, PathBuf::from("s.json"));
@@ -1100,7 +1100,7 @@ mod tests {
             "2",
         ])
         .expect("valid command line");
-        let Some(Command::Sim(args)) = cli.command else {
+        let Some(CliCommand::Sim(args)) = cli.command else {
             panic!("sim")
         };
         assert_eq!(args.plot, Some(PathBuf::from("r.png")));
@@ -1135,19 +1135,19 @@ mod tests {
             "r.csv",
         ];
         let cli = Cli::try_parse_from(base).expect("valid");
-        let Some(Command::Sim(args)) = cli.command else {
+        let Some(CliCommand::Sim(args)) = cli.command else {
             panic!("sim")
         };
         assert!(!args.device);
         let cli = Cli::try_parse_from(base.iter().chain(&["--device", "--hand-stiffness", "800"]))
             .expect("valid");
-        let Some(Command::Sim(args)) = cli.command else {
+        let Some(CliCommand::Sim(args)) = cli.command else {
             panic!("sim")
         };
         assert!(args.device);
         assert_eq!(args.device_hand().params.hand_stiffness_n_per_m, 800.0);
         let cli = Cli::try_parse_from(base.iter().chain(&["--device"])).expect("valid");
-        let Some(Command::Sim(args)) = cli.command else {
+        let Some(CliCommand::Sim(args)) = cli.command else {
             panic!("sim")
         };
         assert_eq!(args.device_hand().params.hand_stiffness_n_per_m, 300.0);
@@ -1161,7 +1161,7 @@ mod tests {
         ] {
             let cli = Cli::try_parse_from(base.iter().chain(&["--device", "--hand", given]))
                 .expect(given);
-            let Some(Command::Sim(args)) = cli.command else {
+            let Some(CliCommand::Sim(args)) = cli.command else {
                 panic!("sim")
             };
             let hand = args.device_hand();

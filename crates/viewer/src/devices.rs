@@ -5,7 +5,7 @@
 use std::io::Write;
 use std::time::{Duration, Instant};
 
-use device::host::{GapCounter, Link, LinkError, SimConfig};
+use device::link::{GapCounter, Link, LinkError, SimConfig};
 use device::protocol::{Frame, Message, Telemetry};
 use device::safety::Faults;
 use friction::Mode;

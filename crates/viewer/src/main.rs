@@ -9,8 +9,8 @@ use clap::Parser;
 use host::sim::{self, Trajectory};
 use scene::{Patch, Scene};
 use viewer::cli::{
-    Cli, ClosestArgs, Command, EXIT_BAD_INPUT, EXIT_BAD_SETUP, EvalArgs, GuiArgs, PatchSelection,
-    PlotArgs, SimArgs,
+    Cli, CliCommand, ClosestArgs, EXIT_BAD_INPUT, EXIT_BAD_SETUP, EvalArgs, GuiArgs,
+    PatchSelection, PlotArgs, SimArgs,
 };
 use viewer::closest;
 use viewer::eval::{self, EvalError};
@@ -21,27 +21,28 @@ use viewer::plot;
 fn main() -> ExitCode {
     match Cli::parse().command {
         None => gui_command(&GuiArgs::default()),
-        Some(Command::Gui(args)) => gui_command(&args),
-        Some(Command::Plot(args)) => plot_command(&args),
-        Some(Command::Eval(args)) => eval_command(&args),
-        Some(Command::Sim(args)) => sim_command(&args),
-        Some(Command::Closest(args)) => closest_command(&args),
-        Some(Command::Device(command)) => device_command(&command),
-        Some(Command::Zwidth(args)) => zwidth_command(&args),
-        Some(Command::Identify(args)) => identify_command(&args),
-        Some(Command::Deform(args)) => deform_command(&args),
-        Some(Command::Experiment(command)) => experiment_command(&command),
+        Some(CliCommand::Gui(args)) => gui_command(&args),
+        Some(CliCommand::Plot(args)) => plot_command(&args),
+        Some(CliCommand::Eval(args)) => eval_command(&args),
+        Some(CliCommand::Sim(args)) => sim_command(&args),
+        Some(CliCommand::Closest(args)) => closest_command(&args),
+        Some(CliCommand::Device(command)) => device_command(&command),
+        Some(CliCommand::Zwidth(args)) => zwidth_command(&args),
+        Some(CliCommand::Identify(args)) => identify_command(&args),
+        Some(CliCommand::Deform(args)) => deform_command(&args),
+        Some(CliCommand::Experiment(command)) => experiment_command(&command),
     }
 }
 
-fn experiment_command(command: &viewer::cli::ExperimentCommand) -> ExitCode {
+fn experiment_command(command: &viewer::cli::ExperimentSubcommand) -> ExitCode {
+    use experiment::error::RunError;
     use experiment::participant::SimParticipant;
     use experiment::plan::Plan;
-    use experiment::runner::{RunError, run};
-    use viewer::cli::ExperimentCommand;
+    use experiment::runner::run;
+    use viewer::cli::ExperimentSubcommand;
     let args = match command {
-        ExperimentCommand::Run(args) => args,
-        ExperimentCommand::Analyze(args) => return experiment_analyze_command(args),
+        ExperimentSubcommand::Run(args) => args,
+        ExperimentSubcommand::Analyze(args) => return experiment_analyze_command(args),
     };
     let participant = match SimParticipant::parse(&args.participant) {
         Some(Ok(p)) => p,
@@ -124,8 +125,8 @@ fn experiment_analyze_command(args: &viewer::cli::ExperimentAnalyzeArgs) -> Exit
 /// ([`viewer::gui::participant`]).
 #[cfg(feature = "gui")]
 fn participant_command(args: &viewer::cli::ExperimentRunArgs) -> ExitCode {
+    use experiment::error::RunError;
     use experiment::plan::Plan;
-    use experiment::runner::RunError;
     use viewer::gui::participant::{ParticipantRun, run_window};
     if args.participant.trim().is_empty() {
         return fail(
@@ -287,7 +288,7 @@ fn deform_command(args: &viewer::cli::DeformArgs) -> ExitCode {
 }
 
 fn device_identify(args: &viewer::cli::DeviceIdentifyArgs) -> ExitCode {
-    use device::host::SimConfig;
+    use device::link::SimConfig;
     use device::spec::DeviceSpec;
     use host::devices::Target;
     let spec = DeviceSpec::default();
@@ -349,7 +350,8 @@ fn print_identified(
     spec: &device::spec::DeviceSpec,
     truth: Option<&device::spec::DeviceSpec>,
 ) -> ExitCode {
-    use device::safety::{PassivityConfig, SafetyConfig, WallLimits};
+    use device::safety::SafetyConfig;
+    use device::wall::{PassivityConfig, WallLimits};
     for i in 0..2 {
         let known = |value: f32| match truth {
             Some(_) => format!(" (simulator {value:.3e})"),
@@ -590,7 +592,7 @@ fn sim_command(args: &SimArgs) -> ExitCode {
         Err(e) => return fail(&e, EXIT_BAD_SETUP),
     };
     let checked = if args.device {
-        sim::validate_device(&scene, args.object, &trajectory, args.rate_hz())
+        host::closed_loop::validate_device(&scene, args.object, &trajectory, args.rate_hz())
     } else {
         sim::validate(&scene, args.object, &trajectory, args.rate_hz())
     };
@@ -653,7 +655,7 @@ fn sim_command(args: &SimArgs) -> ExitCode {
         .map(|device_run| device_run.run)
         .map_err(anyhow::Error::new)
     } else if args.device {
-        sim::run_device(
+        host::closed_loop::run_device(
             &scene,
             args.object,
             &trajectory,
@@ -774,11 +776,11 @@ fn fail(error: &anyhow::Error, code: u8) -> ExitCode {
     ExitCode::from(code)
 }
 
-fn device_command(command: &viewer::cli::DeviceCommand) -> ExitCode {
-    use viewer::cli::DeviceCommand;
+fn device_command(command: &viewer::cli::DeviceSubcommand) -> ExitCode {
+    use viewer::cli::DeviceSubcommand;
     use viewer::devices;
     match command {
-        DeviceCommand::List => {
+        DeviceSubcommand::List => {
             let (found, problems) = host::devices::find_devices();
             for p in problems {
                 eprintln!("device list: {p}");
@@ -789,18 +791,18 @@ fn device_command(command: &viewer::cli::DeviceCommand) -> ExitCode {
                 Err(e) => fail(&anyhow::Error::new(e), EXIT_BAD_INPUT),
             }
         }
-        DeviceCommand::Monitor(args) => device_monitor(args),
-        DeviceCommand::Identify(args) => device_identify(args),
-        DeviceCommand::SimPty(args) => device_sim_pty(args),
+        DeviceSubcommand::Monitor(args) => device_monitor(args),
+        DeviceSubcommand::Identify(args) => device_identify(args),
+        DeviceSubcommand::SimPty(args) => device_sim_pty(args),
     }
 }
 
 #[cfg(unix)]
 fn device_sim_pty(args: &viewer::cli::SimPtyArgs) -> ExitCode {
-    use device::host::{SimConfig, SimLink};
+    use device::link::{SimConfig, SimLink};
     use std::sync::Arc;
     use std::sync::atomic::{AtomicBool, Ordering};
-    let pty = match device::host::pseudo_terminal().context("cannot open a pseudo-terminal") {
+    let pty = match device::link::pseudo_terminal().context("cannot open a pseudo-terminal") {
         Ok(pty) => pty,
         Err(e) => return fail(&e, EXIT_BAD_SETUP),
     };

@@ -4,7 +4,8 @@
 
 use std::path::Path;
 
-use device::safety::{PassivityConfig, SafetyConfig, WallLimits};
+use device::safety::SafetyConfig;
+use device::wall::{PassivityConfig, WallLimits};
 use host::zwidth::Cell;
 use plotters::prelude::*;
 

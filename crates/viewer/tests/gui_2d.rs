@@ -262,8 +262,8 @@ fn a_released_handle_is_pushed_out_once_and_comes_to_rest() {
     press(&mut state);
     let pressed = state.latest().expect("ticks").tick;
     assert!(pressed.normal_force_n > 2.0, "{pressed:?}");
-    state.set_hand(host::sim::Hand::Released);
-    assert_eq!(state.hand, host::sim::Hand::Released);
+    state.set_hand(host::hand::Hand::Released);
+    assert_eq!(state.hand, host::hand::Hand::Released);
     state.step(600);
     let after: Vec<_> = state
         .telemetry

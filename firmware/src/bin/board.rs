@@ -34,7 +34,7 @@
 
 use device::board_io::{Extend16, LedPattern, pwm_duty};
 use device::protocol::{MAX_FRAME, Message, SceneStore};
-use device::session::{Command, DeviceState, Session};
+use device::session::{DeviceCommand, DeviceSession, DeviceState};
 use firmware::app::{AcquisitionJob, App, JobDone, Parked};
 use firmware::board::Board;
 use firmware::protocol_task::{
@@ -87,7 +87,7 @@ type BoardStore = SceneStore<128, 96, 0>;
 type BoardApp = App<128, 96>;
 /// The largest wire scene the board receives (bytes); the receiver holds two.
 const SCENE_CAPACITY: usize = 1792;
-type Link = Session<SCENE_CAPACITY>;
+type Link = DeviceSession<SCENE_CAPACITY>;
 
 /// The two scene stores: one rendered by the tick, one the link decodes uploads into.
 /// All zero bits when empty, so in `.bss`.
@@ -302,7 +302,7 @@ fn tick_and_watchdog_start(
 
 /// The tick's ends of the queues to and from the protocol task.
 struct TickQueues {
-    commands: heapless::spsc::Consumer<'static, Command, COMMANDS>,
+    commands: heapless::spsc::Consumer<'static, DeviceCommand, COMMANDS>,
     commits: heapless::spsc::Consumer<'static, Staging<BoardStore>, STORES>,
     freed: heapless::spsc::Producer<'static, Staging<BoardStore>, STORES>,
     jobs: heapless::spsc::Producer<'static, AcquisitionJob<BoardStore>, JOBS>,
@@ -311,7 +311,7 @@ struct TickQueues {
 
 /// The queues between the tasks, `'static` in `init`'s locals.
 struct Queues {
-    command: &'static mut heapless::spsc::Queue<Command, COMMANDS>,
+    command: &'static mut heapless::spsc::Queue<DeviceCommand, COMMANDS>,
     frame: &'static mut heapless::spsc::Queue<Report, FRAMES>,
     report: &'static mut heapless::spsc::Queue<Report, REPORTS>,
     reply: &'static mut heapless::spsc::Queue<Message, REPLIES>,
@@ -413,8 +413,8 @@ mod app {
     #[init(local = [
         ep_memory: [u32; 64] = [0; 64],
         usb_bus: Option<UsbBusAllocator<UsbBusType>> = None,
-        session: Link = Session::new(false),
-        command_queue: Queue<Command, COMMANDS> = Queue::new(),
+        session: Link = DeviceSession::new(false),
+        command_queue: Queue<DeviceCommand, COMMANDS> = Queue::new(),
         frame_queue: Queue<Report, FRAMES> = Queue::new(),
         report_queue: Queue<Report, REPORTS> = Queue::new(),
         reply_queue: Queue<Message, REPLIES> = Queue::new(),

@@ -7,7 +7,7 @@
 //!
 //! The device starts uncalibrated, forces off, with no scene, exactly as a board after reset.
 //! One cooperative loop: it reads the link until no byte waits (every frame through
-//! [`Session`], the device side of the link the host's simulator uses too), then runs the tick
+//! [`DeviceSession`], the device side of the link the host's simulator uses too), then runs the tick
 //! when SysTick marks the next millisecond (1 kHz of the emulated 168 MHz core), then the
 //! acquisition a scene load asks for (between ticks, as the board's lowest-priority task). The
 //! two scene stores are the board's double buffer (`firmware::swap`, `static`, here at the
@@ -29,7 +29,7 @@ use cortex_m_rt::{ExceptionFrame, entry, exception};
 use cortex_m_semihosting::{debug, hprintln};
 use device::protocol::{MAX_FRAME, Message, SceneStore};
 use device::safety::SafetyConfig;
-use device::session::{DeviceState, Event, Session};
+use device::session::{DeviceSession, DeviceState, Event};
 use device::simulator::{SimParams, SimulatedPantograph, VirtualHand};
 use device::spec::DeviceSpec;
 use firmware::app::Parked;
@@ -55,7 +55,7 @@ const RAMP_TIME_S: f32 = 0.02;
 const HEARTBEAT_TIMEOUT_S: f32 = 0.25;
 /// The scene receiver's capacity (bytes).
 const SCENE_CAPACITY: usize = 4096;
-/// Where the handle starts (m): as the host's simulator, `device::host::SimConfig`.
+/// Where the handle starts (m): as the host's simulator, `device::link::SimConfig`.
 const START_M: Vec2 = Vec2::new(0.0, 0.09);
 
 /// The two scene stores, as the board's (`firmware::swap`) at the host's capacity: one
@@ -118,7 +118,7 @@ fn main() -> ! {
     syst.enable_counter();
 
     let spec = DeviceSpec::default();
-    // A firm hand, as the host's simulator (`device::host::SimConfig::default`).
+    // A firm hand, as the host's simulator (`device::link::SimConfig::default`).
     let hand = SimParams {
         hand_stiffness_n_per_m: 2000.0,
         hand_damping_ns_per_m: 5.0,
@@ -139,7 +139,7 @@ fn main() -> ! {
         Ok(p) => p,
         Err(e) => fail(format_args!("{e}")),
     };
-    let mut session: Session<SCENE_CAPACITY> = Session::new(true);
+    let mut session: DeviceSession<SCENE_CAPACITY> = DeviceSession::new(true);
     let Some([first, second]) = SCENES.split() else {
         fail(format_args!("the scene stores were split before"));
     };
@@ -186,7 +186,7 @@ fn main() -> ! {
                     hand.command(t);
                     None
                 }
-                Event::Command(command) => {
+                Event::DeviceCommand(command) => {
                     // The simulated joints "rest on their end stops": the counts read there.
                     if let Err(code) = app.apply(command, spec.end_stop_counts()) {
                         session.note_error(code);

@@ -323,7 +323,7 @@ pub struct Status {
     /// Sequence number the device expects next from the host.
     pub expected_seq: u16,
     /// Wire value of the latest refusal's code, 0 if none: cleared once a status carried it,
-    /// or when a later request was accepted (`device::session::Session::handle`).
+    /// or when a later request was accepted (`device::session::DeviceSession::handle`).
     pub last_error: u8,
 }
 

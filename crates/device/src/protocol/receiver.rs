@@ -1,6 +1,6 @@
 //! The device side of a link: sequence tracking and scene upload.
 
-use super::scene::{SceneError, SceneStore, points_span, write_points};
+use super::scene::{SceneStore, WireSceneError, points_span, write_points};
 use super::{
     Crc32, ErrorCode, Frame, Message, NO_INDEX, Nack, SceneChunk, ScenePoints, UNKNOWN_SEQ, crc32,
     next_seq,
@@ -9,7 +9,7 @@ use super::{
 /// Checks an assembled scene before the receiver activates it.
 pub trait SceneValidator {
     /// `Ok` when the device can run `scene`.
-    fn validate(&mut self, scene: &[u8]) -> Result<(), SceneError>;
+    fn validate(&mut self, scene: &[u8]) -> Result<(), WireSceneError>;
 
     /// `Ok` when the device can run `reshaped`, the active scene `active` with control points
     /// of object `object` moved ([`Message::ScenePoints`]), in place of `active` without
@@ -22,14 +22,14 @@ pub trait SceneValidator {
         active: &[u8],
         reshaped: &[u8],
         object: u8,
-    ) -> Result<(), SceneError> {
+    ) -> Result<(), WireSceneError> {
         let _ = (active, object);
         self.validate(reshaped)
     }
 }
 
-impl<F: FnMut(&[u8]) -> Result<(), SceneError>> SceneValidator for F {
-    fn validate(&mut self, scene: &[u8]) -> Result<(), SceneError> {
+impl<F: FnMut(&[u8]) -> Result<(), WireSceneError>> SceneValidator for F {
+    fn validate(&mut self, scene: &[u8]) -> Result<(), WireSceneError> {
         self(scene)
     }
 }
@@ -39,7 +39,7 @@ impl<F: FnMut(&[u8]) -> Result<(), SceneError>> SceneValidator for F {
 /// after a failed commit, decode [`SceneReceiver::active_scene`] again), not into the store
 /// the tick is running on.
 impl<const K: usize, const C: usize, const S: usize> SceneValidator for SceneStore<K, C, S> {
-    fn validate(&mut self, scene: &[u8]) -> Result<(), SceneError> {
+    fn validate(&mut self, scene: &[u8]) -> Result<(), WireSceneError> {
         self.decode(scene)
     }
 
@@ -48,7 +48,7 @@ impl<const K: usize, const C: usize, const S: usize> SceneValidator for SceneSto
         active: &[u8],
         reshaped: &[u8],
         object: u8,
-    ) -> Result<(), SceneError> {
+    ) -> Result<(), WireSceneError> {
         self.decode_reshaped(active, reshaped, usize::from(object))
     }
 }
@@ -110,7 +110,7 @@ struct Upload {
 ///   have ([`ErrorCode::NoSuchPatch`]), points past the patch's
 ///   ([`ErrorCode::PointsPastPatch`]) or of the other kind ([`ErrorCode::PointsKind`]),
 ///   during an upload or an update of another object ([`ErrorCode::StagingBusy`]), a
-///   result that fails validation (its [`SceneError`]'s code) or changes the topology
+///   result that fails validation (its [`WireSceneError`]'s code) or changes the topology
 ///   ([`ErrorCode::TopologyChanged`]). A refused frame drops its whole update: the update's
 ///   later frames are refused too ([`ErrorCode::UpdateAborted`]), up to and including its
 ///   apply frame. A `SceneBegin` between an update's frames drops the update whole: its
@@ -263,7 +263,7 @@ impl<const N: usize> SceneReceiver<N> {
         }
     }
 
-    fn nack(&self, seq: Option<u16>, code: ErrorCode, scene: Option<&SceneError>) -> Nack {
+    fn nack(&self, seq: Option<u16>, code: ErrorCode, scene: Option<&WireSceneError>) -> Nack {
         let index = |i: Option<u8>| i.unwrap_or(NO_INDEX);
         Nack {
             seq: seq.unwrap_or(UNKNOWN_SEQ),

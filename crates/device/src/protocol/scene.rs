@@ -67,7 +67,7 @@ pub enum SceneFault {
 
 /// Why a scene was rejected, and where.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct SceneError {
+pub struct WireSceneError {
     /// Object index, if the fault is in one object.
     pub object: Option<u8>,
     /// Patch index within the object, if the fault is in one patch.
@@ -76,9 +76,9 @@ pub struct SceneError {
     pub fault: SceneFault,
 }
 
-impl SceneError {
+impl WireSceneError {
     fn at(object: usize, patch: Option<usize>, fault: SceneFault) -> Self {
-        SceneError {
+        WireSceneError {
             object: u8::try_from(object).ok(),
             patch: patch.and_then(|p| u8::try_from(p).ok()),
             fault,
@@ -86,7 +86,7 @@ impl SceneError {
     }
 
     fn whole(fault: SceneFault) -> Self {
-        SceneError {
+        WireSceneError {
             object: None,
             patch: None,
             fault,
@@ -109,7 +109,7 @@ impl SceneError {
     }
 }
 
-impl core::fmt::Display for SceneError {
+impl core::fmt::Display for WireSceneError {
     fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
         if let Some(o) = self.object {
             write!(f, "object {o}, ")?;
@@ -133,7 +133,7 @@ impl core::fmt::Display for SceneError {
     }
 }
 
-impl core::error::Error for SceneError {}
+impl core::error::Error for WireSceneError {}
 
 /// One object. Integers only, so that the empty record (and with it the empty store) is all
 /// zero bits: a `static` store then lives in `.bss`, not in a `.data` image in flash.
@@ -330,7 +330,7 @@ impl<const K: usize, const C: usize, const S: usize> SceneStore<K, C, S> {
     ///
     /// Validation is the host's: every material (the `scene/1` ranges), every patch with
     /// [`Curve::new`] / [`Surface::new`], every object with [`Chain::new`] / [`Shell::new`].
-    pub fn decode(&mut self, bytes: &[u8]) -> Result<(), SceneError> {
+    pub fn decode(&mut self, bytes: &[u8]) -> Result<(), WireSceneError> {
         self.clear();
         let result = self.parse(bytes).and_then(|()| self.check_topology());
         if result.is_err() {
@@ -353,8 +353,8 @@ impl<const K: usize, const C: usize, const S: usize> SceneStore<K, C, S> {
         active: &[u8],
         reshaped: &[u8],
         object: usize,
-    ) -> Result<(), SceneError> {
-        let changed = SceneError::at(object, None, SceneFault::TopologyChanged);
+    ) -> Result<(), WireSceneError> {
+        let changed = WireSceneError::at(object, None, SceneFault::TopologyChanged);
         self.decode(active)?;
         let kept = match self.kind(object) {
             Some(PatchKind::Curve2) => match self.with_chain(object, |c| c.topology()) {
@@ -378,9 +378,9 @@ impl<const K: usize, const C: usize, const S: usize> SceneStore<K, C, S> {
     /// data at the store's capacities (so any object of the store fits): the one conversion
     /// from a store to what a controller renders. Refused with the fault that says why: no
     /// such object, an object of surfaces, curves that do not make a chain.
-    pub fn chain(&self, object: usize) -> Result<Chain<K, C>, SceneError> {
+    pub fn chain(&self, object: usize) -> Result<Chain<K, C>, WireSceneError> {
         self.with_curves(object, Chain::from_curves)?
-            .map_err(|e| SceneError::at(object, None, SceneFault::Chain(e)))
+            .map_err(|e| WireSceneError::at(object, None, SceneFault::Chain(e)))
     }
 
     /// `f` of object `object`'s curves as views of the store (a chain's worth of views, no
@@ -390,8 +390,8 @@ impl<const K: usize, const C: usize, const S: usize> SceneStore<K, C, S> {
         &self,
         object: usize,
         f: impl FnOnce(&[Curve<'_, Vec2>]) -> R,
-    ) -> Result<R, SceneError> {
-        let at = |fault| SceneError::at(object, None, fault);
+    ) -> Result<R, WireSceneError> {
+        let at = |fault| WireSceneError::at(object, None, fault);
         let rec = self.object(object).ok_or(at(SceneFault::Format))?;
         if rec.kind() != Some(PatchKind::Curve2) {
             return Err(at(SceneFault::MixedKinds));
@@ -403,7 +403,7 @@ impl<const K: usize, const C: usize, const S: usize> SceneStore<K, C, S> {
         let patch = |p: usize| {
             // Every patch was validated while parsing, so each is a curve.
             self.curve(object, p)
-                .ok_or(SceneError::at(object, Some(p), SceneFault::Format))
+                .ok_or(WireSceneError::at(object, Some(p), SceneFault::Format))
         };
         let first = patch(0)?;
         let mut curves = [first; MAX_CHAIN_CURVES];
@@ -417,7 +417,7 @@ impl<const K: usize, const C: usize, const S: usize> SceneStore<K, C, S> {
     /// builds is in its own frame, which exists only while it runs (a caller's frame, such as
     /// a decode of surfaces, does not hold a chain it never builds).
     #[inline(never)]
-    fn check_chain(&self, object: usize) -> Result<(), SceneError> {
+    fn check_chain(&self, object: usize) -> Result<(), WireSceneError> {
         self.chain(object).map(drop)
     }
 
@@ -447,7 +447,7 @@ impl<const K: usize, const C: usize, const S: usize> SceneStore<K, C, S> {
     /// `reshaped` and says whether `object` kept its topology. Apart, so that a store without
     /// surfaces links none of it.
     #[inline(never)]
-    fn shell_reshaped(&mut self, reshaped: &[u8], object: usize) -> Result<bool, SceneError> {
+    fn shell_reshaped(&mut self, reshaped: &[u8], object: usize) -> Result<bool, WireSceneError> {
         let Some(before) = self.shell_topology(object) else {
             return Ok(false);
         };
@@ -455,8 +455,8 @@ impl<const K: usize, const C: usize, const S: usize> SceneStore<K, C, S> {
         Ok(self.shell_topology(object) == Some(before))
     }
 
-    fn parse(&mut self, bytes: &[u8]) -> Result<(), SceneError> {
-        let format = || SceneError::whole(SceneFault::Format);
+    fn parse(&mut self, bytes: &[u8]) -> Result<(), WireSceneError> {
+        let format = || WireSceneError::whole(SceneFault::Format);
         let r = &mut Reader::new(bytes);
         if r.take(4) != Some(&SCENE_MAGIC[..]) || r.u8() != Some(SCENE_VERSION) {
             return Err(format());
@@ -466,12 +466,12 @@ impl<const K: usize, const C: usize, const S: usize> SceneStore<K, C, S> {
             return Err(format());
         }
         if n_objects > MAX_OBJECTS {
-            return Err(SceneError::whole(SceneFault::Capacity));
+            return Err(WireSceneError::whole(SceneFault::Capacity));
         }
         for o in 0..n_objects {
-            let format = || SceneError::at(o, None, SceneFault::Format);
+            let format = || WireSceneError::at(o, None, SceneFault::Format);
             let mut at_material = *r;
-            get_material(r).map_err(|code| SceneError::at(o, None, material_fault(code)))?;
+            get_material(r).map_err(|code| WireSceneError::at(o, None, material_fault(code)))?;
             let mut material = [0; MATERIAL_LEN];
             material.copy_from_slice(at_material.take(MATERIAL_LEN).ok_or_else(format)?);
             let n_patches = usize::from(r.u8().ok_or_else(format)?);
@@ -483,9 +483,9 @@ impl<const K: usize, const C: usize, const S: usize> SceneStore<K, C, S> {
             for p in 0..n_patches {
                 let k = self
                     .parse_patch(r)
-                    .map_err(|fault| SceneError::at(o, Some(p), fault))?;
+                    .map_err(|fault| WireSceneError::at(o, Some(p), fault))?;
                 if kind.is_some_and(|kind| kind != k) {
-                    return Err(SceneError::at(o, Some(p), SceneFault::MixedKinds));
+                    return Err(WireSceneError::at(o, Some(p), SceneFault::MixedKinds));
                 }
                 kind = Some(k);
             }
@@ -604,29 +604,29 @@ impl<const K: usize, const C: usize, const S: usize> SceneStore<K, C, S> {
         Ok(kind)
     }
 
-    fn check_topology(&self) -> Result<(), SceneError> {
+    fn check_topology(&self) -> Result<(), WireSceneError> {
         for o in 0..self.n_objects {
             let Some(rec) = self.object(o) else {
-                return Err(SceneError::at(o, None, SceneFault::Format));
+                return Err(WireSceneError::at(o, None, SceneFault::Format));
             };
             let patch_fault = |p: usize| {
                 // Unreachable: every patch was validated while parsing.
-                SceneError::at(o, Some(p), SceneFault::Format)
+                WireSceneError::at(o, Some(p), SceneFault::Format)
             };
             match rec.kind() {
-                None => return Err(SceneError::at(o, None, SceneFault::Format)),
+                None => return Err(WireSceneError::at(o, None, SceneFault::Format)),
                 Some(PatchKind::Curve2) => self.check_chain(o)?,
                 // A store without room for surface points never holds a surface object (its
                 // patches were refused while parsing); said here too, so that such a store
                 // does not link the shell's validation at all.
                 Some(PatchKind::Surface) if S == 0 => {
-                    return Err(SceneError::at(o, None, SceneFault::Capacity));
+                    return Err(WireSceneError::at(o, None, SceneFault::Capacity));
                 }
                 Some(PatchKind::Surface) => {
                     if rec.n_patches > MAX_SHELL_PATCHES {
                         let count = rec.n_patches;
                         let fault = SceneFault::Shell(ShellError::TooManyPatches { count });
-                        return Err(SceneError::at(o, None, fault));
+                        return Err(WireSceneError::at(o, None, fault));
                     }
                     let first = self.surface(o, 0).ok_or_else(|| patch_fault(0))?;
                     let mut surfaces = [first; MAX_SHELL_PATCHES];
@@ -634,7 +634,7 @@ impl<const K: usize, const C: usize, const S: usize> SceneStore<K, C, S> {
                         *s = self.surface(o, p).ok_or_else(|| patch_fault(p))?;
                     }
                     Shell::new(&surfaces[..rec.n_patches])
-                        .map_err(|e| SceneError::at(o, None, SceneFault::Shell(e)))?;
+                        .map_err(|e| WireSceneError::at(o, None, SceneFault::Shell(e)))?;
                 }
             }
         }
@@ -768,7 +768,7 @@ pub fn write_points(scene: &mut [u8], p: &ScenePoints) -> Result<(), ErrorCode> 
 pub fn decode_scene<const K: usize, const C: usize, const S: usize>(
     bytes: &[u8],
     store: &mut SceneStore<K, C, S>,
-) -> Result<(), SceneError> {
+) -> Result<(), WireSceneError> {
     store.decode(bytes)
 }
 
@@ -800,13 +800,15 @@ mod host {
 
     /// Encodes a scene in the wire format and checks it the way the device will
     /// ([`SceneStore::decode`]): a scene this returns is one the device accepts.
-    pub fn encode_scene(objects: &[WireObject<'_>]) -> Result<Vec<u8>, SceneError> {
-        let cap = |o, p| SceneError::at(o, p, SceneFault::Capacity);
+    pub fn encode_scene(objects: &[WireObject<'_>]) -> Result<Vec<u8>, WireSceneError> {
+        let cap = |o, p| WireSceneError::at(o, p, SceneFault::Capacity);
         let count16 = |n: usize, o, p| u16::try_from(n).map_err(|_| cap(o, Some(p)));
         let mut out = Vec::new();
         out.put(&SCENE_MAGIC);
         out.u8(SCENE_VERSION);
-        out.u8(u8::try_from(objects.len()).map_err(|_| SceneError::whole(SceneFault::Capacity))?);
+        out.u8(
+            u8::try_from(objects.len()).map_err(|_| WireSceneError::whole(SceneFault::Capacity))?
+        );
         out.u16(0);
         for (o, obj) in objects.iter().enumerate() {
             put_material(&mut out, &obj.material);

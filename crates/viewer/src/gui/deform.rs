@@ -9,7 +9,7 @@ use std::sync::Arc;
 use host::deform::{DeformChangeError, DeformStatus, ShapeFrame, SharedShape};
 use scene::{Object, Patch, Scene};
 
-use super::state::ObjectView;
+use super::scene_view::ObjectView;
 
 /// What the objects panel says about a deformable object.
 #[derive(Clone, Debug, PartialEq)]

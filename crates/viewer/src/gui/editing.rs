@@ -11,7 +11,8 @@ use eframe::egui;
 use egui::Color32;
 use nurbs::Vec2;
 
-use super::state::{AppState, SceneView};
+use super::scene_view::SceneView;
+use super::state::AppState;
 use scene::edit::{self, EditError, History, PointRef};
 use scene::{Material, Patch, Scene};
 

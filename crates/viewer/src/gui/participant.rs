@@ -28,8 +28,8 @@ use std::time::Instant;
 
 use eframe::egui;
 use egui::{Align2, Color32, FontId, Key, RichText, Sense, Stroke, Vec2 as EVec2};
+use experiment::error::RunError;
 use experiment::plan::{Design, Plan};
-use experiment::runner::RunError;
 use experiment::session::{Response, Session, Trial, TrialRecord};
 use host::runlog::{Columns, write_csv_header};
 use host::tick::Tick;

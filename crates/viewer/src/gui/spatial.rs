@@ -9,7 +9,7 @@ use nurbs::Vec3;
 use tracker::TriMesh;
 
 use super::view3d::Scene3d;
-use host::backend::{Backend, Command, Reply, Sample};
+use host::backend::{Backend, LoopCommand, Reply, Sample};
 use host::runlog::RecordTx;
 use host::spatial::{self, SpatialLoop, SpatialSession, check_mesh};
 use scene::mesh::{self, ObjMesh};
@@ -155,7 +155,7 @@ impl SpatialState {
         self.backend.is_some()
     }
 
-    fn command(&mut self, command: Command<SpatialSession>) -> Option<Reply> {
+    fn command(&mut self, command: LoopCommand<SpatialSession>) -> Option<Reply> {
         let sent = self.backend.as_mut()?.command(command);
         if !sent.taken() {
             self.message = Some("the spatial loop's queue is full: command dropped".into());
@@ -167,24 +167,24 @@ impl SpatialState {
     pub fn set_target(&mut self, target: Vec3) {
         if target.is_finite() {
             self.target = target;
-            self.command(Command::HandTarget(target));
+            self.command(LoopCommand::HandTarget(target));
         }
     }
 
     /// Enables or disables the forces.
     pub fn set_forces(&mut self, on: bool) {
-        self.command(Command::Forces(on));
+        self.command(LoopCommand::Forces(on));
     }
 
-    /// Makes the NURBS object deformable or rigid again ([`Command::Deform`]); the reply,
+    /// Makes the NURBS object deformable or rigid again ([`LoopCommand::Deform`]); the reply,
     /// for a stepped loop.
     pub fn deform(&mut self, on: bool) -> Option<Reply> {
-        self.command(Command::Deform(on))
+        self.command(LoopCommand::Deform(on))
     }
 
     /// Sets the material (validated by the loop); the reply, for a stepped loop.
     pub fn set_material(&mut self, material: FrictionMaterial) -> Option<Reply> {
-        let reply = self.command(Command::SetMaterial(material));
+        let reply = self.command(LoopCommand::SetMaterial(material));
         if let Some(Reply::Material(Ok(m))) = &reply {
             self.material = *m;
         }
@@ -209,7 +209,7 @@ impl SpatialState {
             self.mesh_triangles = None;
             self.view.set_faceted(None);
             self.message = None;
-            self.command(Command::Mesh(None));
+            self.command(LoopCommand::Mesh(None));
             return;
         }
         let Some(mesh) = self.tessellation() else {
@@ -223,7 +223,7 @@ impl SpatialState {
         self.render_mesh = true;
         self.mesh_triangles = Some(mesh.triangles().len());
         self.message = None;
-        self.command(Command::Mesh(Some(Box::new(mesh))));
+        self.command(LoopCommand::Mesh(Some(Box::new(mesh))));
     }
 
     /// Sets the chordal tolerance (m, clamped to 0.01–10 mm); a mesh being felt is

@@ -8,9 +8,7 @@
 use std::path::Path;
 use std::sync::atomic::Ordering;
 
-use device::kinematics::Pantograph;
-use device::safety::{Faults, SafetyConfig};
-use device::spec::{DeviceSpec, WorkspaceBox};
+use device::safety::Faults;
 use friction::FrictionMaterial;
 use nurbs::Vec2;
 
@@ -20,219 +18,17 @@ use super::panels::{DevicePanel, FilePanel, MaterialPanel, ReplayPanel};
 use super::replay::Replay;
 use super::spatial::SpatialState;
 use super::telemetry::Telemetry;
-use host::backend::{Backend, Command, LinkEvent, Reply, Sample};
+use host::backend::{Backend, LinkEvent, LoopCommand, Reply, Sample};
 use host::devices::{self, Target};
-use host::planar::{HapticLoop, MaterialChangeError, START_HIP, Session};
+use host::error::MaterialChangeError;
+use host::planar::{HapticLoop, PlanarSession, START_HIP};
 use host::runlog::RecordTx;
 use scene::bundled::BUNDLED;
-use scene::{Material, Object, Patch, Scene, Space};
+use scene::{Material, Scene, Space};
 
+pub use super::reach::Reach;
+pub use super::scene_view::{CURVE_SAMPLES, ObjectView, SceneView};
 pub use super::telemetry::{FRAME_WINDOW, HISTORY_S, JITTER_WINDOW};
-
-/// Points per curve patch drawn in the 2-D view (for display only).
-pub const CURVE_SAMPLES: usize = 256;
-
-/// One object as the 2-D view draws it.
-#[derive(Clone, Debug, PartialEq)]
-pub struct ObjectView {
-    /// Its name.
-    pub name: String,
-    /// Planar or spatial.
-    pub space: Space,
-    /// Each patch sampled along its parameter (planar curves; empty for surfaces).
-    pub curves: Vec<Vec<Vec2>>,
-    /// Each patch's control polygon (x, y of the control points).
-    pub control_polygons: Vec<Vec<Vec2>>,
-}
-
-/// A scene as the UI knows it.
-#[derive(Clone, Debug, PartialEq)]
-pub struct SceneView {
-    /// Where it came from (a bundled name or a path).
-    pub label: String,
-    /// Its objects.
-    pub objects: Vec<ObjectView>,
-    /// The object the device renders.
-    pub rendered: Option<usize>,
-    /// Bounding box of everything drawn (m): min, max.
-    pub bounds: (Vec2, Vec2),
-    /// The scene itself, which edits start from.
-    pub model: Scene,
-}
-
-impl ObjectView {
-    /// The drawable geometry of `o`, and the points of its spatial patches (projected on
-    /// z = 0: not drawn in the 2-D view, they still bound the scene).
-    pub fn new(o: &Object) -> (Self, Vec<Vec2>) {
-        let mut curves = Vec::new();
-        let mut control_polygons = Vec::new();
-        let mut extra = Vec::new();
-        for p in o.patches() {
-            match p {
-                Patch::Curve2(c) => {
-                    let view = c.view();
-                    let (a, b) = view.domain();
-                    let pts: Vec<Vec2> = (0..=CURVE_SAMPLES)
-                        .map(|i| {
-                            let u = a + (b - a) * i as f32 / CURVE_SAMPLES as f32;
-                            view.point(u)
-                        })
-                        .collect();
-                    curves.push(pts);
-                    control_polygons.push(
-                        (0..view.points().len())
-                            .filter_map(|i| view.control_point(i).map(|(p, _)| p))
-                            .collect(),
-                    );
-                }
-                Patch::Curve3(c) => {
-                    let dehom = c.points().iter().map(|h| Vec2::new(h.x / h.w, h.y / h.w));
-                    extra.extend(dehom);
-                }
-                Patch::Surface(s) => {
-                    let dehom = s.points().iter().map(|h| Vec2::new(h.x / h.w, h.y / h.w));
-                    extra.extend(dehom);
-                }
-            }
-        }
-        let view = ObjectView {
-            name: o.name().to_owned(),
-            space: o.space(),
-            curves,
-            control_polygons,
-        };
-        (view, extra)
-    }
-}
-
-impl SceneView {
-    /// The drawable geometry of `scene`.
-    pub fn new(label: &str, scene: &Scene, rendered: Option<usize>) -> Self {
-        let mut objects = Vec::new();
-        let (mut lo, mut hi) = (Vec2::splat(f32::INFINITY), Vec2::splat(f32::NEG_INFINITY));
-        for o in scene.objects() {
-            let (view, extra) = ObjectView::new(o);
-            for p in view
-                .curves
-                .iter()
-                .chain(&view.control_polygons)
-                .flatten()
-                .chain(&extra)
-            {
-                lo = lo.min(*p);
-                hi = hi.max(*p);
-            }
-            objects.push(view);
-        }
-        if !(lo.is_finite() && hi.is_finite()) {
-            (lo, hi) = (Vec2::new(-0.05, 0.05), Vec2::new(0.05, 0.13));
-        }
-        SceneView {
-            label: label.to_owned(),
-            objects,
-            rendered,
-            bounds: (lo, hi),
-            model: scene.clone(),
-        }
-    }
-
-    /// Whether the scene has an object the 2-D view and the device render.
-    pub fn is_planar(&self) -> bool {
-        self.rendered.is_some()
-    }
-}
-
-/// Where the device reaches: a grid over the plane, each cell reachable when the pantograph's
-/// inverse kinematics has a solution there with a Jacobian condition number within the
-/// device's limit.
-#[derive(Clone, Debug, PartialEq)]
-pub struct Reach {
-    /// Lower-left corner of the grid (m).
-    pub origin: Vec2,
-    /// Cell size (m).
-    pub cell_m: f32,
-    /// Cells per row and rows.
-    pub size: (usize, usize),
-    /// Row-major reachability of the cells' centres.
-    pub cells: Vec<bool>,
-    /// The outline: the edges between reachable and unreachable cells (m).
-    pub outline: Vec<[Vec2; 2]>,
-    /// The box the device guarantees to reach ([`DeviceSpec::workspace`]).
-    pub guaranteed: WorkspaceBox,
-    /// The safety layer's workspace box: leaving it latches the workspace fault.
-    pub safety_box: WorkspaceBox,
-}
-
-impl Reach {
-    /// The reach of the default device on a 2 mm grid.
-    pub fn of_default_device() -> Self {
-        let spec = DeviceSpec::default();
-        let arm = spec.pantograph().ok();
-        let cell_m = 0.002;
-        let origin = Vec2::new(-0.16, -0.02);
-        let size = (160, 120);
-        let reachable = |p: Vec2| match &arm {
-            Some(arm) => reachable(arm, &spec, p),
-            None => false,
-        };
-        let mut cells = Vec::with_capacity(size.0 * size.1);
-        for j in 0..size.1 {
-            for i in 0..size.0 {
-                let c = origin + Vec2::new(i as f32 + 0.5, j as f32 + 0.5) * cell_m;
-                cells.push(reachable(c));
-            }
-        }
-        let at = |i: usize, j: usize| cells[j * size.0 + i];
-        let mut outline = Vec::new();
-        for j in 0..size.1 {
-            for i in 0..size.0 {
-                let corner = origin + Vec2::new(i as f32, j as f32) * cell_m;
-                // Left and bottom edges of every cell, and the grid's own border.
-                let left = if i == 0 { false } else { at(i - 1, j) };
-                if at(i, j) != left {
-                    outline.push([corner, corner + Vec2::new(0.0, cell_m)]);
-                }
-                let below = if j == 0 { false } else { at(i, j - 1) };
-                if at(i, j) != below {
-                    outline.push([corner, corner + Vec2::new(cell_m, 0.0)]);
-                }
-                if i + 1 == size.0 && at(i, j) {
-                    let c = corner + Vec2::new(cell_m, 0.0);
-                    outline.push([c, c + Vec2::new(0.0, cell_m)]);
-                }
-                if j + 1 == size.1 && at(i, j) {
-                    let c = corner + Vec2::new(0.0, cell_m);
-                    outline.push([c, c + Vec2::new(cell_m, 0.0)]);
-                }
-            }
-        }
-        Reach {
-            origin,
-            cell_m,
-            size,
-            cells,
-            outline,
-            guaranteed: spec.workspace,
-            safety_box: SafetyConfig::default().workspace,
-        }
-    }
-
-    /// Whether `p` lies in a reachable cell.
-    pub fn contains(&self, p: Vec2) -> bool {
-        let q = (p - self.origin) / self.cell_m;
-        if !(q.x >= 0.0 && q.y >= 0.0) {
-            return false;
-        }
-        let (i, j) = (q.x as usize, q.y as usize);
-        i < self.size.0 && j < self.size.1 && self.cells[j * self.size.0 + i]
-    }
-}
-
-fn reachable(arm: &Pantograph, spec: &DeviceSpec, p: Vec2) -> bool {
-    arm.inverse(p)
-        .and_then(|theta| arm.jacobian(theta))
-        .is_ok_and(|j| j.condition_number() <= spec.max_condition_number)
-}
 
 /// Which device the app drives.
 #[derive(Clone, Debug, PartialEq, Eq)]
@@ -299,7 +95,7 @@ pub struct AppState {
     /// The hand's target as last set (m).
     pub hand_target: Vec2,
     /// Who holds the simulated handle, as last set.
-    pub hand: host::sim::Hand,
+    pub hand: host::hand::Hand,
     /// Whether the user is dragging the hand.
     pub dragging: bool,
     /// Forces on, as last asked.
@@ -339,7 +135,7 @@ impl AppState {
         threaded: bool,
         record: Option<RecordTx>,
     ) -> anyhow::Result<Self> {
-        let session = Session::new(scene.clone())?;
+        let session = PlanarSession::new(scene.clone())?;
         let view = SceneView::new(label, &scene, session.object());
         let haptic = HapticLoop::new(session, START_HIP)?;
         let spatial = if view.is_planar() {
@@ -365,7 +161,7 @@ impl AppState {
         Ok(AppState {
             backend,
             device: DeviceChoice::Simulated,
-            hand: host::sim::Hand::Grip,
+            hand: host::hand::Hand::Grip,
             link: LinkState::default(),
             pending: None,
             replay: None,
@@ -407,7 +203,7 @@ impl AppState {
 
     /// Gives `command` to the planar loop (a stepped loop's reply is taken in at once);
     /// false when it was dropped.
-    pub(super) fn command(&mut self, command: Command) -> bool {
+    pub(super) fn command(&mut self, command: LoopCommand) -> bool {
         let sent = self.backend.command(command);
         let taken = sent.taken();
         if let Some(reply) = sent.reply() {
@@ -471,7 +267,7 @@ impl AppState {
             if let Some(reply) = spatial.deform(on) {
                 self.on_reply(reply);
             }
-        } else if !self.command(Command::Deform(on)) {
+        } else if !self.command(LoopCommand::Deform(on)) {
             self.deform.error = Some("the haptic loop did not take it (its queue is full)".into());
             self.deform.refused();
         }
@@ -522,7 +318,9 @@ impl AppState {
                 self.deform.on_reply(r);
                 self.refresh_deform();
             }
-            Reply::Unsupported(what) if what == Command::<Session>::Deform(true).name() => {
+            Reply::Unsupported(what)
+                if what == LoopCommand::<PlanarSession>::Deform(true).name() =>
+            {
                 self.deform.error = Some(format!("this device does not support {what}"));
                 self.deform.refused();
                 self.refresh_deform();
@@ -590,7 +388,7 @@ impl AppState {
     /// uploaded to it, and a device with a simulated plant (the host's simulator, the
     /// firmware under QEMU) has its faults cleared, is calibrated and has its forces
     /// enabled. A board waits for Calibrate and the forces switch. `Target::Sim` here is
-    /// the host's simulated device behind the protocol ([`device::host::SimLink`]).
+    /// the host's simulated device behind the protocol ([`device::link::SimLink`]).
     pub fn connect(&mut self, target: Target) {
         let setup = !matches!(target, Target::Hid | Target::Serial(_));
         self.connect_with(describe(&target), move || devices::open(&target), setup);
@@ -601,7 +399,7 @@ impl AppState {
     pub fn connect_with(
         &mut self,
         device: String,
-        open: impl FnOnce() -> Result<devices::Opened, device::host::LinkError> + Send + 'static,
+        open: impl FnOnce() -> Result<devices::Opened, device::link::LinkError> + Send + 'static,
         setup: bool,
     ) {
         match host::remote::spawn(device.clone(), open, setup, self.record.clone()) {
@@ -612,7 +410,7 @@ impl AppState {
                 self.link = LinkState::default();
                 self.forces_requested = setup;
                 // The virtual hand of a simulated plant goes where the app's hand is.
-                self.command(Command::HandTarget(self.hand_target.extend(0.0)));
+                self.command(LoopCommand::HandTarget(self.hand_target.extend(0.0)));
                 self.telemetry.restart();
                 let scene = self.scene.model.clone();
                 let label = self.scene.label.clone();
@@ -624,7 +422,7 @@ impl AppState {
 
     /// Drives the simulated pantograph in this process again, on the running scene.
     pub fn use_simulated(&mut self) {
-        let rebuilt = Session::new(self.scene.model.clone())
+        let rebuilt = PlanarSession::new(self.scene.model.clone())
             .map_err(anyhow::Error::from)
             .and_then(|s| Ok(HapticLoop::new(s, START_HIP)?))
             .and_then(|h| Ok(Backend::start(h, true, self.record.clone())?));
@@ -632,7 +430,7 @@ impl AppState {
             Ok(backend) => {
                 self.backend = backend;
                 self.device = DeviceChoice::Simulated;
-                self.hand = host::sim::Hand::Grip;
+                self.hand = host::hand::Hand::Grip;
                 self.link = LinkState::default();
                 self.forces_requested = true;
                 self.telemetry.restart();
@@ -688,17 +486,17 @@ impl AppState {
 
     /// Calibrates the device (a board must sit at its end stops).
     pub fn calibrate(&mut self) {
-        self.command(Command::Calibrate);
+        self.command(LoopCommand::Calibrate);
     }
 
     /// Who holds the simulated pantograph's handle: a grip, a light fingertip, or nobody
     /// (released: the handle goes on under its own mass, the device's friction and the
     /// rendered force). The simulated device in the app only; a board's handle is in a
     /// person's hand.
-    pub fn set_hand(&mut self, hand: host::sim::Hand) {
+    pub fn set_hand(&mut self, hand: host::hand::Hand) {
         if self.device == DeviceChoice::Simulated {
             self.hand = hand;
-            self.command(Command::Hand(hand));
+            self.command(LoopCommand::Hand(hand));
         }
     }
 
@@ -785,7 +583,7 @@ impl AppState {
             return false;
         }
         self.hand_target = target;
-        self.command(Command::HandTarget(target.extend(0.0)))
+        self.command(LoopCommand::HandTarget(target.extend(0.0)))
     }
 
     /// Applies the material editor's values: validated field by field here (the message names
@@ -807,7 +605,7 @@ impl AppState {
             self.materials.error = Some(MaterialChangeError::NoObject.to_string());
             return;
         }
-        if !self.command(Command::SetMaterial(m)) {
+        if !self.command(LoopCommand::SetMaterial(m)) {
             self.materials.error =
                 Some("the haptic loop did not take the material (its queue is full)".into());
         }
@@ -877,7 +675,7 @@ impl AppState {
     }
 
     /// Sends `scene` (rendering `object`, the first planar one when `None`) to the loop as
-    /// the device's upload ([`Session::with_object`]); it is shown once the loop took it (at
+    /// the device's upload ([`PlanarSession::with_object`]); it is shown once the loop took it (at
     /// once for a stepped loop). `edited`: an edit of the running scene, which keeps the edit
     /// history and the material editor. An error names the scene (`label`) and says the
     /// running scene is unchanged.
@@ -892,9 +690,9 @@ impl AppState {
         let felt_in_3d =
             object.filter(|&i| scene.object(i).is_some_and(super::spatial::can_be_felt));
         let built = match (object, felt_in_3d) {
-            (_, Some(_)) => Session::with_object(scene.clone(), None),
-            (Some(i), None) => Session::with_object(scene.clone(), Some(i)),
-            (None, None) => Session::new(scene.clone()),
+            (_, Some(_)) => PlanarSession::with_object(scene.clone(), None),
+            (Some(i), None) => PlanarSession::with_object(scene.clone(), Some(i)),
+            (None, None) => PlanarSession::new(scene.clone()),
         };
         let session = built.map_err(|e| format!("{label}: {e}; the running scene is unchanged"))?;
         let view = SceneView::new(&self.scene_label(label, edited), &scene, session.object());
@@ -917,7 +715,7 @@ impl AppState {
             .and_then(|i| scene.object(i))
             .map(|o| o.material().friction_material())
             .or_else(|| spatial.as_ref().and_then(SpatialState::material));
-        if !self.command(Command::Swap(Box::new(session))) {
+        if !self.command(LoopCommand::Swap(Box::new(session))) {
             return Err(format!(
                 "{label}: the haptic loop did not take the scene (its queue is full)"
             ));
@@ -987,7 +785,7 @@ impl AppState {
     /// Enables or disables the forces.
     pub fn set_forces(&mut self, on: bool) {
         self.forces_requested = on;
-        self.command(Command::Forces(on));
+        self.command(LoopCommand::Forces(on));
         if let Some(spatial) = &mut self.spatial {
             spatial.set_forces(on);
         }
@@ -1027,8 +825,8 @@ impl AppState {
         else {
             return;
         };
-        if let Ok(idle) = Session::with_object(idle_scene.clone(), None) {
-            self.command(Command::Swap(Box::new(idle)));
+        if let Ok(idle) = PlanarSession::with_object(idle_scene.clone(), None) {
+            self.command(LoopCommand::Swap(Box::new(idle)));
         }
         self.pending = None;
         self.scene = SceneView {
@@ -1057,7 +855,7 @@ impl AppState {
 
     /// Clears the latched faults whose condition is gone.
     pub fn clear_faults(&mut self) {
-        self.command(Command::ClearFaults);
+        self.command(LoopCommand::ClearFaults);
     }
 
     /// Samples the UI channel dropped, commands dropped, and ticks the recorder dropped.
@@ -1141,7 +939,7 @@ mod tests {
                 .expect("the scene file");
             assert_eq!(on_disk, b.json, "{} is embedded as it is on disk", b.name);
             let scene = Scene::from_json_str(b.json).unwrap_or_else(|e| panic!("{}: {e}", b.name));
-            let session = Session::new(scene).unwrap_or_else(|e| panic!("{}: {e}", b.name));
+            let session = PlanarSession::new(scene).unwrap_or_else(|e| panic!("{}: {e}", b.name));
             let planar = !matches!(b.name, "thesis-3d" | "torus");
             assert_eq!(session.object().is_some(), planar, "{}", b.name);
         }

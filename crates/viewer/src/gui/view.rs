@@ -439,8 +439,8 @@ fn draw_moving(
     painter: &egui::Painter,
     rect: Rect,
     view: &View2d,
-    rest: &super::state::ObjectView,
-    now: &super::state::ObjectView,
+    rest: &super::scene_view::ObjectView,
+    now: &super::scene_view::ObjectView,
 ) {
     let faint = Stroke::new(2.0, Color32::from_rgba_unmultiplied(90, 110, 160, 90));
     for curve in &rest.curves {

@@ -31,7 +31,7 @@ use super::{Link, LinkError, Sequencer, cobs, software_version};
 use crate::controller::Controller;
 use crate::protocol::{ErrorCode, Frame, MAX_FRAME, Message, SceneStore};
 use crate::safety::SafetyConfig;
-use crate::session::{DeviceState, Event, Session};
+use crate::session::{DeviceSession, DeviceState, Event};
 use crate::simulator::{SimParams, SimulatedPantograph, VirtualHand};
 use crate::spec::DeviceSpec;
 use crate::telemetry::TelemetryDecimator;
@@ -115,7 +115,7 @@ impl SimLink {
         let thread = std::thread::Builder::new()
             .name("sim-device".into())
             .spawn(move || {
-                let mut session = Box::new(Session::new(true));
+                let mut session = Box::new(DeviceSession::new(true));
                 session.set_motor_limits(&config.spec);
                 let mut device = SimDevice {
                     config,
@@ -279,7 +279,7 @@ struct SimDevice {
     frames: SyncSender<[u8; MAX_FRAME]>,
     arm: SimulatedPantograph,
     hand: VirtualHand,
-    session: Box<Session<SCENE_CAPACITY>>,
+    session: Box<DeviceSession<SCENE_CAPACITY>>,
     /// Where uploads and updates are validated (decoded), then loaded from.
     scratch: Box<SceneStore>,
     seq: Sequencer,
@@ -412,7 +412,7 @@ impl SimDevice {
                 self.hand.command(target);
                 None
             }
-            Event::Command(command) => {
+            Event::DeviceCommand(command) => {
                 if let Err(code) = command.apply(controller, home, self.config.passivity_control) {
                     self.session.note_error(code);
                 }

@@ -26,7 +26,7 @@ pub(crate) fn deadline(timeout: Duration) -> Instant {
 pub mod cobs;
 mod hid;
 mod serial;
-mod sim;
+mod simulated;
 
 use std::time::{Duration, Instant};
 
@@ -35,8 +35,8 @@ pub use serial::{BAUD, SerialLink, SerialPortInfo, Stream, StreamLink, TcpLink, 
 #[cfg(unix)]
 pub use serial::{PseudoTerminal, pseudo_terminal};
 #[cfg(feature = "usb")]
-pub use sim::SimReports;
-pub use sim::{SimConfig, SimHand, SimLink};
+pub use simulated::SimReports;
+pub use simulated::{SimConfig, SimHand, SimLink};
 
 use crate::controller::ControllerError;
 use crate::protocol::{
@@ -262,7 +262,7 @@ pub trait Link: core::fmt::Debug {
 /// A number behind the last one (a wrapping step of half the range or more) is the device
 /// starting its numbering again (a reset, a reflash, a new session on a shared link), not
 /// 65,000 lost frames: at a frame a millisecond that many would be half a minute of silence,
-/// which a link declares lost long before ([`crate::host`]'s users give up after 0.5 s).
+/// which a link declares lost long before ([`crate::link`]'s users give up after 0.5 s).
 #[derive(Clone, Copy, Debug, Default)]
 pub struct GapCounter {
     last: Option<u16>,
