@@ -3,11 +3,17 @@
 //! [`Board`]. The board binary and the QEMU binary share it, so the emulated run exercises the
 //! code the board runs. The board's acquisition job ([`AcquisitionJob`], [`run_job`]), which
 //! runs the same search as [`App::acquire`] in another task, is here too.
+//!
+//! The app's object is a chain slot it is given once (`&'a mut Chain`: a board's static, the
+//! QEMU binary's `main` frame) and never copies: a scene is rebuilt into the slot in place
+//! from the link's store ([`App::load`]), a control-point update moves it in place
+//! ([`App::reshape`]), and the acquisition task borrows it whole while the renderer waits
+//! for it ([`App::lend_job`]). No chain is built on any stack.
 
 use device::controller::{
     Acquisition, AcquisitionRequest, Controller, ControllerError, TickOutput, acquire,
 };
-use device::protocol::{ErrorCode, Frame, MAX_FRAME, Message, SceneError, SceneFault, SceneStore};
+use device::protocol::{ErrorCode, Frame, MAX_FRAME, Message, SceneFault, SceneStore, WireSceneError};
 use device::safety::SafetyConfig;
 use device::session::DeviceCommand;
 use device::spec::DeviceSpec;
@@ -19,6 +25,9 @@ use crate::board::Board;
 /// Why the app could not start.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum AppError {
+    /// The object is lent to the acquisition task: a scene cannot be loaded or reshaped until
+    /// it is back (a board does not ask meanwhile).
+    Lent,
     /// The scene has no such object.
     NoObject(usize),
     /// The object is made of surfaces; the planar pantograph renders chains of curves.
@@ -50,6 +59,7 @@ impl AppError {
 impl core::fmt::Display for AppError {
     fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
         match self {
+            AppError::Lent => write!(f, "the object is out with the acquisition task"),
             AppError::NoObject(o) => write!(f, "the scene has no object {o}"),
             AppError::NotPlanar(o) => {
                 write!(
@@ -63,12 +73,17 @@ impl core::fmt::Display for AppError {
     }
 }
 
+/// The object of an [`App`]: its chain slot ([`tracker::Chain`] of `K` knots and `C` control
+/// points, a store's capacities: any object of a `SceneStore<K, C, _>` fits).
+pub type Slot<'a, const K: usize, const C: usize> = &'a mut Chain<K, C>;
+
 /// The app: the controller of the default pantograph with one object of a validated scene,
-/// which it holds as its own copy ([`tracker::Chain`] of `K` knots and `C` control points,
-/// a store's capacities: any object of a `SceneStore<K, C, _>` fits).
+/// in its chain slot.
 #[derive(Debug)]
-pub struct App<const K: usize, const C: usize> {
-    controller: Controller<Chain<K, C>>,
+pub struct App<'a, const K: usize, const C: usize> {
+    controller: Controller<Slot<'a, K, C>>,
+    /// The slot while the controller has no scene in it.
+    spare: Option<Slot<'a, K, C>>,
     seq: u16,
     /// The tick's output, written in place by every tick (`Controller::tick_into`).
     out: TickOutput,
@@ -76,35 +91,39 @@ pub struct App<const K: usize, const C: usize> {
     decimator: TelemetryDecimator,
 }
 
-/// The app between two scenes: the controller without a scene (calibration, faults, forces and
-/// heartbeat kept) and the link's sequence counter. A firmware that swaps its scene storage
-/// parks the app (dropping its view of the old store), swaps, and loads the new store.
+/// The app before its first scene: the controller without a scene, its chain slot and the
+/// link's sequence counter.
 #[derive(Debug)]
-pub struct Parked<const K: usize, const C: usize> {
-    controller: Controller<Chain<K, C>>,
+pub struct Parked<'a, const K: usize, const C: usize> {
+    controller: Controller<Slot<'a, K, C>>,
+    slot: Slot<'a, K, C>,
     seq: u16,
     decimator: TelemetryDecimator,
 }
 
-impl<const K: usize, const C: usize> Parked<K, C> {
+impl<'a, const K: usize, const C: usize> Parked<'a, K, C> {
     /// The default [`DeviceSpec`] at `period_s`, the safety layer's ramp-in over `ramp_time_s`
-    /// and its other limits the defaults; no scene.
-    pub fn new(period_s: f32, ramp_time_s: f32) -> Result<Self, AppError> {
-        Self::with_safety(SafetyConfig {
-            period_s,
-            ramp_time_s,
-            ..SafetyConfig::default()
-        })
+    /// and its other limits the defaults; no scene; its object in `slot`.
+    pub fn new(slot: Slot<'a, K, C>, period_s: f32, ramp_time_s: f32) -> Result<Self, AppError> {
+        Self::with_safety(
+            slot,
+            SafetyConfig {
+                period_s,
+                ramp_time_s,
+                ..SafetyConfig::default()
+            },
+        )
     }
 
     /// The default [`DeviceSpec`] with the safety limits `safety` (its period is the tick's);
-    /// no scene. Telemetry goes out once per millisecond
+    /// no scene; its object in `slot`. Telemetry goes out once per millisecond
     /// ([`TelemetryDecimator::for_period_s`] of the period).
-    pub fn with_safety(safety: SafetyConfig) -> Result<Self, AppError> {
+    pub fn with_safety(slot: Slot<'a, K, C>, safety: SafetyConfig) -> Result<Self, AppError> {
         let controller =
             Controller::new(DeviceSpec::default(), safety).map_err(AppError::Controller)?;
         Ok(Parked {
             controller,
+            slot,
             seq: 0,
             decimator: TelemetryDecimator::for_period_s(safety.period_s),
         })
@@ -118,16 +137,17 @@ impl<const K: usize, const C: usize> Parked<K, C> {
         self,
         store: &SceneStore<K, C, S>,
         object: usize,
-    ) -> (App<K, C>, Result<(), AppError>) {
+    ) -> (App<'a, K, C>, Result<(), AppError>) {
         let mut app = self.unloaded();
         let loaded = app.load(store, object);
         (app, loaded)
     }
 
     /// The app with no scene loaded (no force until one is, see [`App::load`]).
-    pub fn unloaded(self) -> App<K, C> {
+    pub fn unloaded(self) -> App<'a, K, C> {
         App {
             controller: self.controller,
+            spare: Some(self.slot),
             seq: self.seq,
             out: TickOutput::IDLE,
             decimator: self.decimator,
@@ -135,34 +155,52 @@ impl<const K: usize, const C: usize> Parked<K, C> {
     }
 }
 
-impl<const K: usize, const C: usize> App<K, C> {
-    /// The default [`DeviceSpec`] at `period_s` with object `object` of `store` loaded, the
-    /// safety layer's ramp-in over `ramp_time_s` and its other limits the defaults (see
-    /// [`Parked::load`]).
+impl<'a, const K: usize, const C: usize> App<'a, K, C> {
+    /// The default [`DeviceSpec`] at `period_s` with object `object` of `store` loaded into
+    /// `slot`, the safety layer's ramp-in over `ramp_time_s` and its other limits the
+    /// defaults (see [`Parked::load`]).
     pub fn new<const S: usize>(
+        slot: Slot<'a, K, C>,
         store: &SceneStore<K, C, S>,
         object: usize,
         period_s: f32,
         ramp_time_s: f32,
     ) -> Result<Self, AppError> {
-        let (app, loaded) = Parked::new(period_s, ramp_time_s)?.load(store, object);
+        let (app, loaded) = Parked::new(slot, period_s, ramp_time_s)?.load(store, object);
         loaded.map(|()| app)
     }
 
     /// Loads object `object` of `store` in place of the current scene (at a tick boundary:
     /// the renderer waits for its acquisition, then the force ramps in), the passivity
-    /// controller on when the material needs it. On error the current scene stays loaded.
+    /// controller on when the material needs it. The chain is rebuilt in the app's slot
+    /// ([`SceneStore::rebuild_chain`]), so the scene before is gone whatever happens: a
+    /// material the device refuses leaves it loaded (checked first), anything else (an object
+    /// the link's validation would have refused) leaves no scene. Refused while the object is
+    /// lent ([`AppError::Lent`]).
     pub fn load<const S: usize>(
         &mut self,
         store: &SceneStore<K, C, S>,
         object: usize,
     ) -> Result<(), AppError> {
-        let chain = store.chain(object).map_err(|e| app_error(e, object))?;
         let material = store.material(object).ok_or(AppError::NoObject(object))?;
         self.controller
-            .load_scene_as_needed(chain, material, true)
+            .accepts_material(&material, true)
             .map_err(AppError::Controller)?;
-        Ok(())
+        let slot = match self.spare.take() {
+            Some(slot) => slot,
+            None => self.controller.unload_scene().ok_or(AppError::Lent)?,
+        };
+        if let Err(e) = store.rebuild_chain(object, slot) {
+            self.spare = Some(slot);
+            return Err(app_error(e, object));
+        }
+        match self.controller.try_load_scene(slot, material, true) {
+            Ok(_) => Ok(()),
+            Err((slot, e)) => {
+                self.spare = Some(slot);
+                Err(AppError::Controller(e))
+            }
+        }
     }
 
     /// Moves the controller's object onto object `object` of `store`: the same scene with
@@ -198,14 +236,34 @@ impl<const K: usize, const C: usize> App<K, C> {
         command.apply(&mut self.controller, home_counts, true)
     }
 
-    /// The app without its scene.
-    pub fn park(mut self) -> Parked<K, C> {
-        self.controller.unload_scene();
-        Parked {
-            controller: self.controller,
-            seq: self.seq,
-            decimator: self.decimator,
+    /// The acquisition job for the search the renderer waits for, if it waits for one: the
+    /// object itself, lent ([`Controller::lend_for_acquisition`]; the tick renders no force
+    /// until [`App::job_done`] gives it back). `None` while a job is out.
+    pub fn lend_job(&mut self) -> Option<AcquisitionJob<Slot<'a, K, C>>> {
+        self.controller
+            .lend_for_acquisition()
+            .map(|(object, request)| AcquisitionJob { object, request })
+    }
+
+    /// A lent job is back: the object returns to the controller and the renderer starts
+    /// from the search's result (when it is still the scene's, see
+    /// [`Controller::return_from_acquisition`]); `true` when it started.
+    pub fn job_done(&mut self, done: JobDone<Slot<'a, K, C>>) -> bool {
+        match self
+            .controller
+            .return_from_acquisition(done.object, done.acquisition)
+        {
+            Ok(started) => started,
+            Err(slot) => {
+                self.spare = Some(slot);
+                false
+            }
         }
+    }
+
+    /// Whether the object is out with an acquisition job.
+    pub fn job_out(&self) -> bool {
+        self.controller.object_lent()
     }
 
     /// Sends `message` to the host as the app's next frame.
@@ -226,12 +284,12 @@ impl<const K: usize, const C: usize> App<K, C> {
     }
 
     /// The controller.
-    pub fn controller(&self) -> &Controller<Chain<K, C>> {
+    pub fn controller(&self) -> &Controller<Slot<'a, K, C>> {
         &self.controller
     }
 
     /// The controller (for commands the link delivers: calibration, forces, faults).
-    pub fn controller_mut(&mut self) -> &mut Controller<Chain<K, C>> {
+    pub fn controller_mut(&mut self) -> &mut Controller<Slot<'a, K, C>> {
         &mut self.controller
     }
 
@@ -278,7 +336,7 @@ impl<const K: usize, const C: usize> App<K, C> {
 #[cfg_attr(feature = "tick-not-inlined", inline(never))]
 #[cfg_attr(not(feature = "tick-not-inlined"), inline(always))]
 fn controller_tick<const K: usize, const C: usize>(
-    controller: &mut Controller<Chain<K, C>>,
+    controller: &mut Controller<Slot<'_, K, C>>,
     counts: [i32; 2],
     now_us: u64,
     out: &mut TickOutput,
@@ -287,7 +345,7 @@ fn controller_tick<const K: usize, const C: usize>(
 }
 
 /// What a store's refusal to give object `object` as a chain means to the app.
-fn app_error(e: SceneError, object: usize) -> AppError {
+fn app_error(e: WireSceneError, object: usize) -> AppError {
     match e.fault {
         SceneFault::Chain(e) => AppError::Chain(e),
         SceneFault::MixedKinds => AppError::NotPlanar(object),
@@ -299,38 +357,41 @@ fn app_error(e: SceneError, object: usize) -> AppError {
 /// `Controller::complete_acquisition`.
 pub type ChainAcquisition = Acquisition<ChainTracker>;
 
-/// What a board's tick asks its acquisition task for: the global closest-point search on
-/// object 0 of the store it renders, from the request's HIP. Made only by
-/// [`TickScenes::lend_job`](crate::swap::TickScenes::lend_job), which counts the store as
-/// read until the job's [`JobDone`] comes back.
+/// What a board's tick asks its acquisition task for: the global closest-point search on the
+/// object, from the request's HIP. Made only by [`App::lend_job`], with the object itself (the
+/// tick has none until the job's [`JobDone`] comes back).
 #[derive(Debug)]
-pub struct AcquisitionJob<T: 'static> {
-    store: &'static T,
+pub struct AcquisitionJob<O> {
+    object: O,
     request: AcquisitionRequest,
 }
 
-impl<T> AcquisitionJob<T> {
-    pub(crate) fn new(store: &'static T, request: AcquisitionRequest) -> Self {
-        AcquisitionJob { store, request }
+/// A finished [`AcquisitionJob`]: its object and the search's result, for [`App::job_done`].
+#[derive(Debug)]
+pub struct JobDone<O> {
+    object: O,
+    acquisition: Option<ChainAcquisition>,
+}
+
+impl<O> AcquisitionJob<O> {
+    /// The job not run (it could not be sent): its object, back to [`App::job_done`].
+    pub fn refused(self) -> JobDone<O> {
+        JobDone {
+            object: self.object,
+            acquisition: None,
+        }
     }
 }
 
-/// A finished [`AcquisitionJob`]: made only by [`run_job`], after the search stopped reading
-/// the job's store (so handing it back to the tick ends the job's hold on the store).
-#[derive(Debug)]
-pub struct JobDone {
-    pub(crate) acquisition: Option<ChainAcquisition>,
-}
-
-/// Runs one job: the job's object rebuilt from its store (the same chain as the controller's,
-/// see [`chain`]) and the global search on it. The result is `None` when the object could not
-/// be built (not expected: the tick loaded it); either way the job is over. Not inlined, so
-/// that its frame (a chain and the search) exists only while it runs.
+/// Runs one job: the global search on the job's object. Not inlined, so that its frame (the
+/// search) exists only while it runs.
 #[inline(never)]
-pub fn run_job<const K: usize, const C: usize, const S: usize>(
-    job: AcquisitionJob<SceneStore<K, C, S>>,
-) -> JobDone {
+pub fn run_job<const K: usize, const C: usize>(
+    job: AcquisitionJob<Slot<'_, K, C>>,
+) -> JobDone<Slot<'_, K, C>> {
+    let acquisition = acquire(&job.object, job.request);
     JobDone {
-        acquisition: job.store.chain(0).ok().map(|c| acquire(&c, job.request)),
+        object: job.object,
+        acquisition: Some(acquisition),
     }
 }

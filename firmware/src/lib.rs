@@ -15,7 +15,7 @@ pub mod netduino;
 #[cfg(feature = "board")]
 pub mod protocol_task;
 pub mod scenario;
-pub mod swap;
+pub mod handover;
 #[cfg(feature = "board")]
 pub mod usb;
 

@@ -1,9 +1,9 @@
 //! The board's protocol task, its lowest priority: host frames through the session (whose
-//! receiver validates an upload, or a control-point update, into the staging store), commands
-//! and committed stores to the tick, replies to USB; and the acquisition jobs the tick hands
-//! out. Both build chains (the
-//! validation, the search's object), so they run in one task, one after the other, and their
-//! stack frames never add up.
+//! receiver validates an upload, or a control-point update, into the board's one store),
+//! commands and the committed store to the tick, replies to USB; and the acquisition jobs the
+//! tick hands out (the search on the tick's own chain, lent). The validation builds a chain
+//! and the search is deep, so they run in one task, one after the other, and their stack
+//! frames never add up.
 //!
 //! The tick and this task share lock-free single-producer single-consumer queues
 //! (`heapless::spsc`, the lengths below) and [`TickShared`]'s atomics, nothing else, so nothing
@@ -15,8 +15,8 @@ use device::protocol::{ErrorCode, MAX_FRAME, Message, SceneStore};
 use device::session::{DeviceCommand, DeviceSession, DeviceState, Event};
 use heapless::spsc::{Consumer, Producer};
 
-use crate::app::{AcquisitionJob, JobDone, run_job};
-use crate::swap::{Incoming, Staging, Validator};
+use crate::app::{AcquisitionJob, JobDone, Slot, run_job};
+use crate::handover::{Incoming, Validator};
 
 /// One USB HID report: one protocol frame, zero-padded.
 pub type Report = [u8; MAX_FRAME];
@@ -29,8 +29,8 @@ pub const FRAMES: usize = 4;
 pub const REPORTS: usize = 4;
 /// The protocol task's replies waiting for USB.
 pub const REPLIES: usize = 4;
-/// Committed and freed stores: both can be in flight at once, so neither queue overflows.
-pub const STORES: usize = 3;
+/// The committed store to the tick and back: one store, so neither queue overflows.
+pub const STORES: usize = 2;
 /// Acquisition jobs and their results: one at a time.
 pub const JOBS: usize = 2;
 
@@ -41,9 +41,8 @@ pub struct TickShared {
     status: AtomicU32,
     /// What the committed store waiting for the tick is for ([`Incoming`]: 1 a scene, 2 a
     /// control-point update; 0 none): set here before it is queued, cleared by the tick once
-    /// it swapped it in or refused it. No other upload or update is validated meanwhile, so
-    /// the tick's swap (which builds a chain) and the validation (which builds one too) never
-    /// preempt each other: their stack frames do not add up.
+    /// it took it in or refused it. No other upload or update is validated meanwhile (the
+    /// store is with the tick).
     pending: AtomicU8,
     /// Why the tick refused the last command (an [`ErrorCode`], 0 for none), for the next
     /// status.
@@ -75,7 +74,7 @@ impl TickShared {
         }
     }
 
-    /// The tick swapped the pending store in, or refused it.
+    /// The tick took the pending store in, or refused it.
     pub fn commit_done(&self) {
         self.pending.store(PENDING_NONE, Ordering::Release);
     }
@@ -107,40 +106,41 @@ pub enum Step {
     Received,
 }
 
-/// The protocol task's state: a session with scene capacity `N` validating into stores `T`.
-pub struct Protocol<const N: usize, T: 'static> {
+/// The protocol task's state: a session with scene capacity `N` validating into the store
+/// `T`; the tick's chains have `K` knots and `C` points.
+pub struct Protocol<const N: usize, T: 'static, const K: usize, const C: usize> {
     /// The device side of the link.
     pub session: &'static mut DeviceSession<N>,
     /// What the tick shares with this task.
     pub shared: &'static TickShared,
-    /// The store the next commit is validated into; `None` while both are with the tick.
-    pub staging: Option<Staging<T>>,
+    /// The store the next commit is validated into; `None` while it is with the tick.
+    pub store: Option<&'static mut T>,
     /// Host reports from USB.
     pub reports: Consumer<'static, Report, REPORTS>,
     /// Replies to USB.
     pub replies: Producer<'static, Message, REPLIES>,
     /// Commands to the tick.
     pub commands: Producer<'static, DeviceCommand, COMMANDS>,
-    /// Committed stores to the tick.
-    pub commits: Producer<'static, Staging<T>, STORES>,
-    /// Stores the tick is done with.
-    pub freed: Consumer<'static, Staging<T>, STORES>,
+    /// The committed store to the tick.
+    pub commits: Producer<'static, &'static mut T, STORES>,
+    /// The store back from the tick.
+    pub freed: Consumer<'static, &'static mut T, STORES>,
     /// Acquisition jobs from the tick.
-    pub jobs: Consumer<'static, AcquisitionJob<T>, JOBS>,
+    pub jobs: Consumer<'static, AcquisitionJob<Slot<'static, K, C>>, JOBS>,
     /// Their results to the tick.
-    pub results: Producer<'static, JobDone, JOBS>,
+    pub results: Producer<'static, JobDone<Slot<'static, K, C>>, JOBS>,
 }
 
-impl<const N: usize, T> core::fmt::Debug for Protocol<N, T> {
+impl<const N: usize, T, const K: usize, const C: usize> core::fmt::Debug for Protocol<N, T, K, C> {
     fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
         f.debug_struct("Protocol")
-            .field("staging", &self.staging)
+            .field("store_here", &self.store.is_some())
             .finish_non_exhaustive()
     }
 }
 
 impl<const N: usize, const K: usize, const C: usize, const S: usize>
-    Protocol<N, SceneStore<K, C, S>>
+    Protocol<N, SceneStore<K, C, S>, K, C>
 {
     /// Handles what is waiting: an acquisition job first, else one host report.
     pub fn step(&mut self) -> Step {
@@ -158,18 +158,17 @@ impl<const N: usize, const K: usize, const C: usize, const S: usize>
 
     /// Handles one host report. Not inlined (nor is [`run_job`]), so that the task's own
     /// frame stays small and the big frames (the validation's, the search's) exist only while
-    /// they run: the tick's swap never stacks on them (see [`TickShared`],
-    /// `TickScenes::swap_in`).
+    /// they run.
     #[inline(never)]
     fn receive(&mut self, bytes: &[u8]) {
-        if self.staging.is_none() {
-            self.staging = self.freed.dequeue();
+        if self.store.is_none() {
+            self.store = self.freed.dequeue();
         }
-        // While the previous commit or update is not swapped in (both stores are with the
-        // tick, or the tick is about to swap), a commit or an update's apply frame is refused
-        // as busy: the upload stays, its commit may be sent again.
+        // While the previous commit or update is not taken in (the store is with the tick, or
+        // the tick is about to take it), a commit or an update's apply frame is refused as
+        // busy: the upload stays, its commit may be sent again.
         let pending = self.shared.pending().is_some();
-        let mut validate = Validator::new(&mut self.staging, pending);
+        let mut validate = Validator::new(&mut self.store, pending);
         if let Some(code) = ErrorCode::from_u8(self.shared.command_error.swap(0, Ordering::AcqRel))
         {
             self.session.note_error(code);
@@ -193,10 +192,10 @@ impl<const N: usize, const K: usize, const C: usize, const S: usize>
             Event::ScenePointsUpdated { object: 0 } => Some(PENDING_POINTS),
             _ => None,
         };
-        // The queue has room for both stores, so it is always ready here.
+        // The queue has room for the store, so it is always ready here.
         if let Some(kind) = incoming
             && self.commits.ready()
-            && let Some(store) = self.staging.take()
+            && let Some(store) = self.store.take()
         {
             self.shared.pending.store(kind, Ordering::Release);
             let _ = self.commits.enqueue(store);

@@ -268,6 +268,13 @@ struct Scene<O: Object<P = Vec2>> {
     state: SceneState<O>,
 }
 
+/// A scene whose object is out with an acquisition task: what it goes back into.
+#[derive(Clone, Copy, Debug)]
+struct LentScene {
+    material: FrictionMaterial,
+    generation: u32,
+}
+
 /// Where a loaded scene's renderer is: waiting for the acquisition that starts it, or
 /// rendering. (The object stays in [`Scene`]: a chain is a few KiB, and moving it from one
 /// variant to the other would copy it on the tick's stack.)
@@ -340,6 +347,9 @@ pub struct Controller<O: Object<P = Vec2>> {
     period_s: f32,
     period_us: u64,
     scene: Option<Scene<O>>,
+    /// The scene whose object is lent to an acquisition task
+    /// ([`Controller::lend_for_acquisition`]): `scene` is `None` meanwhile.
+    lent: Option<LentScene>,
     forces_enabled: bool,
     heartbeat_pending: bool,
     /// Clock reading of the tick that stamped the last heartbeat (the first tick, before any).
@@ -373,6 +383,7 @@ impl<O: Object<P = Vec2>> Controller<O> {
             period_s: config.period_s,
             period_us: config.period_us(),
             scene: None,
+            lent: None,
             forces_enabled: false,
             heartbeat_pending: false,
             last_heartbeat_us: None,
@@ -446,6 +457,7 @@ impl<O: Object<P = Vec2>> Controller<O> {
     /// passivity controller as given: the material was accepted, or is measured.
     fn install_scene(&mut self, object: O, material: FrictionMaterial, passivity_control: bool) {
         self.use_material(&material, passivity_control);
+        self.lent = None;
         self.scene = Some(Scene {
             object,
             material,
@@ -476,15 +488,49 @@ impl<O: Object<P = Vec2>> Controller<O> {
         object: O,
         material: FrictionMaterial,
         allow_passivity_control: bool,
-    ) -> Result<bool, ControllerError>
-    where
-        O: Clone,
-    {
-        match self.load_scene(object.clone(), material, false) {
-            Err(ControllerError::Passivity(_)) if allow_passivity_control => {
-                self.load_scene(object, material, true).map(|()| true)
+    ) -> Result<bool, ControllerError> {
+        self.try_load_scene(object, material, allow_passivity_control)
+            .map_err(|(_, e)| e)
+    }
+
+    /// [`Controller::load_scene_as_needed`] that hands `object` back with the error, for a
+    /// device whose object is a slot it must not lose.
+    pub fn try_load_scene(
+        &mut self,
+        object: O,
+        material: FrictionMaterial,
+        allow_passivity_control: bool,
+    ) -> Result<bool, (O, ControllerError)> {
+        match self.accepts_material(&material, allow_passivity_control) {
+            Ok(passivity_control) => {
+                self.install_scene(object, material, passivity_control);
+                Ok(passivity_control)
             }
-            other => other.map(|()| false),
+            Err(e) => Err((object, e)),
+        }
+    }
+
+    /// Whether the loaded object is lent to an acquisition
+    /// ([`Controller::lend_for_acquisition`]) and not back yet.
+    pub fn object_lent(&self) -> bool {
+        self.lent.is_some()
+    }
+
+    /// Whether [`Controller::load_scene_as_needed`] would load a scene of `material`, and
+    /// with the passivity controller on (`Ok(true)`) or off: the check alone, nothing
+    /// changes. A device that keeps its object in a slot of its own checks first, so that a
+    /// load it then makes cannot be refused.
+    pub fn accepts_material(
+        &self,
+        material: &FrictionMaterial,
+        allow_passivity_control: bool,
+    ) -> Result<bool, ControllerError> {
+        match self.accept_material(material, false) {
+            Ok(()) => Ok(false),
+            Err(ControllerError::Passivity(_)) if allow_passivity_control => {
+                self.accept_material(material, true).map(|()| true)
+            }
+            Err(e) => Err(e),
         }
     }
 
@@ -510,13 +556,16 @@ impl<O: Object<P = Vec2>> Controller<O> {
         material: FrictionMaterial,
         passivity_control: bool,
     ) -> Result<(), ControllerError> {
-        if self.scene.is_none() {
+        if self.scene.is_none() && self.lent.is_none() {
             return Err(ControllerError::NoScene);
         }
         self.accept_material(&material, passivity_control)?;
         self.use_material(&material, passivity_control);
         if let Some(scene) = self.scene.as_mut() {
             scene.material = material;
+        }
+        if let Some(lent) = self.lent.as_mut() {
+            lent.material = material;
         }
         self.reacquire();
         Ok(())
@@ -581,8 +630,49 @@ impl<O: Object<P = Vec2>> Controller<O> {
         self.complete_acquisition(acquisition)
     }
 
-    fn accept_material(
+    /// The board's half of an acquisition ([`acquire`] runs in another task): when the
+    /// renderer waits for one ([`Controller::acquisition_request`]), the loaded object is
+    /// taken out and lent with the request. The tick needs no object meanwhile (it renders no
+    /// force until the acquisition comes back), so the search reads the object itself while
+    /// the tick runs, and nothing is copied (a device lends `&'static mut Chain`). While lent,
+    /// the controller has no object ([`Controller::object`] is `None`; a reshape is refused as
+    /// [`ControllerError::NoScene`]); a material change is kept and makes the search stale.
+    /// Give the object back with [`Controller::return_from_acquisition`].
+    pub fn lend_for_acquisition(&mut self) -> Option<(O, AcquisitionRequest)> {
+        let request = self.acquisition_request()?;
+        let scene = self.scene.take()?;
+        self.lent = Some(LentScene {
+            material: scene.material,
+            generation: scene.generation,
+        });
+        Some((scene.object, request))
+    }
+
+    /// Takes back the object [`Controller::lend_for_acquisition`] lent, with the search's
+    /// result (`None`: the search did not run), and starts the renderer from it as
+    /// [`Controller::complete_acquisition`] does; `Ok(true)` when the renderer started,
+    /// `Ok(false)` when the result was stale or missing (the renderer waits for a new one).
+    /// `Err(object)` hands the object back to the caller when the controller no longer waits
+    /// for it: a scene was loaded or unloaded meanwhile.
+    pub fn return_from_acquisition(
         &mut self,
+        object: O,
+        acquisition: Option<Acquisition<O::State>>,
+    ) -> Result<bool, O> {
+        let Some(lent) = self.lent.take() else {
+            return Err(object);
+        };
+        self.scene = Some(Scene {
+            object,
+            material: lent.material,
+            generation: lent.generation,
+            state: SceneState::AwaitingAcquisition { request_hip: None },
+        });
+        Ok(acquisition.is_some_and(|a| self.complete_acquisition(a)))
+    }
+
+    fn accept_material(
+        &self,
         material: &FrictionMaterial,
         passivity_control: bool,
     ) -> Result<(), ControllerError> {
@@ -715,6 +805,7 @@ impl<O: Object<P = Vec2>> Controller<O> {
             period_s: self.period_s,
             period_us: self.period_us,
             scene,
+            lent: None,
             forces_enabled: self.forces_enabled,
             heartbeat_pending: self.heartbeat_pending,
             last_heartbeat_us: self.last_heartbeat_us,
@@ -747,10 +838,12 @@ impl<O: Object<P = Vec2>> Controller<O> {
         self.forces_enabled
     }
 
-    /// Drops the scene: no object, no force.
-    pub fn unload_scene(&mut self) {
-        self.scene = None;
+    /// Drops the scene: no object, no force. Returns the object (`None` without a scene, or
+    /// while it is lent: then [`Controller::return_from_acquisition`] hands it back).
+    pub fn unload_scene(&mut self) -> Option<O> {
+        self.lent = None;
         self.bump_generation();
+        self.scene.take().map(|scene| scene.object)
     }
 
     /// Starts an identification run from the next tick (see [`Excitation`]): the renderer
@@ -784,6 +877,10 @@ impl<O: Object<P = Vec2>> Controller<O> {
         if let Some(scene) = self.scene.as_mut() {
             scene.generation = generation;
             scene.state = SceneState::AwaitingAcquisition { request_hip: None };
+        }
+        // An acquisition out for the scene before is stale when it comes back.
+        if let Some(lent) = self.lent.as_mut() {
+            lent.generation = generation;
         }
         self.safety.restart_ramp_and_observer();
     }

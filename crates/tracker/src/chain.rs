@@ -225,6 +225,44 @@ struct Piece {
     window: (u16, u16),
 }
 
+impl Piece {
+    const EMPTY: Piece = Piece {
+        degree: 0,
+        knots: (0, 0),
+        points: (0, 0),
+        window: (0, 0),
+    };
+}
+
+/// A vertex slot no vertex fills yet.
+const BLANK_VERTEX: Vertex = Vertex {
+    position: Vec2::ZERO,
+    incoming: None,
+    outgoing: None,
+    t_in: Vec2::X,
+    t_out: Vec2::X,
+    kind: VertexKind::End,
+};
+
+/// A vertex slot of [`Chain::EMPTY`]: all zero bits (as every field of it), so that a board's
+/// static chain is zero-initialised (`.bss`, no flash image). No vertex is read past a
+/// chain's vertex count.
+const ZERO_VERTEX: Vertex = Vertex {
+    position: Vec2::ZERO,
+    incoming: None,
+    outgoing: None,
+    t_in: Vec2::ZERO,
+    t_out: Vec2::ZERO,
+    kind: VertexKind::Smooth,
+};
+
+/// A jet slot no curve end fills yet.
+const ZERO_JET: Jet<Vec2, 1> = Jet {
+    point: Vec2::ZERO,
+    d: [Vec2::ZERO],
+    dd: [[Vec2::ZERO]],
+};
+
 /// A validated chain of planar curves, oriented so that `n = t × k̂` points out of the object
 /// (counter-clockwise when closed), with its vertex regions.
 ///
@@ -269,37 +307,50 @@ impl<const KNOTS: usize, const POINTS: usize> Chain<KNOTS, POINTS> {
     /// knots of full multiplicity), checks that consecutive curves join, detects whether the
     /// chain closes, checks the orientation of closed chains and computes the vertex regions.
     pub fn from_curves(given: &[Curve<'_, Vec2>]) -> Result<Self, ChainError> {
+        let mut chain = Self::EMPTY;
+        chain.rebuild(given)?;
+        Ok(chain)
+    }
+
+    /// A chain of no curves, all of its storage zero: what a board's static chain slot starts
+    /// as, to be [rebuilt](Chain::rebuild) in place. No object is made of it (every chain
+    /// constructor refuses no curves, [`ChainError::Empty`]).
+    pub const EMPTY: Self = Chain {
+        knots: [0.0; KNOTS],
+        points: [Vec3::ZERO; POINTS],
+        pieces: [Piece::EMPTY; MAX_CHAIN_CURVES],
+        n_curves: 0,
+        source: [0; MAX_CHAIN_CURVES],
+        periodic: [false; MAX_CHAIN_CURVES],
+        closed: false,
+        vertices: [ZERO_VERTEX; MAX_CHAIN_CURVES + 1],
+        n_vertices: 0,
+        end_jets: [[ZERO_JET; 2]; MAX_CHAIN_CURVES],
+    };
+
+    /// [`Chain::from_curves`] in place: this chain becomes the chain of `given`, its storage
+    /// reused (no chain is built anywhere else: for a device whose stacks cannot hold one).
+    /// On error the chain is left with no curves ([`Chain::curve_count`] 0) and must not be
+    /// rendered until rebuilt.
+    pub fn rebuild(&mut self, given: &[Curve<'_, Vec2>]) -> Result<(), ChainError> {
+        let result = self.rebuild_from(given);
+        if result.is_err() {
+            self.n_curves = 0;
+            self.n_vertices = 0;
+            self.closed = false;
+        }
+        result
+    }
+
+    /// Whether there are curves, not too many, and their knots and control points fit this
+    /// chain's capacities (the first checks, in the order [`Chain::from_curves`] reports them).
+    fn check_capacity(given: &[Curve<'_, Vec2>]) -> Result<(), ChainError> {
         if given.is_empty() {
             return Err(ChainError::Empty);
         }
         if given.len() > MAX_CHAIN_CURVES {
             return Err(ChainError::TooManyCurves { count: given.len() });
         }
-        let zero = Jet {
-            point: Vec2::ZERO,
-            d: [Vec2::ZERO],
-            dd: [[Vec2::ZERO]],
-        };
-        let blank = Vertex {
-            position: Vec2::ZERO,
-            incoming: None,
-            outgoing: None,
-            t_in: Vec2::X,
-            t_out: Vec2::X,
-            kind: VertexKind::End,
-        };
-        let mut chain = Chain {
-            knots: [0.0; KNOTS],
-            points: [Vec3::ZERO; POINTS],
-            pieces: [Piece::default(); MAX_CHAIN_CURVES],
-            n_curves: 0,
-            source: [0; MAX_CHAIN_CURVES],
-            periodic: [false; MAX_CHAIN_CURVES],
-            closed: false,
-            vertices: [blank; MAX_CHAIN_CURVES + 1],
-            n_vertices: 0,
-            end_jets: [[zero; 2]; MAX_CHAIN_CURVES],
-        };
         let (n_knots, n_points) = given.iter().fold((0, 0), |(k, p), c| {
             (k + c.knots().as_slice().len(), p + c.points().len())
         });
@@ -311,51 +362,49 @@ impl<const KNOTS: usize, const POINTS: usize> Chain<KNOTS, POINTS> {
                 point_capacity: POINTS,
             });
         }
+        Ok(())
+    }
+
+    fn rebuild_from(&mut self, given: &[Curve<'_, Vec2>]) -> Result<(), ChainError> {
+        self.n_curves = 0;
+        self.n_vertices = 0;
+        self.closed = false;
+        let chain = self;
+        Self::check_capacity(given)?;
+        let pieces = Pieces::of(given)?;
+        // Each given curve's data, one after the other; where each curve's starts.
+        let mut offsets = [(0u16, 0u16, 0u16, 0u16); MAX_CHAIN_CURVES];
         let (mut k0, mut p0) = (0, 0);
-        let mut n = 0;
-        for (i, c) in given.iter().enumerate() {
+        for (c, at) in given.iter().zip(offsets.iter_mut()) {
             let (knots, points) = (c.knots().as_slice(), c.points());
             let (k1, p1) = (k0 + knots.len(), p0 + points.len());
             chain.knots[k0..k1].copy_from_slice(knots);
             chain.points[p0..p1].copy_from_slice(points);
-            crate::split::curve_pieces(c, |piece| {
-                if let Some(slot) = chain.pieces.get_mut(n) {
-                    let (first, last) = piece.knots().bounds();
-                    *slot = Piece {
-                        degree: c.degree() as u8,
-                        knots: (k0 as u16, k1 as u16),
-                        points: (p0 as u16, p1 as u16),
-                        window: (first as u16, last as u16),
-                    };
-                    chain.source[n] = i as u16;
-                }
-                n += 1;
-            });
+            *at = (k0 as u16, k1 as u16, p0 as u16, p1 as u16);
             (k0, p0) = (k1, p1);
         }
-        if n > MAX_CHAIN_CURVES {
-            return Err(ChainError::TooManyPieces {
-                count: given.len(),
-                pieces: n,
-            });
+        let n = pieces.n;
+        for ((slot, source), (piece, &from)) in chain
+            .pieces
+            .iter_mut()
+            .zip(chain.source.iter_mut())
+            .zip(pieces.curves().zip(pieces.source.iter()))
+        {
+            let (first, last) = piece.knots().bounds();
+            let (k0, k1, p0, p1) = offsets[usize::from(from).min(MAX_CHAIN_CURVES - 1)];
+            *slot = Piece {
+                degree: piece.degree() as u8,
+                knots: (k0, k1),
+                points: (p0, p1),
+                window: (first as u16, last as u16),
+            };
+            *source = from;
         }
         chain.n_curves = n;
+        let closed = pieces.closed;
+        chain.closed = closed;
         let start = |c: &Curve<'_, Vec2>| c.point(c.domain().0);
         let end = |c: &Curve<'_, Vec2>| c.point(c.domain().1);
-        for i in 1..n {
-            let gap = (start(&chain.curve(i)) - end(&chain.curve(i - 1))).length();
-            if gap > JOIN_TOL_M {
-                return Err(ChainError::Gap {
-                    curve: usize::from(chain.source[i]),
-                    gap_m: gap,
-                });
-            }
-        }
-        let closed = (start(&chain.curve(0)) - end(&chain.curve(n - 1))).length() <= JOIN_TOL_M;
-        if closed && signed_area(&chain) < 0.0 {
-            return Err(ChainError::Clockwise);
-        }
-        chain.closed = closed;
         chain.n_vertices = if closed { n } else { n + 1 };
         for i in 0..n {
             let c = chain.curve(i);
@@ -364,7 +413,7 @@ impl<const KNOTS: usize, const POINTS: usize> Chain<KNOTS, POINTS> {
             chain.periodic[i] = periodic;
             chain.end_jets[i] = jets;
         }
-        let this = &chain;
+        let this = &*chain;
         let tangent = |i: usize, at_end: bool| {
             let c = this.curve(i);
             let (a, b) = c.domain();
@@ -374,12 +423,12 @@ impl<const KNOTS: usize, const POINTS: usize> Chain<KNOTS, POINTS> {
             let c = this.curve(i);
             if at_end { end(&c) } else { start(&c) }
         };
-        let mut vertices = [blank; MAX_CHAIN_CURVES + 1];
+        let mut vertices = [BLANK_VERTEX; MAX_CHAIN_CURVES + 1];
         for (k, v) in vertices.iter_mut().enumerate().take(chain.n_vertices) {
             *v = vertex(k, n, closed, tangent, point);
         }
         chain.vertices = vertices;
-        Ok(chain)
+        Ok(())
     }
 
     /// Piece `i` of the chain (the last one past the end): a view onto the chain's data.
@@ -723,10 +772,124 @@ impl ChainTopology {
 }
 
 /// Signed area of a closed chain, from a sampled polygon (positive counter-clockwise).
-fn signed_area<const K: usize, const P: usize>(chain: &Chain<K, P>) -> f32 {
+/// A chain's pieces (the given curves split at their corners) as views of the given curves,
+/// nothing copied, after the checks every chain passes (no curves or too many, pieces that
+/// do not join, a closed chain turning clockwise): what building a chain
+/// ([`Chain::rebuild`]) and checking one ([`Chain::check`], [`Chain::topology_of`]) share.
+struct Pieces<'c> {
+    views: [Curve<'c, Vec2>; MAX_CHAIN_CURVES],
+    source: [u16; MAX_CHAIN_CURVES],
+    n: usize,
+    closed: bool,
+}
+
+impl<'c> Pieces<'c> {
+    fn of(given: &[Curve<'c, Vec2>]) -> Result<Self, ChainError> {
+        let Some(&first) = given.first() else {
+            return Err(ChainError::Empty);
+        };
+        if given.len() > MAX_CHAIN_CURVES {
+            return Err(ChainError::TooManyCurves { count: given.len() });
+        }
+        let mut pieces = Pieces {
+            views: [first; MAX_CHAIN_CURVES],
+            source: [0; MAX_CHAIN_CURVES],
+            n: 0,
+            closed: false,
+        };
+        for (i, c) in given.iter().enumerate() {
+            crate::split::curve_pieces(c, |piece| {
+                if let Some(view) = pieces.views.get_mut(pieces.n) {
+                    *view = piece;
+                    pieces.source[pieces.n] = i as u16;
+                }
+                pieces.n += 1;
+            });
+        }
+        let n = pieces.n;
+        if n > MAX_CHAIN_CURVES {
+            return Err(ChainError::TooManyPieces {
+                count: given.len(),
+                pieces: n,
+            });
+        }
+        let start = |c: &Curve<'_, Vec2>| c.point(c.domain().0);
+        let end = |c: &Curve<'_, Vec2>| c.point(c.domain().1);
+        for (i, pair) in pieces.views[..n].windows(2).enumerate() {
+            let gap = (start(&pair[1]) - end(&pair[0])).length();
+            if gap > JOIN_TOL_M {
+                return Err(ChainError::Gap {
+                    curve: usize::from(pieces.source[i + 1]),
+                    gap_m: gap,
+                });
+            }
+        }
+        let closed = (start(&pieces.views[0]) - end(&pieces.views[n - 1])).length() <= JOIN_TOL_M;
+        if closed && signed_area(pieces.curves()) < 0.0 {
+            return Err(ChainError::Clockwise);
+        }
+        pieces.closed = closed;
+        Ok(pieces)
+    }
+
+    fn curves(&self) -> impl Iterator<Item = Curve<'c, Vec2>> + '_ {
+        self.views[..self.n].iter().copied()
+    }
+}
+
+impl<const KNOTS: usize, const POINTS: usize> Chain<KNOTS, POINTS> {
+    /// Whether `given` makes a chain of these capacities (`Ok`), or the error
+    /// [`Chain::from_curves`] would give, without building it (the curves are read in place:
+    /// for a device's link, which validates a scene on a small stack).
+    pub fn check(given: &[Curve<'_, Vec2>]) -> Result<(), ChainError> {
+        Self::topology_of(given).map(drop)
+    }
+
+    /// The [`Chain::topology`] of the chain `given` makes, or the error
+    /// [`Chain::from_curves`] would give, without building it.
+    pub fn topology_of(given: &[Curve<'_, Vec2>]) -> Result<ChainTopology, ChainError> {
+        Self::check_capacity(given)?;
+        let pieces = Pieces::of(given)?;
+        let (n, closed) = (pieces.n, pieces.closed);
+        let mut topology = ChainTopology {
+            pieces: n as u8,
+            closed,
+            source: pieces.source,
+            periodic: [false; MAX_CHAIN_CURVES],
+            domains: [(0.0, 0.0); MAX_CHAIN_CURVES],
+            kinds: [VertexKind::End; MAX_CHAIN_CURVES + 1],
+        };
+        for ((c, periodic), domain) in pieces
+            .curves()
+            .zip(topology.periodic.iter_mut())
+            .zip(topology.domains.iter_mut())
+        {
+            *periodic = c.is_closed(PERIODIC_TOL);
+            *domain = c.domain();
+        }
+        let views = &pieces.views;
+        let tangent = |i: usize, at_end: bool| {
+            let c = &views[i.min(MAX_CHAIN_CURVES - 1)];
+            let (a, b) = c.domain();
+            c.frame(if at_end { b } else { a }).tangent
+        };
+        let point = |i: usize, at_end: bool| {
+            let c = &views[i.min(MAX_CHAIN_CURVES - 1)];
+            let (a, b) = c.domain();
+            c.point(if at_end { b } else { a })
+        };
+        let n_vertices = if closed { n } else { n + 1 };
+        for (k, kind) in topology.kinds.iter_mut().enumerate().take(n_vertices) {
+            *kind = vertex(k, n, closed, tangent, point).kind;
+        }
+        Ok(topology)
+    }
+}
+
+fn signed_area<'c>(curves: impl Iterator<Item = Curve<'c, Vec2>>) -> f32 {
     const SAMPLES: usize = 32;
     let mut area = 0.0;
-    for c in chain.curves() {
+    for c in curves {
         let (a, b) = c.domain();
         let mut prev = c.point(a);
         for s in 1..=SAMPLES {

@@ -186,6 +186,107 @@ impl<const K: usize, const P: usize> Object for Chain<K, P> {
     }
 }
 
+/// An object held by a unique reference is that object: a device keeps its chain in a static
+/// slot and gives the controller `&'static mut Chain` (moved between tasks as a pointer, and
+/// lent to the acquisition task whole, with nothing copied).
+impl<O: Object + ?Sized> Object for &mut O {
+    type P = O::P;
+    type State = O::State;
+    type Topology = O::Topology;
+
+    #[inline]
+    fn start(&self, hip: Self::P, cfg: TrackerConfig) -> Self::State {
+        (**self).start(hip, cfg)
+    }
+
+    #[inline]
+    fn track(
+        &self,
+        state: &mut Self::State,
+        hip: Self::P,
+        period_s: f32,
+        allow_switch: bool,
+    ) -> Contact<Self::P> {
+        (**self).track(state, hip, period_s, allow_switch)
+    }
+
+    #[inline]
+    fn feature(state: &Self::State) -> Feature {
+        O::feature(state)
+    }
+
+    #[inline]
+    fn set_sliding(state: &mut Self::State, sliding: bool) {
+        O::set_sliding(state, sliding);
+    }
+
+    #[inline]
+    fn position(state: &Self::State) -> (usize, [f32; 2]) {
+        O::position(state)
+    }
+
+    #[inline]
+    fn place(&self, state: &mut Self::State, patch: usize, params: [f32; 2]) {
+        (**self).place(state, patch, params);
+    }
+
+    #[inline]
+    fn state_frame(&self, state: &Self::State) -> PatchFrame<Self::P> {
+        (**self).state_frame(state)
+    }
+
+    #[inline]
+    fn frame(&self, patch: usize, params: [f32; 2]) -> PatchFrame<Self::P> {
+        (**self).frame(patch, params)
+    }
+
+    #[inline]
+    fn offset(
+        &self,
+        patch: usize,
+        params: [f32; 2],
+        at: &PatchFrame<Self::P>,
+        displacement: Self::P,
+    ) -> [f32; 2] {
+        (**self).offset(patch, params, at, displacement)
+    }
+
+    #[inline]
+    fn patch_count(&self) -> usize {
+        (**self).patch_count()
+    }
+
+    #[inline]
+    fn source_patch(&self, patch: usize) -> usize {
+        (**self).source_patch(patch)
+    }
+
+    #[inline]
+    fn topology(&self) -> Self::Topology {
+        (**self).topology()
+    }
+
+    #[inline]
+    fn point(&self, patch: usize, params: [f32; 2]) -> Self::P {
+        (**self).point(patch, params)
+    }
+
+    #[inline]
+    fn state_point(state: &Self::State) -> Self::P {
+        O::state_point(state)
+    }
+
+    #[inline]
+    fn state_derivatives(state: &Self::State) -> [Self::P; 2] {
+        O::state_derivatives(state)
+    }
+
+    #[inline]
+    fn refresh(&self, state: &mut Self::State) {
+        (**self).refresh(state);
+    }
+}
+
 impl Object for Shell<'_> {
     type P = Vec3;
     type State = ShellTracker;

@@ -35,12 +35,13 @@
 use device::board_io::{Extend16, LedPattern, pwm_duty};
 use device::protocol::{MAX_FRAME, Message, SceneStore};
 use device::session::{DeviceCommand, DeviceSession, DeviceState};
-use firmware::app::{AcquisitionJob, App, JobDone, Parked};
+use firmware::app::{AcquisitionJob, App, JobDone, Parked, Slot};
 use firmware::board::Board;
 use firmware::protocol_task::{
     COMMANDS, FRAMES, JOBS, Protocol, REPLIES, REPORTS, Report, STORES, Step, TickShared,
 };
-use firmware::swap::{SceneBuffers, Staging, TickScenes};
+use firmware::handover;
+use tracker::Chain;
 use firmware::usb::Usb;
 use stm32f4xx_hal::gpio::{Output, PB12, PB13, PB14, PC13};
 use stm32f4xx_hal::pac;
@@ -84,15 +85,14 @@ const PWM_HZ: u32 = 20_000;
 /// validation, 10 KiB of stack, out of the link task). About 3 KiB.
 type BoardStore = SceneStore<128, 96, 0>;
 /// The app on a [`BoardStore`]'s object (its own copy of it, at the store's capacities).
-type BoardApp = App<128, 96>;
+type BoardApp = App<'static, 128, 96>;
+/// The app's chain slot.
+type BoardChain = Chain<128, 96>;
+/// The slot as the app and the acquisition job hold it.
+type BoardSlot = Slot<'static, 128, 96>;
 /// The largest wire scene the board receives (bytes); the receiver holds two.
 const SCENE_CAPACITY: usize = 1792;
 type Link = DeviceSession<SCENE_CAPACITY>;
-
-/// The two scene stores: one rendered by the tick, one the link decodes uploads into.
-/// All zero bits when empty, so in `.bss`.
-static SCENES: SceneBuffers<BoardStore> =
-    SceneBuffers::new(BoardStore::empty(), BoardStore::empty());
 
 /// The tick's state, "a commit is pending" and the last refused command, for the protocol
 /// task.
@@ -303,10 +303,10 @@ fn tick_and_watchdog_start(
 /// The tick's ends of the queues to and from the protocol task.
 struct TickQueues {
     commands: heapless::spsc::Consumer<'static, DeviceCommand, COMMANDS>,
-    commits: heapless::spsc::Consumer<'static, Staging<BoardStore>, STORES>,
-    freed: heapless::spsc::Producer<'static, Staging<BoardStore>, STORES>,
-    jobs: heapless::spsc::Producer<'static, AcquisitionJob<BoardStore>, JOBS>,
-    results: heapless::spsc::Consumer<'static, JobDone, JOBS>,
+    commits: heapless::spsc::Consumer<'static, &'static mut BoardStore, STORES>,
+    freed: heapless::spsc::Producer<'static, &'static mut BoardStore, STORES>,
+    jobs: heapless::spsc::Producer<'static, AcquisitionJob<BoardSlot>, JOBS>,
+    results: heapless::spsc::Consumer<'static, JobDone<BoardSlot>, JOBS>,
 }
 
 /// The queues between the tasks, `'static` in `init`'s locals.
@@ -315,10 +315,10 @@ struct Queues {
     frame: &'static mut heapless::spsc::Queue<Report, FRAMES>,
     report: &'static mut heapless::spsc::Queue<Report, REPORTS>,
     reply: &'static mut heapless::spsc::Queue<Message, REPLIES>,
-    commit: &'static mut heapless::spsc::Queue<Staging<BoardStore>, STORES>,
-    free: &'static mut heapless::spsc::Queue<Staging<BoardStore>, STORES>,
-    job: &'static mut heapless::spsc::Queue<AcquisitionJob<BoardStore>, JOBS>,
-    result: &'static mut heapless::spsc::Queue<JobDone, JOBS>,
+    commit: &'static mut heapless::spsc::Queue<&'static mut BoardStore, STORES>,
+    free: &'static mut heapless::spsc::Queue<&'static mut BoardStore, STORES>,
+    job: &'static mut heapless::spsc::Queue<AcquisitionJob<BoardSlot>, JOBS>,
+    result: &'static mut heapless::spsc::Queue<JobDone<BoardSlot>, JOBS>,
 }
 
 #[rtic::app(device = stm32f4xx_hal::pac, peripherals = true)]
@@ -339,38 +339,32 @@ mod app {
         hw: Hw,
         led: Led,
         app: BoardApp,
-        /// The store the tick renders and the acquisition job that reads it.
-        scenes: TickScenes<BoardStore>,
         tick: TickQueues,
         port: HidPort<'static, UsbBusType>,
         usb: Usb,
-        protocol: Protocol<SCENE_CAPACITY, BoardStore>,
+        protocol: Protocol<SCENE_CAPACITY, BoardStore, 128, 96>,
     }
 
-    /// Splits the queues between the tick, USB and the protocol task, and hands the two scene
-    /// stores out: the first to the protocol task to validate into, the second into the
-    /// freed queue (it takes it when the first is with the tick).
+    /// Splits the queues between the tick, USB and the protocol task, and hands the scene
+    /// store to the protocol task to validate into.
     fn wire_tasks(
         q: Queues,
         session: &'static mut Link,
+        store: &'static mut BoardStore,
     ) -> (
         TickQueues,
         heapless::spsc::Producer<'static, Report, FRAMES>,
         Usb,
-        Protocol<SCENE_CAPACITY, BoardStore>,
+        Protocol<SCENE_CAPACITY, BoardStore, 128, 96>,
     ) {
         let (command_tx, command_rx) = q.command.split();
         let (frame_tx, frame_rx) = q.frame.split();
         let (report_tx, report_rx) = q.report.split();
         let (reply_tx, reply_rx) = q.reply.split();
         let (commit_tx, commit_rx) = q.commit.split();
-        let (mut free_tx, free_rx) = q.free.split();
+        let (free_tx, free_rx) = q.free.split();
         let (job_tx, job_rx) = q.job.split();
         let (result_tx, result_rx) = q.result.split();
-        let Some([first, second]) = SCENES.split() else {
-            panic!("the scene stores are split once, here");
-        };
-        let _ = free_tx.enqueue(second);
         let tick = TickQueues {
             commands: command_rx,
             commits: commit_rx,
@@ -386,7 +380,7 @@ mod app {
         let protocol = Protocol {
             session,
             shared: &SHARED,
-            staging: Some(first),
+            store: Some(store),
             reports: report_rx,
             replies: reply_tx,
             commands: command_tx,
@@ -418,10 +412,14 @@ mod app {
         frame_queue: Queue<Report, FRAMES> = Queue::new(),
         report_queue: Queue<Report, REPORTS> = Queue::new(),
         reply_queue: Queue<Message, REPLIES> = Queue::new(),
-        commit_queue: Queue<Staging<BoardStore>, STORES> = Queue::new(),
-        free_queue: Queue<Staging<BoardStore>, STORES> = Queue::new(),
-        job_queue: Queue<AcquisitionJob<BoardStore>, JOBS> = Queue::new(),
-        result_queue: Queue<JobDone, JOBS> = Queue::new(),
+        commit_queue: Queue<&'static mut BoardStore, STORES> = Queue::new(),
+        free_queue: Queue<&'static mut BoardStore, STORES> = Queue::new(),
+        job_queue: Queue<AcquisitionJob<BoardSlot>, JOBS> = Queue::new(),
+        result_queue: Queue<JobDone<BoardSlot>, JOBS> = Queue::new(),
+        // The one scene store (the link decodes into it, the tick rebuilds its chain from it)
+        // and the app's chain slot: all zero bits, so in `.bss`.
+        store: BoardStore = BoardStore::empty(),
+        chain: BoardChain = BoardChain::EMPTY,
     ])]
     fn init(cx: init::Context) -> (Shared, Local) {
         let dp = cx.device;
@@ -464,9 +462,10 @@ mod app {
                 result: l.result_queue,
             },
             l.session,
+            l.store,
         );
 
-        let app = match Parked::new(1.0 / TICK_HZ as f32, RAMP_TIME_S) {
+        let app = match Parked::new(l.chain, 1.0 / TICK_HZ as f32, RAMP_TIME_S) {
             Ok(parked) => parked.unloaded(),
             Err(e) => panic!("controller: {e}"),
         };
@@ -500,11 +499,6 @@ mod app {
             frames,
             frames_dropped: 0,
         };
-        #[allow(unsafe_code)]
-        // SAFETY: the tick is the only user of `app` and `scenes`; it copies no view out of
-        // `app`'s controller and loads it only through `scenes`, and the jobs `scenes` lends
-        // go to `run_job` (the protocol task) only.
-        let scenes = unsafe { TickScenes::new() };
         (
             Shared {},
             Local {
@@ -513,7 +507,6 @@ mod app {
                 hw,
                 led: Led { pin: led, ticks: 0 },
                 app,
-                scenes,
                 tick,
                 port,
                 usb,
@@ -536,31 +529,28 @@ mod app {
     }
 
     /// The haptic tick.
-    #[task(binds = TIM5, priority = 3, local = [tick_timer, watchdog, hw, led, app, scenes, tick])]
+    #[task(binds = TIM5, priority = 3, local = [tick_timer, watchdog, hw, led, app, tick])]
     fn tick(cx: tick::Context) {
         let l = cx.local;
         l.tick_timer.clear_flags(Flag::Update);
         l.watchdog.feed();
 
-        // The acquisition's result: the renderer starts (refused if it is for an older scene).
-        if let Some(done) = l.tick.results.dequeue()
-            && let Some(acquisition) = l.scenes.job_done(done)
-        {
-            let _ = l.app.controller_mut().complete_acquisition(acquisition);
+        // The acquisition's result with the object it searched: the renderer starts (refused
+        // if it is for an older scene or material).
+        if let Some(done) = l.tick.results.dequeue() {
+            let _ = l.app.job_done(done);
         }
         // A committed scene (or the scene with control points moved: the controller's object
-        // is replaced, its renderer carries on), swapped in at this tick boundary once no
-        // acquisition reads a store (so the swap's frame never stacks on the acquisition's
-        // either); the store it replaced, or the refused one, goes back to the protocol task.
-        let commits = &mut l.tick.commits;
+        // moves in place, its renderer carries on), taken in at this tick boundary once the
+        // object is back from its acquisition; the store goes back to the protocol task.
         if let Some(incoming) = SHARED.pending()
-            && let Some(swapped) = l.scenes.take_in(l.app, incoming, || commits.dequeue())
+            && !l.app.job_out()
+            && let Some(store) = l.tick.commits.dequeue()
         {
-            if let Some(freed) = swapped.freed {
-                let _ = l.tick.freed.enqueue(freed);
-            }
+            let taken = handover::take_in(l.app, incoming, store);
+            let _ = l.tick.freed.enqueue(store);
             // Accepted on the link but not rendered: the next status says why.
-            if let Err(e) = swapped.loaded {
+            if let Some(Err(e)) = taken {
                 SHARED.command_refused(e.code());
             }
             SHARED.commit_done();
@@ -575,13 +565,14 @@ mod app {
         }
 
         let faults = run_tick(l.app, l.hw);
-        let controller = l.app.controller();
-        // The renderer waits for its acquisition: one job at a time to the protocol task.
-        if let Some(job) = l.scenes.lend_job(controller.acquisition_request())
+        // The renderer waits for its acquisition: the object goes to the protocol task (one
+        // job at a time: none is lent while one is out).
+        if let Some(job) = l.app.lend_job()
             && let Err(job) = l.tick.jobs.enqueue(job)
         {
-            l.scenes.job_refused(job);
+            let _ = l.app.job_done(job.refused());
         }
+        let controller = l.app.controller();
         let state = DeviceState {
             software: [0; 3],
             forces_enabled: controller.forces_enabled(),

@@ -9,13 +9,12 @@
 //! One cooperative loop: it reads the link until no byte waits (every frame through
 //! [`DeviceSession`], the device side of the link the host's simulator uses too), then runs the tick
 //! when SysTick marks the next millisecond (1 kHz of the emulated 168 MHz core), then the
-//! acquisition a scene load asks for (between ticks, as the board's lowest-priority task). The
-//! two scene stores are the board's double buffer (`firmware::swap`, `static`, here at the
-//! host's full capacity): a commit is validated into the staging half and swapped in at once,
-//! between two ticks ([`TickScenes::swap_in`]); a control-point update
-//! ([`Message::ScenePoints`]) is validated into it too and gives the controller its reshaped
-//! object there ([`TickScenes::reshape_in`]: the renderer carries on, no acquisition, no
-//! ramp-in), the half rendered before going back to the link.
+//! acquisition a scene load asks for (between ticks, as the board's lowest-priority task). One
+//! scene store, as the board's (here at the host's full capacity, in `main`'s frame): a commit
+//! is validated into it and the app's chain rebuilt from it at once, between two ticks
+//! (`firmware::handover::take_in`); a control-point update ([`Message::ScenePoints`]) is
+//! validated into it too and moves the app's chain onto the new points there (the renderer
+//! carries on, no acquisition, no ramp-in).
 //!
 //! [`Message::ScenePoints`]: device::protocol::Message::ScenePoints
 //!
@@ -35,7 +34,8 @@ use device::spec::DeviceSpec;
 use firmware::app::Parked;
 use firmware::board::Board;
 use firmware::netduino::{Clock, SimulatedBoard};
-use firmware::swap::{Incoming, SceneBuffers, TickScenes, Validator};
+use firmware::handover::{self, Incoming, Validator};
+use tracker::Chain;
 use nurbs::Vec2;
 
 /// The tick period.
@@ -57,11 +57,6 @@ const HEARTBEAT_TIMEOUT_S: f32 = 0.25;
 const SCENE_CAPACITY: usize = 4096;
 /// Where the handle starts (m): as the host's simulator, `device::link::SimConfig`.
 const START_M: Vec2 = Vec2::new(0.0, 0.09);
-
-/// The two scene stores, as the board's (`firmware::swap`) at the host's capacity: one
-/// rendered, one the link validates into. All zero bits when empty, so in `.bss`.
-static SCENES: SceneBuffers<SceneStore> =
-    SceneBuffers::new(SceneStore::empty(), SceneStore::empty());
 
 /// The bytes of one COBS packet as they arrive, up to its `0x00` delimiter.
 struct Packet {
@@ -130,26 +125,23 @@ fn main() -> ! {
     };
     let mut board = SimulatedBoard::new(arm);
     let period_s = PERIOD_US as f32 * 1e-6;
-    let parked = match Parked::with_safety(SafetyConfig {
-        period_s,
-        ramp_time_s: RAMP_TIME_S,
-        heartbeat_timeout_s: HEARTBEAT_TIMEOUT_S,
-        ..SafetyConfig::default()
-    }) {
+    // The store and the app's chain slot live in `main`'s frame, which never returns.
+    let mut scene_store: SceneStore = SceneStore::empty();
+    let mut chain: Chain = Chain::EMPTY;
+    let parked = match Parked::with_safety(
+        &mut chain,
+        SafetyConfig {
+            period_s,
+            ramp_time_s: RAMP_TIME_S,
+            heartbeat_timeout_s: HEARTBEAT_TIMEOUT_S,
+            ..SafetyConfig::default()
+        },
+    ) {
         Ok(p) => p,
         Err(e) => fail(format_args!("{e}")),
     };
     let mut session: DeviceSession<SCENE_CAPACITY> = DeviceSession::new(true);
-    let Some([first, second]) = SCENES.split() else {
-        fail(format_args!("the scene stores were split before"));
-    };
-    // The link validates into `staging`; `spare` is the other half until the first swap.
-    let (mut staging, mut spare) = (Some(first), Some(second));
-    #[allow(unsafe_code)]
-    // SAFETY: this loop is the only user of `app` and `scenes`; it copies no view out of the
-    // app's controller, loads and reshapes it only through `scenes`, and lends no
-    // acquisition job (the search runs in place, `App::acquire`, between ticks).
-    let mut scenes = unsafe { TickScenes::new() };
+    let mut store = Some(&mut scene_store);
     // No scene before the first upload: the app runs without force.
     let mut app = parked.unloaded();
     // An identification run beyond the app's motors is nacked before it is acked.
@@ -173,7 +165,7 @@ fn main() -> ! {
             let state = DeviceState::of(firmware::software_version(), app.controller());
             let event = session.handle(
                 frame.get(..n).unwrap_or(&[]),
-                &mut Validator::new(&mut staging, false),
+                &mut Validator::new(&mut store, false),
                 state,
                 &mut |m: &Message| app.send(&mut board, m),
             );
@@ -195,16 +187,12 @@ fn main() -> ! {
                 }
             };
             // Between two ticks: the loop ticks below, after the link.
-            if let Some(incoming) = incoming {
-                let mut next = staging.take();
-                let swapped = scenes.take_in(&mut app, incoming, || next.take());
-                let freed = swapped.and_then(|s| {
-                    if let Err(e) = s.loaded {
-                        session.note_error(e.code());
-                    }
-                    s.freed
-                });
-                staging = next.or(freed).or_else(|| spare.take());
+            // (The search runs in place, between ticks: the object is never lent here.)
+            if let Some(incoming) = incoming
+                && let Some(committed) = store.as_deref()
+                && let Some(Err(e)) = handover::take_in(&mut app, incoming, committed)
+            {
+                session.note_error(e.code());
             }
         }
         let now_us = clock.now_us();

@@ -3,7 +3,8 @@
 use friction::FrictionMaterial;
 use nurbs::{Curve, NurbsError, Surface, Vec2, Vec3, Vec4};
 use tracker::{
-    Chain, ChainError, MAX_CHAIN_CURVES, MAX_SHELL_PATCHES, Shell, ShellError, ShellTopology,
+    Chain, ChainError, ChainTopology, MAX_CHAIN_CURVES, MAX_SHELL_PATCHES, Shell, ShellError,
+    ShellTopology,
 };
 
 use super::wire::{MATERIAL_LEN, Reader, get_material};
@@ -357,10 +358,10 @@ impl<const K: usize, const C: usize, const S: usize> SceneStore<K, C, S> {
         let changed = WireSceneError::at(object, None, SceneFault::TopologyChanged);
         self.decode(active)?;
         let kept = match self.kind(object) {
-            Some(PatchKind::Curve2) => match self.with_chain(object, |c| c.topology()) {
+            Some(PatchKind::Curve2) => match self.chain_topology(object) {
                 Some(before) => {
                     self.decode(reshaped)?;
-                    self.with_chain(object, |c| c.has_topology(&before)) == Some(true)
+                    self.chain_topology(object) == Some(before)
                 }
                 None => false,
             },
@@ -380,6 +381,18 @@ impl<const K: usize, const C: usize, const S: usize> SceneStore<K, C, S> {
     /// such object, an object of surfaces, curves that do not make a chain.
     pub fn chain(&self, object: usize) -> Result<Chain<K, C>, WireSceneError> {
         self.with_curves(object, Chain::from_curves)?
+            .map_err(|e| WireSceneError::at(object, None, SceneFault::Chain(e)))
+    }
+
+    /// [`SceneStore::chain`] in place: `chain` becomes object `object`'s chain, its storage
+    /// reused ([`Chain::rebuild`]: no chain built on the stack). On error `chain` has no
+    /// curves.
+    pub fn rebuild_chain(
+        &self,
+        object: usize,
+        chain: &mut Chain<K, C>,
+    ) -> Result<(), WireSceneError> {
+        self.with_curves(object, |curves| chain.rebuild(curves))?
             .map_err(|e| WireSceneError::at(object, None, SceneFault::Chain(e)))
     }
 
@@ -418,14 +431,17 @@ impl<const K: usize, const C: usize, const S: usize> SceneStore<K, C, S> {
     /// a decode of surfaces, does not hold a chain it never builds).
     #[inline(never)]
     fn check_chain(&self, object: usize) -> Result<(), WireSceneError> {
-        self.chain(object).map(drop)
+        self.with_curves(object, Chain::<K, C>::check)?
+            .map_err(|e| WireSceneError::at(object, None, SceneFault::Chain(e)))
     }
 
-    /// `f` of `object` as a chain (it was validated, so it is one). Not inlined: the chain
-    /// it builds exists only while it runs (a chain is a few KiB: every move of one is stack).
+    /// The topology of `object`'s chain ([`Chain::topology_of`]: no chain built), `None` when
+    /// it is not one. Not inlined, as [`SceneStore::check_chain`].
     #[inline(never)]
-    fn with_chain<R>(&self, object: usize, f: impl FnOnce(&Chain<K, C>) -> R) -> Option<R> {
-        self.chain(object).ok().map(|chain| f(&chain))
+    fn chain_topology(&self, object: usize) -> Option<ChainTopology> {
+        self.with_curves(object, Chain::<K, C>::topology_of)
+            .ok()?
+            .ok()
     }
 
     /// The topology of `object` when it is a shell.

@@ -37,14 +37,15 @@ use firmware::app::{App, Parked};
 use firmware::board::Board;
 use firmware::netduino::SimulatedBoard;
 use firmware::scenario::{HipPath, Scenario};
-use firmware::swap::{Incoming, SceneBuffers, Staging, TickScenes, Validator};
+use firmware::handover::{self, Incoming, Validator};
 #[cfg(feature = "stages")]
 use friction::FrictionMaterial;
 use friction::FrictionRenderer;
 use friction::Mode;
 use nurbs::Vec2;
+use tracker::Chain;
 #[cfg(feature = "stages")]
-use tracker::{Chain, ChainTracker, Object};
+use tracker::{ChainTracker, Object};
 
 /// The scene as the device's wire format (`device::protocol::scene`), written by
 /// `cargo xtask qemu` from the scene JSON with the host crates; validated here as an upload.
@@ -88,7 +89,9 @@ static SURFACE_PATH: &[u8] = include_bytes!(concat!(
 /// The board's scene store (`firmware/src/bin/board.rs`): planar curves only.
 type BoardStore = SceneStore<128, 96, 0>;
 /// The app on a [`BoardStore`]'s object (its own copy of it, at the store's capacities).
-type BoardApp = App<128, 96>;
+type BoardApp<'a> = App<'a, 128, 96>;
+/// The app's chain slot.
+type BoardChain = Chain<128, 96>;
 
 /// SysTick counts per instruction as a fraction: 168 MHz · 32 ns = 5.376 = 672 / 125.
 const COUNTS_PER_INSTRUCTION: (u32, u32) = (672, 125);
@@ -389,7 +392,7 @@ impl Shadow {
 /// The shadow of the tick's stages on the app's object.
 #[cfg(feature = "stages")]
 fn shadow(app: &BoardApp, store: &BoardStore, scenario: &Scenario<'_>, period_s: f32) -> Shadow {
-    let Some(object) = app.controller().object().copied() else {
+    let Some(object) = app.controller().object().map(|chain| **chain) else {
         fail(format_args!("scene {}: no object loaded", scenario.name));
     };
     let Some(material) = store.material(0) else {
@@ -559,7 +562,9 @@ fn main() -> ! {
         fail(format_args!("scene {}: {e}", scenario.name));
     }
     let period_s = (1.0 / scenario.rate_hz) as f32;
-    let mut app = match App::new(&store, 0, period_s, scenario.ramp_time_s) {
+    // The app's chain slot, in main's frame too.
+    let mut chain = BoardChain::EMPTY;
+    let mut app = match App::new(&mut chain, &store, 0, period_s, scenario.ramp_time_s) {
         Ok(app) => app,
         Err(e) => fail(format_args!("scene {}: {e}", scenario.name)),
     };

@@ -7,9 +7,6 @@ use super::*;
 /// The board's scene receiver capacity (bytes).
 const BOARD_SCENE_CAPACITY: usize = 1792;
 
-/// The points run's two stores, the board's double buffer (`firmware::swap`).
-static POINTS_SCENES: SceneBuffers<BoardStore> =
-    SceneBuffers::new(BoardStore::empty(), BoardStore::empty());
 
 /// The points run: where the hand goes (m): from outside the right arc to 4 mm inside it at
 /// 30°, over [`POINTS_APPROACH_S`], then held.
@@ -45,15 +42,12 @@ pub(crate) fn points_run(board: &mut QemuBoard, scenario: &Scenario<'_>) {
     let rate_hz = scenario.rate_hz;
     let period_s = (1.0 / rate_hz) as f32;
     let fail_at = |what: &str| -> ! { fail(format_args!("scene {name}: {what}")) };
-    let Some([first, second]) = POINTS_SCENES.split() else {
-        fail_at("the stores were split before");
-    };
-    let (mut staging, mut spare): (Option<Staging<BoardStore>>, _) = (Some(first), Some(second));
-    #[allow(unsafe_code)]
-    // SAFETY: this run is the only user of `app` and `scenes`; it copies no view out of the
-    // app's controller, loads and reshapes it only through `scenes`, and lends no job.
-    let mut scenes = unsafe { TickScenes::new() };
-    let mut app: BoardApp = match Parked::new(period_s, scenario.ramp_time_s) {
+    // The board's one store and the app's chain slot, in this run's frame (it never returns
+    // before the run ends).
+    let mut scene_store = BoardStore::empty();
+    let mut chain = BoardChain::EMPTY;
+    let mut store = Some(&mut scene_store);
+    let mut app: BoardApp<'_> = match Parked::new(&mut chain, period_s, scenario.ramp_time_s) {
         Ok(p) => p.unloaded(),
         Err(e) => fail(format_args!("scene {name}: {e}")),
     };
@@ -63,13 +57,13 @@ pub(crate) fn points_run(board: &mut QemuBoard, scenario: &Scenario<'_>) {
     let state = DeviceState::default();
     // What a frame does: its event (a refusal fails the run).
     let handle = |session: &mut DeviceSession<BOARD_SCENE_CAPACITY>,
-                  staging: &mut Option<Staging<BoardStore>>,
+                  store: &mut Option<&mut BoardStore>,
                   bytes: &[u8]|
      -> Event {
         let mut refused = None;
         let event = session.handle(
             bytes,
-            &mut Validator::new(staging, false),
+            &mut Validator::new(store, false),
             state,
             &mut |m: &Message| {
                 if let Message::Nack(n) = m {
@@ -82,26 +76,22 @@ pub(crate) fn points_run(board: &mut QemuBoard, scenario: &Scenario<'_>) {
         }
         event
     };
-    // Swaps or reshapes at a tick boundary, as the board's tick: the freed store goes back.
-    let mut take_in =
-        |app: &mut BoardApp, staging: &mut Option<Staging<BoardStore>>, incoming: Incoming| {
-            let mut next = staging.take();
-            let swapped = scenes.take_in(app, incoming, || next.take());
-            let freed = match swapped {
-                Some(s) => {
-                    if let Err(e) = s.loaded {
-                        fail(format_args!("scene {name}: {e}"));
-                    }
-                    s.freed
-                }
-                None => fail(format_args!("scene {name}: nothing swapped")),
-            };
-            *staging = next.or(freed).or_else(|| spare.take());
+    // Loads or reshapes at a tick boundary, as the board's tick (the object is never lent
+    // here: the search runs in place between ticks).
+    let take_in = |app: &mut BoardApp<'_>, store: &Option<&mut BoardStore>, incoming: Incoming| {
+        let Some(committed) = store.as_deref() else {
+            fail_at("no store");
         };
+        match handover::take_in(app, incoming, committed) {
+            Some(Ok(())) => {}
+            Some(Err(e)) => fail(format_args!("scene {name}: {e}")),
+            None => fail_at("the object is lent"),
+        }
+    };
     for m in scene_upload(SCENE) {
         let n = host_frame(&mut buf, &mut seq, m);
-        if handle(&mut session, &mut staging, &buf[..n]) == Event::SceneCommitted {
-            take_in(&mut app, &mut staging, Incoming::Scene);
+        if handle(&mut session, &mut store, &buf[..n]) == Event::SceneCommitted {
+            take_in(&mut app, &store, Incoming::Scene);
         }
     }
     if let Err(e) = app.controller_mut().calibrate(scenario.end_stop_counts) {
@@ -175,7 +165,7 @@ pub(crate) fn points_run(board: &mut QemuBoard, scenario: &Scenario<'_>) {
                 let n = host_frame(&mut buf, &mut seq, m);
                 let (e, c) = board
                     .meter
-                    .instructions(|| handle(&mut session, &mut staging, &buf[..n]));
+                    .instructions(|| handle(&mut session, &mut store, &buf[..n]));
                 validate.add(count(c, "validation"), i);
                 event = e;
             }
@@ -185,7 +175,7 @@ pub(crate) fn points_run(board: &mut QemuBoard, scenario: &Scenario<'_>) {
             // ...and the tick's, at this tick boundary.
             let ((), c) = board
                 .meter
-                .instructions(|| take_in(&mut app, &mut staging, Incoming::Points));
+                .instructions(|| take_in(&mut app, &store, Incoming::Points));
             let c = count(c, "apply");
             apply.add(c, i);
             applied = Some(c);
