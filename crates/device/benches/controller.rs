@@ -20,7 +20,7 @@ use tracker::Chain;
 const T: f32 = 1e-3;
 const PERIOD_US: u64 = 1000;
 
-fn controller<'a>(spec: DeviceSpec, chain: Chain) -> Controller<Chain> {
+fn controller(spec: DeviceSpec, chain: Chain) -> Controller<Chain> {
     let safety = SafetyConfig {
         period_s: T,
         ramp_time_s: 0.02,
@@ -61,7 +61,7 @@ fn closed_loop_counts(
     counts
 }
 
-fn bench_counts<'a>(
+fn bench_counts(
     c: &mut Criterion,
     name: &str,
     chain: &Chain,

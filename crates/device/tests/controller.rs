@@ -69,7 +69,7 @@ fn safety() -> SafetyConfig {
 }
 
 /// A calibrated controller with forces enabled (no scene).
-fn controller<'a>(spec: DeviceSpec, safety: SafetyConfig) -> Controller<Chain> {
+fn controller(spec: DeviceSpec, safety: SafetyConfig) -> Controller<Chain> {
     let mut c = Controller::new(spec, safety).unwrap();
     let stops = spec.end_stop_counts();
     c.calibrate(stops).unwrap();
@@ -225,7 +225,7 @@ fn the_force_limit_is_the_smaller_of_device_and_safety_limits() {
 
 /// A controller pressing 4 mm into the right arc (4 N at K = 1000 N/m, under the 5 N limit
 /// of a 5 N device), with forces fully ramped in by `start_us + 100 ms`.
-fn pressing<'a>(chain: Chain, start_us: u64) -> (Controller<Chain>, [i32; 2], u64) {
+fn pressing(chain: Chain, start_us: u64) -> (Controller<Chain>, [i32; 2], u64) {
     let spec = DeviceSpec {
         max_force_n: 5.0,
         ..DeviceSpec::default()

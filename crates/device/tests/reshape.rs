@@ -83,7 +83,7 @@ fn safety() -> SafetyConfig {
 }
 
 /// A calibrated controller with forces on and `chain` loaded.
-fn loaded<'a>(chain: Chain) -> Controller<Chain> {
+fn loaded(chain: Chain) -> Controller<Chain> {
     let spec = DeviceSpec::default();
     let mut c = Controller::new(spec, safety()).unwrap();
     c.calibrate(spec.end_stop_counts()).unwrap();

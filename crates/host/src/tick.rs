@@ -148,7 +148,7 @@ pub const DEVICE_RAMP_TIME_S: f32 = 0.02;
 
 /// The default device at `rate_hz` with `chain` and `material` loaded, the passivity
 /// controller on only when the material needs it (returned as the flag).
-pub fn device_controller<'a>(
+pub fn device_controller(
     chain: Chain,
     material: FrictionMaterial,
     rate_hz: f64,
