@@ -710,6 +710,7 @@ fn session(root: &Path) -> Result<Vec<String>, String> {
     // the watchdog) are cleared first, and the forces enabled again.
     retries += ask(&mut host, &Message::ClearFaults { mask: 0xFFFF }, above)?;
     retries += ask(&mut host, &Message::EnableForces, above)?;
+    let press_from = host.telemetry.len();
     const STEPS: u16 = 50;
     for k in 1..=STEPS {
         let at = above + (inside - above) * (f32::from(k) / f32::from(STEPS));
@@ -717,6 +718,8 @@ fn session(root: &Path) -> Result<Vec<String>, String> {
         host.pump(Duration::from_millis(10), |_| at)?;
     }
     host.pump(Duration::from_millis(300), |_| inside)?;
+    // The press as the device reported it, for the failure's message.
+    let press = press_trace(host.telemetry.get(press_from..).unwrap_or_default());
     host.telemetry.clear();
     host.pump(TELEMETRY_WINDOW, |_| inside)?;
     let frames: &[Telemetry] = &host.telemetry;
@@ -755,7 +758,8 @@ fn session(root: &Path) -> Result<Vec<String>, String> {
         let faults: Vec<u16> = frames.iter().map(|t| t.faults).collect();
         return Err(format!(
             "telemetry: {disordered} frames out of order, {pressing} of {} in contact, device \
-             time {span_s} s over a {:.0} s window; the last frame {:?}; faults seen {:?}",
+             time {span_s} s over a {:.0} s window; the last frame {:?}; faults seen {:?}; \
+             the press (every 10th frame from the first contact):\n{press}",
             frames.len(),
             TELEMETRY_WINDOW.as_secs_f64(),
             frames.last(),
@@ -796,6 +800,35 @@ const ATTEMPTS: usize = 3;
 /// returns how many times it was sent again. An answer can be lost on the host: the kernel
 /// keeps 64 reports per hidraw reader and drops what comes while they are unread, acks
 /// included, when the emulated reader falls behind.
+/// Every 10th frame of `frames` from the first with a normal force (at most 100 lines): the
+/// device time, HIP, the renderer's normal force, the force applied, the friction state and
+/// the faults.
+fn press_trace(frames: &[Telemetry]) -> String {
+    let first = frames
+        .iter()
+        .position(|t| t.force_normal_n > 0.0)
+        .unwrap_or(frames.len());
+    frames[first..]
+        .iter()
+        .step_by(10)
+        .take(100)
+        .map(|t| {
+            format!(
+                "  {:>9} us  hip ({:.5}, {:.5}) m  F_N {:.3} N  |F| {:.3} N  {:?} {:?}  faults {:#x}",
+                t.time_us,
+                t.hip_m.x,
+                t.hip_m.y,
+                t.force_normal_n,
+                t.force_n.length(),
+                t.mode,
+                t.cause,
+                t.faults
+            )
+        })
+        .collect::<Vec<_>>()
+        .join("\n")
+}
+
 fn ask(host: &mut Host<HidLink>, m: &Message, at: Vec2) -> Result<usize, String> {
     let mut last = String::new();
     for attempt in 0..ATTEMPTS {
