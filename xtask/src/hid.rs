@@ -887,16 +887,39 @@ fn session(root: &Path) -> Result<Vec<String>, String> {
     // the watchdog) are cleared first, and the forces enabled again.
     retries += ask(&mut host, &Message::ClearFaults { mask: 0xFFFF }, above)?;
     retries += ask(&mut host, &Message::EnableForces, above)?;
-    let press_from = host.telemetry.len();
-    const STEPS: u16 = 50;
-    for k in 1..=STEPS {
-        let at = above + (inside - above) * (f32::from(k) / f32::from(STEPS));
-        retries += ask(&mut host, &Message::HandTarget { target_m: at }, at)?;
-        host.pump(Duration::from_millis(10), |_| at)?;
-    }
-    host.pump(Duration::from_millis(300), |_| inside)?;
-    // The press as the device reported it, for the failure's message.
-    let press = press_trace(host.telemetry.get(press_from..).unwrap_or_default());
+    // Once in about eight runs under the emulator the force was still lost to the tank after
+    // such a press (not reproduced on the host, where the same press is a test): a press
+    // whose last 100 ms do not hold the wall's force is said, with its trace, and made again
+    // from free space (which empties the tank), as a user lifts and presses again; a second
+    // loss fails the check below.
+    let mut presses = 0;
+    let press = loop {
+        presses += 1;
+        let press_from = host.telemetry.len();
+        const STEPS: u16 = 50;
+        for k in 1..=STEPS {
+            let at = above + (inside - above) * (f32::from(k) / f32::from(STEPS));
+            retries += ask(&mut host, &Message::HandTarget { target_m: at }, at)?;
+            host.pump(Duration::from_millis(10), |_| at)?;
+        }
+        host.pump(Duration::from_millis(300), |_| inside)?;
+        let pressed = host.telemetry.get(press_from..).unwrap_or_default();
+        // The press as the device reported it, for a message.
+        let trace = press_trace(pressed);
+        let settled = &pressed[pressed.len().saturating_sub(100)..];
+        let held = settled.iter().filter(|t| t.force_n.length() > 0.1).count();
+        if 2 * held >= settled.len() || presses == 2 {
+            break trace;
+        }
+        lines.push(format!(
+            "press {presses}: {held} of the last {} frames with a force over 0.1 N: lifted \
+             and pressed again; the press (every 10th frame from the first contact):\n{trace}",
+            settled.len()
+        ));
+        retries += ask(&mut host, &Message::HandTarget { target_m: above }, above)?;
+        host.pump(Duration::from_millis(300), |_| above)?;
+    };
+    lines.push(format!("presses into the arc: {presses}"));
     host.telemetry.clear();
     host.pump(TELEMETRY_WINDOW, |_| inside)?;
     let frames: &[Telemetry] = &host.telemetry;
