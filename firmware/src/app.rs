@@ -13,7 +13,9 @@
 use device::controller::{
     Acquisition, AcquisitionRequest, Controller, ControllerError, TickOutput, acquire,
 };
-use device::protocol::{ErrorCode, Frame, MAX_FRAME, Message, SceneFault, SceneStore, WireSceneError};
+use device::protocol::{
+    ErrorCode, Frame, MAX_FRAME, Message, SceneFault, SceneStore, WireSceneError,
+};
 use device::safety::SafetyConfig;
 use device::session::DeviceCommand;
 use device::spec::DeviceSpec;

@@ -11,11 +11,11 @@
 
 pub mod app;
 pub mod board;
+pub mod handover;
 pub mod netduino;
 #[cfg(feature = "board")]
 pub mod protocol_task;
 pub mod scenario;
-pub mod handover;
 #[cfg(feature = "board")]
 pub mod usb;
 

@@ -37,11 +37,10 @@ use device::protocol::{MAX_FRAME, Message, SceneStore};
 use device::session::{DeviceCommand, DeviceSession, DeviceState};
 use firmware::app::{AcquisitionJob, App, JobDone, Parked, Slot};
 use firmware::board::Board;
+use firmware::handover;
 use firmware::protocol_task::{
     COMMANDS, FRAMES, JOBS, Protocol, REPLIES, REPORTS, Report, STORES, Step, TickShared,
 };
-use firmware::handover;
-use tracker::Chain;
 use firmware::usb::Usb;
 use stm32f4xx_hal::gpio::{Output, PB12, PB13, PB14, PC13};
 use stm32f4xx_hal::pac;
@@ -50,6 +49,7 @@ use stm32f4xx_hal::qei::Qei;
 use stm32f4xx_hal::rcc::Rcc;
 use stm32f4xx_hal::timer::{CounterHz, Event, Flag, PwmChannel};
 use stm32f4xx_hal::watchdog::IndependentWatchdog;
+use tracker::Chain;
 
 #[cfg(any(
     all(feature = "tick-1khz", feature = "tick-2khz"),
@@ -594,7 +594,8 @@ mod app {
 }
 
 /// One [`App::tick`], returning the tick's latched faults; not inlined, so that its frame and
-/// the swap's (`TickScenes::swap_in`, which builds a chain) do not add up on the stack.
+/// a scene load's (`handover::load`, which rebuilds the chain in its slot) do not add up on
+/// the stack.
 #[inline(never)]
 fn run_tick(app: &mut BoardApp, hw: &mut Hw) -> u16 {
     app.tick(hw).telemetry.faults

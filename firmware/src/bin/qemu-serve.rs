@@ -33,10 +33,10 @@ use device::simulator::{SimParams, SimulatedPantograph, VirtualHand};
 use device::spec::DeviceSpec;
 use firmware::app::Parked;
 use firmware::board::Board;
-use firmware::netduino::{Clock, SimulatedBoard};
 use firmware::handover::{self, Incoming, Validator};
-use tracker::Chain;
+use firmware::netduino::{Clock, SimulatedBoard};
 use nurbs::Vec2;
+use tracker::Chain;
 
 /// The tick period.
 const PERIOD_US: u64 = 1000;

@@ -35,9 +35,9 @@ use device::spec::DeviceSpec;
 use device::{controller::TickOutput, kinematics::Pantograph, spec::Calibration};
 use firmware::app::{App, Parked};
 use firmware::board::Board;
+use firmware::handover::{self, Incoming, Validator};
 use firmware::netduino::SimulatedBoard;
 use firmware::scenario::{HipPath, Scenario};
-use firmware::handover::{self, Incoming, Validator};
 #[cfg(feature = "stages")]
 use friction::FrictionMaterial;
 use friction::FrictionRenderer;

@@ -7,7 +7,6 @@ use super::*;
 /// The board's scene receiver capacity (bytes).
 const BOARD_SCENE_CAPACITY: usize = 1792;
 
-
 /// The points run: where the hand goes (m): from outside the right arc to 4 mm inside it at
 /// 30°, over [`POINTS_APPROACH_S`], then held.
 const POINTS_FROM_M: Vec2 = Vec2::new(0.03, 0.075);
@@ -30,10 +29,11 @@ fn host_frame(buf: &mut [u8; FRAME_BYTES], seq: &mut u16, message: Message) -> u
 
 /// A control-point stream under a held hand through the board's code, counted: the scene
 /// uploaded through a board's [`DeviceSession`] (its receiver, the board's capacities) into the
-/// board's double buffer and swapped in ([`TickScenes`]), the hand pressed into the right arc,
+/// board's one store and loaded into the app's chain slot (`firmware::handover`), the hand
+/// pressed into the right arc,
 /// then 100 updates a second, each through the session (the link task's part: staging, CRC,
 /// the validation and topology check, counted alone) and applied at the next tick boundary
-/// ([`TickScenes::reshape_in`]: the tick's part, counted alone), every tick counted. The
+/// (`handover::take_in`: the tick's part, counted alone), every tick counted. The
 /// telemetry stays off the UART (the host compares the scenario's frames only); the run
 /// fails if the stream loses contact, switches feature or faults, or an update is refused.
 #[inline(never)]
