@@ -12,9 +12,9 @@ use std::path::PathBuf;
 
 use experiment::analyze::{AnalyzeOptions, summarize};
 use experiment::fit::Model;
-use experiment::participant::SimParticipant;
 use experiment::plan::Plan;
 use experiment::runner::run;
+use experiment::sim_participant::SimParticipant;
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().skip(1).collect();

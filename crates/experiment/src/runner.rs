@@ -44,10 +44,10 @@ use host::tick::Tick;
 use scene::{Scene, Space};
 
 use crate::error::RunError;
-use crate::participant::{SimParticipant, Tap, felt_stiffness, shape_cues};
 use crate::plan::{Design, Plan};
 use crate::rng::Prng;
 use crate::session::{Response, Session, TrialRecord};
+use crate::sim_participant::{SimParticipant, Tap, felt_stiffness, shape_cues};
 
 pub use crate::session::{MAX_TRIALS, TRIALS_HEADER};
 

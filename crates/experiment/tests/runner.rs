@@ -5,9 +5,9 @@
 use std::path::{Path, PathBuf};
 
 use experiment::error::RunError;
-use experiment::participant::SimParticipant;
 use experiment::plan::Plan;
 use experiment::runner::{TRIALS_HEADER, run};
+use experiment::sim_participant::SimParticipant;
 
 fn root() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")

@@ -4,7 +4,7 @@
 pub mod cli;
 pub mod closest;
 pub mod deform_plot;
-pub mod devices;
+pub mod device_report;
 pub mod eval;
 pub mod experiment_plot;
 #[cfg(feature = "gui")]
@@ -13,4 +13,4 @@ pub mod interrupt;
 pub mod output;
 pub mod plot;
 pub mod stribeck;
-pub mod zwidth;
+pub mod zwidth_figure;

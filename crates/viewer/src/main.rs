@@ -36,9 +36,9 @@ fn main() -> ExitCode {
 
 fn experiment_command(command: &viewer::cli::ExperimentSubcommand) -> ExitCode {
     use experiment::error::RunError;
-    use experiment::participant::SimParticipant;
     use experiment::plan::Plan;
     use experiment::runner::run;
+    use experiment::sim_participant::SimParticipant;
     use viewer::cli::ExperimentSubcommand;
     let args = match command {
         ExperimentSubcommand::Run(args) => args,
@@ -397,7 +397,7 @@ fn print_identified(
 
 fn zwidth_command(args: &viewer::cli::ZwidthArgs) -> ExitCode {
     use host::zwidth::sweep;
-    use viewer::zwidth::{DAMPINGS, STIFFNESSES};
+    use viewer::zwidth_figure::{DAMPINGS, STIFFNESSES};
     let mut cells = Vec::new();
     for controller in [false, true] {
         let progress = |done: usize, total: usize| {
@@ -430,7 +430,8 @@ fn zwidth_command(args: &viewer::cli::ZwidthArgs) -> ExitCode {
         );
     }
     if let Some(png) = &args.plot
-        && let Err(e) = viewer::zwidth::write_png(&cells, args.rate_hz, args.hand.name(), png)
+        && let Err(e) =
+            viewer::zwidth_figure::write_png(&cells, args.rate_hz, args.hand.name(), png)
     {
         return fail(&anyhow::Error::new(e), EXIT_BAD_SETUP);
     }
@@ -491,7 +492,7 @@ fn gui_command(args: &GuiArgs) -> ExitCode {
         return fail(&e, EXIT_BAD_SETUP);
     }
     if let Some(path) = &args.mesh
-        && let Err(e) = viewer::gui::spatial::load_mesh(path).context("invalid mesh")
+        && let Err(e) = viewer::gui::surface_scene::load_mesh(path).context("invalid mesh")
     {
         return fail(&e, EXIT_BAD_SETUP);
     }
@@ -778,14 +779,14 @@ fn fail(error: &anyhow::Error, code: u8) -> ExitCode {
 
 fn device_command(command: &viewer::cli::DeviceSubcommand) -> ExitCode {
     use viewer::cli::DeviceSubcommand;
-    use viewer::devices;
+    use viewer::device_report;
     match command {
         DeviceSubcommand::List => {
             let (found, problems) = host::devices::find_devices();
             for p in problems {
                 eprintln!("device list: {p}");
             }
-            match devices::write_table(&found, io::stdout().lock()) {
+            match device_report::write_table(&found, io::stdout().lock()) {
                 Ok(()) => ExitCode::SUCCESS,
                 Err(e) if e.kind() == io::ErrorKind::BrokenPipe => ExitCode::SUCCESS,
                 Err(e) => fail(&anyhow::Error::new(e), EXIT_BAD_INPUT),
@@ -843,7 +844,7 @@ fn device_sim_pty(_: &viewer::cli::SimPtyArgs) -> ExitCode {
 
 fn device_monitor(args: &viewer::cli::MonitorArgs) -> ExitCode {
     use std::time::Duration;
-    use viewer::devices;
+    use viewer::device_report;
     let Some(target) = args.device.target() else {
         let e = anyhow!("device monitor: {}", viewer::cli::CHOOSE_A_DEVICE);
         return fail(&e, EXIT_BAD_SETUP);
@@ -860,13 +861,13 @@ fn device_monitor(args: &viewer::cli::MonitorArgs) -> ExitCode {
     );
     let hand = opened.hand.clone();
     let move_hand = |elapsed: Duration| match &hand {
-        Some(hand) => hand.set_target(devices::sim_hand_target(elapsed)),
+        Some(hand) => hand.set_target(device_report::sim_hand_target(elapsed)),
         None => Ok(()),
     };
     let duration = args.seconds;
     let interrupt = interrupt_or_default("device monitor");
     let mut out = io::stdout().lock();
-    match devices::monitor(
+    match device_report::monitor(
         opened.link.as_mut(),
         duration,
         args.every,

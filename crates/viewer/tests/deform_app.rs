@@ -160,7 +160,7 @@ fn the_objects_panel_has_the_switch_where_it_means_something() {
         .deform
         .info
         .as_ref()
-        .map(viewer::gui::deform::DeformInfo::describe)
+        .map(viewer::gui::moving_shape::DeformInfo::describe)
         .expect("the string's parameters");
     assert!(hover.contains("tension 5 N") && hover.contains("first natural frequency 44"));
     h.get_by_label("deform").click();

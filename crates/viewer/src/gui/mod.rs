@@ -8,15 +8,15 @@
 //! `egui_kittest`. [`participant`] is the other window the app opens: a psychophysics run's
 //! participant screen (`viewer experiment run PLAN --participant P01`), on the same state.
 
-pub mod deform;
 pub mod editing;
+pub mod moving_shape;
 pub mod panels;
 pub mod participant;
 pub mod reach;
 pub mod replay;
 pub mod scene_view;
-pub mod spatial;
 pub mod state;
+pub mod surface_scene;
 pub mod telemetry;
 pub mod view;
 pub mod view3d;

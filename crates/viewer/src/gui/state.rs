@@ -12,11 +12,11 @@ use device::safety::Faults;
 use friction::FrictionMaterial;
 use nurbs::Vec2;
 
-use super::deform::DeformState;
 use super::editing::EditState;
+use super::moving_shape::DeformState;
 use super::panels::{DevicePanel, FilePanel, MaterialPanel, ReplayPanel};
 use super::replay::Replay;
-use super::spatial::SpatialState;
+use super::surface_scene::SpatialState;
 use super::telemetry::Telemetry;
 use host::backend::{Backend, LinkEvent, LoopCommand, Reply, Sample};
 use host::devices::{self, Target};
@@ -687,8 +687,11 @@ impl AppState {
         edited: bool,
     ) -> Result<(), String> {
         // An object the spatial hand feels leaves the planar device idle (it is planar).
-        let felt_in_3d =
-            object.filter(|&i| scene.object(i).is_some_and(super::spatial::can_be_felt));
+        let felt_in_3d = object.filter(|&i| {
+            scene
+                .object(i)
+                .is_some_and(super::surface_scene::can_be_felt)
+        });
         let built = match (object, felt_in_3d) {
             (_, Some(_)) => PlanarSession::with_object(scene.clone(), None),
             (Some(i), None) => PlanarSession::with_object(scene.clone(), Some(i)),
@@ -797,7 +800,7 @@ impl AppState {
     /// running scene.
     pub fn open_obj(&mut self, path: &Path) {
         let label = path.display().to_string();
-        let opened = super::spatial::load_mesh(path).and_then(|obj| {
+        let opened = super::surface_scene::load_mesh(path).and_then(|obj| {
             let material = FrictionMaterial::default();
             SpatialState::of_mesh(
                 &label,

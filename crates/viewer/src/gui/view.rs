@@ -12,7 +12,7 @@
 //! at once. The Voronoi region boundaries
 //! of the rendered object ([`scene::regions::region_boundaries`]) are drawn faintly on request.
 //!
-//! While the rendered object deforms ([`super::deform`]) its rest shape is drawn faint and its
+//! While the rendered object deforms ([`super::moving_shape`]) its rest shape is drawn faint and its
 //! current shape, as the loop last published it, over it.
 
 use eframe::egui;

@@ -5,9 +5,9 @@ use egui::{Color32, RichText};
 use friction::{FrictionMaterial, ModelKind, Stribeck};
 
 use crate::gui::scene_view::SceneView;
-use crate::gui::spatial::SpatialState;
 #[cfg(doc)]
 use crate::gui::state::AppState;
+use crate::gui::surface_scene::SpatialState;
 
 /// The material panel: the editor's values for the material of the object felt (stiffness,
 /// damping, μs, μd, the Stribeck speed and shape, the friction model), applied as they are

@@ -83,7 +83,7 @@ impl ObjectsPanel {
                         };
                         ui.label(text);
                     }
-                    let renderable = o.space() == Space::Planar || crate::gui::spatial::can_be_felt(o);
+                    let renderable = o.space() == Space::Planar || crate::gui::surface_scene::can_be_felt(o);
                     if renderable && !rendered && ui.button("Render this one").clicked() {
                         render = Some(ObjectsAction::Render(i));
                     }

@@ -254,7 +254,7 @@ impl Scene3d {
     }
 
     /// Shows object `object` in its current shape `now` over its rest shape `rest`, drawn
-    /// faint (a deforming object, [`crate::gui::deform`]), or, with `None`, at rest again.
+    /// faint (a deforming object, [`crate::gui::moving_shape`]), or, with `None`, at rest again.
     pub fn set_moving(&mut self, moving: Option<(usize, &Object, &Object)>) {
         self.moving = moving.map(|(object, rest, now)| {
             let mut g = Geometry::default();

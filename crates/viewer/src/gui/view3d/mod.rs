@@ -28,8 +28,8 @@ use eframe::egui;
 use eframe::egui_wgpu;
 use egui::{Align2, Color32, FontId, Rect, Sense};
 
-use super::spatial::SpatialState;
 use super::state::AppState;
+use super::surface_scene::SpatialState;
 use overlays::{draw_axes, draw_hand, draw_legend};
 use pipeline::Draw3d;
 

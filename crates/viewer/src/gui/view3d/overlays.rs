@@ -7,7 +7,7 @@ use friction::Mode;
 use nurbs::Vec3;
 
 use super::camera::Camera3d;
-use crate::gui::spatial::SpatialState;
+use crate::gui::surface_scene::SpatialState;
 use crate::gui::view::{mode_colour, tick_summary};
 
 /// Force arrows: metres of the scene per newton.
