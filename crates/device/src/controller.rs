@@ -3,13 +3,12 @@
 //!
 //! # The scene is the controller's
 //!
-//! [`Controller::load_scene`] takes the object (for borrowed views such as
-//! [`tracker::Chain`], the view, whose lifetime then bounds the controller's) with its
-//! material, and every tick renders that object: a tick cannot be handed another object than
-//! the one the renderer's state belongs to, so that mismatch (which used to index past the
-//! end of a shorter chain) cannot be written. A firmware or host that swaps its scene storage
-//! loads the new object at a tick boundary, after the whole scene was received and validated,
-//! or [rebinds](Controller::rebind) the controller to a new view type first.
+//! [`Controller::load_scene`] takes the object (a [`tracker::Chain`], which owns its data, or
+//! a board's `&'static mut Chain` slot) with its material, and every tick renders that
+//! object: a tick cannot be handed another object than the one the renderer's state belongs
+//! to, so that mismatch (which used to index past the end of a shorter chain) cannot be
+//! written. A firmware or host loads a new object at a tick boundary, after the whole scene
+//! was received and validated; [`Controller::unload_scene`] gives the object back.
 //!
 //! # A moving shape keeps its renderer
 //!
@@ -785,14 +784,6 @@ impl<O: Object<P = Vec2>> Controller<O> {
             state,
         };
         Ok(self.with_scene(Some(scene)))
-    }
-
-    /// The same controller for another object type, without a scene (calibration, safety
-    /// state, forces and heartbeat carried over). Lets a host that owns its scene storage
-    /// drop the views of the old storage and build views of the new one: the controller's
-    /// type names the views' lifetime, so it cannot outlive the storage.
-    pub fn rebind<O2: Object<P = Vec2>>(self) -> Controller<O2> {
-        self.with_scene(None)
     }
 
     /// This controller with `scene` in place of its own.
