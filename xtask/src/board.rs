@@ -17,7 +17,7 @@ pub const FLASH_BUDGET: u64 = 128 * 1024;
 pub const RAM_BUDGET: u64 = 32 * 1024;
 /// Stack reserved on top of the statics (bytes): the deepest nesting of the firmware's call
 /// graph (read off the release build's disassembly: frame sizes along the deepest calls,
-/// every priority preempting the one below; about 12.7 KB since no chain is built on a
+/// every priority preempting the one below; about 11.8 KB since no chain is built on a
 /// stack, 14.5 KB before; see the firmware README), with room for the USB class's indirect
 /// calls, which are not followed. Not measured on hardware.
 pub const STACK_RESERVE: u64 = 15 * 1024;

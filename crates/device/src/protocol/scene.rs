@@ -359,11 +359,11 @@ impl<const K: usize, const C: usize, const S: usize> SceneStore<K, C, S> {
         self.decode(active)?;
         let kept = match self.kind(object) {
             Some(PatchKind::Curve2) => match self.chain_topology(object) {
-                Some(before) => {
+                Ok(before) => {
                     self.decode(reshaped)?;
-                    self.chain_topology(object) == Some(before)
+                    self.chain_topology(object).ok() == Some(before)
                 }
-                None => false,
+                Err(_) => false,
             },
             Some(PatchKind::Surface) if S > 0 => self.shell_reshaped(reshaped, object)?,
             _ => false,
@@ -426,22 +426,19 @@ impl<const K: usize, const C: usize, const S: usize> SceneStore<K, C, S> {
         Ok(f(&curves[..count]))
     }
 
-    /// Whether `object` makes a chain ([`SceneStore::chain`]). Not inlined: the chain it
-    /// builds is in its own frame, which exists only while it runs (a caller's frame, such as
-    /// a decode of surfaces, does not hold a chain it never builds).
-    #[inline(never)]
+    /// Whether `object` makes a chain ([`SceneStore::chain`] would build it), checked on the
+    /// store's views ([`SceneStore::chain_topology`]): no chain built.
     fn check_chain(&self, object: usize) -> Result<(), WireSceneError> {
-        self.with_curves(object, Chain::<K, C>::check)?
-            .map_err(|e| WireSceneError::at(object, None, SceneFault::Chain(e)))
+        self.chain_topology(object).map(drop)
     }
 
-    /// The topology of `object`'s chain ([`Chain::topology_of`]: no chain built), `None` when
-    /// it is not one. Not inlined, as [`SceneStore::check_chain`].
+    /// The topology of `object`'s chain ([`Chain::topology_of`] on the store's views: no
+    /// chain built), or why it is not one. Not inlined, as [`SceneStore::check_chain`], which
+    /// is it (one copy of the views' setup in a board's flash).
     #[inline(never)]
-    fn chain_topology(&self, object: usize) -> Option<ChainTopology> {
-        self.with_curves(object, Chain::<K, C>::topology_of)
-            .ok()?
-            .ok()
+    fn chain_topology(&self, object: usize) -> Result<ChainTopology, WireSceneError> {
+        self.with_curves(object, Chain::<K, C>::topology_of)?
+            .map_err(|e| WireSceneError::at(object, None, SceneFault::Chain(e)))
     }
 
     /// The topology of `object` when it is a shell.
@@ -558,6 +555,10 @@ impl<const K: usize, const C: usize, const S: usize> SceneStore<K, C, S> {
         }
         let (knot_room, point_room) = match kind {
             PatchKind::Curve2 => (K - self.n_knots, C - self.n_curve_points),
+            // A store without room for surface points takes no surface, not even one of no
+            // points: said before anything is built, so that such a store (a board's) links
+            // none of the surfaces' validation (about 5 KB of flash).
+            PatchKind::Surface if S == 0 => return Err(SceneFault::Capacity),
             PatchKind::Surface => (K - self.n_knots, S - self.n_surface_points),
         };
         if n_knots > knot_room || n_points > point_room {
