@@ -698,9 +698,6 @@ impl<const KNOTS: usize, const POINTS: usize> Chain<KNOTS, POINTS> {
 /// Vertex `k` of a chain of `n` curves, closed or not, from the curves' unit tangents and
 /// points at their ends (`tangent(i, at_end)`, `point(i, at_end)`): the one computation of a
 /// vertex, [`Chain::new`]'s and [`Chain::reshape`]'s.
-// Not inlined: a load, a reshape and a topology check each need it, none per tick (one copy
-// of it in a board's flash, not three).
-#[inline(never)]
 fn vertex(
     k: usize,
     n: usize,
