@@ -42,10 +42,11 @@
 //! A patch with an interior knot of full multiplicity (at least the degree in that direction;
 //! every interior knot of a bilinear patch) is only C⁰ along that knot line, and generally has
 //! a crease there. The shell splits such a patch at load along the lines where its one-sided
-//! normals differ (windows onto the same data, no copy, see `nurbs::Surface::c0_pieces`;
-//! tangent-continuous lines such as the quarter meridians of a surface of revolution stay
-//! inside one patch), so each crease is an edge like any other, found by the side matching above, with its regions and its place
-//! in the state machine. Patch indices of the shell (features, contacts) count these pieces;
+//! normals differ (windows onto the patch's data, which the shell copies once, see
+//! `nurbs::Surface::c0_pieces`; tangent-continuous lines such as the quarter meridians of a
+//! surface of revolution stay inside one patch), so each crease is an edge like any other,
+//! found by the side matching above, with its regions and its place in the state machine.
+//! Patch indices of the shell (features, contacts) count these pieces;
 //! [`Shell::source_patch`] maps them back to the patches given.
 
 use crate::contact::{Contact, Feature};
