@@ -16,7 +16,7 @@
 //! restart the renderer (a search, no force until it is back, a ramp-in) every time. So the
 //! object can be exchanged for the same object reshaped, at a tick boundary, with the renderer
 //! kept: [`Controller::replace_object`] (a new object, the old one returned so its views can be
-//! dropped), [`Controller::reshape`] (the same for views of another lifetime) or
+//! dropped), [`Controller::reshape`] (the same by value) or
 //! [`Controller::reshape_object`] (the object moved in place, [`tracker::Chain::reshape`]: what
 //! a board does between two ticks). The new shape must have the old one's topology
 //! ([`tracker::Object::topology`]: pieces, domains, vertex or edge kinds, closedness), so that
@@ -293,7 +293,7 @@ enum SceneState<O: Object<P = Vec2>> {
 impl<O: Object<P = Vec2>> SceneState<O> {
     /// The state carried from `old` onto `new`, the same object reshaped (see
     /// [`Controller::replace_object`]).
-    fn carried<O2: Object<P = Vec2, State = O::State>>(self, old: &O, new: &O2) -> SceneState<O2> {
+    fn carried(self, old: &O, new: &O) -> SceneState<O> {
         match self {
             SceneState::AwaitingAcquisition { request_hip } => {
                 SceneState::AwaitingAcquisition { request_hip }
@@ -756,19 +756,14 @@ impl<O: Object<P = Vec2>> Controller<O> {
         Ok(())
     }
 
-    /// [`Controller::replace_object`] for a new object of another type with the same
-    /// tracking state and topology (views of other storage, `Chain` for `Chain`):
-    /// the same controller, renderer and all, rendering `object`. For a host that swaps its
-    /// scene storage and whose views' lifetime changes with it; the old object is dropped.
-    /// Refused as `replace_object` is, handing the controller back untouched.
+    /// [`Controller::replace_object`] by value: the same controller, renderer and all,
+    /// rendering `object`; the old object is dropped. Refused as `replace_object` is, handing
+    /// the controller back untouched.
     #[allow(
         clippy::result_large_err,
         reason = "the error hands the controller back unchanged; there is no allocator to box it"
     )]
-    pub fn reshape<O2>(mut self, object: O2) -> Result<Controller<O2>, (Self, ControllerError)>
-    where
-        O2: Object<P = Vec2, State = O::State, Topology = O::Topology>,
-    {
+    pub fn reshape(mut self, object: O) -> Result<Self, (Self, ControllerError)> {
         let Some(scene) = self.scene.take() else {
             return Err((self, ControllerError::NoScene));
         };

@@ -326,52 +326,17 @@ impl<O: Object> FrictionRenderer<O> {
         }
     }
 
-    /// The same renderer, state for state, for an object of another type with the same
-    /// states (a view of other storage: `Chain` for `Chain`). Holds no borrow, so
-    /// this is a plain copy; it is up to the caller that the object it ticks next is the one
-    /// the state belongs to (or [`FrictionRenderer::reshape`] it there).
-    pub fn rebind<O2: Object<P = O::P, State = O::State>>(self) -> FrictionRenderer<O2> {
-        FrictionRenderer {
-            material: self.material,
-            cp: self.cp,
-            proxy: self.proxy,
-            go: self.go,
-            go_patch: self.go_patch,
-            go_params: self.go_params,
-            go_frame: self.go_frame,
-            resolution_m: self.resolution_m,
-            since_slide_s: self.since_slide_s,
-            held_travel_m: self.held_travel_m,
-            cp_feature: self.cp_feature,
-            hip_velocity: self.hip_velocity,
-            cp_velocity: self.cp_velocity,
-            go_on_feature: self.go_on_feature,
-            mode: self.mode,
-            cause: self.cause,
-            law: self.law,
-            slip_speed: self.slip_speed,
-            progress: self.progress,
-            prev_cp: self.prev_cp,
-            prev_hip: self.prev_hip,
-            prev_normal_force: self.prev_normal_force,
-        }
-    }
-
     /// The renderer carried from `old` onto `new`, the same object with its control points
-    /// moved: [`FrictionRenderer::follow_reshape`], then [`FrictionRenderer::rebind`].
-    pub fn reshape<O2: Object<P = O::P, State = O::State>>(
-        mut self,
-        old: &O,
-        new: &O2,
-    ) -> FrictionRenderer<O2> {
+    /// moved: [`FrictionRenderer::follow_reshape`] on a renderer taken by value.
+    pub fn reshape(mut self, old: &O, new: &O) -> Self {
         self.follow_reshape(old, new);
-        self.rebind()
+        self
     }
 
     /// Carries the renderer from `old` onto `new`, the same object with its control points
     /// moved (equal [`Object::topology`]: the caller checks it), between two ticks: mode,
     /// friction memory, material and the CP tracker's feature stay; no search, no restart.
-    /// The next tick is `new`'s (rebind first when its type differs).
+    /// The next tick is `new`'s.
     ///
     /// What rides on the surface moves with it. The GO is a material point of the object
     /// while stuck (the finger stuck to a surface goes where the surface goes), so it is

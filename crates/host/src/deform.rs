@@ -429,20 +429,21 @@ pub fn write_trace(mut out: impl Write, space: Space, trace: &[ProbeSample]) -> 
     out.flush()
 }
 
-/// The views of one shape of an object, for the loop: a chain of planar curves or a shell of
-/// surfaces, whose tracking state holds no borrow (so it carries over from shape to shape).
+/// What the loop renders of one shape of an object: a chain of planar curves or a shell of
+/// surfaces, holding its own copy of the shape (so the renderer carries over from shape to
+/// shape, and the shape's object can go).
 trait Views {
-    type O<'a>: TrackedObject<State = Self::State, P = Self::P>;
+    type O: TrackedObject<State = Self::State, P = Self::P>;
     type State: Copy + core::fmt::Debug;
     type P: nurbs::Point;
-    fn view(object: &Object, index: usize) -> Result<Self::O<'_>, SimError>;
+    fn view(object: &Object, index: usize) -> Result<Self::O, SimError>;
 }
 
 struct ChainViews;
 struct ShellViews;
 
 impl Views for ChainViews {
-    type O<'a> = Chain;
+    type O = Chain;
     type State = ChainTracker;
     type P = nurbs::Vec2;
     fn view(object: &Object, index: usize) -> Result<Chain, SimError> {
@@ -452,10 +453,10 @@ impl Views for ChainViews {
 }
 
 impl Views for ShellViews {
-    type O<'a> = Shell<'a>;
+    type O = Shell;
     type State = ShellTracker;
     type P = Vec3;
-    fn view(object: &Object, index: usize) -> Result<Shell<'_>, SimError> {
+    fn view(object: &Object, index: usize) -> Result<Shell, SimError> {
         let surfaces = object.surface_views().unwrap_or_default();
         Shell::new(&surfaces).map_err(|error| SimError::Shell { index, error })
     }
@@ -659,19 +660,12 @@ fn simulate<V: Views, P: Proceed>(
     let per_step = ticks_per_step(rate_hz);
     let dt_s = per_step as f64 / rate_hz;
     let start = trajectory.at(trajectory.start_s());
-    let mut shape = deformer.rest().clone();
-    // The renderer's type names its object's lifetime; between shapes it is held for no
-    // borrow (`'static` views of nothing) and rebound to each shape's views.
-    let mut carried: Option<FrictionRenderer<V::O<'static>>> = None;
+    let mut object = V::view(deformer.rest(), index)?;
+    let mut renderer = FrictionRenderer::new(&object, material, point::<V::P>(start));
     let mut hips = HipSamples::new(trajectory, rate_hz);
     let mut ticks = Vec::with_capacity(n);
     let mut i = 0;
     while i < n {
-        let object = V::view(&shape, index)?;
-        let mut renderer: FrictionRenderer<V::O<'_>> = match carried.take() {
-            Some(r) => r.rebind(),
-            None => FrictionRenderer::new(&object, material, point::<V::P>(start)),
-        };
         for _ in 0..per_step.min(n - i) {
             let (t_s, hip, hip_velocity) = hips.tick::<V::P>(i);
             let mut tick = render_tick(&mut renderer, &object, t_s, hip, hip_velocity, period_s);
@@ -683,13 +677,10 @@ fn simulate<V: Views, P: Proceed>(
             }
         }
         deformer.step(dt_s)?;
-        let next = deformer.shape()?;
-        // The renderer rides onto the new shape (what sits on the surface moves with it) and
-        // is held, borrowing nothing, until the next round's views.
-        let moved = renderer.reshape(&object, &V::view(&next, index)?);
-        carried = Some(moved.rebind());
-        drop(object);
-        shape = next;
+        // The renderer rides onto the new shape (what sits on the surface moves with it).
+        let next = V::view(&deformer.shape()?, index)?;
+        renderer.follow_reshape(&object, &next);
+        object = next;
     }
     Ok(ticks)
 }

@@ -33,34 +33,35 @@ use scene::{Material, Object, Scene, Space};
 pub const START_CLEARANCE_M: f32 = 0.01;
 
 /// The object the spatial hand feels: object `object` (of surfaces) of a scene through the
-/// friction renderer, or a mesh through the penalty baseline.
-pub struct SpatialSession(SpatialCell);
-
-/// The owner of a [`SpatialSession`].
-#[derive(Debug)]
-struct SpatialSource {
+/// friction renderer, or a mesh through the penalty baseline. It owns the scene, and the
+/// shell it renders owns its copy of the object's surfaces ([`Shell`]): nothing borrowed.
+pub struct SpatialSession {
     scene: Option<Scene>,
     object: usize,
     material: FrictionMaterial,
     name: String,
+    /// The object's shell and its renderer (none for a mesh session).
+    rendering: Option<ShellRendering>,
 }
 
-/// The shell of a NURBS object and its renderer (none for a mesh session).
-#[derive(Debug)]
-struct ShellRendering<'a> {
-    shell: Shell<'a>,
-    renderer: FrictionRenderer<Shell<'a>>,
+/// The shell of a NURBS object and its renderer.
+#[derive(Clone, Copy)]
+struct ShellRendering {
+    shell: Shell,
+    renderer: FrictionRenderer<Shell>,
 }
 
-type MaybeShell<'a> = Option<ShellRendering<'a>>;
-
-self_cell::self_cell!(
-    struct SpatialCell {
-        owner: SpatialSource,
-        #[not_covariant]
-        dependent: MaybeShell,
+impl ShellRendering {
+    /// Carries the renderer onto `shape`, object `index` with its control points moved: what
+    /// rides on the surface moves with it, no search, no restart
+    /// ([`FrictionRenderer::follow_reshape`]). On error nothing changed.
+    fn follow(&mut self, shape: &Object, index: usize) -> Result<(), SimError> {
+        let shell = shell_of(shape, index)?;
+        self.renderer.follow_reshape(&self.shell, &shell);
+        self.shell = shell;
+        Ok(())
     }
-);
+}
 
 impl std::fmt::Debug for SpatialSession {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
@@ -79,79 +80,67 @@ impl SpatialSession {
             index: object,
             count,
         })?;
-        let source = SpatialSource {
-            material: o.material().friction_material(),
-            name: o.name().to_owned(),
+        let material = o.material().friction_material();
+        let name = o.name().to_owned();
+        let rendering = shell_rendering(&scene, object, material, hip)?;
+        Ok(SpatialSession {
             scene: Some(scene),
             object,
-        };
-        let cell = SpatialCell::try_new(source, |s| match &s.scene {
-            Some(scene) => shell_rendering(scene, s.object, s.material, hip).map(Some),
-            None => Ok(None),
-        })?;
-        Ok(SpatialSession(cell))
+            material,
+            name,
+            rendering: Some(rendering),
+        })
     }
 
     /// A mesh object named `name` with `material` (the mesh itself goes to
     /// [`SpatialLoop::set_mesh`]).
     pub fn mesh(name: &str, material: FrictionMaterial) -> Self {
-        let source = SpatialSource {
+        SpatialSession {
             scene: None,
             object: 0,
             material,
             name: name.to_owned(),
-        };
-        SpatialSession(SpatialCell::new(source, |_| None))
+            rendering: None,
+        }
     }
 
     /// The scene, for a NURBS session.
     pub fn scene(&self) -> Option<&Scene> {
-        self.0.borrow_owner().scene.as_ref()
+        self.scene.as_ref()
     }
 
     /// The object's index in the scene.
     pub fn object(&self) -> usize {
-        self.0.borrow_owner().object
+        self.object
     }
 
     /// The object's name.
     pub fn name(&self) -> &str {
-        &self.0.borrow_owner().name
+        &self.name
     }
 
     /// The material.
     pub fn material(&self) -> FrictionMaterial {
-        self.0.borrow_owner().material
+        self.material
     }
 
     /// Whether there is a NURBS object to render.
     pub fn has_nurbs(&self) -> bool {
-        self.0.with_dependent(|_, d| d.is_some())
+        self.rendering.is_some()
     }
 
     /// Restarts the renderer at `hip` with `material`.
     fn restart(&mut self, hip: Vec3, material: FrictionMaterial) {
-        self.0.with_dependent_mut(|_, d| {
-            if let Some(r) = d {
-                r.renderer = FrictionRenderer::new(&r.shell, material, hip);
-            }
-        });
+        if let Some(r) = &mut self.rendering {
+            r.renderer = FrictionRenderer::new(&r.shell, material, hip);
+        }
     }
 }
-
-// The renderer of a deforming object's current shape, borrowing its surfaces.
-self_cell::self_cell!(
-    struct MovingShell {
-        owner: Object,
-        #[not_covariant]
-        dependent: ShellRendering,
-    }
-);
 
 /// A deforming object in the loop: its dynamics and the renderer on its current shape.
 struct SpatialDeforming {
     deformer: Deformer,
-    cell: MovingShell,
+    rendering: ShellRendering,
     /// Steps since the shape was last published.
     since_publish: u32,
 }
@@ -166,25 +155,9 @@ impl std::fmt::Debug for SpatialDeforming {
 }
 
 /// The shell of `object`'s surfaces (object `index` of the scene).
-fn shell_of(object: &Object, index: usize) -> Result<Shell<'_>, SimError> {
+fn shell_of(object: &Object, index: usize) -> Result<Shell, SimError> {
     let surfaces = object.surface_views().unwrap_or_default();
     Shell::new(&surfaces).map_err(|error| SimError::Shell { index, error })
-}
-
-/// `renderer`, rendering `old`, carried onto `shape` (object `index` with its control points
-/// moved) in a cell of its own: what rides on the surface moves with it, no search, no
-/// restart ([`FrictionRenderer::reshape`]).
-fn carry<'a>(
-    renderer: &FrictionRenderer<Shell<'a>>,
-    old: &Shell<'a>,
-    shape: Object,
-    index: usize,
-) -> Result<MovingShell, SimError> {
-    MovingShell::try_new(shape, |o| {
-        let shell = shell_of(o, index)?;
-        let renderer = renderer.reshape(old, &shell);
-        Ok(ShellRendering { shell, renderer })
-    })
 }
 
 fn shell_rendering(
@@ -192,7 +165,7 @@ fn shell_rendering(
     index: usize,
     material: FrictionMaterial,
     hip: Vec3,
-) -> Result<ShellRendering<'_>, SimError> {
+) -> Result<ShellRendering, SimError> {
     let o = scene.object(index).ok_or(SimError::ObjectIndex {
         index,
         count: scene.objects().len(),
@@ -319,17 +292,16 @@ impl SpatialLoop {
         let t_s = self.tick as f64 / RATE_HZ;
         self.tick += 1;
         let (hip, period_s) = (self.hip, self.period_s);
-        let mut tick = match (&self.mesh, &mut self.deforming) {
+        let rendering = match &mut self.deforming {
+            Some(d) => Some(&mut d.rendering),
+            None => self.session.rendering.as_mut(),
+        };
+        let mut tick = match (&self.mesh, rendering) {
             (Some(mesh), _) => mesh_tick(mesh, &self.material, t_s, hip, velocity),
-            (None, Some(d)) => d.cell.with_dependent_mut(|_, r| {
+            (None, Some(r)) => {
                 tick::render_tick(&mut r.renderer, &r.shell, t_s, hip, velocity, period_s)
-            }),
-            (None, None) => self.session.0.with_dependent_mut(|_, d| match d {
-                Some(r) => {
-                    tick::render_tick(&mut r.renderer, &r.shell, t_s, hip, velocity, period_s)
-                }
-                None => free_tick(t_s, hip, velocity),
-            }),
+            }
+            (None, None) => free_tick(t_s, hip, velocity),
         };
         // The mesh baseline names no cause, nor does a renderer restarted by a material
         // change or the switch between the mesh and the NURBS object.
@@ -361,13 +333,12 @@ impl SpatialLoop {
             .and_then(|()| d.deformer.shape())
             .map_err(DeformChangeError::from)
             .and_then(|next| {
-                d.cell
-                    .with_dependent(|_, r| carry(&r.renderer, &r.shell, next, index))
+                d.rendering
+                    .follow(&next, index)
                     .map_err(|e| DeformChangeError::Object(e.into()))
             });
         match moved {
-            Ok(cell) => {
-                d.cell = cell;
+            Ok(()) => {
                 self.shape
                     .publish_when_due(&mut d.since_publish, &d.deformer, t_s);
             }
@@ -434,15 +405,17 @@ impl SpatialLoop {
         let deformer = self.rest_deformer()?;
         let rest = deformer.shape()?;
         let index = deformer.index();
-        let cell = self.session.0.with_dependent(|_, d| match d {
-            Some(r) => carry(&r.renderer, &r.shell, rest, index)
-                .map_err(|e| DeformChangeError::Object(e.into())),
-            None => Err(DeformChangeError::NoObject),
-        })?;
+        let Some(at_rest) = &self.session.rendering else {
+            return Err(DeformChangeError::NoObject);
+        };
+        let mut rendering = *at_rest;
+        rendering
+            .follow(&rest, index)
+            .map_err(|e| DeformChangeError::Object(e.into()))?;
         self.shape.start(&deformer, self.tick as f64 / RATE_HZ);
         self.deforming = Some(SpatialDeforming {
             deformer,
-            cell,
+            rendering,
             since_publish: 0,
         });
         Ok(())
@@ -453,13 +426,10 @@ impl SpatialLoop {
         let Some(d) = self.deforming.take() else {
             return;
         };
-        self.session.0.with_dependent_mut(|_, s| {
-            if let Some(rest) = s {
-                d.cell.with_dependent(|_, moving| {
-                    rest.renderer = moving.renderer.reshape(&moving.shell, &rest.shell);
-                });
-            }
-        });
+        if let Some(rest) = &mut self.session.rendering {
+            let moving = &d.rendering;
+            rest.renderer = moving.renderer.reshape(&moving.shell, &rest.shell);
+        }
         self.shape.stop(self.tick as f64 / RATE_HZ);
     }
 
@@ -472,15 +442,10 @@ impl SpatialLoop {
         let deformer = self.rest_deformer()?;
         let rest = deformer.shape()?;
         let index = deformer.index();
-        let (hip, material) = (self.hip, self.material);
-        let cell = MovingShell::try_new(rest, |o| {
-            let shell = shell_of(o, index)?;
-            let renderer = FrictionRenderer::new(&shell, material, hip);
-            Ok::<_, SimError>(ShellRendering { shell, renderer })
-        })
-        .map_err(|e| DeformChangeError::Object(e.into()))?;
+        let shell = shell_of(&rest, index).map_err(|e| DeformChangeError::Object(e.into()))?;
+        let renderer = FrictionRenderer::new(&shell, self.material, self.hip);
         if let Some(d) = self.deforming.as_mut() {
-            d.cell = cell;
+            d.rendering = ShellRendering { shell, renderer };
             d.deformer = deformer;
             d.since_publish = 0;
             self.shape.start(&d.deformer, self.tick as f64 / RATE_HZ);

@@ -106,6 +106,24 @@ impl<'a> Surface<'a> {
         Surface { ku, kv, points }
     }
 
+    /// The surface of knot vectors `ku`, `kv` (windows or whole vectors, e.g. from
+    /// [`Knots::window_unchecked`]) and its homogeneous control net (row-major, `i` along u),
+    /// for storage that validated all three with [`Surface::new`] before and kept them
+    /// unchanged: O(1), no check in release builds (as [`crate::Curve::from_knots_unchecked`]).
+    /// A net of another size than the knots need makes a surface whose evaluation may panic;
+    /// debug builds check.
+    #[inline]
+    pub fn from_knots_unchecked(ku: Knots<'a>, kv: Knots<'a>, points: &'a [Vec4]) -> Self {
+        debug_assert!(
+            points.len() == ku.n_points() * kv.n_points(),
+            "Surface::from_knots_unchecked: {} points for knots of {} × {}",
+            points.len(),
+            ku.n_points(),
+            kv.n_points()
+        );
+        Surface { ku, kv, points }
+    }
+
     /// Degrees `(p, q)`.
     #[inline]
     pub fn degree(&self) -> (usize, usize) {

@@ -37,7 +37,8 @@ pub use polygon::{
 };
 pub use shell::{
     Corner, Edge, MAX_CORNER_VALENCE, MAX_SHELL_CORNERS, MAX_SHELL_EDGES, MAX_SHELL_PATCHES,
-    SHELL_JOIN_TOL_M, Shell, ShellError, ShellTopology, ShellTracker, Side,
+    SHELL_JOIN_TOL_M, SHELL_KNOTS, SHELL_POINTS, Shell, ShellError, ShellTopology, ShellTracker,
+    Side,
 };
 pub use track::{
     Law, PERIODIC_TOL, Track, Tracker, TrackerConfig, stable_gain_limit, theorem_gain,

@@ -287,7 +287,7 @@ impl<O: Object + ?Sized> Object for &mut O {
     }
 }
 
-impl Object for Shell<'_> {
+impl<const K: usize, const P: usize> Object for Shell<K, P> {
     type P = Vec3;
     type State = ShellTracker;
 
@@ -322,14 +322,12 @@ impl Object for Shell<'_> {
     }
 
     fn frame(&self, patch: usize, params: [f32; 2]) -> PatchFrame<Vec3> {
-        let s = &self.patches()[patch.min(self.patches().len() - 1)];
-        frame_of(s, params)
+        frame_of(&self.surface(patch), params)
     }
 
     fn state_frame(&self, state: &ShellTracker) -> PatchFrame<Vec3> {
         let (i, t) = state.position();
-        let s = &self.patches()[i.min(self.patches().len() - 1)];
-        frame_from(s, t, state.jet())
+        frame_from(&self.surface(i), t, state.jet())
     }
 
     fn offset(
@@ -339,12 +337,11 @@ impl Object for Shell<'_> {
         at: &PatchFrame<Vec3>,
         displacement: Vec3,
     ) -> [f32; 2] {
-        let s = &self.patches()[patch.min(self.patches().len() - 1)];
-        offset_on(s, params, at, displacement)
+        offset_on(&self.surface(patch), params, at, displacement)
     }
 
     fn patch_count(&self) -> usize {
-        self.patches().len()
+        self.surface_count()
     }
 
     fn source_patch(&self, patch: usize) -> usize {
@@ -358,7 +355,7 @@ impl Object for Shell<'_> {
     }
 
     fn point(&self, patch: usize, params: [f32; 2]) -> Vec3 {
-        self.patches()[patch.min(self.patches().len() - 1)].point(params[0], params[1])
+        self.surface(patch).point(params[0], params[1])
     }
 
     fn state_point(state: &ShellTracker) -> Vec3 {

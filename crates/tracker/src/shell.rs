@@ -42,17 +42,18 @@
 //! A patch with an interior knot of full multiplicity (at least the degree in that direction;
 //! every interior knot of a bilinear patch) is only C⁰ along that knot line, and generally has
 //! a crease there. The shell splits such a patch at load along the lines where its one-sided
-//! normals differ (windows onto the same data, no copy, see `nurbs::Surface::c0_pieces`;
-//! tangent-continuous lines such as the quarter meridians of a surface of revolution stay
-//! inside one patch), so each crease is an edge like any other, found by the side matching above, with its regions and its place
-//! in the state machine. Patch indices of the shell (features, contacts) count these pieces;
+//! normals differ (windows onto the patch's data, which the shell copies once, see
+//! `nurbs::Surface::c0_pieces`; tangent-continuous lines such as the quarter meridians of a
+//! surface of revolution stay inside one patch), so each crease is an edge like any other,
+//! found by the side matching above, with its regions and its place in the state machine.
+//! Patch indices of the shell (features, contacts) count these pieces;
 //! [`Shell::source_patch`] maps them back to the patches given.
 
 use crate::contact::{Contact, Feature};
 use crate::global::{GlobalConfig, closest_point};
 use crate::patch::Patch;
 use crate::track::{Track, Tracker, TrackerConfig};
-use nurbs::{Point, Surface, Vec3};
+use nurbs::{Knots, Point, Surface, Vec3, Vec4};
 
 /// Largest number of patches in a shell (fixed storage, no allocation).
 pub const MAX_SHELL_PATCHES: usize = 16;
@@ -97,6 +98,17 @@ pub enum ShellError {
     },
     /// A closed shell whose normals point inward (negative enclosed volume).
     InwardNormals,
+    /// The patches' knots or control points do not fit the shell's fixed storage.
+    Capacity {
+        /// Knots of all the patches together (u and v knot vectors).
+        knots: usize,
+        /// Control points of all the patches together.
+        points: usize,
+        /// Knots the shell holds.
+        knot_capacity: usize,
+        /// Control points the shell holds.
+        point_capacity: usize,
+    },
 }
 
 impl core::fmt::Display for ShellError {
@@ -123,6 +135,15 @@ impl core::fmt::Display for ShellError {
             ShellError::InwardNormals => write!(
                 f,
                 "patches: the closed shell's normals S_u × S_v point inward; swap u and v (or reverse one direction) in every patch"
+            ),
+            ShellError::Capacity {
+                knots,
+                points,
+                knot_capacity,
+                point_capacity,
+            } => write!(
+                f,
+                "patches: {knots} knots (u and v) and {points} control points in all, at most {knot_capacity} and {point_capacity} per object"
             ),
         }
     }
@@ -169,15 +190,62 @@ pub struct Corner {
 impl Corner {
     /// Incident patch corners `(patch, corner)`, corner = `(v_is_max << 1) | u_is_max`.
     pub fn incident(&self) -> &[(u16, u8)] {
-        &self.incident[..self.n_incident as usize]
+        self.incident
+            .get(..usize::from(self.n_incident))
+            .unwrap_or(&[])
     }
 }
 
-/// A validated shell of surface patches with its topology.
+/// Knot capacity of a [`Shell`] by default (the u and v knot vectors of all its patches
+/// together): the protocol's per-scene limit, so any object a device takes fits.
+pub const SHELL_KNOTS: usize = 512;
+
+/// Control-point capacity of a [`Shell`] by default (as [`SHELL_KNOTS`]).
+pub const SHELL_POINTS: usize = 512;
+
+/// Where one piece of a [`Shell`] lives in the shell's own storage: its patch's u and v knot
+/// vectors and homogeneous control net (ranges of [`Shell`]'s arrays; the net's size follows
+/// from the knot vectors and the degrees), and the piece's windows onto those knots
+/// ([`nurbs::Knots::bounds`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+struct Piece {
+    degree: (u8, u8),
+    knots_u: (u16, u16),
+    knots_v: (u16, u16),
+    points: (u16, u16),
+    window_u: (u16, u16),
+    window_v: (u16, u16),
+}
+
+impl Piece {
+    const EMPTY: Piece = Piece {
+        degree: (0, 0),
+        knots_u: (0, 0),
+        knots_v: (0, 0),
+        points: (0, 0),
+        window_u: (0, 0),
+        window_v: (0, 0),
+    };
+}
+
+const BLANK_EDGE: Edge = Edge {
+    a: (0, 0),
+    b: None,
+    reversed: false,
+};
+
+const BLANK_CORNER: Corner = Corner {
+    position: Vec3::ZERO,
+    incident: [(0, 0); MAX_CORNER_VALENCE],
+    n_incident: 0,
+};
+
+/// What a shell's pieces make together, found once at load from their views: where each
+/// piece comes from, what lies across each side, the edges and corners, whether the shell
+/// closes. What building a shell ([`Shell::rebuild`]) and checking one ([`Shell::check`],
+/// [`Shell::topology_of`]) share.
 #[derive(Clone, Copy, Debug)]
-pub struct Shell<'a> {
-    /// The patches split at their creases (full-multiplicity interior knot lines).
-    patches: [Surface<'a>; MAX_SHELL_PATCHES],
+struct Layout {
     n_patches: usize,
     /// Index of the given patch each piece comes from.
     source: [u16; MAX_SHELL_PATCHES],
@@ -190,90 +258,44 @@ pub struct Shell<'a> {
     closed: bool,
 }
 
-/// Parameters of the point at relative position `w ∈ [0, 1]` along side `side` of `s`.
-fn side_param(s: &Surface<'_>, side: usize, w: f32) -> [f32; 2] {
-    let [(u0, u1), (v0, v1)] = Patch::domain(s);
-    match side {
-        0 => [u0, v0 + (v1 - v0) * w],
-        1 => [u1, v0 + (v1 - v0) * w],
-        2 => [u0 + (u1 - u0) * w, v0],
-        _ => [u0 + (u1 - u0) * w, v1],
-    }
-}
-
-/// Relative position along side `side` of the parameters `t`.
-fn side_position(s: &Surface<'_>, side: usize, t: [f32; 2]) -> f32 {
-    let [(u0, u1), (v0, v1)] = Patch::domain(s);
-    let w = if side < 2 {
-        (t[1] - v0) / (v1 - v0)
-    } else {
-        (t[0] - u0) / (u1 - u0)
+impl Layout {
+    /// No pieces, every slot zero (as far as the compiler lays the enums out that way: a
+    /// `Side::Open(0)` is a first variant of payload 0), so that an empty shell is made by
+    /// zeroing rather than copied from a 4 KB constant in flash. [`Layout::find`] writes
+    /// every slot it reads.
+    const EMPTY: Layout = Layout {
+        n_patches: 0,
+        source: [0; MAX_SHELL_PATCHES],
+        sides: [[Side::Open(0); 4]; MAX_SHELL_PATCHES],
+        edges: [BLANK_EDGE; MAX_SHELL_EDGES],
+        n_edges: 0,
+        corners: [BLANK_CORNER; MAX_SHELL_CORNERS],
+        n_corners: 0,
+        corner_of: [[0; 4]; MAX_SHELL_PATCHES],
+        closed: false,
     };
-    w.clamp(0.0, 1.0)
-}
 
-/// Parameters of corner `k` (bits `(v_max << 1) | u_max`).
-fn corner_param(s: &Surface<'_>, k: usize) -> [f32; 2] {
-    let [(u0, u1), (v0, v1)] = Patch::domain(s);
-    [
-        if k & 1 == 1 { u1 } else { u0 },
-        if k & 2 == 2 { v1 } else { v0 },
-    ]
-}
-
-const SIDE_SAMPLES: usize = 5;
-
-fn side_points(s: &Surface<'_>, side: usize) -> [Vec3; SIDE_SAMPLES] {
-    let mut p = [Vec3::ZERO; SIDE_SAMPLES];
-    for (k, q) in p.iter_mut().enumerate() {
-        let t = side_param(s, side, k as f32 / (SIDE_SAMPLES - 1) as f32);
-        *q = s.point(t[0], t[1]);
+    /// No pieces (what a failed build leaves).
+    fn clear(&mut self) {
+        self.n_patches = 0;
+        self.n_edges = 0;
+        self.n_corners = 0;
+        self.closed = false;
     }
-    p
-}
 
-fn within(a: Vec3, b: Vec3) -> bool {
-    (a - b).length_squared() <= SHELL_JOIN_TOL_M * SHELL_JOIN_TOL_M
-}
-
-impl<'a> Shell<'a> {
-    /// Splits the patches at their creases (interior knot lines of full multiplicity),
-    /// classifies every side, finds edges and corners, and checks the orientation of a closed
-    /// shell. Errors name patches by their index in `given`.
-    pub fn new(given: &[Surface<'a>]) -> Result<Self, ShellError> {
-        let Some(&first) = given.first() else {
-            return Err(ShellError::Empty);
-        };
-        if given.len() > MAX_SHELL_PATCHES {
-            return Err(ShellError::TooManyPatches { count: given.len() });
-        }
-        let mut pieces = [first; MAX_SHELL_PATCHES];
-        let mut source = [0u16; MAX_SHELL_PATCHES];
-        let mut n = 0;
-        for (i, s) in given.iter().enumerate() {
-            crate::split::surface_pieces(s, |piece| {
-                if n < MAX_SHELL_PATCHES {
-                    pieces[n] = piece;
-                    source[n] = i as u16;
-                }
-                n += 1;
-            });
-        }
-        if n > MAX_SHELL_PATCHES {
-            return Err(ShellError::TooManyPieces {
-                count: given.len(),
-                pieces: n,
-            });
-        }
-        let patches = &pieces[..n];
+    /// Classifies every side of `pieces`, finds edges and corners, and checks the orientation
+    /// of a closed shell, in place (a failed one leaves it to be [cleared](Layout::clear)).
+    /// Errors name patches by their index in the given patches.
+    fn find(&mut self, pieces: &Pieces<'_>) -> Result<(), ShellError> {
+        let n = pieces.n;
+        let patches = pieces.views();
+        let source = pieces.source;
         let src = |i: usize| usize::from(source[i]);
-        let mut sides = [[Side::Collapsed; 4]; MAX_SHELL_PATCHES];
-        let blank_edge = Edge {
-            a: (0, 0),
-            b: None,
-            reversed: false,
-        };
-        let mut edges = [blank_edge; MAX_SHELL_EDGES];
+        self.clear();
+        self.source = source;
+        self.sides = [[Side::Collapsed; 4]; MAX_SHELL_PATCHES];
+        self.edges = [BLANK_EDGE; MAX_SHELL_EDGES];
+        let (sides, edges) = (&mut self.sides, &mut self.edges);
         let mut n_edges = 0;
         let mut assigned = [[false; 4]; MAX_SHELL_PATCHES];
         for i in 0..n {
@@ -332,14 +354,10 @@ impl<'a> Shell<'a> {
             }
         }
         // Corners: merge coincident patch corners.
-        let blank_corner = Corner {
-            position: Vec3::ZERO,
-            incident: [(0, 0); MAX_CORNER_VALENCE],
-            n_incident: 0,
-        };
-        let mut corners = [blank_corner; MAX_SHELL_CORNERS];
+        self.corners = [BLANK_CORNER; MAX_SHELL_CORNERS];
+        self.corner_of = [[u16::MAX; 4]; MAX_SHELL_PATCHES];
+        let (corners, corner_of) = (&mut self.corners, &mut self.corner_of);
         let mut n_corners = 0;
-        let mut corner_of = [[u16::MAX; 4]; MAX_SHELL_PATCHES];
         for i in 0..n {
             for k in 0..4 {
                 let t = corner_param(&patches[i], k);
@@ -364,88 +382,34 @@ impl<'a> Shell<'a> {
                 corner_of[i][k] = idx as u16;
             }
         }
-        let closed = sides[..n]
+        let closed = self.sides[..n]
             .iter()
             .all(|s| s.iter().all(|x| !matches!(x, Side::Open(_))));
-        let shell = Shell {
-            patches: pieces,
-            n_patches: n,
-            source,
-            sides,
-            edges,
-            n_edges,
-            corners,
-            n_corners,
-            corner_of,
-            closed,
-        };
-        if closed && shell.enclosed_volume() < 0.0 {
+        if closed && enclosed_volume(patches) < 0.0 {
             return Err(ShellError::InwardNormals);
         }
-        Ok(shell)
+        self.n_patches = n;
+        self.n_edges = n_edges;
+        self.n_corners = n_corners;
+        self.closed = closed;
+        Ok(())
     }
 
-    /// The patches, split at their creases (see the module docs): windows onto the patches
-    /// given to [`Shell::new`].
-    pub fn patches(&self) -> &[Surface<'a>] {
-        &self.patches[..self.n_patches]
-    }
-
-    /// Index of the patch given to [`Shell::new`] that patch `i` of the shell is a piece of.
-    pub fn source_patch(&self, i: usize) -> usize {
-        usize::from(self.source[i.min(MAX_SHELL_PATCHES - 1)])
-    }
-
-    /// A tracker on patch `i` at `t`, with the patch's periodic and collapsed sides known from
-    /// the classification at load.
-    fn tracker_on(&self, i: usize, t: [f32; 2], cfg: TrackerConfig) -> Tracker<Vec3, 2> {
-        let sides = self.sides[i];
-        let periodic = [sides[0] == Side::Periodic, sides[2] == Side::Periodic];
-        let collapsed = [
-            [sides[0] == Side::Collapsed, sides[1] == Side::Collapsed],
-            [sides[2] == Side::Collapsed, sides[3] == Side::Collapsed],
-        ];
-        Tracker::with_topology(&self.patches[i], t, cfg, periodic, collapsed)
-    }
-
-    /// What lies across each side of patch `i` (`[u₀, u₁, v₀, v₁]`).
-    pub fn sides(&self, i: usize) -> [Side; 4] {
-        self.sides[i.min(MAX_SHELL_PATCHES - 1)]
-    }
-
-    /// The edges.
-    pub fn edges(&self) -> &[Edge] {
-        &self.edges[..self.n_edges]
-    }
-
-    /// The corners.
-    pub fn corners(&self) -> &[Corner] {
-        &self.corners[..self.n_corners]
-    }
-
-    /// Whether every side is shared, periodic or collapsed (a closed surface).
-    pub fn is_closed(&self) -> bool {
-        self.closed
-    }
-
-    /// What a [`ShellTracker`] state of this shell depends on besides the geometry (as
-    /// [`Chain::topology`](crate::Chain::topology)): the pieces (how many, their source
-    /// patches and parameter domains), what lies across each side, the edges, which patch
-    /// corners meet at each corner, and whether the shell closes.
-    pub fn topology(&self) -> ShellTopology {
-        let mut domains = [[(0.0, 0.0); 2]; MAX_SHELL_PATCHES];
-        for (d, s) in domains.iter_mut().zip(self.patches()) {
-            *d = Patch::domain(s);
+    /// The [`ShellTopology`] of these pieces, of parameter domains `domains` (in order).
+    fn topology(&self, domains: impl Iterator<Item = [(f32, f32); 2]>) -> ShellTopology {
+        let mut d = [[(0.0, 0.0); 2]; MAX_SHELL_PATCHES];
+        for (d, domain) in d.iter_mut().zip(domains).take(self.n_patches) {
+            *d = domain;
         }
         let mut corners = [([(0, 0); MAX_CORNER_VALENCE], 0); MAX_SHELL_CORNERS];
-        for (c, corner) in corners.iter_mut().zip(self.corners()) {
+        for (c, corner) in corners.iter_mut().zip(&self.corners).take(self.n_corners) {
             *c = (corner.incident, corner.n_incident);
         }
         ShellTopology {
             pieces: self.n_patches as u8,
             closed: self.closed,
             source: self.source,
-            domains,
+            domains: d,
             sides: self.sides,
             edges: self.edges,
             n_edges: self.n_edges as u8,
@@ -454,23 +418,343 @@ impl<'a> Shell<'a> {
             corner_of: self.corner_of,
         }
     }
+}
 
-    /// Volume enclosed by the shell, `⅓ ∮ x·n dA` by the midpoint rule on a 24×24 grid per
-    /// patch: positive when the normals point outward.
-    fn enclosed_volume(&self) -> f32 {
-        const G: usize = 24;
-        let mut vol = 0.0;
-        for s in self.patches() {
-            let [(u0, u1), (v0, v1)] = Patch::domain(s);
-            let (du, dv) = ((u1 - u0) / G as f32, (v1 - v0) / G as f32);
-            for i in 0..G {
-                for j in 0..G {
-                    let d = s.derivs(u0 + (i as f32 + 0.5) * du, v0 + (j as f32 + 0.5) * dv, 1);
-                    vol += d.point.dot(d.du.cross(d.dv)) * du * dv;
+/// A shell's pieces (the given patches split at their creases) as views of the given
+/// patches, nothing copied, after the counts every shell passes (no patches or too many, too
+/// many pieces).
+struct Pieces<'s> {
+    views: [Surface<'s>; MAX_SHELL_PATCHES],
+    source: [u16; MAX_SHELL_PATCHES],
+    n: usize,
+}
+
+impl<'s> Pieces<'s> {
+    fn of(given: &[Surface<'s>]) -> Result<Self, ShellError> {
+        let Some(&first) = given.first() else {
+            return Err(ShellError::Empty);
+        };
+        if given.len() > MAX_SHELL_PATCHES {
+            return Err(ShellError::TooManyPatches { count: given.len() });
+        }
+        let mut pieces = Pieces {
+            views: [first; MAX_SHELL_PATCHES],
+            source: [0; MAX_SHELL_PATCHES],
+            n: 0,
+        };
+        for (i, s) in given.iter().enumerate() {
+            crate::split::surface_pieces(s, |piece| {
+                if let (Some(view), Some(source)) = (
+                    pieces.views.get_mut(pieces.n),
+                    pieces.source.get_mut(pieces.n),
+                ) {
+                    *view = piece;
+                    *source = i as u16;
                 }
+                pieces.n += 1;
+            });
+        }
+        if pieces.n > MAX_SHELL_PATCHES {
+            return Err(ShellError::TooManyPieces {
+                count: given.len(),
+                pieces: pieces.n,
+            });
+        }
+        Ok(pieces)
+    }
+
+    fn views(&self) -> &[Surface<'s>] {
+        &self.views[..self.n]
+    }
+}
+
+/// A validated shell of surface patches with its topology.
+///
+/// The shell owns its data, as [`crate::Chain`] does: the patches' knot vectors and
+/// homogeneous control nets are copied into fixed-capacity arrays (`KNOTS` knots, u and v
+/// vectors of all its patches together, and `POINTS` control points; no allocation, no
+/// borrow), and every piece is a pair of windows onto them, made into a [`Surface`] view when
+/// it is evaluated ([`Shell::surface`]). So whoever holds a shell (a loop thread, a
+/// deforming object's simulation, a board) holds its scene, with nothing borrowed to keep
+/// alive. The defaults ([`SHELL_KNOTS`], [`SHELL_POINTS`]) take any object of a scene the
+/// protocol carries.
+#[derive(Clone, Copy, Debug)]
+pub struct Shell<const KNOTS: usize = SHELL_KNOTS, const POINTS: usize = SHELL_POINTS> {
+    /// The given patches' knot vectors, u then v, one patch after the other.
+    knots: [f32; KNOTS],
+    /// The given patches' homogeneous control nets, one after the other.
+    points: [Vec4; POINTS],
+    /// The patches split at their creases (full-multiplicity interior knot lines), as
+    /// windows.
+    pieces: [Piece; MAX_SHELL_PATCHES],
+    layout: Layout,
+}
+
+/// Parameters of the point at relative position `w ∈ [0, 1]` along side `side` of `s`.
+fn side_param(s: &Surface<'_>, side: usize, w: f32) -> [f32; 2] {
+    let [(u0, u1), (v0, v1)] = Patch::domain(s);
+    match side {
+        0 => [u0, v0 + (v1 - v0) * w],
+        1 => [u1, v0 + (v1 - v0) * w],
+        2 => [u0 + (u1 - u0) * w, v0],
+        _ => [u0 + (u1 - u0) * w, v1],
+    }
+}
+
+/// Relative position along side `side` of the parameters `t`.
+fn side_position(s: &Surface<'_>, side: usize, t: [f32; 2]) -> f32 {
+    let [(u0, u1), (v0, v1)] = Patch::domain(s);
+    let w = if side < 2 {
+        (t[1] - v0) / (v1 - v0)
+    } else {
+        (t[0] - u0) / (u1 - u0)
+    };
+    w.clamp(0.0, 1.0)
+}
+
+/// Parameters of corner `k` (bits `(v_max << 1) | u_max`).
+fn corner_param(s: &Surface<'_>, k: usize) -> [f32; 2] {
+    let [(u0, u1), (v0, v1)] = Patch::domain(s);
+    [
+        if k & 1 == 1 { u1 } else { u0 },
+        if k & 2 == 2 { v1 } else { v0 },
+    ]
+}
+
+const SIDE_SAMPLES: usize = 5;
+
+fn side_points(s: &Surface<'_>, side: usize) -> [Vec3; SIDE_SAMPLES] {
+    let mut p = [Vec3::ZERO; SIDE_SAMPLES];
+    for (k, q) in p.iter_mut().enumerate() {
+        let t = side_param(s, side, k as f32 / (SIDE_SAMPLES - 1) as f32);
+        *q = s.point(t[0], t[1]);
+    }
+    p
+}
+
+fn within(a: Vec3, b: Vec3) -> bool {
+    (a - b).length_squared() <= SHELL_JOIN_TOL_M * SHELL_JOIN_TOL_M
+}
+
+/// Volume enclosed by `patches`, `⅓ ∮ x·n dA` by the midpoint rule on a 24×24 grid per
+/// patch: positive when the normals point outward.
+fn enclosed_volume(patches: &[Surface<'_>]) -> f32 {
+    const G: usize = 24;
+    let mut vol = 0.0;
+    for s in patches {
+        let [(u0, u1), (v0, v1)] = Patch::domain(s);
+        let (du, dv) = ((u1 - u0) / G as f32, (v1 - v0) / G as f32);
+        for i in 0..G {
+            for j in 0..G {
+                let d = s.derivs(u0 + (i as f32 + 0.5) * du, v0 + (j as f32 + 0.5) * dv, 1);
+                vol += d.point.dot(d.du.cross(d.dv)) * du * dv;
             }
         }
-        vol / 3.0
+    }
+    vol / 3.0
+}
+
+impl Shell {
+    /// The shell of `given` at the default capacities ([`Shell::from_surfaces`]).
+    pub fn new(given: &[Surface<'_>]) -> Result<Self, ShellError> {
+        Self::from_surfaces(given)
+    }
+}
+
+impl<const KNOTS: usize, const POINTS: usize> Shell<KNOTS, POINTS> {
+    /// Copies the patches' data into the shell, splits the patches at their creases
+    /// (interior knot lines of full multiplicity), classifies every side, finds edges and
+    /// corners, and checks the orientation of a closed shell. Errors name patches by their
+    /// index in `given`.
+    pub fn from_surfaces(given: &[Surface<'_>]) -> Result<Self, ShellError> {
+        let mut shell = Self::EMPTY;
+        shell.rebuild(given)?;
+        Ok(shell)
+    }
+
+    /// A shell of no patches: what a shell slot starts as, to be [rebuilt](Shell::rebuild)
+    /// in place. No object is made of it (every shell constructor refuses no patches,
+    /// [`ShellError::Empty`]).
+    pub const EMPTY: Self = Shell {
+        knots: [0.0; KNOTS],
+        points: [Vec4::ZERO; POINTS],
+        pieces: [Piece::EMPTY; MAX_SHELL_PATCHES],
+        layout: Layout::EMPTY,
+    };
+
+    /// [`Shell::from_surfaces`] in place: this shell becomes the shell of `given`, its
+    /// storage reused. On error the shell is left with no patches
+    /// ([`Shell::surface_count`] 0) and must not be rendered until rebuilt.
+    pub fn rebuild(&mut self, given: &[Surface<'_>]) -> Result<(), ShellError> {
+        let result = self.rebuild_from(given);
+        if result.is_err() {
+            self.layout.clear();
+        }
+        result
+    }
+
+    /// Whether there are patches, not too many, and their knots and control points fit this
+    /// shell's capacities (the first checks, in the order [`Shell::from_surfaces`] reports
+    /// them).
+    fn check_capacity(given: &[Surface<'_>]) -> Result<(), ShellError> {
+        if given.is_empty() {
+            return Err(ShellError::Empty);
+        }
+        if given.len() > MAX_SHELL_PATCHES {
+            return Err(ShellError::TooManyPatches { count: given.len() });
+        }
+        let (n_knots, n_points) = given.iter().fold((0, 0), |(k, p), s| {
+            let (ku, kv) = s.knots();
+            (
+                k + ku.as_slice().len() + kv.as_slice().len(),
+                p + s.points().len(),
+            )
+        });
+        let most = usize::from(u16::MAX);
+        if n_knots > KNOTS || n_points > POINTS || n_knots > most || n_points > most {
+            return Err(ShellError::Capacity {
+                knots: n_knots,
+                points: n_points,
+                knot_capacity: KNOTS,
+                point_capacity: POINTS,
+            });
+        }
+        Ok(())
+    }
+
+    fn rebuild_from(&mut self, given: &[Surface<'_>]) -> Result<(), ShellError> {
+        self.layout.clear();
+        Self::check_capacity(given)?;
+        let pieces = Pieces::of(given)?;
+        self.layout.find(&pieces)?;
+        // Each given patch's data, one after the other; where each patch's starts.
+        let mut offsets = [Piece::EMPTY; MAX_SHELL_PATCHES];
+        let (mut k0, mut p0) = (0, 0);
+        for (s, at) in given.iter().zip(offsets.iter_mut()) {
+            let (ku, kv) = s.knots();
+            let (ku, kv, points) = (ku.as_slice(), kv.as_slice(), s.points());
+            let (k1, k2, p1) = (k0 + ku.len(), k0 + ku.len() + kv.len(), p0 + points.len());
+            self.knots[k0..k1].copy_from_slice(ku);
+            self.knots[k1..k2].copy_from_slice(kv);
+            self.points[p0..p1].copy_from_slice(points);
+            let degree = s.degree();
+            *at = Piece {
+                degree: (degree.0 as u8, degree.1 as u8),
+                knots_u: (k0 as u16, k1 as u16),
+                knots_v: (k1 as u16, k2 as u16),
+                points: (p0 as u16, p1 as u16),
+                ..Piece::EMPTY
+            };
+            (k0, p0) = (k2, p1);
+        }
+        for (slot, (piece, &from)) in self
+            .pieces
+            .iter_mut()
+            .zip(pieces.views().iter().zip(pieces.source.iter()))
+        {
+            let (ku, kv) = piece.knots();
+            let (u, v) = (ku.bounds(), kv.bounds());
+            *slot = Piece {
+                window_u: (u.0 as u16, u.1 as u16),
+                window_v: (v.0 as u16, v.1 as u16),
+                ..offsets[usize::from(from).min(MAX_SHELL_PATCHES - 1)]
+            };
+        }
+        Ok(())
+    }
+
+    /// Whether `given` makes a shell of these capacities (`Ok`), or the error
+    /// [`Shell::from_surfaces`] would give, without building it (the patches are read in
+    /// place: for a device's link, which validates a scene on a small stack).
+    pub fn check(given: &[Surface<'_>]) -> Result<(), ShellError> {
+        Self::check_capacity(given)?;
+        let pieces = Pieces::of(given)?;
+        let mut layout = Layout::EMPTY;
+        layout.find(&pieces)
+    }
+
+    /// The [`Shell::topology`] of the shell `given` makes, or the error
+    /// [`Shell::from_surfaces`] would give, without building it.
+    pub fn topology_of(given: &[Surface<'_>]) -> Result<ShellTopology, ShellError> {
+        Self::check_capacity(given)?;
+        let pieces = Pieces::of(given)?;
+        let mut layout = Layout::EMPTY;
+        layout.find(&pieces)?;
+        Ok(layout.topology(pieces.views().iter().map(Patch::domain)))
+    }
+
+    /// Piece `i` of the shell (the last one past the end): a view onto the shell's data.
+    #[inline]
+    pub fn surface(&self, i: usize) -> Surface<'_> {
+        let last = self.layout.n_patches.clamp(1, MAX_SHELL_PATCHES) - 1;
+        let p = &self.pieces[i.min(last)];
+        let range = |(a, b): (u16, u16)| usize::from(a)..usize::from(b);
+        let window = |(a, b): (u16, u16)| (usize::from(a), usize::from(b));
+        let (du, dv) = (usize::from(p.degree.0), usize::from(p.degree.1));
+        Surface::from_knots_unchecked(
+            Knots::window_unchecked(&self.knots[range(p.knots_u)], du, window(p.window_u)),
+            Knots::window_unchecked(&self.knots[range(p.knots_v)], dv, window(p.window_v)),
+            &self.points[range(p.points)],
+        )
+    }
+
+    /// The patches, split at their creases (see the module docs), in order.
+    pub fn surfaces(&self) -> impl ExactSizeIterator<Item = Surface<'_>> + '_ {
+        (0..self.layout.n_patches).map(|i| self.surface(i))
+    }
+
+    /// Number of patches (pieces) of the shell.
+    pub fn surface_count(&self) -> usize {
+        self.layout.n_patches
+    }
+
+    /// Index of the patch given to [`Shell::new`] that patch `i` of the shell is a piece of.
+    pub fn source_patch(&self, i: usize) -> usize {
+        usize::from(self.layout.source[i.min(MAX_SHELL_PATCHES - 1)])
+    }
+
+    /// A tracker on patch `i` at `t`, with the patch's periodic and collapsed sides known from
+    /// the classification at load.
+    fn tracker_on(&self, i: usize, t: [f32; 2], cfg: TrackerConfig) -> Tracker<Vec3, 2> {
+        let sides = self.sides(i);
+        let periodic = [sides[0] == Side::Periodic, sides[2] == Side::Periodic];
+        let collapsed = [
+            [sides[0] == Side::Collapsed, sides[1] == Side::Collapsed],
+            [sides[2] == Side::Collapsed, sides[3] == Side::Collapsed],
+        ];
+        Tracker::with_topology(&self.surface(i), t, cfg, periodic, collapsed)
+    }
+
+    /// What lies across each side of patch `i` (`[u₀, u₁, v₀, v₁]`).
+    pub fn sides(&self, i: usize) -> [Side; 4] {
+        self.layout.sides[i.min(MAX_SHELL_PATCHES - 1)]
+    }
+
+    /// The edges.
+    pub fn edges(&self) -> &[Edge] {
+        self.layout.edges.get(..self.layout.n_edges).unwrap_or(&[])
+    }
+
+    /// The corners.
+    pub fn corners(&self) -> &[Corner] {
+        self.layout
+            .corners
+            .get(..self.layout.n_corners)
+            .unwrap_or(&[])
+    }
+
+    /// Whether every side is shared, periodic or collapsed (a closed surface).
+    pub fn is_closed(&self) -> bool {
+        self.layout.closed
+    }
+
+    /// What a [`ShellTracker`] state of this shell depends on besides the geometry (as
+    /// [`Chain::topology`](crate::Chain::topology)): the pieces (how many, their source
+    /// patches and parameter domains), what lies across each side, the edges, which patch
+    /// corners meet at each corner, and whether the shell closes.
+    pub fn topology(&self) -> ShellTopology {
+        self.layout
+            .topology(self.surfaces().map(|s| Patch::domain(&s)))
     }
 
     /// The patch and parameters nearest to `x`: the global search on every patch (used to
@@ -478,8 +762,8 @@ impl<'a> Shell<'a> {
     pub fn nearest(&self, x: Vec3) -> (usize, [f32; 2]) {
         let cfg = GlobalConfig::default();
         let mut best = (0, [0.0; 2], f32::INFINITY);
-        for (i, s) in self.patches().iter().enumerate() {
-            let r = closest_point(s, x, &cfg);
+        for (i, s) in self.surfaces().enumerate() {
+            let r = closest_point(&s, x, &cfg);
             if r.distance_squared < best.2 {
                 best = (i, r.t, r.distance_squared);
             }
@@ -529,7 +813,8 @@ fn side_frame(s: &Surface<'_>, side: usize, t: [f32; 2]) -> (Vec3, Vec3, Vec3, V
     (jet.point, n, m, tangent)
 }
 
-/// The per-tick state of tracking one shell: active feature and one surface tracker.
+/// The per-tick state of tracking one shell: active feature and one surface tracker. Holds no
+/// borrow.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ShellTracker {
     feature: Feature,
@@ -551,7 +836,11 @@ enum Decision {
 
 impl ShellTracker {
     /// Starts on the patch nearest to `hip`.
-    pub fn new(shell: &Shell<'_>, hip: Vec3, cfg: TrackerConfig) -> Self {
+    pub fn new<const K: usize, const P: usize>(
+        shell: &Shell<K, P>,
+        hip: Vec3,
+        cfg: TrackerConfig,
+    ) -> Self {
         let (i, t) = shell.nearest(hip);
         ShellTracker {
             feature: Feature::Patch(i as u16),
@@ -584,31 +873,35 @@ impl ShellTracker {
 
     /// Re-evaluates the tracker on `shell` where it is, keeping the feature (as
     /// [`crate::ChainTracker::refresh`]).
-    pub fn refresh(&mut self, shell: &Shell<'_>) {
-        let i = self.patch.min(shell.n_patches - 1);
-        self.tracker.refresh(&shell.patches[i]);
+    pub fn refresh<const K: usize, const P: usize>(&mut self, shell: &Shell<K, P>) {
+        self.tracker.refresh(&shell.surface(self.patch));
     }
 
     /// Puts the tracker on patch `i` at `t`.
-    pub fn reset(&mut self, shell: &Shell<'_>, i: usize, t: [f32; 2]) {
-        let i = i.min(shell.n_patches - 1);
+    pub fn reset<const K: usize, const P: usize>(
+        &mut self,
+        shell: &Shell<K, P>,
+        i: usize,
+        t: [f32; 2],
+    ) {
+        let i = i.min(shell.surface_count().saturating_sub(1));
         self.patch = i;
         self.feature = Feature::Patch(i as u16);
         self.tracker = shell.tracker_on(i, t, *self.tracker.config());
     }
 
     /// One tick, as [`crate::ChainTracker::update`] for 2-D objects.
-    pub fn update(
+    pub fn update<const K: usize, const P: usize>(
         &mut self,
-        shell: &Shell<'_>,
+        shell: &Shell<K, P>,
         hip: Vec3,
         period_s: f32,
         allow_switch: bool,
     ) -> Contact<Vec3> {
         let mut last = None;
         for _ in 0..MAX_SWITCHES {
-            let s = &shell.patches[self.patch];
-            let tr = self.tracker.update(s, hip, period_s);
+            let s = shell.surface(self.patch);
+            let tr = self.tracker.update(&s, hip, period_s);
             last = Some(tr);
             let at_boundary = tr.at_boundary.iter().any(|&b| b != 0);
             if !allow_switch
@@ -619,8 +912,8 @@ impl ShellTracker {
                 break;
             }
             let decision = match self.feature {
-                Feature::Corner(c) => self.corner_decision(shell, c as usize, hip),
-                _ => self.side_decision(shell, &tr, hip),
+                Feature::Corner(c) => self.corner_decision(shell, usize::from(c), hip),
+                _ => self.side_decision(shell, &s, &tr, hip),
             };
             match decision {
                 Decision::Stay => break,
@@ -639,11 +932,17 @@ impl ShellTracker {
                     if self.feature == Feature::Corner(c) {
                         break;
                     }
-                    self.feature = Feature::Corner(c);
                     // Park the tracker on an incident patch corner.
-                    let (p, k) = shell.corners[c as usize].incident()[0];
-                    self.patch = p as usize;
-                    let t = corner_param(&shell.patches[self.patch], k as usize);
+                    let Some(&(p, k)) = shell
+                        .corners()
+                        .get(usize::from(c))
+                        .and_then(|corner| corner.incident().first())
+                    else {
+                        break;
+                    };
+                    self.feature = Feature::Corner(c);
+                    self.patch = usize::from(p);
+                    let t = corner_param(&shell.surface(self.patch), usize::from(k));
                     self.tracker = shell.tracker_on(self.patch, t, *self.tracker.config());
                 }
             }
@@ -652,14 +951,15 @@ impl ShellTracker {
             Some(tr) => tr,
             None => self
                 .tracker
-                .update(&shell.patches[self.patch], hip, period_s),
+                .update(&shell.surface(self.patch), hip, period_s),
         };
         self.contact(shell, &tr, hip)
     }
 
-    /// The side of the current patch nearest to the closest point, if near enough to matter.
-    fn nearest_side(&self, shell: &Shell<'_>, t: [f32; 2]) -> Option<usize> {
-        let [(u0, u1), (v0, v1)] = Patch::domain(&shell.patches[self.patch]);
+    /// The side of patch `s` (the current one) nearest to the closest point, if near enough
+    /// to matter.
+    fn nearest_side(s: &Surface<'_>, t: [f32; 2]) -> Option<usize> {
+        let [(u0, u1), (v0, v1)] = Patch::domain(s);
         let d = [
             (t[0] - u0) / (u1 - u0),
             (u1 - t[0]) / (u1 - u0),
@@ -675,32 +975,26 @@ impl ShellTracker {
         (d[best] <= NEAR_SIDE).then_some(best)
     }
 
-    fn side_decision(&self, shell: &Shell<'_>, tr: &Track<Vec3, 2>, hip: Vec3) -> Decision {
+    /// Where the tracker goes from patch `sa_patch` (the current one, where `tr` left it).
+    fn side_decision<const K: usize, const P: usize>(
+        &self,
+        shell: &Shell<K, P>,
+        sa_patch: &Surface<'_>,
+        tr: &Track<Vec3, 2>,
+        hip: Vec3,
+    ) -> Decision {
         let a = self.patch;
-        let sa_patch = &shell.patches[a];
         // At a patch corner (both parameters clamped), hand over to the corner test.
         if tr.at_boundary[0] != 0 && tr.at_boundary[1] != 0 {
             let k = usize::from(tr.at_boundary[0] > 0) | (usize::from(tr.at_boundary[1] > 0) << 1);
-            let c = shell.corner_of[a][k];
+            let c = shell.layout.corner_of.get(a).map_or(u16::MAX, |c| c[k & 3]);
             if c != u16::MAX {
-                return match self.corner_decision(shell, c as usize, hip) {
+                return match self.corner_decision(shell, usize::from(c), hip) {
                     Decision::Patch(j, _) if j == a => Decision::Stay,
                     d => d,
                 };
             }
         }
-        let Some(side) = self.nearest_side(shell, tr.t) else {
-            return if matches!(self.feature, Feature::Edge(_)) {
-                Decision::Patch(a, tr.t)
-            } else {
-                Decision::Stay
-            };
-        };
-        let w = side_position(sa_patch, side, tr.t);
-        let ta = side_param(sa_patch, side, w);
-        let (e_pt, n_a, m_a, _) = side_frame(sa_patch, side, ta);
-        let r = hip - e_pt;
-        let on_a = r.dot(m_a) >= 0.0;
         let stay = || {
             if matches!(self.feature, Feature::Edge(_)) {
                 Decision::Patch(a, tr.t)
@@ -708,7 +1002,15 @@ impl ShellTracker {
                 Decision::Stay
             }
         };
-        match shell.sides[a][side] {
+        let Some(side) = Self::nearest_side(sa_patch, tr.t) else {
+            return stay();
+        };
+        let w = side_position(sa_patch, side, tr.t);
+        let ta = side_param(sa_patch, side, w);
+        let (e_pt, n_a, m_a, _) = side_frame(sa_patch, side, ta);
+        let r = hip - e_pt;
+        let on_a = r.dot(m_a) >= 0.0;
+        match shell.sides(a).get(side).copied().unwrap_or(Side::Collapsed) {
             Side::Collapsed | Side::Periodic => stay(),
             Side::Open(e) => {
                 if on_a {
@@ -718,8 +1020,10 @@ impl ShellTracker {
                 }
             }
             Side::Shared(e) => {
-                let edge = shell.edges[e as usize];
-                let (b, sb) = if edge.a.0 as usize == a && edge.a.1 as usize == side {
+                let Some(edge) = shell.edges().get(usize::from(e)) else {
+                    return stay();
+                };
+                let (b, sb) = if usize::from(edge.a.0) == a && usize::from(edge.a.1) == side {
                     match edge.b {
                         Some(x) => x,
                         None => return stay(),
@@ -727,19 +1031,19 @@ impl ShellTracker {
                 } else {
                     edge.a
                 };
-                let sb_patch = &shell.patches[b as usize];
+                let sb_patch = &shell.surface(usize::from(b));
                 let wb = if edge.reversed { 1.0 - w } else { w };
-                let tb = side_param(sb_patch, sb as usize, wb);
-                let (_, n_b, m_b, _) = side_frame(sb_patch, sb as usize, tb);
+                let tb = side_param(sb_patch, usize::from(sb), wb);
+                let (_, n_b, m_b, _) = side_frame(sb_patch, usize::from(sb), tb);
                 let on_b = r.dot(m_b) >= 0.0;
                 let bend = n_a.dot(m_b);
                 let smooth = bend.abs() <= 1e-4 && n_a.dot(n_b) > 0.0;
                 match (on_a, on_b) {
                     (true, false) => stay(),
-                    (false, true) => Decision::Patch(b as usize, tb),
+                    (false, true) => Decision::Patch(usize::from(b), tb),
                     (false, false) => {
                         if smooth {
-                            Decision::Patch(b as usize, tb)
+                            Decision::Patch(usize::from(b), tb)
                         } else {
                             Decision::Edge(e)
                         }
@@ -756,7 +1060,7 @@ impl ShellTracker {
                         if a_closer {
                             stay()
                         } else {
-                            Decision::Patch(b as usize, tb)
+                            Decision::Patch(usize::from(b), tb)
                         }
                     }
                 }
@@ -764,25 +1068,32 @@ impl ShellTracker {
         }
     }
 
-    fn corner_decision(&self, shell: &Shell<'_>, c: usize, hip: Vec3) -> Decision {
-        let corner = &shell.corners[c];
+    fn corner_decision<const K: usize, const P: usize>(
+        &self,
+        shell: &Shell<K, P>,
+        c: usize,
+        hip: Vec3,
+    ) -> Decision {
+        let Some(corner) = shell.corners().get(c) else {
+            return Decision::Stay;
+        };
         let r = hip - corner.position;
         // A patch whose corner quadrant the HIP projects into.
         for &(p, k) in corner.incident() {
-            let s = &shell.patches[p as usize];
-            let t = corner_param(s, k as usize);
+            let s = shell.surface(usize::from(p));
+            let t = corner_param(&s, usize::from(k));
             let jet = s.jet(t, 1);
             let du = if k & 1 == 1 { -jet.d[0] } else { jet.d[0] };
             let dv = if k & 2 == 2 { -jet.d[1] } else { jet.d[1] };
             if r.dot(du) >= 0.0 && r.dot(dv) >= 0.0 {
                 // Step slightly into the patch so the tracker starts off the corner.
-                return Decision::Patch(p as usize, t);
+                return Decision::Patch(usize::from(p), t);
             }
         }
         // An edge the HIP projects onto.
         for &(p, k) in corner.incident() {
-            let s = &shell.patches[p as usize];
-            let t = corner_param(s, k as usize);
+            let s = shell.surface(usize::from(p));
+            let t = corner_param(&s, usize::from(k));
             let jet = s.jet(t, 1);
             for (side, d) in [
                 (
@@ -795,7 +1106,7 @@ impl ShellTracker {
                 ),
             ] {
                 if r.dot(d) > 0.0 {
-                    match shell.sides[p as usize][side] {
+                    match shell.sides(usize::from(p))[side] {
                         Side::Shared(e) | Side::Open(e) => return Decision::Edge(e),
                         _ => {}
                     }
@@ -805,7 +1116,12 @@ impl ShellTracker {
         Decision::Corner(c as u16)
     }
 
-    fn contact(&self, shell: &Shell<'_>, tr: &Track<Vec3, 2>, hip: Vec3) -> Contact<Vec3> {
+    fn contact<const K: usize, const P: usize>(
+        &self,
+        shell: &Shell<K, P>,
+        tr: &Track<Vec3, 2>,
+        hip: Vec3,
+    ) -> Contact<Vec3> {
         let patch_contact = || Contact {
             feature: self.feature,
             patch: self.patch as u16,
@@ -820,7 +1136,10 @@ impl ShellTracker {
             Feature::Patch(_) => patch_contact(),
             Feature::Edge(_) | Feature::Corner(_) => {
                 let point = match self.feature {
-                    Feature::Corner(c) => shell.corners[c as usize].position,
+                    Feature::Corner(c) => shell
+                        .corners()
+                        .get(usize::from(c))
+                        .map_or(tr.point, |c| c.position),
                     _ => tr.point,
                 };
                 let r = hip - point;
@@ -829,7 +1148,6 @@ impl ShellTracker {
                 let dist = nurbs::math::sqrt(r.length_squared());
                 let dir = Point::try_normalize(r).unwrap_or(tr.normal);
                 let (normal, depth) = if inside { (-dir, dist) } else { (dir, -dist) };
-                let _ = shell;
                 Contact {
                     feature: self.feature,
                     patch: self.patch as u16,

@@ -129,7 +129,7 @@ fn ridge_is_an_edge_of_the_split_shell() {
     let s = roof_surface();
     let views = [s.view()];
     let shell = Shell::new(&views).unwrap();
-    assert_eq!(shell.patches().len(), 2);
+    assert_eq!(shell.surface_count(), 2);
     assert_eq!((shell.source_patch(0), shell.source_patch(1)), (0, 0));
     // Piece 0 ends at u = 1 (side 1), piece 1 starts there (side 0): one shared edge.
     let (Side::Shared(e0), Side::Shared(e1)) = (shell.sides(0)[1], shell.sides(1)[0]) else {
@@ -187,7 +187,7 @@ fn tangent_continuous_full_multiplicity_knots_stay_whole() {
     assert!(sphere.view().c0_pieces().count() > 1);
     let views = [sphere.view()];
     let shell = Shell::new(&views).unwrap();
-    assert_eq!(shell.patches().len(), 1);
+    assert_eq!(shell.surface_count(), 1);
 }
 
 /// A rational roof: the same legs with the apex control point's neighbours weighted, so the

@@ -59,7 +59,7 @@ fn nearest_faces(x: Vec3) -> Vec<usize> {
 }
 
 /// The faces touching the FSM's active feature.
-fn feature_faces(shell: &Shell<'_>, f: Feature) -> Vec<usize> {
+fn feature_faces(shell: &Shell, f: Feature) -> Vec<usize> {
     let mut v: Vec<usize> = match f {
         Feature::Patch(i) => vec![i as usize],
         Feature::Edge(e) => {
@@ -80,7 +80,7 @@ fn feature_faces(shell: &Shell<'_>, f: Feature) -> Vec<usize> {
     v
 }
 
-fn run(shell: &Shell<'_>, path: &[Vec3]) -> Vec<(Vec3, Contact<Vec3>)> {
+fn run(shell: &Shell, path: &[Vec3]) -> Vec<(Vec3, Contact<Vec3>)> {
     let mut tr = ShellTracker::new(shell, path[0], TrackerConfig::default());
     path.iter()
         .map(|&x| (x, tr.update(shell, x, T, true)))
@@ -281,4 +281,179 @@ fn glam_rotate_z(v: Vec3, a: f32) -> Vec3 {
         v.x * a.sin() + v.y * a.cos(),
         v.z,
     )
+}
+
+/// A sheet folded along u = 1/2 (a knot of multiplicity 1 = p): flat on z = 0 for u ≤ 1/2,
+/// `S = (2u, v, 0)`, then up the plane x = 1, `S = (1, v, 2u − 1)`: one patch the shell
+/// splits into two pieces, windows onto the same knots.
+fn folded_sheet() -> SurfaceBuf {
+    let rows: Vec<Vec<Vec3>> = [Vec3::ZERO, Vec3::X, Vec3::new(1.0, 0.0, 1.0)]
+        .iter()
+        .map(|&p| vec![p, p + Vec3::Y])
+        .collect();
+    SurfaceBuf::from_rows(
+        (1, 1),
+        (vec![0.0, 0.0, 0.5, 1.0, 1.0], vec![0.0, 0.0, 1.0, 1.0]),
+        &rows,
+        None::<&[Vec<f32>]>,
+    )
+    .unwrap()
+}
+
+/// The two half-spheres of [`sphere_halves_smooth_seams`]: rational, with poles.
+fn sphere_halves() -> Vec<SurfaceBuf> {
+    let (r, c) = (0.03, Vec3::new(0.0, 0.09, 0.0));
+    let meridian = construct::arc(
+        c,
+        Vec3::X * r,
+        Vec3::Z * r,
+        -std::f32::consts::FRAC_PI_2,
+        std::f32::consts::PI,
+    )
+    .unwrap();
+    let half1 = construct::revolve(&meridian, c, Vec3::Z, std::f32::consts::PI).unwrap();
+    let half2 = half1
+        .map_points(|p| c + glam_rotate_z(p - c, std::f32::consts::PI))
+        .unwrap();
+    vec![half1, half2]
+}
+
+/// Every piece's point and derivatives to order 2 at interior parameters (fractions of its
+/// domain that are no knot), as bits.
+fn readings(shell: &Shell) -> Vec<[u32; 18]> {
+    const AT: [f32; 4] = [0.13, 0.41, 0.77, 0.94];
+    let mut out = Vec::new();
+    for s in shell.surfaces() {
+        let ((u0, u1), (v0, v1)) = s.domain();
+        for a in AT {
+            for b in AT {
+                let d = s.derivs(u0 + (u1 - u0) * a, v0 + (v1 - v0) * b, 2);
+                let v = [d.point, d.du, d.dv, d.duu, d.duv, d.dvv];
+                out.push(std::array::from_fn(|k| v[k / 3][k % 3].to_bits()));
+            }
+        }
+    }
+    out
+}
+
+/// The shell owns its data: one built from surfaces keeps rendering, bit for bit, after the
+/// surfaces' storage is gone, and so does one rebuilt in place from a copy that is gone too.
+/// Both have the topology, sides, edges and corners that the views of the surfaces give
+/// ([`Shell::topology_of`]), their pieces evaluate exactly as the given patches do inside
+/// each piece (a window finds the same knot span), and a tracker run on either reports the
+/// same contacts.
+#[test]
+fn a_shell_owns_its_data() {
+    let shapes: [(&str, Vec<SurfaceBuf>, [Vec3; 2]); 3] = [
+        (
+            "cube",
+            cube(),
+            [
+                Vec3::new(0.03, 0.001, 0.015),
+                Vec3::new(-0.005, -0.002, 0.018),
+            ],
+        ),
+        (
+            "sphere halves",
+            sphere_halves(),
+            [Vec3::new(0.035, 0.09, 0.005), Vec3::new(-0.01, 0.115, 0.01)],
+        ),
+        (
+            "folded sheet",
+            vec![folded_sheet()],
+            [Vec3::new(0.2, 0.5, 0.01), Vec3::new(1.05, 0.5, 0.3)],
+        ),
+    ];
+    for (name, surfaces, [from, to]) in shapes {
+        let path: Vec<Vec3> = (0..=600).map(|k| from.lerp(to, k as f32 / 600.0)).collect();
+        let (built, before, topology) = {
+            let storage = surfaces.clone();
+            let views: Vec<_> = storage.iter().map(|s| s.view()).collect();
+            let shell = Shell::new(&views).unwrap();
+            let topology = <Shell>::topology_of(&views).unwrap();
+            assert_eq!(shell.topology(), topology, "{name}");
+            // Each piece evaluates as its source patch does at the same parameters.
+            for (i, piece) in shell.surfaces().enumerate() {
+                let given = views[shell.source_patch(i)];
+                let ((u0, u1), (v0, v1)) = piece.domain();
+                for (a, b) in [(0.13, 0.41), (0.77, 0.94), (0.41, 0.13)] {
+                    let (u, v) = (u0 + (u1 - u0) * a, v0 + (v1 - v0) * b);
+                    let (p, q) = (piece.derivs(u, v, 2), given.derivs(u, v, 2));
+                    assert_eq!(
+                        [p.point, p.du, p.dv].map(|x| x.to_array().map(f32::to_bits)),
+                        [q.point, q.du, q.dv].map(|x| x.to_array().map(f32::to_bits)),
+                        "{name}: piece {i} at ({u}, {v})"
+                    );
+                }
+            }
+            (shell, readings(&shell), topology)
+        };
+        let mut rebuilt = Shell::EMPTY;
+        {
+            let copy = surfaces.clone();
+            let views: Vec<_> = copy.iter().map(|s| s.view()).collect();
+            rebuilt.rebuild(&views).unwrap();
+        }
+        drop(surfaces);
+        for shell in [&built, &rebuilt] {
+            assert_eq!(shell.topology(), topology, "{name}");
+            assert_eq!(readings(shell), before, "{name}");
+        }
+        assert_eq!(
+            (built.surface_count(), built.is_closed()),
+            (rebuilt.surface_count(), rebuilt.is_closed()),
+            "{name}"
+        );
+        assert_eq!(built.edges(), rebuilt.edges(), "{name}");
+        assert_eq!(built.corners(), rebuilt.corners(), "{name}");
+        for i in 0..built.surface_count() {
+            assert_eq!(built.sides(i), rebuilt.sides(i), "{name}");
+            assert_eq!(built.source_patch(i), rebuilt.source_patch(i), "{name}");
+        }
+        let (a, b) = (run(&built, &path), run(&rebuilt, &path));
+        assert!(a.iter().any(|(_, c)| c.inside), "{name}: the path touches");
+        assert_eq!(a, b, "{name}");
+    }
+}
+
+/// Patches whose knots or control points do not fit the shell's storage are refused with
+/// the counts and the capacities, by the shell and by its checks on views, and a failed
+/// rebuild leaves no patches. The cube's six bilinear faces hold 6 × (4 + 4) = 48 knots and
+/// 6 × 4 = 24 control points.
+#[test]
+fn patches_beyond_the_capacity_are_refused() {
+    let faces = cube();
+    let views: Vec<_> = faces.iter().map(|f| f.view()).collect();
+    assert!(Shell::<48, 24>::from_surfaces(&views).is_ok());
+    assert_eq!(Shell::<48, 24>::check(&views), Ok(()));
+    for (knot_capacity, point_capacity, result) in [
+        (47, 24, Shell::<47, 24>::from_surfaces(&views).map(drop)),
+        (48, 23, Shell::<48, 23>::from_surfaces(&views).map(drop)),
+        (47, 24, Shell::<47, 24>::check(&views)),
+        (48, 23, Shell::<48, 23>::topology_of(&views).map(drop)),
+    ] {
+        let e = ShellError::Capacity {
+            knots: 48,
+            points: 24,
+            knot_capacity,
+            point_capacity,
+        };
+        assert_eq!(result, Err(e));
+        assert_eq!(
+            e.to_string(),
+            format!(
+                "patches: 48 knots (u and v) and 24 control points in all, at most \
+                 {knot_capacity} and {point_capacity} per object"
+            )
+        );
+    }
+    let mut shell = Shell::<48, 24>::from_surfaces(&views).unwrap();
+    assert!(shell.rebuild(&views[..5]).is_ok());
+    let more: Vec<_> = views.iter().chain(&views[..1]).copied().collect();
+    assert!(matches!(
+        Shell::<48, 24>::from_surfaces(&more),
+        Err(ShellError::Capacity { .. })
+    ));
+    assert!(shell.rebuild(&more).is_err());
+    assert_eq!(shell.surface_count(), 0);
 }

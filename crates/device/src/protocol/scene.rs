@@ -3,8 +3,8 @@
 use friction::FrictionMaterial;
 use nurbs::{Curve, NurbsError, Surface, Vec2, Vec3, Vec4};
 use tracker::{
-    Chain, ChainError, ChainTopology, MAX_CHAIN_CURVES, MAX_SHELL_PATCHES, Shell, ShellError,
-    ShellTopology,
+    CHAIN_KNOTS, CHAIN_POINTS, Chain, ChainError, ChainTopology, MAX_CHAIN_CURVES,
+    MAX_SHELL_PATCHES, SHELL_KNOTS, SHELL_POINTS, Shell, ShellError, ShellTopology,
 };
 
 use super::wire::{MATERIAL_LEN, Reader, get_material};
@@ -18,12 +18,20 @@ pub const SCENE_VERSION: u8 = 1;
 pub const MAX_OBJECTS: usize = 8;
 /// Most patches in a scene (all objects together).
 pub const MAX_PATCHES: usize = 32;
-/// Most knots in a scene (all knot vectors together) in the default [`SceneStore`].
-pub const MAX_KNOTS: usize = 512;
-/// Most control points of planar curves in a scene in the default [`SceneStore`].
-pub const MAX_CURVE_POINTS: usize = 512;
-/// Most control points of surfaces in a scene in the default [`SceneStore`].
-pub const MAX_SURFACE_POINTS: usize = 512;
+/// Most knots in a scene (all knot vectors together) in the default [`SceneStore`]: what a
+/// default chain and shell hold ([`tracker::CHAIN_KNOTS`], [`tracker::SHELL_KNOTS`]), so any
+/// object of a scene makes one.
+pub const MAX_KNOTS: usize = SHELL_KNOTS;
+/// Most control points of planar curves in a scene in the default [`SceneStore`]: what a
+/// default chain holds ([`tracker::CHAIN_POINTS`]).
+pub const MAX_CURVE_POINTS: usize = CHAIN_POINTS;
+/// Most control points of surfaces in a scene in the default [`SceneStore`]: what a default
+/// shell holds ([`tracker::SHELL_POINTS`]).
+pub const MAX_SURFACE_POINTS: usize = SHELL_POINTS;
+const _: () = assert!(
+    MAX_KNOTS <= CHAIN_KNOTS,
+    "a default chain holds a scene's knots"
+);
 
 /// Patch kind byte: a planar curve.
 pub const KIND_CURVE2: u8 = 1;
@@ -441,19 +449,71 @@ impl<const K: usize, const C: usize, const S: usize> SceneStore<K, C, S> {
             .map_err(|e| WireSceneError::at(object, None, SceneFault::Chain(e)))
     }
 
-    /// The topology of `object` when it is a shell.
+    /// Object `object` as a shell of surfaces, holding its own copy of the object's data at
+    /// the store's capacities (so any object of the store fits), as [`SceneStore::chain`]
+    /// for a chain. Refused with the fault that says why: no such object, an object of
+    /// curves, surfaces that do not make a shell.
+    pub fn shell(&self, object: usize) -> Result<Shell<K, S>, WireSceneError> {
+        self.with_surfaces(object, Shell::from_surfaces)?
+            .map_err(|e| WireSceneError::at(object, None, SceneFault::Shell(e)))
+    }
+
+    /// [`SceneStore::shell`] in place: `shell` becomes object `object`'s shell, its storage
+    /// reused ([`Shell::rebuild`]: no shell built on the stack). On error `shell` has no
+    /// patches.
+    pub fn rebuild_shell(
+        &self,
+        object: usize,
+        shell: &mut Shell<K, S>,
+    ) -> Result<(), WireSceneError> {
+        self.with_surfaces(object, |surfaces| shell.rebuild(surfaces))?
+            .map_err(|e| WireSceneError::at(object, None, SceneFault::Shell(e)))
+    }
+
+    /// `f` of object `object`'s surfaces as views of the store (a shell's worth of views, no
+    /// shell built), as [`SceneStore::with_curves`] for curves.
+    pub fn with_surfaces<R>(
+        &self,
+        object: usize,
+        f: impl FnOnce(&[Surface<'_>]) -> R,
+    ) -> Result<R, WireSceneError> {
+        let at = |fault| WireSceneError::at(object, None, fault);
+        let rec = self.object(object).ok_or(at(SceneFault::Format))?;
+        if rec.kind() != Some(PatchKind::Surface) {
+            return Err(at(SceneFault::MixedKinds));
+        }
+        let count = rec.n_patches;
+        if count > MAX_SHELL_PATCHES {
+            return Err(at(SceneFault::Shell(ShellError::TooManyPatches { count })));
+        }
+        let patch = |p: usize| {
+            // Every patch was validated while parsing, so each is a surface.
+            self.surface(object, p)
+                .ok_or(WireSceneError::at(object, Some(p), SceneFault::Format))
+        };
+        let first = patch(0)?;
+        let mut surfaces = [first; MAX_SHELL_PATCHES];
+        for (p, s) in surfaces.iter_mut().enumerate().take(count).skip(1) {
+            *s = patch(p)?;
+        }
+        Ok(f(&surfaces[..count]))
+    }
+
+    /// Whether `object` makes a shell ([`Shell::check`]: no shell built). Not inlined, as
+    /// [`SceneStore::check_chain`].
+    #[inline(never)]
+    fn check_shell(&self, object: usize) -> Result<(), WireSceneError> {
+        self.with_surfaces(object, Shell::<K, S>::check)?
+            .map_err(|e| WireSceneError::at(object, None, SceneFault::Shell(e)))
+    }
+
+    /// The topology of `object`'s shell ([`Shell::topology_of`]: no shell built), `None`
+    /// when it is not one.
     #[inline(never)]
     fn shell_topology(&self, object: usize) -> Option<ShellTopology> {
-        let n = self.patch_count(object)?;
-        let first = self.surface(object, 0)?;
-        let mut patches = [first; MAX_SHELL_PATCHES];
-        for (p, s) in patches.iter_mut().enumerate().take(n).skip(1) {
-            *s = self.surface(object, p)?;
-        }
-        match &Shell::new(patches.get(..n)?) {
-            Ok(shell) => Some(shell.topology()),
-            Err(_) => None,
-        }
+        self.with_surfaces(object, Shell::<K, S>::topology_of)
+            .ok()?
+            .ok()
     }
 
     /// The surface half of [`SceneStore::decode_reshaped`] (the active scene decoded): decodes
@@ -626,10 +686,6 @@ impl<const K: usize, const C: usize, const S: usize> SceneStore<K, C, S> {
             let Some(rec) = self.object(o) else {
                 return Err(WireSceneError::at(o, None, SceneFault::Format));
             };
-            let patch_fault = |p: usize| {
-                // Unreachable: every patch was validated while parsing.
-                WireSceneError::at(o, Some(p), SceneFault::Format)
-            };
             match rec.kind() {
                 None => return Err(WireSceneError::at(o, None, SceneFault::Format)),
                 Some(PatchKind::Curve2) => self.check_chain(o)?,
@@ -639,20 +695,7 @@ impl<const K: usize, const C: usize, const S: usize> SceneStore<K, C, S> {
                 Some(PatchKind::Surface) if S == 0 => {
                     return Err(WireSceneError::at(o, None, SceneFault::Capacity));
                 }
-                Some(PatchKind::Surface) => {
-                    if rec.n_patches > MAX_SHELL_PATCHES {
-                        let count = rec.n_patches;
-                        let fault = SceneFault::Shell(ShellError::TooManyPatches { count });
-                        return Err(WireSceneError::at(o, None, fault));
-                    }
-                    let first = self.surface(o, 0).ok_or_else(|| patch_fault(0))?;
-                    let mut surfaces = [first; MAX_SHELL_PATCHES];
-                    for (p, s) in surfaces.iter_mut().enumerate().take(rec.n_patches) {
-                        *s = self.surface(o, p).ok_or_else(|| patch_fault(p))?;
-                    }
-                    Shell::new(&surfaces[..rec.n_patches])
-                        .map_err(|e| WireSceneError::at(o, None, SceneFault::Shell(e)))?;
-                }
+                Some(PatchKind::Surface) => self.check_shell(o)?,
             }
         }
         Ok(())

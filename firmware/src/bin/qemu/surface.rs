@@ -21,24 +21,12 @@ pub(crate) fn surface_run(meter: &mut Meter, rate_hz: f64) {
     if let Err(e) = store.decode(SURFACE_SCENE) {
         fail(format_args!("scene {name}: {e}"));
     }
-    let n = store.patch_count(0).unwrap_or(0);
-    let Some(first) = store.surface(0, 0) else {
-        fail(format_args!(
-            "scene {name}: object 0 is not made of surfaces"
-        ));
-    };
-    let mut patches = [first; tracker::MAX_SHELL_PATCHES];
-    for (p, s) in patches.iter_mut().enumerate().take(n).skip(1) {
-        match store.surface(0, p) {
-            Some(surface) => *s = surface,
-            None => fail(format_args!("scene {name}: patch {p} is not a surface")),
-        }
+    // The shell holds its own copy of the object's surfaces, built in place
+    // ([`SceneStore::rebuild_shell`]: no shell returned through the stack).
+    let mut shell = tracker::Shell::EMPTY;
+    if let Err(e) = store.rebuild_shell(0, &mut shell) {
+        fail(format_args!("scene {name}: {e}"));
     }
-    let shell = match patches.get(..n).map(tracker::Shell::new) {
-        Some(Ok(shell)) => shell,
-        Some(Err(e)) => fail(format_args!("scene {name}: {e}")),
-        None => fail(format_args!("scene {name}: {n} patches")),
-    };
     let Some(material) = store.material(0) else {
         fail(format_args!("scene {name}: no material"));
     };
