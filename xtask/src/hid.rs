@@ -913,7 +913,7 @@ fn session(root: &Path) -> Result<Vec<String>, String> {
         }
         lines.push(format!(
             "press {presses}: {held} of the last {} frames with a force over 0.1 N: lifted \
-             and pressed again; the press (every 10th frame from the first contact):\n{trace}",
+             and pressed again; the press (every 10th frame from the first contact, or from its start):\n{trace}",
             settled.len()
         ));
         retries += ask(&mut host, &Message::HandTarget { target_m: above }, above)?;
@@ -959,7 +959,7 @@ fn session(root: &Path) -> Result<Vec<String>, String> {
         return Err(format!(
             "telemetry: {disordered} frames out of order, {pressing} of {} in contact, device \
              time {span_s} s over a {:.0} s window; the last frame {:?}; faults seen {:?}; \
-             the press (every 10th frame from the first contact):\n{press}",
+             the press (every 10th frame from the first contact, or from its start):\n{press}",
             frames.len(),
             TELEMETRY_WINDOW.as_secs_f64(),
             frames.last(),
@@ -996,18 +996,16 @@ fn session(root: &Path) -> Result<Vec<String>, String> {
 /// Attempts at a request before the session gives up.
 const ATTEMPTS: usize = 3;
 
-/// Sends `m` (an idempotent request) until the device answers, at most [`ATTEMPTS`] times;
-/// returns how many times it was sent again. An answer can be lost on the host: the kernel
-/// keeps 64 reports per hidraw reader and drops what comes while they are unread, acks
-/// included, when the emulated reader falls behind.
-/// Every 10th frame of `frames` from the first with a normal force (at most 100 lines): the
-/// device time, HIP, the renderer's normal force, the force applied, the friction state and
-/// the faults.
+/// Every 10th frame of `frames` from the first with a normal force, or from the first when
+/// none has one (at most 100 lines): the device time, HIP, the renderer's normal force, the
+/// force applied, the friction state and the faults.
 fn press_trace(frames: &[Telemetry]) -> String {
+    // From the first contact; from the press's start when there was none (a press that never
+    // touched says where the handle went and what the device reported meanwhile).
     let first = frames
         .iter()
         .position(|t| t.force_normal_n > 0.0)
-        .unwrap_or(frames.len());
+        .unwrap_or(0);
     frames[first..]
         .iter()
         .step_by(10)
@@ -1029,6 +1027,10 @@ fn press_trace(frames: &[Telemetry]) -> String {
         .join("\n")
 }
 
+/// Sends `m` (an idempotent request) until the device answers, at most [`ATTEMPTS`] times;
+/// returns how many times it was sent again. An answer can be lost on the host: the kernel
+/// keeps 64 reports per hidraw reader and drops what comes while they are unread, acks
+/// included, when the emulated reader falls behind.
 fn ask(host: &mut Host<HidLink>, m: &Message, at: Vec2) -> Result<usize, String> {
     let mut last = String::new();
     for attempt in 0..ATTEMPTS {
