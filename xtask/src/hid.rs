@@ -900,7 +900,21 @@ fn session(root: &Path) -> Result<Vec<String>, String> {
         for k in 1..=STEPS {
             let at = above + (inside - above) * (f32::from(k) / f32::from(STEPS));
             retries += ask(&mut host, &Message::HandTarget { target_m: at }, at)?;
-            host.pump(Duration::from_millis(10), |_| at)?;
+            // Each step lasts 10 ms of the device's own clock. The emulated device is paced
+            // to the host's clock but drops time when it falls behind, so host time alone
+            // made the steps come twice as fast in its time in a failed CI run (50 steps in
+            // 260 ms of device time: every step a bounce).
+            let from = host.telemetry.last().map(|t| t.time_us);
+            let started = Instant::now();
+            loop {
+                host.pump(Duration::from_millis(5), |_| at)?;
+                let now = host.telemetry.last().map(|t| t.time_us);
+                let stepped =
+                    matches!((from, now), (Some(a), Some(b)) if b.wrapping_sub(a) >= 10_000);
+                if stepped || started.elapsed() > Duration::from_secs(1) {
+                    break;
+                }
+            }
         }
         host.pump(Duration::from_millis(300), |_| inside)?;
         let pressed = host.telemetry.get(press_from..).unwrap_or_default();
