@@ -13,13 +13,11 @@
 use device::controller::{
     Acquisition, AcquisitionRequest, Controller, ControllerError, TickOutput, acquire,
 };
-use device::protocol::{
-    ErrorCode, Frame, MAX_FRAME, Message, SceneFault, SceneStore, WireSceneError,
-};
 use device::safety::SafetyConfig;
-use device::session::DeviceCommand;
 use device::spec::DeviceSpec;
 use device::telemetry::TelemetryDecimator;
+use protocol::device_side::session::DeviceCommand;
+use protocol::{ErrorCode, Frame, MAX_FRAME, Message, SceneFault, SceneStore, WireSceneError};
 use tracker::{Chain, ChainError, ChainTracker};
 
 use crate::board::Board;
@@ -207,7 +205,7 @@ impl<'a, const K: usize, const C: usize> App<'a, K, C> {
 
     /// Moves the controller's object onto object `object` of `store`: the same scene with
     /// control points moved (a control-point update, validated with its topology against the
-    /// scene before by the link, `device::protocol::SceneStore::decode_reshaped`), at a tick
+    /// scene before by the link, `protocol::SceneStore::decode_reshaped`), at a tick
     /// boundary. The chain is moved in place ([`Controller::reshape_object`] with
     /// [`Chain::reshape`]: no second chain built, four evaluations a curve, the new points
     /// copied into the chain) and the renderer carries on, on the new shape (no acquisition,
@@ -227,7 +225,7 @@ impl<'a, const K: usize, const C: usize> App<'a, K, C> {
             .map_err(AppError::Controller)
     }
 
-    /// Applies a command of the link ([`device::session::DeviceCommand::apply`]): calibration on
+    /// Applies a command of the link ([`protocol::device_side::session::DeviceCommand::apply`]): calibration on
     /// `home_counts`, a material with the passivity controller on where it needs it (as
     /// [`App::load`]). The error is the code for the status's `last_error`.
     pub fn apply(

@@ -10,7 +10,7 @@
 //! the store is with the tick the link has none to write into, so it refuses a commit as
 //! [`SceneFault::Busy`] (the host sends it again).
 
-use device::protocol::{SceneFault, SceneStore, SceneValidator, WireSceneError};
+use protocol::{SceneFault, SceneStore, SceneValidator, WireSceneError};
 
 use crate::app::{App, AppError};
 

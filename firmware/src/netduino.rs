@@ -2,9 +2,9 @@
 //! through. Only the QEMU binaries use it; the board's link is USB.
 
 use device::kinematics::KinematicsError;
-use device::protocol::MAX_FRAME as MAX_FRAME_BYTES;
 use device::simulator::SimulatedPantograph;
 use nurbs::Vec2;
+use protocol::MAX_FRAME as MAX_FRAME_BYTES;
 
 use crate::board::Board;
 

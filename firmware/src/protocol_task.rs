@@ -11,9 +11,9 @@
 
 use core::sync::atomic::{AtomicU8, AtomicU32, Ordering};
 
-use device::protocol::{ErrorCode, MAX_FRAME, Message, SceneStore};
-use device::session::{DeviceCommand, DeviceSession, DeviceState, Event};
 use heapless::spsc::{Consumer, Producer};
+use protocol::device_side::session::{DeviceCommand, DeviceSession, DeviceState, Event};
+use protocol::{ErrorCode, MAX_FRAME, Message, SceneStore};
 
 use crate::app::{AcquisitionJob, JobDone, Slot, run_job};
 use crate::handover::{Incoming, Validator};

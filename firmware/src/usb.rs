@@ -1,12 +1,12 @@
 //! The board's USB side, run in its USB interrupt: host reports in to the protocol task,
 //! the protocol task's replies and the tick's telemetry out. The HID device, its endpoints
-//! and the order and numbering of what goes out are `device::usb::HidPort` and its `Outbox`
+//! and the order and numbering of what goes out are `protocol::device_side::usb::HidPort` and its `Outbox`
 //! (the same code the host runs over USB/IP in `cargo xtask hid`); this is what the board
 //! puts behind it, its queues ([`ReportPump`]).
 
-use device::protocol::{Frame, Message};
-use device::usb::ReportPump;
 use heapless::spsc::{Consumer, Producer};
+use protocol::device_side::usb::ReportPump;
+use protocol::{Frame, Message};
 
 use crate::protocol_task::{FRAMES, REPLIES, REPORTS, Report};
 
@@ -55,7 +55,7 @@ impl ReportPump for Usb {
     /// A host report, copied into a zero-padded [`Report`] for the protocol task; a full
     /// queue drops it (the host sees no ack and resends).
     fn received(&mut self, bytes: &[u8]) {
-        let mut report = [0u8; device::protocol::MAX_FRAME];
+        let mut report = [0u8; protocol::MAX_FRAME];
         if let Some(dst) = report.get_mut(..bytes.len()) {
             dst.copy_from_slice(bytes);
         }

@@ -1,11 +1,11 @@
 //! `cargo xtask hid`: the USB HID link end to end without a board.
 //!
-//! The board's USB device (`device::usb::HidPort`: its descriptor, endpoints and report pump,
+//! The board's USB device (`protocol::device_side::usb::HidPort`: its descriptor, endpoints and report pump,
 //! the code the firmware runs) runs on the host's simulated pantograph
-//! (`device::link::simulated::SimReports`) over USB/IP (`usbip-device`). A Linux kernel attaches it
+//! (`protocol::host_side::simulated::SimReports`) over USB/IP (`usbip-device`). A Linux kernel attaches it
 //! with `usbip attach` (`vhci-hcd`), parses its report descriptor (`usbhid`, `hid-generic`)
 //! and gives it a `/dev/hidraw` node, which the host side uses unchanged: `viewer device list`
-//! and a session over `device::link::HidLink` (hidapi's hidraw backend).
+//! and a session over `protocol::host_side::HidLink` (hidapi's hidraw backend).
 //!
 //! The machine's own kernel has no `vhci-hcd`, so all of this runs in a small guest:
 //! `qemu-system-x86_64` (KVM when it boots, TCG otherwise) on Debian's `linux-image-amd64`
@@ -26,9 +26,9 @@ use std::process::{Child, Command, Stdio};
 use std::sync::mpsc;
 use std::time::{Duration, Instant};
 
-use device::link::{HidLink, Link, list_hid};
-use device::protocol::{Message, Telemetry};
 use nurbs::Vec2;
+use protocol::host_side::{HidLink, Link, list_hid};
+use protocol::{Message, Telemetry};
 use scene::Scene;
 
 use crate::session::Host;
@@ -734,9 +734,9 @@ fn boot(
 /// In the guest (`xtask hid-guest-device`): the board's USB device on USB/IP, the simulated
 /// pantograph behind it, until the guest powers off.
 pub fn guest_device() -> Result<(), String> {
-    use device::link::{SimConfig, SimLink};
     use device::safety::SafetyConfig;
-    use device::usb::HidPort;
+    use protocol::device_side::usb::HidPort;
+    use protocol::host_side::{SimConfig, SimLink};
     use usb_device::bus::UsbBusAllocator;
     let config = SimConfig {
         // The board's telemetry rate with one tick per frame: an emulated guest keeps pace
@@ -834,10 +834,10 @@ fn session(root: &Path) -> Result<Vec<String>, String> {
     retries += upload(&mut host, &wire, above)?;
     retries += ask(&mut host, &Message::EnableForces, above)?;
     let crc = host.scene_crc(above)?;
-    if crc != device::protocol::crc32(&wire) {
+    if crc != protocol::crc32(&wire) {
         return Err(format!(
             "the device's scene CRC {crc:#x} is not the uploaded scene's {:#x}",
-            device::protocol::crc32(&wire)
+            protocol::crc32(&wire)
         ));
     }
     lines.push(format!(

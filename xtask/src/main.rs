@@ -17,7 +17,7 @@ use std::process::{Command, ExitCode};
 pub(crate) const EMBEDDED_TARGET: &str = "thumbv7em-none-eabihf";
 
 /// no_std crates cross-built for the board (their default `std` feature off).
-const NO_STD_CRATES: &[&str] = &["nurbs", "tracker", "friction", "device"];
+const NO_STD_CRATES: &[&str] = &["nurbs", "tracker", "friction", "device", "protocol"];
 
 fn main() -> ExitCode {
     let args: Vec<String> = env::args().skip(1).collect();

@@ -1,7 +1,7 @@
 //! `cargo xtask qemu`: the firmware's QEMU binary on the thesis-2d scenario, its instruction
 //! counts per tick and the ELF's flash and RAM.
 //!
-//! 1. converts `scenes/thesis-2d.json` into the device's wire scene (`device::protocol`) and
+//! 1. converts `scenes/thesis-2d.json` into the device's wire scene (`protocol`) and
 //!    the trajectory plus the run's setup into the firmware's scenario table
 //!    (`firmware/src/scenario.rs`), with the same host code `viewer sim --device` runs;
 //! 2. builds `firmware/` (release, LTO) at each requested opt-level;
@@ -16,13 +16,13 @@ use std::process::{Command, Stdio};
 use std::thread;
 use std::time::{Duration, Instant};
 
-use device::link::cobs;
-use device::protocol::{Frame, Message, Telemetry, WireObject, WirePatch, encode_scene};
 use device::simulator::SimParams;
 use device::spec::DeviceSpec;
 use host::closed_loop::{run_device, validate_device};
 use host::tick::{DEVICE_RAMP_TIME_S, end_stop_counts};
 use host::trajectory::Trajectory;
+use protocol::host_side::cobs;
+use protocol::{Frame, Message, Telemetry, WireObject, WirePatch, encode_scene};
 use scene::Scene;
 
 use crate::{EMBEDDED_TARGET, ensure_toolchain, output, run_in};

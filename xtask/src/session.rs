@@ -1,6 +1,6 @@
 //! The host ↔ firmware session of `cargo xtask qemu`: the QEMU binary `qemu-serve` with its
 //! UART on a TCP port, driven through the real protocol by the host's own link
-//! (`device::link::TcpLink`), as `viewer device monitor --tcp` does: hello, scene upload and
+//! (`protocol::host_side::TcpLink`), as `viewer device monitor --tcp` does: hello, scene upload and
 //! commit, forces on, the virtual hand into the object and along it (stuck → slip in the
 //! telemetry), malformed and out-of-order frames refused with the device running on and its
 //! scene unchanged, a second scene swapped in while in contact, the curve moving under the
@@ -15,13 +15,13 @@ use std::time::{Duration, Instant};
 
 use std::collections::HashMap;
 
-use device::link::{Link, TcpLink};
-use device::protocol::{
-    ErrorCode, Message, Nack, SceneChunk, Status, Telemetry, crc32, points_update, scene_upload,
-};
 use device::safety::Faults;
 use friction::{FrictionMaterial, Mode};
 use nurbs::Vec2;
+use protocol::host_side::{Link, TcpLink};
+use protocol::{
+    ErrorCode, Message, Nack, SceneChunk, Status, Telemetry, crc32, points_update, scene_upload,
+};
 use scene::Scene;
 
 /// How long a reply may take (real time: QEMU runs without -icount here, so its clock is the
@@ -568,8 +568,8 @@ pub fn app(elf: &Path, root: &Path) -> Result<Vec<String>, String> {
     let mut status = None;
     let mut hello = None;
     let mut history: Vec<Sample> = Vec::new();
-    let poll = |status: &mut Option<device::protocol::Status>,
-                hello: &mut Option<device::protocol::Hello>,
+    let poll = |status: &mut Option<protocol::Status>,
+                hello: &mut Option<protocol::Hello>,
                 history: &mut Vec<Sample>|
      -> Result<(), String> {
         for reply in link.drain_replies() {
@@ -590,7 +590,7 @@ pub fn app(elf: &Path, root: &Path) -> Result<Vec<String>, String> {
     };
     let crc = crc32(&wire);
     let since = Instant::now();
-    while !status.is_some_and(|st: device::protocol::Status| {
+    while !status.is_some_and(|st: protocol::Status| {
         st.scene_crc32 == crc && st.forces_enabled && st.calibrated
     }) {
         if since.elapsed() > Duration::from_secs(20) {

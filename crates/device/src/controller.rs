@@ -61,9 +61,9 @@ use nurbs::Vec2;
 use tracker::Object;
 
 use crate::kinematics::Pantograph;
-use crate::protocol::Telemetry;
 use crate::safety::{ConfigError, Faults, Safety, SafetyConfig, SafetyInput};
 use crate::spec::{Calibration, CalibrationError, DeviceSpec, SpecError};
+use crate::telemetry::Telemetry;
 use crate::wall::{Bound, PassivityConfig, PassivityError};
 
 /// Why a controller could not be built or a command was refused.

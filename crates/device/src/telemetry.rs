@@ -35,10 +35,63 @@
 
 use friction::{Mode, SwitchCause};
 
-use crate::protocol::Telemetry;
+use nurbs::Vec2;
+use tracker::Feature;
 
 /// The telemetry rate a board's link carries (Hz): one 64-byte frame per millisecond.
 pub const TELEMETRY_HZ: u32 = 1_000;
+
+/// One haptic tick, as the device reports it (planar: the pantograph's plane).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Telemetry {
+    /// Device time at the start of the tick (µs, wraps after 71 min).
+    pub time_us: u32,
+    /// Haptic interface point (m, device frame).
+    pub hip_m: Vec2,
+    /// Closest point on the active feature (m).
+    pub cp_m: Vec2,
+    /// God-object (m).
+    pub go_m: Vec2,
+    /// Normal force magnitude (N).
+    pub force_normal_n: f32,
+    /// Friction force magnitude (N).
+    pub force_friction_n: f32,
+    /// Total force commanded (N, device frame).
+    pub force_n: Vec2,
+    /// Projection error Ψ of the tracker (first parameter).
+    pub psi: f32,
+    /// Friction coefficient in use, in units of 1e-4 ([`Telemetry::mu`]).
+    pub mu_e4: u16,
+    /// Duration of the tick's computation (µs, saturated).
+    pub tick_us: u16,
+    /// Latched fault flags.
+    pub faults: u16,
+    /// Feature the closest point lies on; `None` out of contact or before tracking.
+    pub feature: Option<Feature>,
+    /// Friction mode.
+    pub mode: Mode,
+    /// Why the friction mode last changed (carried in the mode byte's high nibble).
+    pub cause: SwitchCause,
+}
+
+impl Telemetry {
+    /// The friction coefficient.
+    pub fn mu(&self) -> f32 {
+        f32::from(self.mu_e4) * 1e-4
+    }
+
+    /// `mu` quantised for [`Telemetry::mu_e4`] (saturating, NaN → 0).
+    pub fn quantize_mu(mu: f32) -> u16 {
+        let q = mu * 1e4 + 0.5;
+        if q.is_nan() || q <= 0.0 {
+            0
+        } else if q >= 65535.0 {
+            u16::MAX
+        } else {
+            q as u16
+        }
+    }
+}
 
 /// Folds the telemetry of `N` ticks into one frame (rule in the module docs).
 #[derive(Clone, Copy, Debug)]

@@ -83,7 +83,7 @@ pub enum LoopCommand<S = PlanarSession> {
 }
 
 /// New control points for patches of one object of the device's scene
-/// ([`LoopCommand::ScenePoints`], [`device::protocol::points_update`]). Send whole patches (or at
+/// ([`LoopCommand::ScenePoints`], [`protocol::points_update`]). Send whole patches (or at
 /// least every point that moved since the device's last applied shape): an update replaced
 /// by a newer one before it went out is never sent.
 #[derive(Clone, Debug, PartialEq)]
@@ -144,12 +144,12 @@ pub enum LinkEvent {
         /// What the link is (`tcp 127.0.0.1:7000`, `hid`, …).
         device: String,
         /// The device's hello (firmware version, scene capacity).
-        hello: device::protocol::Hello,
+        hello: protocol::Hello,
         /// Whether the device's plant is simulated (it takes hand targets).
         simulated_plant: bool,
     },
     /// The device's status (the answer to every heartbeat).
-    Status(device::protocol::Status),
+    Status(protocol::Status),
     /// The device refused a command (`what`), for `reason`; its state is unchanged.
     Refused {
         /// The command.

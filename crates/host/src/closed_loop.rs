@@ -7,12 +7,12 @@
 //! [`DEVICE_COLUMNS`](crate::runlog::DEVICE_COLUMNS).
 
 use device::controller::Controller;
-use device::protocol::Telemetry;
 use device::simulator::SimulatedPantograph;
 use device::spec::DeviceSpec;
 use device::telemetry::TelemetryDecimator;
 use friction::FrictionMaterial;
 use nurbs::Vec2;
+use protocol::Telemetry;
 use tracker::Chain;
 
 use crate::error::SimError;

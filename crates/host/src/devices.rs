@@ -3,11 +3,11 @@
 
 use std::time::Duration;
 
-use device::link::{
+use protocol::host_side::{
     HidLink, Link, LinkError, SerialLink, SimConfig, SimHand, SimLink, TcpLink, list_hid,
     list_serial,
 };
-use device::protocol::{Hello, Message};
+use protocol::{Hello, Message};
 
 /// How long a candidate has to answer a hello in `device list`.
 pub const PROBE_TIMEOUT: Duration = Duration::from_millis(200);

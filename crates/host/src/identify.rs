@@ -28,11 +28,11 @@
 
 use std::time::{Duration, Instant};
 
-use device::link::{Link, LinkError};
-use device::protocol::{Frame, Message};
 use device::simulator::{SimParams, SimulatedPantograph};
 use device::spec::DeviceSpec;
 use nurbs::Vec2;
+use protocol::host_side::{Link, LinkError};
+use protocol::{Frame, Message};
 
 /// Ticks per local quadratic fit (20 ms at 10 kHz: long enough that the encoders' quantum,
 /// 153 µrad, blurs the acceleration little).
@@ -224,7 +224,7 @@ pub fn identify_link(
     // The device's own clock of the last heartbeat: a device that runs faster than real time
     // (a simulation not paced) needs them by its time, not the host's.
     let mut heartbeat_device_us: Option<u32> = None;
-    let mut frames: Vec<device::protocol::Telemetry> = Vec::new();
+    let mut frames: Vec<protocol::Telemetry> = Vec::new();
     let mut first_us: Option<u32> = None;
     let heartbeat = |link: &mut dyn Link, started: Instant| {
         link.send(&Message::Heartbeat {
@@ -570,7 +570,7 @@ mod tests {
     /// the friction's 0–0.6 %.
     #[test]
     fn recovers_the_simulated_devices_damping_and_friction_through_a_link() {
-        use device::link::{SimConfig, SimLink};
+        use protocol::host_side::{SimConfig, SimLink};
         let truth = DeviceSpec {
             joint_damping_nms_per_rad: [2e-4, 2e-4],
             ..DeviceSpec::default()

@@ -14,12 +14,12 @@
 use std::sync::Arc;
 
 use device::controller::Controller;
-use device::protocol::{SceneFault, SceneStore};
 use device::safety::Faults;
 use device::simulator::{SimParams, SimulatedPantograph, VirtualHand};
 use device::spec::DeviceSpec;
 use friction::FrictionMaterial;
 use nurbs::Vec2;
+use protocol::{SceneFault, SceneStore};
 use tracker::Chain;
 
 use crate::backend::{LoopCommand, RATE_HZ, Reply, Sample, Steppable};

@@ -1,5 +1,5 @@
 //! The app's loop on a device behind a link: the firmware under QEMU over TCP, a board over
-//! USB HID or serial, or the host's simulated device ([`device::link::SimLink`]). The device
+//! USB HID or serial, or the host's simulated device ([`protocol::host_side::SimLink`]). The device
 //! runs the haptic loop; this thread is its host: it keeps the watchdog fed, turns the UI's
 //! [`LoopCommand`]s into protocol messages, and each telemetry frame into a [`Sample`], through
 //! the same channels as the in-process loop ([`LoopThread::spawn_with`]), so the app does
@@ -7,7 +7,7 @@
 //!
 //! - Requests (scene upload, material, forces, calibration, clearing faults) go one at a
 //!   time: the next is sent when the device acks the one in flight, as
-//!   [`Link::upload_scene`](device::link::Link::upload_scene) does, but without waiting, so telemetry keeps flowing. A nack is
+//!   [`Link::upload_scene`](protocol::host_side::Link::upload_scene) does, but without waiting, so telemetry keeps flowing. A nack is
 //!   a [`LinkEvent::Refused`] naming the device's reason (or a material error); the device's
 //!   state is unchanged.
 //! - Heartbeats go every [`HEARTBEAT_PERIOD`]; the device answers each with its status
@@ -37,11 +37,11 @@ use std::sync::atomic::Ordering;
 use std::sync::mpsc::TryRecvError;
 use std::time::{Duration, Instant};
 
-use device::link::{GapCounter, LinkError};
-use device::protocol::{ErrorCode, Frame, Message, Status, Telemetry, points_update, scene_upload};
 use device::safety::Faults;
 use friction::Mode;
 use nurbs::{Vec2, Vec3};
+use protocol::host_side::{GapCounter, LinkError};
+use protocol::{ErrorCode, Frame, Message, Status, Telemetry, points_update, scene_upload};
 use tracker::Feature;
 
 use crate::backend::{LinkEvent, LoopCommand, LoopEnds, LoopThread, PointsUpdate, Reply, Sample};

@@ -5,12 +5,12 @@
 //! ([`device_controller`]), and the [`Tick`] record both produce.
 
 use device::controller::{Controller, TickOutput};
-use device::protocol::Telemetry;
 use device::safety::SafetyConfig;
 use device::simulator::SimulatedPantograph;
 use device::spec::DeviceSpec;
 use friction::{FrictionMaterial, FrictionOutput, FrictionRenderer, Mode, SwitchCause};
 use nurbs::{Point, Vec2, Vec3};
+use protocol::Telemetry;
 use tracker::{Chain, Feature, Object as TrackedObject};
 
 use crate::error::SimError;

@@ -1,18 +1,18 @@
 //! A scene as a device receives it: the wire scene of the object the device renders
 //! ([`wire_scene`]), and the device side of its upload for the simulated pantograph in this
 //! process ([`receive`]): the same frames a board gets, through the device's own receiver
-//! ([`device::session::DeviceSession`]), decoded into the device's own [`SceneStore`].
+//! ([`protocol::device_side::session::DeviceSession`]), decoded into the device's own [`SceneStore`].
 //!
 //! So every scene the app renders, on any device, is the one the upload carried: an edit
 //! that does not survive the wire format (f32, the device's capacities and checks) is refused
 //! before it reaches the loop, with the device's reason.
 
-use device::link::Sequencer;
-use device::protocol::{
+use protocol::device_side::session::{DeviceSession, DeviceState, Event};
+use protocol::host_side::Sequencer;
+use protocol::{
     ErrorCode, Message, SceneStore, WireObject, WirePatch, WireSceneError, encode_scene,
     scene_upload,
 };
-use device::session::{DeviceSession, DeviceState, Event};
 
 use scene::Scene;
 
@@ -81,7 +81,7 @@ pub fn wire_scene(scene: &Scene, index: usize) -> Result<Vec<u8>, UploadError> {
 }
 
 /// The simulated device's side of uploading `wire`: every frame of the upload (begin,
-/// chunks, commit, as [`device::link::Link::upload_scene`] sends them to a board), encoded
+/// chunks, commit, as [`protocol::host_side::Link::upload_scene`] sends them to a board), encoded
 /// with sequence numbers and handled by a device [`DeviceSession`] of [`SIM_SCENE_CAPACITY`]
 /// bytes, which validates the commit by decoding it into a [`SceneStore`]. Returns that
 /// store and the CRC-32 the device reports for its active scene.
@@ -119,7 +119,7 @@ pub fn receive(wire: &[u8]) -> Result<(Box<SceneStore>, u32), UploadError> {
 mod tests {
     use super::*;
     use crate::test_scenes::thesis_2d;
-    use device::protocol::crc32;
+    use protocol::crc32;
 
     /// The store the device decodes holds the scene's curves exactly (the wire carries f32,
     /// the scene's type: no rounding) and its material; the CRC is the upload's.

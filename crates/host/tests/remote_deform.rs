@@ -1,18 +1,18 @@
 //! A deformable object on a device behind a link (`LoopCommand::Deform` to the host of a remote
 //! device): the host steps the string on the device's telemetry (locating the CP on its copy
 //! of the shape) and streams the shape back as control-point updates; the simulated device
-//! (`device::link::SimLink`, the protocol a board speaks) renders it. Real time.
+//! (`protocol::host_side::SimLink`, the protocol a board speaks) renders it. Real time.
 
 #![allow(clippy::unwrap_used)]
 
 use std::sync::atomic::Ordering;
 use std::time::{Duration, Instant};
 
-use device::protocol::{Status, crc32};
 use host::backend::{LinkEvent, LoopCommand, Reply, Sample};
 use host::devices::open_sim;
 use host::planar::PlanarSession;
 use nurbs::Vec2;
+use protocol::{Status, crc32};
 use scene::{Bundled, Scene};
 
 const PATIENCE: Duration = Duration::from_secs(20);
@@ -40,7 +40,7 @@ fn a_string_pushed_through_the_link_deforms_on_the_device() {
     let session = PlanarSession::with_object(scene.clone(), Some(0)).unwrap();
     let link = host::remote::spawn(
         "sim".to_owned(),
-        || open_sim(device::link::SimConfig::default()),
+        || open_sim(protocol::host_side::SimConfig::default()),
         true,
         None,
     )

@@ -1,5 +1,5 @@
 //! The host of a device behind a link streaming a moving shape ([`LoopCommand::ScenePoints`]) to
-//! the simulated device ([`device::link::SimLink`], the protocol a board speaks), real time,
+//! the simulated device ([`protocol::host_side::SimLink`], the protocol a board speaks), real time,
 //! 100 shapes a second: every update sent is applied, the hand stays in contact on the same
 //! arc, and the device's scene ends as the host's own scene edited the same way and uploaded
 //! (`scene::edit::move_point`, `host::upload::wire_scene`: an independent path to the bytes).
@@ -8,13 +8,13 @@
 
 use std::time::{Duration, Instant};
 
-use device::protocol::{Status, crc32};
 use device::safety::Faults;
 use friction::Mode;
 use host::backend::{LinkEvent, LoopCommand, PointsUpdate, Reply, Sample};
 use host::devices::open_sim;
 use host::planar::PlanarSession;
 use nurbs::Vec2;
+use protocol::{Status, crc32};
 use scene::Scene;
 use scene::edit::{PointRef, move_point};
 use tracker::Feature;
@@ -40,7 +40,7 @@ fn a_moving_shape_streams_to_the_device_and_lands_as_the_host_edits_it() {
     let session = PlanarSession::new(scene.clone()).unwrap();
     let link = host::remote::spawn(
         "sim".to_owned(),
-        || open_sim(device::link::SimConfig::default()),
+        || open_sim(protocol::host_side::SimConfig::default()),
         true,
         None,
     )

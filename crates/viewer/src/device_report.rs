@@ -5,11 +5,11 @@
 use std::io::Write;
 use std::time::{Duration, Instant};
 
-use device::link::{GapCounter, Link, LinkError, SimConfig};
-use device::protocol::{Frame, Message, Telemetry};
 use device::safety::Faults;
 use friction::Mode;
 use host::devices::{Found, HEARTBEAT_PERIOD};
+use protocol::host_side::{GapCounter, Link, LinkError, SimConfig};
+use protocol::{Frame, Message, Telemetry};
 
 use crate::interrupt::Interrupt;
 use nurbs::Vec2;

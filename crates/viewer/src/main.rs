@@ -288,9 +288,9 @@ fn deform_command(args: &viewer::cli::DeformArgs) -> ExitCode {
 }
 
 fn device_identify(args: &viewer::cli::DeviceIdentifyArgs) -> ExitCode {
-    use device::link::SimConfig;
     use device::spec::DeviceSpec;
     use host::devices::Target;
+    use protocol::host_side::SimConfig;
     let spec = DeviceSpec::default();
     let opened = match args.device.target() {
         // Nobody holds the simulated handle, and it runs as fast as the host reads.
@@ -800,10 +800,11 @@ fn device_command(command: &viewer::cli::DeviceSubcommand) -> ExitCode {
 
 #[cfg(unix)]
 fn device_sim_pty(args: &viewer::cli::SimPtyArgs) -> ExitCode {
-    use device::link::{SimConfig, SimLink};
+    use protocol::host_side::{SimConfig, SimLink};
     use std::sync::Arc;
     use std::sync::atomic::{AtomicBool, Ordering};
-    let pty = match device::link::pseudo_terminal().context("cannot open a pseudo-terminal") {
+    let pty = match protocol::host_side::pseudo_terminal().context("cannot open a pseudo-terminal")
+    {
         Ok(pty) => pty,
         Err(e) => return fail(&e, EXIT_BAD_SETUP),
     };

@@ -102,7 +102,7 @@ fn an_edit_is_uploaded_to_the_device() {
     use host::upload::wire_scene;
     use scene::edit::PointRef;
     let mut state = AppState::stepped("thesis-2d").unwrap_or_else(|e| panic!("{e:#}"));
-    let crc = |s: &scene::Scene| device::protocol::crc32(&wire_scene(s, 0).expect("planar"));
+    let crc = |s: &scene::Scene| protocol::crc32(&wire_scene(s, 0).expect("planar"));
     let before = state.scene.model.clone();
     assert_eq!(state.device_scene_crc32(), Some(crc(&before)));
     let at = PointRef {

@@ -1,16 +1,16 @@
 //! The app driving a device behind a link (`viewer gui --device …`), through the app's state:
-//! the host's simulated device ([`device::link::SimLink`], the same protocol as a board)
+//! the host's simulated device ([`protocol::host_side::SimLink`], the same protocol as a board)
 //! behind a link the test can pull out.
 
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
-use device::link::{Link, LinkError, SimConfig, SimLink};
-use device::protocol::{Frame, Message, Telemetry, crc32};
 use device::safety::Faults;
 use host::devices::Opened;
 use nurbs::Vec2;
+use protocol::host_side::{Link, LinkError, SimConfig, SimLink};
+use protocol::{Frame, Message, Telemetry, crc32};
 use scene::Scene;
 use viewer::gui::state::{AppState, DeviceChoice};
 
@@ -175,7 +175,7 @@ fn press_and_check_k_depth(state: &mut AppState) {
 fn the_serial_path_over_a_pseudo_terminal() {
     // A machine without pseudo-terminals (no /dev/ptmx in a bare container) cannot run
     // this; it says so rather than failing on the machine.
-    let pty = match device::link::pseudo_terminal() {
+    let pty = match protocol::host_side::pseudo_terminal() {
         Ok(pty) => pty,
         Err(e) => {
             eprintln!("skipped: no pseudo-terminal here: {e}");
@@ -267,9 +267,9 @@ fn pulling_the_link_turns_the_forces_off_and_says_so() {
 #[cfg(unix)]
 #[test]
 fn the_sim_pty_command_serves_a_device_a_serial_link_reaches() {
-    use device::link::SerialLink;
+    use protocol::host_side::SerialLink;
     use std::io::BufRead;
-    if let Err(e) = device::link::pseudo_terminal() {
+    if let Err(e) = protocol::host_side::pseudo_terminal() {
         eprintln!("skipped: no pseudo-terminal here: {e}");
         return;
     }

@@ -597,9 +597,9 @@ fn on_a_linked_device_the_trial_is_uploaded_and_its_forces_follow_the_phase() {
         "the trial's scene on the device, forces on",
         &|s, r| {
             r.stimulus_on()
-                && s.link.status.is_some_and(|st| {
-                    st.scene_crc32 == device::protocol::crc32(&wire) && st.forces_enabled
-                })
+                && s.link
+                    .status
+                    .is_some_and(|st| st.scene_crc32 == protocol::crc32(&wire) && st.forces_enabled)
         },
     );
     run.end_exploration(&mut state, 1.0);

@@ -11,7 +11,7 @@
 //!    allocates, logs or panics; it shares nothing with lower priorities but lock-free
 //!    single-producer single-consumer queues and atomics.
 //! 2. `usb` — the OTG_FS interrupt (and pended by the tick every millisecond): USB HID
-//!    (`device::usb::HidPort`, usb-device + usbd-hid), one 64-byte protocol frame per report
+//!    (`protocol::device_side::usb::HidPort`, usb-device + usbd-hid), one 64-byte protocol frame per report
 //!    ([`Usb`]); host reports
 //!    go to the protocol task, its replies and the tick's telemetry go out as IN reports, one
 //!    device sequence number over all of them.
@@ -33,8 +33,6 @@
 #![no_main]
 
 use device::board_io::{Extend16, LedPattern, pwm_duty};
-use device::protocol::{MAX_FRAME, Message, SceneStore};
-use device::session::{DeviceCommand, DeviceSession, DeviceState};
 use firmware::app::{AcquisitionJob, App, JobDone, Parked, Slot};
 use firmware::board::Board;
 use firmware::handover;
@@ -42,6 +40,8 @@ use firmware::protocol_task::{
     COMMANDS, FRAMES, JOBS, Protocol, REPLIES, REPORTS, Report, STORES, Step, TickShared,
 };
 use firmware::usb::Usb;
+use protocol::device_side::session::{DeviceCommand, DeviceSession, DeviceState};
+use protocol::{MAX_FRAME, Message, SceneStore};
 use stm32f4xx_hal::gpio::{Output, PB12, PB13, PB14, PC13};
 use stm32f4xx_hal::pac;
 use stm32f4xx_hal::prelude::*;
@@ -324,8 +324,8 @@ struct Queues {
 #[rtic::app(device = stm32f4xx_hal::pac, peripherals = true)]
 mod app {
     use super::*;
-    use device::usb::HidPort;
     use heapless::spsc::Queue;
+    use protocol::device_side::usb::HidPort;
     use stm32f4xx_hal::otg_fs::{USB, UsbBusType};
     use usb_device::class_prelude::UsbBusAllocator;
 
@@ -393,7 +393,7 @@ mod app {
     }
 
     /// USB (OTG_FS, 48 MHz from the PLL's Q output): the board's HID device
-    /// (`device::usb::HidPort`: the protocol's report descriptor, the ids and strings).
+    /// (`protocol::device_side::usb::HidPort`: the protocol's report descriptor, the ids and strings).
     fn usb_start(
         usb: USB,
         usb_bus: &'static mut Option<UsbBusAllocator<UsbBusType>>,

@@ -16,9 +16,9 @@
 //! validated into it too and moves the app's chain onto the new points there (the renderer
 //! carries on, no acquisition, no ramp-in).
 //!
-//! [`Message::ScenePoints`]: device::protocol::Message::ScenePoints
+//! [`Message::ScenePoints`]: protocol::Message::ScenePoints
 //!
-//! [`Message::HandTarget`]: device::protocol::Message::HandTarget
+//! [`Message::HandTarget`]: protocol::Message::HandTarget
 //! [`App`]: firmware::app::App
 #![no_std]
 #![no_main]
@@ -26,9 +26,7 @@
 use cortex_m::peripheral::syst::SystClkSource;
 use cortex_m_rt::{ExceptionFrame, entry, exception};
 use cortex_m_semihosting::{debug, hprintln};
-use device::protocol::{MAX_FRAME, Message, SceneStore};
 use device::safety::SafetyConfig;
-use device::session::{DeviceSession, DeviceState, Event};
 use device::simulator::{SimParams, SimulatedPantograph, VirtualHand};
 use device::spec::DeviceSpec;
 use firmware::app::Parked;
@@ -36,6 +34,8 @@ use firmware::board::Board;
 use firmware::handover::{self, Incoming, Validator};
 use firmware::netduino::{Clock, SimulatedBoard};
 use nurbs::Vec2;
+use protocol::device_side::session::{DeviceSession, DeviceState, Event};
+use protocol::{MAX_FRAME, Message, SceneStore};
 use tracker::Chain;
 
 /// The tick period.
@@ -55,7 +55,7 @@ const RAMP_TIME_S: f32 = 0.02;
 const HEARTBEAT_TIMEOUT_S: f32 = 0.25;
 /// The scene receiver's capacity (bytes).
 const SCENE_CAPACITY: usize = 4096;
-/// Where the handle starts (m): as the host's simulator, `device::link::SimConfig`.
+/// Where the handle starts (m): as the host's simulator, `protocol::host_side::SimConfig`.
 const START_M: Vec2 = Vec2::new(0.0, 0.09);
 
 /// The bytes of one COBS packet as they arrive, up to its `0x00` delimiter.
@@ -113,7 +113,7 @@ fn main() -> ! {
     syst.enable_counter();
 
     let spec = DeviceSpec::default();
-    // A firm hand, as the host's simulator (`device::link::SimConfig::default`).
+    // A firm hand, as the host's simulator (`protocol::host_side::SimConfig::default`).
     let hand = SimParams {
         hand_stiffness_n_per_m: 2000.0,
         hand_damping_ns_per_m: 5.0,

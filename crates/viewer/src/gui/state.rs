@@ -43,11 +43,11 @@ pub enum DeviceChoice {
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct LinkState {
     /// The device's hello, once it answered.
-    pub hello: Option<device::protocol::Hello>,
+    pub hello: Option<protocol::Hello>,
     /// Whether its plant is simulated (the mouse moves its virtual hand).
     pub simulated_plant: bool,
     /// Its newest status.
-    pub status: Option<device::protocol::Status>,
+    pub status: Option<protocol::Status>,
     /// Why the link is gone, once it is.
     pub lost: Option<String>,
     /// The newest refusal (a command the device nacked), as a message.
@@ -388,7 +388,7 @@ impl AppState {
     /// uploaded to it, and a device with a simulated plant (the host's simulator, the
     /// firmware under QEMU) has its faults cleared, is calibrated and has its forces
     /// enabled. A board waits for Calibrate and the forces switch. `Target::Sim` here is
-    /// the host's simulated device behind the protocol ([`device::link::SimLink`]).
+    /// the host's simulated device behind the protocol ([`protocol::host_side::SimLink`]).
     pub fn connect(&mut self, target: Target) {
         let setup = !matches!(target, Target::Hid | Target::Serial(_));
         self.connect_with(describe(&target), move || devices::open(&target), setup);
@@ -399,7 +399,7 @@ impl AppState {
     pub fn connect_with(
         &mut self,
         device: String,
-        open: impl FnOnce() -> Result<devices::Opened, device::link::LinkError> + Send + 'static,
+        open: impl FnOnce() -> Result<devices::Opened, protocol::host_side::LinkError> + Send + 'static,
         setup: bool,
     ) {
         match host::remote::spawn(device.clone(), open, setup, self.record.clone()) {
@@ -480,7 +480,7 @@ impl AppState {
                 .scene
                 .rendered
                 .and_then(|i| host::upload::wire_scene(&self.scene.model, i).ok())
-                .map(|w| device::protocol::crc32(&w)),
+                .map(|w| protocol::crc32(&w)),
         }
     }
 

@@ -26,9 +26,6 @@ use cortex_m::peripheral::SYST;
 use cortex_m::peripheral::syst::SystClkSource;
 use cortex_m_rt::{ExceptionFrame, entry, exception};
 use cortex_m_semihosting::{debug, hprintln};
-use device::protocol::{Frame, MAX_FRAME as FRAME_BYTES, Message, SceneStore, points_update};
-use device::protocol::{crc32, scene_upload, write_points};
-use device::session::{DeviceSession, DeviceState, Event};
 use device::simulator::{SimParams, SimulatedPantograph};
 use device::spec::DeviceSpec;
 #[cfg(feature = "stages")]
@@ -43,11 +40,14 @@ use friction::FrictionMaterial;
 use friction::FrictionRenderer;
 use friction::Mode;
 use nurbs::Vec2;
+use protocol::device_side::session::{DeviceSession, DeviceState, Event};
+use protocol::{Frame, MAX_FRAME as FRAME_BYTES, Message, SceneStore, points_update};
+use protocol::{crc32, scene_upload, write_points};
 use tracker::Chain;
 #[cfg(feature = "stages")]
 use tracker::{ChainTracker, Object};
 
-/// The scene as the device's wire format (`device::protocol::scene`), written by
+/// The scene as the device's wire format (`protocol::scene`), written by
 /// `cargo xtask qemu` from the scene JSON with the host crates; validated here as an upload.
 static SCENE: &[u8] = include_bytes!(concat!(
     env!(

@@ -23,7 +23,7 @@ const POINTS_FREQUENCY_HZ: f32 = 2.0;
 /// host numbers (`next_seq`: skipping 0xFFFF), which the board's receiver expects.
 fn host_frame(buf: &mut [u8; FRAME_BYTES], seq: &mut u16, message: Message) -> usize {
     let n = Frame { seq: *seq, message }.encode(buf);
-    *seq = device::protocol::next_seq(*seq);
+    *seq = protocol::next_seq(*seq);
     n
 }
 

@@ -8,7 +8,7 @@ use std::time::{Duration, Instant};
 use serialport::{SerialPort, SerialPortType};
 
 use super::{Link, LinkError, Sequencer, cobs};
-use crate::protocol::{ErrorCode, Frame, FrameError, MAX_FRAME, Message};
+use crate::{ErrorCode, Frame, FrameError, MAX_FRAME, Message};
 
 /// Baud rate used to open ports (ignored by USB CDC-ACM, which runs at USB speed).
 pub const BAUD: u32 = 921_600;

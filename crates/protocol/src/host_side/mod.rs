@@ -11,7 +11,7 @@
 //! hands back every frame it receives with the device's sequence number, so the caller sees
 //! dropped frames as gaps.
 //!
-//! [`Controller`]: crate::controller::Controller
+//! [`Controller`]: device::controller::Controller
 
 /// `timeout` from now; a timeout too long for the clock (`Duration::MAX`: wait for ever)
 /// becomes a century instead of the panic of `Instant + Duration`.
@@ -38,11 +38,11 @@ pub use serial::{PseudoTerminal, pseudo_terminal};
 pub use simulated::SimReports;
 pub use simulated::{SimConfig, SimHand, SimLink};
 
-use crate::controller::ControllerError;
-use crate::protocol::{
+use crate::{
     Frame, FrameError, Hello, MAX_FRAME, MAX_PAYLOAD, Message, Nack, points_update, scene_upload,
 };
-use crate::simulator::SimulatorError;
+use device::controller::ControllerError;
+use device::simulator::SimulatorError;
 use nurbs::Vec2;
 
 /// Why a link operation failed.
@@ -99,8 +99,8 @@ fn software_version() -> [u8; 3] {
 /// Numbers the frames one sender sends (wrapping u16) and encodes them.
 ///
 /// The two ends number by different rules, and each end's gap check knows the other's: a
-/// host ([`Sequencer::default`]) skips [`UNKNOWN_SEQ`](crate::protocol::UNKNOWN_SEQ)
-/// ([`next_seq`](crate::protocol::next_seq): a nack's expected number must never read as
+/// host ([`Sequencer::default`]) skips [`UNKNOWN_SEQ`](crate::UNKNOWN_SEQ)
+/// ([`next_seq`](crate::next_seq): a nack's expected number must never read as
 /// "unknown"), which the device's receiver expects; a device ([`Sequencer::device`], as the
 /// board's `App::send` and `usb::Outbox`) numbers every value, which the host's
 /// [`GapCounter`] expects.
@@ -127,7 +127,7 @@ impl Sequencer {
         self.next = if self.every_value {
             self.next.wrapping_add(1)
         } else {
-            crate::protocol::next_seq(self.next)
+            crate::next_seq(self.next)
         };
         let (report, n) = Frame {
             seq,
@@ -141,12 +141,12 @@ impl Sequencer {
     /// on the way, the device waits for the number the nack names, so the next frame is
     /// numbered with it (otherwise every later frame would be refused as a gap too). Other
     /// refusals use up their number on the device as here (see
-    /// [`SceneReceiver`](crate::protocol::SceneReceiver)), so they change nothing.
+    /// [`SceneReceiver`](crate::SceneReceiver)), so they change nothing.
     pub fn decode_reply(&mut self, bytes: &[u8]) -> Result<Frame, LinkError> {
         let frame = Frame::decode(bytes).map_err(LinkError::Frame)?;
         if let Message::Nack(n) = frame.message
-            && n.code == crate::protocol::ErrorCode::SequenceGap
-            && n.expected_seq != crate::protocol::UNKNOWN_SEQ
+            && n.code == crate::ErrorCode::SequenceGap
+            && n.expected_seq != crate::UNKNOWN_SEQ
         {
             self.next = n.expected_seq;
         }
@@ -177,7 +177,7 @@ pub trait Link: core::fmt::Debug {
                 Some(Frame {
                     message: Message::Nack(n),
                     ..
-                }) if n.seq == seq || n.seq == crate::protocol::UNKNOWN_SEQ => {
+                }) if n.seq == seq || n.seq == crate::UNKNOWN_SEQ => {
                     return Err(LinkError::Nack(n));
                 }
                 Some(_) => {}
@@ -213,7 +213,7 @@ pub trait Link: core::fmt::Debug {
         }
     }
 
-    /// Uploads a wire scene (from [`encode_scene`](crate::protocol::encode_scene)): begin,
+    /// Uploads a wire scene (from [`encode_scene`](crate::encode_scene)): begin,
     /// chunks, commit, each acked before the next is sent. `timeout` is per frame.
     fn upload_scene(&mut self, scene: &[u8], timeout: Duration) -> Result<(), LinkError> {
         for message in scene_upload(scene) {
@@ -262,7 +262,7 @@ pub trait Link: core::fmt::Debug {
 /// A number behind the last one (a wrapping step of half the range or more) is the device
 /// starting its numbering again (a reset, a reflash, a new session on a shared link), not
 /// 65,000 lost frames: at a frame a millisecond that many would be half a minute of silence,
-/// which a link declares lost long before ([`crate::link`]'s users give up after 0.5 s).
+/// which a link declares lost long before ([`crate::host_side`]'s users give up after 0.5 s).
 #[derive(Clone, Copy, Debug, Default)]
 pub struct GapCounter {
     last: Option<u16>,

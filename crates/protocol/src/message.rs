@@ -4,6 +4,8 @@ use friction::{FrictionMaterial, Mode, SwitchCause};
 use nurbs::{Vec2, Vec3};
 use tracker::Feature;
 
+pub use device::telemetry::Telemetry;
+
 use super::wire::{MATERIAL_LEN, Reader, Sink, Writer, get_material, put_material};
 use super::{ErrorCode, crc::crc16_ccitt_false};
 
@@ -323,64 +325,12 @@ pub struct Status {
     /// Sequence number the device expects next from the host.
     pub expected_seq: u16,
     /// Wire value of the latest refusal's code, 0 if none: cleared once a status carried it,
-    /// or when a later request was accepted (`device::session::DeviceSession::handle`).
+    /// or when a later request was accepted (`protocol::device_side::session::DeviceSession::handle`).
     pub last_error: u8,
 }
 
 /// Payload bytes of a telemetry frame.
 pub const TELEMETRY_LEN: usize = 57;
-
-/// One haptic tick, as the device reports it (planar: the pantograph's plane).
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Telemetry {
-    /// Device time at the start of the tick (µs, wraps after 71 min).
-    pub time_us: u32,
-    /// Haptic interface point (m, device frame).
-    pub hip_m: Vec2,
-    /// Closest point on the active feature (m).
-    pub cp_m: Vec2,
-    /// God-object (m).
-    pub go_m: Vec2,
-    /// Normal force magnitude (N).
-    pub force_normal_n: f32,
-    /// Friction force magnitude (N).
-    pub force_friction_n: f32,
-    /// Total force commanded (N, device frame).
-    pub force_n: Vec2,
-    /// Projection error Ψ of the tracker (first parameter).
-    pub psi: f32,
-    /// Friction coefficient in use, in units of 1e-4 ([`Telemetry::mu`]).
-    pub mu_e4: u16,
-    /// Duration of the tick's computation (µs, saturated).
-    pub tick_us: u16,
-    /// Latched fault flags.
-    pub faults: u16,
-    /// Feature the closest point lies on; `None` out of contact or before tracking.
-    pub feature: Option<Feature>,
-    /// Friction mode.
-    pub mode: Mode,
-    /// Why the friction mode last changed (carried in the mode byte's high nibble).
-    pub cause: SwitchCause,
-}
-
-impl Telemetry {
-    /// The friction coefficient.
-    pub fn mu(&self) -> f32 {
-        f32::from(self.mu_e4) * 1e-4
-    }
-
-    /// `mu` quantised for [`Telemetry::mu_e4`] (saturating, NaN → 0).
-    pub fn quantize_mu(mu: f32) -> u16 {
-        let q = mu * 1e4 + 0.5;
-        if q.is_nan() || q <= 0.0 {
-            0
-        } else if q >= 65535.0 {
-            u16::MAX
-        } else {
-            q as u16
-        }
-    }
-}
 
 /// Largest feature index telemetry carries; larger ones saturate.
 pub const MAX_FEATURE_INDEX: u16 = 0x3FFE;
@@ -495,7 +445,7 @@ pub enum Message {
         /// The hand's target (finite, checked on decode).
         target_m: Vec2,
     },
-    /// → dev: an identification run ([`Excitation`](crate::controller::Excitation)): the
+    /// → dev: an identification run ([`Excitation`](device::controller::Excitation)): the
     /// motors apply square waves of joint torque for a while instead of rendering; the
     /// telemetry shows the motion and the force. Nacked, not acked, when the device is not
     /// calibrated ([`ErrorCode::NotCalibrated`]) or a torque is beyond its motors

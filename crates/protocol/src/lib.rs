@@ -1,7 +1,17 @@
 //! The wire protocol shared by the firmware and the host: 64-byte frames with a CRC, the
 //! messages, the scene upload and the compact binary scene.
 //!
-//! Everything here is `no_std` and allocation-free except [`encode_scene`] (host, `std`).
+//! The crate root and [`device_side`] are `no_std` and allocation-free except
+//! [`encode_scene`] (host, `std`); `host_side` (feature `std`) is the host's half.
+//!
+//! - **Shared**: [`Message`] and [`Frame`] (the tables below), the CRCs, the binary scene
+//!   ([`SceneStore`], [`encode_scene`]), the upload and its receiver ([`SceneReceiver`]).
+//! - **The device's half**, [`device_side`]: the session a device runs behind its transport
+//!   and the board's USB HID class (feature `usb`).
+//! - **The host's half**, `host_side` (feature `std`): the `Link` trait and its transports
+//!   (USB HID, serial, TCP) and the simulated device on a thread.
+//!
+//! `tests/frames.rs` checks the tables below against hand-written frame bytes.
 //! Decoding is total: any byte string gives a message or an [`ErrorCode`], never a panic.
 //! All multi-byte values are little-endian; floats are IEEE-754 `f32`.
 //!
@@ -66,7 +76,7 @@
 //! | 50 | 2 | tick duration µs (u16) |
 //! | 52 | 2 | fault flags (u16) |
 //! | 54 | 2 | feature: kind in bits 15–14 (0 patch, 1 vertex, 2 edge, 3 corner), index in bits 13–0; 0xFFFF none |
-//! | 56 | 1 | friction mode (0 free, 1 stuck, 2 transition, 3 slip) |
+//! | 56 | 1 | friction mode in bits 3–0 (0 free, 1 stuck, 2 transition, 3 slip); the cause of its last switch in bits 7–4 (0 none, 1 contact, 2 breakaway, 3 converged, 4 stopped, 5 reversed, 6 normal-force jump, 7 released) |
 //!
 //! Every float of telemetry is finite and the feature index at most [`MAX_FEATURE_INDEX`]
 //! (0x3FFE; larger indices saturate there), so a frame with NaN or an infinity, or a feature
@@ -138,8 +148,14 @@
 //! with the host's own checks: materials, `nurbs::Curve::new` / `nurbs::Surface::new` per
 //! patch, `tracker::Chain::new` / `tracker::Shell::new` per object.
 
+#![cfg_attr(not(feature = "std"), no_std)]
+#![warn(missing_docs)]
+
 mod crc;
+pub mod device_side;
 mod error;
+#[cfg(feature = "std")]
+pub mod host_side;
 mod message;
 mod receiver;
 mod scene;
@@ -167,7 +183,7 @@ use nurbs::{Vec2, Vec3};
 
 /// USB vendor id of the board (its HID interface carries the frames, one per 64-byte report):
 /// pid.codes' open-source vendor id. A placeholder until the project has a product id of its
-/// own. Here (no_std) so that the firmware and the host (`device::link`) share it.
+/// own. Here (no_std) so that the firmware and the host (`protocol::host_side`) share it.
 pub const USB_VID: u16 = 0x1209;
 /// USB product id of the board: pid.codes' test PID (`0x0001`), reserved for development and
 /// not unique; replace it with an allocated one before boards leave the lab.
@@ -175,7 +191,7 @@ pub const USB_PID: u16 = 0x0001;
 
 /// The board's USB HID report descriptor: one vendor-defined collection with a 64-byte
 /// ([`MAX_FRAME`]) input and a 64-byte output report and no report ids, so every report is one
-/// frame. The board's firmware presents it; the host's `HidLink` (`device::link`, feature
+/// frame. The board's firmware presents it; the host's `HidLink` (`protocol::host_side`, feature
 /// `std`) relies on it (it writes report id 0 before each frame and reads bare frames).
 #[rustfmt::skip]
 pub const REPORT_DESCRIPTOR: &[u8] = &[

@@ -838,7 +838,7 @@ pub use host::{WireObject, WirePatch, encode_scene};
 #[cfg(feature = "std")]
 mod host {
     use super::*;
-    use crate::protocol::wire::{Sink, put_material};
+    use crate::wire::{Sink, put_material};
 
     /// One patch to encode: a borrowed view (from `CurveBuf::view` / `SurfaceBuf::view`).
     #[derive(Clone, Copy, Debug)]

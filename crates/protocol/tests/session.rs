@@ -1,14 +1,12 @@
-//! The device side of a link ([`device::session::DeviceSession`]): what each accepted frame asks of
+//! The device side of a link ([`protocol::device_side::session::DeviceSession`]): what each accepted frame asks of
 //! the device, what is answered, and what a board's session refuses.
 
 #![allow(clippy::unwrap_used)]
 
-use device::protocol::{
-    ErrorCode, Frame, Hello, MAX_PAYLOAD, Message, Nack, Status, WireSceneError,
-};
-use device::session::{DeviceCommand, DeviceSession, DeviceState, Event};
 use friction::FrictionMaterial;
 use nurbs::Vec2;
+use protocol::device_side::session::{DeviceCommand, DeviceSession, DeviceState, Event};
+use protocol::{ErrorCode, Frame, Hello, MAX_PAYLOAD, Message, Nack, Status, WireSceneError};
 
 fn frame(seq: u16, message: Message) -> Vec<u8> {
     let (report, n) = Frame { seq, message }.to_report();

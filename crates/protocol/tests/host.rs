@@ -4,12 +4,12 @@
 
 use std::time::Duration;
 
-use device::link::{GapCounter, Link, SimConfig, SimLink, cobs, list_hid, list_serial};
-use device::protocol::{Frame, Message, WireObject, WirePatch, encode_scene};
 use device::safety::Faults;
 use friction::{FrictionMaterial, Mode};
 use nurbs::Vec2;
 use nurbs::construct::arc;
+use protocol::host_side::{GapCounter, Link, SimConfig, SimLink, cobs, list_hid, list_serial};
+use protocol::{Frame, Message, WireObject, WirePatch, encode_scene};
 
 const TIMEOUT: Duration = Duration::from_secs(5);
 
@@ -111,7 +111,7 @@ fn enumeration_never_panics() {
             for d in devices {
                 assert_eq!(
                     (d.vendor_id, d.product_id),
-                    (device::link::USB_VID, device::link::USB_PID)
+                    (protocol::host_side::USB_VID, protocol::host_side::USB_PID)
                 );
             }
         }
@@ -184,7 +184,7 @@ fn ready(link: &mut SimLink, scene: &[u8]) {
 
 /// Reads `n` frames, feeding the watchdog every 20 telemetry frames when `heartbeat`;
 /// returns the telemetry, and checks the device's sequence numbers have no gap.
-fn run(link: &mut SimLink, n: usize, heartbeat: bool) -> Vec<device::protocol::Telemetry> {
+fn run(link: &mut SimLink, n: usize, heartbeat: bool) -> Vec<protocol::Telemetry> {
     let mut gaps = GapCounter::default();
     let mut telemetry = Vec::new();
     while telemetry.len() < n {
@@ -287,8 +287,8 @@ fn sim_link_nacks_a_bad_scene_and_paced_link_answers_hello() {
     let mut scene = thesis_2d_scene();
     scene[0] = b'X';
     match link.upload_scene(&scene, TIMEOUT) {
-        Err(device::link::LinkError::Nack(n)) => {
-            assert_eq!(n.code, device::protocol::ErrorCode::SceneFormat)
+        Err(protocol::host_side::LinkError::Nack(n)) => {
+            assert_eq!(n.code, protocol::ErrorCode::SceneFormat)
         }
         other => panic!("{other:?}"),
     }
@@ -299,7 +299,7 @@ fn sim_link_nacks_a_bad_scene_and_paced_link_answers_hello() {
     // A timeout longer than the clock can add (wait for ever) is no panic: the answer comes.
     assert_eq!(paced.hello(Duration::MAX).unwrap().max_payload, 57);
     paced
-        .request(&device::protocol::Message::DisableForces, Duration::MAX)
+        .request(&protocol::Message::DisableForces, Duration::MAX)
         .unwrap();
 }
 
@@ -325,7 +325,7 @@ fn hello_skips_the_tail_of_a_frame_on_a_stream_joined_mid_frame() {
             unpaced().serve(stream, &stop)
         })
     };
-    let mut link = device::link::TcpLink::connect(&address, TIMEOUT).unwrap();
+    let mut link = protocol::host_side::TcpLink::connect(&address, TIMEOUT).unwrap();
     let hello = link.hello(TIMEOUT).unwrap();
     assert_eq!(hello.max_payload, 57);
     // The session goes on as usual after it.
@@ -342,8 +342,8 @@ fn hello_skips_the_tail_of_a_frame_on_a_stream_joined_mid_frame() {
 /// products of coefficients and speeds), renders a press and a slide with every frame finite.
 #[test]
 fn huge_materials_are_refused_and_the_largest_accepted_renders_finite_frames() {
-    use device::protocol::ErrorCode;
     use friction::ModelKind;
+    use protocol::ErrorCode;
     let mut link = unpaced();
     link.hello(TIMEOUT).unwrap();
     ready(&mut link, &thesis_2d_scene());
@@ -369,7 +369,7 @@ fn huge_materials_are_refused_and_the_largest_accepted_renders_finite_frames() {
             material: huge,
         };
         match link.request(&message, TIMEOUT) {
-            Err(device::link::LinkError::Nack(n)) => {
+            Err(protocol::host_side::LinkError::Nack(n)) => {
                 assert_eq!(n.code, ErrorCode::BadMaterial, "{huge:?}")
             }
             other => panic!("{huge:?}: {other:?}"),

@@ -7,7 +7,7 @@
 //!
 //! What sits behind the port is a [`ReportPump`]: the board's queues to its protocol task
 //! and tick (`firmware::usb::Usb`), or the host's simulated pantograph
-//! (`device::link::simulated::SimReports`); the port's [`Outbox`] sends what waits in them in one
+//! (`protocol::host_side::simulated::SimReports`); the port's [`Outbox`] sends what waits in them in one
 //! order for both.
 
 use usb_device::bus::{UsbBus, UsbBusAllocator};
@@ -16,7 +16,7 @@ use usb_device::device::{
 };
 use usbd_hid::hid_class::HIDClass;
 
-use crate::protocol::{Frame, MAX_FRAME, Message, REPORT_DESCRIPTOR, USB_PID, USB_VID};
+use crate::{Frame, MAX_FRAME, Message, REPORT_DESCRIPTOR, USB_PID, USB_VID};
 
 /// The manufacturer string the board reports.
 pub const MANUFACTURER: &str = "nurbs-haptics";

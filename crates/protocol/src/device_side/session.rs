@@ -1,5 +1,5 @@
 //! The device side of a link, once for every device: the host's simulator
-//! ([`link::SimLink`](crate::link::SimLink)), the firmware under QEMU and the board. A [`DeviceSession`] takes
+//! ([`link::SimLink`](crate::host_side::SimLink)), the firmware under QEMU and the board. A [`DeviceSession`] takes
 //! each frame the host sent through its [`SceneReceiver`] (sequence numbers, scene upload),
 //! acks or nacks it, answers a hello with the device's hello and a heartbeat with a status.
 //! What it asks of the device comes back as an [`Event`]: a [`DeviceCommand`] for the controller
@@ -17,12 +17,12 @@ use friction::FrictionMaterial;
 use nurbs::Vec2;
 use tracker::Object;
 
-use crate::controller::{Controller, ControllerError, Excitation, ExcitationRefusal};
-use crate::protocol::{
+use crate::{
     ErrorCode, Frame, Hello, MAX_PAYLOAD, Message, NO_INDEX, Nack, SceneReceiver, SceneValidator,
     Status, UNKNOWN_SEQ,
 };
-use crate::spec::DeviceSpec;
+use device::controller::{Controller, ControllerError, Excitation, ExcitationRefusal};
+use device::spec::DeviceSpec;
 
 /// A command for the controller, from a frame the session accepted. A single-threaded
 /// device applies it at once ([`DeviceCommand::apply`]); a board queues it to its tick, which owns

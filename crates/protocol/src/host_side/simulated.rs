@@ -28,13 +28,13 @@ use tracker::Chain;
 
 use super::serial::{Packets, Stream, read_packets, write_packet};
 use super::{Link, LinkError, Sequencer, cobs, software_version};
-use crate::controller::Controller;
-use crate::protocol::{ErrorCode, Frame, MAX_FRAME, Message, SceneStore};
-use crate::safety::SafetyConfig;
-use crate::session::{DeviceSession, DeviceState, Event};
-use crate::simulator::{SimParams, SimulatedPantograph, VirtualHand};
-use crate::spec::DeviceSpec;
-use crate::telemetry::TelemetryDecimator;
+use crate::device_side::session::{DeviceSession, DeviceState, Event};
+use crate::{ErrorCode, Frame, MAX_FRAME, Message, SceneStore};
+use device::controller::Controller;
+use device::safety::SafetyConfig;
+use device::simulator::{SimParams, SimulatedPantograph, VirtualHand};
+use device::spec::DeviceSpec;
+use device::telemetry::TelemetryDecimator;
 
 /// Scene capacity of the simulated device (bytes), as the firmware's receiver.
 const SCENE_CAPACITY: usize = 8192;
@@ -450,12 +450,12 @@ fn emit(
 }
 
 /// The simulated device's frames as the reports of the board's USB HID device
-/// ([`crate::usb::HidPort`]) run on the host, over USB/IP in `cargo xtask hid`: host reports
+/// ([`crate::device_side::usb::HidPort`]) run on the host, over USB/IP in `cargo xtask hid`: host reports
 /// go to the device's thread as a board's OUT reports go to its protocol task, and the
 /// device's frames wait in a board's two queues (`firmware::usb::Usb`): the replies (ack,
 /// nack, status, hello), and telemetry in a queue of [`SimReports::FRAMES`] frames that drops
 /// the newest frame when full (the host sees the missing millisecond in the frames' device
-/// time). The port's [`crate::usb::Outbox`] sends them in the board's order. Feature `usb`.
+/// time). The port's [`crate::device_side::usb::Outbox`] sends them in the board's order. Feature `usb`.
 #[cfg(feature = "usb")]
 #[derive(Debug)]
 pub struct SimReports {
@@ -523,7 +523,7 @@ impl SimReports {
 }
 
 #[cfg(feature = "usb")]
-impl crate::usb::ReportPump for SimReports {
+impl crate::device_side::usb::ReportPump for SimReports {
     fn received(&mut self, report: &[u8]) {
         let mut frame = [0u8; MAX_FRAME];
         let n = report.len().min(MAX_FRAME);

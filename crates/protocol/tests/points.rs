@@ -8,12 +8,12 @@
 
 use std::time::Duration;
 
-use device::link::{GapCounter, Link, SimConfig, SimLink};
-use device::protocol::*;
-use device::session::{DeviceSession, DeviceState, Event};
 use friction::{FrictionMaterial, Mode};
 use nurbs::construct::{arc, bezier_patch};
 use nurbs::{CurveBuf, SurfaceBuf, Vec2, Vec3};
+use protocol::device_side::session::{DeviceSession, DeviceState, Event};
+use protocol::host_side::{GapCounter, Link, SimConfig, SimLink};
+use protocol::*;
 use tracker::Feature;
 
 const TIMEOUT: Duration = Duration::from_secs(5);
@@ -600,7 +600,7 @@ fn each_faulty_update_has_its_code_and_changes_nothing() {
     let moved = p1 + Vec2::new(1e-3, 0.0);
     device.handle(&mut host, planar(0, 0, 1, false, &[moved]));
     device.handle(&mut host, begin);
-    device.handle(&mut host, Message::Hello(device::link::host_hello()));
+    device.handle(&mut host, Message::Hello(protocol::host_side::host_hello()));
     let (event, _) = device.handle(&mut host, planar(0, 1, 0, true, &[point(&arcs[1], 0)]));
     assert_eq!(event, Event::ScenePointsUpdated { object: 0 });
     assert_eq!(device.active().0, scene(), "the dropped point did not land");

@@ -1,5 +1,5 @@
 //! USB HID transport: one frame per 64-byte report, as the board's report descriptor
-//! ([`REPORT_DESCRIPTOR`](crate::protocol::REPORT_DESCRIPTOR), shared with the firmware)
+//! ([`REPORT_DESCRIPTOR`](crate::REPORT_DESCRIPTOR), shared with the firmware)
 //! declares them.
 
 use std::ffi::CString;
@@ -8,8 +8,8 @@ use std::time::{Duration, Instant};
 use hidapi::{HidApi, HidDevice};
 
 use super::{Link, LinkError, Sequencer};
-use crate::protocol::{Frame, MAX_FRAME};
-pub use crate::protocol::{USB_PID, USB_VID};
+use crate::{Frame, MAX_FRAME};
+pub use crate::{USB_PID, USB_VID};
 
 /// One HID device with the board's vendor and product id.
 #[derive(Clone, Debug, PartialEq, Eq)]
@@ -89,7 +89,7 @@ impl HidLink {
 }
 
 impl Link for HidLink {
-    fn send(&mut self, message: &crate::protocol::Message) -> Result<u16, LinkError> {
+    fn send(&mut self, message: &crate::Message) -> Result<u16, LinkError> {
         let (report, _, seq) = self.seq.encode(message);
         // hidapi wants the report id first; the board's reports are unnumbered (id 0).
         let mut out = [0u8; MAX_FRAME + 1];

@@ -7,11 +7,11 @@
 
 #![allow(clippy::unwrap_used)]
 
-use device::protocol::*;
-use device::session::{DeviceSession, DeviceState, Event};
 use friction::FrictionMaterial;
 use nurbs::construct::circle;
 use nurbs::{CurveBuf, Vec2};
+use protocol::device_side::session::{DeviceSession, DeviceState, Event};
+use protocol::*;
 
 /// The point the ring collapses to.
 const CENTRE: Vec2 = Vec2::new(0.0, 0.09);

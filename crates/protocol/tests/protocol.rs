@@ -3,11 +3,11 @@
 
 #![allow(clippy::unwrap_used)]
 
-use device::protocol::*;
 use friction::{FrictionMaterial, Mode, ModelKind, Stribeck, SwitchCause};
 use nurbs::construct::{bezier_curve, bezier_patch, circle, sphere};
 use nurbs::{CurveBuf, SurfaceBuf, Vec2, Vec3};
 use proptest::prelude::*;
+use protocol::*;
 use tracker::Feature;
 
 // ---------------------------------------------------------------------------------------
@@ -1507,7 +1507,7 @@ fn report_descriptor_declares_one_frame_each_way_without_report_ids() {
 /// next 50 frames were accepted.
 #[test]
 fn a_lost_frame_costs_one_nack_anywhere_in_the_numbering() {
-    use device::link::Sequencer;
+    use protocol::host_side::Sequencer;
     for lost in [0x1234u16, 0xFFFD, 0xFFFE, 0x0000, 0x0001] {
         let mut rx = Box::new(Receiver::new());
         let mut host = Sequencer::default();
