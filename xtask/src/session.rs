@@ -8,17 +8,16 @@
 //! host's afterwards, contact kept on the same arc, the rendered depth that of the moved
 //! curve), and heartbeat loss turning the force off at the watchdog's timeout.
 
+use std::collections::HashMap;
 use std::net::TcpListener;
 use std::path::Path;
 use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
 
-use std::collections::HashMap;
-
 use device::safety::Faults;
 use friction::{FrictionMaterial, Mode};
 use nurbs::Vec2;
-use protocol::host_side::{Link, TcpLink};
+use protocol::host_side::{Answer, Link, Requests, TcpLink};
 use protocol::{
     ErrorCode, Message, Nack, SceneChunk, Status, Telemetry, crc32, points_update, scene_upload,
 };
@@ -79,6 +78,17 @@ impl Drop for Qemu {
     }
 }
 
+/// What a frame the host sent waits for (the request/ack engine's tag, [`Requests`]).
+#[derive(Clone, Copy, Debug)]
+enum Sent {
+    /// The request [`Host::send_awaiting`] waits for, by its count.
+    Awaited(u32),
+    /// A heartbeat, by its count.
+    Heartbeat(u32),
+    /// A streamed control-point update and its displacement (m).
+    Points(f32),
+}
+
 /// The host's side: the link, its heartbeat and the virtual hand's target.
 pub(crate) struct Host<L: Link> {
     pub(crate) link: L,
@@ -92,15 +102,21 @@ pub(crate) struct Host<L: Link> {
     pub(crate) telemetry: Vec<Telemetry>,
     /// Nacks of frames nobody waited for.
     pub(crate) nacks: Vec<(u16, ErrorCode)>,
-    /// The frame whose answer [`Host::request`] waits for, and the answer.
-    awaited: Option<u16>,
+    /// Frames sent and not answered.
+    requests: Requests<Sent>,
+    /// Requests [`Host::send_awaiting`] sent (the newest is the one it waits for), and the
+    /// answer to the newest.
+    awaited: u32,
     answer: Option<Result<(), ErrorCode>>,
     /// The last status (a heartbeat's answer).
     status: Option<Status>,
-    /// The last heartbeat's sequence number, and the index in `telemetry` of the first frame
-    /// after its ack: the tick that stamped it.
-    heartbeat_seq: Option<u16>,
+    /// Heartbeats sent; the index in `telemetry` of the first frame after the newest one's
+    /// ack: the tick that stamped it.
+    heartbeats_sent: u32,
     pub(crate) stamp_index: Option<usize>,
+    /// The control-point stream under way ([`Host::stream_points`]), with the displacement
+    /// of the newest update acked.
+    points: Option<(PointsRun, f32)>,
 }
 
 impl<L: Link> Host<L> {
@@ -114,12 +130,81 @@ impl<L: Link> Host<L> {
             last_target: Instant::now(),
             telemetry: Vec::new(),
             nacks: Vec::new(),
-            awaited: None,
+            requests: Requests::new(),
+            awaited: 0,
             answer: None,
             status: None,
-            heartbeat_seq: None,
+            heartbeats_sent: 0,
             stamp_index: None,
+            points: None,
         }
+    }
+
+    /// Sends a heartbeat when one is due (while heartbeats are on, every [`HEARTBEAT`]).
+    fn heartbeat(&mut self) -> Result<(), String> {
+        if !self.heartbeats || self.last_heartbeat.elapsed() < HEARTBEAT {
+            return Ok(());
+        }
+        let now = Instant::now();
+        self.heartbeats_sent += 1;
+        self.requests
+            .send(
+                &mut self.link,
+                [Message::Heartbeat { uptime_ms: 0 }],
+                Sent::Heartbeat(self.heartbeats_sent),
+                now,
+            )
+            .map_err(|e| format!("session: heartbeat: {e}"))?;
+        self.stamp_index = None;
+        self.last_heartbeat = now;
+        Ok(())
+    }
+
+    /// Receives for up to `timeout` and takes in what came: telemetry, answers, a status.
+    fn receive(&mut self, timeout: Duration) -> Result<(), String> {
+        // An answer this late will not come (and a late one must not answer a newer request).
+        self.requests.expire(Instant::now(), REPLY);
+        let frame = self
+            .link
+            .recv(timeout)
+            .map_err(|e| format!("session: link: {e}"))?;
+        let Some(message) = frame.map(|f| f.message) else {
+            return Ok(());
+        };
+        match (self.requests.answer(&message), message) {
+            (_, Message::Telemetry(t)) => {
+                if let Some((run, current)) = &mut self.points {
+                    run.frames.push((t, *current));
+                }
+                self.telemetry.push(t);
+            }
+            (Some(Answer::Acked(Sent::Awaited(k))), _) if k == self.awaited => {
+                self.answer = Some(Ok(()));
+            }
+            (Some(Answer::Refused(Sent::Awaited(k), n)), _) if k == self.awaited => {
+                self.answer = Some(Err(n.code));
+            }
+            (Some(Answer::Acked(Sent::Heartbeat(k))), _) if k == self.heartbeats_sent => {
+                self.stamp_index = Some(self.telemetry.len());
+            }
+            (Some(Answer::Acked(Sent::Points(d))), _) => {
+                if let Some((run, current)) = &mut self.points {
+                    // The device acks an update when it applied it, before the tick that
+                    // renders it: the frames behind this ack are of this shape.
+                    *current = d;
+                    run.acked.push((run.start.elapsed(), d));
+                }
+            }
+            (Some(Answer::Refused(Sent::Points(_), n)), _) => {
+                if let Some((run, _)) = &mut self.points {
+                    run.nacks.push(n);
+                }
+            }
+            (_, Message::Nack(n)) => self.nacks.push((n.seq, n.code)),
+            (_, Message::Status(s)) => self.status = Some(s),
+            _ => {}
+        }
+        Ok(())
     }
 
     /// Reads for `d`, sending heartbeats (while on, every [`HEARTBEAT`]) and the hand's target
@@ -132,15 +217,7 @@ impl<L: Link> Host<L> {
         let start = Instant::now();
         loop {
             let t = (start.elapsed().as_secs_f32() / d.as_secs_f32()).min(1.0);
-            if self.heartbeats && self.last_heartbeat.elapsed() >= HEARTBEAT {
-                let seq = self
-                    .link
-                    .send(&Message::Heartbeat { uptime_ms: 0 })
-                    .map_err(|e| format!("session: heartbeat: {e}"))?;
-                self.heartbeat_seq = Some(seq);
-                self.stamp_index = None;
-                self.last_heartbeat = Instant::now();
-            }
+            self.heartbeat()?;
             if self.targets && self.last_target.elapsed() >= TARGET_PERIOD {
                 self.link
                     .send(&Message::HandTarget {
@@ -149,25 +226,7 @@ impl<L: Link> Host<L> {
                     .map_err(|e| format!("session: hand target: {e}"))?;
                 self.last_target = Instant::now();
             }
-            let frame = self
-                .link
-                .recv(Duration::from_millis(2))
-                .map_err(|e| format!("session: link: {e}"))?;
-            match frame.map(|f| f.message) {
-                Some(Message::Telemetry(t)) => self.telemetry.push(t),
-                Some(Message::Ack { seq }) if self.awaited == Some(seq) => {
-                    self.answer = Some(Ok(()));
-                }
-                Some(Message::Ack { seq }) if self.heartbeat_seq == Some(seq) => {
-                    self.stamp_index = Some(self.telemetry.len());
-                }
-                Some(Message::Nack(n)) if self.awaited == Some(n.seq) => {
-                    self.answer = Some(Err(n.code));
-                }
-                Some(Message::Nack(n)) => self.nacks.push((n.seq, n.code)),
-                Some(Message::Status(s)) => self.status = Some(s),
-                _ => {}
-            }
+            self.receive(Duration::from_millis(2))?;
             if start.elapsed() >= d {
                 return Ok(());
             }
@@ -180,21 +239,24 @@ impl<L: Link> Host<L> {
         m: &Message,
         at: Vec2,
     ) -> Result<Result<(), ErrorCode>, String> {
-        let seq = self
-            .link
-            .send(m)
-            .map_err(|e| format!("session: {:?}: {e}", m.message_type()))?;
-        self.awaited = Some(seq);
+        self.awaited += 1;
         self.answer = None;
+        self.requests
+            .send(
+                &mut self.link,
+                [*m],
+                Sent::Awaited(self.awaited),
+                Instant::now(),
+            )
+            .map_err(|e| format!("session: {:?}: {e}", m.message_type()))?;
         let start = Instant::now();
         while self.answer.is_none() && start.elapsed() < REPLY {
             self.pump(Duration::from_millis(10), |_| at)?;
         }
-        self.awaited = None;
         self.answer.take().ok_or_else(|| {
             format!(
-                "session: no answer to {:?} (seq {seq}) within {REPLY:?} ({} telemetry frames \
-                 so far, unawaited nacks {:?})",
+                "session: no answer to {:?} within {REPLY:?} ({} telemetry frames so far, \
+                 unawaited nacks {:?})",
                 m.message_type(),
                 self.telemetry.len(),
                 self.nacks
@@ -227,72 +289,45 @@ impl<L: Link> Host<L> {
         out: Vec2,
         offset: impl Fn(f32) -> f32,
     ) -> Result<PointsRun, String> {
-        let mut run = PointsRun::default();
-        let mut waiting: HashMap<u16, f32> = HashMap::new();
-        let mut current = 0.0;
         let start = Instant::now();
+        self.points = Some((PointsRun::new(start), 0.0));
         let mut k = 0u32;
-        loop {
+        let waiting = |host: &Self| host.requests.any(|p| matches!(p, Sent::Points(_)));
+        let result = loop {
             let now = Instant::now();
-            if self.heartbeats && self.last_heartbeat.elapsed() >= HEARTBEAT {
-                let seq = self
-                    .link
-                    .send(&Message::Heartbeat { uptime_ms: 0 })
-                    .map_err(|e| format!("session: heartbeat: {e}"))?;
-                self.heartbeat_seq = Some(seq);
-                self.stamp_index = None;
-                self.last_heartbeat = now;
-            }
+            self.heartbeat()?;
             let due = start + POINTS_PERIOD * k;
             if now >= due && now - start < POINTS_DURATION {
                 let d = offset((POINTS_PERIOD * k).as_secs_f32());
                 let to = [p1 + out * d];
-                for m in points_update(0, &[(0, 1, &to[..])]) {
-                    let seq = self
-                        .link
-                        .send(&m)
-                        .map_err(|e| format!("session: points: {e}"))?;
-                    waiting.insert(seq, d);
+                self.requests
+                    .send(
+                        &mut self.link,
+                        points_update(0, &[(0, 1, &to[..])]),
+                        Sent::Points(d),
+                        now,
+                    )
+                    .map_err(|e| format!("session: points: {e}"))?;
+                if let Some((run, _)) = &mut self.points {
+                    run.sent.push(now - start);
                 }
-                run.sent.push(now - start);
                 k += 1;
             }
-            let frame = self
-                .link
-                .recv(Duration::from_millis(1))
-                .map_err(|e| format!("session: link: {e}"))?;
-            match frame.map(|f| f.message) {
-                Some(Message::Telemetry(t)) => {
-                    run.frames.push((t, current));
-                    self.telemetry.push(t);
-                }
-                Some(Message::Ack { seq }) if self.heartbeat_seq == Some(seq) => {
-                    self.stamp_index = Some(self.telemetry.len());
-                }
-                Some(Message::Ack { seq }) => {
-                    if let Some(d) = waiting.remove(&seq) {
-                        // The device acks an update when it applied it, before the tick that
-                        // renders it: the frames behind this ack are of this shape.
-                        current = d;
-                        run.acked.push((start.elapsed(), d));
-                    }
-                }
-                Some(Message::Nack(n)) if waiting.remove(&n.seq).is_some() => run.nacks.push(n),
-                Some(Message::Nack(n)) => self.nacks.push((n.seq, n.code)),
-                Some(Message::Status(s)) => self.status = Some(s),
-                _ => {}
-            }
+            self.receive(Duration::from_millis(1))?;
             let elapsed = start.elapsed();
-            if elapsed >= POINTS_DURATION && waiting.is_empty() {
-                return Ok(run);
+            if elapsed >= POINTS_DURATION && !waiting(self) {
+                break Ok(());
             }
             if elapsed >= POINTS_DURATION + REPLY {
-                return Err(format!(
-                    "session: {} control-point updates unanswered {REPLY:?} after the stream",
-                    waiting.len()
+                let left = self.requests.len();
+                break Err(format!(
+                    "session: control-point updates unanswered {REPLY:?} after the stream \
+                     ({left} frames in flight)"
                 ));
             }
-        }
+        };
+        let run = self.points.take().map(|(run, _)| run);
+        result.and_then(|()| run.ok_or_else(|| "session: the stream's record is gone".into()))
     }
 
     /// The active scene's CRC-32, from the status answering the next heartbeat.
@@ -309,8 +344,9 @@ impl<L: Link> Host<L> {
 }
 
 /// What a control-point stream ([`Host::stream_points`]) saw.
-#[derive(Default)]
 struct PointsRun {
+    /// When the stream began.
+    start: Instant,
     /// When each update was sent (since the stream began).
     sent: Vec<Duration>,
     /// When each acked update's ack arrived, and its displacement (m).
@@ -320,6 +356,18 @@ struct PointsRun {
     /// The telemetry, each frame with the displacement of the last update acked before it
     /// (the shape the tick rendered).
     frames: Vec<(Telemetry, f32)>,
+}
+
+impl PointsRun {
+    fn new(start: Instant) -> Self {
+        PointsRun {
+            start,
+            sent: Vec::new(),
+            acked: Vec::new(),
+            nacks: Vec::new(),
+            frames: Vec::new(),
+        }
+    }
 }
 
 /// The wire scene of object 0 of `scene` with `material` (the app's own upload).

@@ -40,7 +40,7 @@ use std::time::{Duration, Instant};
 use device::safety::Faults;
 use friction::Mode;
 use nurbs::{Vec2, Vec3};
-use protocol::host_side::{GapCounter, LinkError};
+use protocol::host_side::{Answer, GapCounter, LinkError, Requests};
 use protocol::{ErrorCode, Frame, Message, Status, Telemetry, points_update, scene_upload};
 use tracker::Feature;
 
@@ -123,7 +123,9 @@ struct Host {
     opened: Opened,
     /// Requests waiting for the one in flight.
     queue: VecDeque<(Message, Purpose)>,
-    in_flight: Option<(u16, Purpose, Instant)>,
+    /// Requests sent and not answered: at most one from the queue, and the control-point
+    /// updates ([`Purpose::Points`]), several at a time.
+    requests: Requests<Purpose>,
     /// Whether the device takes hand targets (until it refuses one).
     simulated_plant: bool,
     gaps: GapCounter,
@@ -150,9 +152,6 @@ struct Host {
     deforming: Option<RemoteDeform>,
     /// Where the deforming object's shape is published for the UI.
     shape: Arc<SharedShape>,
-    /// Control-point updates sent and not answered: the sequence numbers of their first and
-    /// last frames, and when they went.
-    points_in_flight: VecDeque<(u16, u16, Instant)>,
     clock: DeviceClock,
     started: Instant,
     heard: Instant,
@@ -166,7 +165,7 @@ impl Host {
             simulated_plant: opened.hand.is_some(),
             opened,
             queue: VecDeque::new(),
-            in_flight: None,
+            requests: Requests::new(),
             gaps: GapCounter::default(),
             heartbeat_due: now,
             heartbeat: None,
@@ -180,7 +179,6 @@ impl Host {
             scene: None,
             deforming: None,
             shape: SharedShape::new(),
-            points_in_flight: VecDeque::new(),
             clock: DeviceClock::default(),
             started: now,
             heard: now,
@@ -238,10 +236,10 @@ impl Host {
             }
         }
         let now = Instant::now();
-        if let Some((_, purpose, sent)) = self.in_flight
-            && now - sent > REQUEST_TIMEOUT
-        {
-            self.in_flight = None;
+        for purpose in self.requests.expire(now, REQUEST_TIMEOUT) {
+            if let Purpose::Points = purpose {
+                ends.counters.points_refused.fetch_add(1, Ordering::Relaxed);
+            }
             self.refused(
                 ends,
                 purpose,
@@ -258,8 +256,9 @@ impl Host {
             self.heartbeat = Some((seq, now));
             self.heartbeat_due = now + HEARTBEAT_PERIOD;
         }
+        let queued_in_flight = self.requests.any(|p| !matches!(p, Purpose::Points));
         if let Some((_, Purpose::Settle)) = self.queue.front()
-            && self.in_flight.is_none()
+            && !queued_in_flight
         {
             let since = *self.settle_since.get_or_insert(now);
             let settled = match (self.hand_command, self.hip) {
@@ -271,13 +270,14 @@ impl Host {
                 self.queue.pop_front();
             }
         }
-        if self.in_flight.is_none()
+        if !queued_in_flight
             && self.status.is_some()
             && !matches!(self.queue.front(), Some((_, Purpose::Settle)))
             && let Some((message, purpose)) = self.queue.pop_front()
         {
-            let seq = self.opened.link.send(&message).map_err(|e| self.lost(&e))?;
-            self.in_flight = Some((seq, purpose, now));
+            self.requests
+                .send(&mut *self.opened.link, [message], purpose, now)
+                .map_err(|e| self.lost(&e))?;
         }
         self.move_hand(now).map_err(|e| self.lost(&e))?;
         self.send_points(ends, now).map_err(|e| self.lost(&e))?;
@@ -337,21 +337,10 @@ impl Host {
     }
 
     /// Sends the pending control-point update, once the device has answered a heartbeat and
-    /// no upload is queued or in flight; gives up on updates unanswered for
-    /// [`REQUEST_TIMEOUT`].
+    /// no upload is queued or in flight (an update unanswered for [`REQUEST_TIMEOUT`] is
+    /// given up in [`Host::turn`]).
     fn send_points(&mut self, ends: &LoopEnds, now: Instant) -> Result<(), LinkError> {
-        while let Some(&(_, _, sent)) = self.points_in_flight.front()
-            && now - sent > REQUEST_TIMEOUT
-        {
-            self.points_in_flight.pop_front();
-            ends.counters.points_refused.fetch_add(1, Ordering::Relaxed);
-            self.refused(
-                ends,
-                Purpose::Points,
-                format!("no answer within {REQUEST_TIMEOUT:?}"),
-            );
-        }
-        let uploading = matches!(self.in_flight, Some((_, Purpose::Upload { .. }, _)))
+        let uploading = self.requests.any(|p| matches!(p, Purpose::Upload { .. }))
             || self
                 .queue
                 .iter()
@@ -367,23 +356,17 @@ impl Host {
             .iter()
             .map(|(patch, first, points)| (*patch, *first, &points[..]))
             .collect();
-        let mut seqs = None;
-        for message in points_update(update.object, &patches) {
-            let seq = self.opened.link.send(&message)?;
-            seqs = Some((seqs.map_or(seq, |(first, _)| first), seq));
-        }
-        if let Some((first, last)) = seqs {
-            self.points_in_flight.push_back((first, last, now));
+        let before = self.requests.len();
+        self.requests.send(
+            &mut *self.opened.link,
+            points_update(update.object, &patches),
+            Purpose::Points,
+            now,
+        )?;
+        if self.requests.len() > before {
             ends.counters.points_sent.fetch_add(1, Ordering::Relaxed);
         }
         Ok(())
-    }
-
-    /// The index in [`Host::points_in_flight`] of the update frame `seq` belongs to.
-    fn points_update_of(&self, seq: u16) -> Option<usize> {
-        self.points_in_flight
-            .iter()
-            .position(|&(first, last, _)| seq.wrapping_sub(first) <= last.wrapping_sub(first))
     }
 
     fn lost(&self, e: &LinkError) -> String {
@@ -503,55 +486,47 @@ impl Host {
                 self.status = Some(s);
                 ends.reply(Reply::Link(LinkEvent::Status(s)));
             }
-            Message::Ack { seq } => {
-                if let Some(i) = self.points_update_of(seq)
-                    && self.points_in_flight[i].1 == seq
-                {
-                    self.points_in_flight.remove(i);
+            Message::Ack { .. } | Message::Nack(_) => match self.requests.answer(&message) {
+                Some(Answer::Acked(Purpose::Points)) => {
                     ends.counters.points_applied.fetch_add(1, Ordering::Relaxed);
                 }
-                if let Some((s, purpose, _)) = self.in_flight
-                    && s == seq
-                {
-                    self.in_flight = None;
-                    match purpose {
-                        Purpose::Material(m) => ends.reply(Reply::Material(Ok(m))),
-                        Purpose::Upload { last: true } => ends.reply(Reply::Swapped),
-                        Purpose::ClearFaults => ends.reply(Reply::FaultsCleared(
-                            Faults::from_bits_truncate(self.status.map_or(0, |s| s.faults)),
-                        )),
-                        Purpose::Upload { last: false }
-                        | Purpose::Forces
-                        | Purpose::Calibrate
-                        | Purpose::Settle
-                        | Purpose::Points => {}
+                Some(Answer::Acked(purpose)) => match purpose {
+                    Purpose::Material(m) => ends.reply(Reply::Material(Ok(m))),
+                    Purpose::Upload { last: true } => ends.reply(Reply::Swapped),
+                    Purpose::ClearFaults => ends.reply(Reply::FaultsCleared(
+                        Faults::from_bits_truncate(self.status.map_or(0, |s| s.faults)),
+                    )),
+                    Purpose::Upload { last: false }
+                    | Purpose::Forces
+                    | Purpose::Calibrate
+                    | Purpose::Settle
+                    | Purpose::Points => {}
+                },
+                Some(Answer::Refused(purpose, n)) => {
+                    // A refused update is dropped whole; its later frames' nacks
+                    // (`UpdateAborted`) find it gone.
+                    if let Purpose::Points = purpose {
+                        ends.counters.points_refused.fetch_add(1, Ordering::Relaxed);
+                    }
+                    self.refused(ends, purpose, n.code.message().to_owned());
+                }
+                None => {
+                    if let Message::Nack(n) = message
+                        && n.code == ErrorCode::NotSimulated
+                        && self.simulated_plant
+                    {
+                        // A board: the hand on the handle is real.
+                        self.simulated_plant = false;
+                        ends.reply(Reply::Link(LinkEvent::Refused {
+                            what: "the virtual hand",
+                            reason: format!(
+                                "{}; the device's plant is real: move its handle by hand",
+                                n.code.message()
+                            ),
+                        }));
                     }
                 }
-            }
-            Message::Nack(n) => {
-                if let Some((s, purpose, _)) = self.in_flight
-                    && s == n.seq
-                {
-                    self.in_flight = None;
-                    self.refused(ends, purpose, n.code.message().to_owned());
-                } else if let Some(i) = self.points_update_of(n.seq) {
-                    // The device dropped the whole update; its later frames' nacks
-                    // (`UpdateAborted`) find it gone.
-                    self.points_in_flight.remove(i);
-                    ends.counters.points_refused.fetch_add(1, Ordering::Relaxed);
-                    self.refused(ends, Purpose::Points, n.code.message().to_owned());
-                } else if n.code == ErrorCode::NotSimulated && self.simulated_plant {
-                    // A board: the hand on the handle is real.
-                    self.simulated_plant = false;
-                    ends.reply(Reply::Link(LinkEvent::Refused {
-                        what: "the virtual hand",
-                        reason: format!(
-                            "{}; the device's plant is real: move its handle by hand",
-                            n.code.message()
-                        ),
-                    }));
-                }
-            }
+            },
             _ => {}
         }
         Ok(())

@@ -25,12 +25,14 @@ pub(crate) fn deadline(timeout: Duration) -> Instant {
 
 pub mod cobs;
 mod hid;
+mod requests;
 mod serial;
 mod simulated;
 
 use std::time::{Duration, Instant};
 
 pub use hid::{HidDeviceInfo, HidLink, USB_PID, USB_VID, list_hid};
+pub use requests::{Answer, Requests};
 pub use serial::{BAUD, SerialLink, SerialPortInfo, Stream, StreamLink, TcpLink, list_serial};
 #[cfg(unix)]
 pub use serial::{PseudoTerminal, pseudo_terminal};
@@ -165,22 +167,22 @@ pub trait Link: core::fmt::Debug {
     /// Sends `message` and waits for its ack; other frames arriving meanwhile (telemetry)
     /// are dropped. A nack is [`LinkError::Nack`].
     fn request(&mut self, message: &Message, timeout: Duration) -> Result<(), LinkError> {
-        let seq = self.send(message)?;
+        let mut requests = Requests::new();
+        requests.send(self, [*message], (), Instant::now())?;
         let deadline = deadline(timeout);
         loop {
             let left = deadline.saturating_duration_since(Instant::now());
             match self.recv(left)? {
-                Some(Frame {
-                    message: Message::Ack { seq: s },
-                    ..
-                }) if s == seq => return Ok(()),
-                Some(Frame {
-                    message: Message::Nack(n),
-                    ..
-                }) if n.seq == seq || n.seq == crate::UNKNOWN_SEQ => {
-                    return Err(LinkError::Nack(n));
-                }
-                Some(_) => {}
+                Some(frame) => match (requests.answer(&frame.message), frame.message) {
+                    (Some(Answer::Acked(())), _) => return Ok(()),
+                    (Some(Answer::Refused((), n)), _) => return Err(LinkError::Nack(n)),
+                    // With one frame sent and waited for, a frame the device could not read
+                    // is most likely it.
+                    (None, Message::Nack(n)) if n.seq == crate::UNKNOWN_SEQ => {
+                        return Err(LinkError::Nack(n));
+                    }
+                    (None, _) => {}
+                },
                 None => return Err(LinkError::Timeout(timeout)),
             }
             if Instant::now() >= deadline {
