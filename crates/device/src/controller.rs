@@ -148,22 +148,7 @@ impl TickOutput {
     /// at time 0 that is all zeros, free, no feature and no fault. The initial value of the
     /// buffer [`Controller::tick_into`] writes.
     pub const IDLE: TickOutput = TickOutput {
-        telemetry: Telemetry {
-            time_us: 0,
-            hip_m: Vec2::ZERO,
-            cp_m: Vec2::ZERO,
-            go_m: Vec2::ZERO,
-            force_normal_n: 0.0,
-            force_friction_n: 0.0,
-            force_n: Vec2::ZERO,
-            psi: 0.0,
-            mu_e4: 0,
-            tick_us: 0,
-            faults: 0,
-            feature: None,
-            mode: Mode::Free,
-            cause: SwitchCause::None,
-        },
+        telemetry: Telemetry::IDLE,
         currents_a: [0.0; 2],
         joint_angles_rad: None,
         joint_torques_nm: [0.0; 2],

@@ -75,6 +75,24 @@ pub struct Telemetry {
 }
 
 impl Telemetry {
+    /// The frame of a tick that rendered nothing, at time 0.
+    pub const IDLE: Telemetry = Telemetry {
+        time_us: 0,
+        hip_m: Vec2::ZERO,
+        cp_m: Vec2::ZERO,
+        go_m: Vec2::ZERO,
+        force_normal_n: 0.0,
+        force_friction_n: 0.0,
+        force_n: Vec2::ZERO,
+        psi: 0.0,
+        mu_e4: 0,
+        tick_us: 0,
+        faults: 0,
+        feature: None,
+        mode: Mode::Free,
+        cause: SwitchCause::None,
+    };
+
     /// The friction coefficient.
     pub fn mu(&self) -> f32 {
         f32::from(self.mu_e4) * 1e-4
@@ -121,7 +139,7 @@ impl TelemetryDecimator {
                 ticks_per_frame
             },
             count: 0,
-            frame: crate::controller::TickOutput::IDLE.telemetry,
+            frame: Telemetry::IDLE,
             peak_force_sq: 0.0,
             faults: 0,
             tick_us: 0,

@@ -94,7 +94,7 @@ impl<'a, P: Point> Curve<'a, P> {
             check_homogeneous::<P>(At::I(i), h, largest)?;
         }
         let curve = Curve { knots, points };
-        crate::extent::check_curve(&curve)?;
+        check_extent(&curve)?;
         Ok(curve)
     }
 
@@ -453,4 +453,32 @@ fn unit_first_axis<P: Point>() -> P {
     let mut c = [0.0f32; 4];
     c[0] = 1.0;
     P::from_coords(&c[..P::DIM]).unwrap_or(P::ZERO)
+}
+
+/// Refuses a curve of no length ([`NurbsError::ZeroLength`]) or with a knot span collapsed
+/// to a point ([`NurbsError::CollapsedSpan`]), both measured against [`MIN_EXTENT`].
+fn check_extent<P: Point>(curve: &Curve<'_, P>) -> Result<(), NurbsError> {
+    let points = curve.points();
+    let extent = crate::extent::spread(points.iter().map(|&h| crate::extent::cartesian::<P>(h)));
+    if extent < crate::MIN_EXTENT {
+        return Err(NurbsError::ZeroLength { extent });
+    }
+    let knots = curve.knots();
+    let (k, p) = (knots.as_slice(), knots.degree());
+    for i in knots.span_indices().filter(|&i| k[i] < k[i + 1]) {
+        let extent = crate::extent::spread(
+            points[i - p..=i]
+                .iter()
+                .map(|&h| crate::extent::cartesian::<P>(h)),
+        );
+        if extent < crate::MIN_EXTENT {
+            return Err(NurbsError::CollapsedSpan {
+                index: i,
+                first: i - p,
+                last: i,
+                extent,
+            });
+        }
+    }
+    Ok(())
 }

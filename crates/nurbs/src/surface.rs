@@ -45,7 +45,7 @@ impl<'a> Surface<'a> {
     /// Validates a surface of degrees `(p, q)` with knot vectors `(U, V)` and a control net of
     /// `count_v` points along v (the count along u is `points.len() / count_v`). Besides the
     /// knots and every control point and weight, the geometry: a surface of no area or with a
-    /// cell collapsed to a line, a curve or a point is refused ([`crate::MIN_EXTENT`]); a side
+    /// cell collapsed to a line, a curve or a point is refused ([`MIN_EXTENT`](crate::MIN_EXTENT)); a side
     /// collapsed to a point (a pole) is not. Costs four evaluations per cell.
     ///
     /// ```
@@ -96,7 +96,7 @@ impl<'a> Surface<'a> {
             check_homogeneous::<Vec3>(At::Ij(k / count_v, k % count_v), h, largest)?;
         }
         let surface = Surface { ku, kv, points };
-        crate::extent::check_surface(&surface)?;
+        check_area(&surface)?;
         Ok(surface)
     }
 
@@ -419,4 +419,69 @@ fn rational_surface_derivs(
         duv: c[1][1],
         dvv: c[0][2],
     }
+}
+
+/// The area of the cell `[u0, u1] × [v0, v1]` of `s`: `∫∫ |S_u × S_v| du dv` by 2 × 2
+/// Gauss–Legendre quadrature.
+fn cell_area(s: &Surface<'_>, (u0, u1): (f32, f32), (v0, v1): (f32, f32)) -> f32 {
+    let (hu, hv) = (0.5 * (u1 - u0), 0.5 * (v1 - v0));
+    let mut sum = 0.0;
+    for gu in crate::extent::GAUSS_2 {
+        for gv in crate::extent::GAUSS_2 {
+            let d = s.derivs(u0 + hu * (1.0 + gu), v0 + hv * (1.0 + gv), 1);
+            sum += d.du.cross(d.dv).length();
+        }
+    }
+    sum * hu * hv
+}
+
+/// The diagonal of the box of the Cartesian control points `(i, j)`, `i` in `rows`, `j` in
+/// `cols`: at least the diameter of the image of the cell they control.
+fn net_diameter(
+    s: &Surface<'_>,
+    rows: core::ops::RangeInclusive<usize>,
+    cols: core::ops::RangeInclusive<usize>,
+) -> f32 {
+    let nv = s.counts().1;
+    let mut lo = Vec3::splat(f32::INFINITY);
+    let mut hi = Vec3::splat(f32::NEG_INFINITY);
+    for i in rows {
+        for &h in &s.points()[i * nv..][cols.clone()] {
+            let p = h.truncate() / h.w;
+            lo = lo.min(p);
+            hi = hi.max(p);
+        }
+    }
+    (hi - lo).length()
+}
+
+/// Refuses a surface of no area ([`NurbsError::ZeroArea`]) or with a cell (a pair of knot
+/// spans) collapsed to a line, a curve or a point ([`NurbsError::CollapsedCell`]): the area
+/// over the diameter of the control net, a mean width, below [`MIN_EXTENT`](crate::MIN_EXTENT). One evaluation
+/// pass: four first-derivative evaluations per cell.
+fn check_area(s: &Surface<'_>) -> Result<(), NurbsError> {
+    let (ku, kv) = s.knots();
+    let (p, q) = s.degree();
+    let (uk, vk) = (ku.as_slice(), kv.as_slice());
+    let mut area = 0.0;
+    let mut collapsed = None;
+    for i in ku.span_indices().filter(|&i| uk[i] < uk[i + 1]) {
+        for j in kv.span_indices().filter(|&j| vk[j] < vk[j + 1]) {
+            let cell = cell_area(s, (uk[i], uk[i + 1]), (vk[j], vk[j + 1]));
+            area += cell;
+            let width = cell / net_diameter(s, i - p..=i, j - q..=j).max(crate::MIN_EXTENT);
+            if collapsed.is_none() && crate::extent::too_thin(width) {
+                collapsed = Some(NurbsError::CollapsedCell {
+                    span: (i, j),
+                    width,
+                });
+            }
+        }
+    }
+    let (nu, nv) = s.counts();
+    let width = area / net_diameter(s, 0..=nu - 1, 0..=nv - 1).max(crate::MIN_EXTENT);
+    if crate::extent::too_thin(width) {
+        return Err(NurbsError::ZeroArea { width });
+    }
+    collapsed.map_or(Ok(()), Err)
 }

@@ -443,7 +443,7 @@ impl<'s> Pieces<'s> {
             n: 0,
         };
         for (i, s) in given.iter().enumerate() {
-            crate::split::surface_pieces(s, |piece| {
+            crate::split::surface_pieces::<{ 2 * MAX_SHELL_PATCHES }>(s, |piece| {
                 if let (Some(view), Some(source)) = (
                     pieces.views.get_mut(pieces.n),
                     pieces.source.get_mut(pieces.n),

@@ -54,8 +54,13 @@ pub(crate) fn curve_pieces<'a, P: Point>(c: &Curve<'a, P>, mut emit: impl FnMut(
 const LINE_SAMPLES: usize = 5;
 
 /// The pieces of `s` between its creases (C⁰ knot lines where the one-sided normals differ
-/// somewhere along the line), `u` pieces outer, `v` pieces inner.
-pub(crate) fn surface_pieces<'a>(s: &Surface<'a>, mut emit: impl FnMut(Surface<'a>)) {
+/// somewhere along the line), `u` pieces outer, `v` pieces inner. At most `MAX_PIECES` pieces
+/// along `v` are kept; past that, extras are emitted as `s` itself, so that the caller's
+/// count of pieces overflows its capacity too.
+pub(crate) fn surface_pieces<'a, const MAX_PIECES: usize>(
+    s: &Surface<'a>,
+    mut emit: impl FnMut(Surface<'a>),
+) {
     let (ku, kv) = s.knots();
     // A u break is smooth when the normals of the two sides agree along the line.
     let smooth_u = |a: Knots<'a>, b: Knots<'a>| match (s.window(a, kv), s.window(b, kv)) {
@@ -80,7 +85,6 @@ pub(crate) fn surface_pieces<'a>(s: &Surface<'a>, mut emit: impl FnMut(Surface<'
         }
         _ => true,
     };
-    const MAX_PIECES: usize = 2 * crate::shell::MAX_SHELL_PATCHES;
     let mut vs = [kv; MAX_PIECES];
     let mut n_v = 0;
     merge(kv, smooth_v, |k| {
