@@ -10,7 +10,7 @@ use host::runlog::{self, RunLogError};
 use host::tick::Tick;
 use scene::Space;
 
-use super::state::HISTORY_S;
+use super::telemetry::HISTORY_S;
 
 /// Replay speeds the UI offers (× real time).
 pub const SPEEDS: [f64; 5] = [0.1, 0.25, 0.5, 1.0, 2.0];

@@ -8,7 +8,7 @@ use friction::FrictionMaterial;
 use nurbs::Vec3;
 use tracker::TriMesh;
 
-use super::view3d::Scene3d;
+use super::view3d::geometry::Scene3d;
 use host::backend::{Backend, LoopCommand, Reply, Sample};
 use host::runlog::RecordTx;
 use host::spatial::{self, SpatialLoop, SpatialSession, check_mesh};

@@ -4,7 +4,7 @@
 //! [`ParticipantRun`] is the run's logic, apart from the drawing: an
 //! [`experiment::session::Session`] (which writes `DIR/trials.csv` and resumes a folder at its
 //! next trial) and the phase of the trial in progress. It loads each trial's scene into the
-//! app's haptic loop through [`AppState`]'s own scene swap (the path that uploads to a
+//! app's haptic loop through [`AppState`](crate::gui::state::AppState)'s own scene swap (the path that uploads to a
 //! connected device), switches the stimulus on (forces on) once the loop took it and off
 //! (forces off) when the exploration ends, and keeps every tick the UI takes in while the
 //! stimulus is on, written at the answer as the trial's run logs `DIR/traces/trial-NNNN-a.csv`

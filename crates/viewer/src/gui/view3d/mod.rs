@@ -13,7 +13,7 @@
 //! middle drag, or alt + primary drag, orbits; the wheel zooms; a double click fits the scene.
 
 mod camera;
-mod geometry;
+pub mod geometry;
 mod overlays;
 mod pipeline;
 

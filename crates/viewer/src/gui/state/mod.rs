@@ -30,6 +30,8 @@ pub use super::reach::Reach;
 pub use super::scene_view::{CURVE_SAMPLES, ObjectView, SceneView};
 pub use super::telemetry::{FRAME_WINDOW, HISTORY_S, JITTER_WINDOW};
 
+mod editing;
+
 /// Which device the app drives.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub enum DeviceChoice {
