@@ -29,9 +29,9 @@
 //! | `stimuli[i].object` | 0 | index of an object of that scene |
 //! | `conditions` | one condition `"scene"` without overrides | `{ "name", "material" }`, names distinct; crossed with the stimuli |
 //! | `conditions[i].material` | `{}` | overrides of the stimulus's material: any of [`MATERIAL_FIELDS`] with a number; the result must be a valid material for every stimulus |
-//! | `repetitions` | 1 | ≥ 1: how often each stimulus × condition (× level) is run |
+//! | `repetitions` | 1 | ≥ 1: how often each stimulus × condition (× level) is run; with the practice trials at most [`MAX_TRIALS`] trials in all |
 //! | `blocks` | 1 | ≥ 1 and divides `repetitions`: each block runs every cell `repetitions / blocks` times |
-//! | `practice_trials` | 0 | flagged trials before the first block, drawn from the same cells |
+//! | `practice_trials` | 0 | flagged trials before the first block, drawn from the same cells; counted in [`MAX_TRIALS`] |
 //! | `exploration_time_s` | none (no limit) | > 0: the longest a participant explores one trial |
 //! | `reference` | none | `{ "field", "value" }`: the material field a 2AFC design varies and the reference stimulus's value; required by `2afc-staircase` and `constant-stimuli`, refused by `identification` |
 //! | `levels` | `[]` | `constant-stimuli` only, at least one: the comparison values of `reference.field` |
@@ -461,6 +461,7 @@ impl Plan {
             ));
         }
         check_design(&spec)?;
+        check_counts(&spec)?;
         let plan = Plan {
             spec,
             scenes,
@@ -855,6 +856,76 @@ fn check_design(spec: &PlanSpec) -> Result<(), PlanError> {
     }
     for (i, s) in spec.staircases.iter().enumerate() {
         check_staircase(i, s, &spec.staircases[..i])?;
+    }
+    Ok(())
+}
+
+/// Most trials a session takes: a plan asking for more is refused at load, and a session that
+/// reaches it (a staircase that never stops) ends with [`RunError::TooManyTrials`]. 10,000
+/// trials at a few seconds each is a working day at the device.
+///
+/// [`RunError::TooManyTrials`]: crate::error::RunError::TooManyTrials
+pub const MAX_TRIALS: usize = 10_000;
+
+/// The trials a plan asks for, counted before anything is built: practice plus, unless its
+/// levels are chosen online (a staircase), every stimulus × condition (× level) `repetitions`
+/// times; each within [`MAX_TRIALS`], the field that passes it named.
+fn check_counts(spec: &PlanSpec) -> Result<(), PlanError> {
+    let most = MAX_TRIALS as u64;
+    let practice = u64::from(spec.practice_trials);
+    if practice > most {
+        return Err(invalid(
+            "practice_trials",
+            format!("{practice} is more than a session's {MAX_TRIALS} trials"),
+        ));
+    }
+    for (i, s) in spec.staircases.iter().enumerate() {
+        if let StopSpec::Trials(n) = s.stop
+            && u64::from(n) > most
+        {
+            return Err(invalid(
+                format!("staircases[{i}].stop.trials"),
+                format!("{n} is more than a session's {MAX_TRIALS} trials"),
+            ));
+        }
+    }
+    if spec.design == Design::TwoAfcStaircase {
+        return Ok(());
+    }
+    let levels = if spec.design == Design::ConstantStimuli {
+        spec.levels.len().max(1)
+    } else {
+        1
+    };
+    // Saturating: a count past u64 is still more than MAX_TRIALS.
+    let cells = (spec.stimuli.len() as u64)
+        .saturating_mul(spec.conditions.len() as u64)
+        .saturating_mul(levels as u64);
+    let runs = cells.saturating_mul(u64::from(spec.repetitions));
+    let total = runs.saturating_add(practice);
+    if total > most {
+        let field = if runs <= most {
+            "practice_trials"
+        } else if spec.design == Design::ConstantStimuli && cells > most {
+            "levels"
+        } else {
+            "repetitions"
+        };
+        let levels = if spec.design == Design::ConstantStimuli {
+            format!(" × {levels} levels")
+        } else {
+            String::new()
+        };
+        return Err(invalid(
+            field,
+            format!(
+                "{} stimuli × {} conditions{levels} × {} repetitions + {practice} practice \
+                 trials = {total} trials, more than a session's {MAX_TRIALS}",
+                spec.stimuli.len(),
+                spec.conditions.len(),
+                spec.repetitions,
+            ),
+        ));
     }
     Ok(())
 }

@@ -54,9 +54,7 @@ pub const TRIALS_HEADER: &str = "participant,session,block,trial,practice,design
 condition,staircase,level,reference,comparison_interval,response,correct,response_time_s,\
 trace,t_start_s";
 
-/// Most trials a session may take before it is declared stuck (a staircase that never
-/// reverses).
-pub const MAX_TRIALS: usize = 10_000;
+pub use crate::plan::MAX_TRIALS;
 
 /// One trial to present.
 #[derive(Clone, Debug, PartialEq)]

@@ -723,3 +723,76 @@ proptest::proptest! {
         }
     }
 }
+
+/// A session holds at most `MAX_TRIALS` trials: a plan asking for more is refused at load,
+/// naming the field that passes it, before any list is built (1e9 repetitions would be a
+/// 128 GB list), and a plan of exactly that many loads and lists them all.
+#[test]
+fn counts_are_bounded_by_what_a_session_holds() {
+    use experiment::plan::MAX_TRIALS;
+    assert_eq!(MAX_TRIALS, 10_000);
+    // base(): 3 stimuli × 2 conditions, blocks 2. 6 × 1666 + 4 = 10,000 exactly.
+    let full = with(
+        with(base(), "/repetitions", json!(1666)),
+        "/practice_trials",
+        json!(4),
+    );
+    let plan = read(&full).expect("a plan of exactly MAX_TRIALS trials");
+    assert_eq!(plan.trials().len(), MAX_TRIALS);
+    // One practice trial more.
+    refused(
+        &with(full.clone(), "/practice_trials", json!(5)),
+        "practice_trials",
+        "= 10001 trials, more than a session's 10000",
+    );
+    // Two repetitions more (blocks must divide them).
+    refused(
+        &with(full, "/repetitions", json!(1668)),
+        "repetitions",
+        "3 stimuli × 2 conditions × 1668 repetitions + 4 practice trials = 10012 trials",
+    );
+    for (field, value, words) in [
+        ("repetitions", 1_000_000_000u32, "= 6000000003 trials"),
+        (
+            "practice_trials",
+            1_000_000_000,
+            "1000000000 is more than a session's 10000",
+        ),
+    ] {
+        let v = with(
+            with(base(), "/blocks", json!(1)),
+            &format!("/{field}"),
+            json!(value),
+        );
+        refused(&v, field, words);
+    }
+    let v = with(
+        with(base(), "/blocks", json!(1_000_000_000)),
+        "/repetitions",
+        json!(1_000_000_000),
+    );
+    refused(&v, "repetitions", "more than a session's 10000");
+    // A constant-stimuli plan of 10,001 levels: one repetition is already too many.
+    let levels: Vec<f64> = (0..=MAX_TRIALS).map(|i| 400.0 + i as f64 * 0.01).collect();
+    let v = with(
+        with(
+            with(constant_base(), "/levels", json!(levels)),
+            "/repetitions",
+            json!(1),
+        ),
+        "/blocks",
+        json!(1),
+    );
+    refused(&v, "levels", "× 10001 levels × 1 repetitions");
+    // A staircase's own trial limit.
+    let v = with(
+        staircase_base(),
+        "/staircases/0/stop",
+        json!({ "trials": 10_001 }),
+    );
+    refused(
+        &v,
+        "staircases[0].stop.trials",
+        "10001 is more than a session's 10000",
+    );
+}
