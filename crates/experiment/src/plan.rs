@@ -48,7 +48,7 @@
 //! | `step.kind` | `"additive"` | `"additive"` or `"multiplicative"` (then `start` and `bounds` are > 0) |
 //! | `step.reduce_after_reversals` | none | ≥ 1: after this many reversals the step becomes `reduced_size`; both or neither |
 //! | `step.reduced_size` | none | as `size` |
-//! | `stop` | required | `{"reversals": n}` or `{"trials": n}`, n ≥ 1 |
+//! | `stop` | required | `{"reversals": n}` or `{"trials": n}`, 1 ≤ n ≤ [`MAX_TRIALS`] |
 //! | `bounds` | required | `[lo, hi]`, lo < hi; the level is clamped to them |
 //!
 //! In 2AFC designs, the reference and each comparison value of `reference.field` (levels,
