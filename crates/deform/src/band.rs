@@ -12,8 +12,16 @@ pub struct SymBand {
     data: Vec<f64>,
 }
 
+/// A pivot at most this fraction of its row's diagonal is rounding, not stiffness: the
+/// factorisation takes the matrix as singular there. A plate pinned on one line (free to
+/// turn about it) leaves pivots of rounding size, a few ε of the diagonal, that a bare
+/// `> 0` test took for stiffness (`tests/held.rs` fails with a zero tolerance); the held
+/// bodies of the tests keep their pivots within a few orders of their diagonals. 1e-10 lies
+/// far from both.
+pub const PIVOT_TOL: f64 = 1e-10;
+
 /// A matrix that is not positive definite: its Cholesky factorisation met a pivot that is
-/// not positive (or not finite) at `row`.
+/// not positive, not finite, or at most [`PIVOT_TOL`] of its diagonal, at `row`.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct NotPositive {
     /// The row of the failing pivot.
@@ -131,7 +139,7 @@ impl SymBand {
                 }
                 let Some(idx) = l.index(i, j) else { continue };
                 if j == i {
-                    if !(s > 0.0 && s.is_finite()) {
+                    if !(s > PIVOT_TOL * self.get(i, i) && s.is_finite()) {
                         return Err(NotPositive { row: i });
                     }
                     l.data[idx] = s.sqrt();

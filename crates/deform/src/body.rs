@@ -123,6 +123,16 @@ impl Body {
                 }
             }
         }
+        // Held: K on the free points is positive definite, so no motion of the object costs
+        // no energy. Else a load sends it away (a static solve has no answer, a push makes it
+        // drift off under the hand).
+        let mut pinned = k.clone();
+        for (i, _) in fixed.iter().enumerate().filter(|(_, f)| **f) {
+            pinned.pin(i);
+        }
+        if pinned.cholesky().is_err() {
+            return Err(DynamicsError::NotHeld);
+        }
         let mass = SymBand::combine(&[(params.density, &m)]);
         let damping = SymBand::combine(&[(params.damping, &m)]);
         Ok(Body {

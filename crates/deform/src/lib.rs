@@ -70,7 +70,10 @@ pub enum DynamicsError {
     },
     /// Nothing holds the object against a static load (or a mode): its stiffness with the
     /// fixed points is singular.
-    #[error("the object is not held in place: fix more control points (fixed) for a static solve")]
+    #[error(
+        "fixed: the object is not held: it can move without deforming; fix at least one \
+         control point (with bending only: two of a curve, three not on one line of a surface)"
+    )]
     NotHeld,
     /// The mass matrix is singular (a rest shape of zero length or area).
     #[error("the rest shape has no length or area to carry mass")]

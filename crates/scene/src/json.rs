@@ -68,6 +68,15 @@
 //! All at most 10⁹. A field of the other kind (`tension_n_per_m` on a curve) is refused naming
 //! the right one.
 //!
+//! A fixed control point is held in place (a pin: its position, not its tangent). The object
+//! must be held: a motion that costs no energy is refused at load (`dynamics: fixed: the
+//! object is not held …`), since a load would send it away. Tension resists only stretching,
+//! so one fixed point holds a string or a membrane; bending alone resists only curvature, so
+//! a beam needs two and a plate three not on one line. An end is clamped (position and
+//! tangent) by fixing its first two control points, `[0, 1]` (the curve's tangent at the end
+//! is along the first leg of the polygon). What cannot be said: a point held in one direction
+//! only (a roller), a spring support, a prescribed non-zero displacement, a hold that moves.
+//!
 //! Every number must be finite and representable in `f32` (the loop's type). Control point
 //! coordinates lie within ±[`nurbs::MAX_COORDINATE`] (10⁶ m); weights are positive normal
 //! `f32`s, each at least [`nurbs::MIN_WEIGHT_RATIO`] (10⁻⁶) of its patch's largest weight:
