@@ -92,6 +92,10 @@ pub enum DeformChangeError {
     /// The device's controller refused the object's new shape (its topology changed).
     #[error("device controller: {0}")]
     Controller(ControllerError),
+    /// The device (or the loop's own copy of the object) refused a control-point update of
+    /// the object's new shape ([`crate::backend::PointsUpdate`]); the reason names the field.
+    #[error("the object's new shape was refused: {0}")]
+    Update(String),
 }
 
 /// What a loop answers a [`LoopCommand::Deform`](crate::backend::LoopCommand::Deform) it took.
@@ -565,6 +569,14 @@ impl Deformer {
         &self.rest
     }
 
+    /// The patches of the object whose control points the body's nodes are, in the nodes'
+    /// order: each patch's index in the object and its number of control points. The body is
+    /// its object's first patch (`scene/1` deforms objects of one patch: joined patches would
+    /// have to share their end points as they move, [`Object::body`]).
+    pub fn patches(&self) -> [(usize, usize); 1] {
+        [(0, self.body.n_points())]
+    }
+
     /// The body.
     pub fn body(&self) -> &Body {
         &self.body
@@ -773,7 +785,11 @@ pub fn run_device_lagged<P: Proceed>(
                     Err(DeformChangeError::Controller(e)) => {
                         return Err(SimError::Controller(e).into());
                     }
-                    Err(DeformChangeError::NoObject | DeformChangeError::Mesh) => {
+                    Err(
+                        DeformChangeError::NoObject
+                        | DeformChangeError::Mesh
+                        | DeformChangeError::Update(_),
+                    ) => {
                         return Err(SimError::Controller(ControllerError::NoScene).into());
                     }
                 };
