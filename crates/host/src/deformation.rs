@@ -24,6 +24,8 @@ use std::sync::Arc;
 use nurbs::{Vec2, Vec3};
 
 use crate::backend::PointsUpdate;
+#[cfg(test)]
+use crate::deform::ShapeFrame;
 use crate::deform::{DeformChangeError, DeformError, DeformStatus, Deformer, SharedShape};
 use crate::tick::Tick;
 
@@ -271,4 +273,164 @@ fn update<P: ShapePoint>(active: &Active, points: Vec<[f64; 3]>) -> PointsUpdate
 /// The update back to `active`'s rest shape.
 fn rest_update<P: ShapePoint>(active: &Active) -> PointsUpdate<P> {
     update(active, active.deformer.rest_points())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use scene::{Bundled, Patch, Scene};
+
+    fn deformable() -> Scene {
+        Bundled::find("deformable")
+            .and_then(|b| b.scene().ok())
+            .unwrap_or_else(|| panic!("the bundled deformable scene"))
+    }
+
+    /// Object 1 of `scene`'s patch 0 as the scene file wrote it: its homogeneous control
+    /// points divided by their weights (all 1 on the drum, so exact in f32).
+    fn drum_points(scene: &Scene) -> Vec<Vec3> {
+        match &scene.objects()[1].patches()[0] {
+            Patch::Surface(s) => s
+                .points()
+                .iter()
+                .map(|h| {
+                    assert_eq!(h.w, 1.0);
+                    Vec3::new(h.x, h.y, h.z)
+                })
+                .collect(),
+            other => panic!("{other:?}"),
+        }
+    }
+
+    type Updates = Vec<PointsUpdate<Vec3>>;
+
+    fn recorder(
+        updates: &mut Updates,
+    ) -> impl FnMut(&PointsUpdate<Vec3>) -> Result<(), DeformChangeError> + '_ {
+        |u| {
+            updates.push(u.clone());
+            Ok(())
+        }
+    }
+
+    /// The drum is object 1 of its scene: deforming, every `update_every`-th step hands the
+    /// loop an update naming object 1 and its patch 0, whole (every control point of the
+    /// scene's patch, from the first); stopped, the update back is the scene's points bit
+    /// for bit, and stopping again sends nothing.
+    #[test]
+    fn updates_name_the_object_and_its_patch_and_end_at_rest() {
+        let scene = deformable();
+        let rest = drum_points(&scene);
+        let mut d = Deformation::<Vec3>::new(2);
+        let mut updates = Updates::new();
+        d.start(|| Ok(Deformer::new(&scene, 1)?), 1, 0.0)
+            .unwrap_or_else(|e| panic!("{e}"));
+        // A press at the centre: 1 N down on the skin.
+        let mut tick = Tick {
+            patch: Some(0),
+            cp_params: [0.5, 0.5],
+            go_params: [0.5, 0.5],
+            force: Vec3::new(0.0, 0.0, 1.0),
+            ..Tick::idle(0.0)
+        };
+        for k in 0..5 {
+            d.feed(&mut tick);
+            let stopped = d.step(1e-3, f64::from(k + 1) * 1e-3, &mut recorder(&mut updates));
+            assert!(stopped.is_none(), "{stopped:?}");
+        }
+        // Steps 2 and 4.
+        assert_eq!(updates.len(), 2);
+        for u in &updates {
+            assert_eq!(u.object, 1);
+            assert_eq!(u.patches.len(), 1);
+            let (patch, first, points) = &u.patches[0];
+            assert_eq!((*patch, *first, points.len()), (0, 0, rest.len()));
+        }
+        let last = &updates[1].patches[0].2;
+        assert!(
+            last.iter().zip(&rest).any(|(p, r)| p.z < r.z),
+            "the press moved the skin down"
+        );
+
+        updates.clear();
+        d.stop(0.01, &mut recorder(&mut updates))
+            .unwrap_or_else(|e| panic!("{e}"));
+        assert!(!d.deforming());
+        assert_eq!(updates.len(), 1);
+        assert_eq!(updates[0].object, 1);
+        assert_eq!(updates[0].patches, vec![(0, 0, rest)]);
+        d.stop(0.02, &mut recorder(&mut updates))
+            .unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(updates.len(), 1);
+    }
+
+    /// A load that throws the string's control points past the range of f32 (a contact spring
+    /// anchored at the largest f32 and the largest f32 force: the string's rest is 0.115 m
+    /// away, so its swing towards them passes f32::MAX) makes the object rigid again: the step says why, the last update
+    /// is the rest shape, the published shape is not deforming. An update the loop refuses
+    /// does the same.
+    #[test]
+    fn leaving_f32_or_a_refused_update_is_back_at_rest() {
+        let scene = deformable();
+        let rest: Vec<Vec2> = Deformer::new(&scene, 0)
+            .unwrap_or_else(|e| panic!("{e}"))
+            .rest_points()
+            .into_iter()
+            .map(Vec2::from_m)
+            .collect();
+        let mut d = Deformation::<Vec2>::new(1);
+        let mut updates = Vec::new();
+        let mut apply = |u: &PointsUpdate| -> Result<(), DeformChangeError> {
+            updates.push(u.clone());
+            Ok(())
+        };
+        d.start(|| Ok(Deformer::new(&scene, 0)?), 0, 0.0)
+            .unwrap_or_else(|e| panic!("{e}"));
+        let mut tick = Tick {
+            patch: Some(0),
+            cp_params: [0.5, 0.0],
+            go_params: [0.5, 0.0],
+            hip: Vec3::new(0.0, f32::MAX, 0.0),
+            go: Vec3::new(0.0, f32::MAX, 0.0),
+            force: Vec3::new(0.0, -f32::MAX, 0.0),
+            ..Tick::idle(0.0)
+        };
+        let mut why = None;
+        for _ in 0..1000 {
+            d.feed(&mut tick);
+            why = d.step(1e-3, 0.0, &mut apply);
+            if why.is_some() {
+                break;
+            }
+        }
+        let why = why.unwrap_or_else(|| panic!("the string stayed in f32"));
+        assert!(why.ends_with("the object is rigid again"), "{why}");
+        assert!(
+            why.contains("the deformed shape is invalid") || why.contains("range of f32"),
+            "{why}"
+        );
+        assert!(!d.deforming());
+        assert_eq!(
+            updates.last().map(|u| &u.patches),
+            Some(&vec![(0, 0, rest.clone())])
+        );
+        let mut frame = ShapeFrame::default();
+        assert!(d.shared_shape().read_into(&mut frame) && !frame.deforming);
+
+        let mut refused = 0;
+        d.start(|| Ok(Deformer::new(&scene, 0)?), 0, 0.0)
+            .unwrap_or_else(|e| panic!("{e}"));
+        let why = d.step(1e-3, 0.0, &mut |u| {
+            refused += 1;
+            if refused == 1 {
+                Err(DeformChangeError::Update("no".into()))
+            } else {
+                assert_eq!(u.patches, vec![(0, 0, rest.clone())]);
+                Ok(())
+            }
+        });
+        assert_eq!(refused, 2);
+        assert!(why.is_some_and(|w| w.contains("no")));
+        assert!(!d.deforming());
+    }
 }
