@@ -99,6 +99,19 @@ pub struct PointsUpdate<P = Vec2> {
     pub patches: Vec<(u8, u16, Vec<P>)>,
 }
 
+impl PointsUpdate {
+    /// The update's frames, in the order they go to the device
+    /// ([`protocol::points_update`]: the last applies them all).
+    pub fn messages(&self) -> Vec<protocol::Message> {
+        let patches: Vec<(u8, u16, &[Vec2])> = self
+            .patches
+            .iter()
+            .map(|(patch, first, points)| (*patch, *first, &points[..]))
+            .collect();
+        protocol::points_update(self.object, &patches).collect()
+    }
+}
+
 impl<S> LoopCommand<S> {
     /// What the command asks, as [`Reply::Unsupported`] names it.
     pub fn name(&self) -> &'static str {

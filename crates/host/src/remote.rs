@@ -40,7 +40,7 @@ use device::safety::Faults;
 use friction::Mode;
 use nurbs::{Vec2, Vec3};
 use protocol::host_side::{Answer, GapCounter, LinkError, Requests};
-use protocol::{ErrorCode, Frame, Message, Status, Telemetry, points_update, scene_upload};
+use protocol::{ErrorCode, Frame, Message, Status, Telemetry, scene_upload};
 use tracker::Feature;
 
 use crate::backend::{LinkEvent, LoopCommand, LoopEnds, LoopThread, PointsUpdate, Reply, Sample};
@@ -349,15 +349,10 @@ impl Host {
         let Some(update) = self.points_pending.take() else {
             return Ok(());
         };
-        let patches: Vec<(u8, u16, &[Vec2])> = update
-            .patches
-            .iter()
-            .map(|(patch, first, points)| (*patch, *first, &points[..]))
-            .collect();
         let before = self.requests.len();
         self.requests.send(
             &mut *self.opened.link,
-            points_update(update.object, &patches),
+            update.messages(),
             Purpose::Points,
             now,
         )?;

@@ -11,10 +11,9 @@ use protocol::device_side::session::{DeviceSession, DeviceState, Event};
 use protocol::host_side::Sequencer;
 use protocol::{
     ErrorCode, Message, SceneStore, WireObject, WirePatch, WireSceneError, encode_scene,
-    points_update, scene_upload,
+    scene_upload,
 };
 
-use nurbs::Vec2;
 use scene::Scene;
 
 use crate::backend::PointsUpdate;
@@ -136,19 +135,14 @@ impl DeviceScene {
     }
 
     /// Moves control points of the device's scene as `update` says: its frames
-    /// ([`points_update`], what the host of a device behind a link sends) through the device's
+    /// ([`PointsUpdate::messages`], what the host of a device behind a link sends) through the device's
     /// receiver, which writes them into a copy of the active scene, validates it
     /// ([`SceneStore::decode_reshaped`]: the same checks as an upload, and the object's
     /// topology kept) and makes it active. Returns the object whose points moved; the store
     /// holds the new scene. Refused with the device's reason, nothing changed.
     pub fn apply_points(&mut self, update: &PointsUpdate) -> Result<u8, UploadError> {
-        let patches: Vec<(u8, u16, &[Vec2])> = update
-            .patches
-            .iter()
-            .map(|(patch, first, points)| (*patch, *first, &points[..]))
-            .collect();
         let mut applied = None;
-        for message in points_update(update.object, &patches) {
+        for message in update.messages() {
             if let Event::ScenePointsUpdated { object } = self.handle(&message)? {
                 applied = Some(object);
             }
