@@ -83,18 +83,33 @@ pub enum LoopCommand<S = PlanarSession> {
 }
 
 /// New control points for patches of one object of the device's scene
-/// ([`LoopCommand::ScenePoints`], [`protocol::points_update`]). Send whole patches (or at
-/// least every point that moved since the device's last applied shape): an update replaced
-/// by a newer one before it went out is never sent.
+/// ([`LoopCommand::ScenePoints`], [`protocol::points_update`]; `P` = [`Vec3`] for a
+/// surface's, [`protocol::points_update_spatial`]). Send whole patches (or at least
+/// every point that moved since the device's last applied shape): an update replaced by a
+/// newer one before it went out is never sent. A deforming object's shape reaches every loop
+/// as one of these ([`crate::deformation::Deformation`]).
 #[derive(Clone, Debug, PartialEq)]
-pub struct PointsUpdate {
+pub struct PointsUpdate<P = Vec2> {
     /// The object in the device's scene (a session's upload makes its object the scene's
-    /// object 0).
+    /// object [`crate::upload::DEVICE_OBJECT`]).
     pub object: u8,
     /// Per patch: its index in the object, the index of its first control point given, and
-    /// the new Cartesian points (m; planar x, y). The weights stay the scene's. Patches
-    /// that share a point at a join move together in one update.
-    pub patches: Vec<(u8, u16, Vec<Vec2>)>,
+    /// the new Cartesian points (m; planar x, y, or x, y, z). The weights stay the scene's.
+    /// Patches that share a point at a join move together in one update.
+    pub patches: Vec<(u8, u16, Vec<P>)>,
+}
+
+impl PointsUpdate {
+    /// The update's frames, in the order they go to the device
+    /// ([`protocol::points_update`]: the last applies them all).
+    pub fn messages(&self) -> Vec<protocol::Message> {
+        let patches: Vec<(u8, u16, &[Vec2])> = self
+            .patches
+            .iter()
+            .map(|(patch, first, points)| (*patch, *first, &points[..]))
+            .collect();
+        protocol::points_update(self.object, &patches).collect()
+    }
 }
 
 impl<S> LoopCommand<S> {

@@ -92,6 +92,10 @@ pub enum DeformChangeError {
     /// The device's controller refused the object's new shape (its topology changed).
     #[error("device controller: {0}")]
     Controller(ControllerError),
+    /// The device (or the loop's own copy of the object) refused a control-point update of
+    /// the object's new shape ([`crate::backend::PointsUpdate`]); the reason names the field.
+    #[error("the object's new shape was refused: {0}")]
+    Update(String),
 }
 
 /// What a loop answers a [`LoopCommand::Deform`](crate::backend::LoopCommand::Deform) it took.
@@ -565,6 +569,14 @@ impl Deformer {
         &self.rest
     }
 
+    /// The patches of the object whose control points the body's nodes are, in the nodes'
+    /// order: each patch's index in the object and its number of control points. The body is
+    /// its object's first patch (`scene/1` deforms objects of one patch: joined patches would
+    /// have to share their end points as they move, [`Object::body`]).
+    pub fn patches(&self) -> [(usize, usize); 1] {
+        [(0, self.body.n_points())]
+    }
+
     /// The body.
     pub fn body(&self) -> &Body {
         &self.body
@@ -689,10 +701,9 @@ fn simulate<V: Views, P: Proceed>(
 /// ([`Controller::replace_object`]: the same renderer, no search, no ramp-in; the controller
 /// keeps its own copy of the new chain), or the reason, with the controller unchanged.
 ///
-/// The chain is built from the shape's curves directly, not re-encoded through the upload
-/// (`upload::wire_scene`, `upload::receive`) as a session's rest shape is: the device would
-/// decode the same f32 points, and framing, checking and decoding the object every
-/// millisecond would cost the loop more than the step itself.
+/// The chain is built from the shape's curves directly: [`run_device`] loads no upload. (The
+/// app's planar loop sends its shapes through the device's receiver instead,
+/// [`crate::deformation::Deformation`]: about 1 µs a step more for the bundled string.)
 pub(crate) fn carry(
     controller: &mut Controller<Chain>,
     shape: &Object,
@@ -773,7 +784,11 @@ pub fn run_device_lagged<P: Proceed>(
                     Err(DeformChangeError::Controller(e)) => {
                         return Err(SimError::Controller(e).into());
                     }
-                    Err(DeformChangeError::NoObject | DeformChangeError::Mesh) => {
+                    Err(
+                        DeformChangeError::NoObject
+                        | DeformChangeError::Mesh
+                        | DeformChangeError::Update(_),
+                    ) => {
                         return Err(SimError::Controller(ControllerError::NoScene).into());
                     }
                 };

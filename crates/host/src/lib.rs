@@ -4,6 +4,7 @@
 pub mod backend;
 pub mod closed_loop;
 pub mod deform;
+pub mod deformation;
 pub mod devices;
 pub mod error;
 pub mod hand;

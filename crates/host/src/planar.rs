@@ -6,10 +6,13 @@
 //! [`Backend`](crate::backend::Backend) like every loop the app drives.
 //!
 //! A deformable object (one with a `"dynamics"` block) deforms under the hand on
-//! [`LoopCommand::Deform`]: every device tick feeds a [`Deformer`], every step (1 ms, ten device
-//! ticks) steps it, and the controller is carried onto the new shape
-//! ([`Controller::replace_object`]: its renderer, feature, friction state and safety ramp
-//! stay; no search, no ramp-in). The shape reaches the UI through a [`SharedShape`].
+//! [`LoopCommand::Deform`], through the loops' one lifecycle ([`Deformation`]): every device
+//! tick feeds it, every step (1 ms, ten device ticks) steps it, and its new shape reaches the
+//! device as the control-point update a device behind a link gets ([`PointsUpdate`]), through
+//! the device's own receiver ([`upload::DeviceScene::apply_points`]: validated as on a board),
+//! the controller moved onto the updated store's curves ([`Controller::reshape_object`]: its
+//! renderer, feature, friction state and safety ramp stay; no search, no ramp-in). The shape
+//! reaches the UI through a [`SharedShape`](crate::deform::SharedShape).
 
 use std::sync::Arc;
 
@@ -19,11 +22,12 @@ use device::simulator::{SimParams, SimulatedPantograph, VirtualHand};
 use device::spec::DeviceSpec;
 use friction::FrictionMaterial;
 use nurbs::Vec2;
-use protocol::{SceneFault, SceneStore};
+use protocol::SceneFault;
 use tracker::Chain;
 
-use crate::backend::{LoopCommand, RATE_HZ, Reply, Sample, Steppable};
-use crate::deform::{DeformChangeError, DeformStatus, Deformer, SharedShape, carry};
+use crate::backend::{LoopCommand, PointsUpdate, RATE_HZ, Reply, Sample, Steppable};
+use crate::deform::{DeformChangeError, DeformStatus, Deformer, SharedShape};
+use crate::deformation::Deformation;
 
 /// The device's tick rate in the loop (Hz): the board's. The loop thread wakes at
 /// [`RATE_HZ`] and runs [`TICKS_PER_STEP`] device ticks per wake.
@@ -32,7 +36,7 @@ pub const DEVICE_RATE_HZ: f64 = 10_000.0;
 pub const TICKS_PER_STEP: u32 = (DEVICE_RATE_HZ / RATE_HZ) as u32;
 use crate::error::{MaterialChangeError, SimError};
 use crate::tick::{self, Tick};
-use crate::upload::{self, UploadError};
+use crate::upload::{self, DEVICE_OBJECT, DeviceScene, UploadError};
 use scene::{Material, Scene, Space};
 
 /// Where the handle (and the hand's target) starts: in the middle of the default device's
@@ -54,12 +58,12 @@ pub struct PlanarSession {
     passivity_control: bool,
 }
 
-/// An object as the device received it ([`upload::receive`]).
+/// An object as the device received it: the wire scene uploaded, and the device's receiver
+/// and store holding it (as moved since by control-point updates).
 #[derive(Debug)]
 struct Received {
     wire: Vec<u8>,
-    store: Box<SceneStore>,
-    crc32: u32,
+    device: DeviceScene,
 }
 
 impl std::fmt::Debug for PlanarSession {
@@ -97,14 +101,14 @@ impl PlanarSession {
 
     /// [`PlanarSession::new`] with object `object` (which must be planar), or none. The object
     /// reaches the controller as a board's would: its wire scene ([`upload::wire_scene`])
-    /// goes frame by frame through the device's receiver ([`upload::receive`]), and the
+    /// goes frame by frame through the device's receiver ([`DeviceScene::receive`]), and the
     /// controller renders the store the device decoded.
     pub fn with_object(scene: Scene, object: Option<usize>) -> Result<Self, SessionError> {
         let received = match object {
             Some(index) => {
                 let wire = upload::wire_scene(&scene, index)?;
-                let (store, crc32) = upload::receive(&wire)?;
-                Some(Received { wire, store, crc32 })
+                let device = DeviceScene::receive(&wire)?;
+                Some(Received { wire, device })
             }
             None => None,
         };
@@ -128,16 +132,16 @@ impl PlanarSession {
         self.object
     }
 
-    /// The wire scene the device received (the rendered object alone), if it renders one:
-    /// what an upload to a board carries.
+    /// The wire scene the device received (the rendered object alone, at rest), if it
+    /// renders one: what an upload to a board carries.
     pub fn wire(&self) -> Option<&[u8]> {
         self.received.as_ref().map(|r| r.wire.as_slice())
     }
 
     /// The CRC-32 the device reports for its active scene (`Status::scene_crc32`), if it
-    /// renders one.
+    /// renders one: the upload's, or, while the object deforms, its current shape's.
     pub fn scene_crc32(&self) -> Option<u32> {
-        self.received.as_ref().map(|r| r.crc32)
+        self.received.as_ref().map(|r| r.device.crc32())
     }
 
     /// Whether the controller renders the material with the passivity controller on (the
@@ -157,7 +161,11 @@ fn build_controller(
     let spec = DeviceSpec::default();
     let (mut controller, passivity_control) = match received {
         Some(r) => {
-            let material = r.store.material(0).unwrap_or_default();
+            let material = r
+                .device
+                .store()
+                .material(usize::from(DEVICE_OBJECT))
+                .unwrap_or_default();
             tick::device_controller(store_chain(r, object)?, material, DEVICE_RATE_HZ)?
         }
         None => {
@@ -179,34 +187,53 @@ fn build_controller(
     Ok((controller, passivity_control))
 }
 
-/// The chain of the object the device decoded (object 0 of its store; `object` of the
-/// scene, named in the error).
+/// The chain of the object the device decoded (object [`DEVICE_OBJECT`] of its store;
+/// `object` of the scene, named in the error).
 fn store_chain(received: &Received, object: Option<usize>) -> Result<Chain, SessionError> {
     let index = object.unwrap_or(0);
-    received.store.chain(0).map_err(|e| match e.fault {
-        SceneFault::Chain(error) => SimError::Chain { index, error }.into(),
-        _ => UploadError::Refused(e.code()).into(),
-    })
+    let store = received.device.store();
+    store
+        .chain(usize::from(DEVICE_OBJECT))
+        .map_err(|e| match e.fault {
+            SceneFault::Chain(error) => SimError::Chain { index, error }.into(),
+            _ => UploadError::Refused(e.code()).into(),
+        })
 }
 
-/// A deforming object in the loop: its dynamics (the controller renders its current shape).
-struct Deforming {
-    deformer: Deformer,
-    /// Steps since the shape was last published.
-    since_publish: u32,
-}
-
-impl std::fmt::Debug for Deforming {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.debug_struct("Deforming")
-            .field("object", &self.deformer.index())
-            .field("since_publish", &self.since_publish)
-            .finish_non_exhaustive()
+/// Moves `session`'s device onto `update`, as a device behind a link takes it: the update
+/// through the device's receiver ([`DeviceScene::apply_points`]), then, when it moved the
+/// rendered object, the controller onto the updated store's curves in place
+/// ([`Controller::reshape_object`] with [`Chain::reshape`]: the renderer carried on). Refused
+/// with the device's reason.
+fn apply_points(
+    session: &mut PlanarSession,
+    update: &PointsUpdate,
+) -> Result<(), DeformChangeError> {
+    let received = session
+        .received
+        .as_mut()
+        .ok_or(DeformChangeError::NoObject)?;
+    let object = received
+        .device
+        .apply_points(update)
+        .map_err(|e| DeformChangeError::Update(e.to_string()))?;
+    if object != DEVICE_OBJECT {
+        // The device renders one object; another's points change nothing it renders.
+        return Ok(());
     }
+    let controller = &mut session.controller;
+    received
+        .device
+        .store()
+        .with_curves(usize::from(object), |curves| {
+            controller.reshape_object(|chain| chain.reshape(curves))
+        })
+        .map_err(|e| DeformChangeError::Update(e.to_string()))?
+        .map_err(DeformChangeError::Controller)
 }
 
-/// The loop's state: the session, the simulated arm and the hand, and the object's dynamics
-/// while it deforms. Stepped one tick at a time.
+/// The loop's state: the session, the simulated arm and the hand, and the object's
+/// deformation. Stepped one tick at a time.
 #[derive(Debug)]
 pub struct HapticLoop {
     session: PlanarSession,
@@ -216,8 +243,7 @@ pub struct HapticLoop {
     tick: u64,
     period_s: f32,
     last_error: Option<String>,
-    deforming: Option<Deforming>,
-    shape: Arc<SharedShape>,
+    deformation: Deformation,
 }
 
 impl HapticLoop {
@@ -235,14 +261,14 @@ impl HapticLoop {
             tick: 0,
             period_s: (1.0 / DEVICE_RATE_HZ) as f32,
             last_error: None,
-            deforming: None,
-            shape: SharedShape::new(),
+            // Every step's shape goes to the device: it is in this process.
+            deformation: Deformation::new(1),
         })
     }
 
     /// One step of the loop: [`TICKS_PER_STEP`] device ticks at [`DEVICE_RATE_HZ`] (see
     /// [`HapticLoop::device_tick`]), then, while the object deforms, one step of its dynamics
-    /// (1 ms) and the controller carried onto its new shape; returns the last tick's record,
+    /// (1 ms) and the device moved onto its new shape; returns the last tick's record,
     /// so the UI and the recorder get one record per millisecond, evenly spaced.
     pub fn step(&mut self) -> Tick {
         for _ in 1..TICKS_PER_STEP {
@@ -253,8 +279,8 @@ impl HapticLoop {
         tick
     }
 
-    /// One device tick (see [`tick::device_tick`]); while the object deforms the tick feeds its
-    /// [`Deformer`] and records the object's displacement at the CP ([`Tick::deform`]). An
+    /// One device tick (see [`tick::device_tick`]); while the object deforms the tick feeds it
+    /// ([`Deformation::feed`]) and records its displacement at the CP ([`Tick::deform`]). An
     /// arm driven into a singular pose stays there; the tick is then recorded at the last pose
     /// and [`HapticLoop::last_error`] says why.
     pub fn device_tick(&mut self) -> Tick {
@@ -268,9 +294,7 @@ impl HapticLoop {
         self.tick += 1;
         let error = match result {
             Ok((mut tick, _)) => {
-                if let Some(d) = &mut self.deforming {
-                    tick.deform = Some(d.deformer.feed(&tick));
-                }
+                self.deformation.feed(&mut tick);
                 return tick;
             }
             Err(e) => e.to_string(),
@@ -283,135 +307,60 @@ impl HapticLoop {
         }
     }
 
-    /// One dynamics step of a deforming object under what the step's ticks fed it, the
-    /// controller carried onto the new shape, and the shape published when it is due. A step
-    /// that fails (the dynamics refuse a load, the shape leaves f32) makes the object rigid
-    /// again and [`HapticLoop::last_error`] says why.
+    /// The loop's time (s).
+    fn time_s(&self) -> f64 {
+        self.tick as f64 / DEVICE_RATE_HZ
+    }
+
+    /// One dynamics step of a deforming object under what the step's ticks fed it, the device
+    /// moved onto the new shape ([`apply_points`]), and the shape published when it is due. A
+    /// step that fails (the dynamics refuse a load, the shape leaves f32, the device refuses
+    /// it) makes the object rigid again and [`HapticLoop::last_error`] says why.
     fn step_object(&mut self) {
-        let Some(d) = self.deforming.as_mut() else {
-            return;
-        };
-        let t_s = self.tick as f64 / DEVICE_RATE_HZ;
-        let index = d.deformer.index();
+        let t_s = self.time_s();
         let dt_s = f64::from(TICKS_PER_STEP) / DEVICE_RATE_HZ;
-        let moved = match d.deformer.step(dt_s).and_then(|()| d.deformer.shape()) {
-            Ok(next) => carry(&mut self.session.controller, &next, index),
-            Err(e) => Err(e.into()),
-        };
-        match moved {
-            Ok(()) => {
-                self.shape
-                    .publish_when_due(&mut d.since_publish, &d.deformer, t_s);
-            }
-            Err(e) => {
-                let stopped = self.stop_deforming();
-                self.last_error = Some(match stopped {
-                    Ok(()) => format!("{e}; the object is rigid again"),
-                    Err(again) => format!("{e}; {again}"),
-                });
-            }
+        let session = &mut self.session;
+        if let Some(e) = self
+            .deformation
+            .step(dt_s, t_s, &mut |u| apply_points(session, u))
+        {
+            self.last_error = Some(e);
         }
     }
 
     /// Makes the rendered object deformable (`true`) from the next tick, from its rest shape,
-    /// or rigid at its rest shape again (`false`); the controller is carried onto the shape
-    /// either way (no search, no ramp-in). Asking for what already is changes nothing. The
-    /// object's shape is published in [`HapticLoop::shared_shape`] while it deforms. Refused,
-    /// with nothing changed, when no object is rendered or it is rigid (no `"dynamics"`
-    /// block).
+    /// or rigid at its rest shape again (`false`: the device gets the rest shape back as a
+    /// control-point update; no search, no ramp-in). Asking for what already is changes
+    /// nothing. The object's shape is published in [`HapticLoop::shared_shape`] while it
+    /// deforms. Refused, with nothing changed, when no object is rendered or it is rigid (no
+    /// `"dynamics"` block).
     pub fn set_deforming(&mut self, on: bool) -> Result<DeformStatus, DeformChangeError> {
+        let t_s = self.time_s();
         if on {
-            self.start_deforming()?;
+            let (session, material) = (&self.session, self.material);
+            self.deformation
+                .start(|| rest_deformer(session, material), DEVICE_OBJECT, t_s)?;
         } else {
-            self.stop_deforming()?;
+            let session = &mut self.session;
+            self.deformation
+                .stop(t_s, &mut |u| apply_points(session, u))?;
         }
-        Ok(DeformStatus {
-            deforming: self.deforming.is_some(),
-            shape: self.shape.clone(),
-        })
+        Ok(self.deformation.status())
     }
 
     /// Whether the rendered object deforms.
     pub fn deforming(&self) -> bool {
-        self.deforming.is_some()
+        self.deformation.deforming()
     }
 
     /// The deforming object's dynamics, while it deforms.
     pub fn deformer(&self) -> Option<&Deformer> {
-        self.deforming.as_ref().map(|d| &d.deformer)
+        self.deformation.deformer()
     }
 
     /// Where the loop publishes the deforming object's shape (the same for the loop's life).
     pub fn shared_shape(&self) -> &Arc<SharedShape> {
-        &self.shape
-    }
-
-    /// The rendered object's dynamics at rest, with the running material's contact stiffness.
-    fn rest_deformer(&self) -> Result<Deformer, DeformChangeError> {
-        let index = self.session.object().ok_or(DeformChangeError::NoObject)?;
-        let mut deformer = Deformer::new(self.session.scene(), index)?;
-        if let Some(m) = self.material {
-            deformer.set_contact_stiffness(m.stiffness_n_per_m);
-        }
-        Ok(deformer)
-    }
-
-    fn start_deforming(&mut self) -> Result<(), DeformChangeError> {
-        if self.deforming.is_some() {
-            return Ok(());
-        }
-        let deformer = self.rest_deformer()?;
-        let rest = deformer.shape()?;
-        carry(&mut self.session.controller, &rest, deformer.index())?;
-        self.shape
-            .start(&deformer, self.tick as f64 / DEVICE_RATE_HZ);
-        self.deforming = Some(Deforming {
-            deformer,
-            since_publish: 0,
-        });
-        Ok(())
-    }
-
-    /// The controller back on the session's rest shape (the device's received curves).
-    fn stop_deforming(&mut self) -> Result<(), DeformChangeError> {
-        if self.deforming.is_none() {
-            return Ok(());
-        }
-        let session = &mut self.session;
-        let received = session
-            .received
-            .as_ref()
-            .ok_or(DeformChangeError::NoObject)?;
-        let rest = store_chain(received, session.object).map_err(|e| match e {
-            SessionError::Sim(e) => DeformChangeError::Object(e.into()),
-            SessionError::Upload(_) => DeformChangeError::NoObject,
-        })?;
-        session
-            .controller
-            .replace_object(rest)
-            .map_err(DeformChangeError::Controller)?;
-        self.deforming = None;
-        self.shape.stop(self.tick as f64 / DEVICE_RATE_HZ);
-        Ok(())
-    }
-
-    /// A deforming object back at rest with the running material's contact stiffness (after a
-    /// material change), the controller carried onto the rest shape.
-    fn restart_deforming(&mut self) -> Result<(), DeformChangeError> {
-        if self.deforming.is_none() {
-            return Ok(());
-        }
-        let deformer = self.rest_deformer()?;
-        let rest = deformer.shape()?;
-        let Some(d) = self.deforming.as_mut() else {
-            return Ok(());
-        };
-        carry(&mut self.session.controller, &rest, deformer.index())?;
-        d.deformer = deformer;
-        d.since_publish = 0;
-        self.shape
-            .start(&d.deformer, self.tick as f64 / DEVICE_RATE_HZ);
-        Ok(())
+        self.deformation.shared_shape()
     }
 
     /// The controller.
@@ -476,12 +425,16 @@ impl HapticLoop {
             .map_err(MaterialChangeError::Controller)?;
         self.session.passivity_control = passivity;
         self.material = Some(material);
-        if let Err(e) = self.restart_deforming() {
-            let stopped = self.stop_deforming();
-            self.last_error = Some(match stopped {
-                Ok(()) => format!("{e}; the object is rigid again"),
-                Err(again) => format!("{e}; {again}"),
-            });
+        if self.deformation.deforming() {
+            let t_s = self.time_s();
+            let rest = rest_deformer(&self.session, Some(material));
+            let session = &mut self.session;
+            let restarted = self
+                .deformation
+                .restart(|| rest, t_s, &mut |u| apply_points(session, u));
+            if let Err(e) = restarted {
+                self.last_error = Some(format!("{e}; the object is rigid again"));
+            }
         }
         Ok(material)
     }
@@ -496,9 +449,7 @@ impl HapticLoop {
     /// its object rigid, at rest, until it is asked to deform.
     pub fn swap_session(&mut self, session: PlanarSession) {
         let forces = self.forces_enabled();
-        if self.deforming.take().is_some() {
-            self.shape.stop(self.tick as f64 / DEVICE_RATE_HZ);
-        }
+        self.deformation.forget(self.time_s());
         self.material = material_of(&session);
         self.session = session;
         self.set_forces_enabled(forces);
@@ -541,6 +492,20 @@ impl HapticLoop {
     pub fn last_error(&self) -> Option<&str> {
         self.last_error.as_deref()
     }
+}
+
+/// The dynamics of `session`'s object at rest, its contact as stiff as `material` (the
+/// running one, when it has one).
+fn rest_deformer(
+    session: &PlanarSession,
+    material: Option<FrictionMaterial>,
+) -> Result<Deformer, DeformChangeError> {
+    let index = session.object().ok_or(DeformChangeError::NoObject)?;
+    let mut deformer = Deformer::new(session.scene(), index)?;
+    if let Some(m) = material {
+        deformer.set_contact_stiffness(m.stiffness_n_per_m);
+    }
+    Ok(deformer)
 }
 
 fn material_of(session: &PlanarSession) -> Option<FrictionMaterial> {

@@ -32,7 +32,6 @@
 //!   forces off once heartbeats stop (a board's within 100 ms), whatever the host does.
 
 use std::collections::VecDeque;
-use std::sync::Arc;
 use std::sync::atomic::Ordering;
 use std::sync::mpsc::TryRecvError;
 use std::time::{Duration, Instant};
@@ -41,14 +40,16 @@ use device::safety::Faults;
 use friction::Mode;
 use nurbs::{Vec2, Vec3};
 use protocol::host_side::{Answer, GapCounter, LinkError, Requests};
-use protocol::{ErrorCode, Frame, Message, Status, Telemetry, points_update, scene_upload};
+use protocol::{ErrorCode, Frame, Message, Status, Telemetry, scene_upload};
 use tracker::Feature;
 
 use crate::backend::{LinkEvent, LoopCommand, LoopEnds, LoopThread, PointsUpdate, Reply, Sample};
-use crate::deform::{DeformChangeError, DeformStatus, Deformer, SharedShape};
+use crate::deform::{DeformChangeError, DeformStatus, Deformer};
+use crate::deformation::Deformation;
 use crate::devices::{HEARTBEAT_PERIOD, Opened};
 use crate::error::MaterialChangeError;
 use crate::tick::{DeviceSample, Tick};
+use crate::upload::DEVICE_OBJECT;
 use scene::Scene;
 
 /// A device silent this long is gone (telemetry comes every tick, so this is hundreds of
@@ -147,11 +148,9 @@ struct Host {
     points_pending: Option<PointsUpdate>,
     /// The scene the device renders (its object's index), for a [`LoopCommand::Deform`].
     scene: Option<(Scene, usize)>,
-    /// The deforming object, while it deforms: stepped on the device's telemetry, its shape
-    /// sent back to the device ([`DEFORM_UPDATE_EVERY`]).
-    deforming: Option<RemoteDeform>,
-    /// Where the deforming object's shape is published for the UI.
-    shape: Arc<SharedShape>,
+    /// The device's object's deformation: stepped on the device's telemetry, its shape sent
+    /// back to the device every [`DEFORM_UPDATE_EVERY`] frames.
+    deformation: Deformation,
     clock: DeviceClock,
     started: Instant,
     heard: Instant,
@@ -177,8 +176,7 @@ impl Host {
             refused_now: None,
             points_pending: None,
             scene: None,
-            deforming: None,
-            shape: SharedShape::new(),
+            deformation: Deformation::new(DEFORM_UPDATE_EVERY),
             clock: DeviceClock::default(),
             started: now,
             heard: now,
@@ -351,15 +349,10 @@ impl Host {
         let Some(update) = self.points_pending.take() else {
             return Ok(());
         };
-        let patches: Vec<(u8, u16, &[Vec2])> = update
-            .patches
-            .iter()
-            .map(|(patch, first, points)| (*patch, *first, &points[..]))
-            .collect();
         let before = self.requests.len();
         self.requests.send(
             &mut *self.opened.link,
-            points_update(update.object, &patches),
+            update.messages(),
             Purpose::Points,
             now,
         )?;
@@ -386,9 +379,9 @@ impl Host {
             LoopCommand::Swap(session) => match session.wire() {
                 Some(wire) => {
                     // The new object starts rigid (its upload brings its shape).
-                    if self.deforming.take().is_some() {
+                    if self.deformation.deforming() {
                         self.points_pending = None;
-                        self.shape.stop(self.clock.total_us as f64 * 1e-6);
+                        self.deformation.forget(self.clock.t_s());
                     }
                     self.scene = session.object().map(|o| (session.scene().clone(), o));
                     let steps: Vec<Message> = scene_upload(wire).collect();
@@ -532,35 +525,30 @@ impl Host {
         Ok(())
     }
 
-    /// The UI's sample of a telemetry frame.
-    /// Makes the device's object deformable or rigid again ([`LoopCommand::Deform`]).
+    /// Makes the device's object deformable or rigid again ([`LoopCommand::Deform`]); rigid
+    /// again, the device gets the rest shape back.
     fn set_deforming(&mut self, on: bool) -> Result<DeformStatus, DeformChangeError> {
-        if on && self.deforming.is_none() {
-            let (scene, object) = self.scene.as_ref().ok_or(DeformChangeError::NoObject)?;
-            let deformer = Deformer::new(scene, *object)?;
-            self.shape
-                .start(&deformer, self.clock.total_us as f64 * 1e-6);
-            self.deforming = Some(RemoteDeform {
-                deformer,
-                frames: 0,
-            });
-        } else if !on {
-            self.stop_deforming();
+        let t_s = self.clock.t_s();
+        if on {
+            let scene = self.scene.as_ref();
+            self.deformation.start(
+                || {
+                    let (scene, object) = scene.ok_or(DeformChangeError::NoObject)?;
+                    Ok(Deformer::new(scene, *object)?)
+                },
+                DEVICE_OBJECT,
+                t_s,
+            )?;
+        } else {
+            let pending = &mut self.points_pending;
+            self.deformation.stop(t_s, &mut |u| queue(pending, u))?;
         }
-        Ok(DeformStatus {
-            deforming: self.deforming.is_some(),
-            shape: Arc::clone(&self.shape),
-        })
+        Ok(self.deformation.status())
     }
 
-    /// Rigid again: the device gets the rest shape back.
-    fn stop_deforming(&mut self) {
-        if let Some(d) = self.deforming.take() {
-            self.points_pending = Some(patch_update(d.deformer.rest_points()));
-            self.shape.stop(self.clock.total_us as f64 * 1e-6);
-        }
-    }
-
+    /// The UI's sample of a telemetry frame; while the object deforms the frame feeds it and
+    /// steps it (one step per frame, of the frame's period), its new shape queued for the
+    /// device.
     fn sample(&mut self, t: &Telemetry) -> Sample {
         let (t_s, period_us) = self.clock.advance(t.time_us);
         if t.hip_m != Vec2::ZERO {
@@ -568,27 +556,18 @@ impl Host {
         }
         let forces_enabled = self.status.is_some_and(|s| s.forces_enabled);
         let mut tick = tick_of(t, t_s);
-        if let Some(d) = &mut self.deforming {
+        if self.deformation.deforming() {
             // The frame's CP and GO are positions: their parameters on the host's copy of
-            // the shape, then the force loads it; one step per frame, of the frame's period.
-            d.deformer.locate(&mut tick);
-            tick.deform = Some(d.deformer.feed(&tick));
+            // the shape first, then the force loads it.
+            self.deformation.locate_contact(&mut tick);
+            self.deformation.feed(&mut tick);
             let dt_s = period_us
                 .map_or(1e-3, |p| f64::from(p) * 1e-6)
                 .clamp(1e-4, 1e-2);
-            match d.deformer.step(dt_s) {
-                Ok(()) => {
-                    d.frames += 1;
-                    if d.frames % DEFORM_UPDATE_EVERY == 0 {
-                        self.points_pending = Some(patch_update(d.deformer.points()));
-                    }
-                    if d.frames % crate::deform::PUBLISH_EVERY_MS == 0 {
-                        self.shape.publish(&d.deformer, t_s);
-                    }
-                }
-                // A shape that left the range of f32: back to rest, as the command would.
-                Err(_) => self.stop_deforming(),
-            }
+            let pending = &mut self.points_pending;
+            // A failed step leaves the object rigid, its rest shape queued (the link's
+            // refusals of updates come back as replies of their own).
+            let _ = self.deformation.step(dt_s, t_s, &mut |u| queue(pending, u));
         }
         Sample {
             tick,
@@ -609,26 +588,14 @@ impl Host {
 /// that; a 12-point curve is 2 frames an update, so 1000 frames a second go to the device.
 pub const DEFORM_UPDATE_EVERY: u32 = 2;
 
-/// A deforming object behind a link.
-struct RemoteDeform {
-    deformer: Deformer,
-    /// Frames it was stepped on.
-    frames: u32,
-}
-
-/// The update that moves the device's object 0, patch 0, to `points`.
-fn patch_update(points: Vec<[f64; 3]>) -> PointsUpdate {
-    PointsUpdate {
-        object: 0,
-        patches: vec![(
-            0,
-            0,
-            points
-                .into_iter()
-                .map(|p| Vec2::new(p[0] as f32, p[1] as f32))
-                .collect(),
-        )],
-    }
+/// Queues `update` for the link ([`Host::send_points`]): it replaces one not sent yet (the
+/// newest shape wins).
+fn queue(
+    pending: &mut Option<PointsUpdate>,
+    update: &PointsUpdate,
+) -> Result<(), DeformChangeError> {
+    *pending = Some(update.clone());
+    Ok(())
 }
 
 /// The device's 32-bit microsecond clock, unwrapped.
@@ -639,6 +606,11 @@ struct DeviceClock {
 }
 
 impl DeviceClock {
+    /// Device time (s) of the newest frame.
+    fn t_s(&self) -> f64 {
+        self.total_us as f64 * 1e-6
+    }
+
     /// Device time (s) of a frame stamped `time_us`, and the period since the previous frame
     /// (µs; the device's own tick period, its jitter free of the host's scheduling).
     fn advance(&mut self, time_us: u32) -> (f64, Option<f32>) {

@@ -11,9 +11,11 @@
 //! swapping in a [`SpatialSession`]. Tests step a [`SpatialLoop`] directly.
 //!
 //! A deformable object of surfaces (one with a `"dynamics"` block) deforms under the hand on
-//! [`LoopCommand::Deform`]: every tick feeds a [`Deformer`] and steps it (1 ms), and the renderer
-//! is carried onto the new shape ([`FrictionRenderer::reshape`]: no search, no restart). The
-//! shape reaches the UI through a [`SharedShape`].
+//! [`LoopCommand::Deform`], through the loops' one lifecycle ([`Deformation`]): every tick
+//! feeds it and steps it (1 ms), and its new shape reaches the hand as the control-point
+//! update a device gets ([`PointsUpdate`], of surface points), the renderer carried onto the
+//! updated shell ([`FrictionRenderer::follow_reshape`]: no search, no restart). The shape
+//! reaches the UI through a [`SharedShape`].
 
 use std::sync::Arc;
 
@@ -21,8 +23,9 @@ use friction::{FrictionMaterial, FrictionRenderer, Mode, SwitchCause};
 use nurbs::{Vec2, Vec3};
 use tracker::{Contact, Feature, Penalty, Shell, TriMesh};
 
-use crate::backend::{LoopCommand, RATE_HZ, Reply, Sample, Steppable};
-use crate::deform::{DeformChangeError, DeformStatus, Deformer, SharedShape};
+use crate::backend::{LoopCommand, PointsUpdate, RATE_HZ, Reply, Sample, Steppable};
+use crate::deform::{DeformChangeError, DeformError, DeformStatus, Deformer, SharedShape};
+use crate::deformation::Deformation;
 pub use crate::error::MAX_HAPTIC_TRIANGLES;
 use crate::error::{MaterialChangeError, MeshError, SimError};
 use crate::planar::MAX_HAND_SPEED_M_PER_S;
@@ -38,6 +41,9 @@ pub const START_CLEARANCE_M: f32 = 0.01;
 pub struct SpatialSession {
     scene: Option<Scene>,
     object: usize,
+    /// The object in the shape it is rendered in (the scene's, or moved by control-point
+    /// updates), for a NURBS session.
+    shape: Option<Object>,
     material: FrictionMaterial,
     name: String,
     /// The object's shell and its renderer (none for a mesh session).
@@ -83,9 +89,11 @@ impl SpatialSession {
         let material = o.material().friction_material();
         let name = o.name().to_owned();
         let rendering = shell_rendering(&scene, object, material, hip)?;
+        let shape = scene.object(object).cloned();
         Ok(SpatialSession {
             scene: Some(scene),
             object,
+            shape,
             material,
             name,
             rendering: Some(rendering),
@@ -98,6 +106,7 @@ impl SpatialSession {
         SpatialSession {
             scene: None,
             object: 0,
+            shape: None,
             material,
             name: name.to_owned(),
             rendering: None,
@@ -129,28 +138,52 @@ impl SpatialSession {
         self.rendering.is_some()
     }
 
+    /// Moves the object's control points as `update` says (whole patches of the rendered
+    /// object), the renderer carried onto the new shell ([`ShellRendering::follow`]). Refused,
+    /// nothing changed, for another object, part of a patch, or a shape the object refuses.
+    fn apply_points(&mut self, update: &PointsUpdate<Vec3>) -> Result<(), DeformChangeError> {
+        let index = self.object;
+        if usize::from(update.object) != index {
+            return Err(DeformChangeError::Update(format!(
+                "object {}: the hand renders object {index}",
+                update.object
+            )));
+        }
+        let (Some(shape), Some(rendering)) = (&self.shape, &mut self.rendering) else {
+            return Err(DeformChangeError::NoObject);
+        };
+        let mut next = None;
+        for (patch, first, points) in &update.patches {
+            if *first != 0 {
+                return Err(DeformChangeError::Update(format!(
+                    "object {index}, patch {patch}: points from {first} on; the hand takes \
+                     whole patches"
+                )));
+            }
+            let points: Vec<[f64; 3]> =
+                points.iter().map(|p| p.to_array().map(f64::from)).collect();
+            next = Some(
+                next.as_ref()
+                    .unwrap_or(shape)
+                    .reshaped_patch(usize::from(*patch), &points)
+                    .map_err(|error| DeformError::Shape { index, error })?,
+            );
+        }
+        let Some(next) = next else {
+            return Ok(());
+        };
+        rendering
+            .follow(&next, index)
+            .map_err(|e| DeformChangeError::Object(e.into()))?;
+        self.shape = Some(next);
+        Ok(())
+    }
+
     /// Restarts the renderer at `hip` with `material`.
     fn restart(&mut self, hip: Vec3, material: FrictionMaterial) {
         if let Some(r) = &mut self.rendering {
             r.renderer = FrictionRenderer::new(&r.shell, material, hip);
         }
-    }
-}
-
-/// A deforming object in the loop: its dynamics and the renderer on its current shape.
-struct SpatialDeforming {
-    deformer: Deformer,
-    rendering: ShellRendering,
-    /// Steps since the shape was last published.
-    since_publish: u32,
-}
-
-impl std::fmt::Debug for SpatialDeforming {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.debug_struct("SpatialDeforming")
-            .field("object", &self.deformer.index())
-            .field("since_publish", &self.since_publish)
-            .finish_non_exhaustive()
     }
 }
 
@@ -231,8 +264,7 @@ pub struct SpatialLoop {
     forces_enabled: bool,
     tick: u64,
     period_s: f32,
-    deforming: Option<SpatialDeforming>,
-    shape: Arc<SharedShape>,
+    deformation: Deformation<Vec3>,
     last_error: Option<String>,
     /// The (mode, cause) the last tick reported ([`SwitchCause::or_carried`]).
     reported: (Mode, SwitchCause),
@@ -264,8 +296,9 @@ impl SpatialLoop {
             forces_enabled: true,
             tick: 0,
             period_s: (1.0 / RATE_HZ) as f32,
-            deforming: None,
-            shape: SharedShape::new(),
+            // The loop's rate is the dynamics' (crate::deform::DYNAMICS_RATE_HZ): every step's
+            // shape goes to the renderer.
+            deformation: Deformation::new(1),
             last_error: None,
             reported: (Mode::Free, SwitchCause::None),
         }
@@ -292,11 +325,7 @@ impl SpatialLoop {
         let t_s = self.tick as f64 / RATE_HZ;
         self.tick += 1;
         let (hip, period_s) = (self.hip, self.period_s);
-        let rendering = match &mut self.deforming {
-            Some(d) => Some(&mut d.rendering),
-            None => self.session.rendering.as_mut(),
-        };
-        let mut tick = match (&self.mesh, rendering) {
+        let mut tick = match (&self.mesh, self.session.rendering.as_mut()) {
             (Some(mesh), _) => mesh_tick(mesh, &self.material, t_s, hip, velocity),
             (None, Some(r)) => {
                 tick::render_tick(&mut r.renderer, &r.shell, t_s, hip, velocity, period_s)
@@ -310,42 +339,27 @@ impl SpatialLoop {
         if !self.forces_enabled {
             tick.force = Vec3::ZERO;
         }
-        if let Some(d) = &mut self.deforming {
-            tick.deform = Some(d.deformer.feed(&tick));
-        }
+        self.deformation.feed(&mut tick);
         self.step_object();
         tick
+    }
+
+    /// The loop's time (s).
+    fn time_s(&self) -> f64 {
+        self.tick as f64 / RATE_HZ
     }
 
     /// One dynamics step of a deforming object, its renderer carried onto the new shape, and
     /// the shape published when it is due. A step that fails makes the object rigid again and
     /// [`SpatialLoop::last_error`] says why.
     fn step_object(&mut self) {
-        let Some(d) = self.deforming.as_mut() else {
-            return;
-        };
-        let t_s = self.tick as f64 / RATE_HZ;
-        let index = d.deformer.index();
-        // The loop's rate is the dynamics' (crate::deform::DYNAMICS_RATE_HZ): a step a tick.
-        let moved = d
-            .deformer
-            .step(1.0 / RATE_HZ)
-            .and_then(|()| d.deformer.shape())
-            .map_err(DeformChangeError::from)
-            .and_then(|next| {
-                d.rendering
-                    .follow(&next, index)
-                    .map_err(|e| DeformChangeError::Object(e.into()))
-            });
-        match moved {
-            Ok(()) => {
-                self.shape
-                    .publish_when_due(&mut d.since_publish, &d.deformer, t_s);
-            }
-            Err(e) => {
-                self.stop_deforming();
-                self.last_error = Some(format!("{e}; the object is rigid again"));
-            }
+        let t_s = self.time_s();
+        let session = &mut self.session;
+        if let Some(e) = self
+            .deformation
+            .step(1.0 / RATE_HZ, t_s, &mut |u| session.apply_points(u))
+        {
+            self.last_error = Some(e);
         }
     }
 
@@ -356,30 +370,45 @@ impl SpatialLoop {
     /// changed, while a mesh is felt, without a NURBS object, or when it is rigid (no
     /// `"dynamics"` block).
     pub fn set_deforming(&mut self, on: bool) -> Result<DeformStatus, DeformChangeError> {
+        let t_s = self.time_s();
         if on {
-            self.start_deforming()?;
+            let index = self.session.object();
+            let object = u8::try_from(index).map_err(|_| {
+                DeformChangeError::Update(format!(
+                    "object {index}: an update names objects 0 to {}",
+                    u8::MAX
+                ))
+            })?;
+            let (session, mesh, material) = (&self.session, self.mesh.is_some(), self.material);
+            self.deformation.start(
+                || {
+                    if mesh {
+                        return Err(DeformChangeError::Mesh);
+                    }
+                    rest_deformer(session, material)
+                },
+                object,
+                t_s,
+            )?;
         } else {
-            self.stop_deforming();
+            self.stop_deforming()?;
         }
-        Ok(DeformStatus {
-            deforming: self.deforming.is_some(),
-            shape: self.shape.clone(),
-        })
+        Ok(self.deformation.status())
     }
 
     /// Whether the object deforms.
     pub fn deforming(&self) -> bool {
-        self.deforming.is_some()
+        self.deformation.deforming()
     }
 
     /// The deforming object's dynamics, while it deforms.
     pub fn deformer(&self) -> Option<&Deformer> {
-        self.deforming.as_ref().map(|d| &d.deformer)
+        self.deformation.deformer()
     }
 
     /// Where the loop publishes the deforming object's shape (the same for the loop's life).
     pub fn shared_shape(&self) -> &Arc<SharedShape> {
-        &self.shape
+        self.deformation.shared_shape()
     }
 
     /// Why the object stopped deforming by itself, if it did.
@@ -387,70 +416,11 @@ impl SpatialLoop {
         self.last_error.as_deref()
     }
 
-    /// The NURBS object's dynamics at rest, with the running material's contact stiffness.
-    fn rest_deformer(&self) -> Result<Deformer, DeformChangeError> {
-        let scene = self.session.scene().ok_or(DeformChangeError::NoObject)?;
-        let mut deformer = Deformer::new(scene, self.session.object())?;
-        deformer.set_contact_stiffness(self.material.stiffness_n_per_m);
-        Ok(deformer)
-    }
-
-    fn start_deforming(&mut self) -> Result<(), DeformChangeError> {
-        if self.deforming.is_some() {
-            return Ok(());
-        }
-        if self.mesh.is_some() {
-            return Err(DeformChangeError::Mesh);
-        }
-        let deformer = self.rest_deformer()?;
-        let rest = deformer.shape()?;
-        let index = deformer.index();
-        let Some(at_rest) = &self.session.rendering else {
-            return Err(DeformChangeError::NoObject);
-        };
-        let mut rendering = *at_rest;
-        rendering
-            .follow(&rest, index)
-            .map_err(|e| DeformChangeError::Object(e.into()))?;
-        self.shape.start(&deformer, self.tick as f64 / RATE_HZ);
-        self.deforming = Some(SpatialDeforming {
-            deformer,
-            rendering,
-            since_publish: 0,
-        });
-        Ok(())
-    }
-
-    /// The renderer back on the session's rest shape.
-    fn stop_deforming(&mut self) {
-        let Some(d) = self.deforming.take() else {
-            return;
-        };
-        if let Some(rest) = &mut self.session.rendering {
-            let moving = &d.rendering;
-            rest.renderer = moving.renderer.reshape(&moving.shell, &rest.shell);
-        }
-        self.shape.stop(self.tick as f64 / RATE_HZ);
-    }
-
-    /// A deforming object back at rest, its renderer restarted at the HIP with the running
-    /// material (a material change).
-    fn restart_deforming(&mut self) -> Result<(), DeformChangeError> {
-        if self.deforming.is_none() {
-            return Ok(());
-        }
-        let deformer = self.rest_deformer()?;
-        let rest = deformer.shape()?;
-        let index = deformer.index();
-        let shell = shell_of(&rest, index).map_err(|e| DeformChangeError::Object(e.into()))?;
-        let renderer = FrictionRenderer::new(&shell, self.material, self.hip);
-        if let Some(d) = self.deforming.as_mut() {
-            d.rendering = ShellRendering { shell, renderer };
-            d.deformer = deformer;
-            d.since_publish = 0;
-            self.shape.start(&d.deformer, self.tick as f64 / RATE_HZ);
-        }
-        Ok(())
+    /// The renderer back on the rest shape.
+    fn stop_deforming(&mut self) -> Result<(), DeformChangeError> {
+        let t_s = self.time_s();
+        let session = &mut self.session;
+        self.deformation.stop(t_s, &mut |u| session.apply_points(u))
     }
 
     /// Commands the hand (m, device frame); a non-finite target is ignored.
@@ -477,7 +447,9 @@ impl SpatialLoop {
         if let Some(m) = &mesh {
             check_mesh(m)?;
             // The mesh is the rest shape's tessellation: a deforming object is rigid again.
-            self.stop_deforming();
+            if let Err(e) = self.stop_deforming() {
+                self.last_error = Some(e.to_string());
+            }
         } else {
             self.session.restart(self.hip, self.material);
         }
@@ -498,11 +470,19 @@ impl SpatialLoop {
     ) -> Result<FrictionMaterial, MaterialChangeError> {
         Material::from_friction(material)?;
         self.material = material;
-        self.session.restart(self.hip, material);
-        if let Err(e) = self.restart_deforming() {
-            self.stop_deforming();
-            self.last_error = Some(format!("{e}; the object is rigid again"));
+        if self.deformation.deforming() {
+            let t_s = self.time_s();
+            let rest = rest_deformer(&self.session, material);
+            let session = &mut self.session;
+            let restarted = self
+                .deformation
+                .restart(|| rest, t_s, &mut |u| session.apply_points(u));
+            if let Err(e) = restarted {
+                self.last_error = Some(format!("{e}; the object is rigid again"));
+            }
         }
+        // On the rest shape: the renderer starts afresh at the HIP.
+        self.session.restart(self.hip, material);
         Ok(material)
     }
 
@@ -515,9 +495,7 @@ impl SpatialLoop {
     /// object is dropped with the old session: the new one is rigid, at rest, until it is
     /// asked to deform.
     pub fn swap(&mut self, mut session: SpatialSession) {
-        if self.deforming.take().is_some() {
-            self.shape.stop(self.tick as f64 / RATE_HZ);
-        }
+        self.deformation.forget(self.time_s());
         self.material = session.material();
         session.restart(self.hip, self.material);
         self.session = session;
@@ -543,6 +521,20 @@ impl SpatialLoop {
     pub fn ticks(&self) -> u64 {
         self.tick
     }
+}
+
+/// The NURBS object's dynamics at rest, its contact as stiff as `material`.
+fn rest_deformer(
+    session: &SpatialSession,
+    material: FrictionMaterial,
+) -> Result<Deformer, DeformChangeError> {
+    let scene = session.scene().ok_or(DeformChangeError::NoObject)?;
+    if !session.has_nurbs() {
+        return Err(DeformChangeError::NoObject);
+    }
+    let mut deformer = Deformer::new(scene, session.object())?;
+    deformer.set_contact_stiffness(material.stiffness_n_per_m);
+    Ok(deformer)
 }
 
 /// One tick of the polygonal baseline: the closest point over the triangles, the depth

@@ -16,6 +16,8 @@ use protocol::{
 
 use scene::Scene;
 
+use crate::backend::PointsUpdate;
+
 /// Scene capacity of the simulated device (bytes), as the host simulator's and the emulated
 /// board's receivers.
 pub const SIM_SCENE_CAPACITY: usize = 8192;
@@ -57,8 +59,12 @@ pub enum UploadError {
     NotCommitted,
 }
 
+/// The index in the device's scene of the object a session uploads ([`wire_scene`]): a
+/// control-point update of that object names this one.
+pub const DEVICE_OBJECT: u8 = 0;
+
 /// The wire scene a device gets for object `index` of `scene`: that object alone, as the
-/// device's object 0 (a device renders its first object).
+/// device's object [`DEVICE_OBJECT`] (a device renders its first object).
 pub fn wire_scene(scene: &Scene, index: usize) -> Result<Vec<u8>, UploadError> {
     let object = scene.object(index).ok_or(UploadError::NoObject {
         index,
@@ -80,39 +86,96 @@ pub fn wire_scene(scene: &Scene, index: usize) -> Result<Vec<u8>, UploadError> {
     })
 }
 
-/// The simulated device's side of uploading `wire`: every frame of the upload (begin,
-/// chunks, commit, as [`protocol::host_side::Link::upload_scene`] sends them to a board), encoded
-/// with sequence numbers and handled by a device [`DeviceSession`] of [`SIM_SCENE_CAPACITY`]
-/// bytes, which validates the commit by decoding it into a [`SceneStore`]. Returns that
-/// store and the CRC-32 the device reports for its active scene.
+/// The simulated device's side of uploading `wire` ([`DeviceScene::receive`]): the store the
+/// device decoded and the CRC-32 it reports for its active scene.
 pub fn receive(wire: &[u8]) -> Result<(Box<SceneStore>, u32), UploadError> {
-    let mut session: Box<DeviceSession<SIM_SCENE_CAPACITY>> = Box::new(DeviceSession::new(true));
-    let mut store = Box::new(SceneStore::new());
-    let mut host = Sequencer::default();
-    let state = DeviceState {
-        software: [0; 3],
-        forces_enabled: false,
-        calibrated: true,
-        faults: 0,
-    };
-    let mut committed = false;
-    for message in scene_upload(wire) {
-        let (frame, len, _) = host.encode(&message);
-        let mut refused = None;
-        let event = session.handle(&frame[..len], store.as_mut(), state, &mut |reply| {
-            if let Message::Nack(n) = reply {
-                refused = Some(n.code);
-            }
-        });
-        if let Some(code) = refused {
-            return Err(UploadError::Refused(code));
+    let device = DeviceScene::receive(wire)?;
+    let crc32 = device.crc32();
+    Ok((device.store, crc32))
+}
+
+/// A scene as the simulated device in this process holds it: the device's own receiver
+/// ([`DeviceSession`], which keeps the active wire scene) and the store it decoded the scene
+/// into. Uploads and control-point updates reach it as frames, as they reach a board.
+#[derive(Debug)]
+pub struct DeviceScene {
+    session: Box<DeviceSession<SIM_SCENE_CAPACITY>>,
+    store: Box<SceneStore>,
+    host: Sequencer,
+}
+
+/// The state a [`DeviceScene`]'s receiver is told the device is in (the replies it would make
+/// are not read).
+const STATE: DeviceState = DeviceState {
+    software: [0; 3],
+    forces_enabled: false,
+    calibrated: true,
+    faults: 0,
+};
+
+impl DeviceScene {
+    /// Uploads `wire`: every frame of the upload (begin, chunks, commit, as
+    /// [`protocol::host_side::Link::upload_scene`] sends them to a board), encoded with sequence
+    /// numbers and handled by a device [`DeviceSession`] of [`SIM_SCENE_CAPACITY`] bytes,
+    /// which validates the commit by decoding it into a [`SceneStore`].
+    pub fn receive(wire: &[u8]) -> Result<Self, UploadError> {
+        let mut device = DeviceScene {
+            session: Box::new(DeviceSession::new(true)),
+            store: Box::new(SceneStore::new()),
+            host: Sequencer::default(),
+        };
+        let mut committed = false;
+        for message in scene_upload(wire) {
+            committed |= device.handle(&message)? == Event::SceneCommitted;
         }
-        committed |= event == Event::SceneCommitted;
+        if !committed {
+            return Err(UploadError::NotCommitted);
+        }
+        Ok(device)
     }
-    if !committed {
-        return Err(UploadError::NotCommitted);
+
+    /// Moves control points of the device's scene as `update` says: its frames
+    /// ([`PointsUpdate::messages`], what the host of a device behind a link sends) through the device's
+    /// receiver, which writes them into a copy of the active scene, validates it
+    /// ([`SceneStore::decode_reshaped`]: the same checks as an upload, and the object's
+    /// topology kept) and makes it active. Returns the object whose points moved; the store
+    /// holds the new scene. Refused with the device's reason, nothing changed.
+    pub fn apply_points(&mut self, update: &PointsUpdate) -> Result<u8, UploadError> {
+        let mut applied = None;
+        for message in update.messages() {
+            if let Event::ScenePointsUpdated { object } = self.handle(&message)? {
+                applied = Some(object);
+            }
+        }
+        applied.ok_or(UploadError::NotCommitted)
     }
-    Ok((store, session.receiver().active_crc32()))
+
+    /// One host frame through the device's receiver; a nack is the device's refusal.
+    fn handle(&mut self, message: &Message) -> Result<Event, UploadError> {
+        let (frame, len, _) = self.host.encode(message);
+        let mut refused = None;
+        let event = self
+            .session
+            .handle(&frame[..len], self.store.as_mut(), STATE, &mut |reply| {
+                if let Message::Nack(n) = reply {
+                    refused = Some(n.code);
+                }
+            });
+        match refused {
+            Some(code) => Err(UploadError::Refused(code)),
+            None => Ok(event),
+        }
+    }
+
+    /// The store the device decoded its active scene into.
+    pub fn store(&self) -> &SceneStore {
+        &self.store
+    }
+
+    /// The CRC-32 the device reports for its active scene (`Status::scene_crc32`).
+    pub fn crc32(&self) -> u32 {
+        self.session.receiver().active_crc32()
+    }
 }
 
 #[cfg(test)]

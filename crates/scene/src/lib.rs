@@ -268,14 +268,29 @@ impl Object {
     /// knots, material and dynamics kept): the shape of a deformable object at one instant,
     /// validated as any object is.
     pub fn reshaped(&self, points: &[[f64; 3]]) -> Result<Object, ObjectError> {
-        let expected = match &self.patches[0] {
+        self.reshaped_patch(0, points)
+    }
+
+    /// [`Object::reshaped`] for patch `index` (all its control points); no such patch is an
+    /// error naming it.
+    pub fn reshaped_patch(&self, index: usize, points: &[[f64; 3]]) -> Result<Object, ObjectError> {
+        let Some(old) = self.patches.get(index) else {
+            return Err(ObjectError::Patch {
+                index,
+                error: PatchError::Shape {
+                    field: "points".to_owned(),
+                    problem: format!("no patch {index}: the object has {}", self.patches.len()),
+                },
+            });
+        };
+        let expected = match old {
             Patch::Curve2(c) => c.points().len(),
             Patch::Curve3(c) => c.points().len(),
             Patch::Surface(s) => s.points().len(),
         };
         if points.len() != expected {
             return Err(ObjectError::Patch {
-                index: 0,
+                index,
                 error: PatchError::Shape {
                     field: "points".to_owned(),
                     problem: format!("{} control points for a patch of {expected}", points.len()),
@@ -283,7 +298,7 @@ impl Object {
             });
         }
         let f = |p: &[f64; 3]| p.map(|x| x as f32);
-        let patch = match &self.patches[0] {
+        let patch = match old {
             Patch::Curve2(c) => {
                 reshape_curve(c, points, |p| Vec2::new(f(p)[0], f(p)[1])).map(Patch::Curve2)
             }
@@ -301,11 +316,11 @@ impl Object {
             }
         }
         .map_err(|e| ObjectError::Patch {
-            index: 0,
+            index,
             error: e.into(),
         })?;
         let mut patches = self.patches.clone();
-        patches[0] = patch;
+        patches[index] = patch;
         let object = Object {
             name: self.name.clone(),
             material: self.material,
