@@ -23,11 +23,11 @@ use std::sync::Arc;
 
 use nurbs::{Vec2, Vec3};
 
-use crate::backend::PointsUpdate;
 #[cfg(test)]
 use crate::deform::ShapeFrame;
 use crate::deform::{DeformChangeError, DeformError, DeformStatus, Deformer, SharedShape};
 use crate::tick::Tick;
+use crate::upload::PointsUpdate;
 
 /// A control point as an update carries it: a planar curve's (x, y) or a surface's (x, y, z).
 pub trait ShapePoint: Copy + core::fmt::Debug {

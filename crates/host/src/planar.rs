@@ -8,8 +8,8 @@
 //! A deformable object (one with a `"dynamics"` block) deforms under the hand on
 //! [`LoopCommand::Deform`], through the loops' one lifecycle ([`Deformation`]): every device
 //! tick feeds it, every step (1 ms, ten device ticks) steps it, and its new shape reaches the
-//! device as the control-point update a device behind a link gets ([`PointsUpdate`]), through
-//! the device's own receiver ([`upload::DeviceScene::apply_points`]: validated as on a board),
+//! device as the control-point update a device behind a link gets ([`PointsUpdate`](crate::upload::PointsUpdate)), through
+//! the device's own receiver ([`DeviceScene::apply_points`](crate::upload::DeviceScene::apply_points): validated as on a board),
 //! the controller moved onto the updated store's curves ([`Controller::reshape_object`]: its
 //! renderer, feature, friction state and safety ramp stay; no search, no ramp-in). The shape
 //! reaches the UI through a [`SharedShape`](crate::deform::SharedShape).
@@ -22,22 +22,20 @@ use device::simulator::{SimParams, SimulatedPantograph, VirtualHand};
 use device::spec::DeviceSpec;
 use friction::FrictionMaterial;
 use nurbs::Vec2;
-use protocol::SceneFault;
 use tracker::Chain;
 
-use crate::backend::{LoopCommand, PointsUpdate, RATE_HZ, Reply, Sample, Steppable};
 use crate::deform::{DeformChangeError, DeformStatus, Deformer, SharedShape};
 use crate::deformation::Deformation;
+use crate::error::{MaterialChangeError, SimError};
+use crate::loop_api::{LoopCommand, RATE_HZ, Reply, Sample, Steppable};
+use crate::planar_session::apply_points;
+pub use crate::planar_session::{DEVICE_RATE_HZ, PlanarSession, SessionError};
+use crate::tick::{self, Tick};
+use crate::upload::DEVICE_OBJECT;
+use scene::Material;
 
-/// The device's tick rate in the loop (Hz): the board's. The loop thread wakes at
-/// [`RATE_HZ`] and runs [`TICKS_PER_STEP`] device ticks per wake.
-pub const DEVICE_RATE_HZ: f64 = 10_000.0;
 /// Device ticks per step of the loop (per 1 ms wake).
 pub const TICKS_PER_STEP: u32 = (DEVICE_RATE_HZ / RATE_HZ) as u32;
-use crate::error::{MaterialChangeError, SimError};
-use crate::tick::{self, Tick};
-use crate::upload::{self, DEVICE_OBJECT, DeviceScene, UploadError};
-use scene::{Material, Scene, Space};
 
 /// Where the handle (and the hand's target) starts: in the middle of the default device's
 /// workspace, above the bundled planar scenes.
@@ -46,191 +44,6 @@ pub const START_HIP: Vec2 = Vec2::new(0.0, 0.11);
 /// The fastest the virtual hand's target follows its command (m/s): the simulated
 /// plant's ([`device::simulator::VirtualHand`]).
 pub const MAX_HAND_SPEED_M_PER_S: f32 = device::simulator::MAX_HAND_SPEED_M_PER_S;
-
-/// A scene the loop renders: the scene, the index of the object the device renders (the
-/// first planar one; `None` when the scene has none), that object as the device received it,
-/// and the controller built for it (which holds its own copy of the object: nothing borrowed).
-pub struct PlanarSession {
-    scene: Scene,
-    object: Option<usize>,
-    received: Option<Received>,
-    controller: Controller<Chain>,
-    passivity_control: bool,
-}
-
-/// An object as the device received it: the wire scene uploaded, and the device's receiver
-/// and store holding it (as moved since by control-point updates).
-#[derive(Debug)]
-struct Received {
-    wire: Vec<u8>,
-    device: DeviceScene,
-}
-
-impl std::fmt::Debug for PlanarSession {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.debug_struct("PlanarSession")
-            .field("object", &self.object())
-            .field("passivity_control", &self.passivity_control())
-            .finish_non_exhaustive()
-    }
-}
-
-/// Why a scene cannot be rendered.
-#[derive(Debug, thiserror::Error)]
-pub enum SessionError {
-    /// The controller or the chain refused the object.
-    #[error("{0}")]
-    Sim(#[from] SimError),
-    /// The device refused its upload.
-    #[error("{0}")]
-    Upload(#[from] UploadError),
-}
-
-impl PlanarSession {
-    /// The default device at [`DEVICE_RATE_HZ`], calibrated on its end stops, forces enabled, with
-    /// the first object of planar curves of `scene` loaded (none when it has none: the
-    /// pantograph is planar, so a scene of surfaces renders nothing). The controller's own
-    /// checks apply: a material stiffer than the device renders is refused, naming the limit.
-    pub fn new(scene: Scene) -> Result<Self, SessionError> {
-        let object = scene
-            .objects()
-            .iter()
-            .position(|o| o.space() == Space::Planar);
-        Self::with_object(scene, object)
-    }
-
-    /// [`PlanarSession::new`] with object `object` (which must be planar), or none. The object
-    /// reaches the controller as a board's would: its wire scene ([`upload::wire_scene`])
-    /// goes frame by frame through the device's receiver ([`DeviceScene::receive`]), and the
-    /// controller renders the store the device decoded.
-    pub fn with_object(scene: Scene, object: Option<usize>) -> Result<Self, SessionError> {
-        let received = match object {
-            Some(index) => {
-                let wire = upload::wire_scene(&scene, index)?;
-                let device = DeviceScene::receive(&wire)?;
-                Some(Received { wire, device })
-            }
-            None => None,
-        };
-        let (controller, passivity_control) = build_controller(received.as_ref(), object)?;
-        Ok(PlanarSession {
-            scene,
-            object,
-            received,
-            controller,
-            passivity_control,
-        })
-    }
-
-    /// The scene.
-    pub fn scene(&self) -> &Scene {
-        &self.scene
-    }
-
-    /// The index of the object the device renders, if any.
-    pub fn object(&self) -> Option<usize> {
-        self.object
-    }
-
-    /// The wire scene the device received (the rendered object alone, at rest), if it
-    /// renders one: what an upload to a board carries.
-    pub fn wire(&self) -> Option<&[u8]> {
-        self.received.as_ref().map(|r| r.wire.as_slice())
-    }
-
-    /// The CRC-32 the device reports for its active scene (`Status::scene_crc32`), if it
-    /// renders one: the upload's, or, while the object deforms, its current shape's.
-    pub fn scene_crc32(&self) -> Option<u32> {
-        self.received.as_ref().map(|r| r.device.crc32())
-    }
-
-    /// Whether the controller renders the material with the passivity controller on (the
-    /// material is stiffer than the device renders passively at [`DEVICE_RATE_HZ`]).
-    pub fn passivity_control(&self) -> bool {
-        self.passivity_control
-    }
-}
-
-/// The controller of the default device for what the device received (nothing rendered
-/// without an object), calibrated on its end stops, forces enabled, and whether it runs the
-/// passivity controller.
-fn build_controller(
-    received: Option<&Received>,
-    object: Option<usize>,
-) -> Result<(Controller<Chain>, bool), SessionError> {
-    let spec = DeviceSpec::default();
-    let (mut controller, passivity_control) = match received {
-        Some(r) => {
-            let material = r
-                .device
-                .store()
-                .material(usize::from(DEVICE_OBJECT))
-                .unwrap_or_default();
-            tick::device_controller(store_chain(r, object)?, material, DEVICE_RATE_HZ)?
-        }
-        None => {
-            let safety = device::safety::SafetyConfig {
-                period_s: (1.0 / DEVICE_RATE_HZ) as f32,
-                ramp_time_s: tick::DEVICE_RAMP_TIME_S,
-                ..device::safety::SafetyConfig::default()
-            };
-            (
-                Controller::new(spec, safety).map_err(SimError::Controller)?,
-                false,
-            )
-        }
-    };
-    controller
-        .calibrate(tick::end_stop_counts(&spec))
-        .map_err(SimError::Controller)?;
-    controller.set_forces_enabled(true);
-    Ok((controller, passivity_control))
-}
-
-/// The chain of the object the device decoded (object [`DEVICE_OBJECT`] of its store;
-/// `object` of the scene, named in the error).
-fn store_chain(received: &Received, object: Option<usize>) -> Result<Chain, SessionError> {
-    let index = object.unwrap_or(0);
-    let store = received.device.store();
-    store
-        .chain(usize::from(DEVICE_OBJECT))
-        .map_err(|e| match e.fault {
-            SceneFault::Chain(error) => SimError::Chain { index, error }.into(),
-            _ => UploadError::Refused(e.code()).into(),
-        })
-}
-
-/// Moves `session`'s device onto `update`, as a device behind a link takes it: the update
-/// through the device's receiver ([`DeviceScene::apply_points`]), then, when it moved the
-/// rendered object, the controller onto the updated store's curves in place
-/// ([`Controller::reshape_object`] with [`Chain::reshape`]: the renderer carried on). Refused
-/// with the device's reason.
-fn apply_points(
-    session: &mut PlanarSession,
-    update: &PointsUpdate,
-) -> Result<(), DeformChangeError> {
-    let received = session
-        .received
-        .as_mut()
-        .ok_or(DeformChangeError::NoObject)?;
-    let object = received
-        .device
-        .apply_points(update)
-        .map_err(|e| DeformChangeError::Update(e.to_string()))?;
-    if object != DEVICE_OBJECT {
-        // The device renders one object; another's points change nothing it renders.
-        return Ok(());
-    }
-    let controller = &mut session.controller;
-    received
-        .device
-        .store()
-        .with_curves(usize::from(object), |curves| {
-            controller.reshape_object(|chain| chain.reshape(curves))
-        })
-        .map_err(|e| DeformChangeError::Update(e.to_string()))?
-        .map_err(DeformChangeError::Controller)
-}
 
 /// The loop's state: the session, the simulated arm and the hand, and the object's
 /// deformation. Stepped one tick at a time.

@@ -18,7 +18,7 @@ use friction::{FrictionMaterial, Mode, SwitchCause};
 use nurbs::Vec3;
 use scene::Space;
 
-use crate::backend::{RATE_HZ, RECORD_CAPACITY};
+use crate::loop_api::{RATE_HZ, RECORD_CAPACITY};
 use crate::sim::Run;
 use crate::tick::{DeviceSample, Tick};
 

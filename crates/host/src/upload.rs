@@ -7,6 +7,7 @@
 //! that does not survive the wire format (f32, the device's capacities and checks) is refused
 //! before it reaches the loop, with the device's reason.
 
+use nurbs::Vec2;
 use protocol::device_side::session::{DeviceSession, DeviceState, Event};
 use protocol::host_side::Sequencer;
 use protocol::{
@@ -15,8 +16,6 @@ use protocol::{
 };
 
 use scene::Scene;
-
-use crate::backend::PointsUpdate;
 
 /// Scene capacity of the simulated device (bytes), as the host simulator's and the emulated
 /// board's receivers.
@@ -175,6 +174,36 @@ impl DeviceScene {
     /// The CRC-32 the device reports for its active scene (`Status::scene_crc32`).
     pub fn crc32(&self) -> u32 {
         self.session.receiver().active_crc32()
+    }
+}
+
+/// New control points for patches of one object of the device's scene
+/// ([`LoopCommand::ScenePoints`](crate::loop_api::LoopCommand::ScenePoints), [`protocol::points_update`]; `P` = [`Vec3`](nurbs::Vec3) for a
+/// surface's, [`protocol::points_update_spatial`]). Send whole patches (or at least
+/// every point that moved since the device's last applied shape): an update replaced by a
+/// newer one before it went out is never sent. A deforming object's shape reaches every loop
+/// as one of these ([`crate::deformation::Deformation`]).
+#[derive(Clone, Debug, PartialEq)]
+pub struct PointsUpdate<P = Vec2> {
+    /// The object in the device's scene (a session's upload makes its object the scene's
+    /// object [`crate::upload::DEVICE_OBJECT`]).
+    pub object: u8,
+    /// Per patch: its index in the object, the index of its first control point given, and
+    /// the new Cartesian points (m; planar x, y, or x, y, z). The weights stay the scene's.
+    /// Patches that share a point at a join move together in one update.
+    pub patches: Vec<(u8, u16, Vec<P>)>,
+}
+
+impl PointsUpdate {
+    /// The update's frames, in the order they go to the device
+    /// ([`protocol::points_update`]: the last applies them all).
+    pub fn messages(&self) -> Vec<protocol::Message> {
+        let patches: Vec<(u8, u16, &[Vec2])> = self
+            .patches
+            .iter()
+            .map(|(patch, first, points)| (*patch, *first, &points[..]))
+            .collect();
+        protocol::points_update(self.object, &patches).collect()
     }
 }
 
