@@ -82,7 +82,7 @@ pub enum SceneError {
     },
     /// JSON syntax error, wrong type, missing or unknown field. serde_json's message ends with
     /// the line and column.
-    #[error("{}{error}", prefix(location))]
+    #[error("{}{error}", json_prefix(location, error))]
     Json {
         /// Where in the document, e.g. `object 0 ("wedge"), patch 1: points[2][0]`; empty at the
         /// top level.
@@ -112,6 +112,19 @@ pub enum SceneError {
         /// What is wrong.
         error: ObjectError,
     },
+}
+
+/// What precedes serde_json's message: the location, or for a file that is not JSON at all
+/// (a syntax error at the top level: an OBJ, a CSV, a typo'd path to another file) a word
+/// on what a scene file is, since "expected ident at line 1 column 2" alone does not say it.
+fn json_prefix(location: &str, error: &serde_json::Error) -> String {
+    use serde_json::error::Category;
+    if location.is_empty() && matches!(error.classify(), Category::Syntax | Category::Eof) {
+        "not valid JSON (a scene/1 file is a JSON document, {\"format\": \"scene/1\", …}): "
+            .to_owned()
+    } else {
+        prefix(location)
+    }
 }
 
 fn prefix(location: &str) -> String {

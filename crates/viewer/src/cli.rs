@@ -293,8 +293,8 @@ given with --damping and --coulomb: the output compares them. Then it prints wha
 identified values mean at the handle (the worst pose of the workspace) and the stiffest \
 wall accepted at 1 and 10 kHz, with and without the passivity controller.
 
-A board is not identified through the protocol yet: that needs a message that lets the \
-host drive the motors' torques directly.";
+A board (or the firmware under QEMU) is identified through the protocol with `viewer device \
+identify`: the same square waves of torque, asked of the device with its Excite message.";
 
 /// `viewer identify` arguments.
 #[derive(Debug, Args)]
@@ -395,7 +395,7 @@ rendered force pushes the handle back, so sticking, breakaway and slipping show 
 
 const GUI_AFTER: &str = "\
 Without SCENE the bundled thesis-2d scene opens; the bundled scenes (thesis-2d, thesis-3d, \
-examples) are one click away in the app, and any scene file can be opened by its path. The \
+examples, deformable, torus) are one click away in the app, and any scene file can be opened by its path. The \
 device renders the first object of planar curves. A scene with none (surfaces) opens the 3-D \
 view, where the hand is an impedance point moved in the view plane (shift + wheel or the \
 wheel while held: depth) and felt through the friction renderer; --mesh FILE.obj opens a \

@@ -85,17 +85,25 @@ fn draw(
         let mine = cells
             .iter()
             .filter(|c| c.impact.passivity_control == controller);
-        for c in mine {
-            let at = (
+        let at = |c: &&Cell| {
+            (
                 f64::from(c.impact.damping_ns_per_m),
                 f64::from(c.impact.stiffness_n_per_m),
-            );
-            if c.outcome.stable {
-                chart.draw_series(std::iter::once(Circle::new(at, 6, GREEN.filled())))?;
-            } else {
-                chart.draw_series(std::iter::once(Cross::new(at, 6, RED.stroke_width(2))))?;
-            }
-        }
+            )
+        };
+        let (stable, unstable): (Vec<&Cell>, Vec<&Cell>) = mine.partition(|c| c.outcome.stable);
+        chart
+            .draw_series(stable.iter().map(|c| Circle::new(at(c), 6, GREEN.filled())))?
+            .label("stable")
+            .legend(|(x, y)| Circle::new((x + 10, y), 6, GREEN.filled()));
+        chart
+            .draw_series(
+                unstable
+                    .iter()
+                    .map(|c| Cross::new(at(c), 6, RED.stroke_width(2))),
+            )?
+            .label("unstable")
+            .legend(|(x, y)| Cross::new((x + 10, y), 6, RED.stroke_width(2)));
         chart
             .configure_series_labels()
             .position(SeriesLabelPosition::LowerRight)

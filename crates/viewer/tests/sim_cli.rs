@@ -876,3 +876,90 @@ fn deform_refuses_bad_input_naming_it() {
     assert_eq!(surface.status.code(), Some(2));
     assert!(stderr(&surface).contains("2-DoF"), "{}", stderr(&surface));
 }
+
+/// `viewer zwidth --out` to a folder that does not exist fails at once (exit 1, the output
+/// could not be written, as the exit table says) instead of after the minutes of the sweep:
+/// no progress line is printed.
+#[test]
+fn zwidth_refuses_an_unwritable_output_before_sweeping() {
+    let dir = TempDir::new("zwidth-out");
+    let out = dir.path("no/such/folder/zw.csv");
+    let result = viewer(&["zwidth", "--out", &out]);
+    let err = stderr(&result);
+    assert_eq!(result.status.code(), Some(1), "{err}");
+    assert!(
+        err.contains("cannot create") && err.contains("zw.csv"),
+        "{err}"
+    );
+    assert!(!err.contains("cells"), "the sweep ran: {err}");
+    // The plot's path too, and the CSV's target is left as it was (absent).
+    let (csv, png) = (dir.path("zw.csv"), dir.path("no/such/zw.png"));
+    let result = viewer(&["zwidth", "--out", &csv, "--plot", &png]);
+    assert_eq!(result.status.code(), Some(1), "{}", stderr(&result));
+    assert!(!Path::new(&csv).exists());
+}
+
+/// A joint with no damping identifies at a damping within noise of 0, on either side
+/// (least squares); below 0 it is taken as 0 and said so, and the walls are printed (it was
+/// refused: "must be non-negative").
+#[test]
+fn identify_of_joints_without_damping_takes_the_noise_as_zero() {
+    let result = viewer(&["identify", "--damping", "0"]);
+    let err = stderr(&result);
+    assert_eq!(result.status.code(), Some(0), "{err}");
+    let stdout = String::from_utf8_lossy(&result.stdout);
+    for joint in ["joint 1:", "joint 2:"] {
+        let line = stdout
+            .lines()
+            .find(|l| l.starts_with(joint))
+            .unwrap_or_else(|| panic!("{stdout}"));
+        let damping: f64 = line
+            .split("damping ")
+            .nth(1)
+            .and_then(|r| r.split_whitespace().next())
+            .and_then(|n| n.parse().ok())
+            .unwrap_or_else(|| panic!("{line}"));
+        // Within a tenth of the default device's 1e-4 N·m·s/rad of the true 0: noise.
+        assert!(damping.abs() < 1e-5, "{line}");
+        assert_eq!(damping < 0.0, line.contains("taken as 0"), "{line}");
+    }
+    let handle = stdout
+        .lines()
+        .find(|l| l.starts_with("at the handle"))
+        .unwrap_or_else(|| panic!("{stdout}"));
+    assert!(!handle.contains("damping -"), "{handle}");
+    assert!(stdout.contains("10000 Hz: walls up to"), "{stdout}");
+}
+
+/// The help says what is true: `gui --help` names every bundled scene, `identify --help`
+/// points to `device identify` for a board.
+#[test]
+fn help_names_what_exists() {
+    let gui = viewer(&["gui", "--help"]);
+    let text = String::from_utf8_lossy(&gui.stdout);
+    for b in scene::bundled::BUNDLED {
+        assert!(text.contains(b.name), "gui --help lacks {}", b.name);
+    }
+    let identify = viewer(&["identify", "--help"]);
+    let text = String::from_utf8_lossy(&identify.stdout);
+    let words = text.split_whitespace().collect::<Vec<_>>().join(" ");
+    assert!(words.contains("`viewer device identify`"), "{text}");
+    assert!(!text.contains("not identified"), "{text}");
+}
+
+/// A file that is not JSON at all is said to be so, not only "expected ident at line 1
+/// column 2".
+#[test]
+fn a_scene_that_is_not_json_is_named_so() {
+    let dir = TempDir::new("notjson");
+    let path = dir.path("mesh.json");
+    std::fs::write(&path, "solid cube\nfacet normal 0 0 1\n").expect("write");
+    let result = viewer(&["eval", &path]);
+    let err = stderr(&result);
+    assert_eq!(result.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains("not valid JSON (a scene/1 file is a JSON document"),
+        "{err}"
+    );
+    assert!(err.contains("line 1 column 1"), "{err}");
+}

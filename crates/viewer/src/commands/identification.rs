@@ -77,12 +77,21 @@ pub(crate) fn print_identified(
             Some(_) => format!(" (simulator {value:.3e})"),
             None => String::new(),
         };
+        let noise = |v: f64| {
+            if v < 0.0 {
+                " (below 0: none, taken as 0)"
+            } else {
+                ""
+            }
+        };
         println!(
-            "joint {}: damping {:.3e} N m s/rad{}, Coulomb {:.3e} N m{}, {} samples",
+            "joint {}: damping {:.3e} N m s/rad{}{}, Coulomb {:.3e} N m{}{}, {} samples",
             i + 1,
             found.damping_nms_per_rad[i],
+            noise(found.damping_nms_per_rad[i]),
             known(truth.map_or(0.0, |t| t.joint_damping_nms_per_rad[i])),
             found.coulomb_nm[i],
+            noise(found.coulomb_nm[i]),
             known(truth.map_or(0.0, |t| t.joint_coulomb_nm[i])),
             found.samples[i]
         );

@@ -3,14 +3,30 @@
 use std::io::{self};
 use std::process::ExitCode;
 
-use anyhow::anyhow;
-use viewer::cli::EXIT_BAD_SETUP;
+use anyhow::Context;
+use viewer::cli::{EXIT_BAD_INPUT, EXIT_BAD_SETUP};
+use viewer::output::AtomicFile;
 
 use crate::fail;
 
 pub(crate) fn zwidth_command(args: &viewer::cli::ZwidthArgs) -> ExitCode {
     use host::zwidth::sweep;
     use viewer::zwidth_figure::{DAMPINGS, STIFFNESSES};
+    // Before the sweep (minutes), so that a bad output path does not wait for it; written to
+    // temporary files renamed over the targets once both are complete.
+    let out = match AtomicFile::create(&args.out)
+        .with_context(|| format!("cannot create {}", args.out.display()))
+    {
+        Ok(f) => f,
+        Err(e) => return fail(&e, EXIT_BAD_INPUT),
+    };
+    let plot_file = match args.plot.as_ref().map(|path| {
+        AtomicFile::create(path).with_context(|| format!("cannot create plot {}", path.display()))
+    }) {
+        None => None,
+        Some(Ok(f)) => Some(f),
+        Some(Err(e)) => return fail(&e, EXIT_BAD_INPUT),
+    };
     let mut cells = Vec::new();
     for controller in [false, true] {
         let progress = |done: usize, total: usize| {
@@ -34,19 +50,32 @@ pub(crate) fn zwidth_command(args: &viewer::cli::ZwidthArgs) -> ExitCode {
             Err(e) => return fail(&anyhow::Error::new(e).context("zwidth"), EXIT_BAD_SETUP),
         }
     }
-    let written = std::fs::File::create(&args.out)
-        .and_then(|f| host::zwidth::write_csv(&cells, io::BufWriter::new(f)));
+    let written = out
+        .file()
+        .and_then(|f| host::zwidth::write_csv(&cells, io::BufWriter::new(f)))
+        .with_context(|| format!("cannot write {}", args.out.display()));
     if let Err(e) = written {
+        return fail(&e, EXIT_BAD_INPUT);
+    }
+    if let (Some(png), Some(file)) = (&args.plot, &plot_file)
+        && let Err(e) = viewer::zwidth_figure::write_png(
+            &cells,
+            args.rate_hz,
+            args.hand.name(),
+            file.temp_path(),
+        )
+    {
         return fail(
-            &anyhow!("cannot write {}: {e}", args.out.display()),
-            EXIT_BAD_SETUP,
+            &anyhow::Error::new(e).context(format!("cannot draw {}", png.display())),
+            EXIT_BAD_INPUT,
         );
     }
-    if let Some(png) = &args.plot
-        && let Err(e) =
-            viewer::zwidth_figure::write_png(&cells, args.rate_hz, args.hand.name(), png)
-    {
-        return fail(&anyhow::Error::new(e), EXIT_BAD_SETUP);
+    let committed = out
+        .commit()
+        .and_then(|()| plot_file.map_or(Ok(()), |f| f.commit()))
+        .with_context(|| format!("cannot write {}", args.out.display()));
+    if let Err(e) = committed {
+        return fail(&e, EXIT_BAD_INPUT);
     }
     for controller in [false, true] {
         let largest = cells

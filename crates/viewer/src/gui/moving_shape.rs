@@ -72,9 +72,19 @@ impl DeformInfo {
              off, it is rigid at rest again.\n\
              tension {} {t}, density {} {rho}, damping {} {gamma}, bending {} {beta}\n\
              first natural frequency {mode}",
-            self.tension, self.density, self.damping, self.bending
+            shortest(self.tension),
+            shortest(self.density),
+            shortest(self.damping),
+            shortest(self.bending)
         )
     }
+}
+
+/// A parameter as the scene file says it: the scene reads numbers as `f32` (the loop's type)
+/// and the dynamics widen them to f64, so 0.1 is 0.10000000149011612 there; the shortest
+/// decimal that reads back as the same `f32` is what the user wrote.
+fn shortest(value: f64) -> String {
+    format!("{}", value as f32)
 }
 
 /// The *deform* switch and the moving shape, as the app knows them.
@@ -170,5 +180,24 @@ impl DeformState {
     pub fn moving_object(&self) -> Option<(usize, &Object, &Object)> {
         let info = self.info.as_ref()?;
         self.moving.as_ref().map(|o| (info.object, &info.rest, o))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The hover text gives the parameters as the scene file states them (the bundled
+    /// string's `"density_kg_per_m": 0.1`), not their f32 → f64 widening.
+    #[test]
+    fn the_parameters_read_as_written() {
+        let scene = scene::Bundled::find("deformable")
+            .and_then(|b| b.scene().ok())
+            .expect("the bundled deformable scene");
+        let info = DeformInfo::of(&scene, 0).expect("object 0 deforms");
+        let text = info.describe();
+        assert!(text.contains("density 0.1 kg/m,"), "{text}");
+        assert!(text.contains("tension 5 N,"), "{text}");
+        assert!(!text.contains("0000000"), "{text}");
     }
 }
