@@ -712,9 +712,17 @@ fn check_surface(spec: &SurfaceSpec, x: Vec3) -> Result<(), TestCaseError> {
     let reference =
         testkit::closest_on_surface_pieces(&testkit::RefSurface::new(&s), testkit::wide(x), 16);
     let d64 = f64::from(d);
+    // Closer than the reference's sampling found (it can miss a minimum on a long piece: seen
+    // at 2,000 cases, 0.068668 against 0.068732): then the point must be real, its distance
+    // evaluated apart in f64 at the parameters found. No point is closer than the closest.
+    let real = (testkit::RefSurface::new(&s)
+        .point(f64::from(got.t[0]), f64::from(got.t[1]))
+        - testkit::wide(x))
+    .length();
     prop_assert!(
-        d64 <= reference.distance + 2e-6 && d64 >= reference.distance - 2e-6,
-        "global {d} vs reference {} (t = {:?}, reference at {:?})",
+        d64 <= reference.distance + 2e-6
+            && (d64 >= reference.distance - 2e-6 || (real - d64).abs() <= 2e-6),
+        "global {d} vs reference {} (t = {:?}, reference at {:?}; at t the f64 surface is {real} away)",
         reference.distance,
         got.t,
         reference.t
