@@ -22,7 +22,7 @@
 //! |---|---|---|
 //! | `format` | required | `"experiment/1"` |
 //! | `name` | required | not empty |
-//! | `seed` | required | u64; the trial order (and the runner's randomness) follows from it |
+//! | `seed` | required | u64; with the participant's ID, each participant's trial order follows from it ([`Plan::trials_for`]: reproducible per participant, different across participants) |
 //! | `design` | required | `"identification"`, `"2afc-staircase"` or `"constant-stimuli"` |
 //! | `stimuli` | required | at least one `{ "name", "scene", "object" }`, names distinct |
 //! | `stimuli[i].scene` | required | a `scene/1` file, relative to the plan's folder, or a bundled scene's name ([`scene::Bundled`]) when it has no `/` and does not end in `.json` |
@@ -565,6 +565,36 @@ impl Plan {
     /// A `2afc-staircase` plan chooses its levels online: its list holds only the practice
     /// trials, with `level: None`.
     pub fn trials(&self) -> Vec<TrialSpec> {
+        self.trials_seeded(self.spec.seed)
+    }
+
+    /// The trials of [`Plan::trials`] in `participant`'s order: shuffled by the stream of
+    /// [`Plan::order_seed`], so every participant's order is reproducible and two
+    /// participants' differ (with the plan's seed alone, `sim:5` and `sim:6` ran the same
+    /// sequence).
+    pub fn trials_for(&self, participant: &str) -> Vec<TrialSpec> {
+        self.trials_seeded(self.order_seed(participant))
+    }
+
+    /// The seed of `participant`'s trial order: the plan's seed and the participant's ID
+    /// mixed by a fixed hash (FNV-1a over the ID's bytes, then SplitMix64's finaliser over
+    /// the seed's sum with it), the same on every platform and in every version.
+    pub fn order_seed(&self, participant: &str) -> u64 {
+        let mut h: u64 = 0xcbf2_9ce4_8422_2325;
+        for b in participant.bytes() {
+            h = (h ^ u64::from(b)).wrapping_mul(0x0100_0000_01b3);
+        }
+        let mut z = self
+            .spec
+            .seed
+            .wrapping_add(h)
+            .wrapping_add(0x9e37_79b9_7f4a_7c15);
+        z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+        z ^ (z >> 31)
+    }
+
+    fn trials_seeded(&self, seed: u64) -> Vec<TrialSpec> {
         let spec = &self.spec;
         let levels: Vec<Option<f64>> = match spec.design {
             Design::ConstantStimuli => spec.levels.iter().copied().map(Some).collect(),
@@ -579,7 +609,7 @@ impl Plan {
             }
         }
         let two = spec.design.two_interval();
-        let mut rng = Prng::new(spec.seed);
+        let mut rng = Prng::new(seed);
         let mut trials = Vec::new();
         let trial = |block, practice, (stimulus, condition, level), interval| TrialSpec {
             index: 0,

@@ -3,11 +3,12 @@
 //! app's participant screen both run a plan through it, so both write the same files and
 //! a run that was paused or aborted resumes at its next trial.
 //!
-//! The trial order is a function of the plan's seed only: the fixed list of an
-//! `identification` or `constant-stimuli` plan ([`Plan::trials`]), and for a
-//! `2afc-staircase` plan its practice trials followed by the interleaved staircases
-//! ([`Interleaved`], seeded by the plan's seed; each trial's interval order drawn from a
-//! stream seeded by the seed + 1). Resuming replays the rows already in `DIR/trials.csv`
+//! The trial order is a function of the plan's seed and the participant's ID
+//! ([`Plan::order_seed`]): reproducible for a participant, different across participants.
+//! It is the fixed list of an `identification` or `constant-stimuli` plan
+//! ([`Plan::trials_for`]), and for a `2afc-staircase` plan its practice trials followed by the
+//! interleaved staircases ([`Interleaved`], seeded by the order seed; each trial's interval
+//! order drawn from a stream seeded by it + 1). Resuming replays the rows already in `DIR/trials.csv`
 //! through the same rules (each row must be the trial the plan gives at that point, or the
 //! folder holds another run and is refused), so the staircases continue where they were.
 //!
@@ -224,6 +225,7 @@ impl Session {
     /// refused and left as it is.
     pub fn open(plan: Plan, participant: &str, out_dir: &Path) -> Result<Session, RunError> {
         let spec = plan.spec();
+        let seed = plan.order_seed(participant);
         let reference = spec.reference.as_ref().map(|r| r.value);
         let stairs = if spec.design == Design::TwoAfcStaircase {
             let reference = reference.ok_or(RunError::NoReference)?;
@@ -235,9 +237,9 @@ impl Session {
                 sides.push(side);
             }
             Some(Stairs {
-                interleaved: Interleaved::new(list, spec.seed),
+                interleaved: Interleaved::new(list, seed),
                 sides,
-                order: Prng::new(spec.seed.wrapping_add(1)),
+                order: Prng::new(seed.wrapping_add(1)),
                 pending: None,
             })
         } else {
@@ -271,7 +273,7 @@ impl Session {
                 });
             }
         }
-        let list = plan.trials();
+        let list = plan.trials_for(participant);
         let mut session = Session {
             session: 1,
             participant: participant.to_owned(),

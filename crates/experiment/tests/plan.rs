@@ -796,3 +796,38 @@ fn counts_are_bounded_by_what_a_session_holds() {
         "10001 is more than a session's 10000",
     );
 }
+
+/// Every participant has an order of their own: the same ID gives the same order (a resumed
+/// run replays it), another ID another one (`sim:5` and `sim:6` ran the same sequence when the
+/// order followed the plan's seed alone), each the same trials block by block, so each stays
+/// balanced as the plan's.
+#[test]
+fn each_participant_has_an_order_of_their_own() {
+    let plan = thesis_shapes();
+    let (a, b) = (plan.trials_for("sim:5"), plan.trials_for("sim:6"));
+    assert_eq!(a, plan.trials_for("sim:5"));
+    let order = |t: &[TrialSpec]| t.iter().map(cell).collect::<Vec<_>>();
+    assert_ne!(order(&a), order(&b));
+    assert_ne!(order(&a), order(&plan.trials()));
+    // Over 20 participants, no two orders coincide.
+    let mut seen: Vec<Vec<(usize, usize, Option<u64>)>> = (0..20)
+        .map(|i| order(&plan.trials_for(&format!("P{i:02}"))))
+        .collect();
+    seen.sort();
+    seen.dedup();
+    assert_eq!(seen.len(), 20);
+    // The same cells in every block (and as many practice trials), in another order.
+    let cells_of = |t: &[TrialSpec], block: Option<usize>| {
+        let mut c: Vec<_> = t.iter().filter(|x| x.block == block).map(cell).collect();
+        c.sort();
+        c
+    };
+    for block in [Some(0), Some(1)] {
+        assert_eq!(cells_of(&a, block), cells_of(&plan.trials(), block));
+        assert_eq!(cells_of(&b, block), cells_of(&plan.trials(), block));
+    }
+    assert_eq!(
+        cells_of(&a, None).len(),
+        cells_of(&plan.trials(), None).len()
+    );
+}

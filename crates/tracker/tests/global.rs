@@ -715,8 +715,7 @@ fn check_surface(spec: &SurfaceSpec, x: Vec3) -> Result<(), TestCaseError> {
     // Closer than the reference's sampling found (it can miss a minimum on a long piece: seen
     // at 2,000 cases, 0.068668 against 0.068732): then the point must be real, its distance
     // evaluated apart in f64 at the parameters found. No point is closer than the closest.
-    let real = (testkit::RefSurface::new(&s)
-        .point(f64::from(got.t[0]), f64::from(got.t[1]))
+    let real = (testkit::RefSurface::new(&s).point(f64::from(got.t[0]), f64::from(got.t[1]))
         - testkit::wide(x))
     .length();
     prop_assert!(
