@@ -59,6 +59,7 @@ pub(crate) fn window_test(viewer: &Path) -> Result<(), String> {
         viewer,
         &["gui", "--demo", "--quit-after-frames", WINDOW_FRAMES],
         Stdio::inherit(),
+        Stdio::inherit(),
     )?;
     loop {
         match child.try_wait() {
@@ -90,7 +91,12 @@ pub(crate) fn window_test(viewer: &Path) -> Result<(), String> {
 
 /// Starts `viewer ARGS` under Xvfb (`xvfb-run -a` picks a free display), its standard error
 /// to `stderr`. The viewer is xvfb-run's child, and xvfb-run exits with its status.
-fn spawn_under_xvfb(viewer: &Path, args: &[&str], stderr: Stdio) -> Result<Child, String> {
+fn spawn_under_xvfb(
+    viewer: &Path,
+    args: &[&str],
+    stderr: Stdio,
+    stdout: Stdio,
+) -> Result<Child, String> {
     let viewer = viewer.to_string_lossy();
     let mut all = vec!["-a", "-s", "-screen 0 1600x1000x24", &viewer];
     all.extend(args);
@@ -108,6 +114,7 @@ fn spawn_under_xvfb(viewer: &Path, args: &[&str], stderr: Stdio) -> Result<Child
         .envs(crate::CI_ENV.iter().copied())
         .env("XDG_RUNTIME_DIR", &runtime)
         .stderr(stderr)
+        .stdout(stdout)
         .spawn()
         .map_err(|e| format!("cannot start xvfb-run: {e}"))
 }
@@ -144,6 +151,7 @@ pub(crate) fn record_interrupt_test(viewer: &Path) -> Result<(), String> {
         viewer,
         &["gui", "--demo", "--record", &record_arg],
         Stdio::piped(),
+        Stdio::inherit(),
     )?;
     // The viewer's standard error, echoed and kept.
     let stderr = child.stderr.take();
@@ -186,32 +194,49 @@ fn interrupt_recording(
     record: &Path,
     viewer_pid: &mut Option<u32>,
 ) -> Result<std::process::ExitStatus, String> {
-    let started = Instant::now();
     let rows = || {
         std::fs::read(record).map_or(0, |t| {
             t.iter().filter(|&&b| b == b'\n').count().saturating_sub(1)
         })
     };
-    while viewer_pid.is_none() || rows() < RECORD_ROWS_BEFORE_SIGNAL {
+    interrupt_when(child, viewer_pid, || {
+        let n = rows();
+        (n >= RECORD_ROWS_BEFORE_SIGNAL)
+            .then_some(format!("{n} rows recorded"))
+            .ok_or_else(|| {
+                format!(
+                    "{}: {n} rows, {RECORD_ROWS_BEFORE_SIGNAL} wanted",
+                    record.display()
+                )
+            })
+    })
+}
+
+/// Waits until `ready` says the viewer is where the test wants it (`Ok(what)`, else
+/// `Err(where it is)`), sends it SIGINT and waits for xvfb-run to exit.
+fn interrupt_when(
+    child: &mut Child,
+    viewer_pid: &mut Option<u32>,
+    ready: impl Fn() -> Result<String, String>,
+) -> Result<std::process::ExitStatus, String> {
+    let started = Instant::now();
+    let what = loop {
         if let Some(status) = child.try_wait().map_err(|e| format!("xvfb-run: {e}"))? {
             return Err(format!("the viewer exited with {status} before the signal"));
-        }
-        if started.elapsed() > WINDOW_TIMEOUT {
-            return Err(format!(
-                "{}: {} rows after {} s, {RECORD_ROWS_BEFORE_SIGNAL} wanted",
-                record.display(),
-                rows(),
-                WINDOW_TIMEOUT.as_secs()
-            ));
         }
         if viewer_pid.is_none() {
             *viewer_pid = child_named(child.id(), "viewer");
         }
-        std::thread::sleep(Duration::from_millis(50));
-    }
+        match (ready(), viewer_pid.is_some()) {
+            (Ok(what), true) => break what,
+            (Err(at), _) if started.elapsed() > WINDOW_TIMEOUT => {
+                return Err(format!("{at} after {} s", WINDOW_TIMEOUT.as_secs()));
+            }
+            _ => std::thread::sleep(Duration::from_millis(50)),
+        }
+    };
     let pid = viewer_pid.unwrap_or_default().to_string();
-    let before = rows();
-    println!("xtask: {before} rows recorded; kill -INT {pid} (the viewer)");
+    println!("xtask: {what}; kill -INT {pid} (the viewer)");
     let sent = Command::new("kill")
         .args(["-INT", &pid])
         .status()
@@ -258,5 +283,101 @@ fn check_interrupted_recording(
         ));
     }
     println!("xtask: SIGINT closed the viewer's window: exit 130, {rows} complete rows recorded");
+    Ok(())
+}
+
+/// Ctrl-C pauses a participant's run as Quit does: `viewer experiment run thesis-shapes.json
+/// --participant P01 --out DIR` under Xvfb, sent SIGINT once the session is open (`DIR/plan.json`
+/// written) and its window has had a second, must say so on standard error, print its summary
+/// (`0 trials answered; run the same command again to resume`, which a viewer killed by the
+/// signal never does) and exit with 130; `DIR` keeps the plan and no answered row.
+pub(crate) fn participant_interrupt_test(viewer: &Path, root: &Path) -> Result<(), String> {
+    let dir = std::env::temp_dir().join(format!("xtask-gui-participant-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    let plan = root.join("experiments").join("thesis-shapes.json");
+    let (plan_arg, dir_arg) = (
+        plan.to_string_lossy().into_owned(),
+        dir.to_string_lossy().into_owned(),
+    );
+    let mut child = spawn_under_xvfb(
+        viewer,
+        &[
+            "experiment",
+            "run",
+            &plan_arg,
+            "--participant",
+            "P01",
+            "--out",
+            &dir_arg,
+        ],
+        Stdio::piped(),
+        Stdio::piped(),
+    )?;
+    let keep = |stream: Option<Box<dyn std::io::Read + Send>>| {
+        std::thread::spawn(move || {
+            use std::io::BufRead;
+            let mut said = String::new();
+            for line in stream
+                .map(std::io::BufReader::new)
+                .into_iter()
+                .flat_map(|r| r.lines().map_while(Result::ok))
+            {
+                eprintln!("{line}");
+                said.push_str(&line);
+                said.push('\n');
+            }
+            said
+        })
+    };
+    let err = keep(child.stderr.take().map(|s| Box::new(s) as _));
+    let out = keep(child.stdout.take().map(|s| Box::new(s) as _));
+    let opened = dir.join("plan.json");
+    let since = std::cell::Cell::new(None::<Instant>);
+    let mut viewer_pid = None;
+    let interrupted = interrupt_when(&mut child, &mut viewer_pid, || {
+        match (opened.is_file(), since.get()) {
+            (false, _) => Err(format!("{} not written", opened.display())),
+            (true, None) => {
+                since.set(Some(Instant::now()));
+                Err("the session just opened".into())
+            }
+            (true, Some(t)) if t.elapsed() < Duration::from_secs(1) => {
+                Err("the session opened under a second ago".into())
+            }
+            (true, Some(_)) => Ok("the participant's session is open".into()),
+        }
+    });
+    if child.try_wait().ok().flatten().is_none() {
+        if let Some(pid) = viewer_pid {
+            let _ = Command::new("kill")
+                .args(["-KILL", &pid.to_string()])
+                .status();
+        }
+        let _ = child.kill();
+        let _ = child.wait();
+    }
+    let (said, printed) = (
+        err.join().unwrap_or_default(),
+        out.join().unwrap_or_default(),
+    );
+    let rows = std::fs::read_to_string(dir.join("trials.csv"))
+        .map_or(0, |t| t.lines().count().saturating_sub(1));
+    let _ = std::fs::remove_dir_all(&dir);
+    let status = interrupted?;
+    if !said.contains("experiment run: SIGINT")
+        || !printed.contains("0 trials answered; run the same command again to resume")
+    {
+        return Err(format!(
+            "the participant's run did not pause on SIGINT (exit {status}); it said:\n{said}{printed}"
+        ));
+    }
+    if status.code() != Some(130) || rows != 0 {
+        return Err(format!(
+            "after SIGINT the participant's run exited with {status} and {rows} answered rows, not 130 and none"
+        ));
+    }
+    println!(
+        "xtask: SIGINT paused the participant's run and closed its window: exit 130, nothing answered"
+    );
     Ok(())
 }

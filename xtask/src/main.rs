@@ -233,11 +233,11 @@ pub(crate) fn ensure_packages(packages: &[(&str, &str)], what: &str) -> Result<(
 /// The viewer's real window under Xvfb, run by the binary `cargo test --workspace` built:
 /// it closes itself after its frames, and Ctrl-C ends a `--record`ing with complete rows.
 fn window_tests() -> Result<(), String> {
-    let viewer = host_target_dir(&qemu::workspace_root()?)
-        .join("debug")
-        .join("viewer");
+    let root = qemu::workspace_root()?;
+    let viewer = host_target_dir(&root).join("debug").join("viewer");
     gui::window_test(&viewer)?;
-    gui::record_interrupt_test(&viewer)
+    gui::record_interrupt_test(&viewer)?;
+    gui::participant_interrupt_test(&viewer, &root)
 }
 
 /// The environment of CI's cargo runs: no incremental caches. A one-off build gains nothing

@@ -19,8 +19,9 @@ Exit status:
   1  a bad input line (eval), or the output could not be written
   2  bad command line, unreadable or invalid scene or trajectory, bad --object/--patch
      index
-  130, 143  sim, gui and device monitor: stopped by Ctrl-C (SIGINT) or SIGTERM, their
-     output written up to there in whole rows (a second signal ends them at once)
+  130, 143  sim, gui, device monitor and experiment run --participant: stopped by Ctrl-C
+     (SIGINT) or SIGTERM, their output written up to there in whole rows (a participant's
+     run paused as Quit does, resumable); a second signal ends them at once
 
 Without a subcommand the desktop app starts (`viewer gui` on the bundled thesis-2d scene).";
 

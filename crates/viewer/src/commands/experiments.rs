@@ -7,6 +7,8 @@ use viewer::cli::{EXIT_BAD_INPUT, EXIT_BAD_SETUP};
 use viewer::output::AtomicFile;
 
 use crate::fail;
+#[cfg(feature = "gui")]
+use crate::{interrupt_or_default, interrupted_or_success};
 
 pub(crate) fn experiment_command(command: &viewer::cli::ExperimentSubcommand) -> ExitCode {
     use experiment::error::RunError;
@@ -141,7 +143,10 @@ pub(crate) fn participant_command(args: &viewer::cli::ExperimentRunArgs) -> Exit
             session.number()
         );
     }
-    match run_window(run, args.device.0.clone()) {
+    // Ctrl-C or SIGTERM pauses the run and closes the window, as Quit does; the answers so
+    // far are in trials.csv and the same command resumes.
+    let interrupt = interrupt_or_default("experiment run");
+    match run_window(run, args.device.0.clone(), Some(interrupt.clone())) {
         Ok(outcome) => {
             println!(
                 "experiment run: {} trials answered{}",
@@ -152,7 +157,7 @@ pub(crate) fn participant_command(args: &viewer::cli::ExperimentRunArgs) -> Exit
                     "; run the same command again to resume"
                 }
             );
-            ExitCode::SUCCESS
+            interrupted_or_success(&interrupt)
         }
         Err(e) => fail(&e, EXIT_BAD_INPUT),
     }

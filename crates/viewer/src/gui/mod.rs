@@ -367,7 +367,11 @@ impl eframe::App for ViewerApp {
 
 /// A thread that asks `ctx` for a frame as soon as `interrupt` rises: the frame sees the flag
 /// and closes the window, even when the app had no reason to draw one.
-fn wake_on_interrupt(interrupt: Interrupt, ctx: egui::Context) -> std::io::Result<()> {
+pub(crate) fn wake_on_interrupt(
+    interrupt: Interrupt,
+    ctx: egui::Context,
+    who: &'static str,
+) -> std::io::Result<()> {
     std::thread::Builder::new()
         .name("interrupt".into())
         .spawn(move || {
@@ -375,7 +379,7 @@ fn wake_on_interrupt(interrupt: Interrupt, ctx: egui::Context) -> std::io::Resul
                 std::thread::sleep(Duration::from_millis(50));
             }
             if let Some(signal) = interrupt.signal_name() {
-                eprintln!("viewer gui: {signal}: closing the window (again to quit at once)");
+                eprintln!("{who}: {signal}: closing the window (again to quit at once)");
             }
             ctx.request_repaint();
         })
@@ -447,7 +451,7 @@ pub fn run(options: GuiOptions) -> anyhow::Result<Summary> {
         native,
         Box::new(move |cc| {
             if let Some(interrupt) = app.options.interrupt.clone() {
-                wake_on_interrupt(interrupt, cc.egui_ctx.clone())?;
+                wake_on_interrupt(interrupt, cc.egui_ctx.clone(), "viewer gui")?;
             }
             cc.egui_ctx.set_theme(egui::Theme::Light);
             if let Some(render_state) = cc.wgpu_render_state.as_ref() {

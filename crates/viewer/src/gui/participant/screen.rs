@@ -433,12 +433,14 @@ pub fn participant_state(
 pub fn run_window(
     run: ParticipantRun,
     device: Option<host::devices::Target>,
+    interrupt: Option<crate::interrupt::Interrupt>,
 ) -> anyhow::Result<Outcome> {
     let state = participant_state(run.session().plan(), device)?;
     let outcome = std::sync::Arc::new(std::sync::Mutex::new(Outcome::default()));
     let app = ParticipantApp {
         ui: ParticipantUi::new(state, run),
         outcome: outcome.clone(),
+        interrupt: interrupt.clone(),
     };
     let native = eframe::NativeOptions {
         viewport: egui::ViewportBuilder::default()
@@ -451,6 +453,9 @@ pub fn run_window(
         native,
         Box::new(move |cc| {
             cc.egui_ctx.set_theme(egui::Theme::Light);
+            if let Some(interrupt) = interrupt {
+                crate::gui::wake_on_interrupt(interrupt, cc.egui_ctx.clone(), "experiment run")?;
+            }
             Ok(Box::new(app))
         }),
     )
@@ -462,12 +467,19 @@ pub fn run_window(
 struct ParticipantApp {
     ui: ParticipantUi,
     outcome: std::sync::Arc<std::sync::Mutex<Outcome>>,
+    /// Ctrl-C or SIGTERM: the run pauses (the trial in progress is not answered) and the
+    /// window closes, as Quit does.
+    interrupt: Option<crate::interrupt::Interrupt>,
 }
 
 impl eframe::App for ParticipantApp {
     fn ui(&mut self, ui: &mut egui::Ui, _frame: &mut eframe::Frame) {
         self.ui.state.poll();
-        if self.ui.ui(ui) {
+        let interrupted = self
+            .interrupt
+            .as_ref()
+            .is_some_and(crate::interrupt::Interrupt::requested);
+        if self.ui.ui(ui) || interrupted {
             let now = self.ui.now_s();
             self.ui.run.pause(&mut self.ui.state, now);
             ui.ctx().send_viewport_cmd(egui::ViewportCommand::Close);
