@@ -59,22 +59,33 @@ impl FilePanel {
         let obj = path
             .extension()
             .is_some_and(|e| e.eq_ignore_ascii_case("obj"));
-        if (ui.button("Open").clicked() || enter) && !self.path.trim().is_empty() {
-            action = Some(if obj {
-                FileAction::OpenObj(path.clone())
-            } else {
-                FileAction::OpenScene(path.clone())
-            });
-        }
-        if ui
+        let empty = self.path.trim().is_empty();
+        let open = ui.button("Open").clicked() || (enter && !empty);
+        let open_obj = ui
             .button("Open OBJ…")
-            .on_hover_text("open the path as a Wavefront OBJ mesh (the polygonal baseline)")
-            .clicked()
-            && !self.path.trim().is_empty()
-        {
-            action = Some(FileAction::OpenObj(path.clone()));
-        }
-        if ui.button("Save").clicked() && !self.path.trim().is_empty() {
+            .on_hover_text(
+                "open the path typed in the file field as a Wavefront OBJ mesh (the polygonal \
+                 baseline)",
+            )
+            .clicked();
+        let save = ui.button("Save").clicked();
+        if (open || open_obj || save) && empty {
+            // The app has no file dialog (it would need a desktop portal or zenity): the path
+            // is typed, and a click with none says so rather than doing nothing.
+            self.error = Some(format!(
+                "type the path of the {} into the file field first (this app has no file \
+                 dialog)",
+                if open_obj { "OBJ mesh" } else { "scene file" }
+            ));
+        } else if open {
+            action = Some(if obj {
+                FileAction::OpenObj(path)
+            } else {
+                FileAction::OpenScene(path)
+            });
+        } else if open_obj {
+            action = Some(FileAction::OpenObj(path));
+        } else if save {
             action = Some(FileAction::Save(path));
         }
         action
@@ -151,5 +162,37 @@ mod tests {
         );
         // No path, nothing to open or save.
         assert_eq!(file_action("  ", "Save"), None);
+    }
+
+    /// With nothing typed, a click on Open OBJ… (or Open, or Save) says where the path goes
+    /// instead of doing nothing: there is no file dialog to fall back on.
+    #[test]
+    fn a_click_with_no_path_says_where_to_type_it() {
+        for (button, what) in [
+            ("Open OBJ…", "OBJ mesh"),
+            ("Open", "scene file"),
+            ("Save", "scene file"),
+        ] {
+            let mut panel = FilePanel::default();
+            let mut asked = None;
+            {
+                let mut h = Harness::new_ui(|ui| {
+                    ui.horizontal_wrapped(|ui| {
+                        if let Some(a) = panel.ui(ui, "thesis-2d") {
+                            asked = Some(a);
+                        }
+                    });
+                });
+                h.get_by_label(button).click();
+                h.run();
+            }
+            assert_eq!(asked, None, "{button}");
+            let error = panel.error.unwrap_or_default();
+            assert!(
+                error.contains(&format!("type the path of the {what}")),
+                "{button}: {error}"
+            );
+            assert!(error.contains("no file dialog"), "{error}");
+        }
     }
 }
