@@ -31,9 +31,11 @@
 //! correct against the folded level is one 2AFC psychometric function with guess rate ½:
 //! a comparison at `r/1.2` is as far from `r` as one at `1.2 r`. Trials are pooled per
 //! distinct folded level into [`Point`]s and fitted by maximum likelihood ([`crate::fit`],
-//! lapse rate in `[0, 0.1]` as psignifit's default) per stimulus × condition cell that has
+//! lapse rate in `[0, 0.1]`, this stack's bound, not psignifit 4's `[0, 0.5]`; point estimates
+//! are maximum likelihood, not psignifit's MAP: [`crate::fit`]) per stimulus × condition cell that has
 //! trials; the Weber fraction at 75 % correct is `threshold_75 / r − 1`, its 95 % interval
-//! the central 95 % of its Bayesian posterior under psignifit 4's default priors
+//! the central 95 % of its Bayesian posterior under psignifit 4's default priors of threshold
+//! and width (the lapse rate's Beta(1, 10) on `[0, 0.1]`, no overdispersion term)
 //! ([`fit::credible`]: a parametric bootstrap's intervals from a staircase run covered the
 //! true Weber fraction in only 79–84 % of simulated runs, the posterior's in 93 %). A
 //! staircase's reversals are read from its track: a trial is a reversal when the level's
@@ -130,7 +132,8 @@ pub const TRIALS_COLUMNS: [&str; 17] = [
 /// observed one times `1 + 10⁻⁷` count as "at most as likely" (R's `fisher.test`).
 pub const FISHER_RELATIVE_TOLERANCE: f64 = 1e-7;
 
-/// The lapse rate's upper bound (psignifit's default).
+/// The lapse rate's upper bound: this stack's choice (psignifit 4 allows 0.5; see
+/// [`crate::fit`]).
 pub const LAPSE_MAX: f64 = 0.1;
 
 /// Options of [`analyze`].

@@ -68,8 +68,8 @@ struct Grid {
 
 /// Bayesian credible intervals of the 75 % threshold and the Weber fraction, psignifit 4's
 /// method (Schütt, Harmeling, Macke & Wichmann 2016): the binomial likelihood of `data` times
-/// its default priors (threshold and width above, the lapse rate Beta(1, 10) on
-/// `[0, λ_max]`), integrated on a grid over threshold, width and lapse rate (the width's
+/// its default priors of threshold and width (above) and its lapse prior Beta(1, 10), here on
+/// `[0, λ_max]` (psignifit's own bound is 0.5) and without psignifit's overdispersion term, integrated on a grid over threshold, width and lapse rate (the width's
 /// axis logarithmic), first over the priors' whole support and then over the box that holds
 /// the posterior's mass; the interval is the central `coverage` of the marginal posterior of
 /// `threshold_75` (the level where `ψ = 0.75`, computed in every cell).
