@@ -886,8 +886,40 @@ fn check_design(spec: &PlanSpec) -> Result<(), PlanError> {
     }
     for (i, s) in spec.staircases.iter().enumerate() {
         check_staircase(i, s, &spec.staircases[..i])?;
+        if let Some(r) = spec.reference.as_ref().map(|r| r.value) {
+            check_side(i, s, r)?;
+        }
     }
     Ok(())
+}
+
+/// A staircase stays on one side of the reference: a comparison equal to it has no right
+/// answer (the participant guesses, and the trial tells nothing), and one that crosses it
+/// turns a right answer into a wrong one. Its bounds must not reach the reference (the
+/// shipped JND plan's did: about 15 trials of each run were at the reference itself); the
+/// message gives the bound one step away.
+fn check_side(i: usize, s: &StaircaseSpec, reference: f64) -> Result<(), PlanError> {
+    let [lo, hi] = s.bounds;
+    if !(lo <= reference && reference <= hi) {
+        return Ok(());
+    }
+    let size = s.step.reduced_size.unwrap_or(s.step.size);
+    let (near_above, near_below) = match s.step.kind {
+        StepKind::Multiplicative => (reference * size, reference / size),
+        StepKind::Additive => (reference + size, reference - size),
+    };
+    let suggestion = if s.start > reference {
+        format!("[{near_above}, {hi}]")
+    } else {
+        format!("[{lo}, {near_below}]")
+    };
+    Err(invalid(
+        format!("staircases[{i}].bounds"),
+        format!(
+            "[{lo}, {hi}] reaches the reference {reference}: a comparison equal to it has no \
+             right answer; bound the staircase on one side, e.g. {suggestion}"
+        ),
+    ))
 }
 
 /// Most trials a session takes: a plan asking for more is refused at load, and a session that

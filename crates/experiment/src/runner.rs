@@ -97,7 +97,9 @@ pub struct StaircaseSummary {
 /// What a run did.
 #[derive(Clone, Debug, PartialEq)]
 pub struct RunSummary {
-    /// Trials run (practice included).
+    /// Trials the folder held already (a resumed run), answered in earlier sessions.
+    pub resumed: usize,
+    /// Trials run in this session (practice included).
     pub trials: usize,
     /// Practice trials among them.
     pub practice: usize,
@@ -113,11 +115,22 @@ impl std::fmt::Display for RunSummary {
     /// One line: the trials, the proportion correct and each staircase's threshold.
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         let n = self.trials - self.practice;
-        write!(
-            f,
-            "{} trials ({} practice), {} of {n} correct",
-            self.trials, self.practice, self.correct
-        )?;
+        if self.trials == 0 && self.resumed > 0 {
+            write!(
+                f,
+                "the run was complete already ({} trials answered): nothing to run",
+                self.resumed
+            )?;
+        } else {
+            if self.resumed > 0 {
+                write!(f, "resumed after {} trials: ", self.resumed)?;
+            }
+            write!(
+                f,
+                "{} trials ({} practice), {} of {n} correct",
+                self.trials, self.practice, self.correct
+            )?;
+        }
         for s in &self.staircases {
             match s.threshold {
                 Some(t) => write!(
@@ -516,6 +529,7 @@ pub fn run(
         })
         .unwrap_or_default();
     Ok(RunSummary {
+        resumed: session.resumed(),
         trials,
         practice,
         correct,

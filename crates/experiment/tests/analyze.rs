@@ -97,9 +97,9 @@ fn staircase_plan() -> Value {
         "reference": { "field": "stiffness_n_per_m", "value": 500.0 },
         "staircases": [
             { "name": "from above", "start": 800.0, "step": { "size": 100.0 },
-              "stop": { "trials": 20 }, "bounds": [500.0, 1000.0] },
+              "stop": { "trials": 20 }, "bounds": [525.0, 1000.0] },
             { "name": "from below", "start": 300.0, "step": { "size": 1.25, "kind": "multiplicative" },
-              "stop": { "trials": 20 }, "bounds": [200.0, 500.0] }
+              "stop": { "trials": 20 }, "bounds": [200.0, 476.19] }
         ]
     })
 }

@@ -49,7 +49,7 @@ fn staircase_base() -> Value {
         "staircases": [ {
             "name": "above", "start": 800.0,
             "step": { "size": 1.2, "kind": "multiplicative" },
-            "stop": { "reversals": 8 }, "bounds": [500.0, 1500.0]
+            "stop": { "reversals": 8 }, "bounds": [600.0, 1500.0]
         } ]
     })
 }
@@ -475,11 +475,12 @@ fn staircase_bounds_and_start() {
     );
     refused(&v, "staircases[0].bounds[0]", "0 is not positive");
     let v = with(staircase_base(), "/staircases/0/start", json!(2000.0));
-    refused(&v, "staircases[0].start", "not within bounds [500, 1500]");
+    refused(&v, "staircases[0].start", "not within bounds [600, 1500]");
     // An additive staircase may reach 0 N/m (a valid material) but not below.
     let mut v = staircase_base();
     v["staircases"][0]["step"] = json!({ "size": 50.0 });
-    v["staircases"][0]["bounds"] = json!([-100.0, 1500.0]);
+    v["staircases"][0]["start"] = json!(300.0);
+    v["staircases"][0]["bounds"] = json!([-100.0, 450.0]);
     refused(&v, "staircases[0].bounds[0]", "stiffness_n_per_m");
 }
 
@@ -830,4 +831,50 @@ fn each_participant_has_an_order_of_their_own() {
         cells_of(&a, None).len(),
         cells_of(&plan.trials(), None).len()
     );
+}
+
+/// A staircase whose bounds reach the reference is refused, naming its bounds and the bound
+/// one step away (the shipped JND plan's did: about 15 trials of a run were at the reference,
+/// where a 2AFC answer is a coin flip); the shipped plans keep off it.
+#[test]
+fn a_staircase_stays_off_the_reference() {
+    refused(
+        &with(
+            staircase_base(),
+            "/staircases/0/bounds",
+            json!([500.0, 1500.0]),
+        ),
+        "staircases[0].bounds",
+        "[500, 1500] reaches the reference 500",
+    );
+    refused(
+        &with(
+            staircase_base(),
+            "/staircases/0/bounds",
+            json!([400.0, 1500.0]),
+        ),
+        "staircases[0].bounds",
+        "e.g. [600, 1500]",
+    );
+    // From below (start 300): the suggestion ends a step under the reference, 500 / 1.2.
+    let below = with(
+        with(staircase_base(), "/staircases/0/start", json!(300.0)),
+        "/staircases/0/bounds",
+        json!([100.0, 500.0]),
+    );
+    refused(
+        &below,
+        "staircases[0].bounds",
+        "e.g. [100, 416.6666666666667]",
+    );
+    let plan = Plan::load(experiments().join("stiffness-jnd.json")).expect("the shipped plan");
+    let r = plan
+        .spec()
+        .reference
+        .as_ref()
+        .map(|r| r.value)
+        .expect("a reference");
+    for s in &plan.spec().staircases {
+        assert!(!(s.bounds[0] <= r && r <= s.bounds[1]), "{}", s.name);
+    }
 }

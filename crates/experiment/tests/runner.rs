@@ -164,6 +164,14 @@ fn the_thesis_shapes_run_identifies_above_chance_and_resumes() {
 
     let again = run(&plan, &participant, &out).unwrap();
     assert_eq!(again.trials, 0, "{again}");
+    // It says the run was complete (it said "0 trials (0 practice), 0 of 0 correct").
+    assert_eq!(again.resumed, 45, "{again}");
+    assert!(
+        again
+            .to_string()
+            .starts_with("the run was complete already (45 trials answered)"),
+        "{again}"
+    );
     assert_eq!(
         std::fs::read_to_string(out.join("trials.csv")).unwrap(),
         trials
