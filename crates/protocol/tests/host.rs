@@ -494,7 +494,7 @@ fn telemetry_is_numbered_contiguously_while_requests_are_acked() {
     // (first number seen, frames seen) of each kind.
     let (mut telemetry, mut replies) = ((0u16, 0u16), (0u16, 0u16));
     let (mut answers, mut sent) = (0u32, 0u32);
-    let mut next = |(first, count): &mut (u16, u16), seq: u16| {
+    let next = |(first, count): &mut (u16, u16), seq: u16| {
         if *count == 0 {
             *first = seq;
         }
