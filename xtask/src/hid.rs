@@ -32,9 +32,10 @@
 //! Over USB/IP nothing paces the interrupt endpoints to one report a millisecond (the
 //! guest's `vhci-hcd` completes an IN request as soon as the device answers it), so the
 //! rate is what the guest reads. Under TCG that is less than 1 kHz: the guest's kernel
-//! alone, a plain `cat` of the node with nothing written (no replies at all), took about
-//! 440 reports a second on a loaded 2-core machine, and the session about 630 a second
-//! while acked. The simulated device produces 1 kHz of its clock (paced to the guest's,
+//! alone, a plain `cat` of the node with nothing written (no replies at all), took 435 to
+//! 983 reports a second in three runs on a 2-core machine shared with other builds, and the
+//! session 396 to 997 a second while acked (60 % to 0.44 % lost, every lost frame dropped
+//! by the device's queue, none of its replies dropped). The simulated device produces 1 kHz of its clock (paced to the guest's,
 //! skipping time only when it falls 100 ms behind) and its four-frame telemetry queue drops
 //! what the reader does not take, as a board's does: frames lost before the endpoint, which
 //! the session measures (`lost`, with the rate: frames received per second of the guest's
