@@ -16,8 +16,9 @@ use device::controller::{
 use device::safety::SafetyConfig;
 use device::spec::DeviceSpec;
 use device::telemetry::TelemetryDecimator;
+use protocol::device_side::Numbering;
 use protocol::device_side::session::DeviceCommand;
-use protocol::{ErrorCode, Frame, MAX_FRAME, Message, SceneFault, SceneStore, WireSceneError};
+use protocol::{ErrorCode, MAX_FRAME, Message, SceneFault, SceneStore, WireSceneError};
 use tracker::{Chain, ChainError, ChainTracker};
 
 use crate::board::Board;
@@ -84,7 +85,8 @@ pub struct App<'a, const K: usize, const C: usize> {
     controller: Controller<Slot<'a, K, C>>,
     /// The slot while the controller has no scene in it.
     spare: Option<Slot<'a, K, C>>,
-    seq: u16,
+    /// The link's sequence numbers, telemetry and replies apart.
+    numbering: Numbering,
     /// The tick's output, written in place by every tick (`Controller::tick_into`).
     out: TickOutput,
     /// The ticks' telemetry folded into one frame per millisecond.
@@ -92,12 +94,12 @@ pub struct App<'a, const K: usize, const C: usize> {
 }
 
 /// The app before its first scene: the controller without a scene, its chain slot and the
-/// link's sequence counter.
+/// link's sequence numbers.
 #[derive(Debug)]
 pub struct Parked<'a, const K: usize, const C: usize> {
     controller: Controller<Slot<'a, K, C>>,
     slot: Slot<'a, K, C>,
-    seq: u16,
+    numbering: Numbering,
     decimator: TelemetryDecimator,
 }
 
@@ -124,7 +126,7 @@ impl<'a, const K: usize, const C: usize> Parked<'a, K, C> {
         Ok(Parked {
             controller,
             slot,
-            seq: 0,
+            numbering: Numbering::default(),
             decimator: TelemetryDecimator::for_period_s(safety.period_s),
         })
     }
@@ -148,7 +150,7 @@ impl<'a, const K: usize, const C: usize> Parked<'a, K, C> {
         App {
             controller: self.controller,
             spare: Some(self.slot),
-            seq: self.seq,
+            numbering: self.numbering,
             out: TickOutput::IDLE,
             decimator: self.decimator,
         }
@@ -266,13 +268,10 @@ impl<'a, const K: usize, const C: usize> App<'a, K, C> {
         self.controller.object_lent()
     }
 
-    /// Sends `message` to the host as the app's next frame.
+    /// Sends `message` to the host as the app's next frame of its kind (telemetry and
+    /// replies are numbered apart, [`Numbering`]).
     pub fn send<B: Board>(&mut self, board: &mut B, message: &Message) {
-        let frame = Frame {
-            seq: self.seq,
-            message: *message,
-        };
-        self.seq = self.seq.wrapping_add(1);
+        let frame = self.numbering.frame(message);
         let mut bytes = [0u8; MAX_FRAME];
         let n = frame.encode(&mut bytes);
         board.link_send(bytes.get(..n).unwrap_or(&bytes));

@@ -1,6 +1,7 @@
 //! The board's USB side, run in its USB interrupt: host reports in to the protocol task,
-//! the protocol task's replies and the tick's telemetry out. The HID device, its endpoints
-//! and the order and numbering of what goes out are `protocol::device_side::usb::HidPort` and its `Outbox`
+//! the protocol task's replies and the tick's telemetry out, each on its own IN endpoint. The
+//! HID device, its endpoints and the numbering of what goes out are
+//! `protocol::device_side::usb::HidPort` and its `Outbox`
 //! (the same code the host runs over USB/IP in `cargo xtask hid`); this is what the board
 //! puts behind it, its queues ([`ReportPump`]).
 

@@ -19,6 +19,28 @@
 //! loopback, where the USB/IP device listens.
 //!
 //! The guest prints its results on its console (`hid: ...` lines), which this reads.
+//!
+//! # Rates
+//!
+//! The board's device has two HID interfaces (`protocol::device_side::usb`): telemetry on
+//! interface 0's IN endpoint, replies on interface 1's, so acks cost the telemetry nothing.
+//! The session asserts that over 10 s in contact, heartbeats acked every 50 ms, no
+//! telemetry frame the device's endpoint took is missing from the session's frames (their
+//! sequence numbers, given as the endpoint takes a frame) and none is out of order; under
+//! KVM, that none is lost at all (device time against frames received).
+//!
+//! Over USB/IP nothing paces the interrupt endpoints to one report a millisecond (the
+//! guest's `vhci-hcd` completes an IN request as soon as the device answers it), so the
+//! rate is what the guest reads. Under TCG that is less than 1 kHz: the guest's kernel
+//! alone, a plain `cat` of the node with nothing written (no replies at all), took 435 to
+//! 983 reports a second in three runs on a 2-core machine shared with other builds, and the
+//! session 396 to 997 a second while acked (60 % to 0.44 % lost, every lost frame dropped
+//! by the device's queue, none of its replies dropped). The simulated device produces 1 kHz of its clock (paced to the guest's,
+//! skipping time only when it falls 100 ms behind) and its four-frame telemetry queue drops
+//! what the reader does not take, as a board's does: frames lost before the endpoint, which
+//! the session measures (`lost`, with the rate: frames received per second of the guest's
+//! clock) and the device counts (`hid-guest: device: … dropped` on the console), and which
+//! are not asserted under TCG.
 
 use std::io::{BufRead, BufReader, Write};
 use std::path::{Path, PathBuf};
@@ -645,6 +667,10 @@ fn boot(
     accel: &str,
     boot_timeout: Option<Duration>,
 ) -> Result<(String, Vec<String>, Duration), String> {
+    // The session reads the accelerator from the kernel's command line (`hid.accel=`): it
+    // requires every telemetry frame under KVM, and measures what TCG lets through.
+    let append =
+        format!("console=ttyS0 loglevel=6 panic=-1 clocksource=tsc tsc=reliable hid.accel={accel}");
     let args: Vec<String> = [
         "-accel",
         accel,
@@ -659,7 +685,7 @@ fn boot(
         "-virtfs",
         "local,path=/,mount_tag=host,security_model=none,readonly=on,multidevs=remap",
         "-append",
-        "console=ttyS0 loglevel=6 panic=-1 clocksource=tsc tsc=reliable",
+        &append,
     ]
     .iter()
     .map(|s| s.to_string())
@@ -766,9 +792,10 @@ pub fn guest_device() -> Result<(), String> {
         if since.elapsed() > Duration::from_secs(2) {
             let n = reports.sent_count();
             eprintln!(
-                "hid-guest: device: {} reports/s, {} telemetry frames dropped in all",
+                "hid-guest: device: {} reports/s, {} telemetry frames and {} replies dropped in all",
                 (n - sent0) / 2,
-                reports.dropped_count()
+                reports.dropped_count(),
+                reports.dropped_replies()
             );
             sent0 = n;
             since = Instant::now();
@@ -811,7 +838,23 @@ fn session(root: &Path) -> Result<Vec<String>, String> {
         "found {} {:04x}:{:04x} product={:?} serial={:?}",
         info.path, info.vendor_id, info.product_id, info.product, info.serial_number
     ));
-    let link = HidLink::open(&info.path).map_err(|e| format!("open {}: {e}", info.path))?;
+    // The board's second interface (the replies') may get its node a moment after the first.
+    let link = loop {
+        let link = HidLink::open(&info.path).map_err(|e| format!("open {}: {e}", info.path))?;
+        if link.replies_path().is_some() || start.elapsed() > Duration::from_secs(25) {
+            break link;
+        }
+        drop(link);
+        std::thread::sleep(Duration::from_millis(200));
+    };
+    let replies = link
+        .replies_path()
+        .ok_or_else(|| format!("no replies interface beside {}", info.path))?
+        .to_owned();
+    lines.push(format!(
+        "replies on {replies}, the board's interface {}",
+        protocol::HID_REPLY_INTERFACE
+    ));
     let mut host = Host::new(link);
     // The hand's target is sent when it moves, not streamed: every output report costs the
     // emulated guest a USB/IP round trip (see the module's notes on rates).
@@ -935,7 +978,10 @@ fn session(root: &Path) -> Result<Vec<String>, String> {
     };
     lines.push(format!("presses into the arc: {presses}"));
     host.telemetry.clear();
+    let (gaps_before, heartbeats_before) = (host.gaps.dropped, host.heartbeats_sent());
     host.pump(TELEMETRY_WINDOW, |_| inside)?;
+    let seq_gaps = host.gaps.dropped - gaps_before;
+    let heartbeats = host.heartbeats_sent() - heartbeats_before;
     let frames: &[Telemetry] = &host.telemetry;
     let (first, last) = match (frames.first(), frames.last()) {
         (Some(f), Some(l)) => (f.time_us, l.time_us),
@@ -957,21 +1003,37 @@ fn session(root: &Path) -> Result<Vec<String>, String> {
         })
         .count();
     lines.push(format!(
-        "telemetry over {:.0} s: {} frames received ({rate:.0} per second) of {expected} sent \
-         (device time {span_ms} ms), {lost} lost ({:.1} %), {disordered} out of order or \
-         duplicated; {pressing} frames with a contact force over 0.1 N",
+        "telemetry over {:.0} s under {}: {} frames received ({rate:.0} per second) of {expected} \
+         the device produced (device time {span_ms} ms), {lost} lost ({:.2} %), {disordered} out of order or \
+         duplicated, {seq_gaps} missing from the telemetry's sequence numbers, with {heartbeats} \
+         heartbeats sent meanwhile; {pressing} frames with a contact force over 0.1 N",
         TELEMETRY_WINDOW.as_secs_f64(),
+        guest_accel(),
         frames.len(),
         100.0 * lost as f64 / expected as f64
     ));
-    // What must hold whatever the emulator's speed: frames intact, in order, the device's
-    // clock at 1 kHz (the span covers the window), the hand in contact. How many arrive is
-    // measured, not asserted: see the module's notes on rates.
+    // What must hold: frames intact and in order; none missing from the sequence numbers,
+    // which the device gives a telemetry frame as its endpoint takes it (so none was lost
+    // between the device's endpoint and the session, while the heartbeats' acks and statuses
+    // went on the other endpoint); the device's clock at 1 kHz (the span covers the window);
+    // the hand in contact. None lost at all (device time against frames received) under
+    // KVM. Under TCG the emulated guest reads fewer than 1000 reports a second (its kernel
+    // alone: the plain reader above, nothing written, no replies), so the device's
+    // four-frame queue drops frames before its endpoint, as a board's does for a host that
+    // does not keep up: those are measured (`lost`, and the device's own count on its
+    // `hid-guest: device:` lines), not asserted.
     let span_s = span_ms as f64 / 1000.0;
-    if disordered != 0 || pressing < frames.len() / 2 || !(8.0..=12.0).contains(&span_s) {
+    let accel = guest_accel();
+    if (accel == "kvm" && lost != 0)
+        || seq_gaps != 0
+        || disordered != 0
+        || pressing < frames.len() / 2
+        || !(8.0..=12.0).contains(&span_s)
+    {
         let faults: Vec<u16> = frames.iter().map(|t| t.faults).collect();
         return Err(format!(
-            "telemetry: {disordered} frames out of order, {pressing} of {} in contact, device \
+            "telemetry: {lost} frames lost, {seq_gaps} missing from the sequence numbers, \
+             {disordered} out of order, {pressing} of {} in contact, device \
              time {span_s} s over a {:.0} s window; the last frame {:?}; faults seen {:?}; \
              the press (every 10th frame from the first contact, or from its start):\n{press}",
             frames.len(),
@@ -1005,6 +1067,18 @@ fn session(root: &Path) -> Result<Vec<String>, String> {
     ));
     lines.push(watchdog(&mut host, inside)?);
     Ok(lines)
+}
+
+/// The accelerator the guest runs under (`hid.accel=` on its kernel's command line, which
+/// [`boot`] sets), or "unknown".
+fn guest_accel() -> String {
+    std::fs::read_to_string("/proc/cmdline")
+        .ok()
+        .and_then(|c| {
+            c.split_whitespace()
+                .find_map(|w| w.strip_prefix("hid.accel=").map(str::to_owned))
+        })
+        .unwrap_or_else(|| "unknown".into())
 }
 
 /// Attempts at a request before the session gives up.
@@ -1072,25 +1146,28 @@ fn upload(host: &mut Host<HidLink>, wire: &[u8], at: Vec2) -> Result<usize, Stri
 }
 
 /// Heartbeat loss over HID: the force goes off once the watchdog's timeout has passed since
-/// the last heartbeat, and not before. The device handled the last heartbeat after every
-/// telemetry frame that reached the host before its ack (a reply overtakes queued telemetry,
-/// never the reverse), so the newest of those frames' device times is a lower bound `L` of
-/// the heartbeat's time: a faulted frame earlier than `L` + timeout would be a premature
-/// trip. The frames after the ack may be stale (the four-frame queue keeps its oldest frames
-/// when the link is slower than the telemetry), so the trip is measured from `L`, reported,
-/// and required within the 600 ms the host waits.
+/// the last heartbeat, and not before. The device handled the last heartbeat (it acked it)
+/// after every telemetry frame that reached the host before the host sent it, so the newest
+/// of those frames' device times is a lower bound `L` of the heartbeat's time: a faulted
+/// frame earlier than `L` + timeout would be a premature trip. (Not the frames before its
+/// ack: replies come on their own endpoint, read apart from the telemetry, so a frame of a
+/// tick after the heartbeat may reach the host before the ack does; `L` is looser by a round
+/// trip, a few milliseconds of the 250 ms timeout.) The frames after it may be stale (the
+/// four-frame queue keeps its oldest frames when the link is slower than the telemetry), so
+/// the trip is measured from `L`, reported, and required within the 600 ms the host waits.
 fn watchdog(host: &mut Host<HidLink>, at: Vec2) -> Result<String, String> {
     host.heartbeats = false;
     host.pump(Duration::from_millis(600), |_| at)?;
-    let split = host
-        .stamp_index
-        .ok_or("watchdog: no ack of the last heartbeat")?;
+    if host.stamp_index.is_none() {
+        return Err("watchdog: no ack of the last heartbeat".into());
+    }
+    let split = host.heartbeat_index;
     let (before, after) = host.telemetry.split_at(split.min(host.telemetry.len()));
     let lower = before
         .iter()
         .map(|t| t.time_us)
         .max()
-        .ok_or("watchdog: no telemetry before the last heartbeat's ack")?;
+        .ok_or("watchdog: no telemetry before the last heartbeat was sent")?;
     let tripped = |t: &Telemetry| {
         device::safety::Faults::from_bits_truncate(t.faults)
             .contains(device::safety::Faults::WATCHDOG)
@@ -1106,8 +1183,8 @@ fn watchdog(host: &mut Host<HidLink>, at: Vec2) -> Result<String, String> {
         .fold(0.0f32, f32::max);
     let untripped_after = after[k..].iter().filter(|t| !tripped(t)).count();
     let line = format!(
-        "watchdog: the first faulted frame is {:.1} ms after the newest frame before the last \
-         heartbeat's ack (timeout {:.0} ms); largest force from then on {forced} N",
+        "watchdog: the first faulted frame is {:.1} ms after the newest frame received before \
+         the last heartbeat was sent (timeout {:.0} ms); largest force from then on {forced} N",
         f64::from(since) / 1e3,
         f64::from(GUEST_WATCHDOG_US) / 1e3
     );

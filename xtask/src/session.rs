@@ -17,7 +17,7 @@ use std::time::{Duration, Instant};
 use device::safety::Faults;
 use friction::{FrictionMaterial, Mode};
 use nurbs::Vec2;
-use protocol::host_side::{Answer, Link, Requests, TcpLink};
+use protocol::host_side::{Answer, GapCounter, Link, Requests, TcpLink};
 use protocol::{
     ErrorCode, Message, Nack, SceneChunk, Status, Telemetry, crc32, points_update, scene_upload,
 };
@@ -100,6 +100,8 @@ pub(crate) struct Host<L: Link> {
     last_target: Instant,
     /// Telemetry received, in order.
     pub(crate) telemetry: Vec<Telemetry>,
+    /// Gaps in the telemetry's sequence numbers (replies are numbered apart).
+    pub(crate) gaps: GapCounter,
     /// Nacks of frames nobody waited for.
     pub(crate) nacks: Vec<(u16, ErrorCode)>,
     /// Frames sent and not answered.
@@ -114,6 +116,10 @@ pub(crate) struct Host<L: Link> {
     /// ack: the tick that stamped it.
     heartbeats_sent: u32,
     pub(crate) stamp_index: Option<usize>,
+    /// The number of telemetry frames received when the newest heartbeat was sent: every one
+    /// of them left the device before it handled that heartbeat, whatever the transport's
+    /// order (over USB, replies and telemetry come on two endpoints, read apart).
+    pub(crate) heartbeat_index: usize,
     /// The control-point stream under way ([`Host::stream_points`]), with the displacement
     /// of the newest update acked.
     points: Option<(PointsRun, f32)>,
@@ -129,6 +135,7 @@ impl<L: Link> Host<L> {
             last_heartbeat: Instant::now(),
             last_target: Instant::now(),
             telemetry: Vec::new(),
+            gaps: GapCounter::default(),
             nacks: Vec::new(),
             requests: Requests::new(),
             awaited: 0,
@@ -136,8 +143,14 @@ impl<L: Link> Host<L> {
             status: None,
             heartbeats_sent: 0,
             stamp_index: None,
+            heartbeat_index: 0,
             points: None,
         }
+    }
+
+    /// Heartbeats sent so far.
+    pub(crate) fn heartbeats_sent(&self) -> u32 {
+        self.heartbeats_sent
     }
 
     /// Sends a heartbeat when one is due (while heartbeats are on, every [`HEARTBEAT`]).
@@ -156,6 +169,7 @@ impl<L: Link> Host<L> {
             )
             .map_err(|e| format!("session: heartbeat: {e}"))?;
         self.stamp_index = None;
+        self.heartbeat_index = self.telemetry.len();
         self.last_heartbeat = now;
         Ok(())
     }
@@ -168,9 +182,11 @@ impl<L: Link> Host<L> {
             .link
             .recv(timeout)
             .map_err(|e| format!("session: link: {e}"))?;
-        let Some(message) = frame.map(|f| f.message) else {
+        let Some(frame) = frame else {
             return Ok(());
         };
+        self.gaps.telemetry(&frame);
+        let message = frame.message;
         match (self.requests.answer(&message), message) {
             (_, Message::Telemetry(t)) => {
                 if let Some((run, current)) = &mut self.points {

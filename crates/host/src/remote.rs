@@ -457,8 +457,9 @@ impl Host {
     }
 
     fn frame(&mut self, ends: &LoopEnds, frame: Frame) -> Result<(), String> {
-        let Frame { seq, message } = frame;
-        let lost = self.gaps.observe(seq);
+        // Telemetry only: the device numbers its replies apart.
+        let lost = self.gaps.telemetry(&frame);
+        let Frame { message, .. } = frame;
         if lost > 0 {
             ends.counters
                 .link_lost_frames

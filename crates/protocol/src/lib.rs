@@ -82,7 +82,12 @@
 //! (0x3FFE; larger indices saturate there), so a frame with NaN or an infinity, or a feature
 //! code 0x3FFF / 0x7FFF / 0xBFFF, is malformed: [`ErrorCode::BadField`].
 //!
-//! The frame's sequence number counts ticks, so the host sees dropped telemetry as gaps.
+//! A device numbers its telemetry frames and its replies (hello, ack, nack, status) on two
+//! counters (each every value from 0, wrapping; [`device_side::Numbering`]): telemetry
+//! numbers count the frames the device produced, one per millisecond, so the host sees
+//! dropped telemetry as gaps in them whatever replies were sent meanwhile (over USB the
+//! replies travel on an endpoint of their own, and their order relative to telemetry is not
+//! kept). A host numbers its own frames on one counter, skipping [`UNKNOWN_SEQ`].
 //!
 //! # Scene upload
 //!
@@ -189,10 +194,12 @@ pub const USB_VID: u16 = 0x1209;
 /// not unique; replace it with an allocated one before boards leave the lab.
 pub const USB_PID: u16 = 0x0001;
 
-/// The board's USB HID report descriptor: one vendor-defined collection with a 64-byte
-/// ([`MAX_FRAME`]) input and a 64-byte output report and no report ids, so every report is one
-/// frame. The board's firmware presents it; the host's `HidLink` (`protocol::host_side`, feature
-/// `std`) relies on it (it writes report id 0 before each frame and reads bare frames).
+/// The report descriptor of the board's first HID interface: one vendor-defined collection
+/// ([`HID_USAGE_TELEMETRY`]) with a 64-byte ([`MAX_FRAME`]) input report (telemetry) and a
+/// 64-byte output report (the host's frames) and no report ids, so every report is one
+/// frame. The board's firmware presents it; the host's `HidLink` (`protocol::host_side`,
+/// feature `std`) relies on it (it writes report id 0 before each frame and reads bare
+/// frames). The replies have an interface of their own, [`REPLY_REPORT_DESCRIPTOR`].
 #[rustfmt::skip]
 pub const REPORT_DESCRIPTOR: &[u8] = &[
     0x06, 0x00, 0xFF, // Usage Page (vendor defined 0xFF00)
@@ -210,6 +217,37 @@ pub const REPORT_DESCRIPTOR: &[u8] = &[
     0x75, 0x08,       //   Report size (8 bits)
     0x95, 0x40,       //   Report count (64)
     0x91, 0x02,       //   Output (data, variable, absolute)
+    0xC0,             // End collection
+];
+
+/// The board's USB interface of the host's frames (OUT) and the telemetry (IN),
+/// [`REPORT_DESCRIPTOR`]'s.
+pub const HID_TELEMETRY_INTERFACE: u8 = 0;
+/// The board's USB interface of the replies (IN only), [`REPLY_REPORT_DESCRIPTOR`]'s.
+pub const HID_REPLY_INTERFACE: u8 = 1;
+/// The HID usage page of the board's report descriptors (vendor defined).
+pub const HID_USAGE_PAGE: u16 = 0xFF00;
+/// The usage of [`REPORT_DESCRIPTOR`]'s collection (interface 0: host frames, telemetry).
+pub const HID_USAGE_TELEMETRY: u16 = 0x01;
+/// The usage of [`REPLY_REPORT_DESCRIPTOR`]'s collection (interface 1: replies), by which a
+/// host tells the two interfaces of a board apart.
+pub const HID_USAGE_REPLIES: u16 = 0x10;
+
+/// The report descriptor of the board's second HID interface, the replies' (ack, nack,
+/// status, hello): one vendor-defined collection ([`HID_USAGE_REPLIES`]) with a 64-byte input
+/// report and no report ids, so that replies have an IN endpoint of their own and cost the
+/// telemetry on interface 0's none (`device_side::usb`).
+#[rustfmt::skip]
+pub const REPLY_REPORT_DESCRIPTOR: &[u8] = &[
+    0x06, 0x00, 0xFF, // Usage Page (vendor defined 0xFF00)
+    0x09, 0x10,       // Usage (0x10)
+    0xA1, 0x01,       // Collection (application)
+    0x09, 0x11,       //   Usage (0x11)
+    0x15, 0x00,       //   Logical minimum (0)
+    0x26, 0xFF, 0x00, //   Logical maximum (255)
+    0x75, 0x08,       //   Report size (8 bits)
+    0x95, 0x40,       //   Report count (64)
+    0x81, 0x02,       //   Input (data, variable, absolute)
     0xC0,             // End collection
 ];
 

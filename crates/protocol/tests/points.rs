@@ -693,9 +693,9 @@ fn read(link: &mut SimLink, n: usize, gaps: &mut GapCounter) -> (Vec<Telemetry>,
     let mut telemetry = Vec::new();
     let mut answers = Vec::new();
     while telemetry.len() < n {
-        let Frame { seq, message } = link.recv(TIMEOUT).unwrap().expect("a frame");
-        gaps.observe(seq);
-        match message {
+        let frame = link.recv(TIMEOUT).unwrap().expect("a frame");
+        gaps.telemetry(&frame);
+        match frame.message {
             Message::Telemetry(t) => {
                 if telemetry.len().is_multiple_of(20) {
                     link.send(&Message::Heartbeat { uptime_ms: 0 }).unwrap();

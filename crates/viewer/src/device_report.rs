@@ -130,9 +130,10 @@ pub fn monitor(
             }
             Err(e) => return Err(e.into()),
         };
-        let Frame { seq, message } = frame;
         let restarts = gaps.restarts;
-        let gap = gaps.observe(seq);
+        // Telemetry only: replies are numbered apart.
+        let gap = gaps.telemetry(&frame);
+        let Frame { seq, message } = frame;
         if gaps.restarts > restarts {
             write_line(
                 &mut out,

@@ -13,8 +13,9 @@
 //! 2. `usb` — the OTG_FS interrupt (and pended by the tick every millisecond): USB HID
 //!    (`protocol::device_side::usb::HidPort`, usb-device + usbd-hid), one 64-byte protocol frame per report
 //!    ([`Usb`]); host reports
-//!    go to the protocol task, its replies and the tick's telemetry go out as IN reports, one
-//!    device sequence number over all of them.
+//!    go to the protocol task; the tick's telemetry goes out on interface 0's IN endpoint and
+//!    the protocol task's replies on interface 1's, each numbered on its own counter, so that
+//!    a reply costs the 1 kHz telemetry nothing.
 //! 0. `idle` — the lowest priority, the protocol task ([`Protocol`]): host frames through
 //!    the session (which validates an upload into the staging store), commands to the tick,
 //!    replies to USB; and the acquisition (the global closest-point search that starts the
@@ -401,7 +402,7 @@ mod app {
     ) -> HidPort<'static, UsbBusType> {
         let usb_bus: &'static UsbBusAllocator<UsbBusType> =
             usb_bus.insert(UsbBusType::new(usb, ep_memory));
-        HidPort::new(usb_bus, "0001").expect("the bus holds one HID interface and its strings")
+        HidPort::new(usb_bus, "0001").expect("the bus holds two HID interfaces and its strings")
     }
 
     #[init(local = [

@@ -8,8 +8,9 @@
 //!   this process, speaking the same frames.
 //!
 //! A link numbers the frames it sends (per sender, wrapping, as the protocol requires) and
-//! hands back every frame it receives with the device's sequence number, so the caller sees
-//! dropped frames as gaps.
+//! hands back every frame it receives with the device's sequence number; the device numbers
+//! telemetry and replies apart, so the caller sees dropped telemetry as gaps in the
+//! telemetry's numbers ([`GapCounter::telemetry`]).
 //!
 //! [`Controller`]: device::controller::Controller
 
@@ -98,39 +99,25 @@ fn software_version() -> [u8; 3] {
     ]
 }
 
-/// Numbers the frames one sender sends (wrapping u16) and encodes them.
+/// Numbers the frames a host sends (wrapping u16) and encodes them.
 ///
 /// The two ends number by different rules, and each end's gap check knows the other's: a
-/// host ([`Sequencer::default`]) skips [`UNKNOWN_SEQ`](crate::UNKNOWN_SEQ)
-/// ([`next_seq`](crate::next_seq): a nack's expected number must never read as
-/// "unknown"), which the device's receiver expects; a device ([`Sequencer::device`], as the
-/// board's `App::send` and `usb::Outbox`) numbers every value, which the host's
-/// [`GapCounter`] expects.
+/// host skips [`UNKNOWN_SEQ`](crate::UNKNOWN_SEQ) ([`next_seq`](crate::next_seq): a nack's
+/// expected number must never read as "unknown"), which the device's receiver expects; a
+/// device numbers its telemetry and its replies apart, every value
+/// ([`Numbering`](crate::device_side::Numbering)), which the host's [`GapCounter`] expects of
+/// the telemetry.
 #[derive(Clone, Copy, Debug, Default)]
 pub struct Sequencer {
     next: u16,
-    /// Number every value (a device's frames) instead of skipping 0xFFFF (a host's).
-    every_value: bool,
 }
 
 impl Sequencer {
-    /// The sequencer of a device's frames (the simulated device's): every value, wrapping.
-    pub fn device() -> Self {
-        Sequencer {
-            next: 0,
-            every_value: true,
-        }
-    }
-
     /// Encodes `message` as the next frame into a zero-padded 64-byte report; returns the
     /// report, the frame's length and its sequence number.
     pub fn encode(&mut self, message: &Message) -> ([u8; MAX_FRAME], usize, u16) {
         let seq = self.next;
-        self.next = if self.every_value {
-            self.next.wrapping_add(1)
-        } else {
-            crate::next_seq(self.next)
-        };
+        self.next = crate::next_seq(self.next);
         let (report, n) = Frame {
             seq,
             message: *message,
@@ -256,10 +243,13 @@ pub trait Link: core::fmt::Debug {
     }
 }
 
-/// Counts the frames lost between a device's sequence numbers (wrapping), and the device's
-/// restarts. A device numbers every value ([`Sequencer::device`]), so 0xFFFF → 0 is the next
-/// frame and 0xFFFE → 0 one lost (a host's frames, which skip 0xFFFF, are the device's
-/// receiver's to check, not this counter's).
+/// Counts the telemetry frames lost between a device's sequence numbers (wrapping), and the
+/// device's restarts. A device numbers its telemetry on a counter of its own, every value
+/// ([`Numbering`](crate::device_side::Numbering)), so 0xFFFF → 0 is the next frame and
+/// 0xFFFE → 0 one lost; its replies are numbered apart (over USB they arrive on another
+/// endpoint, in no set order with the telemetry), so give it telemetry only
+/// ([`GapCounter::telemetry`]). A host's frames, which skip 0xFFFF, are the device's
+/// receiver's to check, not this counter's.
 ///
 /// A number behind the last one (a wrapping step of half the range or more) is the device
 /// starting its numbering again (a reset, a reflash, a new session on a shared link), not
@@ -277,6 +267,17 @@ pub struct GapCounter {
 }
 
 impl GapCounter {
+    /// Records `frame` if it is telemetry ([`GapCounter::observe`] of its number); a reply
+    /// changes nothing (its number counts replies). Returns the telemetry frames missing just
+    /// before it.
+    pub fn telemetry(&mut self, frame: &Frame) -> u16 {
+        if matches!(frame.message, Message::Telemetry(_)) {
+            self.observe(frame.seq)
+        } else {
+            0
+        }
+    }
+
     /// Records a frame with sequence number `seq`; returns how many frames were missing
     /// just before it (0 when it follows the last one, and when the numbering went back:
     /// see [`GapCounter::restarts`]).

@@ -28,6 +28,7 @@ use tracker::Chain;
 
 use super::serial::{Packets, Stream, read_packets, write_packet};
 use super::{Link, LinkError, Sequencer, cobs, software_version};
+use crate::device_side::Numbering;
 use crate::device_side::session::{DeviceSession, DeviceState, Event};
 use crate::{ErrorCode, Frame, MAX_FRAME, Message, SceneStore};
 use device::controller::Controller;
@@ -125,8 +126,8 @@ impl SimLink {
                     hand: VirtualHand::at(config.start_hip),
                     session,
                     scratch: Box::new(SceneStore::new()),
-                    // A device's numbering, which the host's gap counter expects.
-                    seq: Sequencer::device(),
+                    // A device's numbering: telemetry and replies apart, every value.
+                    numbering: Numbering::default(),
                     tick: 0,
                     started: Instant::now(),
                     decimator: TelemetryDecimator::for_period_s(config.safety.period_s),
@@ -282,7 +283,7 @@ struct SimDevice {
     session: Box<DeviceSession<SCENE_CAPACITY>>,
     /// Where uploads and updates are validated (decoded), then loaded from.
     scratch: Box<SceneStore>,
-    seq: Sequencer,
+    numbering: Numbering,
     tick: u64,
     started: Instant,
     /// The ticks' telemetry, one frame per millisecond as a board sends it.
@@ -394,13 +395,13 @@ impl SimDevice {
     ) -> Result<Option<EpochEnd>, ()> {
         // The simulated joints "rest on their end stops": the counts read there.
         let home = self.config.spec.end_stop_counts();
-        let (paced, frames, seq) = (self.config.paced, &self.frames, &mut self.seq);
+        let (paced, frames, numbering) = (self.config.paced, &self.frames, &mut self.numbering);
         let mut gone = false;
         let event = self.session.handle(
             bytes,
             &mut *self.scratch,
             DeviceState::of(software_version(), controller),
-            &mut |m: &Message| gone |= emit(paced, frames, seq, m).is_err(),
+            &mut |m: &Message| gone |= emit(paced, frames, numbering, m).is_err(),
         );
         if gone {
             return Err(());
@@ -424,21 +425,27 @@ impl SimDevice {
 
     /// Sends one frame to the host (see [`emit`]).
     fn emit(&mut self, message: &Message) -> Result<(), ()> {
-        emit(self.config.paced, &self.frames, &mut self.seq, message)
+        emit(
+            self.config.paced,
+            &self.frames,
+            &mut self.numbering,
+            message,
+        )
     }
 }
 
-/// Sends one frame to the host. Paced, a full queue drops a telemetry frame (its sequence
-/// number is spent, so the host sees the gap), as a board drops telemetry its link cannot
-/// carry; replies (acks, nacks, status, hello) wait for room, as a board's reply queue is
-/// served before its telemetry. Unpaced, every frame waits for the host.
+/// Sends one frame to the host, numbered as its kind ([`Numbering`]). Paced, a full queue
+/// drops a telemetry frame (its sequence number is spent, so the host sees the gap in the
+/// telemetry's numbers), as a board drops telemetry its link cannot carry; replies (acks,
+/// nacks, status, hello) wait for room, since a host waits on them. Unpaced, every frame
+/// waits for the host.
 fn emit(
     paced: bool,
     frames: &SyncSender<[u8; MAX_FRAME]>,
-    seq: &mut Sequencer,
+    numbering: &mut Numbering,
     message: &Message,
 ) -> Result<(), ()> {
-    let (report, _, _) = seq.encode(message);
+    let (report, _) = numbering.report(message);
     if paced && matches!(message, Message::Telemetry(_)) {
         match frames.try_send(report) {
             Ok(()) | Err(mpsc::TrySendError::Full(_)) => Ok(()),
@@ -453,9 +460,11 @@ fn emit(
 /// ([`crate::device_side::usb::HidPort`]) run on the host, over USB/IP in `cargo xtask hid`: host reports
 /// go to the device's thread as a board's OUT reports go to its protocol task, and the
 /// device's frames wait in a board's two queues (`firmware::usb::Usb`): the replies (ack,
-/// nack, status, hello), and telemetry in a queue of [`SimReports::FRAMES`] frames that drops
-/// the newest frame when full (the host sees the missing millisecond in the frames' device
-/// time). The port's [`crate::device_side::usb::Outbox`] sends them in the board's order. Feature `usb`.
+/// nack, status, hello) in a queue of [`SimReports::REPLIES`], and telemetry in a queue of
+/// [`SimReports::FRAMES`] frames, each dropping the newest when full (the host sees the
+/// missing millisecond in the frames' device time and their numbers, or a request not
+/// answered). The port's [`crate::device_side::usb::Outbox`] sends each queue on its own
+/// endpoint, as the board's. Feature `usb`.
 #[cfg(feature = "usb")]
 #[derive(Debug)]
 pub struct SimReports {
@@ -464,6 +473,7 @@ pub struct SimReports {
     frames: std::collections::VecDeque<Message>,
     sent: u64,
     dropped: u64,
+    dropped_replies: u64,
 }
 
 #[cfg(feature = "usb")]
@@ -476,6 +486,7 @@ impl SimLink {
             frames: std::collections::VecDeque::new(),
             sent: 0,
             dropped: 0,
+            dropped_replies: 0,
         }
     }
 }
@@ -485,6 +496,11 @@ impl SimReports {
     /// Telemetry frames waiting for the IN endpoint, as the board's queue
     /// (`firmware::protocol_task::FRAMES`).
     pub const FRAMES: usize = 4;
+    /// Replies waiting for their IN endpoint, as the board's queue
+    /// (`firmware::protocol_task::REPLIES`, a `heapless::spsc::Queue` of 4 that holds 3): a
+    /// host that does not read the replies' interface fills it, and further replies are
+    /// dropped, as on the board.
+    pub const REPLIES: usize = 3;
 
     /// Whether the device's thread still runs (it stops when it cannot send).
     pub fn running(&self) -> bool {
@@ -499,6 +515,11 @@ impl SimReports {
     /// Telemetry frames dropped so far because the queue was full.
     pub fn dropped_count(&self) -> u64 {
         self.dropped
+    }
+
+    /// Replies dropped so far because their queue was full.
+    pub fn dropped_replies(&self) -> u64 {
+        self.dropped_replies
     }
 
     /// Moves what the device's thread sent into the reply and telemetry queues.
@@ -516,6 +537,7 @@ impl SimReports {
                     self.dropped += 1;
                 }
                 m @ Message::Telemetry(_) => self.frames.push_back(m),
+                _ if self.replies.len() >= Self::REPLIES => self.dropped_replies += 1,
                 m => self.replies.push_back(m),
             }
         }
