@@ -869,6 +869,7 @@ fn session(root: &Path) -> Result<Vec<String>, String> {
     ));
     let scene_path = root.join("scenes").join("thesis-2d.json");
     let scene = Scene::load(&scene_path).map_err(|e| format!("{}: {e}", scene_path.display()))?;
+    let scene = passive_at_guest_rate(&scene)?;
     let wire = host::upload::wire_scene(&scene, 0).map_err(|e| format!("wire scene: {e}"))?;
     let above = Vec2::new(0.01, 0.11);
     let mut retries = 0;
@@ -1130,6 +1131,35 @@ fn ask(host: &mut Host<HidLink>, m: &Message, at: Vec2) -> Result<usize, String>
         }
     }
     Err(last)
+}
+
+/// `scene` with its first object's wall softened to what the guest's simulated device (1 kHz
+/// ticks, [`guest_device`]) renders passively without its passivity controller: nine tenths
+/// of the device's own bound at that rate ([`WallLimits`], about 300 N/m for the default
+/// device, against thesis-2d's 1000).
+///
+/// This check is of the USB link, not of the wall. At 1 kHz thesis-2d's wall needs the
+/// controller's energy tank, and a press that bounces off it (the emulated device falls
+/// behind the host and takes the hand's steps in bursts) can drain the tank. The force then
+/// grows back only as a spring from where the handle stands, which is the tank's rule
+/// against pulses at rest. In about one run in three under load the handle then rested 4 mm
+/// in with 0.02 N of a 4 N wall (a CI run of db70919: "0 of 9908 in contact"). That
+/// weakness is the tank's, at 1 kHz; the board renders thesis-2d at 10 kHz without it.
+///
+/// [`WallLimits`]: device::wall::WallLimits
+fn passive_at_guest_rate(scene: &Scene) -> Result<Scene, String> {
+    use device::safety::SafetyConfig;
+    use device::wall::WallLimits;
+    let safety = SafetyConfig::default();
+    let (passive_n_per_m, _) = WallLimits::new(&safety.passivity, 0.0, 1e-3).max(false);
+    let object = scene.object(0).ok_or("thesis-2d has no object")?;
+    let mut material = object.material().friction_material();
+    material.stiffness_n_per_m = (0.9 * passive_n_per_m).min(material.stiffness_n_per_m);
+    let material =
+        scene::Material::from_friction(material).map_err(|e| format!("material: {e}"))?;
+    scene
+        .with_material(0, material)
+        .map_err(|e| format!("scene: {e}"))
 }
 
 /// [`Host::upload`], the whole upload begun again (at most [`ATTEMPTS`] times) when an answer
