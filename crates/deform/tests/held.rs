@@ -9,21 +9,8 @@
 use deform::{Body, DynamicsError, Fixed, Params, Shape};
 use nurbs::{CurveBuf, SurfaceBuf, Vec2, Vec3};
 
-const L: f64 = 0.1;
-
-fn uniform_knots(p: usize, n: usize) -> Vec<f32> {
-    let inner = n - p;
-    let mut k = vec![0.0; p + 1];
-    k.extend((1..inner).map(|i| i as f32 / inner as f32));
-    k.extend(vec![1.0; p + 1]);
-    k
-}
-
-fn greville(knots: &[f32], p: usize, n: usize) -> Vec<f64> {
-    (0..n)
-        .map(|i| (1..=p).map(|k| f64::from(knots[i + k])).sum::<f64>() / p as f64)
-        .collect()
-}
+mod common;
+use common::{L, greville, uniform_knots};
 
 fn params(tension: f64, bending: f64, fixed: Fixed) -> Params {
     Params {
