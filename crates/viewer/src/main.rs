@@ -49,3 +49,25 @@ pub(crate) fn fail(error: &anyhow::Error, code: u8) -> ExitCode {
     let _ = writeln!(io::stderr(), "error: {error:#}");
     ExitCode::from(code)
 }
+
+/// The temporary files of a command's output and optional plot ([`AtomicFile`]), created
+/// before its work so that a bad path fails at once (exit 1) instead of after the run; the
+/// targets appear only when each is committed.
+pub(crate) fn create_outputs(
+    out: &std::path::Path,
+    plot: Option<&std::path::Path>,
+) -> anyhow::Result<(
+    viewer::output::AtomicFile,
+    Option<viewer::output::AtomicFile>,
+)> {
+    use anyhow::Context;
+    use viewer::output::AtomicFile;
+    let out =
+        AtomicFile::create(out).with_context(|| format!("cannot create {}", out.display()))?;
+    let plot = plot
+        .map(|p| {
+            AtomicFile::create(p).with_context(|| format!("cannot create plot {}", p.display()))
+        })
+        .transpose()?;
+    Ok((out, plot))
+}

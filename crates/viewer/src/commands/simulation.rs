@@ -6,10 +6,9 @@ use anyhow::{Context, anyhow};
 use host::sim::{self, Trajectory};
 use scene::Scene;
 use viewer::cli::{EXIT_BAD_INPUT, EXIT_BAD_SETUP, SimArgs};
-use viewer::output::AtomicFile;
 use viewer::plot;
 
-use crate::{fail, interrupt_or_default, interrupted_or_success};
+use crate::{create_outputs, fail, interrupt_or_default, interrupted_or_success};
 
 pub(crate) fn sim_command(args: &SimArgs) -> ExitCode {
     let scene = match Scene::load(&args.scene).context("invalid scene") {
@@ -43,18 +42,9 @@ pub(crate) fn sim_command(args: &SimArgs) -> ExitCode {
     // Before the run, so that a bad output path does not wait for it. Both outputs are
     // written to temporary files and renamed over their targets only when both are complete:
     // a failure anywhere leaves an existing run log and plot as they were.
-    let out = match AtomicFile::create(&args.out)
-        .with_context(|| format!("cannot create {}", args.out.display()))
-    {
-        Ok(f) => f,
+    let (out, plot_file) = match create_outputs(&args.out, args.plot.as_deref()) {
+        Ok(files) => files,
         Err(e) => return fail(&e, EXIT_BAD_INPUT),
-    };
-    let plot_file = match args.plot.as_ref().map(|path| {
-        AtomicFile::create(path).with_context(|| format!("cannot create plot {}", path.display()))
-    }) {
-        None => None,
-        Some(Ok(f)) => Some(f),
-        Some(Err(e)) => return fail(&e, EXIT_BAD_INPUT),
     };
     // Ctrl-C or SIGTERM ends the run after the tick it is on; the ticks so far are written.
     let interrupt = interrupt_or_default("sim");

@@ -5,27 +5,17 @@ use std::process::ExitCode;
 
 use anyhow::Context;
 use viewer::cli::{EXIT_BAD_INPUT, EXIT_BAD_SETUP};
-use viewer::output::AtomicFile;
 
-use crate::fail;
+use crate::{create_outputs, fail};
 
 pub(crate) fn zwidth_command(args: &viewer::cli::ZwidthArgs) -> ExitCode {
     use host::zwidth::sweep;
     use viewer::zwidth_figure::{DAMPINGS, STIFFNESSES};
     // Before the sweep (minutes), so that a bad output path does not wait for it; written to
     // temporary files renamed over the targets once both are complete.
-    let out = match AtomicFile::create(&args.out)
-        .with_context(|| format!("cannot create {}", args.out.display()))
-    {
-        Ok(f) => f,
+    let (out, plot_file) = match create_outputs(&args.out, args.plot.as_deref()) {
+        Ok(files) => files,
         Err(e) => return fail(&e, EXIT_BAD_INPUT),
-    };
-    let plot_file = match args.plot.as_ref().map(|path| {
-        AtomicFile::create(path).with_context(|| format!("cannot create plot {}", path.display()))
-    }) {
-        None => None,
-        Some(Ok(f)) => Some(f),
-        Some(Err(e)) => return fail(&e, EXIT_BAD_INPUT),
     };
     let mut cells = Vec::new();
     for controller in [false, true] {
