@@ -625,7 +625,7 @@ pub fn app(elf: &Path, root: &Path) -> Result<Vec<String>, String> {
     )
     .map_err(|e| format!("app: cannot start the link's thread: {e}"))?;
     let above = Vec2::new(0.01, 0.11);
-    link.send(LoopCommand::HandTarget(above.extend(0.0)));
+    link.send(LoopCommand::hand_to(above.extend(0.0)));
     link.send(LoopCommand::Swap(Box::new(session)));
 
     // What the app's state keeps of the link: the newest status and sample, the history.
@@ -673,7 +673,7 @@ pub fn app(elf: &Path, root: &Path) -> Result<Vec<String>, String> {
     let inside = centre + Vec2::new(a.cos(), a.sin()) * 0.036;
     let steps = 50;
     for i in 0..=steps {
-        link.send(LoopCommand::HandTarget(
+        link.send(LoopCommand::hand_to(
             (above + (inside - above) * (i as f32 / steps as f32)).extend(0.0),
         ));
         std::thread::sleep(Duration::from_millis(10));

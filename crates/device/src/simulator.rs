@@ -26,7 +26,7 @@
 //! `ω' − h M⁻¹ τ_c sign(ω')`, and a joint whose rate that would change in sign stops (stuck)
 //! instead.
 
-use nurbs::Vec2;
+use nurbs::{Point, Vec2};
 
 use crate::kinematics::{KinematicsError, Pantograph};
 use crate::spec::{DeviceSpec, SpecError};
@@ -86,42 +86,73 @@ pub const MAX_HAND_SPEED_M_PER_S: f32 = 0.3;
 /// (the argument of [`SimulatedPantograph::step`]) follows the commanded one at up to
 /// [`MAX_HAND_SPEED_M_PER_S`], in the device's own time, however commands arrive (a link may
 /// deliver them late and in bursts).
+///
+/// A command may say how long the pointer took to get there ([`VirtualHand::glide`]): the
+/// target then moves at the steady speed that covers the way in that time, so a drag the UI
+/// samples at a few frames a second reaches the hand as one smooth motion, one frame late,
+/// not as bursts at the top speed with a stop at every frame. Planar ([`Vec2`]) and spatial
+/// ([`nurbs::Vec3`]) hands are the same code.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct VirtualHand {
-    target: Vec2,
-    command: Vec2,
+pub struct VirtualHand<P = Vec2> {
+    target: P,
+    command: P,
+    /// The speed the target moves at towards the command (m/s), ≤ the top speed.
+    speed_m_per_s: f32,
 }
 
-impl VirtualHand {
+impl<P: Point> VirtualHand<P> {
     /// A hand at rest at `at`.
-    pub const fn at(at: Vec2) -> Self {
+    pub const fn at(at: P) -> Self {
         VirtualHand {
             target: at,
             command: at,
+            speed_m_per_s: MAX_HAND_SPEED_M_PER_S,
         }
     }
 
-    /// Commands the hand towards `to`; a non-finite command is ignored.
-    pub fn command(&mut self, to: Vec2) {
-        if to.is_finite() {
-            self.command = to;
+    /// Commands the hand towards `to` as fast as it goes; a non-finite command is ignored.
+    pub fn command(&mut self, to: P) {
+        self.glide(to, 0.0);
+    }
+
+    /// Commands the hand towards `to`, to get there `over_s` seconds from now at a steady
+    /// speed (the time the pointer took to move there), at most [`MAX_HAND_SPEED_M_PER_S`];
+    /// `over_s` ≤ 0 (or not finite): as fast as the hand goes. A non-finite `to` is ignored.
+    pub fn glide(&mut self, to: P, over_s: f32) {
+        if !to.is_finite() {
+            return;
         }
+        self.command = to;
+        let way_sq = (to - self.target).length_squared();
+        // speed = way / over_s, compared squared so no square root is taken at the top speed.
+        let top = MAX_HAND_SPEED_M_PER_S;
+        self.speed_m_per_s =
+            if over_s > 0.0 && over_s.is_finite() && way_sq < (top * over_s) * (top * over_s) {
+                libm::sqrtf(way_sq) / over_s
+            } else {
+                top
+            };
     }
 
     /// Moves the target one period `dt_s` towards the command and returns it.
-    pub fn step(&mut self, dt_s: f32) -> Vec2 {
-        self.target = approach(self.target, self.command, MAX_HAND_SPEED_M_PER_S * dt_s);
+    pub fn step(&mut self, dt_s: f32) -> P {
+        self.target = approach(self.target, self.command, self.speed_m_per_s * dt_s);
         self.target
     }
 
     /// Where the spring pulls now.
-    pub fn target(&self) -> Vec2 {
+    pub fn target(&self) -> P {
         self.target
+    }
+
+    /// Where the hand is going.
+    pub fn command_point(&self) -> P {
+        self.command
     }
 }
 
 /// `from` one step towards `to`: at most `max_step` (m) along the way.
-pub fn approach(from: Vec2, to: Vec2, max_step: f32) -> Vec2 {
+pub fn approach<P: Point>(from: P, to: P, max_step: f32) -> P {
     let to_go = to - from;
     let d2 = to_go.length_squared();
     if d2 > max_step * max_step {

@@ -3,9 +3,9 @@
 //! (τ = Jᵀ F), and encoder quantisation.
 #![allow(clippy::unwrap_used)]
 
-use device::simulator::{SimParams, SimulatedPantograph};
+use device::simulator::{MAX_HAND_SPEED_M_PER_S, SimParams, SimulatedPantograph, VirtualHand};
 use device::spec::DeviceSpec;
-use nurbs::Vec2;
+use nurbs::{Point, Vec2, Vec3};
 
 const DT: f32 = 1e-3;
 
@@ -166,4 +166,44 @@ fn bad_parameters_are_rejected() {
         )
         .is_err()
     );
+}
+
+/// A glide covers its way in the time given at a steady speed, the same in 2-D and 3-D: the
+/// way over the time, checked on a 3-4-5 triangle (5 mm in 0.1 s: 50 mm/s, so 100 steps of
+/// 1 ms move 0.5 mm each). A glide faster than the hand goes is held to its top speed, a
+/// time of 0 (or not finite) means as fast as it goes, and a non-finite target is ignored.
+#[test]
+fn a_glide_covers_its_way_in_its_time_at_most_at_the_top_speed() {
+    fn check<P: Point>(from: P, to: P) {
+        let mut hand = VirtualHand::at(from);
+        hand.glide(to, 0.1);
+        for k in 1..=100 {
+            let at = hand.step(1e-3);
+            let expected = from + (to - from) * (k as f32 / 100.0);
+            // f32 rounding over k steps near 0.1 m: k × ulp(0.1)/2 ≈ 7e-9·k m.
+            assert!(
+                (at - expected).length_squared() < (1e-8 * k as f32).powi(2),
+                "step {k}: {at:?} against {expected:?}"
+            );
+        }
+        assert_eq!(hand.step(1e-3), to, "arrived and staying");
+
+        // 5 mm in 1 ms would be 5 m/s: the hand goes at its top speed instead.
+        let mut hand = VirtualHand::at(from);
+        hand.glide(to, 1e-3);
+        let moved = (hand.step(1e-3) - from).length_squared().sqrt();
+        let top = MAX_HAND_SPEED_M_PER_S * 1e-3;
+        assert!((moved - top).abs() < 1e-3 * top, "{moved} against {top}");
+        for over_s in [0.0, -1.0, f32::NAN, f32::INFINITY] {
+            let mut hand = VirtualHand::at(from);
+            hand.glide(to, over_s);
+            let moved = (hand.step(1e-3) - from).length_squared().sqrt();
+            assert!((moved - top).abs() < 1e-3 * top, "over {over_s}: {moved}");
+        }
+        let mut hand = VirtualHand::at(from);
+        hand.glide(from + (to - from) * f32::NAN, 0.1);
+        assert_eq!(hand.command_point(), from, "a NaN target is ignored");
+    }
+    check(Vec2::new(0.0, 0.1), Vec2::new(0.003, 0.104));
+    check(Vec3::new(0.0, 0.1, 0.0), Vec3::new(0.003, 0.1, 0.004));
 }

@@ -376,7 +376,7 @@ mod tests {
         let session = PlanarSession::new(thesis_2d()).expect("session");
         let haptic = HapticLoop::new(session, START_HIP).expect("loop");
         let thread = LoopThread::spawn(haptic, None).expect("spawn");
-        assert!(thread.send(LoopCommand::HandTarget(Vec3::new(0.0, 0.105, 0.0))));
+        assert!(thread.send(LoopCommand::hand_to(Vec3::new(0.0, 0.105, 0.0))));
         let bad = FrictionMaterial {
             mu_dynamic: 0.9,
             ..FrictionMaterial::default()
@@ -423,7 +423,7 @@ mod tests {
             sent,
             Sent::Applied(Some(Reply::Unsupported("a mesh")))
         ));
-        let sent = backend.command(LoopCommand::HandTarget(Vec3::new(0.0, 0.105, 0.5)));
+        let sent = backend.command(LoopCommand::hand_to(Vec3::new(0.0, 0.105, 0.5)));
         assert!(matches!(sent, Sent::Applied(None)));
         assert_eq!(backend.step(3).len(), 3);
         // Each step is ten device ticks (10 kHz under a 1 kHz loop).

@@ -33,8 +33,17 @@ pub const RECORD_CAPACITY: usize = 4096;
 /// it does not support with [`Reply::Unsupported`] and changes nothing.
 #[derive(Debug)]
 pub enum LoopCommand<S = PlanarSession> {
-    /// Move the hand's target (m, device frame); a planar loop takes x and y.
-    HandTarget(Vec3),
+    /// Move the hand's target to `to` (m, device frame; a planar loop takes x and y), getting
+    /// there `over_s` seconds from now at a steady speed: the time the pointer took to move
+    /// there (the UI's frame interval), so the hand's motion does not depend on the frame
+    /// rate ([`device::simulator::VirtualHand::glide`]); 0: as fast as the hand goes
+    /// ([`LoopCommand::hand_to`]).
+    HandTarget {
+        /// Where the hand goes (m, device frame).
+        to: Vec3,
+        /// How long it takes to get there (s).
+        over_s: f32,
+    },
     /// Set the rendered object's material ([`HapticLoop::set_material`](crate::planar::HapticLoop::set_material)).
     SetMaterial(FrictionMaterial),
     /// Render another session ([`HapticLoop::swap_session`](crate::planar::HapticLoop::swap_session)); built by the UI, swapped in at a
@@ -66,10 +75,15 @@ pub enum LoopCommand<S = PlanarSession> {
 }
 
 impl<S> LoopCommand<S> {
+    /// Move the hand to `to` as fast as it goes.
+    pub fn hand_to(to: Vec3) -> Self {
+        LoopCommand::HandTarget { to, over_s: 0.0 }
+    }
+
     /// What the command asks, as [`Reply::Unsupported`] names it.
     pub fn name(&self) -> &'static str {
         match self {
-            LoopCommand::HandTarget(_) => "the hand's target",
+            LoopCommand::HandTarget { .. } => "the hand's target",
             LoopCommand::SetMaterial(_) => "the material",
             LoopCommand::Swap(_) => "the scene swap",
             LoopCommand::Mesh(_) => "a mesh",

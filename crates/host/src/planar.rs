@@ -192,6 +192,12 @@ impl HapticLoop {
         self.hand.command(target);
     }
 
+    /// Commands the virtual hand's target to `target`, getting there in `over_s` at a steady
+    /// speed (at most [`MAX_HAND_SPEED_M_PER_S`]): [`VirtualHand::glide`].
+    pub fn glide_hand(&mut self, target: Vec2, over_s: f32) {
+        self.hand.glide(target, over_s);
+    }
+
     /// Who holds the handle from the next tick: a grip or a fingertip takes it (at its
     /// current target), a released hand lets go.
     pub fn set_hand(&mut self, hand: crate::hand::Hand) {
@@ -333,8 +339,8 @@ impl Steppable for HapticLoop {
 
     fn apply(&mut self, command: LoopCommand) -> Option<Reply> {
         match command {
-            LoopCommand::HandTarget(t) => {
-                self.set_hand_target(Vec2::new(t.x, t.y));
+            LoopCommand::HandTarget { to, over_s } => {
+                self.glide_hand(Vec2::new(to.x, to.y), over_s);
                 None
             }
             LoopCommand::SetMaterial(m) => Some(Reply::Material(self.set_material(m))),

@@ -19,8 +19,10 @@
 //!   sent (the newest shape wins). The ack of an update's last frame means the device applied
 //!   it ([`LoopCounters::points_applied`](crate::backend::LoopCounters)); a nack of any of its
 //!   frames, that it dropped the whole update ([`LinkEvent::Refused`]).
-//! - Hand targets go, without waiting, to a device whose plant is simulated: the newest one
-//!   every [`HAND_PERIOD`] while it changes. The device's virtual hand follows them at a
+//! - Hand targets go, without waiting, to a device whose plant is simulated: the pointer's
+//!   targets glide in this thread's time as in the in-process loops
+//!   ([`LoopCommand::HandTarget`]), and the glide's point goes every [`HAND_PERIOD`] while it
+//!   changes. The device's virtual hand follows them at a
 //!   bounded speed in its own time ([`device::simulator::VirtualHand`]: a hand does not
 //!   teleport, and a link may deliver targets late and in bursts); a board (a real hand on the handle) refuses them and the thread stops
 //!   sending them.
@@ -37,6 +39,7 @@ use std::sync::mpsc::TryRecvError;
 use std::time::{Duration, Instant};
 
 use device::safety::Faults;
+use device::simulator::VirtualHand;
 use friction::Mode;
 use nurbs::{Vec2, Vec3};
 use protocol::host_side::{Answer, GapCounter, LinkError, Requests};
@@ -134,8 +137,9 @@ struct Host {
     /// Sequence number and send time of the newest heartbeat.
     heartbeat: Option<(u16, Instant)>,
     status: Option<Status>,
-    /// Where the pointer wants the hand.
-    hand_command: Option<Vec2>,
+    /// The pointer's hand, gliding in this thread's time between the pointer's samples
+    /// ([`VirtualHand::glide`]), and when it was last stepped; its target goes to the device.
+    hand: Option<(VirtualHand, Instant)>,
     /// The hand's target as last sent, and when.
     hand_target: Option<(Vec2, Instant)>,
     /// The newest HIP, once the device is calibrated.
@@ -169,7 +173,7 @@ impl Host {
             heartbeat_due: now,
             heartbeat: None,
             status: None,
-            hand_command: None,
+            hand: None,
             hand_target: None,
             hip: None,
             settle_since: None,
@@ -259,7 +263,7 @@ impl Host {
             && !queued_in_flight
         {
             let since = *self.settle_since.get_or_insert(now);
-            let settled = match (self.hand_command, self.hip) {
+            let settled = match (self.hand.map(|(h, _)| h.command_point()), self.hip) {
                 (Some(target), Some(hip)) => (hip - target).length() < SETTLED_M,
                 (None, _) => true,
                 (_, None) => false,
@@ -310,11 +314,13 @@ impl Host {
         Ok(())
     }
 
-    /// Sends the newest hand target, at most every [`HAND_PERIOD`].
+    /// Steps the pointer's hand to `now` and sends its target, at most every [`HAND_PERIOD`].
     fn move_hand(&mut self, now: Instant) -> Result<(), LinkError> {
-        let Some(command) = self.hand_command else {
+        let Some((hand, stepped)) = &mut self.hand else {
             return Ok(());
         };
+        let command = hand.step((now - *stepped).as_secs_f32());
+        *stepped = now;
         if !self.simulated_plant
             || self
                 .hand_target
@@ -368,7 +374,15 @@ impl Host {
 
     fn command(&mut self, ends: &LoopEnds, command: LoopCommand) -> Result<(), LinkError> {
         match command {
-            LoopCommand::HandTarget(t) => self.hand_command = Some(Vec2::new(t.x, t.y)),
+            LoopCommand::HandTarget { to, over_s } => {
+                let to = Vec2::new(to.x, to.y);
+                match &mut self.hand {
+                    Some((hand, _)) => hand.glide(to, over_s),
+                    // The first target goes to the device as it is: the device's own hand
+                    // moves there at its top speed.
+                    None => self.hand = Some((VirtualHand::at(to), Instant::now())),
+                }
+            }
             LoopCommand::SetMaterial(m) => self.request(
                 Message::SetMaterial {
                     object: 0,

@@ -19,6 +19,7 @@
 
 use std::sync::Arc;
 
+use device::simulator::VirtualHand;
 use friction::{FrictionMaterial, FrictionRenderer, Mode, SwitchCause};
 use nurbs::{Vec2, Vec3};
 use tracker::{Contact, Feature, Penalty, Shell, TriMesh};
@@ -28,7 +29,6 @@ use crate::deform::{DeformChangeError, DeformError, DeformStatus, Deformer, Shar
 use crate::deformation::Deformation;
 pub use crate::error::MAX_HAPTIC_TRIANGLES;
 use crate::error::{MaterialChangeError, MeshError, SimError};
-use crate::planar::MAX_HAND_SPEED_M_PER_S;
 use crate::tick::{self, Tick};
 use scene::{Material, Object, Scene, Space};
 
@@ -258,9 +258,9 @@ pub struct SpatialLoop {
     session: SpatialSession,
     mesh: Option<TriMesh>,
     material: FrictionMaterial,
-    hip: Vec3,
+    /// The hand: the HIP is its target.
+    hand: VirtualHand<Vec3>,
     previous_hip: Vec3,
-    hand_command: Vec3,
     forces_enabled: bool,
     tick: u64,
     period_s: f32,
@@ -290,9 +290,8 @@ impl SpatialLoop {
             session,
             mesh: None,
             material,
-            hip,
+            hand: VirtualHand::at(hip),
             previous_hip: hip,
-            hand_command: hip,
             forces_enabled: true,
             tick: 0,
             period_s: (1.0 / RATE_HZ) as f32,
@@ -304,27 +303,20 @@ impl SpatialLoop {
         }
     }
 
-    /// One tick: the HIP moves towards the hand's command at up to
-    /// [`MAX_HAND_SPEED_M_PER_S`] (the tracker follows a hand, not a teleport), its velocity
+    /// One tick: the HIP (the hand's target, [`VirtualHand`]) moves towards the hand's command at up to
+    /// [`MAX_HAND_SPEED_M_PER_S`](crate::planar::MAX_HAND_SPEED_M_PER_S) (the tracker follows a hand, not a teleport), its velocity
     /// is the backward difference, and the mesh (when set) or the NURBS object renders the
     /// force. With forces off the contact is still shown, the force is zero. A deforming
     /// object is pushed by the tick's force (reversed), steps (1 ms) and takes its new shape,
     /// the renderer carried onto it; the tick records its displacement at the CP
     /// ([`Tick::deform`]).
     pub fn step(&mut self) -> Tick {
-        let to_go = self.hand_command - self.hip;
-        let max_step = MAX_HAND_SPEED_M_PER_S * self.period_s;
-        let length = to_go.length();
-        self.previous_hip = self.hip;
-        if length > max_step {
-            self.hip += to_go * (max_step / length);
-        } else {
-            self.hip = self.hand_command;
-        }
-        let velocity = (self.hip - self.previous_hip) / self.period_s;
+        self.previous_hip = self.hand.target();
+        let hip = self.hand.step(self.period_s);
+        let velocity = (hip - self.previous_hip) / self.period_s;
         let t_s = self.tick as f64 / RATE_HZ;
         self.tick += 1;
-        let (hip, period_s) = (self.hip, self.period_s);
+        let period_s = self.period_s;
         let mut tick = match (&self.mesh, self.session.rendering.as_mut()) {
             (Some(mesh), _) => mesh_tick(mesh, &self.material, t_s, hip, velocity),
             (None, Some(r)) => {
@@ -423,21 +415,25 @@ impl SpatialLoop {
         self.deformation.stop(t_s, &mut |u| session.apply_points(u))
     }
 
-    /// Commands the hand (m, device frame); a non-finite target is ignored.
+    /// Commands the hand (m, device frame) as fast as it goes; a non-finite target is ignored.
     pub fn set_hand_target(&mut self, target: Vec3) {
-        if target.is_finite() {
-            self.hand_command = target;
-        }
+        self.hand.command(target);
+    }
+
+    /// Commands the hand to `target`, getting there in `over_s` at a steady speed
+    /// ([`VirtualHand::glide`]).
+    pub fn glide_hand(&mut self, target: Vec3, over_s: f32) {
+        self.hand.glide(target, over_s);
     }
 
     /// The HIP.
     pub fn hip(&self) -> Vec3 {
-        self.hip
+        self.hand.target()
     }
 
     /// The hand's command.
     pub fn hand_target(&self) -> Vec3 {
-        self.hand_command
+        self.hand.command_point()
     }
 
     /// Renders `mesh` (the penalty baseline) from the next tick, or, with `None`, the NURBS
@@ -451,7 +447,7 @@ impl SpatialLoop {
                 self.last_error = Some(e.to_string());
             }
         } else {
-            self.session.restart(self.hip, self.material);
+            self.session.restart(self.hand.target(), self.material);
         }
         self.mesh = mesh;
         Ok(())
@@ -482,7 +478,7 @@ impl SpatialLoop {
             }
         }
         // On the rest shape: the renderer starts afresh at the HIP.
-        self.session.restart(self.hip, material);
+        self.session.restart(self.hand.target(), material);
         Ok(material)
     }
 
@@ -497,7 +493,7 @@ impl SpatialLoop {
     pub fn swap(&mut self, mut session: SpatialSession) {
         self.deformation.forget(self.time_s());
         self.material = session.material();
-        session.restart(self.hip, self.material);
+        session.restart(self.hand.target(), self.material);
         self.session = session;
         self.mesh = None;
     }
@@ -610,8 +606,8 @@ impl Steppable for SpatialLoop {
     /// [`Reply::Unsupported`] (there is no arm).
     fn apply(&mut self, command: LoopCommand<SpatialSession>) -> Option<Reply> {
         match command {
-            LoopCommand::HandTarget(t) => {
-                self.set_hand_target(t);
+            LoopCommand::HandTarget { to, over_s } => {
+                self.glide_hand(to, over_s);
                 None
             }
             LoopCommand::SetMaterial(m) => Some(Reply::Material(self.set_material(m))),
@@ -824,7 +820,7 @@ mod tests {
             ..FrictionMaterial::default()
         };
         assert!(thread.send(LoopCommand::SetMaterial(softer)));
-        assert!(thread.send(LoopCommand::HandTarget(Vec3::new(start.x, start.y, -0.002))));
+        assert!(thread.send(LoopCommand::hand_to(Vec3::new(start.x, start.y, -0.002))));
         let waited = Instant::now();
         let (mut last, mut replies) = (None, Vec::new());
         while waited.elapsed() < Duration::from_secs(10) {

@@ -51,7 +51,7 @@ fn sim_host(session: PlanarSession, hand: Vec2) -> LoopThread {
         None,
     )
     .unwrap();
-    link.send(LoopCommand::HandTarget(hand.extend(0.0)));
+    link.send(LoopCommand::hand_to(hand.extend(0.0)));
     link.send(LoopCommand::Swap(Box::new(session)));
     link
 }
@@ -142,7 +142,7 @@ fn a_string_pushed_through_the_link_deforms_on_the_device() {
     let inside = Vec2::new(0.0, Y + 0.006);
     for i in 0..=50 {
         let t = i as f32 / 50.0;
-        link.send(LoopCommand::HandTarget(
+        link.send(LoopCommand::hand_to(
             (below + (inside - below) * t).extend(0.0),
         ));
         std::thread::sleep(Duration::from_millis(10));
@@ -214,9 +214,7 @@ fn an_object_not_first_in_its_scene_deforms_through_the_link() {
     let mut seen = Seen::default();
     seen.until(&link, "the upload", |s| s.scene_is(rest));
     link.send(LoopCommand::Deform(true));
-    link.send(LoopCommand::HandTarget(
-        Vec2::new(0.0, Y + 0.006).extend(0.0),
-    ));
+    link.send(LoopCommand::hand_to(Vec2::new(0.0, Y + 0.006).extend(0.0)));
     seen.until(&link, "a moved shape on the device", |s| {
         s.deforming == Some(true) && s.status.is_some_and(|s| s.scene_crc32 != rest)
     });

@@ -46,7 +46,7 @@ fn a_moving_shape_streams_to_the_device_and_lands_as_the_host_edits_it() {
     )
     .unwrap();
     let above = Vec2::new(0.01, 0.11);
-    link.send(LoopCommand::HandTarget(above.extend(0.0)));
+    link.send(LoopCommand::hand_to(above.extend(0.0)));
     link.send(LoopCommand::Swap(Box::new(session)));
     let crc0 = crc32(&host::upload::wire_scene(&scene, 0).unwrap());
     let mut status: Option<Status> = None;
@@ -75,7 +75,7 @@ fn a_moving_shape_streams_to_the_device_and_lands_as_the_host_edits_it() {
     let inside = Vec2::new(-0.02, 0.06) + Vec2::new(a.cos(), a.sin()) * 0.036;
     for i in 0..=50 {
         let t = i as f32 / 50.0;
-        link.send(LoopCommand::HandTarget(
+        link.send(LoopCommand::hand_to(
             (above + (inside - above) * t).extend(0.0),
         ));
         std::thread::sleep(Duration::from_millis(10));

@@ -298,9 +298,13 @@ impl eframe::App for ViewerApp {
                     2.0 * span - phase
                 };
             let p = demo.at(t);
+            // Played at the frame's pace, as a drag is (`view::pointer_interval_s`).
+            let over_s = self.last_frame.map_or(0.0, |l| {
+                (begun - l).as_secs_f32().min(view::MAX_POINTER_INTERVAL_S)
+            });
             self.ui
                 .state
-                .set_hand_target(nurbs::Vec2::new(p[0] as f32, p[1] as f32));
+                .glide_hand_to(nurbs::Vec2::new(p[0] as f32, p[1] as f32), over_s);
         }
         self.ui.state.poll();
         if let Some(last) = self.last_frame {

@@ -163,11 +163,17 @@ impl SpatialState {
         sent.reply()
     }
 
-    /// Moves the hand (m); non-finite targets are ignored.
+    /// Moves the hand (m) as fast as it goes; non-finite targets are ignored.
     pub fn set_target(&mut self, target: Vec3) {
+        self.glide_to(target, 0.0);
+    }
+
+    /// Moves the hand (m), getting there `over_s` seconds from now at a steady speed: the
+    /// pointer's own pace ([`LoopCommand::HandTarget`]); non-finite targets are ignored.
+    pub fn glide_to(&mut self, target: Vec3, over_s: f32) {
         if target.is_finite() {
             self.target = target;
-            self.command(LoopCommand::HandTarget(target));
+            self.command(LoopCommand::HandTarget { to: target, over_s });
         }
     }
 

@@ -208,8 +208,9 @@ pub fn view_2d_ui(ui: &mut egui::Ui, state: &mut AppState, view: &mut View2d) {
     // The hand: press and drag with the primary button (not on a handle).
     if state.edit.drag.is_none() && response.is_pointer_button_down_on() && primary_down {
         if let Some(p) = response.interact_pointer_pos() {
+            let over_s = pointer_interval_s(ui, state.dragging);
             state.dragging = true;
-            state.set_hand_target(view.device_of(rect, p));
+            state.glide_hand_to(view.device_of(rect, p), over_s);
         }
     } else {
         state.dragging = false;
@@ -606,4 +607,21 @@ fn draw_legend(painter: &egui::Painter, rect: Rect, view: &View2d, state: &AppSt
         font,
         text,
     );
+}
+
+/// The longest a pointer sample is stretched over (s): a drag seen at 2 frames a second or
+/// more glides; a longer gap (the app idle before the press) is not a pace.
+pub(crate) const MAX_POINTER_INTERVAL_S: f32 = 0.5;
+
+/// How long the hand takes to reach the pointer's new position: the time since the previous
+/// frame while a drag goes on (the pointer covered the way in that time, so the loop plays it
+/// back at that pace, one frame late, whatever the frame rate), 0 at the press (the hand goes
+/// to where the button went down as fast as it goes).
+pub(crate) fn pointer_interval_s(ui: &egui::Ui, dragging: bool) -> f32 {
+    if dragging {
+        ui.input(|i| i.unstable_dt)
+            .clamp(0.0, MAX_POINTER_INTERVAL_S)
+    } else {
+        0.0
+    }
 }

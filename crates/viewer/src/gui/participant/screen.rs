@@ -10,7 +10,7 @@ use experiment::session::Response;
 use nurbs::Vec2;
 
 use crate::gui::state::{AppState, DeviceChoice};
-use crate::gui::view::View2d;
+use crate::gui::view::{View2d, pointer_interval_s};
 
 use super::run::*;
 
@@ -340,8 +340,9 @@ impl ParticipantUi {
         let primary_down = ui.input(|i| i.pointer.primary_down());
         if response.is_pointer_button_down_on() && primary_down {
             if let Some(p) = response.interact_pointer_pos() {
+                let over_s = pointer_interval_s(ui, state.dragging);
                 state.dragging = true;
-                state.set_hand_target(self.view.device_of(rect, p));
+                state.glide_hand_to(self.view.device_of(rect, p), over_s);
             }
         } else {
             state.dragging = false;

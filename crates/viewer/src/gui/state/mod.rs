@@ -412,7 +412,7 @@ impl AppState {
                 self.link = LinkState::default();
                 self.forces_requested = setup;
                 // The virtual hand of a simulated plant goes where the app's hand is.
-                self.command(LoopCommand::HandTarget(self.hand_target.extend(0.0)));
+                self.command(LoopCommand::hand_to(self.hand_target.extend(0.0)));
                 self.telemetry.restart();
                 let scene = self.scene.model.clone();
                 let label = self.scene.label.clone();
@@ -581,11 +581,20 @@ impl AppState {
     /// Moves the hand's target to `target` (m) when the device reaches it; a target out of
     /// reach leaves the hand where it was (returns false).
     pub fn set_hand_target(&mut self, target: Vec2) -> bool {
+        self.glide_hand_to(target, 0.0)
+    }
+
+    /// As [`AppState::set_hand_target`], the hand getting there `over_s` seconds from now at a
+    /// steady speed: the pointer's own pace ([`LoopCommand::HandTarget`]).
+    pub fn glide_hand_to(&mut self, target: Vec2, over_s: f32) -> bool {
         if self.replay.is_some() || !self.reach.contains(target) {
             return false;
         }
         self.hand_target = target;
-        self.command(LoopCommand::HandTarget(target.extend(0.0)))
+        self.command(LoopCommand::HandTarget {
+            to: target.extend(0.0),
+            over_s,
+        })
     }
 
     /// Applies the material editor's values: validated field by field here (the message names

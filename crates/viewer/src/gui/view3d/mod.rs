@@ -30,6 +30,7 @@ use egui::{Align2, Color32, FontId, Rect, Sense};
 
 use super::state::AppState;
 use super::surface_scene::SpatialState;
+use super::view::pointer_interval_s;
 use overlays::{draw_axes, draw_hand, draw_legend};
 use pipeline::Draw3d;
 
@@ -85,8 +86,9 @@ pub fn view_3d_ui(ui: &mut egui::Ui, state: &mut AppState, camera: &mut Camera3d
         if let Some(p) = response.interact_pointer_pos()
             && let Some(target) = camera.on_view_plane(rect, p, spatial.target)
         {
+            let over_s = pointer_interval_s(ui, state.dragging);
             state.dragging = true;
-            spatial.set_target(target);
+            spatial.glide_to(target, over_s);
         }
     } else {
         state.dragging = false;
