@@ -88,6 +88,12 @@ fn nearest<S: BezierSplit<N>, const N: usize>(patches: &[S], x: S::P) -> Option<
     })
 }
 
+/// The signed distance (m, negative inside) from `p` to a planar object, by the same global
+/// search as [`run`]; `None` for an object that is not of planar curves (or has none).
+pub fn signed_distance_2d(object: &Object, p: Vec2) -> Option<f32> {
+    nearest(&object.curve_views()?, p).map(|c| c.signed_distance)
+}
+
 /// Answers every query point in `input` for `object`, one JSON line each on `output`.
 /// Returns the number answered; stops at the first bad line.
 pub fn run<R: BufRead, W: Write>(

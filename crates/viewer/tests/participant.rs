@@ -68,6 +68,15 @@ fn press_down(state: &mut AppState, ms: usize) {
     }
 }
 
+/// The hand goes back up from the vertex to where `press_down` started, over `ms` ticks.
+fn lift(state: &mut AppState, ms: usize) {
+    let (from, to) = (Vec2::new(0.0, 0.085), Vec2::new(0.0, 0.11));
+    for i in 1..=ms {
+        assert!(state.set_hand_target(from + (to - from) * (i as f32 / ms as f32)));
+        state.step(1);
+    }
+}
+
 /// A wrong answer to an identification trial.
 fn wrong(stimulus: usize) -> Response {
     Response::Stimulus((stimulus + 1) % 5)
@@ -307,12 +316,17 @@ fn a_2afc_trial_switches_between_its_intervals_and_writes_a_trace_of_each() {
     assert_eq!((run.interval(), stiffness(&state)), (0, felt(0)));
     press_down(&mut state, 100);
     run.tick(&mut state, 1.0);
-    run.feel(&mut state, 1);
+    run.feel(&mut state, 1, 1.0);
     assert_eq!((run.interval(), stiffness(&state)), (1, felt(1)));
-    assert!(run.stimulus_on());
-    state.step(40);
+    // Pressed into the shape, the other interval waits for the handle to come out.
+    assert!(!run.stimulus_on() && run.awaiting_lift(&state));
+    assert!(!state.forces_requested);
+    lift(&mut state, 100);
+    run.tick(&mut state, 1.5);
+    assert!(run.stimulus_on() && !run.awaiting_lift(&state));
+    press_down(&mut state, 40);
     run.tick(&mut state, 2.0);
-    run.feel(&mut state, 0);
+    run.feel(&mut state, 0, 2.0);
     assert_eq!(stiffness(&state), felt(0));
     state.step(10);
     run.tick(&mut state, 3.0);
@@ -612,5 +626,57 @@ fn on_a_linked_device_the_trial_is_uploaded_and_its_forces_follow_the_phase() {
     state.shutdown();
     let log = host::runlog::read(&dir.join("traces/trial-0001-a.csv")).unwrap();
     assert!(!log.run.ticks.is_empty());
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// Issue 31, item 2: a trial that begins with the handle still pressed into the shape (the
+/// previous trial's press: 9–16 N in the first row of its trace, and on a board a jolt)
+/// waits, forces off and its clock stopped, until the handle is out of every object; the
+/// screen says so; then the stimulus comes on and its trace starts at no force.
+#[test]
+fn a_trial_begun_with_the_handle_inside_waits_for_it_to_come_out() {
+    let dir = temp_dir("lift");
+    let (mut run, mut state) = open(SHAPES, &dir);
+    run.resume(&mut state, 0.0);
+    assert!(run.stimulus_on() && !run.awaiting_lift(&state));
+    press_down(&mut state, 300);
+    run.tick(&mut state, 1.0);
+    assert!(
+        state.latest().unwrap().tick.normal_force_n > 0.5,
+        "pressed in"
+    );
+    run.end_exploration(&mut state, 2.0);
+    let first = run.trial().unwrap().stimulus;
+    run.answer(&mut state, Response::Stimulus(first), 2.5)
+        .unwrap();
+    // The next trial: the hand is still 10 mm into where every stimulus has its vertex.
+    run.next(&mut state, 3.0);
+    assert_eq!(run.trial().unwrap().number, 2);
+    state.step(20);
+    run.tick(&mut state, 3.1);
+    assert!(run.awaiting_lift(&state), "the handle is inside");
+    assert!(!run.stimulus_on() && !state.forces_requested);
+    // Its clock has not started: a 30 s exploration still has 30 s after 10 s of waiting.
+    run.tick(&mut state, 13.0);
+    assert_eq!(run.time_left(13.0), Some(30.0));
+    assert_eq!(run.phase(), &Phase::Exploring);
+    // Out: the stimulus comes on, its clock runs from then.
+    lift(&mut state, 300);
+    run.tick(&mut state, 14.0);
+    assert!(run.stimulus_on() && state.forces_requested);
+    assert!(!run.awaiting_lift(&state));
+    assert_eq!(run.time_left(15.0), Some(29.0));
+    // Felt again, answered: the trace's first row is at no force (the handle out, the
+    // forces ramping in from zero), and it holds the new press.
+    press_down(&mut state, 300);
+    run.tick(&mut state, 16.0);
+    run.end_exploration(&mut state, 17.0);
+    let second = run.trial().unwrap().stimulus;
+    run.answer(&mut state, Response::Stimulus(second), 17.5)
+        .unwrap();
+    let log = host::runlog::read(&dir.join("traces/trial-0002-a.csv")).unwrap();
+    let ticks = &log.run.ticks;
+    assert_eq!(ticks[0].normal_force_n, 0.0, "{:?}", ticks[0]);
+    assert!(ticks.iter().any(|k| k.normal_force_n > 0.5));
     std::fs::remove_dir_all(&dir).unwrap();
 }

@@ -58,7 +58,8 @@ pub struct ParticipantRun {
     presented: u64,
     /// The label of the scene sent last, to know when the loop took it.
     shown_label: String,
-    /// Whether the stimulus is on (the loop took the scene and the forces are on).
+    /// Whether the stimulus is on (the loop took the scene, the handle was out of every
+    /// object, and the forces are on).
     stimulus_on: bool,
     /// When the current stretch of exploration began, and the exploration before it (s).
     explore_since_s: f64,
@@ -183,9 +184,19 @@ impl ParticipantRun {
         self.comparative
     }
 
-    /// Whether the stimulus is on: the loop took the trial's scene and the forces are on.
+    /// Whether the stimulus is on: the loop took the trial's scene, the handle was out of
+    /// every object of it, and the forces are on.
     pub fn stimulus_on(&self) -> bool {
         self.stimulus_on
+    }
+
+    /// Whether the trial's stimulus waits for the handle to come out of an object of it
+    /// (the screen says "lift the handle"): the loop took the scene, the handle is inside.
+    pub fn awaiting_lift(&self, state: &AppState) -> bool {
+        self.phase == Phase::Exploring
+            && !self.stimulus_on
+            && state.scene.label == self.shown_label
+            && !handle_clear(state)
     }
 
     /// Whether a trial was started in this session (the pause screen says "resume").
@@ -218,7 +229,7 @@ impl ParticipantRun {
 
     /// Seconds of exploration left at `now_s` (none without a limit).
     pub fn time_left(&self, now_s: f64) -> Option<f64> {
-        let running = if self.phase == Phase::Exploring {
+        let running = if self.phase == Phase::Exploring && self.stimulus_on {
             now_s - self.explore_since_s
         } else {
             0.0
@@ -262,8 +273,7 @@ impl ParticipantRun {
             }
             Some(Phase::Exploring) => {
                 self.phase = Phase::Exploring;
-                self.explore_since_s = now_s;
-                self.present(state, self.interval);
+                self.present(state, self.interval, now_s);
             }
             Some(Phase::Answering) => {
                 self.answer_since_s += paused;
@@ -277,10 +287,9 @@ impl ParticipantRun {
     pub fn pause(&mut self, state: &mut AppState, now_s: f64) {
         match self.phase {
             Phase::Paused | Phase::Done => return,
-            Phase::Exploring => self.explored_s += now_s - self.explore_since_s,
-            Phase::Answering | Phase::Feedback { .. } => {}
+            Phase::Exploring | Phase::Answering | Phase::Feedback { .. } => {}
         }
-        self.stimulus_off(state);
+        self.stimulus_off(state, now_s);
         self.resume_to = Some(std::mem::replace(&mut self.phase, Phase::Paused));
         self.paused_at_s = now_s;
     }
@@ -295,23 +304,24 @@ impl ParticipantRun {
     }
 
     /// Once a frame: takes in the ticks felt, switches the stimulus on once the loop took
-    /// its scene, and ends the exploration when its time is up.
+    /// its scene and the handle is out of every object of it (the exploration's clock starts
+    /// then), and ends the exploration when its time is up.
     pub fn tick(&mut self, state: &mut AppState, now_s: f64) {
         self.collect(state);
         if self.phase != Phase::Exploring {
             return;
         }
-        self.tick_scene(state);
+        self.tick_scene(state, now_s);
         if self.time_left(now_s).is_some_and(|t| t <= 0.0) {
             self.end_exploration(state, now_s);
         }
     }
 
     /// Feels interval `interval` (0 or 1) of a 2AFC trial instead of the other.
-    pub fn feel(&mut self, state: &mut AppState, interval: usize) {
+    pub fn feel(&mut self, state: &mut AppState, interval: usize, now_s: f64) {
         let intervals = self.trial.as_ref().map_or(0, |t| t.intervals.len());
         if self.phase == Phase::Exploring && interval < intervals && interval != self.interval {
-            self.present(state, interval);
+            self.present(state, interval, now_s);
         }
     }
 
@@ -321,8 +331,7 @@ impl ParticipantRun {
         if self.phase != Phase::Exploring {
             return;
         }
-        self.explored_s += now_s - self.explore_since_s;
-        self.stimulus_off(state);
+        self.stimulus_off(state, now_s);
         self.phase = Phase::Answering;
         self.answer_since_s = now_s;
     }
@@ -404,16 +413,15 @@ impl ParticipantRun {
 
     /// Starts the session's next trial (or ends the run).
     fn next_trial(&mut self, state: &mut AppState, now_s: f64) {
-        self.stimulus_off(state);
+        self.stimulus_off(state, now_s);
         match self.session.next_trial() {
             Ok(Some(trial)) => {
                 self.traces = vec![Vec::new(); trial.intervals.len()];
                 self.trial = Some(trial);
                 self.explored_s = 0.0;
-                self.explore_since_s = now_s;
                 self.trial_start_s = now_s;
                 self.phase = Phase::Exploring;
-                self.present(state, 0);
+                self.present(state, 0, now_s);
             }
             Ok(None) => {
                 self.trial = None;
@@ -429,10 +437,10 @@ impl ParticipantRun {
     }
 
     /// Sends interval `k` of the trial to the loop (the app's scene swap, which uploads it
-    /// to a connected device); the stimulus comes on once the loop took it
-    /// ([`ParticipantRun::tick`]).
-    fn present(&mut self, state: &mut AppState, k: usize) {
-        self.stimulus_off(state);
+    /// to a connected device); the stimulus comes on once the loop took it and the handle is
+    /// out of it ([`ParticipantRun::tick`]).
+    fn present(&mut self, state: &mut AppState, k: usize, now_s: f64) {
+        self.stimulus_off(state, now_s);
         self.interval = k;
         let Some(trial) = &self.trial else {
             return;
@@ -452,24 +460,32 @@ impl ParticipantRun {
             Ok(()) => self.shown_label = label,
             Err(e) => self.error = Some(e),
         }
-        self.tick_scene(state);
+        self.tick_scene(state, now_s);
     }
 
-    /// Switches the stimulus on at once when the loop already took its scene (a stepped
-    /// loop).
-    fn tick_scene(&mut self, state: &mut AppState) {
+    /// Switches the stimulus on once the loop took its scene (at once for a stepped loop)
+    /// and the handle is out of every object of it: a trial never starts with the handle
+    /// pressed into the shape (the previous trial's press), which on a board is a jolt. The
+    /// forces then ramp in (the controller's ramp on enabling) and the exploration's clock
+    /// runs from now.
+    fn tick_scene(&mut self, state: &mut AppState, now_s: f64) {
         if self.phase == Phase::Exploring
             && !self.stimulus_on
             && state.scene.label == self.shown_label
+            && handle_clear(state)
         {
             state.set_forces(true);
             state.capture = Some(Vec::new());
             self.stimulus_on = true;
+            self.explore_since_s = now_s;
         }
     }
 
-    /// The stimulus goes: forces off, the ticks felt so far kept.
-    fn stimulus_off(&mut self, state: &mut AppState) {
+    /// The stimulus goes: forces off, the ticks felt so far kept, the time explored added up.
+    fn stimulus_off(&mut self, state: &mut AppState, now_s: f64) {
+        if self.stimulus_on && self.phase == Phase::Exploring {
+            self.explored_s += now_s - self.explore_since_s;
+        }
         self.collect(state);
         state.capture = None;
         if self.stimulus_on || state.forces_requested {
@@ -489,4 +505,24 @@ impl ParticipantRun {
             }
         }
     }
+}
+
+/// How far out of every object the handle must be for a stimulus to come on (m): a tenth of
+/// a millimetre past the surface, five encoder counts of the default device at the handle
+/// (19.6 µm each), so that encoder noise at the surface does not count as out.
+pub const LIFT_CLEARANCE_M: f32 = 1e-4;
+
+/// Whether the handle (the newest sample's HIP; before any, the hand's target, where the
+/// simulated handle starts) is at least [`LIFT_CLEARANCE_M`] out of every planar object of
+/// the scene in the loop.
+fn handle_clear(state: &AppState) -> bool {
+    let hip = state.latest().map_or(state.hand_target, |s| {
+        nurbs::Vec2::new(s.tick.hip.x, s.tick.hip.y)
+    });
+    state
+        .scene
+        .model
+        .objects()
+        .iter()
+        .all(|o| crate::closest::signed_distance_2d(o, hip).is_none_or(|d| d >= LIFT_CLEARANCE_M))
 }

@@ -89,9 +89,9 @@ impl ParticipantUi {
                     run.end_exploration(s, now);
                 } else if run.is_two_interval() {
                     if pressed(Key::Num1) {
-                        run.feel(s, 0);
+                        run.feel(s, 0, now);
                     } else if pressed(Key::Num2) {
-                        run.feel(s, 1);
+                        run.feel(s, 1, now);
                     }
                 }
             }
@@ -205,7 +205,7 @@ impl ParticipantUi {
                         {
                             let on = self.run.interval() == k;
                             if ui.selectable_label(on, big(*name)).clicked() {
-                                self.run.feel(&mut self.state, k);
+                                self.run.feel(&mut self.state, k, now);
                             }
                         }
                         ui.separator();
@@ -377,6 +377,12 @@ impl ParticipantUi {
             );
         };
         match self.run.phase() {
+            Phase::Exploring if self.run.awaiting_lift(&self.state) => {
+                centre(
+                    "Lift the handle out of the shape",
+                    Color32::from_rgb(150, 90, 0),
+                );
+            }
             Phase::Exploring if !self.run.stimulus_on() => {
                 centre("loading...", Color32::from_gray(120));
             }
