@@ -153,24 +153,43 @@ pub(crate) fn record_interrupt_test(viewer: &Path) -> Result<(), String> {
         Stdio::piped(),
         Stdio::inherit(),
     )?;
-    // The viewer's standard error, echoed and kept.
-    let stderr = child.stderr.take();
-    let echo = std::thread::spawn(move || {
-        use std::io::BufRead;
-        let mut said = String::new();
-        for line in stderr
-            .map(std::io::BufReader::new)
-            .into_iter()
-            .flat_map(|r| r.lines().map_while(Result::ok))
-        {
-            eprintln!("{line}");
-            said.push_str(&line);
-            said.push('\n');
-        }
-        said
+    let (interrupted, said, _) = interrupt_echoed(&mut child, |child, viewer_pid| {
+        interrupt_recording(child, &record, viewer_pid)
     });
+    let result = interrupted.and_then(|status| check_interrupted_recording(status, &record, &said));
+    let _ = std::fs::remove_dir_all(&dir);
+    result
+}
+
+/// Runs `interrupt` on `child` (xvfb-run with the viewer under it; `interrupt` records the
+/// viewer's PID in its second argument once it finds it) while the viewer's standard error
+/// and output, where piped, are echoed to standard error and kept; ends the viewer and
+/// xvfb-run if `interrupt` left them running. Returns `interrupt`'s result, then what the
+/// viewer wrote on standard error and on standard output (empty for a stream not piped).
+fn interrupt_echoed(
+    child: &mut Child,
+    interrupt: impl FnOnce(&mut Child, &mut Option<u32>) -> Result<std::process::ExitStatus, String>,
+) -> (Result<std::process::ExitStatus, String>, String, String) {
+    let echo = |stream: Option<Box<dyn std::io::Read + Send>>| {
+        std::thread::spawn(move || {
+            use std::io::BufRead;
+            let mut said = String::new();
+            for line in stream
+                .map(std::io::BufReader::new)
+                .into_iter()
+                .flat_map(|r| r.lines().map_while(Result::ok))
+            {
+                eprintln!("{line}");
+                said.push_str(&line);
+                said.push('\n');
+            }
+            said
+        })
+    };
+    let err = echo(child.stderr.take().map(|s| Box::new(s) as _));
+    let out = echo(child.stdout.take().map(|s| Box::new(s) as _));
     let mut viewer_pid = None;
-    let interrupted = interrupt_recording(&mut child, &record, &mut viewer_pid);
+    let interrupted = interrupt(child, &mut viewer_pid);
     if child.try_wait().ok().flatten().is_none() {
         // Failed on the way: end the viewer (xvfb-run then stops its X server) and xvfb-run.
         if let Some(pid) = viewer_pid {
@@ -181,10 +200,11 @@ pub(crate) fn record_interrupt_test(viewer: &Path) -> Result<(), String> {
         let _ = child.kill();
         let _ = child.wait();
     }
-    let said = echo.join().unwrap_or_default();
-    let result = interrupted.and_then(|status| check_interrupted_recording(status, &record, &said));
-    let _ = std::fs::remove_dir_all(&dir);
-    result
+    (
+        interrupted,
+        err.join().unwrap_or_default(),
+        out.join().unwrap_or_default(),
+    )
 }
 
 /// Waits for the recording to hold [`RECORD_ROWS_BEFORE_SIGNAL`] rows, sends the viewer
@@ -313,53 +333,23 @@ pub(crate) fn participant_interrupt_test(viewer: &Path, root: &Path) -> Result<(
         Stdio::piped(),
         Stdio::piped(),
     )?;
-    let keep = |stream: Option<Box<dyn std::io::Read + Send>>| {
-        std::thread::spawn(move || {
-            use std::io::BufRead;
-            let mut said = String::new();
-            for line in stream
-                .map(std::io::BufReader::new)
-                .into_iter()
-                .flat_map(|r| r.lines().map_while(Result::ok))
-            {
-                eprintln!("{line}");
-                said.push_str(&line);
-                said.push('\n');
-            }
-            said
-        })
-    };
-    let err = keep(child.stderr.take().map(|s| Box::new(s) as _));
-    let out = keep(child.stdout.take().map(|s| Box::new(s) as _));
     let opened = dir.join("plan.json");
     let since = std::cell::Cell::new(None::<Instant>);
-    let mut viewer_pid = None;
-    let interrupted = interrupt_when(&mut child, &mut viewer_pid, || {
-        match (opened.is_file(), since.get()) {
-            (false, _) => Err(format!("{} not written", opened.display())),
-            (true, None) => {
-                since.set(Some(Instant::now()));
-                Err("the session just opened".into())
+    let (interrupted, said, printed) = interrupt_echoed(&mut child, |child, viewer_pid| {
+        interrupt_when(child, viewer_pid, || {
+            match (opened.is_file(), since.get()) {
+                (false, _) => Err(format!("{} not written", opened.display())),
+                (true, None) => {
+                    since.set(Some(Instant::now()));
+                    Err("the session just opened".into())
+                }
+                (true, Some(t)) if t.elapsed() < Duration::from_secs(1) => {
+                    Err("the session opened under a second ago".into())
+                }
+                (true, Some(_)) => Ok("the participant's session is open".into()),
             }
-            (true, Some(t)) if t.elapsed() < Duration::from_secs(1) => {
-                Err("the session opened under a second ago".into())
-            }
-            (true, Some(_)) => Ok("the participant's session is open".into()),
-        }
+        })
     });
-    if child.try_wait().ok().flatten().is_none() {
-        if let Some(pid) = viewer_pid {
-            let _ = Command::new("kill")
-                .args(["-KILL", &pid.to_string()])
-                .status();
-        }
-        let _ = child.kill();
-        let _ = child.wait();
-    }
-    let (said, printed) = (
-        err.join().unwrap_or_default(),
-        out.join().unwrap_or_default(),
-    );
     let rows = std::fs::read_to_string(dir.join("trials.csv"))
         .map_or(0, |t| t.lines().count().saturating_sub(1));
     let _ = std::fs::remove_dir_all(&dir);
