@@ -190,3 +190,58 @@ fn the_objects_panel_renders_the_bump_in_3d_and_a_curve_in_2d() {
     assert!(s.spatial.is_none(), "back in 2-D");
     assert_eq!((s.felt_object(), s.scene.rendered), (Some(1), Some(1)));
 }
+
+/// Issue 31, item 3: a stiffness typed into the material panel applies on Enter, not per
+/// keystroke. Typing 2000 over thesis-2d's K = 1000 used to run K = 2, 20 and 200 on the way
+/// (then 2000 was refused, and 200 kept running while the panel said "unchanged"). Now the
+/// running material stays at 1000 while the digits go in; on Enter 2000 is refused (past the
+/// device's passivity bound) and 1000 still runs; 800 typed and entered runs.
+#[test]
+fn a_typed_stiffness_applies_on_enter_not_per_keystroke() {
+    use eframe::egui;
+    use egui_kittest::Harness;
+    use egui_kittest::kittest::Queryable;
+    use viewer::gui::ViewerUi;
+    let state = AppState::stepped("thesis-2d").unwrap_or_else(|e| panic!("{e:#}"));
+    let before = state.running_material.expect("a material");
+    assert_eq!(before.stiffness_n_per_m, 1000.0);
+    let mut h = Harness::builder()
+        .with_size(egui::Vec2::new(360.0, 700.0))
+        .build_ui_state(
+            |ui, v: &mut ViewerUi| v.materials_ui(ui),
+            ViewerUi::new(state),
+        );
+    h.run_steps(2);
+    let running = |h: &Harness<'_, ViewerUi>| {
+        h.state()
+            .state
+            .running_material
+            .expect("a material")
+            .stiffness_n_per_m
+    };
+    // Type `text` into the stiffness field digit by digit (the field selects its text when
+    // it opens, so the first digit replaces it), the loop stepping between keystrokes, then
+    // Enter.
+    let type_k = |h: &mut Harness<'_, ViewerUi>, text: &str| {
+        h.get_by_label("stiffness K").click();
+        h.run_steps(2);
+        for c in text.chars() {
+            h.event(egui::Event::Text(c.to_string()));
+            h.run_steps(1);
+            h.state_mut().state.step(5);
+            h.run_steps(1);
+            assert_eq!(running(h), 1000.0, "after typing {c:?} of {text}");
+        }
+        h.key_press(egui::Key::Enter);
+        h.run_steps(2);
+        h.state_mut().state.step(5);
+        h.run_steps(2);
+    };
+    type_k(&mut h, "2000");
+    assert_eq!(running(&h), 1000.0, "2000 is past the passivity bound");
+    let e = h.state().state.materials.error.clone().expect("refused");
+    assert!(e.contains("stiffness"), "{e}");
+    type_k(&mut h, "800");
+    assert_eq!(running(&h), 800.0, "{:?}", h.state().state.materials.error);
+    assert_eq!(h.state().state.materials.error, None);
+}

@@ -11,7 +11,8 @@ use crate::gui::surface_scene::SpatialState;
 
 /// The material panel: the editor's values for the material of the object felt (stiffness,
 /// damping, μs, μd, the Stribeck speed and shape, the friction model), applied as they are
-/// edited, and why the last values were refused (the running material stays).
+/// dragged or, typed, on Enter or when the field loses focus; validated before anything is
+/// sent, and why the last values were refused (the running material stays, and is shown).
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct MaterialPanel {
     /// The editor's values.
@@ -65,7 +66,10 @@ impl MaterialPanel {
                         egui::DragValue::new(v)
                             .speed(speed)
                             .max_decimals(4)
-                            .suffix(unit),
+                            .suffix(unit)
+                            // A typed value applies on Enter or when the field loses
+                            // focus, not per keystroke (typing 2000 would run 2, 20, 200).
+                            .update_while_editing(false),
                     )
                     .labelled_by(name.id)
                     .changed();
@@ -110,8 +114,12 @@ impl MaterialPanel {
             ui.end_row();
             if let Stribeck::Power { exponent } = &mut m.stribeck {
                 let name = ui.label("exponent n");
-                ui.add(egui::DragValue::new(exponent).range(1..=255))
-                    .labelled_by(name.id);
+                ui.add(
+                    egui::DragValue::new(exponent)
+                        .range(1..=255)
+                        .update_while_editing(false),
+                )
+                .labelled_by(name.id);
                 ui.end_row();
             }
             let name = ui.label("friction model");
