@@ -245,3 +245,53 @@ fn a_typed_stiffness_applies_on_enter_not_per_keystroke() {
     assert_eq!(running(&h), 800.0, "{:?}", h.state().state.materials.error);
     assert_eq!(h.state().state.materials.error, None);
 }
+
+/// Issue 31, item 4: the app redraws at full pace only while something moves. At rest (the
+/// simulated handle still, nothing pressed) it asks for 2 frames a second, not 60; a drag, a
+/// moving handle or a change of the forces brings the full pace back.
+#[test]
+fn an_idle_app_redraws_a_few_times_a_second_and_a_moving_one_at_full_pace() {
+    use viewer::gui::repaint::{ACTIVE_FRAME, IDLE_FRAME, Repaint};
+    let mut state = AppState::stepped("thesis-2d").unwrap_or_else(|e| panic!("{e:#}"));
+    let mut repaint = Repaint::default();
+    state.step(1);
+    assert_eq!(
+        repaint.after_frame(&state, false),
+        ACTIVE_FRAME,
+        "first tick"
+    );
+    // The handle at rest at its start, free: nothing changes from frame to frame.
+    state.step(300);
+    repaint.after_frame(&state, false);
+    for _ in 0..5 {
+        state.step(20);
+        assert_eq!(repaint.after_frame(&state, false), IDLE_FRAME);
+    }
+    // A demo plays, or the hand is dragged: full pace.
+    assert_eq!(repaint.after_frame(&state, true), ACTIVE_FRAME);
+    state.dragging = true;
+    assert_eq!(repaint.after_frame(&state, false), ACTIVE_FRAME);
+    state.dragging = false;
+    // The hand sent 5 mm away (released, it glides there): the handle moves, full pace,
+    // until it is at rest again.
+    let start = state.hand_target;
+    assert!(state.set_hand_target(start + nurbs::Vec2::new(0.005, 0.0)));
+    state.step(20);
+    assert_eq!(repaint.after_frame(&state, false), ACTIVE_FRAME, "moving");
+    state.step(1000);
+    repaint.after_frame(&state, false);
+    state.step(20);
+    assert_eq!(
+        repaint.after_frame(&state, false),
+        IDLE_FRAME,
+        "at rest again"
+    );
+    // The forces switched off: drawn at once.
+    state.set_forces(false);
+    state.step(2);
+    assert_eq!(
+        repaint.after_frame(&state, false),
+        ACTIVE_FRAME,
+        "forces off"
+    );
+}

@@ -13,6 +13,7 @@ pub mod moving_shape;
 pub mod panels;
 pub mod participant;
 pub mod reach;
+pub mod repaint;
 pub mod replay;
 pub mod scene_view;
 pub mod state;
@@ -280,6 +281,7 @@ struct ViewerApp {
     frames: u64,
     intervals: Vec<f32>,
     ui_total_ms: f64,
+    repaint: repaint::Repaint,
     summary: std::sync::Arc<std::sync::Mutex<Summary>>,
 }
 
@@ -332,8 +334,12 @@ impl eframe::App for ViewerApp {
         {
             ui.ctx().send_viewport_cmd(egui::ViewportCommand::Close);
         }
-        // The loop ticks on: redraw at about 60 Hz (a display's vsync may slow this).
-        ui.ctx().request_repaint_after(Duration::from_millis(15));
+        // The loop ticks on: redraw at the display's pace while something moves, a few
+        // times a second while nothing does (`repaint`).
+        let next = self
+            .repaint
+            .after_frame(&self.ui.state, self.demo.is_some());
+        ui.ctx().request_repaint_after(next);
     }
 
     fn on_exit(&mut self) {
@@ -442,6 +448,7 @@ pub fn run(options: GuiOptions) -> anyhow::Result<Summary> {
         frames: 0,
         intervals: Vec::new(),
         ui_total_ms: 0.0,
+        repaint: repaint::Repaint::default(),
         summary: summary.clone(),
     };
     let native = eframe::NativeOptions {

@@ -448,6 +448,7 @@ pub fn run_window(
         ui: ParticipantUi::new(state, run),
         outcome: outcome.clone(),
         interrupt: interrupt.clone(),
+        repaint: Default::default(),
     };
     let native = eframe::NativeOptions {
         viewport: egui::ViewportBuilder::default()
@@ -477,6 +478,8 @@ struct ParticipantApp {
     /// Ctrl-C or SIGTERM: the run pauses (the trial in progress is not answered) and the
     /// window closes, as Quit does.
     interrupt: Option<crate::interrupt::Interrupt>,
+    /// When to draw again with no input.
+    repaint: crate::gui::repaint::Repaint,
 }
 
 impl eframe::App for ParticipantApp {
@@ -491,8 +494,13 @@ impl eframe::App for ParticipantApp {
             self.ui.run.pause(&mut self.ui.state, now);
             ui.ctx().send_viewport_cmd(egui::ViewportCommand::Close);
         }
-        ui.ctx()
-            .request_repaint_after(std::time::Duration::from_millis(15));
+        // Full pace while a trial runs (its clock, the stimulus coming on), else the app's.
+        let next = if *self.ui.run.phase() == Phase::Exploring {
+            crate::gui::repaint::ACTIVE_FRAME
+        } else {
+            self.repaint.after_frame(&self.ui.state, false)
+        };
+        ui.ctx().request_repaint_after(next);
     }
 
     fn on_exit(&mut self) {
