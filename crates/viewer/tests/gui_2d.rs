@@ -334,3 +334,19 @@ fn opening_a_scene_forgets_the_previous_scenes_switches() {
     }
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// Issue 31, item 5: with the hand released, a drag moves nothing the user can see; the view
+/// says why and what to do.
+#[test]
+fn a_released_hand_is_explained_in_the_view() {
+    use egui_kittest::kittest::Queryable;
+    let mut h = common::view_2d_harness(common::stepped());
+    h.run_steps(2);
+    assert!(h.query_by_label_contains("Hand released").is_none());
+    h.state_mut().state.set_hand(host::hand::Hand::Released);
+    h.run_steps(2);
+    h.get_by_label_contains("Hand released: nobody holds the handle");
+    h.state_mut().state.set_hand(host::hand::Hand::Finger);
+    h.run_steps(2);
+    assert!(h.query_by_label_contains("Hand released").is_none());
+}

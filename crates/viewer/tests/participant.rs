@@ -680,3 +680,45 @@ fn a_trial_begun_with_the_handle_inside_waits_for_it_to_come_out() {
     assert!(ticks.iter().any(|k| k.normal_force_n > 0.5));
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+/// Issue 31, item 5: Quit sits next to Pause, so during a run it asks first; "Keep going"
+/// goes back to the trial, "Quit now" quits. After the last trial it quits at once.
+#[test]
+fn quit_during_a_run_asks_first() {
+    let dir = temp_dir("quit");
+    let (run, state) = open(SHAPES, &dir);
+    let mut p = ParticipantUi::new(state, run);
+    p.frozen_s = Some(0.0);
+    let quit = std::rc::Rc::new(std::cell::Cell::new(false));
+    let asked = quit.clone();
+    let mut h = Harness::builder()
+        .with_size(egui::Vec2::new(1200.0, 800.0))
+        .build_ui_state(
+            move |ui, p: &mut ParticipantUi| {
+                if p.ui(ui) {
+                    asked.set(true);
+                }
+            },
+            p,
+        );
+    h.run_steps(2);
+    h.get_by_label("Start (Enter)").click();
+    h.run_steps(2);
+    h.get_by_label("Quit").click();
+    h.run_steps(2);
+    assert!(!quit.get(), "one click does not quit");
+    assert_eq!(
+        h.state().run.phase(),
+        &Phase::Exploring,
+        "the trial goes on"
+    );
+    h.get_by_label("Keep going").click();
+    h.run_steps(2);
+    assert!(h.query_by_label("Quit now").is_none());
+    h.get_by_label("Quit").click();
+    h.run_steps(2);
+    h.get_by_label("Quit now").click();
+    h.run_steps(2);
+    assert!(quit.get(), "confirmed");
+    std::fs::remove_dir_all(&dir).unwrap();
+}

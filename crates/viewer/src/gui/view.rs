@@ -227,6 +227,21 @@ pub fn view_2d_ui(ui: &mut egui::Ui, state: &mut AppState, view: &mut View2d) {
     }
     draw_hand(&painter, rect, view, state);
     draw_legend(&painter, rect, view, state);
+    if let Some(hint) = state.hand_hint() {
+        // Bottom left, above the scale bars; stronger while the user drags.
+        let area = Rect::from_min_size(
+            rect.left_bottom() + EVec2::new(8.0, -120.0),
+            EVec2::new((rect.width() - 180.0).clamp(120.0, 520.0), 40.0),
+        );
+        let colour = if state.dragging {
+            Color32::from_rgb(190, 30, 30)
+        } else {
+            Color32::from_rgb(150, 90, 0)
+        };
+        ui.scope_builder(egui::UiBuilder::new().max_rect(area), |ui| {
+            ui.label(egui::RichText::new(hint).color(colour));
+        });
+    }
     if state.edit.enabled {
         let panel = Rect::from_min_size(
             rect.right_top() + EVec2::new(-300.0, 72.0),

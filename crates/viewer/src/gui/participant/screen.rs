@@ -34,6 +34,8 @@ pub struct ParticipantUi {
     started: Instant,
     /// A fixed time (s) instead of the clock (tests).
     pub frozen_s: Option<f64>,
+    /// Quit was clicked during the run: the top bar asks to confirm.
+    confirm_quit: bool,
 }
 
 impl ParticipantUi {
@@ -45,6 +47,7 @@ impl ParticipantUi {
             view: View2d::default(),
             started: Instant::now(),
             frozen_s: None,
+            confirm_quit: false,
         }
     }
 
@@ -167,11 +170,34 @@ impl ParticipantUi {
                 ui.label(big(format!("Time left: {:.0} s", left.ceil())));
             }
             ui.with_layout(egui::Layout::right_to_left(egui::Align::Center), |ui| {
-                if ui.button(big("Quit".into())).clicked() {
-                    quit = true;
-                }
                 let paused = self.run.phase() == &Phase::Paused;
                 let done = self.run.phase() == &Phase::Done;
+                // Quit sits next to Pause: during a run it asks first (the trial in progress
+                // is not answered; answered trials are saved and the run resumes from them).
+                if self.confirm_quit && !done {
+                    if ui.button(big("Keep going".into())).clicked() {
+                        self.confirm_quit = false;
+                    }
+                    if ui.button(big("Quit now".into())).clicked() {
+                        quit = true;
+                    }
+                    ui.label(
+                        RichText::new(
+                            "Quit? The trial in progress is not saved; answered ones are, \
+                             and the run resumes from them.",
+                        )
+                        .size(16.0)
+                        .color(Color32::from_rgb(150, 90, 0)),
+                    );
+                    return;
+                }
+                if ui.button(big("Quit".into())).clicked() {
+                    if done {
+                        quit = true;
+                    } else {
+                        self.confirm_quit = true;
+                    }
+                }
                 if !paused
                     && !done
                     && ui

@@ -502,6 +502,17 @@ impl AppState {
         }
     }
 
+    /// What the 2-D view says while nobody holds the simulated handle: a drag then moves only
+    /// the hand's target, and the handle stays where its own mass and the device's friction
+    /// leave it. `None` while a hand holds it (or on a linked device).
+    pub fn hand_hint(&self) -> Option<&'static str> {
+        (self.device == DeviceChoice::Simulated && self.hand == host::hand::Hand::Released)
+            .then_some(
+                "Hand released: nobody holds the handle, so dragging moves only the hand's target. \
+             Choose grip or fingertip under Device to move it.",
+            )
+    }
+
     /// Replays the run log at `path` in the views and plots (the live loop runs on behind
     /// it, unseen); an unreadable or invalid log leaves everything as it was and
     /// [`ReplayPanel::error`] names the line at fault.
