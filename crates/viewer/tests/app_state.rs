@@ -295,3 +295,43 @@ fn an_idle_app_redraws_a_few_times_a_second_and_a_moving_one_at_full_pace() {
         "forces off"
     );
 }
+
+/// Issue 31, item 6: thesis-3d, then thesis-2d, then thesis-3d again: the plots' history
+/// holds only the newest loop's ticks, on one time axis (before, the spatial hand's clock
+/// started again under the old ticks, and the plots spanned −3…21 s).
+#[test]
+fn the_history_is_one_loop_after_switching_between_2d_and_3d() {
+    let mut state = AppState::stepped("thesis-3d").unwrap_or_else(|e| panic!("{e:#}"));
+    let history_ok = |state: &AppState, what: &str| {
+        let h = &state.telemetry.history;
+        let newest = h.back().expect("ticks").tick.t_s;
+        assert!(
+            h.iter()
+                .zip(h.iter().skip(1))
+                .all(|(a, b)| a.tick.t_s <= b.tick.t_s),
+            "{what}: the history's time runs forward"
+        );
+        assert!(
+            h.iter().all(|s| s.tick.t_s <= newest),
+            "{what}: nothing after the newest tick"
+        );
+        h.len()
+    };
+    state.step(400);
+    state.poll();
+    assert_eq!(history_ok(&state, "3-D"), 400);
+    state.open_bundled("thesis-2d");
+    assert!(state.spatial.is_none());
+    state.step(900);
+    state.poll();
+    assert!(history_ok(&state, "2-D") <= 900);
+    state.open_bundled("thesis-3d");
+    assert!(state.spatial.is_some());
+    state.step(100);
+    state.poll();
+    assert_eq!(
+        history_ok(&state, "3-D again"),
+        100,
+        "only the new loop's ticks"
+    );
+}

@@ -32,6 +32,9 @@ pub struct Telemetry {
     /// The mode of the last sample pushed, which a switch is noted against; none after a
     /// scene opened or the history was forgotten.
     last_mode: Option<Mode>,
+    /// Whose ticks the history holds: the spatial hand's loop (`true`) or the planar
+    /// device's; `None` before the first poll.
+    pub spatial_source: Option<bool>,
 }
 
 impl Telemetry {
@@ -51,6 +54,13 @@ impl Telemetry {
     /// Appends `s` to the history (noting a mode switch) and drops what is older than
     /// [`HISTORY_S`]: a live sample, or one of a replay's window.
     pub fn push(&mut self, s: Sample) {
+        // A tick older than the newest is another loop's (another scene's hand started its
+        // clock again): the history so far is not on its time axis.
+        if self.history.back().is_some_and(|b| s.tick.t_s < b.tick.t_s) {
+            self.history.clear();
+            self.switches.clear();
+            self.last_mode = None;
+        }
         if let Some(last) = self.last_mode
             && last != s.tick.mode
         {

@@ -286,6 +286,14 @@ impl AppState {
     }
 
     fn take(&mut self, s: Sample) {
+        // The ticks come from the spatial hand's loop or the planar device's: on a change of
+        // loop the history is another clock's (the 3-D plots lost their time axis after a
+        // 2-D scene).
+        let spatial_loop = self.spatial.is_some();
+        if self.telemetry.spatial_source != Some(spatial_loop) {
+            self.telemetry.restart();
+            self.telemetry.spatial_source = Some(spatial_loop);
+        }
         self.telemetry.received += 1;
         if let Some(capture) = &mut self.capture {
             capture.push(s.tick);
