@@ -350,3 +350,73 @@ fn a_released_hand_is_explained_in_the_view() {
     h.run_steps(2);
     assert!(h.query_by_label_contains("Hand released").is_none());
 }
+
+/// Issue 31, item 7: a force arrow starts at the rim of the hand's dot and runs
+/// `PX_PER_N` per newton beyond it, so an ordinary 0.2 N is 6 px past the dot (it used to
+/// start at the centre, under the 6 px dot); screen y runs down.
+#[test]
+fn force_arrows_start_at_the_dots_rim() {
+    use eframe::egui::{Pos2, Vec2 as EVec2};
+    use viewer::gui::view::{HAND_DOT_PX, PX_PER_N, force_arrow};
+    let hip = Pos2::new(100.0, 100.0);
+    let (from, d) = force_arrow(hip, nurbs::Vec3::new(0.2, 0.0, 0.0)).expect("0.2 N");
+    assert!((from - Pos2::new(100.0 + HAND_DOT_PX, 100.0)).length() < 1e-4);
+    assert!((d - EVec2::new(0.2 * PX_PER_N, 0.0)).length() < 1e-4);
+    let (from, d) = force_arrow(hip, nurbs::Vec3::new(0.0, 0.5, 0.0)).expect("0.5 N up");
+    assert!((from - Pos2::new(100.0, 100.0 - HAND_DOT_PX)).length() < 1e-4);
+    assert!((d - EVec2::new(0.0, -0.5 * PX_PER_N)).length() < 1e-4);
+    assert_eq!(
+        force_arrow(hip, nurbs::Vec3::new(0.0, 0.02, 0.0)),
+        None,
+        "under 1 px"
+    );
+}
+
+/// Issue 31, item 7: the telemetry panel at rest. The Ψ plot spans at least ±`PSI_FLOOR`
+/// (autoscaled to the f32 noise of a converged tracker it was a solid block); the mode's
+/// value and "switch cause" do not run together; the legends are labels above the plots.
+#[test]
+fn the_telemetry_panel_at_rest_is_readable() {
+    use eframe::egui;
+    use egui_kittest::Harness;
+    use egui_kittest::kittest::Queryable;
+    use viewer::gui::ViewerUi;
+    use viewer::gui::panels::{PSI_FLOOR, PSI_PLOT_ID};
+    let mut state = stepped();
+    // Pressed into the right arc and left there: the tracker converged, Ψ at rounding level.
+    drag(&mut state, common::on_arc(0.05, 30.0), 300);
+    drag(&mut state, common::on_arc(0.036, 30.0), 300);
+    state.step(1500);
+    let k = state.latest().expect("ticks").tick;
+    assert_ne!(k.mode, Mode::Free);
+    assert!(f64::from(k.psi.abs()) < PSI_FLOOR, "at rest Ψ = {}", k.psi);
+    let mut h = Harness::builder()
+        .with_size(egui::Vec2::new(420.0, 900.0))
+        .build_ui_state(
+            |ui, v: &mut ViewerUi| v.telemetry_ui(ui),
+            ViewerUi::new(state),
+        );
+    h.run_steps(3);
+    let memory =
+        egui_plot::PlotMemory::load(&h.ctx, egui::Id::unique(PSI_PLOT_ID)).expect("Ψ plot");
+    let y = memory.bounds().range_y();
+    assert!(
+        *y.start() <= -PSI_FLOOR && *y.end() >= PSI_FLOOR,
+        "Ψ plot spans {y:?}"
+    );
+    // The widest mode's name, on the first frame it shows (the grid's columns were sized for
+    // the previous one).
+    if let Some(s) = h.state_mut().state.telemetry.history.back_mut() {
+        s.tick.mode = Mode::Transition;
+    }
+    h.run_steps(1);
+    let mode = h.get_by_label(Mode::Transition.name()).rect();
+    let cause = h.get_by_label("switch cause").rect();
+    assert!(
+        mode.max.x + 4.0 <= cause.min.x,
+        "{mode:?} runs into {cause:?}"
+    );
+    for name in ["— normal", "— friction", "— |total|", "— Ψ"] {
+        h.get_by_label(name);
+    }
+}

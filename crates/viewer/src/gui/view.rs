@@ -514,10 +514,14 @@ fn draw_hand(painter: &egui::Painter, rect: Rect, view: &View2d, state: &AppStat
         painter.circle_stroke(cp, 4.0, Stroke::new(2.0, Color32::from_rgb(40, 110, 200)));
         painter.circle_filled(go, 4.5, colour);
         painter.circle_stroke(go, 4.5, Stroke::new(1.0, Color32::BLACK));
+    }
+    painter.circle_filled(hip, HAND_DOT_PX, colour);
+    painter.circle_stroke(hip, HAND_DOT_PX, Stroke::new(1.5, Color32::BLACK));
+    if k.mode != Mode::Free {
+        // Over the dot, from its rim: a force of 0.2 N is 6 px, which the dot used to hide.
         let arrow = |v: nurbs::Vec3, colour: Color32, width: f32| {
-            let d = EVec2::new(v.x, -v.y) * PX_PER_N;
-            if d.length() > 1.0 {
-                painter.arrow(hip, d, Stroke::new(width, colour));
+            if let Some((from, d)) = force_arrow(hip, v) {
+                painter.arrow(from, d, Stroke::new(width, colour));
             }
         };
         arrow(
@@ -528,8 +532,18 @@ fn draw_hand(painter: &egui::Painter, rect: Rect, view: &View2d, state: &AppStat
         arrow(k.friction, colour, 2.5);
         arrow(k.force, Color32::from_gray(30), 1.0);
     }
-    painter.circle_filled(hip, 6.0, colour);
-    painter.circle_stroke(hip, 6.0, Stroke::new(1.5, Color32::BLACK));
+}
+
+/// The radius of the hand's dot (px).
+pub const HAND_DOT_PX: f32 = 6.0;
+
+/// Where a force arrow starts and its vector on screen (y up in the device, down on screen):
+/// from the rim of the hand's dot at `hip`, [`PX_PER_N`] per newton beyond it, so that the
+/// scale bar measures it and no force hides under the dot. `None` below 1/30 N (1 px).
+pub fn force_arrow(hip: Pos2, force: nurbs::Vec3) -> Option<(Pos2, EVec2)> {
+    let d = EVec2::new(force.x, -force.y) * PX_PER_N;
+    let length = d.length();
+    (length >= 1.0).then(|| (hip + d * (HAND_DOT_PX / length), d))
 }
 
 fn cross(painter: &egui::Painter, at: Pos2, colour: Color32) {

@@ -20,4 +20,4 @@ pub use material::MaterialPanel;
 pub use objects::{ObjectsAction, ObjectsPanel};
 pub use replay::{ReplayAction, ReplayPanel};
 pub use status::{StatusAction, StatusBar};
-pub use telemetry::TelemetryPanel;
+pub use telemetry::{PSI_FLOOR, PSI_PLOT_ID, TelemetryPanel};

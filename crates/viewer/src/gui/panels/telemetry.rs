@@ -2,7 +2,7 @@
 
 use eframe::egui;
 use egui::{Color32, RichText};
-use egui_plot::{Corner, Legend, Line, Plot, PlotPoints, Span};
+use egui_plot::{Line, Plot, PlotPoints, Span};
 use friction::Mode;
 
 use crate::gui::state::{AppState, HISTORY_S};
@@ -15,6 +15,14 @@ const TOTAL: Color32 = Color32::from_rgb(30, 30, 30);
 
 /// Points per plotted series at most (the history is decimated to this).
 const PLOT_POINTS: usize = 1000;
+
+/// The Ψ plot spans at least ±this (m²): Ψ = Γ·S_u, so a 1 µm projection error on a curve of
+/// 0.1 m per unit parameter. At rest Ψ is f32 rounding (~1e-9 m²), which autoscaled filled
+/// the plot with a solid block of noise.
+pub const PSI_FLOOR: f64 = 1e-7;
+
+/// The Ψ plot's id (its memory holds its bounds).
+pub const PSI_PLOT_ID: &str = "telemetry-psi";
 
 /// The telemetry panel: the newest values, the mode switches, and plots of the last
 /// [`HISTORY_S`] seconds of the history the app state keeps. It keeps no state.
@@ -30,32 +38,37 @@ impl TelemetryPanel {
             return;
         };
         let k = &latest.tick;
-        egui::Grid::new("now").num_columns(4).show(ui, |ui| {
-            ui.label("mode");
-            ui.label(
-                RichText::new(k.mode.name())
-                    .color(mode_colour(k.mode))
-                    .strong(),
-            );
-            ui.label("switch cause");
-            ui.label(k.cause.name());
-            ui.end_row();
-            ui.label("F_N");
-            ui.label(format!("{:.3} N", k.normal_force_n));
-            ui.label("F_T");
-            ui.label(format!("{:+.3} N", k.friction_force_n));
-            ui.end_row();
-            ui.label("|F| (device)");
-            ui.label(format!("{:.3} N", k.force.length()));
-            ui.label("depth");
-            ui.label(format!("{:.3} mm", k.depth_m.max(0.0) * 1e3));
-            ui.end_row();
-            ui.label("μ");
-            ui.label(format!("{:.3}", k.mu));
-            ui.label("Ψ");
-            ui.label(format!("{:.2e}", k.psi));
-            ui.end_row();
-        });
+        // Wide enough for "transition" beside "switch cause" (they ran together).
+        egui::Grid::new("now")
+            .num_columns(4)
+            .spacing([16.0, 4.0])
+            .min_col_width(72.0)
+            .show(ui, |ui| {
+                ui.label("mode");
+                ui.label(
+                    RichText::new(k.mode.name())
+                        .color(mode_colour(k.mode))
+                        .strong(),
+                );
+                ui.label("switch cause");
+                ui.label(k.cause.name());
+                ui.end_row();
+                ui.label("F_N");
+                ui.label(format!("{:.3} N", k.normal_force_n));
+                ui.label("F_T");
+                ui.label(format!("{:+.3} N", k.friction_force_n));
+                ui.end_row();
+                ui.label("|F| (device)");
+                ui.label(format!("{:.3} N", k.force.length()));
+                ui.label("depth");
+                ui.label(format!("{:.3} mm", k.depth_m.max(0.0) * 1e3));
+                ui.end_row();
+                ui.label("μ");
+                ui.label(format!("{:.3}", k.mu));
+                ui.label("Ψ");
+                ui.label(format!("{:.2e}", k.psi));
+                ui.end_row();
+            });
         let switches: Vec<String> = state
             .telemetry
             .switches
@@ -103,9 +116,20 @@ impl TelemetryPanel {
                 .include_x(-HISTORY_S)
                 .include_x(0.0)
                 .y_axis_min_width(36.0)
-                .legend(Legend::default().position(Corner::LeftTop))
         };
+        // The legends are rows above the plots: inside, they covered the traces.
         ui.label(RichText::new("forces (N) over the friction mode").strong());
+        legend_row(
+            ui,
+            &[
+                ("normal", NORMAL),
+                ("friction", FRICTION),
+                ("|total|", TOTAL),
+                (Mode::Stuck.name(), mode_colour(Mode::Stuck)),
+                (Mode::Transition.name(), mode_colour(Mode::Transition)),
+                (Mode::Slip.name(), mode_colour(Mode::Slip)),
+            ],
+        );
         plot("forces", 150.0).include_y(0.0).show(ui, |p| {
             for (mode, from, to) in mode_spans(state, t_now) {
                 p.span(
@@ -133,7 +157,8 @@ impl TelemetryPanel {
                 .color(TOTAL),
             );
         });
-        ui.label(RichText::new("μ, depth (mm), Ψ").strong());
+        ui.label(RichText::new("μ, depth (mm), Ψ (m²)").strong());
+        legend_row(ui, &[("μ", FRICTION), ("depth mm", NORMAL), ("Ψ", TOTAL)]);
         plot("mu-depth", 90.0).include_y(0.0).show(ui, |p| {
             p.line(Line::new("μ", series(&|s, i| f64::from(at(s, i).mu))).color(FRICTION));
             p.line(
@@ -145,6 +170,9 @@ impl TelemetryPanel {
             );
         });
         plot("psi", 70.0)
+            .id(egui::Id::unique(PSI_PLOT_ID))
+            .include_y(-PSI_FLOOR)
+            .include_y(PSI_FLOOR)
             .y_axis_formatter(|mark, _| format!("{:.0e}", mark.value))
             .y_axis_min_width(44.0)
             .show(ui, |p| {
@@ -180,4 +208,13 @@ fn mode_spans(state: &AppState, t_now: f64) -> Vec<(Mode, f64, f64)> {
     }
     spans.retain(|(m, _, _)| *m != Mode::Free);
     spans
+}
+
+/// A plot's legend as a row of coloured names above it.
+fn legend_row(ui: &mut egui::Ui, entries: &[(&str, Color32)]) {
+    ui.horizontal_wrapped(|ui| {
+        for (name, colour) in entries {
+            ui.label(RichText::new(format!("— {name}")).color(*colour).small());
+        }
+    });
 }
