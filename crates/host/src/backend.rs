@@ -92,17 +92,25 @@ impl<S: Send + 'static> LoopThread<S> {
         })
     }
 
-    /// Sends a command without waiting; a full channel drops it (counted) and returns false.
+    /// Sends a command without waiting; a full channel, or a thread that ended, drops it
+    /// (counted) and returns false.
     pub fn send(&self, command: LoopCommand<S>) -> bool {
-        match self.commands.try_send(command) {
-            Ok(()) => true,
-            Err(TrySendError::Full(_) | TrySendError::Disconnected(_)) => {
-                self.counters
-                    .dropped_commands
-                    .fetch_add(1, Ordering::Relaxed);
-                false
-            }
-        }
+        self.offer(command).taken()
+    }
+
+    /// Sends a command without waiting: [`Sent::Queued`], or why it was dropped (counted):
+    /// [`Sent::Dropped`] for a full channel, [`Sent::Stopped`] for a thread that ended (a
+    /// device's link lost).
+    pub fn offer(&self, command: LoopCommand<S>) -> Sent {
+        let refused = match self.commands.try_send(command) {
+            Ok(()) => return Sent::Queued,
+            Err(TrySendError::Full(_)) => Sent::Dropped,
+            Err(TrySendError::Disconnected(_)) => Sent::Stopped,
+        };
+        self.counters
+            .dropped_commands
+            .fetch_add(1, Ordering::Relaxed);
+        refused
     }
 
     /// The samples that arrived since the last call, without waiting.
@@ -259,21 +267,35 @@ pub enum Sent {
     /// Applied at once by the stepped loop; its reply, if it has one.
     Applied(Option<Reply>),
     /// Dropped: the thread's channel was full (counted in
-    /// [`LoopCounters::dropped_commands`]), or the loop is stopped.
+    /// [`LoopCounters::dropped_commands`]).
     Dropped,
+    /// Dropped: the loop is not running (stopped, or its thread ended: a device's link lost).
+    Stopped,
 }
 
 impl Sent {
+    /// Why the loop did not take the command (`None` when it did), for a message: "its queue
+    /// is full", or "it is not running".
+    pub fn refusal(&self) -> Option<&'static str> {
+        match self {
+            Sent::Queued | Sent::Applied(_) => None,
+            Sent::Dropped => Some("its queue is full"),
+            Sent::Stopped => {
+                Some("it is not running (the device's link was lost, or the loop stopped)")
+            }
+        }
+    }
+
     /// Whether the loop took the command (queued or applied).
     pub fn taken(&self) -> bool {
-        !matches!(self, Sent::Dropped)
+        !matches!(self, Sent::Dropped | Sent::Stopped)
     }
 
     /// The reply of a stepped loop.
     pub fn reply(self) -> Option<Reply> {
         match self {
             Sent::Applied(reply) => reply,
-            Sent::Queued | Sent::Dropped => None,
+            Sent::Queued | Sent::Dropped | Sent::Stopped => None,
         }
     }
 }
@@ -291,15 +313,9 @@ impl<L: Steppable> Backend<L> {
     /// Sends the command to the thread without waiting, or applies it to the stepped loop.
     pub fn command(&mut self, command: LoopCommand<L::Session>) -> Sent {
         match self {
-            Backend::Thread(t) => {
-                if t.send(command) {
-                    Sent::Queued
-                } else {
-                    Sent::Dropped
-                }
-            }
+            Backend::Thread(t) => t.offer(command),
             Backend::Stepped(l) => Sent::Applied(l.apply(command)),
-            Backend::Stopped => Sent::Dropped,
+            Backend::Stopped => Sent::Stopped,
         }
     }
 

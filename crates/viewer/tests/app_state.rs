@@ -335,3 +335,41 @@ fn the_history_is_one_loop_after_switching_between_2d_and_3d() {
         "only the new loop's ticks"
     );
 }
+
+/// Issue 31, item 8: the telemetry panel keeps its width while it waits for a loop's first
+/// tick (after a failed link, or back from a replay it shrank to ~230 px); a command to a
+/// loop that is gone says so, not "its queue is full"; and a device switch clears the old
+/// loop's messages.
+#[test]
+fn the_telemetry_panel_keeps_its_width_and_old_messages_go() {
+    use eframe::egui;
+    use egui_kittest::Harness;
+    use egui_kittest::kittest::Queryable;
+    use viewer::gui::{TELEMETRY_MIN_PX, ViewerUi};
+    let state = AppState::stepped("thesis-2d").unwrap_or_else(|e| panic!("{e:#}"));
+    let width = 1400.0;
+    let mut h = Harness::builder()
+        .with_size(egui::Vec2::new(width, 860.0))
+        .build_ui_state(|ui, v: &mut ViewerUi| v.ui(ui), ViewerUi::new(state));
+    h.run_steps(2);
+    // No tick yet: the panel holds one line.
+    h.get_by_label("waiting for the loop…");
+    let heading = h.get_by_label("Telemetry").rect();
+    // The heading starts inside the panel's inner margin (8 px at most).
+    assert!(
+        width - heading.min.x + 8.0 >= TELEMETRY_MIN_PX,
+        "the panel's content starts {} px from the right",
+        width - heading.min.x
+    );
+    // A loop that is gone (stopped, as a lost link leaves it): the material is refused
+    // naming that, and a device switch clears the message.
+    let s = &mut h.state_mut().state;
+    s.shutdown();
+    s.materials.edited.stiffness_n_per_m = 800.0;
+    s.apply_material();
+    let e = s.materials.error.clone().expect("refused");
+    assert!(e.contains("not running"), "{e}");
+    assert!(!e.contains("queue is full"), "{e}");
+    s.use_simulated();
+    assert_eq!(s.materials.error, None);
+}

@@ -40,6 +40,9 @@ use state::AppState;
 use view::{View2d, view_2d_ui};
 use view3d::{Camera3d, view_3d_ui};
 
+/// The narrowest the telemetry panel gets (px): its plots and the mode grid need this.
+pub const TELEMETRY_MIN_PX: f32 = 400.0;
+
 /// The UI: the state (with the panels that hold form state), the panels that hold none, and
 /// the views' cameras.
 #[derive(Debug)]
@@ -96,8 +99,11 @@ impl ViewerUi {
                     self.materials_ui(ui);
                 });
             });
+        // At least TELEMETRY_MIN_PX wide, whatever it holds: waiting for a loop's first tick
+        // (a failed link, back from a replay) it shrank to its one line, ~230 px.
         egui::Panel::right("telemetry")
             .default_size(430.0)
+            .min_size(TELEMETRY_MIN_PX)
             .show(ui, |ui| self.telemetry_ui(ui));
         // A new scene, or another object of it felt (which may switch 2-D and 3-D), is shown
         // fitted, on the frame the loop took it.

@@ -157,8 +157,8 @@ impl SpatialState {
 
     fn command(&mut self, command: LoopCommand<SpatialSession>) -> Option<Reply> {
         let sent = self.backend.as_mut()?.command(command);
-        if !sent.taken() {
-            self.message = Some("the spatial loop's queue is full: command dropped".into());
+        if let Some(why) = sent.refusal() {
+            self.message = Some(format!("the spatial loop dropped a command: {why}"));
         }
         sent.reply()
     }

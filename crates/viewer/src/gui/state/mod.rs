@@ -100,6 +100,8 @@ pub struct AppState {
     pub hand: host::hand::Hand,
     /// Whether the user is dragging the hand.
     pub dragging: bool,
+    /// Why the loop did not take the last command ([`AppState::refusal`]).
+    refusal: Option<&'static str>,
     /// Forces on, as last asked.
     pub forces_requested: bool,
     /// Faults still latched after the last clear, if one was asked for.
@@ -174,6 +176,7 @@ impl AppState {
             running_material,
             hand_target: START_HIP,
             dragging: false,
+            refusal: None,
             forces_requested: true,
             faults_after_clear: None,
             loop_refused: None,
@@ -204,14 +207,20 @@ impl AppState {
     }
 
     /// Gives `command` to the planar loop (a stepped loop's reply is taken in at once);
-    /// false when it was dropped.
+    /// false when it was dropped ([`AppState::refusal`] says why).
     pub(super) fn command(&mut self, command: LoopCommand) -> bool {
         let sent = self.backend.command(command);
-        let taken = sent.taken();
+        self.refusal = sent.refusal();
         if let Some(reply) = sent.reply() {
             self.on_reply(reply);
         }
-        taken
+        self.refusal.is_none()
+    }
+
+    /// Why the loop did not take the last command: "its queue is full", or "it is not
+    /// running" (a lost link), for the message that says so.
+    pub fn refusal(&self) -> &'static str {
+        self.refusal.unwrap_or("it refused it")
     }
 
     /// Runs `n` ticks of a stepped loop (nothing for a threaded one), then takes in their
@@ -270,7 +279,10 @@ impl AppState {
                 self.on_reply(reply);
             }
         } else if !self.command(LoopCommand::Deform(on)) {
-            self.deform.error = Some("the haptic loop did not take it (its queue is full)".into());
+            self.deform.error = Some(format!(
+                "the haptic loop did not take it: {}",
+                self.refusal()
+            ));
             self.deform.refused();
         }
     }
@@ -418,6 +430,7 @@ impl AppState {
                 self.backend = Backend::Thread(thread);
                 self.device = DeviceChoice::Linked(device);
                 self.link = LinkState::default();
+                self.forget_errors();
                 self.forces_requested = setup;
                 // The virtual hand of a simulated plant goes where the app's hand is.
                 self.command(LoopCommand::hand_to(self.hand_target.extend(0.0)));
@@ -427,6 +440,18 @@ impl AppState {
                 self.open_scene(&label, scene);
             }
             Err(e) => self.link.lost = Some(format!("cannot start the link's thread: {e}")),
+        }
+    }
+
+    /// Forgets the messages of the loop that was (another loop starts: a device switch), so
+    /// that no banner of the old one (a "not running" after its link was lost) stays.
+    fn forget_errors(&mut self) {
+        self.refusal = None;
+        self.materials.error = None;
+        self.deform.error = None;
+        self.files.error = None;
+        if let Some(spatial) = &mut self.spatial {
+            spatial.message = None;
         }
     }
 
@@ -442,6 +467,7 @@ impl AppState {
                 self.device = DeviceChoice::Simulated;
                 self.hand = host::hand::Hand::Grip;
                 self.link = LinkState::default();
+                self.forget_errors();
                 self.forces_requested = true;
                 self.telemetry.restart();
                 let felt = self.felt_object();
@@ -636,8 +662,10 @@ impl AppState {
             return;
         }
         if !self.command(LoopCommand::SetMaterial(m)) {
-            self.materials.error =
-                Some("the haptic loop did not take the material (its queue is full)".into());
+            self.materials.error = Some(format!(
+                "the haptic loop did not take the material: {}",
+                self.refusal()
+            ));
         }
     }
 
@@ -750,7 +778,8 @@ impl AppState {
             .or_else(|| spatial.as_ref().and_then(SpatialState::material));
         if !self.command(LoopCommand::Swap(Box::new(session))) {
             return Err(format!(
-                "{label}: the haptic loop did not take the scene (its queue is full)"
+                "{label}: the haptic loop did not take the scene: {}",
+                self.refusal()
             ));
         }
         let pending = PendingScene {
