@@ -273,7 +273,7 @@ impl Session {
                 });
             }
         }
-        let list = plan.trials_for(participant);
+        let list = plan.trials_for(participant)?;
         let mut session = Session {
             session: 1,
             participant: participant.to_owned(),

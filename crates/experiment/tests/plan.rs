@@ -805,15 +805,15 @@ fn counts_are_bounded_by_what_a_session_holds() {
 #[test]
 fn each_participant_has_an_order_of_their_own() {
     let plan = thesis_shapes();
-    let (a, b) = (plan.trials_for("sim:5"), plan.trials_for("sim:6"));
-    assert_eq!(a, plan.trials_for("sim:5"));
+    let of = |id: &str| plan.trials_for(id).expect("mixed blocks: any ID");
+    let (a, b) = (of("sim:5"), of("sim:6"));
+    assert_eq!(a, of("sim:5"));
     let order = |t: &[TrialSpec]| t.iter().map(cell).collect::<Vec<_>>();
     assert_ne!(order(&a), order(&b));
     assert_ne!(order(&a), order(&plan.trials()));
     // Over 20 participants, no two orders coincide.
-    let mut seen: Vec<Vec<(usize, usize, Option<u64>)>> = (0..20)
-        .map(|i| order(&plan.trials_for(&format!("P{i:02}"))))
-        .collect();
+    let mut seen: Vec<Vec<(usize, usize, Option<u64>)>> =
+        (0..20).map(|i| order(&of(&format!("P{i:02}")))).collect();
     seen.sort();
     seen.dedup();
     assert_eq!(seen.len(), 20);
@@ -877,4 +877,134 @@ fn a_staircase_stays_off_the_reference() {
     for s in &plan.spec().staircases {
         assert!(!(s.bounds[0] <= r && r <= s.bounds[1]), "{}", s.name);
     }
+}
+
+// ----- counterbalancing the conditions (`condition_order`) -----
+
+/// The balanced Latin square of 4 conditions is the textbook's (Williams 1949; e.g. Bradley
+/// 1958): A B D C / B C A D / C D B A / D A C B.
+#[test]
+fn the_williams_square_of_four_is_the_textbooks() {
+    let rows = experiment::plan::ConditionOrders::williams(4);
+    assert_eq!(
+        rows.rows(),
+        [[0, 1, 3, 2], [1, 2, 0, 3], [2, 3, 1, 0], [3, 0, 2, 1]]
+    );
+}
+
+/// For 1 to 9 conditions: each row is an order of all of them, each condition comes once in
+/// each position over the rows, and each condition is followed by each other equally often
+/// (once over the n rows when n is even, twice over the 2n rows when n is odd): the property
+/// that balances first-order carry-over, counted here from the rows alone.
+#[test]
+fn williams_squares_are_latin_and_balance_carry_over() {
+    for n in 1..=9usize {
+        let orders = experiment::plan::ConditionOrders::williams(n);
+        let rows = orders.rows();
+        let expected_rows = if n % 2 == 0 { n } else { 2 * n };
+        assert_eq!(rows.len(), expected_rows, "n = {n}");
+        for row in rows {
+            let mut sorted = row.clone();
+            sorted.sort();
+            assert_eq!(sorted, (0..n).collect::<Vec<_>>(), "n = {n}: {row:?}");
+        }
+        for position in 0..n {
+            let mut counts = vec![0; n];
+            for row in rows {
+                counts[row[position]] += 1;
+            }
+            assert!(
+                counts.iter().all(|&c| c == rows.len() / n),
+                "n = {n}, position {position}: {counts:?}"
+            );
+        }
+        let mut pairs = vec![vec![0; n]; n];
+        for row in rows {
+            for w in row.windows(2) {
+                pairs[w[0]][w[1]] += 1;
+            }
+        }
+        let each = if n % 2 == 0 { 1 } else { 2 };
+        for (a, followers) in pairs.iter().enumerate() {
+            for (b, &count) in followers.iter().enumerate() {
+                let want = if a == b || n == 1 { 0 } else { each };
+                assert_eq!(count, want, "n = {n}: {a} then {b}");
+            }
+        }
+    }
+}
+
+/// A plan with `"condition_order": "latin-square"` over its two conditions: P01 runs the
+/// first row (friction, then frictionless) in every block, P02 the second; each block is the
+/// first condition's trials, then the other's, the same trials as a mixed block; the
+/// practice stays mixed.
+#[test]
+fn a_latin_square_plan_runs_each_participants_row_of_conditions() {
+    let mut v = base();
+    v["condition_order"] = json!("latin-square");
+    let plan = read(&v).expect("a counterbalanced plan");
+    let mixed = read(&base()).expect("mixed");
+    for (id, first) in [("P01", 0), ("P02", 1), ("P03", 0), ("lab-12", 1)] {
+        let trials = plan.trials_for(id).expect(id);
+        assert_eq!(trials.len(), mixed.trials_for(id).expect(id).len());
+        for block in 0..2 {
+            let conditions: Vec<usize> = trials
+                .iter()
+                .filter(|t| t.block == Some(block))
+                .map(|t| t.condition)
+                .collect();
+            // 3 stimuli × 2 repetitions of each condition in a block, one stretch each.
+            let expected: Vec<usize> = [first, 1 - first]
+                .iter()
+                .flat_map(|&c| std::iter::repeat_n(c, 6))
+                .collect();
+            assert_eq!(conditions, expected, "{id}, block {block}");
+        }
+    }
+    // Written out, the same table as the square's rows.
+    let mut t = base();
+    t["condition_order"] = json!([["friction", "frictionless"], ["frictionless", "friction"]]);
+    let table = read(&t).expect("a table");
+    assert_eq!(
+        table.trials_for("P02").expect("P02"),
+        plan.trials_for("P02").expect("P02")
+    );
+}
+
+/// Counterbalancing refuses what it cannot do, naming the field.
+#[test]
+fn condition_orders_that_cannot_run_are_refused_by_name() {
+    let with = |order: Value| {
+        let mut v = base();
+        v["condition_order"] = order;
+        v
+    };
+    let message = |v: &Value| read(v).expect_err("refused").to_string();
+    let plan = read(&with(json!("latin-square"))).expect("valid");
+    let e = plan.trials_for("alice").expect_err("no number").to_string();
+    assert!(
+        e.contains("condition_order") && e.contains("\"alice\""),
+        "{e}"
+    );
+    for (order, names) in [
+        (json!("latin"), "condition_order"),
+        (json!([]), "condition_order"),
+        (json!([["friction"]]), "condition_order[0]"),
+        (json!([["friction", "sticky"]]), "condition_order[0][1]"),
+        (json!([["friction", "friction"]]), "condition_order[0][1]"),
+        (
+            json!([["friction", "frictionless"], "friction"]),
+            "condition_order[1]",
+        ),
+    ] {
+        let e = message(&with(order.clone()));
+        assert!(e.contains(names), "{order}: {e}");
+    }
+    let mut s = staircase_base();
+    s["condition_order"] = json!("latin-square");
+    let e = message(&s);
+    assert!(e.contains("condition_order") && e.contains("online"), "{e}");
+    // "mixed" is the default, and reads back as written.
+    let mixed = read(&with(json!("mixed"))).expect("mixed");
+    assert!(mixed.condition_orders().is_none());
 }

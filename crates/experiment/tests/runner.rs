@@ -124,7 +124,9 @@ fn the_thesis_shapes_run_identifies_above_chance_and_resumes() {
     let summary = run(&plan, &participant, &out).unwrap();
     // The order is the participant's (the plan's seed and the participant's ID, as the
     // trials' participant column gives it).
-    let planned = plan.trials_for(&experiment::runner::participant_label(&participant));
+    let planned = plan
+        .trials_for(&experiment::runner::participant_label(&participant))
+        .expect("mixed blocks: any ID");
     // 5 practice, then 5 shapes × 2 conditions × 4 repetitions in 2 blocks.
     assert_eq!(summary.trials, planned.len());
     assert_eq!(summary.trials, 5 + 40);

@@ -37,6 +37,7 @@
 //! | `levels` | `[]` | `constant-stimuli` only, at least one: the comparison values of `reference.field` |
 //! | `staircases` | `[]` | `2afc-staircase` only, at least one, names distinct (below) |
 //! | `interleave` | `true` | `2afc-staircase` only: run the staircases interleaved (trial by trial at random) or one after another |
+//! | `condition_order` | `"mixed"` | identification and constant stimuli: `"mixed"` (each block mixes all its cells), `"latin-square"` (each block runs the conditions one after another, in a balanced Latin square's order counterbalanced across participants by the number their ID ends in) or a table of orders, `[["a", "b"], ["b", "a"]]` ([`ConditionOrders`]) |
 //!
 //! A staircase, `{ "name", "start", "rule", "step", "stop", "bounds" }`:
 //!
@@ -61,6 +62,7 @@
 
 mod checks;
 mod error;
+mod order;
 mod spec;
 mod trials;
 mod validate;
@@ -68,6 +70,7 @@ mod write;
 
 pub use checks::MAX_TRIALS;
 pub use error::PlanError;
+pub use order::ConditionOrders;
 pub use spec::{
     ConditionSpec, Design, FORMAT, MATERIAL_FIELDS, PlanSpec, ReferenceSpec, RuleSpec,
     StaircaseSpec, StepKind, StepSpec, StimulusSpec, StopSpec,

@@ -96,6 +96,10 @@ pub struct PlanSpec {
     /// Whether the staircases run interleaved.
     #[serde(default = "yes")]
     pub interleave: bool,
+    /// How each block orders its conditions across participants: `"mixed"` (the default),
+    /// `"latin-square"` or a table of orders ([`ConditionOrders`](crate::plan::ConditionOrders)).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub condition_order: Option<serde_json::Value>,
 }
 
 fn one() -> u32 {

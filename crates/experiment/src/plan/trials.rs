@@ -2,6 +2,7 @@
 
 use std::fmt;
 
+use super::error::PlanError;
 use super::spec::Design;
 use super::validate::Plan;
 use crate::rng::Prng;
@@ -41,20 +42,30 @@ impl Plan {
     /// [`Prng`] seeded by the plan's `seed`); in 2AFC designs each cell's comparison
     /// interval alternates from a random start, so within a block each cell has it first and
     /// second equally often (±1 when the cell runs an odd number of times). Practice trials
-    /// are drawn from shuffled rounds of all cells.
+    /// are drawn from shuffled rounds of all cells. A plan that counterbalances its
+    /// conditions (`condition_order`) runs each block's conditions one after another, each
+    /// condition's cells shuffled, in its first order here ([`Plan::trials_for`]: the
+    /// participant's).
     ///
     /// A `2afc-staircase` plan chooses its levels online: its list holds only the practice
     /// trials, with `level: None`.
     pub fn trials(&self) -> Vec<TrialSpec> {
-        self.trials_seeded(self.spec().seed)
+        let order = self.condition_orders().map(|o| o.rows()[0].as_slice());
+        self.trials_seeded(self.spec().seed, order)
     }
 
     /// The trials of [`Plan::trials`] in `participant`'s order: shuffled by the stream of
     /// [`Plan::order_seed`], so every participant's order is reproducible and two
     /// participants' differ (with the plan's seed alone, `sim:5` and `sim:6` ran the same
-    /// sequence).
-    pub fn trials_for(&self, participant: &str) -> Vec<TrialSpec> {
-        self.trials_seeded(self.order_seed(participant))
+    /// sequence). A plan that counterbalances its conditions runs them in the
+    /// participant's row ([`ConditionOrders::row_for`](crate::plan::ConditionOrders::row_for):
+    /// refused for an ID that ends in no number).
+    pub fn trials_for(&self, participant: &str) -> Result<Vec<TrialSpec>, PlanError> {
+        let order = match self.condition_orders() {
+            Some(o) => Some(o.row_for(participant)?),
+            None => None,
+        };
+        Ok(self.trials_seeded(self.order_seed(participant), order))
     }
 
     /// The seed of `participant`'s trial order: the plan's seed and the participant's ID
@@ -75,7 +86,9 @@ impl Plan {
         z ^ (z >> 31)
     }
 
-    fn trials_seeded(&self, seed: u64) -> Vec<TrialSpec> {
+    /// The trials shuffled by `seed`, each block's conditions one after another in `order`
+    /// (indices) when given, else mixed.
+    fn trials_seeded(&self, seed: u64, order: Option<&[usize]>) -> Vec<TrialSpec> {
         let spec = self.spec();
         let levels: Vec<Option<f64>> = match spec.design {
             Design::ConstantStimuli => spec.levels.iter().copied().map(Some).collect(),
@@ -129,7 +142,23 @@ impl Plan {
                         ));
                     }
                 }
-                rng.shuffle(&mut list);
+                match order {
+                    None => rng.shuffle(&mut list),
+                    Some(order) => {
+                        // One stretch per condition, in the row's order, each shuffled.
+                        let mut ordered = Vec::with_capacity(list.len());
+                        for &condition in order {
+                            let mut stretch: Vec<TrialSpec> = list
+                                .iter()
+                                .filter(|t| t.condition == condition)
+                                .copied()
+                                .collect();
+                            rng.shuffle(&mut stretch);
+                            ordered.extend(stretch);
+                        }
+                        list = ordered;
+                    }
+                }
                 trials.extend(list);
             }
         }

@@ -7,6 +7,7 @@ use scene::{Bundled, Material, Scene};
 
 use super::checks::{check_conditions, check_counts, check_design, check_name, set_field};
 use super::error::{PlanError, invalid};
+use super::order::ConditionOrders;
 use super::spec::{FORMAT, PlanSpec, StimulusSpec};
 
 /// A validated plan with its stimuli's scenes loaded.
@@ -16,6 +17,8 @@ pub struct Plan {
     scenes: Vec<Scene>,
     /// The folder relative scene paths are resolved against.
     folder: PathBuf,
+    /// The orders of the conditions across participants (`None`: mixed blocks).
+    orders: Option<ConditionOrders>,
 }
 
 impl Plan {
@@ -93,10 +96,13 @@ impl Plan {
         }
         check_design(&spec)?;
         check_counts(&spec)?;
+        let orders =
+            ConditionOrders::read(spec.condition_order.as_ref(), &spec.conditions, spec.design)?;
         let plan = Plan {
             spec,
             scenes,
             folder: folder.to_owned(),
+            orders,
         };
         plan.check_materials()?;
         Ok(plan)
@@ -105,6 +111,12 @@ impl Plan {
     /// The plan as written (validated).
     pub fn spec(&self) -> &PlanSpec {
         &self.spec
+    }
+
+    /// The orders of the conditions across participants, when the plan counterbalances
+    /// them (`condition_order`); `None` for mixed blocks.
+    pub fn condition_orders(&self) -> Option<&ConditionOrders> {
+        self.orders.as_ref()
     }
 
     /// The scene of stimulus `index` (loaded with the plan), if there is one.
