@@ -646,7 +646,7 @@ fn compare_with_host(root: &Path, serial: &Path) -> Result<Vec<String>, String> 
         ("go_x", |t| t.go_m.x),
         ("go_y", |t| t.go_m.y),
         ("force_normal", |t| t.force_normal_n),
-        ("force_friction", |t| t.force_friction_n),
+        ("go_param", |t| t.go_param),
         ("force_x", |t| t.force_n.x),
         ("force_y", |t| t.force_n.y),
         ("psi", |t| t.psi),

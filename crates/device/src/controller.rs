@@ -866,7 +866,7 @@ impl<O: Object<P = Vec2>> Controller<O> {
             telemetry.cp_m = render.contact.point;
             telemetry.go_m = render.go;
             telemetry.force_normal_n = render.normal_force_n;
-            telemetry.force_friction_n = render.friction_force_n;
+            telemetry.go_param = render.go_params[0];
             telemetry.psi = render.psi;
             telemetry.mu_e4 = Telemetry::quantize_mu(render.mu);
             telemetry.feature = (render.mode != Mode::Free).then_some(render.contact.feature);
@@ -885,7 +885,7 @@ impl<O: Object<P = Vec2>> Controller<O> {
             telemetry.cp_m = Vec2::ZERO;
             telemetry.go_m = Vec2::ZERO;
             telemetry.force_normal_n = 0.0;
-            telemetry.force_friction_n = 0.0;
+            telemetry.go_param = 0.0;
             telemetry.psi = 0.0;
             telemetry.mu_e4 = 0;
             telemetry.feature = None;

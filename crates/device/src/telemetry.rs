@@ -54,8 +54,11 @@ pub struct Telemetry {
     pub go_m: Vec2,
     /// Normal force magnitude (N).
     pub force_normal_n: f32,
-    /// Friction force magnitude (N).
-    pub force_friction_n: f32,
+    /// The GO's parameter `u` on its patch (the parameter of the scene's patch, which the
+    /// pieces it is split into share): where the force acts, for a host that deforms the
+    /// object; 0 when nothing renders. (The friction force that had this slot follows from
+    /// the total and normal forces.)
+    pub go_param: f32,
     /// Total force commanded (N, device frame).
     pub force_n: Vec2,
     /// Projection error Ψ of the tracker (first parameter).
@@ -82,7 +85,7 @@ impl Telemetry {
         cp_m: Vec2::ZERO,
         go_m: Vec2::ZERO,
         force_normal_n: 0.0,
-        force_friction_n: 0.0,
+        go_param: 0.0,
         force_n: Vec2::ZERO,
         psi: 0.0,
         mu_e4: 0,
@@ -226,7 +229,7 @@ mod tests {
             cp_m: Vec2::new(2.0 * k, 0.0),
             go_m: Vec2::new(3.0 * k, 0.0),
             force_normal_n: fx,
-            force_friction_n: 0.5 * fx,
+            go_param: 0.5 * fx,
             force_n: Vec2::new(fx, 0.0),
             psi: k,
             mu_e4: time_us as u16,

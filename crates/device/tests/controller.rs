@@ -776,3 +776,29 @@ fn a_contact_ended_by_a_material_change_is_released() {
     assert!(c.acquire_now());
     assert_eq!(next(&mut c), (Mode::Stuck, SwitchCause::Contact));
 }
+
+/// The telemetry's GO parameter (issue 30: a host deforming the object takes where the
+/// force acts from the device, not by solving for it) is the GO's: the right arc evaluated
+/// there is the telemetry's GO point, and that point lies on the circle where the pressed
+/// HIP's radius meets it (the handle pressed in at once, the GO stays at the first contact:
+/// the HIP (12.5, 75) mm is at atan2(15, 32.5) = 24.78° from the centre (−20, 60) mm).
+#[test]
+fn the_telemetry_carries_the_gos_parameter() {
+    let arcs = arcs();
+    let views = [arcs[0].view(), arcs[1].view()];
+    let (mut c, counts, now) = pressing(Chain::new(&views).unwrap(), 0);
+    let out = tick(&mut c, counts, now);
+    let t = out.telemetry;
+    assert_ne!(t.mode, Mode::Free, "{t:?}");
+    let render = out.render.expect("rendering");
+    assert_eq!(t.go_param, render.go_params[0]);
+    assert!((0.0..=1.0).contains(&t.go_param), "{}", t.go_param);
+    // f32 evaluation of a 4 cm arc: ~1e-8 m.
+    let on_arc = views[0].point(t.go_param);
+    assert!((on_arc - t.go_m).length() < 1e-7, "{on_arc:?} vs {:?}", t.go_m);
+    let centre = Vec2::new(-0.02, 0.06);
+    let angle = (t.go_m.y - centre.y).atan2(t.go_m.x - centre.x).to_degrees();
+    let expected = 0.015f32.atan2(0.0325).to_degrees();
+    // The encoders' quantum at the handle (~12 µm) on a 4 cm radius: 0.02°.
+    assert!((angle - expected).abs() < 0.05, "{angle}° vs {expected}°");
+}

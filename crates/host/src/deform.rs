@@ -517,8 +517,8 @@ pub struct Deformer {
     explicit: [f64; 3],
     fed: usize,
     coupling: Option<Coupling>,
-    /// The CP's and GO's parameters [`Deformer::locate`] found last (its next start).
-    located: [[f64; 2]; 2],
+    /// The CP's parameters [`Deformer::locate_cp`] found last (its next start).
+    located: [f64; 2],
 }
 
 impl Deformer {
@@ -534,23 +534,20 @@ impl Deformer {
             explicit: [0.0; 3],
             fed: 0,
             coupling: None,
-            located: [[0.5, 0.5]; 2],
+            located: [0.5, 0.5],
         })
     }
 
-    /// Fills in the CP's and GO's parameters of a tick that carries their positions only (a
-    /// device's telemetry frame, [`crate::remote::tick_of`]): the points of the current shape
-    /// nearest them, by Gauss–Newton from where they were last ([`Body::project`]; the
-    /// contact moves little in a millisecond).
-    pub fn locate(&mut self, tick: &mut Tick) {
-        for (k, p) in [tick.cp, tick.go].into_iter().enumerate() {
-            let target = p.to_array().map(f64::from);
-            self.located[k] = self.body.project(target, self.located[k], 6);
-        }
-        tick.cp_params = self.located[0].map(|x| x as f32);
-        tick.go_params = self.located[1].map(|x| x as f32);
+    /// Fills in the CP's parameters of a tick that carries its position only (a device's
+    /// telemetry frame, [`crate::remote::tick_of`], which gives the GO's parameter, where the
+    /// force acts, but has no room for the CP's): the point of the current shape nearest it,
+    /// by Gauss–Newton from where it was last ([`Body::project`]; the contact moves little
+    /// in a millisecond). The CP's parameter only places [`Tick::deform`].
+    pub fn locate_cp(&mut self, tick: &mut Tick) {
+        let target = tick.cp.to_array().map(f64::from);
+        self.located = self.body.project(target, self.located, 6);
+        tick.cp_params = self.located.map(|x| x as f32);
         tick.cp_param = tick.cp_params[0];
-        tick.go_param = tick.go_params[0];
     }
 
     /// Renders the contact with stiffness `stiffness_n_per_m` from the next tick (a material

@@ -177,14 +177,14 @@ impl<P: ShapePoint> Deformation<P> {
         self.start(deformer, object, t_s)
     }
 
-    /// Fills in the CP's and GO's parameters of a tick that carries their positions only: a
-    /// device's telemetry frame has no room for them ([`crate::remote::tick_of`]), so they
-    /// are the points of the object's current shape nearest the CP and the GO
-    /// ([`Deformer::locate`]). A loop whose ticks come from its own renderer has them and
-    /// skips this. Rigid, nothing happens.
+    /// Fills in the CP's parameters of a tick from a device's telemetry frame, which gives
+    /// the GO's (where the force acts) but has no room for the CP's
+    /// ([`crate::remote::tick_of`]): the point of the object's current shape nearest the CP
+    /// ([`Deformer::locate_cp`]), where [`Tick::deform`] is shown. A loop whose ticks come
+    /// from its own renderer has both and skips this. Rigid, nothing happens.
     pub fn locate_contact(&mut self, tick: &mut Tick) {
         if let Some(a) = &mut self.active {
-            a.deformer.locate(tick);
+            a.deformer.locate_cp(tick);
         }
     }
 

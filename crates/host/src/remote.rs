@@ -572,8 +572,9 @@ impl Host {
         let forces_enabled = self.status.is_some_and(|s| s.forces_enabled);
         let mut tick = tick_of(t, t_s);
         if self.deformation.deforming() {
-            // The frame's CP and GO are positions: their parameters on the host's copy of
-            // the shape first, then the force loads it.
+            // The frame gives the GO's parameter, where the force acts; the CP's, where the
+            // displacement is shown, is located on the host's copy of the shape first. Then
+            // the force loads it.
             self.deformation.locate_contact(&mut tick);
             self.deformation.feed(&mut tick);
             let dt_s = period_us
@@ -675,6 +676,14 @@ pub fn tick_of(t: &Telemetry, t_s: f64) -> Tick {
         tangent: v3(tangent),
         friction: v3(friction),
         force: v3(t.force_n),
+        // Where the force acts, on the GO's patch (the CP's feature's patch, which is the
+        // object's only patch when it deforms); the CP's parameter is not in the frame.
+        go_patch: match t.feature {
+            Some(Feature::Patch(p)) => usize::from(p),
+            _ => 0,
+        },
+        go_param: t.go_param,
+        go_params: [t.go_param, 0.0],
         deform: None,
         device: Some(DeviceSample {
             theta_rad: [0.0; 2],

@@ -171,9 +171,9 @@ fn device_loop_pushes_the_string_at_the_series_stiffness() {
     assert!(contact[peak..].iter().all(|k| k.normal_force_n > 0.4));
 }
 
-/// A device behind a link reports its CP and GO as positions (telemetry carries no
-/// parameters); the host's `Deformer::locate` finds their parameters on its copy of the
-/// shape. Replayed over the device loop's own ticks (the same feeding and steps, so the same
+/// A device behind a link reports its CP as a position (telemetry carries the GO's
+/// parameter, not the CP's); the host's `Deformer::locate_cp` finds its parameter on its copy
+/// of the shape. Replayed over the device loop's own ticks (the same feeding and steps, so the same
 /// shapes), the located CP parameter is the controller's tracker's to within 1e-3 in u
 /// (0.08 mm along the string: the tracker converges to ~1e-5 m, the f32 positions of the frame
 /// are exact to 1e-8 m).
@@ -201,8 +201,7 @@ fn located_parameters_match_the_trackers() {
         if tick.patch.is_some() {
             let mut bare = *tick;
             bare.cp_params = [0.0; 2];
-            bare.go_params = [0.0; 2];
-            deformer.locate(&mut bare);
+            deformer.locate_cp(&mut bare);
             worst = worst.max((bare.cp_params[0] - tick.cp_params[0]).abs());
             located += 1;
         }

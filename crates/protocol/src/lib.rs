@@ -69,7 +69,7 @@
 //! | 12 | 8 | CP x, y |
 //! | 20 | 8 | GO x, y |
 //! | 28 | 4 | normal force (f32, N) |
-//! | 32 | 4 | friction force (f32, N) |
+//! | 32 | 4 | GO parameter u (f32): the GO's parameter on its patch (the scene patch's, shared by the pieces it is split into), where the force acts; 0 when nothing renders. The friction force follows from the total and normal forces. |
 //! | 36 | 8 | total force x, y (f32, N) |
 //! | 44 | 4 | Ψ (f32) |
 //! | 48 | 2 | μ × 10⁴ (u16) |

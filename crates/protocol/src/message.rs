@@ -563,7 +563,7 @@ impl Message {
                     w.f32(v.y);
                 }
                 w.f32(t.force_normal_n);
-                w.f32(t.force_friction_n);
+                w.f32(t.go_param);
                 w.f32(t.force_n.x);
                 w.f32(t.force_n.y);
                 w.f32(t.psi);
@@ -699,7 +699,7 @@ impl Message {
                     *p = Vec2::new(finite(r)?, finite(r)?);
                 }
                 let force_normal_n = finite(r)?;
-                let force_friction_n = finite(r)?;
+                let go_param = finite(r)?;
                 v[3] = Vec2::new(finite(r)?, finite(r)?);
                 let psi = finite(r)?;
                 let mu_e4 = r.u16().ok_or(short)?;
@@ -714,7 +714,7 @@ impl Message {
                     cp_m: v[1],
                     go_m: v[2],
                     force_normal_n,
-                    force_friction_n,
+                    go_param,
                     force_n: v[3],
                     psi,
                     mu_e4,

@@ -363,7 +363,7 @@ fn table() -> Vec<(Frame, &'static [u8])> {
                     cp_m: Vec2::new(0.011, 0.0205),
                     go_m: Vec2::new(0.0105, 0.0203),
                     force_normal_n: 1.5,
-                    force_friction_n: 0.25,
+                    go_param: 0.25,
                     force_n: Vec2::new(0.5, -1.25),
                     psi: 1e-6,
                     mu_e4: 5000,

@@ -409,7 +409,7 @@ fn huge_materials_are_refused_and_the_largest_accepted_renders_finite_frames() {
     assert!(
         frames
             .iter()
-            .all(|t| t.force_friction_n.is_finite() && t.force_n.is_finite()),
+            .all(|t| t.go_param.is_finite() && t.force_n.is_finite()),
         "non-finite frames"
     );
     assert!(
