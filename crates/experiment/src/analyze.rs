@@ -37,11 +37,14 @@
 //! the central 95 % of its Bayesian posterior under psignifit 4's default priors of threshold
 //! and width (the lapse rate's Beta(1, 10) on `[0, 0.1]`, no overdispersion term)
 //! ([`fit::credible`]: a parametric bootstrap's intervals from a staircase run covered the
-//! true Weber fraction in only 79–84 % of simulated runs, the posterior's in 93 %). A
-//! staircase's reversals are read from its track: a trial is a reversal when the level's
-//! direction of change flips after it (levels equal to the one before do not count as a
-//! direction). A move blocked at a bound, or the move after the last trial, leaves no trace
-//! in the track, so this count can fall short of the runner's own by those.
+//! true Weber fraction in only 79–84 % of simulated runs, the posterior's in 93 %).
+//!
+//! A staircase's reversals are its [`crate::staircase`]'s, the one definition the runner's
+//! summary uses too: the plan's staircase is replayed on the track's answers (each row's
+//! level must be the one the staircase gives at that point, or the track is refused, naming
+//! the line). A reversal is a move of the level opposite to its previous move, listed at the
+//! trial whose answer made it; a step clamped at a bound is no move, and the last trial's
+//! move counts although its level is never presented.
 //!
 //! # `summary.json`
 //!
@@ -87,7 +90,7 @@
 //! | `cells[i].fit.alpha`, `.beta` | the sigmoid's location and spread or shape ([`crate::fit`]) |
 //! | `cells[i].fit.log_likelihood`, `.deviance` | at the optimum; the deviance against the saturated model |
 //! | `cells[i].fit.ci95_threshold`, `.ci95_weber` | `[lo, hi]`, 95 % credible intervals (the posterior's 2.5 % and 97.5 % points); `null` when the posterior could not be computed (`ci_error` says why) |
-//! | `cells[i].staircases[k]` | `2afc-staircase` only: `{ "name", "track": [{ "trial", "level", "correct" }], "reversals": [{ "trial", "level" }] }`, the levels as presented (not folded), in trial order |
+//! | `cells[i].staircases[k]` | `2afc-staircase` only: `{ "name", "track": [{ "trial", "level", "correct" }], "reversals": [{ "trial", "level" }] }`, the levels as presented (not folded), in trial order; a reversal's `trial` is the one whose answer made it |
 
 use std::collections::{BTreeSet, HashMap};
 use std::fmt;
@@ -98,11 +101,11 @@ use thiserror::Error;
 
 use crate::csv::Record;
 use crate::fit::{self, Fit, FitOptions, Model, Point};
-use crate::plan::{Design, Plan, PlanError};
+use crate::plan::{Design, Plan, PlanError, StaircaseSpec};
 
 mod rows;
 
-use rows::{Row, read_trials};
+use rows::{C_LEVEL, Row, read_trials};
 
 /// The format tag of `summary.json`.
 pub const FORMAT: &str = "experiment-summary/1";
@@ -413,10 +416,10 @@ pub struct TrackTrial {
     pub correct: bool,
 }
 
-/// A staircase's reversal.
+/// A staircase's reversal ([`crate::staircase`]).
 #[derive(Debug, Clone, Copy, Serialize)]
 pub struct Reversal {
-    /// The trial after which the direction flipped.
+    /// The trial whose answer moved the level opposite to its previous move.
     pub trial: u64,
     /// Its level.
     pub level: f64,
@@ -530,29 +533,67 @@ pub fn fold(level: f64, reference: f64) -> f64 {
     }
 }
 
-/// The reversals of a track: the trials after which the level's direction of change flips
-/// (trials whose level equals the one before set no direction).
-pub fn reversals(track: &[TrackTrial]) -> Vec<Reversal> {
+/// The reversals of a plan's staircase on its track, the rows of `trials.csv` it ran in
+/// trial order: the staircase (the one the run used, [`crate::session`]'s) replayed on their
+/// answers, so the reversals are [`crate::staircase`]'s, the runner's own, the last trial's
+/// move included. Each row's level must be the one the staircase gives at that point (to
+/// 10⁻⁹ relative), or the track is not the plan's staircase and is refused.
+fn staircase_reversals(
+    spec: &StaircaseSpec,
+    reference: f64,
+    track: &[&Row],
+    trials_path: &Path,
+) -> Result<Vec<Reversal>, AnalyzeError> {
+    let refuse = |row: &Row, message: String| AnalyzeError::Csv {
+        path: trials_path.to_owned(),
+        line: row.line,
+        column: Some(C_LEVEL + 1),
+        field: Some(TRIALS_COLUMNS[C_LEVEL].to_owned()),
+        message,
+    };
+    let (mut stair, side) = crate::session::staircase(spec, reference)
+        .map_err(|e| AnalyzeError::Options(e.to_string()))?;
     let mut out = Vec::new();
-    let mut last_up: Option<bool> = None;
-    for i in 1..track.len() {
-        let (before, after) = (track[i - 1].level, track[i].level);
-        if after == before {
-            continue;
+    for row in track {
+        let expected = side.mirror(stair.level());
+        let level = row.level.unwrap_or(reference);
+        if (level - expected).abs() > 1e-9 * expected.abs() {
+            return Err(refuse(
+                row,
+                format!(
+                    "{level:?} is not the level staircase {:?} gives at its trial {} ({expected:?}): \
+                     the track does not follow the plan's staircase",
+                    spec.name,
+                    stair.track().len() + 1
+                ),
+            ));
         }
-        let up = after > before;
-        if last_up.is_some_and(|l| l != up) {
+        stair.respond(row.correct).map_err(|e| {
+            refuse(
+                row,
+                format!(
+                    "staircase {:?} has no trial {}: {e}",
+                    spec.name,
+                    stair.track().len() + 1
+                ),
+            )
+        })?;
+        if stair.track().last().is_some_and(|t| t.reversal) {
             out.push(Reversal {
-                trial: track[i - 1].trial,
-                level: before,
+                trial: row.trial,
+                level,
             });
         }
-        last_up = Some(up);
     }
-    out
+    Ok(out)
 }
 
-fn two_afc(plan: &Plan, rows: &[Row], options: &AnalyzeOptions) -> Result<TwoAfc, AnalyzeError> {
+fn two_afc(
+    plan: &Plan,
+    rows: &[Row],
+    options: &AnalyzeOptions,
+    trials_path: &Path,
+) -> Result<TwoAfc, AnalyzeError> {
     let spec = plan.spec();
     let reference = spec
         .reference
@@ -620,30 +661,31 @@ fn two_afc(plan: &Plan, rows: &[Row], options: &AnalyzeOptions) -> Result<TwoAfc
                 }
                 Err(e) => (None, Some(e.to_string()), None),
             };
-            let staircases = if spec.design == Design::TwoAfcStaircase {
-                spec.staircases
-                    .iter()
-                    .enumerate()
-                    .filter_map(|(k, st)| {
-                        let track: Vec<TrackTrial> = cell_rows
+            let mut staircases = Vec::new();
+            if spec.design == Design::TwoAfcStaircase {
+                for (k, st) in spec.staircases.iter().enumerate() {
+                    let rows: Vec<&Row> = cell_rows
+                        .iter()
+                        .copied()
+                        .filter(|row| row.staircase == Some(k))
+                        .collect();
+                    if rows.is_empty() {
+                        continue;
+                    }
+                    staircases.push(Track {
+                        name: st.name.clone(),
+                        reversals: staircase_reversals(st, r, &rows, trials_path)?,
+                        track: rows
                             .iter()
-                            .filter(|row| row.staircase == Some(k))
                             .map(|row| TrackTrial {
                                 trial: row.trial,
                                 level: row.level.unwrap_or(r),
                                 correct: row.correct,
                             })
-                            .collect();
-                        (!track.is_empty()).then(|| Track {
-                            name: st.name.clone(),
-                            reversals: reversals(&track),
-                            track,
-                        })
-                    })
-                    .collect()
-            } else {
-                Vec::new()
-            };
+                            .collect(),
+                    });
+                }
+            }
             cells.push(Cell {
                 stimulus: stimulus.name.clone(),
                 condition: condition.name.clone(),
@@ -715,7 +757,7 @@ pub fn summarize(dir: &Path, options: &AnalyzeOptions) -> Result<Summary, Analyz
     let (identification, two_afc) = match spec.design {
         Design::Identification => (Some(identification(&plan, &rows)), None),
         Design::TwoAfcStaircase | Design::ConstantStimuli => {
-            (None, Some(two_afc(&plan, &rows, options)?))
+            (None, Some(two_afc(&plan, &rows, options, &trials_path)?))
         }
     };
     Ok(Summary {

@@ -11,6 +11,9 @@ use experiment::analyze::{
     summarize,
 };
 use experiment::fit::{Model, Observer, Prng, normal_cdf, normal_pdf, normal_quantile};
+use experiment::plan::Plan;
+use experiment::runner::staircase_summaries;
+use experiment::session::{Response, Session, TrialRecord};
 use serde_json::{Value, json};
 
 const HEADER: &str = "participant,session,block,trial,practice,design,stimulus,condition,\
@@ -518,6 +521,146 @@ fn staircase_tracks_and_reversals_read_by_hand() {
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
+/// One definition of a reversal, read the same by the runner's summary and the analysis: a
+/// session of two staircases answered by hand through [`Session`] (the runner's and the
+/// app's path), then [`staircase_summaries`] of it and the analysis of its folder.
+///
+/// "from above", 2-down/1-up, ±100 within [600, 1000], starting on its upper bound, stopping
+/// at 3 reversals; its trials (level, answer) and what each answer does:
+///
+/// ```text
+///  1 1000 ✗  up, but 1000 is the bound: no move, no direction
+///  2 1000 ✓
+///  3 1000 ✓  down to 900: the first move, nothing to reverse
+///  4  900 ✓
+///  5  900 ✓  down to 800
+///  6  800 ✗  up to 900: reversal 1, at 800
+///  7  900 ✓
+///  8  900 ✓  down to 800: reversal 2, at 900
+///  9  800 ✓
+/// 10  800 ✓  down to 700
+/// 11  700 ✓
+/// 12  700 ✓  down to 600
+/// 13  600 ✓
+/// 14  600 ✓  down, but 600 is the bound: no move
+/// 15  600 ✗  up to 700: reversal 3, at 600; the stopping rule is met, 700 never presented
+/// ```
+///
+/// "from below", ×1.25 within [200, 400] below the reference 500 (run mirrored: harder is
+/// higher), stopping at 2 reversals: 300 ✓, 300 ✓ up to 375 (the first move); 375 ✗ down to
+/// 300 (reversal 1, at 375); 300 ✗ down to 240; 240 ✓, 240 ✓ up to 300 (reversal 2, at 240,
+/// its last trial).
+///
+/// Before this definition the staircase counted the clamped "up" of trial 1 as a direction,
+/// so trial 3 was a reversal (at 1000) and "from above" stopped after 8 trials; and the
+/// analysis, reading the reversals from the levels presented, could not see the last move
+/// and listed one reversal fewer than the run (11 of the shipped plan's 12).
+#[test]
+fn the_runner_and_the_analysis_list_the_same_reversals_of_a_hand_answered_session() {
+    let mut plan = staircase_plan();
+    plan["staircases"] = json!([
+        { "name": "from above", "start": 1000.0, "step": { "size": 100.0 },
+          "stop": { "reversals": 3 }, "bounds": [600.0, 1000.0] },
+        { "name": "from below", "start": 300.0, "step": { "size": 1.25, "kind": "multiplicative" },
+          "stop": { "reversals": 2 }, "bounds": [200.0, 400.0] }
+    ]);
+    let above = [
+        (1000.0, false),
+        (1000.0, true),
+        (1000.0, true),
+        (900.0, true),
+        (900.0, true),
+        (800.0, false),
+        (900.0, true),
+        (900.0, true),
+        (800.0, true),
+        (800.0, true),
+        (700.0, true),
+        (700.0, true),
+        (600.0, true),
+        (600.0, true),
+        (600.0, false),
+    ];
+    let below = [
+        (300.0, true),
+        (300.0, true),
+        (375.0, false),
+        (300.0, false),
+        (240.0, true),
+        (240.0, true),
+    ];
+    let expected: [&[(usize, f64)]; 2] = [
+        &[(6, 800.0), (8, 900.0), (15, 600.0)],
+        &[(3, 375.0), (6, 240.0)],
+    ];
+    let dir = temp_dir("reversals-by-hand");
+    let plan_path = dir.join("plan-by-hand.json");
+    std::fs::write(&plan_path, plan.to_string()).unwrap();
+    let run_dir = dir.join("run");
+    let mut session = Session::open(Plan::load(&plan_path).unwrap(), "P01", &run_dir).unwrap();
+    let answers: [&[(f64, bool)]; 2] = [&above, &below];
+    let mut next = [0, 0];
+    // The session's trial numbers of each staircase's trials.
+    let mut numbers: [Vec<u64>; 2] = [Vec::new(), Vec::new()];
+    while let Some(trial) = session.next_trial().unwrap() {
+        let k = trial.staircase.unwrap();
+        let (level, correct) = answers[k][next[k]];
+        next[k] += 1;
+        // The mirrored staircase's levels are r²/(r²/x · 1.25ᵏ): 375 within rounding.
+        let presented = trial.level.unwrap();
+        assert!(
+            (presented - level).abs() < 1e-9 * level,
+            "staircase {k}, its trial {}: {presented}",
+            next[k]
+        );
+        numbers[k].push(trial.number as u64);
+        // The comparison is the right answer at or above the reference, the reference below.
+        let chose_comparison = (level >= 500.0) == correct;
+        let first = trial.comparison_first.unwrap();
+        let interval = if chose_comparison == first { 1 } else { 2 };
+        let right = session
+            .respond(Response::Interval(interval), &TrialRecord::default())
+            .unwrap();
+        assert_eq!(right, correct);
+    }
+    assert_eq!(
+        next,
+        [above.len(), below.len()],
+        "every answer given, no more"
+    );
+
+    let runner = staircase_summaries(&session);
+    let analysis = summarize(&run_dir, &AnalyzeOptions::default()).unwrap();
+    let tracks = &analysis.two_afc.as_ref().unwrap().cells[0].staircases;
+    let same = |a: &[f64], b: &[f64]| {
+        a.len() == b.len() && a.iter().zip(b).all(|(x, y)| (x - y).abs() < 1e-9 * y)
+    };
+    for k in 0..2 {
+        let levels: Vec<f64> = expected[k].iter().map(|&(_, level)| level).collect();
+        assert!(runner[k].finished, "{:?}", runner[k]);
+        assert!(
+            same(&runner[k].reversal_levels, &levels),
+            "runner, {}: {:?}",
+            runner[k].name,
+            runner[k].reversal_levels
+        );
+        let listed = &tracks[k].reversals;
+        let trials: Vec<u64> = listed.iter().map(|r| r.trial).collect();
+        let by_hand: Vec<u64> = expected[k]
+            .iter()
+            .map(|&(i, _)| numbers[k][i - 1])
+            .collect();
+        assert_eq!(trials, by_hand, "analysis, {}", tracks[k].name);
+        let listed: Vec<f64> = listed.iter().map(|r| r.level).collect();
+        assert!(
+            same(&listed, &levels),
+            "analysis, {}: {listed:?}",
+            tracks[k].name
+        );
+    }
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
 // ---------------------------------------------------------------------------------------
 // Bad input
 
@@ -655,6 +798,21 @@ reference,comparison_interval,response,correct,response_time_s,trace,t_start_s\n
     );
     assert!(
         e.contains("column 9 (staircase): \"sideways\" is not a staircase"),
+        "{e}"
+    );
+    // A track that is not the plan's staircase: "from above" starts at 800 and stays there
+    // after one right answer.
+    let e = expect_error(
+        "staircase-track",
+        &staircase_plan(),
+        &format!(
+            "{HEADER}\n{}{}",
+            afc_row("2afc-staircase", 1, "from above", 800.0, true, true),
+            afc_row("2afc-staircase", 2, "from above", 700.0, true, true)
+        ),
+    );
+    assert!(
+        e.contains("trials.csv:3: column 10 (level): 700.0 is not the level staircase \"from above\" gives at its trial 2 (800.0)"),
         "{e}"
     );
     // A missing plan names plan.json.

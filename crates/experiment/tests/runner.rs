@@ -4,6 +4,7 @@
 
 use std::path::{Path, PathBuf};
 
+use experiment::analyze::{AnalyzeOptions, summarize};
 use experiment::error::RunError;
 use experiment::plan::Plan;
 use experiment::runner::{TRIALS_HEADER, run};
@@ -64,12 +65,18 @@ fn the_stiffness_plan_runs_to_thresholds_at_the_participants_70_7_percent_points
     let plan_json = std::fs::read_to_string(out.join("plan.json")).unwrap();
     assert!(plan_json.contains("2afc-staircase"));
 
-    // The staircases finished: 12 reversals each, as the plan says.
+    // The staircases finished: 12 reversals each, as the plan says, and the analysis of the
+    // folder lists the same 12 (it listed 11: it read them from the levels presented, which
+    // never show the move the last answer makes, and the 12th reversal is that move).
     assert_eq!(summary.staircases.len(), 2);
-    for s in &summary.staircases {
+    let analysis = summarize(&out, &AnalyzeOptions::default()).unwrap();
+    let tracks = &analysis.two_afc.as_ref().unwrap().cells[0].staircases;
+    for (s, track) in summary.staircases.iter().zip(tracks) {
         assert!(s.finished, "{s:?}");
         assert_eq!(s.reversal_levels.len(), 12, "{s:?}");
         assert_eq!(s.trials, rows.iter().filter(|r| r[8] == s.name).count());
+        let listed: Vec<f64> = track.reversals.iter().map(|r| r.level).collect();
+        assert_eq!(listed, s.reversal_levels, "{}", s.name);
     }
     assert_eq!(summary.practice, 4);
     assert_eq!(
