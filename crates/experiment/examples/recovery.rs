@@ -1,17 +1,16 @@
 //! How well a run recovers a participant's Weber fraction: runs a 2AFC plan with simulated
 //! participants of a known W (seeds 1..=N) through the haptic loop, analyses each run as
-//! `viewer experiment analyze` does (log-Gaussian with a lapse, the credible interval), and
+//! `viewer experiment analyze` does (the folded Weibull with a lapse, the credible interval), and
 //! reports the bias of the fitted `weber_75` and the coverage of its 95 % interval.
 //!
 //! ```text
 //! cargo run --release -p experiment --example recovery -- [RUNS] [W] [PLAN] [MODEL]
 //! ```
-//! Defaults: 100 runs, W = 0.2, `experiments/stiffness-jnd.json`, `log-gaussian`.
+//! Defaults: 100 runs, W = 0.2, `experiments/stiffness-jnd.json`, `weibull`.
 
 use std::path::PathBuf;
 
 use experiment::analyze::{AnalyzeOptions, summarize};
-use experiment::fit::Model;
 use experiment::plan::Plan;
 use experiment::runner::run;
 use experiment::sim_participant::SimParticipant;
@@ -27,7 +26,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     );
     let plan = Plan::load(&plan_path)?;
     let model = match args.get(3).map(String::as_str) {
-        None => Model::LogGaussian,
+        None => AnalyzeOptions::default().model,
         Some(name) => experiment::analyze::parse_model(name).ok_or("model")?,
     };
     let options = AnalyzeOptions { model };

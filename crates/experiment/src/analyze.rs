@@ -30,18 +30,27 @@
 //! `x → r²/x` (the one the runner's multiplicative staircases use), so that the proportion
 //! correct against the folded level is one 2AFC psychometric function with guess rate ½:
 //! a comparison at `r/1.2` is as far from `r` as one at `1.2 r`. Trials are pooled per
-//! distinct folded level into [`Point`]s and fitted by maximum likelihood ([`crate::fit`],
-//! lapse rate in `[0, 0.1]`, this stack's bound, not psignifit 4's `[0, 0.5]`; point estimates
-//! are maximum likelihood, not psignifit's MAP: [`crate::fit`]) per stimulus × condition cell that has
-//! trials; the Weber fraction at 75 % correct is `threshold_75 / r − 1`, its 95 % interval
-//! the central 95 % of its Bayesian posterior under psignifit 4's default priors of threshold
-//! and width (the lapse rate's Beta(1, 10) on `[0, 0.1]`, no overdispersion term)
-//! ([`fit::credible`]: a parametric bootstrap's intervals from a staircase run covered the
-//! true Weber fraction in only 79–84 % of simulated runs, the posterior's in 93 %). A
-//! staircase's reversals are read from its track: a trial is a reversal when the level's
-//! direction of change flips after it (levels equal to the one before do not count as a
-//! direction). A move blocked at a bound, or the move after the last trial, leaves no trace
-//! in the track, so this count can fall short of the runner's own by those.
+//! distinct folded level into [`Point`]s and fitted per stimulus × condition cell that has
+//! trials by maximum likelihood ([`crate::fit`]; point estimates are maximum likelihood, not
+//! psignifit's MAP) with a folded model: `ψ = ½ + (½ − λ) F(d)` of the log ratio
+//! `d = |ln(x / r)|`, the lapse rate `λ` in `[0, 0.1]` (this stack's bound, not psignifit 4's
+//! `[0, 0.5]`), and by default (`weibull`) `F = 1 − exp(−(d / α)^β)`; `log-gaussian` is
+//! `F = Φ(β ln(d / α))` and `gaussian` `F = 2Φ((d / α)^β) − 1`. Every such `F` is 0 at
+//! `d = 0`: `ψ` is ½ at the reference, where the answer is a guess by construction, and rises
+//! on either side of it, so the 75 % point and every point of its interval lie above `r`.
+//! The Weber fraction at 75 % correct is `threshold_75 / r − 1 = e^{d₇₅} − 1 > 0`, its 95 %
+//! interval the central 95 % of its Bayesian posterior under psignifit 4's default priors of
+//! threshold and width (on `ln d`; the lapse rate's Beta(1, 10) on `[0, 0.1]`, no
+//! overdispersion term) ([`fit::credible`]: over 200 simulated runs of the shipped staircase
+//! plan it covered the true Weber fraction, 0.2, in 185; a parametric bootstrap's intervals,
+//! with the unfolded fit used before, in only 79–84 %).
+//!
+//! A staircase's reversals are its [`crate::staircase`]'s, the one definition the runner's
+//! summary uses too: the plan's staircase is replayed on the track's answers (each row's
+//! level must be the one the staircase gives at that point, or the track is refused, naming
+//! the line). A reversal is a move of the level opposite to its previous move, listed at the
+//! trial whose answer made it; a step clamped at a bound is no move, and the last trial's
+//! move counts although its level is never presented.
 //!
 //! # `summary.json`
 //!
@@ -74,20 +83,20 @@
 //! | field | meaning |
 //! |---|---|
 //! | `field`, `reference` | the plan's `reference`: the material field varied and its reference value `r` |
-//! | `model` | the sigmoid fitted: `"log-gaussian"` (default), `"gaussian"` or `"weibull"` |
+//! | `model` | the folded model fitted (above): `"weibull"` (default), `"log-gaussian"` or `"gaussian"` |
 //! | `lapse_max` | the lapse rate's upper bound (0.1) |
 //! | `cells[i].stimulus`, `.condition` | the cell (plan order; cells without trials are left out) |
 //! | `cells[i].trials`, `.correct` | its trials and those answered right |
 //! | `cells[i].points[j]` | `{ "level", "trials", "correct" }`: the trials pooled at one folded level, ascending |
 //! | `cells[i].fit` | `null` when the data cannot be fitted (`fit_error` says why), else below |
-//! | `cells[i].fit.threshold_75` | the folded level answered 75 % correct |
-//! | `cells[i].fit.weber_75` | `threshold_75 / r − 1`, the Weber fraction (JND / reference) |
+//! | `cells[i].fit.threshold_75` | the folded level answered 75 % correct (above `r`) |
+//! | `cells[i].fit.weber_75` | `threshold_75 / r − 1`, the Weber fraction (JND / reference), above 0 |
 //! | `cells[i].fit.slope` | `dψ/dx` at `threshold_75` (per unit of the level) |
 //! | `cells[i].fit.lapse` | the fitted lapse rate λ |
-//! | `cells[i].fit.alpha`, `.beta` | the sigmoid's location and spread or shape ([`crate::fit`]) |
+//! | `cells[i].fit.alpha`, `.beta` | the folded model's scale `α` (a log ratio `d`) and shape `β` ([`crate::fit`]) |
 //! | `cells[i].fit.log_likelihood`, `.deviance` | at the optimum; the deviance against the saturated model |
 //! | `cells[i].fit.ci95_threshold`, `.ci95_weber` | `[lo, hi]`, 95 % credible intervals (the posterior's 2.5 % and 97.5 % points); `null` when the posterior could not be computed (`ci_error` says why) |
-//! | `cells[i].staircases[k]` | `2afc-staircase` only: `{ "name", "track": [{ "trial", "level", "correct" }], "reversals": [{ "trial", "level" }] }`, the levels as presented (not folded), in trial order |
+//! | `cells[i].staircases[k]` | `2afc-staircase` only: `{ "name", "track": [{ "trial", "level", "correct" }], "reversals": [{ "trial", "level" }] }`, the levels as presented (not folded), in trial order; a reversal's `trial` is the one whose answer made it |
 
 use std::collections::{BTreeSet, HashMap};
 use std::fmt;
@@ -98,11 +107,11 @@ use thiserror::Error;
 
 use crate::csv::Record;
 use crate::fit::{self, Fit, FitOptions, Model, Point};
-use crate::plan::{Design, Plan, PlanError};
+use crate::plan::{Design, Plan, PlanError, StaircaseSpec};
 
 mod rows;
 
-use rows::{Row, read_trials};
+use rows::{C_LEVEL, Row, read_trials};
 
 /// The format tag of `summary.json`.
 pub const FORMAT: &str = "experiment-summary/1";
@@ -139,34 +148,36 @@ pub const LAPSE_MAX: f64 = 0.1;
 /// Options of [`analyze`].
 #[derive(Debug, Clone, PartialEq)]
 pub struct AnalyzeOptions {
-    /// The sigmoid of 2AFC fits.
+    /// The psychometric function of 2AFC fits: a folded model ([`model_name`]).
     pub model: Model,
 }
 
 impl Default for AnalyzeOptions {
-    /// Log-Gaussian.
+    /// The folded Weibull.
     fn default() -> Self {
         Self {
-            model: Model::LogGaussian,
+            model: Model::FoldedWeibull,
         }
     }
 }
 
-/// The name of a model in `summary.json` and on the command line.
-pub fn model_name(model: Model) -> &'static str {
+/// The name of a 2AFC analysis's model in `summary.json` and on the command line. The
+/// analysis fits the folded models only (`None` for the others, which it refuses).
+pub fn model_name(model: Model) -> Option<&'static str> {
     match model {
-        Model::Gaussian => "gaussian",
-        Model::LogGaussian => "log-gaussian",
-        Model::Weibull => "weibull",
+        Model::FoldedGaussian => Some("gaussian"),
+        Model::FoldedLogGaussian => Some("log-gaussian"),
+        Model::FoldedWeibull => Some("weibull"),
+        Model::Gaussian | Model::LogGaussian | Model::Weibull => None,
     }
 }
 
 /// The model of a name ([`model_name`]).
 pub fn parse_model(name: &str) -> Option<Model> {
     match name {
-        "gaussian" => Some(Model::Gaussian),
-        "log-gaussian" => Some(Model::LogGaussian),
-        "weibull" => Some(Model::Weibull),
+        "gaussian" => Some(Model::FoldedGaussian),
+        "log-gaussian" => Some(Model::FoldedLogGaussian),
+        "weibull" => Some(Model::FoldedWeibull),
         _ => None,
     }
 }
@@ -366,17 +377,17 @@ pub struct PointResult {
 /// A psychometric fit with its credible intervals.
 #[derive(Debug, Clone, Serialize)]
 pub struct FitResult {
-    /// The folded level answered 75 % correct.
+    /// The folded level answered 75 % correct (above the reference).
     pub threshold_75: f64,
-    /// `threshold_75 / reference − 1`.
+    /// `threshold_75 / reference − 1`, above 0.
     pub weber_75: f64,
     /// `dψ/dx` at the threshold.
     pub slope: f64,
     /// The lapse rate.
     pub lapse: f64,
-    /// Location α.
+    /// The folded model's scale α, a log ratio.
     pub alpha: f64,
-    /// Spread or shape β.
+    /// Its shape β.
     pub beta: f64,
     /// Log-likelihood at the optimum.
     pub log_likelihood: f64,
@@ -413,10 +424,10 @@ pub struct TrackTrial {
     pub correct: bool,
 }
 
-/// A staircase's reversal.
+/// A staircase's reversal ([`crate::staircase`]).
 #[derive(Debug, Clone, Copy, Serialize)]
 pub struct Reversal {
-    /// The trial after which the direction flipped.
+    /// The trial whose answer moved the level opposite to its previous move.
     pub trial: u64,
     /// Its level.
     pub level: f64,
@@ -530,35 +541,80 @@ pub fn fold(level: f64, reference: f64) -> f64 {
     }
 }
 
-/// The reversals of a track: the trials after which the level's direction of change flips
-/// (trials whose level equals the one before set no direction).
-pub fn reversals(track: &[TrackTrial]) -> Vec<Reversal> {
+/// The reversals of a plan's staircase on its track, the rows of `trials.csv` it ran in
+/// trial order: the staircase (the one the run used, [`crate::session`]'s) replayed on their
+/// answers, so the reversals are [`crate::staircase`]'s, the runner's own, the last trial's
+/// move included. Each row's level must be the one the staircase gives at that point (to
+/// 10⁻⁹ relative), or the track is not the plan's staircase and is refused.
+fn staircase_reversals(
+    spec: &StaircaseSpec,
+    reference: f64,
+    track: &[&Row],
+    trials_path: &Path,
+) -> Result<Vec<Reversal>, AnalyzeError> {
+    let refuse = |row: &Row, message: String| AnalyzeError::Csv {
+        path: trials_path.to_owned(),
+        line: row.line,
+        column: Some(C_LEVEL + 1),
+        field: Some(TRIALS_COLUMNS[C_LEVEL].to_owned()),
+        message,
+    };
+    let (mut stair, side) = crate::session::staircase(spec, reference)
+        .map_err(|e| AnalyzeError::Options(e.to_string()))?;
     let mut out = Vec::new();
-    let mut last_up: Option<bool> = None;
-    for i in 1..track.len() {
-        let (before, after) = (track[i - 1].level, track[i].level);
-        if after == before {
-            continue;
+    for row in track {
+        let expected = side.mirror(stair.level());
+        let level = row.level.unwrap_or(reference);
+        if (level - expected).abs() > 1e-9 * expected.abs() {
+            return Err(refuse(
+                row,
+                format!(
+                    "{level:?} is not the level staircase {:?} gives at its trial {} ({expected:?}): \
+                     the track does not follow the plan's staircase",
+                    spec.name,
+                    stair.track().len() + 1
+                ),
+            ));
         }
-        let up = after > before;
-        if last_up.is_some_and(|l| l != up) {
+        stair.respond(row.correct).map_err(|e| {
+            refuse(
+                row,
+                format!(
+                    "staircase {:?} has no trial {}: {e}",
+                    spec.name,
+                    stair.track().len() + 1
+                ),
+            )
+        })?;
+        if stair.track().last().is_some_and(|t| t.reversal) {
             out.push(Reversal {
-                trial: track[i - 1].trial,
-                level: before,
+                trial: row.trial,
+                level,
             });
         }
-        last_up = Some(up);
     }
-    out
+    Ok(out)
 }
 
-fn two_afc(plan: &Plan, rows: &[Row], options: &AnalyzeOptions) -> Result<TwoAfc, AnalyzeError> {
+fn two_afc(
+    plan: &Plan,
+    rows: &[Row],
+    options: &AnalyzeOptions,
+    trials_path: &Path,
+) -> Result<TwoAfc, AnalyzeError> {
     let spec = plan.spec();
     let reference = spec
         .reference
         .as_ref()
         .ok_or_else(|| AnalyzeError::Options("the 2AFC plan has no reference".to_owned()))?;
     let r = reference.value;
+    let model = model_name(options.model).ok_or_else(|| {
+        AnalyzeError::Options(format!(
+            "the {:?} model is not a folded one: a 2AFC analysis fits a function of the log \
+             ratio to the reference",
+            options.model
+        ))
+    })?;
     let mut cells = Vec::new();
     for (s, stimulus) in spec.stimuli.iter().enumerate() {
         for (c, condition) in spec.conditions.iter().enumerate() {
@@ -592,8 +648,13 @@ fn two_afc(plan: &Plan, rows: &[Row], options: &AnalyzeOptions) -> Result<TwoAfc
                 lapse_max: LAPSE_MAX,
                 reference: Some(r),
             };
-            let (fit, fit_error, fitted) = match fit::fit(&points, options.model, fit_options) {
-                Ok(f) => {
+            let fitted = fit::fit(&points, options.model, fit_options).and_then(|f| {
+                // A reference was given: the fit has a Weber fraction.
+                let weber_75 = f.weber_75.ok_or(fit::FitError::NoReference(f.model))?;
+                Ok((f, weber_75))
+            });
+            let (fit, fit_error, fitted) = match fitted {
+                Ok((f, weber_75)) => {
                     let (ci_t, ci_w, ci_error) =
                         match fit::credible(&points, options.model, fit_options, 0.95) {
                             Ok(c) => (
@@ -605,7 +666,7 @@ fn two_afc(plan: &Plan, rows: &[Row], options: &AnalyzeOptions) -> Result<TwoAfc
                         };
                     let result = FitResult {
                         threshold_75: f.threshold_75,
-                        weber_75: f.threshold_75 / r - 1.0,
+                        weber_75,
                         slope: f.slope,
                         lapse: f.lapse,
                         alpha: f.alpha,
@@ -620,30 +681,31 @@ fn two_afc(plan: &Plan, rows: &[Row], options: &AnalyzeOptions) -> Result<TwoAfc
                 }
                 Err(e) => (None, Some(e.to_string()), None),
             };
-            let staircases = if spec.design == Design::TwoAfcStaircase {
-                spec.staircases
-                    .iter()
-                    .enumerate()
-                    .filter_map(|(k, st)| {
-                        let track: Vec<TrackTrial> = cell_rows
+            let mut staircases = Vec::new();
+            if spec.design == Design::TwoAfcStaircase {
+                for (k, st) in spec.staircases.iter().enumerate() {
+                    let rows: Vec<&Row> = cell_rows
+                        .iter()
+                        .copied()
+                        .filter(|row| row.staircase == Some(k))
+                        .collect();
+                    if rows.is_empty() {
+                        continue;
+                    }
+                    staircases.push(Track {
+                        name: st.name.clone(),
+                        reversals: staircase_reversals(st, r, &rows, trials_path)?,
+                        track: rows
                             .iter()
-                            .filter(|row| row.staircase == Some(k))
                             .map(|row| TrackTrial {
                                 trial: row.trial,
                                 level: row.level.unwrap_or(r),
                                 correct: row.correct,
                             })
-                            .collect();
-                        (!track.is_empty()).then(|| Track {
-                            name: st.name.clone(),
-                            reversals: reversals(&track),
-                            track,
-                        })
-                    })
-                    .collect()
-            } else {
-                Vec::new()
-            };
+                            .collect(),
+                    });
+                }
+            }
             cells.push(Cell {
                 stimulus: stimulus.name.clone(),
                 condition: condition.name.clone(),
@@ -667,7 +729,7 @@ fn two_afc(plan: &Plan, rows: &[Row], options: &AnalyzeOptions) -> Result<TwoAfc
     Ok(TwoAfc {
         field: reference.field.clone(),
         reference: r,
-        model: model_name(options.model),
+        model,
         lapse_max: LAPSE_MAX,
         cells,
     })
@@ -715,7 +777,7 @@ pub fn summarize(dir: &Path, options: &AnalyzeOptions) -> Result<Summary, Analyz
     let (identification, two_afc) = match spec.design {
         Design::Identification => (Some(identification(&plan, &rows)), None),
         Design::TwoAfcStaircase | Design::ConstantStimuli => {
-            (None, Some(two_afc(&plan, &rows, options)?))
+            (None, Some(two_afc(&plan, &rows, options, &trials_path)?))
         }
     };
     Ok(Summary {

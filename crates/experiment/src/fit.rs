@@ -10,15 +10,31 @@
 //! (threshold, slope, Weber fraction: what `analyze`'s summary reports) are maximum
 //! likelihood, not psignifit's MAP; on sparse sets (5 levels × 10 trials) the two differ by a
 //! few percent in the 75 % point and up to a third in the slope. Every `F`
-//! here is a location–scale family `G((u − m) / s)` on `u = x` or `u = ln x`:
+//! here is a location–scale family `G((u − m) / s)` on `u = x`, `u = ln x` or, for the
+//! folded models, `u = ln d` with `d = |ln(x / r)|` the log ratio to the reference `r`:
 //!
-//! | [`Model`]       | `u`    | `G(z)`                | `α`          | `β`          |
-//! |-----------------|--------|-----------------------|--------------|--------------|
-//! | `Gaussian`      | `x`    | `Φ(z)`                | mean `m`     | sd `s`       |
-//! | `LogGaussian`   | `ln x` | `Φ(z)`                | `m` (log)    | `s` (log)    |
-//! | `Weibull`       | `ln x` | `1 − exp(−exp(z))`    | scale `eᵐ`   | shape `1/s`  |
+//! | [`Model`]           | `u`    | `G(z)`                | `F`                          | `α`          | `β`          |
+//! |---------------------|--------|-----------------------|------------------------------|--------------|--------------|
+//! | `Gaussian`          | `x`    | `Φ(z)`                | `Φ((x − α) / β)`             | mean `m`     | sd `s`       |
+//! | `LogGaussian`       | `ln x` | `Φ(z)`                | `Φ((ln x − α) / β)`          | `m` (log)    | `s` (log)    |
+//! | `Weibull`           | `ln x` | `1 − exp(−exp(z))`    | `1 − exp(−(x / α)^β)`        | scale `eᵐ`   | shape `1/s`  |
+//! | `FoldedGaussian`    | `ln d` | `2 Φ(exp(z)) − 1`     | `2 Φ((d / α)^β) − 1`         | scale `eᵐ`   | shape `1/s`  |
+//! | `FoldedLogGaussian` | `ln d` | `Φ(z)`                | `Φ(β ln(d / α))`             | scale `eᵐ`   | shape `1/s`  |
+//! | `FoldedWeibull`     | `ln d` | `1 − exp(−exp(z))`    | `1 − exp(−(d / α)^β)`        | scale `eᵐ`   | shape `1/s`  |
 //!
 //! (the Weibull `1 − exp(−(x/α)^β)` is the Gumbel distribution of `ln x`).
+//!
+//! The folded models are for a 2AFC discrimination against a reference (`analyze` fits
+//! them): the comparison `x` and the reference are told apart by how far `x` is from `r`
+//! on either side, and at `x = r` the answer is a guess by construction. Each folded `F` is
+//! 0 at `d = 0`, so `ψ(r) = ½` whatever the parameters, `ψ` rises with `d`, and the 75 %
+//! point lies above the reference: `threshold_75 = r e^{d₇₅}` and `weber_75 = e^{d₇₅} − 1 >
+//! 0`, for the point estimate and for every point of an interval alike. Levels at the
+//! reference carry no information about the parameters (they enter the likelihood as a
+//! constant); `x` and `r²/x` are the same `d`. `FoldedGaussian` at `β = 1` is the
+//! equal-variance Gaussian observer, `ψ = ½ + (½ − λ)(2Φ(d/α) − 1)`: the simulated
+//! participant's own function ([`crate::sim_participant`]). The unfolded models can put
+//! `ψ(r)` anywhere and a threshold on either side of `r`.
 //!
 //! The fit maximises the binomial log-likelihood with Nelder–Mead on unconstrained
 //! parameters `(m, ln s, t)` with `λ = λ_max sin² t`, restarted from its own optimum until it
@@ -28,17 +44,22 @@
 //! bound.
 //!
 //! Intervals of the 75 % threshold and the Weber fraction: [`credible`], the central part of
-//! the Bayesian posterior under psignifit 4's default priors of threshold and width with the
-//! lapse rate's Beta(1, 10) on `[0, λ_max]` and no overdispersion (what `analyze` reports), or
-//! [`bootstrap`], a parametric bootstrap's percentiles. Over simulated runs of the shipped
-//! staircase plan (two interleaved 2-down/1-up staircases, ~90 trials) the posterior's 95 %
-//! intervals cover the true Weber fraction in 194 of 200 runs (`examples/recovery.rs`). With
-//! the plan's earlier bounds, which reached the reference, the bootstrap's covered it in 158
-//! of 200 runs (re-running the staircases in each resample) and the posterior's in 186; under
-//! constant stimuli 182 and 187 of 200. The
-//! bootstrap draws from the one best-fitting function, and a staircase's levels, clustered at
-//! the threshold, leave its slope poorly known: the posterior keeps the shallow functions the
-//! data allow, and they widen the interval as they should.
+//! the Bayesian posterior under psignifit 4's default priors of threshold and width (set on
+//! `u`, as psignifit sets them on the stimulus levels it is given) with the
+//! lapse rate's Beta(1, 10) on `[0, λ_max]` and no overdispersion (what `analyze` reports),
+//! or [`bootstrap`], a parametric bootstrap's percentiles. Over 200 simulated runs of the
+//! shipped staircase plan (two interleaved 2-down/1-up staircases, ~90 trials) analysed with
+//! the folded Weibull, the posterior's 95 % intervals cover the true Weber fraction in 185
+//! (W = 0.2) and 187 (W = 0.15) runs, none of them reaching below 0 (`examples/recovery.rs`;
+//! the folded Gaussian 184 and 186, the folded log-Gaussian 184 and 180). The unfolded
+//! log-Gaussian this crate fitted before covered it in 194 and 191 with intervals a sixth to
+//! a third wider, 11 and 33 of which reached below 0: it spent part of the data on where
+//! `ψ` stands at the reference, which the folded models know. With the plan's earlier bounds,
+//! which reached the reference, a bootstrap's intervals covered it in 158 of 200 runs
+//! (re-running the staircases in each resample) and the posterior's in 186 (unfolded
+//! log-Gaussian). The bootstrap draws from the one best-fitting function, and a staircase's
+//! levels, clustered at the threshold, leave its slope poorly known: the posterior keeps the
+//! shallow functions the data allow, and they widen the interval as they should.
 
 mod credible;
 mod normal;
@@ -74,6 +95,63 @@ pub enum Model {
     LogGaussian,
     /// Weibull: `F = 1 − exp(−(x / α)^β)`; levels must be positive.
     Weibull,
+    /// Folded 2AFC about the reference `r` (module docs): `F = 2Φ((d / α)^β) − 1` of
+    /// `d = |ln(x / r)|`, at `β = 1` the equal-variance Gaussian observer's.
+    FoldedGaussian,
+    /// Folded 2AFC about the reference: `F = Φ(β ln(d / α))`, the log-normal distribution
+    /// function of `d = |ln(x / r)|`.
+    FoldedLogGaussian,
+    /// Folded 2AFC about the reference: `F = 1 − exp(−(d / α)^β)`, the Weibull of
+    /// `d = |ln(x / r)|`.
+    FoldedWeibull,
+}
+
+/// The coordinate `u` a model's sigmoid is a location–scale family on.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Axis {
+    /// `u = x`.
+    Level,
+    /// `u = ln x`.
+    LogLevel,
+    /// `u = ln d`, `d = |ln(x / r)|` with the reference `r`: `u = −∞` at the reference.
+    LogLogRatio(f64),
+}
+
+impl Axis {
+    fn u(self, x: f64) -> f64 {
+        match self {
+            Axis::Level => x,
+            Axis::LogLevel => x.ln(),
+            Axis::LogLogRatio(r) => (x / r).ln().abs().ln(),
+        }
+    }
+
+    /// The level at `u` (for the log ratio, the one above the reference).
+    fn level(self, u: f64) -> f64 {
+        match self {
+            Axis::Level => u,
+            Axis::LogLevel => u.exp(),
+            Axis::LogLogRatio(r) => r * u.exp().exp(),
+        }
+    }
+
+    /// `du/dx` at the level `x` (for the log ratio, `x` above the reference).
+    fn du_dx(self, x: f64) -> f64 {
+        match self {
+            Axis::Level => 1.0,
+            Axis::LogLevel => 1.0 / x,
+            Axis::LogLogRatio(r) => 1.0 / (x * (x / r).ln()),
+        }
+    }
+
+    /// The Weber fraction `x / r − 1` of the level at `u`; on the log ratio `e^d − 1`,
+    /// which is positive for every finite `u`.
+    fn weber(self, u: f64, reference: f64) -> f64 {
+        match self {
+            Axis::LogLogRatio(_) => u.exp().exp_m1(),
+            _ => self.level(u) / reference - 1.0,
+        }
+    }
 }
 
 impl Model {
@@ -81,35 +159,45 @@ impl Model {
         !matches!(self, Model::Gaussian)
     }
 
-    fn u_of_level(self, x: f64) -> f64 {
-        if self.uses_log() { x.ln() } else { x }
+    /// The model's axis; `None` for a folded model without a reference.
+    fn axis(self, reference: Option<f64>) -> Option<Axis> {
+        match self {
+            Model::Gaussian => Some(Axis::Level),
+            Model::LogGaussian | Model::Weibull => Some(Axis::LogLevel),
+            _ => reference.map(Axis::LogLogRatio),
+        }
     }
 
-    fn level_of_u(self, u: f64) -> f64 {
-        if self.uses_log() { u.exp() } else { u }
+    /// Whether `α = eᵐ` and `β = 1/s` (a scale and a shape) rather than `m` and `s`.
+    fn scale_shape(self) -> bool {
+        !matches!(self, Model::Gaussian | Model::LogGaussian)
     }
 
     /// `G(z)`, the standard sigmoid.
     fn cdf(self, z: f64) -> f64 {
         match self {
-            Model::Gaussian | Model::LogGaussian => normal_cdf(z),
-            Model::Weibull => -(-z.exp()).exp_m1(),
+            Model::Gaussian | Model::LogGaussian | Model::FoldedLogGaussian => normal_cdf(z),
+            Model::Weibull | Model::FoldedWeibull => -(-z.exp()).exp_m1(),
+            // 2Φ(t) − 1 = erf(t / √2).
+            Model::FoldedGaussian => libm::erf(z.exp() * std::f64::consts::FRAC_1_SQRT_2),
         }
     }
 
     /// `G'(z)`.
     fn pdf(self, z: f64) -> f64 {
         match self {
-            Model::Gaussian | Model::LogGaussian => normal_pdf(z),
-            Model::Weibull => (z - z.exp()).exp(),
+            Model::Gaussian | Model::LogGaussian | Model::FoldedLogGaussian => normal_pdf(z),
+            Model::Weibull | Model::FoldedWeibull => (z - z.exp()).exp(),
+            Model::FoldedGaussian => 2.0 * normal_pdf(z.exp()) * z.exp(),
         }
     }
 
     /// `G⁻¹(p)` for `p ∈ (0, 1)`.
     fn quantile(self, p: f64) -> f64 {
         match self {
-            Model::Gaussian | Model::LogGaussian => normal_quantile(p),
-            Model::Weibull => (-(-p).ln_1p()).ln(),
+            Model::Gaussian | Model::LogGaussian | Model::FoldedLogGaussian => normal_quantile(p),
+            Model::Weibull | Model::FoldedWeibull => (-(-p).ln_1p()).ln(),
+            Model::FoldedGaussian => normal_quantile(0.5 * (1.0 + p)).ln(),
         }
     }
 }
@@ -119,7 +207,8 @@ impl Model {
 pub struct FitOptions {
     /// The upper bound of the lapse rate; `0` fixes the lapse rate at zero.
     pub lapse_max: f64,
-    /// The reference of a JND experiment, for `weber_75 = threshold_75 / reference − 1`.
+    /// The reference of a JND experiment, for `weber_75 = threshold_75 / reference − 1`;
+    /// a folded model is anchored there (`ψ = ½`) and needs it.
     pub reference: Option<f64>,
 }
 
@@ -168,7 +257,9 @@ pub enum FitError {
         /// Correct answers at that level.
         n_correct: u32,
     },
-    /// Fewer than two distinct levels carry trials: slope and location cannot both be fitted.
+    /// Fewer than two distinct levels carry trials (for a folded model: distinct log ratios
+    /// other than the reference's, where `ψ = ½` whatever the parameters): slope and location
+    /// cannot both be fitted.
     #[error("need trials at two or more distinct levels, found {distinct}")]
     TooFewLevels {
         /// Distinct levels with at least one trial.
@@ -183,6 +274,9 @@ pub enum FitError {
     /// The reference is not a positive finite number.
     #[error("reference {0} must be positive and finite")]
     BadReference(f64),
+    /// A folded model was asked for without the reference it is anchored at.
+    #[error("the {0:?} model is anchored at the reference: give one")]
+    NoReference(Model),
     /// The optimum is not a finite set of parameters.
     #[error("the likelihood maximisation did not reach finite parameters")]
     NotConverged,
@@ -233,22 +327,31 @@ pub struct Fit {
 }
 
 impl Fit {
-    /// `ψ(x)`, the probability of a correct answer at level `x`.
+    /// `ψ(x)`, the probability of a correct answer at level `x` (NaN for a folded model
+    /// without a reference).
     pub fn psi(&self, x: f64) -> f64 {
         let (m, s) = self.location_scale();
-        psi_u(self.model, self.model.u_of_level(x), m, s, self.lapse)
+        self.axis().map_or(f64::NAN, |axis| {
+            psi_u(self.model, axis.u(x), m, s, self.lapse)
+        })
     }
 
-    /// The level where `ψ = p`, for `p` strictly between the guess rate and `1 − λ`.
+    /// The level where `ψ = p`, for `p` strictly between the guess rate and `1 − λ` (for a
+    /// folded model, the one above the reference).
     pub fn level_at(&self, p: f64) -> Option<f64> {
         let (m, s) = self.location_scale();
-        level_at(self.model, m, s, self.lapse, p)
+        level_at(self.model, self.axis()?, m, s, self.lapse, p)
+    }
+
+    fn axis(&self) -> Option<Axis> {
+        self.model.axis(self.options.reference)
     }
 
     fn location_scale(&self) -> (f64, f64) {
-        match self.model {
-            Model::Gaussian | Model::LogGaussian => (self.alpha, self.beta),
-            Model::Weibull => (self.alpha.ln(), 1.0 / self.beta),
+        if self.model.scale_shape() {
+            (self.alpha.ln(), 1.0 / self.beta)
+        } else {
+            (self.alpha, self.beta)
         }
     }
 }
@@ -314,7 +417,8 @@ pub struct Bootstrap {
 
 /// A simulated 2AFC observer for a JND experiment: it answers correctly with probability
 /// `ψ(x) = 0.5 + (0.5 − λ) Φ((x / r − 1 − μ) / σ)`, with `μ` chosen so that `ψ = 0.75` at
-/// `x / r − 1 = W`.
+/// `x / r − 1 = W`. It is the unfolded `Gaussian` model's observer, for comparisons above the
+/// reference: its `ψ(r)` is above ½ (a folded observer is a [`Fit`] of a folded model).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Observer {
     /// The true Weber fraction `W` (at 75 % correct).
@@ -369,8 +473,8 @@ fn psi_u(model: Model, u: f64, m: f64, s: f64, lapse: f64) -> f64 {
     GUESS_2AFC + (1.0 - GUESS_2AFC - lapse) * model.cdf((u - m) / s)
 }
 
-fn level_at(model: Model, m: f64, s: f64, lapse: f64, p: f64) -> Option<f64> {
-    sigmoid_at(lapse, p).map(|z| model.level_of_u(m + s * model.quantile(z)))
+fn level_at(model: Model, axis: Axis, m: f64, s: f64, lapse: f64, p: f64) -> Option<f64> {
+    sigmoid_at(lapse, p).map(|z| axis.level(m + s * model.quantile(z)))
 }
 
 /// The sigmoid's value `F` where `ψ = p` with lapse rate `lapse`, for `p` strictly between
@@ -380,8 +484,12 @@ fn sigmoid_at(lapse: f64, p: f64) -> Option<f64> {
     (f > 0.0 && f < 1.0).then_some(f)
 }
 
-/// Validated data in the fit's coordinate `u`, with the binomial constants.
+/// Validated data in the fit's coordinate `u`, with the binomial constants. A folded
+/// model's levels at the reference have `u = −∞` and `ψ = ½` whatever the parameters: they
+/// enter the likelihood as a constant and nothing else (the range, the start, the counts of
+/// levels).
 struct Prepared {
+    axis: Axis,
     u: Vec<f64>,
     n: Vec<f64>,
     k: Vec<f64>,
@@ -389,11 +497,13 @@ struct Prepared {
     log_binom: f64,
     /// The saturated model's log-likelihood without the binomial coefficients.
     saturated: f64,
+    /// The range of the finite `u`.
     u_min: f64,
     u_max: f64,
 }
 
-fn validate(data: &[Point], model: Model, options: &FitOptions) -> Result<(), FitError> {
+/// Checks the options and the data; the model's axis.
+fn validate(data: &[Point], model: Model, options: &FitOptions) -> Result<Axis, FitError> {
     if !(0.0..0.5).contains(&options.lapse_max) {
         return Err(FitError::BadLapseMax(options.lapse_max));
     }
@@ -402,6 +512,9 @@ fn validate(data: &[Point], model: Model, options: &FitOptions) -> Result<(), Fi
     {
         return Err(FitError::BadReference(r));
     }
+    let axis = model
+        .axis(options.reference)
+        .ok_or(FitError::NoReference(model))?;
     if data.is_empty() {
         return Err(FitError::NoData);
     }
@@ -427,16 +540,17 @@ fn validate(data: &[Point], model: Model, options: &FitOptions) -> Result<(), Fi
             });
         }
     }
-    Ok(())
+    Ok(axis)
 }
 
 fn xlogy(x: f64, y: f64) -> f64 {
     if x == 0.0 { 0.0 } else { x * y.ln() }
 }
 
-fn prepare(data: &[Point], model: Model) -> Result<Prepared, FitError> {
+fn prepare(data: &[Point], axis: Axis) -> Result<Prepared, FitError> {
     let used: Vec<&Point> = data.iter().filter(|p| p.n_trials > 0).collect();
-    let mut levels: Vec<f64> = used.iter().map(|p| p.level).collect();
+    let u: Vec<f64> = used.iter().map(|p| axis.u(p.level)).collect();
+    let mut levels: Vec<f64> = u.iter().copied().filter(|u| u.is_finite()).collect();
     levels.sort_by(f64::total_cmp);
     levels.dedup();
     if levels.len() < 2 {
@@ -444,10 +558,13 @@ fn prepare(data: &[Point], model: Model) -> Result<Prepared, FitError> {
             distinct: levels.len(),
         });
     }
-    if used.iter().all(|p| 2 * p.n_correct <= p.n_trials) {
+    if used
+        .iter()
+        .zip(&u)
+        .all(|(p, u)| !u.is_finite() || 2 * p.n_correct <= p.n_trials)
+    {
         return Err(FitError::AtChance);
     }
-    let u: Vec<f64> = used.iter().map(|p| model.u_of_level(p.level)).collect();
     let n: Vec<f64> = used.iter().map(|p| f64::from(p.n_trials)).collect();
     let k: Vec<f64> = used.iter().map(|p| f64::from(p.n_correct)).collect();
     let mut log_binom = 0.0;
@@ -458,9 +575,9 @@ fn prepare(data: &[Point], model: Model) -> Result<Prepared, FitError> {
         let ph = k[i] / n[i];
         saturated += xlogy(k[i], ph) + xlogy(n[i] - k[i], 1.0 - ph);
     }
-    let u_min = u.iter().copied().fold(f64::INFINITY, f64::min);
-    let u_max = u.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+    let (u_min, u_max) = (levels[0], levels[levels.len() - 1]);
     Ok(Prepared {
+        axis,
         u,
         n,
         k,
@@ -502,7 +619,9 @@ impl Prepared {
     /// A starting point: the level where the pooled proportion correct first reaches 75 %
     /// (linear interpolation between sorted levels), a spread of a quarter of the range.
     fn start(&self) -> (f64, f64) {
-        let mut idx: Vec<usize> = (0..self.u.len()).collect();
+        let mut idx: Vec<usize> = (0..self.u.len())
+            .filter(|&i| self.u[i].is_finite())
+            .collect();
         idx.sort_by(|&a, &b| self.u[a].total_cmp(&self.u[b]));
         let p: Vec<f64> = idx.iter().map(|&i| self.k[i] / self.n[i]).collect();
         let us: Vec<f64> = idx.iter().map(|&i| self.u[i]).collect();
@@ -527,8 +646,8 @@ impl Prepared {
 ///
 /// Levels with no trials are ignored. Errors name the point and field at fault.
 pub fn fit(data: &[Point], model: Model, options: FitOptions) -> Result<Fit, FitError> {
-    validate(data, model, &options)?;
-    let prep = prepare(data, model)?;
+    let axis = validate(data, model, &options)?;
+    let prep = prepare(data, axis)?;
     fit_prepared(&prep, model, options)
 }
 
@@ -574,23 +693,23 @@ fn fit_prepared(prep: &Prepared, model: Model, options: FitOptions) -> Result<Fi
         return Err(FitError::NotConverged);
     }
     let kernel = prep.kernel(model, m, s, lapse);
-    let threshold_75 = level_at(model, m, s, lapse, TARGET_75).ok_or(FitError::NotConverged)?;
-    let u_t = model.u_of_level(threshold_75);
-    let du_dx = if model.uses_log() {
-        1.0 / threshold_75
+    let z_t = model.quantile(sigmoid_at(lapse, TARGET_75).ok_or(FitError::NotConverged)?);
+    let u_t = m + s * z_t;
+    let threshold_75 = prep.axis.level(u_t);
+    let slope = (1.0 - GUESS_2AFC - lapse) * model.pdf(z_t) / s * prep.axis.du_dx(threshold_75);
+    let (alpha, beta) = if model.scale_shape() {
+        (m.exp(), 1.0 / s)
     } else {
-        1.0
-    };
-    let slope = (1.0 - GUESS_2AFC - lapse) * model.pdf((u_t - m) / s) / s * du_dx;
-    let (alpha, beta) = match model {
-        Model::Gaussian | Model::LogGaussian => (m, s),
-        Model::Weibull => (m.exp(), 1.0 / s),
+        (m, s)
     };
     let representable = alpha.is_finite()
         && beta.is_finite()
         && beta > 0.0
-        && (model != Model::Weibull || alpha > 0.0);
-    if !(threshold_75.is_finite() && slope.is_finite() && representable) {
+        && (!model.scale_shape() || alpha > 0.0);
+    let weber_75 = options.reference.map(|r| prep.axis.weber(u_t, r));
+    if !(threshold_75.is_finite() && slope.is_finite() && representable)
+        || weber_75.is_some_and(|w| !w.is_finite())
+    {
         return Err(FitError::NoThreshold);
     }
     Ok(Fit {
@@ -600,7 +719,7 @@ fn fit_prepared(prep: &Prepared, model: Model, options: FitOptions) -> Result<Fi
         beta,
         lapse,
         threshold_75,
-        weber_75: options.reference.map(|r| threshold_75 / r - 1.0),
+        weber_75,
         slope,
         log_likelihood: kernel + prep.log_binom,
         deviance: 2.0 * (prep.saturated - kernel).max(0.0),
@@ -734,8 +853,8 @@ pub fn bootstrap(
     if options.resamples < 2 {
         return Err(FitError::TooFewResamples(options.resamples));
     }
-    validate(data, fit.model, &fit.options)?;
-    let mut prep = prepare(data, fit.model)?;
+    let axis = validate(data, fit.model, &fit.options)?;
+    let mut prep = prepare(data, axis)?;
     let probs: Vec<f64> = prep
         .u
         .iter()

@@ -384,6 +384,49 @@ pub fn participant_label(p: &SimParticipant) -> String {
     )
 }
 
+/// Each staircase of a session (staircase designs; none otherwise), in the plan's order: its
+/// reversals as [`crate::staircase`] defines them, the levels as presented (mirrored back for
+/// a staircase below the reference), and the threshold from them.
+pub fn staircase_summaries(session: &Session) -> Vec<StaircaseSummary> {
+    let spec = session.plan().spec();
+    let Some((stairs, sides)) = session.stairs() else {
+        return Vec::new();
+    };
+    stairs
+        .iter()
+        .zip(sides)
+        .zip(&spec.staircases)
+        .map(|((stair, side), s)| {
+            let reversal_levels: Vec<f64> = stair
+                .reversal_levels()
+                .iter()
+                .map(|&v| side.mirror(v))
+                .collect();
+            let n = reversal_levels.len();
+            let after = match stair.config().reduced_step {
+                Some((after, _)) => after,
+                None => 2,
+            };
+            let mut k = n.saturating_sub(after);
+            if k % 2 == 1 {
+                k -= 1;
+            }
+            let k = if k == 0 { n } else { k };
+            let threshold =
+                (k > 0).then(|| reversal_levels[n - k..].iter().sum::<f64>() / k as f64);
+            StaircaseSummary {
+                name: s.name.clone(),
+                below: side.below,
+                trials: stair.track().len(),
+                finished: stair.is_finished(),
+                threshold,
+                threshold_reversals: k,
+                reversal_levels,
+            }
+        })
+        .collect()
+}
+
 /// Runs `plan` with a simulated participant into `out_dir` (module docs): a [`Session`]
 /// (resuming one already there), each trial explored through the haptic loop and answered
 /// from what was felt. The participant's noise comes from its own seed.
@@ -490,44 +533,7 @@ pub fn run(
         }
     }
 
-    let staircases = session
-        .stairs()
-        .map(|(stairs, sides)| {
-            stairs
-                .iter()
-                .zip(sides)
-                .zip(&spec.staircases)
-                .map(|((stair, side), s)| {
-                    let reversal_levels: Vec<f64> = stair
-                        .reversal_levels()
-                        .iter()
-                        .map(|&v| side.mirror(v))
-                        .collect();
-                    let n = reversal_levels.len();
-                    let after = match stair.config().reduced_step {
-                        Some((after, _)) => after,
-                        None => 2,
-                    };
-                    let mut k = n.saturating_sub(after);
-                    if k % 2 == 1 {
-                        k -= 1;
-                    }
-                    let k = if k == 0 { n } else { k };
-                    let threshold =
-                        (k > 0).then(|| reversal_levels[n - k..].iter().sum::<f64>() / k as f64);
-                    StaircaseSummary {
-                        name: s.name.clone(),
-                        below: side.below,
-                        trials: stair.track().len(),
-                        finished: stair.is_finished(),
-                        threshold,
-                        threshold_reversals: k,
-                        reversal_levels,
-                    }
-                })
-                .collect()
-        })
-        .unwrap_or_default();
+    let staircases = staircase_summaries(&session);
     Ok(RunSummary {
         resumed: session.resumed(),
         trials,

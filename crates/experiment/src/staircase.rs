@@ -8,6 +8,16 @@
 //! As PsychoPy's `StairHandler`, a staircase is an object that gives the next level and takes
 //! the response; [`Interleaved`] runs several of them with a seeded random choice among the
 //! unfinished ones on each trial.
+//!
+//! A **reversal** is a change of direction of the level's track, and this module is its one
+//! definition (the runner's summary and the analysis both read it from [`Staircase`]). A
+//! response *moves* the level when its rule fires and the level changes: a step clamped at a
+//! bound (the level already there) is no move and sets no direction. A move opposite to the
+//! previous move is a reversal, counted at the trial whose response made it, with that trial's
+//! level; the first move has nothing to reverse and is not one. The move a trial's response
+//! makes is known as soon as the response is, so the last trial of a track can be a reversal
+//! (when the stopping rule counts reversals, the last one always is), although the level it
+//! moves to is never presented.
 
 use crate::fit::Prng;
 use thiserror::Error;
@@ -114,7 +124,8 @@ pub struct Trial {
     pub level: f64,
     /// Whether it was answered correctly.
     pub correct: bool,
-    /// Whether this response turned the staircase's direction (its level is a reversal level).
+    /// Whether this response moved the level opposite to its previous move (its level is a
+    /// reversal level; module docs).
     pub reversal: bool,
 }
 
@@ -125,7 +136,7 @@ pub struct Staircase {
     level: f64,
     correct_run: u32,
     wrong_run: u32,
-    /// The direction of the last move: `Some(true)` up, `Some(false)` down.
+    /// The direction of the last move of the level: `Some(true)` up, `Some(false)` down.
     last_move_up: Option<bool>,
     track: Vec<Trial>,
     reversal_levels: Vec<f64>,
@@ -246,11 +257,20 @@ impl Staircase {
         if let Some(up) = next_move {
             self.correct_run = 0;
             self.wrong_run = 0;
-            reversal = self.last_move_up.is_some_and(|last| last != up);
-            if reversal {
-                self.reversal_levels.push(level);
+            // A step clamped at the bound it points to leaves the level, and the direction, as
+            // they were (module docs).
+            let moves = if up {
+                level < self.config.max
+            } else {
+                level > self.config.min
+            };
+            if moves {
+                reversal = self.last_move_up.is_some_and(|last| last != up);
+                if reversal {
+                    self.reversal_levels.push(level);
+                }
+                self.last_move_up = Some(up);
             }
-            self.last_move_up = Some(up);
             // The step in force after this reversal count (Levitt's step reduction after the
             // first k reversals applies from the move that follows the k-th).
             let step = self.current_step();

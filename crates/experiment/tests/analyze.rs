@@ -10,7 +10,10 @@ use experiment::analyze::{
     AnalyzeError, AnalyzeOptions, Summary, TRIALS_COLUMNS, analyze, fisher_exact_two_sided,
     summarize,
 };
-use experiment::fit::{Model, Observer, Prng, normal_cdf, normal_pdf, normal_quantile};
+use experiment::fit::{Model, Prng};
+use experiment::plan::Plan;
+use experiment::runner::staircase_summaries;
+use experiment::session::{Response, Session, TrialRecord};
 use serde_json::{Value, json};
 
 const HEADER: &str = "participant,session,block,trial,practice,design,stimulus,condition,\
@@ -282,34 +285,78 @@ fn afc_row(
     )
 }
 
-/// The asymptotic standard error of the ML 75 % threshold for the Gaussian model
-/// `ψ = ½ + (½ − λ) Φ((x − α)/β)` with `n` trials at each of `levels`: the binomial variance
-/// `ψ(1 − ψ)/n` of every level's proportion, propagated by the Fisher information
-/// `I = Σ n ∇ψ ∇ψᵀ / (ψ(1 − ψ))` over `(α, β, λ)` and the delta method on
-/// `x₇₅ = α + β Φ⁻¹(¼ / (½ − λ))`.
-fn threshold_se(alpha: f64, beta: f64, lapse: f64, levels: &[f64], n: f64) -> f64 {
+/// A folded Weibull observer (the analysis's default model, written out here):
+/// `ψ = ½ + (½ − λ)(1 − exp(−(d/α)^β))` of `d = |ln(x/r)|`, `r = 500`.
+#[derive(Clone, Copy)]
+struct FoldedWeibull {
+    alpha: f64,
+    beta: f64,
+    lapse: f64,
+}
+
+impl FoldedWeibull {
+    /// The observer whose 75 % point is the Weber fraction `w`: `F = ¼ / (½ − λ)` there, so
+    /// `d₇₅ = α (−ln(1 − F))^{1/β}` with `d₇₅ = ln(1 + w)`.
+    fn with_weber(w: f64, beta: f64, lapse: f64) -> Self {
+        let f = 0.25 / (0.5 - lapse);
+        let alpha = (1.0 + w).ln() / (-(1.0 - f).ln()).powf(1.0 / beta);
+        Self { alpha, beta, lapse }
+    }
+
+    fn psi(&self, x: f64) -> f64 {
+        let d = (x / 500.0).ln().abs();
+        0.5 + (0.5 - self.lapse) * (1.0 - (-(d / self.alpha).powf(self.beta)).exp())
+    }
+
+    /// `∂ψ/∂(α, β, λ)` at `x`, with `t = (d/α)^β`: `∂ψ/∂α = −(½ − λ) e^{−t} t β/α`,
+    /// `∂ψ/∂β = (½ − λ) e^{−t} t ln(d/α)`, `∂ψ/∂λ = −(1 − e^{−t})`.
+    fn gradient(&self, x: f64) -> [f64; 3] {
+        let d = (x / 500.0).ln().abs();
+        if d == 0.0 {
+            return [0.0; 3];
+        }
+        let t = (d / self.alpha).powf(self.beta);
+        let e = (-t).exp();
+        let a = 0.5 - self.lapse;
+        [
+            -a * e * t * self.beta / self.alpha,
+            a * e * t * (d / self.alpha).ln(),
+            -(1.0 - e),
+        ]
+    }
+
+    /// `W = e^{d₇₅} − 1` and `∂W/∂(α, β, λ)`: with `F = ¼/(½ − λ)` and `q = −ln(1 − F)`,
+    /// `d₇₅ = α q^{1/β}`, `∂d₇₅/∂α = d₇₅/α`, `∂d₇₅/∂β = −d₇₅ ln q / β²`,
+    /// `∂d₇₅/∂λ = d₇₅ / (β q (1 − F)) · ¼/(½ − λ)²`; `∂W = e^{d₇₅} ∂d₇₅`.
+    fn weber_and_gradient(&self) -> (f64, [f64; 3]) {
+        let f = 0.25 / (0.5 - self.lapse);
+        let q = -(1.0 - f).ln();
+        let d75 = self.alpha * q.powf(1.0 / self.beta);
+        let g = d75.exp();
+        let dd = [
+            d75 / self.alpha,
+            -d75 * q.ln() / self.beta.powi(2),
+            d75 / (self.beta * q * (1.0 - f)) * 0.25 / (0.5 - self.lapse).powi(2),
+        ];
+        (g - 1.0, dd.map(|x| g * x))
+    }
+}
+
+/// The asymptotic standard error of the ML Weber fraction with `n` trials at each of
+/// `levels`: the binomial variance `ψ(1 − ψ)/n` of every level's proportion, propagated by the
+/// Fisher information `I = Σ n ∇ψ ∇ψᵀ / (ψ(1 − ψ))` over `(α, β, λ)` and the delta method.
+fn weber_se(o: &FoldedWeibull, levels: &[f64], n: f64) -> f64 {
     let mut info = [[0.0; 3]; 3];
     for &x in levels {
-        let z = (x - alpha) / beta;
-        let psi = 0.5 + (0.5 - lapse) * normal_cdf(z);
-        let g = [
-            -(0.5 - lapse) * normal_pdf(z) / beta,
-            -(0.5 - lapse) * normal_pdf(z) * z / beta,
-            -normal_cdf(z),
-        ];
+        let psi = o.psi(x);
+        let g = o.gradient(x);
         for i in 0..3 {
             for j in 0..3 {
                 info[i][j] += n * g[i] * g[j] / (psi * (1.0 - psi));
             }
         }
     }
-    let f = 0.25 / (0.5 - lapse);
-    let zf = normal_quantile(f);
-    let grad = [
-        1.0,
-        zf,
-        beta / normal_pdf(zf) * 0.25 / (0.5 - lapse).powi(2),
-    ];
+    let (_, grad) = o.weber_and_gradient();
     // grad · I⁻¹ · grad, with I⁻¹ by Gaussian elimination on [I | grad].
     let mut m = info;
     let mut v = grad;
@@ -330,20 +377,21 @@ fn threshold_se(alpha: f64, beta: f64, lapse: f64, levels: &[f64], n: f64) -> f6
     grad.iter().zip(&y).map(|(g, y)| g * y).sum::<f64>().sqrt()
 }
 
+/// Recovery against a known truth: trials drawn from a folded Weibull observer (the model
+/// the analysis fits) with W = 0.2, written as `trials.csv`, come back from the analysis
+/// within the binomial noise of their counts.
 #[test]
 fn constant_stimuli_recover_a_known_observers_weber_fraction() {
-    let observer = Observer {
-        weber: 0.2,
-        reference: 500.0,
-        sigma: 0.1,
-        lapse: 0.04,
-    };
+    let observer = FoldedWeibull::with_weber(0.2, 2.0, 0.04);
+    let (w_true, _) = observer.weber_and_gradient();
+    assert!((w_true - 0.2).abs() < 1e-12);
+    assert!((observer.psi(600.0) - 0.75).abs() < 1e-12);
     // Comparisons on both sides of the reference; 400 and 312.5 fold exactly onto 625 and
-    // 800 (500²/400, 500²/312.5), where they pool with the comparisons above.
+    // 800 (500²/400, 500²/312.5), where they pool with the comparisons above. The reference
+    // itself is answered at chance and carries no information.
     let presented = [
         500.0, 525.0, 550.0, 575.0, 600.0, 625.0, 650.0, 700.0, 800.0, 400.0, 312.5,
     ];
-    let folded = |x: f64| if x < 500.0 { 250_000.0 / x } else { x };
     let per_level = 300;
     let mut rng = Prng::new(2024);
     let mut text = format!("{HEADER}\n");
@@ -351,21 +399,16 @@ fn constant_stimuli_recover_a_known_observers_weber_fraction() {
     for _ in 0..per_level {
         for &x in &presented {
             trial += 1;
-            // The observer is defined on the folded level: a comparison at r/k is as hard as
-            // one at k·r.
-            let correct = observer.respond(folded(x), &mut rng);
+            let correct = rng.bernoulli(observer.psi(x));
             let first = rng.bernoulli(0.5);
             text.push_str(&afc_row("constant-stimuli", trial, "", x, correct, first));
         }
     }
     let dir = write_run("constant", &constant_plan(&presented), &text);
-    let options = AnalyzeOptions {
-        model: Model::Gaussian,
-    };
-    let summary = analyze(&dir, &options).unwrap();
+    let summary = analyze(&dir, &AnalyzeOptions::default()).unwrap();
     assert_eq!(summary.trials, trial as usize);
     let afc = summary.two_afc.as_ref().unwrap();
-    assert_eq!(afc.model, "gaussian");
+    assert_eq!(afc.model, "weibull");
     let cell = &afc.cells[0];
     let levels: Vec<f64> = cell.points.iter().map(|p| p.level).collect();
     assert_eq!(
@@ -377,28 +420,20 @@ fn constant_stimuli_recover_a_known_observers_weber_fraction() {
     let counts: Vec<u32> = cell.points.iter().map(|p| p.trials).collect();
     assert_eq!(counts, vec![300, 300, 300, 300, 300, 600, 300, 300, 600]);
     let fit = cell.fit.as_ref().unwrap();
-    // The Gaussian model is the observer's own form (α = r(1 + μ), β = rσ): the ML threshold
-    // is asymptotically normal around the true 75 % point with the standard error of
-    // `threshold_se` (weights: the trials per folded level). 4 standard errors: a deviation
-    // this large has probability 6·10⁻⁵ under that normal law.
-    let alpha = 500.0 * (1.0 + observer.mu());
-    let beta = 500.0 * observer.sigma;
-    // The information adds per level: a folded level with 600 trials enters twice.
+    // The analysis fits the observer's own family, so the ML Weber fraction is asymptotically
+    // normal around the true one with the standard error of `weber_se`: the binomial noise of
+    // 300 trials a level (600 where two levels fold together: those enter twice). 4 standard
+    // errors: a deviation this large has probability 6·10⁻⁵ under that normal law.
     let info_levels: Vec<f64> = cell
         .points
         .iter()
         .flat_map(|p| std::iter::repeat_n(p.level, (p.trials / per_level) as usize))
         .collect();
-    let se = threshold_se(
-        alpha,
-        beta,
-        observer.lapse,
-        &info_levels,
-        f64::from(per_level),
+    let se_weber = weber_se(&observer, &info_levels, f64::from(per_level));
+    eprintln!(
+        "weber {} (true 0.2, se {se_weber}), ci {:?}, lapse {}",
+        fit.weber_75, fit.ci95_weber, fit.lapse
     );
-    let se_weber = se / 500.0;
-    let true_threshold = observer.level_at(0.75).unwrap();
-    assert!((true_threshold / 500.0 - 1.0 - 0.2).abs() < 1e-12);
     assert!(
         (fit.weber_75 - 0.2).abs() < 4.0 * se_weber,
         "weber {} vs 0.2 ± 4 × {se_weber}",
@@ -409,15 +444,18 @@ fn constant_stimuli_recover_a_known_observers_weber_fraction() {
         "the design pins the threshold: se {se_weber}"
     );
     let [lo, hi] = fit.ci95_weber.unwrap();
-    assert!(lo < fit.weber_75 && fit.weber_75 < hi, "[{lo}, {hi}]");
+    assert!(
+        0.0 < lo && lo < fit.weber_75 && fit.weber_75 < hi,
+        "[{lo}, {hi}]"
+    );
     // 3,300 trials: the posterior is nearly normal around the estimate (Bernstein–von Mises),
-    // its 95 % half-width 1.96 times the standard error above. That error takes the lapse
-    // rate as known; free in [0, 0.1] it costs some information at the upper levels
-    // (measured: 6 % wider). Not narrower than the known-lapse bound less the grid's 1 %,
-    // not wider by more than 15 %.
+    // its 95 % half-width 1.96 standard errors. Its width follows the sample's own
+    // information (the lapse rate it finds, bounded at 0.1, moves it most), not the expected
+    // information above: over seeds 1–8 of this design the ratio ran from 0.91 to 1.10, and
+    // 2024 gives 1.05. Bounds a fifth either side of 1.
     let ratio = 0.5 * (hi - lo) / (1.96 * se_weber);
     assert!(
-        (0.99..1.15).contains(&ratio),
+        (0.8..1.25).contains(&ratio),
         "half-width {} against 1.96 se {}",
         0.5 * (hi - lo),
         1.96 * se_weber
@@ -515,6 +553,146 @@ fn staircase_tracks_and_reversals_read_by_hand() {
         !dir.join("summary.json").exists(),
         "summarize writes nothing"
     );
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// One definition of a reversal, read the same by the runner's summary and the analysis: a
+/// session of two staircases answered by hand through [`Session`] (the runner's and the
+/// app's path), then [`staircase_summaries`] of it and the analysis of its folder.
+///
+/// "from above", 2-down/1-up, ±100 within [600, 1000], starting on its upper bound, stopping
+/// at 3 reversals; its trials (level, answer) and what each answer does:
+///
+/// ```text
+///  1 1000 ✗  up, but 1000 is the bound: no move, no direction
+///  2 1000 ✓
+///  3 1000 ✓  down to 900: the first move, nothing to reverse
+///  4  900 ✓
+///  5  900 ✓  down to 800
+///  6  800 ✗  up to 900: reversal 1, at 800
+///  7  900 ✓
+///  8  900 ✓  down to 800: reversal 2, at 900
+///  9  800 ✓
+/// 10  800 ✓  down to 700
+/// 11  700 ✓
+/// 12  700 ✓  down to 600
+/// 13  600 ✓
+/// 14  600 ✓  down, but 600 is the bound: no move
+/// 15  600 ✗  up to 700: reversal 3, at 600; the stopping rule is met, 700 never presented
+/// ```
+///
+/// "from below", ×1.25 within [200, 400] below the reference 500 (run mirrored: harder is
+/// higher), stopping at 2 reversals: 300 ✓, 300 ✓ up to 375 (the first move); 375 ✗ down to
+/// 300 (reversal 1, at 375); 300 ✗ down to 240; 240 ✓, 240 ✓ up to 300 (reversal 2, at 240,
+/// its last trial).
+///
+/// Before this definition the staircase counted the clamped "up" of trial 1 as a direction,
+/// so trial 3 was a reversal (at 1000) and "from above" stopped after 8 trials; and the
+/// analysis, reading the reversals from the levels presented, could not see the last move
+/// and listed one reversal fewer than the run (11 of the shipped plan's 12).
+#[test]
+fn the_runner_and_the_analysis_list_the_same_reversals_of_a_hand_answered_session() {
+    let mut plan = staircase_plan();
+    plan["staircases"] = json!([
+        { "name": "from above", "start": 1000.0, "step": { "size": 100.0 },
+          "stop": { "reversals": 3 }, "bounds": [600.0, 1000.0] },
+        { "name": "from below", "start": 300.0, "step": { "size": 1.25, "kind": "multiplicative" },
+          "stop": { "reversals": 2 }, "bounds": [200.0, 400.0] }
+    ]);
+    let above = [
+        (1000.0, false),
+        (1000.0, true),
+        (1000.0, true),
+        (900.0, true),
+        (900.0, true),
+        (800.0, false),
+        (900.0, true),
+        (900.0, true),
+        (800.0, true),
+        (800.0, true),
+        (700.0, true),
+        (700.0, true),
+        (600.0, true),
+        (600.0, true),
+        (600.0, false),
+    ];
+    let below = [
+        (300.0, true),
+        (300.0, true),
+        (375.0, false),
+        (300.0, false),
+        (240.0, true),
+        (240.0, true),
+    ];
+    let expected: [&[(usize, f64)]; 2] = [
+        &[(6, 800.0), (8, 900.0), (15, 600.0)],
+        &[(3, 375.0), (6, 240.0)],
+    ];
+    let dir = temp_dir("reversals-by-hand");
+    let plan_path = dir.join("plan-by-hand.json");
+    std::fs::write(&plan_path, plan.to_string()).unwrap();
+    let run_dir = dir.join("run");
+    let mut session = Session::open(Plan::load(&plan_path).unwrap(), "P01", &run_dir).unwrap();
+    let answers: [&[(f64, bool)]; 2] = [&above, &below];
+    let mut next = [0, 0];
+    // The session's trial numbers of each staircase's trials.
+    let mut numbers: [Vec<u64>; 2] = [Vec::new(), Vec::new()];
+    while let Some(trial) = session.next_trial().unwrap() {
+        let k = trial.staircase.unwrap();
+        let (level, correct) = answers[k][next[k]];
+        next[k] += 1;
+        // The mirrored staircase's levels are r²/(r²/x · 1.25ᵏ): 375 within rounding.
+        let presented = trial.level.unwrap();
+        assert!(
+            (presented - level).abs() < 1e-9 * level,
+            "staircase {k}, its trial {}: {presented}",
+            next[k]
+        );
+        numbers[k].push(trial.number as u64);
+        // The comparison is the right answer at or above the reference, the reference below.
+        let chose_comparison = (level >= 500.0) == correct;
+        let first = trial.comparison_first.unwrap();
+        let interval = if chose_comparison == first { 1 } else { 2 };
+        let right = session
+            .respond(Response::Interval(interval), &TrialRecord::default())
+            .unwrap();
+        assert_eq!(right, correct);
+    }
+    assert_eq!(
+        next,
+        [above.len(), below.len()],
+        "every answer given, no more"
+    );
+
+    let runner = staircase_summaries(&session);
+    let analysis = summarize(&run_dir, &AnalyzeOptions::default()).unwrap();
+    let tracks = &analysis.two_afc.as_ref().unwrap().cells[0].staircases;
+    let same = |a: &[f64], b: &[f64]| {
+        a.len() == b.len() && a.iter().zip(b).all(|(x, y)| (x - y).abs() < 1e-9 * y)
+    };
+    for k in 0..2 {
+        let levels: Vec<f64> = expected[k].iter().map(|&(_, level)| level).collect();
+        assert!(runner[k].finished, "{:?}", runner[k]);
+        assert!(
+            same(&runner[k].reversal_levels, &levels),
+            "runner, {}: {:?}",
+            runner[k].name,
+            runner[k].reversal_levels
+        );
+        let listed = &tracks[k].reversals;
+        let trials: Vec<u64> = listed.iter().map(|r| r.trial).collect();
+        let by_hand: Vec<u64> = expected[k]
+            .iter()
+            .map(|&(i, _)| numbers[k][i - 1])
+            .collect();
+        assert_eq!(trials, by_hand, "analysis, {}", tracks[k].name);
+        let listed: Vec<f64> = listed.iter().map(|r| r.level).collect();
+        assert!(
+            same(&listed, &levels),
+            "analysis, {}: {listed:?}",
+            tracks[k].name
+        );
+    }
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
@@ -657,6 +835,36 @@ reference,comparison_interval,response,correct,response_time_s,trace,t_start_s\n
         e.contains("column 9 (staircase): \"sideways\" is not a staircase"),
         "{e}"
     );
+    // A track that is not the plan's staircase: "from above" starts at 800 and stays there
+    // after one right answer.
+    let e = expect_error(
+        "staircase-track",
+        &staircase_plan(),
+        &format!(
+            "{HEADER}\n{}{}",
+            afc_row("2afc-staircase", 1, "from above", 800.0, true, true),
+            afc_row("2afc-staircase", 2, "from above", 700.0, true, true)
+        ),
+    );
+    assert!(
+        e.contains("trials.csv:3: column 10 (level): 700.0 is not the level staircase \"from above\" gives at its trial 2 (800.0)"),
+        "{e}"
+    );
+    // Another model than a folded one is refused.
+    let dir = write_run(
+        "unfolded",
+        &staircase_plan(),
+        &format!(
+            "{HEADER}\n{}",
+            afc_row("2afc-staircase", 1, "from above", 800.0, true, true)
+        ),
+    );
+    let options = AnalyzeOptions {
+        model: Model::LogGaussian,
+    };
+    let e = summarize(&dir, &options).unwrap_err();
+    assert!(e.to_string().contains("not a folded one"), "{e}");
+    std::fs::remove_dir_all(&dir).unwrap();
     // A missing plan names plan.json.
     let dir = temp_dir("no-plan");
     std::fs::write(dir.join("trials.csv"), &ok).unwrap();

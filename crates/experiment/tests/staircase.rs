@@ -134,6 +134,50 @@ fn track_bookkeeping_by_hand() {
     assert_eq!(s.threshold(0), None);
 }
 
+/// A reversal is a change of direction of the level (module docs): a step clamped at the
+/// bound the level is on is no move and sets no direction, and the first move reverses
+/// nothing. Started on its upper bound, 2-down/1-up, ×2 within [1, 8]:
+/// 8 ✗ (up, clamped: no move); 8 ✓, 8 ✓ → 4 (first move, down); 4 ✗ → 8 (reversal 1, at 4);
+/// 8 ✗ (clamped: no move); 8 ✓, 8 ✓ → 4 (reversal 2, at 8); 4 ✓, 4 ✓ → 2; 2 ✓, 2 ✓ → 1;
+/// 1 ✓, 1 ✓ (down, clamped: no move); 1 ✗ → 2 (reversal 3, at 1, the last trial).
+#[test]
+fn clamped_steps_are_no_moves_and_the_last_answer_can_reverse() {
+    let mut s = Staircase::new(StaircaseConfig {
+        start: 8.0,
+        n_down: 2,
+        n_up: 1,
+        step: Step::Multiplicative(2.0),
+        reduced_step: None,
+        min: 1.0,
+        max: 8.0,
+        stop: Stop {
+            reversals: Some(3),
+            trials: None,
+        },
+    })
+    .expect("valid config");
+    let responses = [
+        false, true, true, false, false, true, true, true, true, true, true, true, true, false,
+    ];
+    for &r in &responses {
+        s.respond(r).expect("not finished");
+    }
+    let levels: Vec<f64> = s.track().iter().map(|t| t.level).collect();
+    assert_eq!(
+        levels,
+        [
+            8.0, 8.0, 8.0, 4.0, 8.0, 8.0, 8.0, 4.0, 4.0, 2.0, 2.0, 1.0, 1.0, 1.0
+        ]
+    );
+    let reversals: Vec<usize> = (0..levels.len())
+        .filter(|&i| s.track()[i].reversal)
+        .collect();
+    assert_eq!(reversals, [3, 6, 13]);
+    assert_eq!(s.reversal_levels(), &[4.0, 8.0, 1.0]);
+    assert!(s.is_finished());
+    assert_eq!(s.level(), 2.0);
+}
+
 #[test]
 fn configuration_errors() {
     let good = config(2);

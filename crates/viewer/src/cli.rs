@@ -96,11 +96,13 @@ answered, in the plan's stimulus order) and the accuracy per stimulus; with two 
 Fisher's exact test (two-sided) of their accuracies.
 
 2afc-staircase, constant-stimuli: levels below the reference r are folded onto its upper \
-side (r^2/x); the proportion correct per folded level is fitted by maximum likelihood (guess \
-rate 0.5, lapse rate in [0, 0.1]) with --model; the Weber fraction at 75 % correct \
-(threshold / r - 1) gets a 95 % credible interval, the central 95 % of its Bayesian \
-posterior under psignifit 4's default priors; each staircase's track and reversals are \
-listed.
+side (r^2/x); the proportion correct per folded level is fitted by maximum likelihood as a \
+function of the log ratio d = |ln(x/r)|, 0.5 at the reference (guess rate 0.5, lapse rate \
+in [0, 0.1]): --model weibull (default) 1 - exp(-(d/a)^b), log-gaussian Phi(b ln(d/a)), \
+gaussian 2 Phi((d/a)^b) - 1. The Weber fraction at 75 % correct (threshold / r - 1, above 0) \
+gets a 95 % credible interval, the central 95 % of its Bayesian posterior under psignifit 4's \
+default priors; each staircase's track and reversals (the staircase's own, replayed on the \
+answers) are listed.
 
 Written: DIR/summary.json (its fields are documented in the experiment crate's analyze \
 module) and the figure (--figure, default DIR/summary.png): the confusion matrices as heat \
@@ -114,7 +116,7 @@ Exit status:
      number, an unknown stimulus, a duplicate trial, a design other than the plan's)
 
 Example:
-  viewer experiment analyze runs/sim1 --model weibull";
+  viewer experiment analyze runs/sim1 --model log-gaussian";
 
 /// `viewer experiment analyze` arguments.
 #[derive(Debug, Args)]
@@ -122,8 +124,8 @@ pub struct ExperimentAnalyzeArgs {
     /// The run folder (plan.json and trials.csv, as `experiment run` writes them).
     #[arg(value_name = "DIR")]
     pub dir: PathBuf,
-    /// The psychometric function of 2AFC designs.
-    #[arg(long, value_name = "MODEL", default_value = "log-gaussian", value_parser = ["gaussian", "log-gaussian", "weibull"])]
+    /// The psychometric function of 2AFC designs, of the log ratio to the reference.
+    #[arg(long, value_name = "MODEL", default_value = "weibull", value_parser = ["gaussian", "log-gaussian", "weibull"])]
     pub model: String,
     /// The figure (PNG; default DIR/summary.png).
     #[arg(long, value_name = "PATH")]

@@ -21,13 +21,14 @@ fn experiment_run(args: &[&str]) -> (i32, String, String) {
 fn a_simulated_participant_runs_the_stiffness_plan() {
     let dir = std::env::temp_dir().join(format!("viewer-experiment-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);
-    let (code, out, err) = experiment_run(&[
+    let args = [
         "experiments/stiffness-jnd.json",
         "--participant",
         "sim:1:weber=0.2",
         "--out",
         dir.to_str().unwrap(),
-    ]);
+    ];
+    let (code, out, err) = experiment_run(&args);
     assert_eq!(code, 0, "{err}");
     assert_eq!(out.lines().count(), 1, "{out}");
     assert!(out.starts_with("experiment run: "), "{out}");
@@ -45,6 +46,22 @@ fn a_simulated_participant_runs_the_stiffness_plan() {
     assert!(
         dir.join(format!("traces/trial-{trials:04}-b.csv"))
             .is_file()
+    );
+    // Run again into the finished folder: it says the run was complete (it said "0 trials
+    // (0 practice), 0 of 0 correct"), with the same staircases, and writes nothing.
+    let (code, again, err) = experiment_run(&args);
+    assert_eq!(code, 0, "{err}");
+    assert!(
+        again.starts_with(&format!(
+            "experiment run: the run was complete already ({trials} trials answered): nothing to run; "
+        )),
+        "{again}"
+    );
+    let staircases = |line: &str| line.split_once("; ").map(|(_, s)| s.to_owned());
+    assert_eq!(staircases(&again), staircases(&out), "{again}");
+    assert_eq!(
+        std::fs::read_to_string(dir.join("trials.csv")).unwrap(),
+        csv
     );
     std::fs::remove_dir_all(&dir).unwrap();
 }
