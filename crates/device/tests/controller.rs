@@ -795,9 +795,15 @@ fn the_telemetry_carries_the_gos_parameter() {
     assert!((0.0..=1.0).contains(&t.go_param), "{}", t.go_param);
     // f32 evaluation of a 4 cm arc: ~1e-8 m.
     let on_arc = views[0].point(t.go_param);
-    assert!((on_arc - t.go_m).length() < 1e-7, "{on_arc:?} vs {:?}", t.go_m);
+    assert!(
+        (on_arc - t.go_m).length() < 1e-7,
+        "{on_arc:?} vs {:?}",
+        t.go_m
+    );
     let centre = Vec2::new(-0.02, 0.06);
-    let angle = (t.go_m.y - centre.y).atan2(t.go_m.x - centre.x).to_degrees();
+    let angle = (t.go_m.y - centre.y)
+        .atan2(t.go_m.x - centre.x)
+        .to_degrees();
     let expected = 0.015f32.atan2(0.0325).to_degrees();
     // The encoders' quantum at the handle (~12 µm) on a 4 cm radius: 0.02°.
     assert!((angle - expected).abs() < 0.05, "{angle}° vs {expected}°");
