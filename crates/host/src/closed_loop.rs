@@ -18,7 +18,7 @@ use tracker::Chain;
 use crate::error::SimError;
 use crate::hand::DeviceHand;
 use crate::sim::{Proceed, Run, validate};
-use crate::tick::{Tick, device_controller, device_tick, end_stop_counts, vec2};
+use crate::tick::{Tick, device_controller_on, device_tick, end_stop_counts, vec2};
 use crate::trajectory::Trajectory;
 use scene::{Scene, Space};
 
@@ -26,13 +26,14 @@ use scene::{Scene, Space};
 /// ([`device_controller`]), calibrated on the end stops and with forces on, as a closed-loop
 /// run starts it; and whether the passivity controller is on.
 pub(crate) fn ready_controller(
+    spec: DeviceSpec,
     chain: Chain,
     material: FrictionMaterial,
     rate_hz: f64,
 ) -> Result<(Controller<Chain>, bool), SimError> {
-    let (mut controller, passivity_control) = device_controller(chain, material, rate_hz)?;
+    let (mut controller, passivity_control) = device_controller_on(spec, chain, material, rate_hz)?;
     controller
-        .calibrate(end_stop_counts(&DeviceSpec::default()))
+        .calibrate(end_stop_counts(&spec))
         .map_err(SimError::Controller)?;
     controller.set_forces_enabled(true);
     Ok((controller, passivity_control))
@@ -43,6 +44,7 @@ pub(crate) fn ready_controller(
 /// trajectory; each tick is `tick(arm, t_s, now_us, target)` (the device clock in whole
 /// microseconds, as a board's timer), its frames folded by the board's decimator.
 pub(crate) fn drive_device<E: From<SimError>, P: Proceed>(
+    spec: DeviceSpec,
     trajectory: &Trajectory,
     rate_hz: f64,
     hand: DeviceHand,
@@ -51,8 +53,8 @@ pub(crate) fn drive_device<E: From<SimError>, P: Proceed>(
     mut tick: impl FnMut(&mut SimulatedPantograph, f64, u64, Vec2) -> Result<(Tick, Telemetry), E>,
 ) -> Result<(Vec<Tick>, Vec<Telemetry>), E> {
     let start = trajectory.at(trajectory.start_s());
-    let mut arm = SimulatedPantograph::new(DeviceSpec::default(), hand.params, vec2(start))
-        .map_err(SimError::Simulator)?;
+    let mut arm =
+        SimulatedPantograph::new(spec, hand.params, vec2(start)).map_err(SimError::Simulator)?;
     let mut ticks = Vec::with_capacity(n);
     // The board's decimator, on the same period (firmware::app).
     let mut decimator = TelemetryDecimator::for_period_s((1.0 / rate_hz) as f32);
@@ -97,6 +99,17 @@ pub fn validate_device(
     trajectory: &Trajectory,
     rate_hz: f64,
 ) -> Result<usize, SimError> {
+    validate_device_on(&DeviceSpec::default(), scene, object, trajectory, rate_hz)
+}
+
+/// [`validate_device`] on the pantograph `spec`.
+pub fn validate_device_on(
+    spec: &DeviceSpec,
+    scene: &Scene,
+    object: usize,
+    trajectory: &Trajectory,
+    rate_hz: f64,
+) -> Result<usize, SimError> {
     if let Some(o) = scene.object(object)
         && o.space() == Space::Spatial
     {
@@ -110,7 +123,7 @@ pub fn validate_device(
     // run, on the same setup `run_device` uses.
     let material = scene.objects()[object].material().friction_material();
     with_chain(scene, object, |chain| {
-        device_controller(chain, material, rate_hz).map(|_| ())
+        device_controller_on(*spec, chain, material, rate_hz).map(|_| ())
     })?;
     Ok(ticks)
 }
@@ -157,14 +170,31 @@ pub fn run_device<P: Proceed>(
     hand: impl Into<DeviceHand>,
     progress: impl FnMut(usize, usize) -> P,
 ) -> Result<DeviceRun, SimError> {
+    let spec = DeviceSpec::default();
+    run_device_on(&spec, scene, object, trajectory, rate_hz, hand, progress)
+}
+
+/// [`run_device`] on the pantograph `spec` (a `device/1` file's, [`crate::device_file`]):
+/// its controller and its simulated mechanism.
+pub fn run_device_on<P: Proceed>(
+    spec: &DeviceSpec,
+    scene: &Scene,
+    object: usize,
+    trajectory: &Trajectory,
+    rate_hz: f64,
+    hand: impl Into<DeviceHand>,
+    progress: impl FnMut(usize, usize) -> P,
+) -> Result<DeviceRun, SimError> {
     let hand: DeviceHand = hand.into();
-    let n = validate_device(scene, object, trajectory, rate_hz)?;
+    let n = validate_device_on(spec, scene, object, trajectory, rate_hz)?;
     let o = &scene.objects()[object];
     let material = o.material().friction_material();
     with_chain(scene, object, |chain| {
-        let (mut controller, passivity_control) = ready_controller(chain, material, rate_hz)?;
+        let (mut controller, passivity_control) =
+            ready_controller(*spec, chain, material, rate_hz)?;
         let period_s = (1.0 / rate_hz) as f32;
         let (ticks, telemetry) = drive_device(
+            *spec,
             trajectory,
             rate_hz,
             hand,

@@ -16,6 +16,7 @@ use scene::{Object, ObjectError, Patch, Scene, Space};
 use tracker::{Chain, ChainTracker, Object as TrackedObject, Shell, ShellTracker};
 
 use device::controller::{Controller, ControllerError};
+use device::spec::DeviceSpec;
 
 use crate::closed_loop::{DeviceRun, drive_device, ready_controller, validate_device};
 use crate::error::SimError;
@@ -753,10 +754,15 @@ pub fn run_device_lagged<P: Proceed>(
     let period_s = (1.0 / rate_hz) as f32;
     let per_step = ticks_per_step(rate_hz);
     let dt_s = per_step as f64 / rate_hz;
-    let (mut controller, passivity_control) =
-        ready_controller(ChainViews::view(deformer.rest(), index)?, material, rate_hz)?;
+    let (mut controller, passivity_control) = ready_controller(
+        DeviceSpec::default(),
+        ChainViews::view(deformer.rest(), index)?,
+        material,
+        rate_hz,
+    )?;
     let mut i = 0;
     let (ticks, telemetry) = drive_device(
+        DeviceSpec::default(),
         trajectory,
         rate_hz,
         hand,

@@ -5,6 +5,7 @@ pub mod backend;
 pub mod closed_loop;
 pub mod deform;
 pub mod deformation;
+pub mod device_file;
 pub mod devices;
 pub mod error;
 pub mod hand;

@@ -153,13 +153,23 @@ pub fn device_controller(
     material: FrictionMaterial,
     rate_hz: f64,
 ) -> Result<(Controller<Chain>, bool), SimError> {
+    device_controller_on(DeviceSpec::default(), chain, material, rate_hz)
+}
+
+/// [`device_controller`] on the pantograph `spec`.
+pub fn device_controller_on(
+    spec: DeviceSpec,
+    chain: Chain,
+    material: FrictionMaterial,
+    rate_hz: f64,
+) -> Result<(Controller<Chain>, bool), SimError> {
     let safety = SafetyConfig {
         period_s: (1.0 / rate_hz) as f32,
         ramp_time_s: DEVICE_RAMP_TIME_S,
         ..SafetyConfig::default()
     };
     let mut controller: Controller<Chain> =
-        Controller::new(DeviceSpec::default(), safety).map_err(SimError::Controller)?;
+        Controller::new(spec, safety).map_err(SimError::Controller)?;
     let passivity_control = controller
         .load_scene_as_needed(chain, material, true)
         .map_err(SimError::Controller)?;

@@ -235,6 +235,29 @@ pub fn sweep(
     dampings: &[f32],
     controller: bool,
     speed_m_per_s: f32,
+    progress: impl FnMut(usize, usize),
+) -> Result<Vec<Cell>, SimError> {
+    let grid = (stiffnesses, dampings);
+    let spec = DeviceSpec::default();
+    sweep_on(
+        &spec,
+        rate_hz,
+        hand,
+        grid,
+        controller,
+        speed_m_per_s,
+        progress,
+    )
+}
+
+/// [`sweep`] on the pantograph `spec`, over the grid `(stiffnesses, dampings)`.
+pub fn sweep_on(
+    spec: &DeviceSpec,
+    rate_hz: f64,
+    hand: Hand,
+    (stiffnesses, dampings): (&[f32], &[f32]),
+    controller: bool,
+    speed_m_per_s: f32,
     mut progress: impl FnMut(usize, usize),
 ) -> Result<Vec<Cell>, SimError> {
     let total = stiffnesses.len() * dampings.len();
@@ -249,7 +272,7 @@ pub fn sweep(
                 hand,
                 passivity_control: controller,
             };
-            let outcome = self::impact(&impact)?;
+            let outcome = impact_on(*spec, &impact)?;
             cells.push(Cell { impact, outcome });
             progress(cells.len(), total);
         }

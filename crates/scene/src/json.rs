@@ -496,10 +496,18 @@ fn to_f32(v: f64) -> Result<f32, String> {
     }
 }
 
-/// A number of the file read as the loop's `f32` through [`to_f32`]: out of range is a
-/// JSON error, with the line, column and field.
-#[derive(Clone, Copy)]
-struct F32(f32);
+/// A number of a JSON file read as the loop's `f32`: out of the range of `f32` (an overflow
+/// to ∞, or a non-zero value that underflows to 0) is a JSON error, with the line, column and
+/// field. Written as the shortest decimal that reads back as the same `f32`. The other file
+/// formats of the workspace (`device/1`) read their numbers through it too.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct F32(pub f32);
+
+impl serde::Serialize for F32 {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        s.serialize_f32(self.0)
+    }
+}
 
 impl<'de> Deserialize<'de> for F32 {
     fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
@@ -655,20 +663,36 @@ impl<'de> Deserialize<'de> for Nested {
     }
 }
 
-fn parse<T: DeserializeOwned>(text: &str) -> Result<T, SceneError> {
+/// Why a JSON document did not parse into its type ([`parse_at`]).
+#[derive(Debug)]
+pub struct JsonError {
+    /// The field path where it failed (`objects[0].name`); `None` after the document (trailing
+    /// characters).
+    pub path: Option<serde_path_to_error::Path>,
+    /// serde_json's error; its message ends with the line and column.
+    pub error: serde_json::Error,
+}
+
+/// Parses the whole of `text` as a `T`, keeping the path of the field an error is in: the
+/// reader of `scene/1`, and of the workspace's other JSON formats (`experiment/1`,
+/// `device/1`).
+pub fn parse_at<T: DeserializeOwned>(text: &str) -> Result<T, JsonError> {
     let mut de = serde_json::Deserializer::from_str(text);
-    let value = serde_path_to_error::deserialize(&mut de).map_err(|e| {
-        let location = describe(e.path(), text);
-        SceneError::Json {
-            location,
-            error: e.into_inner(),
-        }
+    let value = serde_path_to_error::deserialize(&mut de).map_err(|e| JsonError {
+        path: Some(e.path().clone()),
+        error: e.into_inner(),
     })?;
-    de.end().map_err(|error| SceneError::Json {
-        location: String::new(),
-        error,
-    })?;
+    de.end().map_err(|error| JsonError { path: None, error })?;
     Ok(value)
+}
+
+fn parse<T: DeserializeOwned>(text: &str) -> Result<T, SceneError> {
+    parse_at(text).map_err(|e| SceneError::Json {
+        location: e
+            .path
+            .map_or_else(String::new, |path| describe(&path, text)),
+        error: e.error,
+    })
 }
 
 /// `objects[0].patches[1].points[2]` → `object 0 ("wedge"), patch 1: points[2]`, in the words

@@ -362,6 +362,10 @@ pub struct ZwidthArgs {
     /// Where to draw the figure (PNG).
     #[arg(long, value_name = "ZW.png")]
     pub plot: Option<PathBuf>,
+    /// The simulated pantograph's description, a `device/1` file (`viewer device spec`
+    /// prints the default).
+    #[arg(long, value_name = "FILE")]
+    pub device_spec: Option<PathBuf>,
 }
 
 fn rate(text: &str) -> Result<f64, String> {
@@ -531,6 +535,13 @@ pub enum DeviceSubcommand {
     /// Measure a device's own joint damping and Coulomb friction through the protocol.
     #[command(after_long_help = DEVICE_IDENTIFY_AFTER)]
     Identify(DeviceIdentifyArgs),
+    /// Print the default device description as a `device/1` file, or check FILE and print it
+    /// as read (every field required; errors name the field; exit 2 for a bad file).
+    Spec {
+        /// A `device/1` file to check.
+        #[arg(value_name = "FILE")]
+        file: Option<PathBuf>,
+    },
 }
 
 const DEVICE_IDENTIFY_AFTER: &str = "\
@@ -922,6 +933,15 @@ pub struct SimArgs {
     /// gets its displacement at the CP (see below).
     #[arg(long)]
     pub deform: bool,
+    /// With --device: the simulated pantograph's description, a `device/1` file (`viewer
+    /// device spec` prints the default). Not with --deform yet.
+    #[arg(
+        long,
+        value_name = "FILE",
+        requires = "device",
+        conflicts_with = "deform"
+    )]
+    pub device_spec: Option<PathBuf>,
 }
 
 impl SimArgs {

@@ -264,14 +264,8 @@ pub(super) fn is_path(scene: &str) -> bool {
 
 /// Parses with the field path in the error, as `scene/1` does.
 fn parse<T: serde::de::DeserializeOwned>(text: &str) -> Result<T, PlanError> {
-    let mut de = serde_json::Deserializer::from_str(text);
-    let value = serde_path_to_error::deserialize(&mut de).map_err(|e| PlanError::Json {
-        location: e.path().to_string(),
-        error: e.into_inner(),
-    })?;
-    de.end().map_err(|error| PlanError::Json {
-        location: String::new(),
-        error,
-    })?;
-    Ok(value)
+    scene::json::parse_at(text).map_err(|e| PlanError::Json {
+        location: e.path.map_or_else(String::new, |path| path.to_string()),
+        error: e.error,
+    })
 }

@@ -27,6 +27,21 @@ pub(crate) fn device_command(command: &viewer::cli::DeviceSubcommand) -> ExitCod
         DeviceSubcommand::Monitor(args) => device_monitor(args),
         DeviceSubcommand::Identify(args) => device_identify(args),
         DeviceSubcommand::SimPty(args) => device_sim_pty(args),
+        DeviceSubcommand::Spec { file } => {
+            let spec = match host::device_file::load_or_default(file.as_deref()) {
+                Ok(spec) => spec,
+                Err(e) => return fail(&anyhow::Error::new(e), EXIT_BAD_SETUP),
+            };
+            match writeln!(
+                io::stdout().lock(),
+                "{}",
+                host::device_file::to_json_string(&spec)
+            ) {
+                Ok(()) => ExitCode::SUCCESS,
+                Err(e) if e.kind() == io::ErrorKind::BrokenPipe => ExitCode::SUCCESS,
+                Err(e) => fail(&anyhow::Error::new(e), EXIT_BAD_INPUT),
+            }
+        }
     }
 }
 

@@ -19,8 +19,19 @@ pub(crate) fn sim_command(args: &SimArgs) -> ExitCode {
         Ok(t) => t,
         Err(e) => return fail(&e, EXIT_BAD_SETUP),
     };
+    // A bad device file is refused before anything runs or is written (exit 2).
+    let spec = match host::device_file::load_or_default(args.device_spec.as_deref()) {
+        Ok(spec) => spec,
+        Err(e) => return fail(&anyhow::Error::new(e), EXIT_BAD_SETUP),
+    };
     let checked = if args.device {
-        host::closed_loop::validate_device(&scene, args.object, &trajectory, args.rate_hz())
+        host::closed_loop::validate_device_on(
+            &spec,
+            &scene,
+            args.object,
+            &trajectory,
+            args.rate_hz(),
+        )
     } else {
         sim::validate(&scene, args.object, &trajectory, args.rate_hz())
     };
@@ -74,7 +85,8 @@ pub(crate) fn sim_command(args: &SimArgs) -> ExitCode {
         .map(|device_run| device_run.run)
         .map_err(anyhow::Error::new)
     } else if args.device {
-        host::closed_loop::run_device(
+        host::closed_loop::run_device_on(
+            &spec,
             &scene,
             args.object,
             &trajectory,

@@ -9,8 +9,12 @@ use viewer::cli::{EXIT_BAD_INPUT, EXIT_BAD_SETUP};
 use crate::{create_outputs, fail};
 
 pub(crate) fn zwidth_command(args: &viewer::cli::ZwidthArgs) -> ExitCode {
-    use host::zwidth::sweep;
+    use host::zwidth::sweep_on;
     use viewer::zwidth_figure::{DAMPINGS, STIFFNESSES};
+    let spec = match host::device_file::load_or_default(args.device_spec.as_deref()) {
+        Ok(spec) => spec,
+        Err(e) => return fail(&anyhow::Error::new(e), EXIT_BAD_SETUP),
+    };
     // Before the sweep (minutes), so that a bad output path does not wait for it; written to
     // temporary files renamed over the targets once both are complete.
     let (out, plot_file) = match create_outputs(&args.out, args.plot.as_deref()) {
@@ -27,11 +31,11 @@ pub(crate) fn zwidth_command(args: &viewer::cli::ZwidthArgs) -> ExitCode {
                 );
             }
         };
-        match sweep(
+        match sweep_on(
+            &spec,
             args.rate_hz,
             args.hand,
-            &STIFFNESSES,
-            &DAMPINGS,
+            (&STIFFNESSES, &DAMPINGS),
             controller,
             args.speed,
             progress,
