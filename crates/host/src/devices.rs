@@ -97,11 +97,22 @@ pub struct Opened {
 
 /// Opens the link to `target` and says hello.
 pub fn open(target: &Target) -> Result<Opened, LinkError> {
+    open_with(target, &device::spec::DeviceSpec::default())
+}
+
+/// [`open`], the simulated device ([`Target::Sim`]) described by `spec` (a `device/1`
+/// file's); a board runs its own description.
+pub fn open_with(target: &Target, spec: &device::spec::DeviceSpec) -> Result<Opened, LinkError> {
     let mut link: Box<dyn Link> = match target {
         Target::Serial(path) => Box::new(SerialLink::open(path)?),
         Target::Tcp(address) => Box::new(TcpLink::connect(address, Duration::from_secs(2))?),
         Target::Hid => Box::new(HidLink::open_first()?),
-        Target::Sim => return open_sim(SimConfig::default()),
+        Target::Sim => {
+            return open_sim(SimConfig {
+                spec: *spec,
+                ..SimConfig::default()
+            });
+        }
     };
     let hello = link.hello(Duration::from_secs(1))?;
     Ok(Opened {

@@ -50,6 +50,15 @@ pub(crate) fn fail(error: &anyhow::Error, code: u8) -> ExitCode {
     ExitCode::from(code)
 }
 
+/// The device a command models: the `device/1` file at `path`, or the default without one;
+/// a bad file is reported (naming the field) and its exit status (2) returned.
+pub(crate) fn device_spec(
+    path: Option<&std::path::Path>,
+) -> Result<device::spec::DeviceSpec, ExitCode> {
+    host::device_file::load_or_default(path)
+        .map_err(|e| fail(&anyhow::Error::new(e), viewer::cli::EXIT_BAD_SETUP))
+}
+
 /// The temporary files of a command's output and optional plot ([`AtomicFile`]), created
 /// before its work so that a bad path fails at once (exit 1) instead of after the run; the
 /// targets appear only when each is committed.

@@ -1041,3 +1041,55 @@ fn device_spec_file() {
     assert!(stderr(&r).contains("max_force_n"), "{}", stderr(&r));
     assert!(!std::path::Path::new(&zw).exists(), "nothing written");
 }
+
+/// Issue 32, item 1: `identify` and `device monitor --sim` take `--device-spec` too:
+/// `identify` simulates the file's joints (its damping of 3e-4 N·m·s/rad, three times the
+/// default, is the simulator's truth it prints, and the fit finds it within the 10 % its
+/// 6 s excitation resolves), and a bad file is refused naming the field.
+#[test]
+fn identify_and_monitor_take_a_device_file() {
+    let dir = TempDir::new("identify-spec");
+    let printed = viewer(&["device", "spec"]);
+    let mut spec: serde_json::Value =
+        serde_json::from_slice(&printed.stdout).expect("the default file is JSON");
+    spec["joint_damping_nms_per_rad"] = serde_json::json!([3e-4, 3e-4]);
+    let file = dir.path("damped.json");
+    std::fs::write(&file, spec.to_string()).expect("write");
+    let r = viewer(&["identify", "--device-spec", &file]);
+    let out = String::from_utf8_lossy(&r.stdout).into_owned();
+    assert_eq!(r.status.code(), Some(0), "{}", stderr(&r));
+    for joint in out.lines().filter(|l| l.starts_with("joint ")) {
+        assert!(joint.contains("(simulator 3.000e-4)"), "{joint}");
+        let found: f64 = joint
+            .split("damping ")
+            .nth(1)
+            .and_then(|s| s.split(' ').next())
+            .and_then(|s| s.parse().ok())
+            .expect("a damping");
+        assert!((found - 3e-4).abs() < 0.1 * 3e-4, "{joint}");
+    }
+    spec["encoder_counts_per_rev"] = serde_json::json!([0, 4096]);
+    let bad = dir.path("bad.json");
+    std::fs::write(&bad, spec.to_string()).expect("write");
+    for args in [
+        vec!["identify", "--device-spec", &bad],
+        vec![
+            "device",
+            "monitor",
+            "--sim",
+            "--seconds",
+            "0.1",
+            "--device-spec",
+            &bad,
+        ],
+        vec!["device", "identify", "--sim", "--device-spec", &bad],
+    ] {
+        let r = viewer(&args);
+        assert_eq!(r.status.code(), Some(2), "{args:?}: {}", stderr(&r));
+        assert!(
+            stderr(&r).contains("encoder_counts_per_rev"),
+            "{args:?}: {}",
+            stderr(&r)
+        );
+    }
+}

@@ -28,9 +28,9 @@ pub(crate) fn device_command(command: &viewer::cli::DeviceSubcommand) -> ExitCod
         DeviceSubcommand::Identify(args) => device_identify(args),
         DeviceSubcommand::SimPty(args) => device_sim_pty(args),
         DeviceSubcommand::Spec { file } => {
-            let spec = match host::device_file::load_or_default(file.as_deref()) {
+            let spec = match crate::device_spec(file.as_deref()) {
                 Ok(spec) => spec,
-                Err(e) => return fail(&anyhow::Error::new(e), EXIT_BAD_SETUP),
+                Err(code) => return code,
             };
             match writeln!(
                 io::stdout().lock(),
@@ -97,11 +97,16 @@ pub(crate) fn device_monitor(args: &viewer::cli::MonitorArgs) -> ExitCode {
         let e = anyhow!("device monitor: {}", viewer::cli::CHOOSE_A_DEVICE);
         return fail(&e, EXIT_BAD_SETUP);
     };
-    let mut opened =
-        match host::devices::open(&target).with_context(|| format!("cannot open {target:?}")) {
-            Ok(opened) => opened,
-            Err(e) => return fail(&e, EXIT_BAD_SETUP),
-        };
+    let spec = match crate::device_spec(args.device.device_spec.as_deref()) {
+        Ok(spec) => spec,
+        Err(code) => return code,
+    };
+    let mut opened = match host::devices::open_with(&target, &spec)
+        .with_context(|| format!("cannot open {target:?}"))
+    {
+        Ok(opened) => opened,
+        Err(e) => return fail(&e, EXIT_BAD_SETUP),
+    };
     let [a, b, c] = opened.hello.software;
     eprintln!(
         "device monitor: connected to {target:?}: firmware {a}.{b}.{c}, scene capacity {} bytes",

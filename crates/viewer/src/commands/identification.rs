@@ -8,15 +8,18 @@ use viewer::cli::EXIT_BAD_SETUP;
 use crate::fail;
 
 pub(crate) fn device_identify(args: &viewer::cli::DeviceIdentifyArgs) -> ExitCode {
-    use device::spec::DeviceSpec;
     use host::devices::Target;
     use protocol::host_side::SimConfig;
-    let spec = DeviceSpec::default();
+    let spec = match crate::device_spec(args.device.device_spec.as_deref()) {
+        Ok(spec) => spec,
+        Err(code) => return code,
+    };
     let opened = match args.device.target() {
         // Nobody holds the simulated handle, and it runs as fast as the host reads.
         Some(Target::Sim) => host::devices::open_sim(SimConfig {
             paced: false,
             released: true,
+            spec,
             ..SimConfig::default()
         })
         .context("the simulated device"),
@@ -42,7 +45,10 @@ pub(crate) fn device_identify(args: &viewer::cli::DeviceIdentifyArgs) -> ExitCod
 pub(crate) fn identify_command(args: &viewer::cli::IdentifyArgs) -> ExitCode {
     use device::spec::DeviceSpec;
     use host::identify::{EXCITATION, identify_simulated};
-    let default = DeviceSpec::default();
+    let default = match crate::device_spec(args.device_spec.as_deref()) {
+        Ok(spec) => spec,
+        Err(code) => return code,
+    };
     let truth = DeviceSpec {
         joint_damping_nms_per_rad: args
             .damping

@@ -20,9 +20,9 @@ pub(crate) fn sim_command(args: &SimArgs) -> ExitCode {
         Err(e) => return fail(&e, EXIT_BAD_SETUP),
     };
     // A bad device file is refused before anything runs or is written (exit 2).
-    let spec = match host::device_file::load_or_default(args.device_spec.as_deref()) {
+    let spec = match crate::device_spec(args.device_spec.as_deref()) {
         Ok(spec) => spec,
-        Err(e) => return fail(&anyhow::Error::new(e), EXIT_BAD_SETUP),
+        Err(code) => return code,
     };
     let checked = if args.device {
         host::closed_loop::validate_device_on(

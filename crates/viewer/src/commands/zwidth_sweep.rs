@@ -11,9 +11,9 @@ use crate::{create_outputs, fail};
 pub(crate) fn zwidth_command(args: &viewer::cli::ZwidthArgs) -> ExitCode {
     use host::zwidth::sweep_on;
     use viewer::zwidth_figure::{DAMPINGS, STIFFNESSES};
-    let spec = match host::device_file::load_or_default(args.device_spec.as_deref()) {
+    let spec = match crate::device_spec(args.device_spec.as_deref()) {
         Ok(spec) => spec,
-        Err(e) => return fail(&anyhow::Error::new(e), EXIT_BAD_SETUP),
+        Err(code) => return code,
     };
     // Before the sweep (minutes), so that a bad output path does not wait for it; written to
     // temporary files renamed over the targets once both are complete.
