@@ -19,7 +19,6 @@ use std::sync::Arc;
 use device::controller::Controller;
 use device::safety::Faults;
 use device::simulator::{SimParams, SimulatedPantograph, VirtualHand};
-use device::spec::DeviceSpec;
 use friction::FrictionMaterial;
 use nurbs::Vec2;
 use tracker::Chain;
@@ -63,7 +62,7 @@ impl HapticLoop {
     /// A loop on `session` with the handle at rest at `start_hip`, held by the default
     /// relaxed hand of `viewer sim --device` ([`SimParams::default`], 300 N/m).
     pub fn new(session: PlanarSession, start_hip: Vec2) -> Result<Self, SessionError> {
-        let arm = SimulatedPantograph::new(DeviceSpec::default(), SimParams::default(), start_hip)
+        let arm = SimulatedPantograph::new(*session.spec(), SimParams::default(), start_hip)
             .map_err(SimError::Simulator)?;
         let material = material_of(&session);
         Ok(HapticLoop {
@@ -296,7 +295,7 @@ impl HapticLoop {
 
     /// Calibrates the controller on the simulated arm's end stops (where it was homed).
     pub fn calibrate(&mut self) {
-        let counts = tick::end_stop_counts(&DeviceSpec::default());
+        let counts = tick::end_stop_counts(self.session.spec());
         if let Err(e) = self.controller_mut().calibrate(counts) {
             self.last_error = Some(e.to_string());
         }

@@ -22,6 +22,8 @@ pub const DEVICE_RATE_HZ: f64 = 10_000.0;
 /// first planar one; `None` when the scene has none), that object as the device received it,
 /// and the controller built for it (which holds its own copy of the object: nothing borrowed).
 pub struct PlanarSession {
+    /// The device the session runs on.
+    spec: DeviceSpec,
     scene: Scene,
     object: Option<usize>,
     received: Option<Received>,
@@ -63,11 +65,16 @@ impl PlanarSession {
     /// pantograph is planar, so a scene of surfaces renders nothing). The controller's own
     /// checks apply: a material stiffer than the device renders is refused, naming the limit.
     pub fn new(scene: Scene) -> Result<Self, SessionError> {
+        Self::new_on(DeviceSpec::default(), scene)
+    }
+
+    /// [`PlanarSession::new`] on the device `spec` (a `device/1` file's).
+    pub fn new_on(spec: DeviceSpec, scene: Scene) -> Result<Self, SessionError> {
         let object = scene
             .objects()
             .iter()
             .position(|o| o.space() == Space::Planar);
-        Self::with_object(scene, object)
+        Self::on(spec, scene, object)
     }
 
     /// [`PlanarSession::new`] with object `object` (which must be planar), or none. The object
@@ -75,6 +82,12 @@ impl PlanarSession {
     /// goes frame by frame through the device's receiver ([`DeviceScene::receive`]), and the
     /// controller renders the store the device decoded.
     pub fn with_object(scene: Scene, object: Option<usize>) -> Result<Self, SessionError> {
+        Self::on(DeviceSpec::default(), scene, object)
+    }
+
+    /// [`PlanarSession::with_object`] on the device `spec` (a `device/1` file's) in place of
+    /// the default.
+    pub fn on(spec: DeviceSpec, scene: Scene, object: Option<usize>) -> Result<Self, SessionError> {
         let received = match object {
             Some(index) => {
                 let wire = upload::wire_scene(&scene, index)?;
@@ -83,14 +96,20 @@ impl PlanarSession {
             }
             None => None,
         };
-        let (controller, passivity_control) = build_controller(received.as_ref(), object)?;
+        let (controller, passivity_control) = build_controller(spec, received.as_ref(), object)?;
         Ok(PlanarSession {
+            spec,
             scene,
             object,
             received,
             controller,
             passivity_control,
         })
+    }
+
+    /// The device it runs on.
+    pub fn spec(&self) -> &DeviceSpec {
+        &self.spec
     }
 
     /// The scene.
@@ -122,14 +141,14 @@ impl PlanarSession {
     }
 }
 
-/// The controller of the default device for what the device received (nothing rendered
+/// The controller of the device `spec` for what the device received (nothing rendered
 /// without an object), calibrated on its end stops, forces enabled, and whether it runs the
 /// passivity controller.
 fn build_controller(
+    spec: DeviceSpec,
     received: Option<&Received>,
     object: Option<usize>,
 ) -> Result<(Controller<Chain>, bool), SessionError> {
-    let spec = DeviceSpec::default();
     let (mut controller, passivity_control) = match received {
         Some(r) => {
             let material = r
@@ -137,7 +156,7 @@ fn build_controller(
                 .store()
                 .material(usize::from(DEVICE_OBJECT))
                 .unwrap_or_default();
-            tick::device_controller(store_chain(r, object)?, material, DEVICE_RATE_HZ)?
+            tick::device_controller_on(spec, store_chain(r, object)?, material, DEVICE_RATE_HZ)?
         }
         None => {
             let safety = device::safety::SafetyConfig {

@@ -476,3 +476,38 @@ fn a_mouse_drag_at_four_frames_a_second_moves_the_hand_steadily() {
         );
     }
 }
+
+/// Issue 32, item 1: the app's simulated device follows a `device/1` description. With its
+/// force limit at 1 N, a press 6 mm into thesis-2d's arc (1.4 N through the relaxed hand on
+/// the default device, checked) is held to 1 N.
+#[test]
+fn the_app_runs_the_device_it_is_given() {
+    let scene = scene::Scene::from_json_str(scene::bundled::BUNDLED[0].json).expect("thesis-2d");
+    let limited = device::spec::DeviceSpec {
+        max_force_n: 1.0,
+        ..device::spec::DeviceSpec::default()
+    };
+    let peak = |spec: device::spec::DeviceSpec| {
+        let mut state =
+            viewer::gui::state::AppState::on(spec, "thesis-2d", scene.clone(), false, None)
+                .expect("app");
+        assert_eq!(state.spec, spec);
+        common::drag(&mut state, common::on_arc(0.05, 30.0), 300);
+        common::drag(&mut state, common::on_arc(0.034, 30.0), 300);
+        state.step(1500);
+        state
+            .telemetry
+            .history
+            .iter()
+            .map(|s| s.tick.force.length())
+            .fold(0.0f32, f32::max)
+    };
+    let default_peak = peak(device::spec::DeviceSpec::default());
+    assert!(default_peak > 1.2, "{default_peak} N");
+    let limited_peak = peak(limited);
+    assert!(limited_peak <= 1.0 + 1e-6, "{limited_peak} N");
+    assert!(
+        limited_peak > 0.9,
+        "{limited_peak} N: pressed against the limit"
+    );
+}

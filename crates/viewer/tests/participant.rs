@@ -578,9 +578,12 @@ fn on_a_linked_device_the_trial_is_uploaded_and_its_forces_follow_the_phase() {
     use std::time::{Duration, Instant};
     let dir = temp_dir("linked");
     let plan = Plan::load(SHAPES).unwrap();
-    let mut state =
-        viewer::gui::participant::participant_state(&plan, Some(host::devices::Target::Sim))
-            .unwrap();
+    let mut state = viewer::gui::participant::participant_state(
+        &plan,
+        Some(host::devices::Target::Sim),
+        device::spec::DeviceSpec::default(),
+    )
+    .unwrap();
     let mut run = ParticipantRun::open(plan, "P01", &dir).unwrap();
     let wait = |state: &mut AppState,
                 run: &mut ParticipantRun,

@@ -1071,6 +1071,10 @@ fn identify_and_monitor_take_a_device_file() {
     spec["encoder_counts_per_rev"] = serde_json::json!([0, 4096]);
     let bad = dir.path("bad.json");
     std::fs::write(&bad, spec.to_string()).expect("write");
+    let plan =
+        PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../experiments/thesis-shapes.json");
+    let plan = plan.to_str().expect("UTF-8 path").to_owned();
+    let run_dir = dir.path("run");
     for args in [
         vec!["identify", "--device-spec", &bad],
         vec![
@@ -1083,6 +1087,19 @@ fn identify_and_monitor_take_a_device_file() {
             &bad,
         ],
         vec!["device", "identify", "--sim", "--device-spec", &bad],
+        // Refused before a window opens or the run's folder is made.
+        vec!["gui", "--device-spec", &bad],
+        vec![
+            "experiment",
+            "run",
+            &plan,
+            "--participant",
+            "P01",
+            "--out",
+            &run_dir,
+            "--device-spec",
+            &bad,
+        ],
     ] {
         let r = viewer(&args);
         assert_eq!(r.status.code(), Some(2), "{args:?}: {}", stderr(&r));
@@ -1092,4 +1109,19 @@ fn identify_and_monitor_take_a_device_file() {
             stderr(&r)
         );
     }
+    assert!(!std::path::Path::new(&run_dir).exists(), "no run folder");
+    // A simulated participant has no device to describe.
+    let r = viewer(&[
+        "experiment",
+        "run",
+        &plan,
+        "--participant",
+        "sim:5",
+        "--out",
+        &run_dir,
+        "--device-spec",
+        &file,
+    ]);
+    assert_eq!(r.status.code(), Some(2), "{}", stderr(&r));
+    assert!(stderr(&r).contains("no device"), "{}", stderr(&r));
 }

@@ -201,6 +201,11 @@ pub struct ExperimentRunArgs {
     /// the mouse), `hid`, `serial:PATH` or `tcp:HOST:PORT`, as for `viewer gui`.
     #[arg(long, value_name = "DEVICE", default_value = "sim", value_parser = gui_device)]
     pub device: GuiDevice,
+    /// A real participant's simulated pantograph (`--device sim`), a `device/1` file
+    /// (`viewer device spec` prints the default). A simulated participant runs the renderer
+    /// alone, with no device to describe.
+    #[arg(long, value_name = "FILE")]
+    pub device_spec: Option<PathBuf>,
 }
 
 const DEFORM_AFTER: &str = "\
@@ -469,6 +474,10 @@ pub struct GuiArgs {
     /// under QEMU, `cargo xtask qemu --serve HOST:PORT`).
     #[arg(long, value_name = "DEVICE", default_value = "sim", value_parser = gui_device)]
     pub device: GuiDevice,
+    /// The simulated pantograph (`--device sim`), a `device/1` file (`viewer device spec`
+    /// prints the default); a board runs the description it was built with.
+    #[arg(long, value_name = "FILE")]
+    pub device_spec: Option<PathBuf>,
     /// Record the telemetry to this run log (CSV) while the app runs.
     #[arg(long, value_name = "RUN.csv")]
     pub record: Option<PathBuf>,

@@ -25,6 +25,14 @@ pub(crate) fn experiment_command(command: &viewer::cli::ExperimentSubcommand) ->
         Some(Err(e)) => return fail(&anyhow::Error::new(e), EXIT_BAD_SETUP),
         None => return participant_command(args),
     };
+    if args.device_spec.is_some() {
+        let e = anyhow::anyhow!(
+            "--device-spec describes a real participant's simulated pantograph; {} runs the \
+             renderer alone, with no device",
+            args.participant
+        );
+        return fail(&e, EXIT_BAD_SETUP);
+    }
     let plan = match Plan::load(&args.plan)
         .with_context(|| format!("invalid plan {}", args.plan.display()))
     {
@@ -110,6 +118,11 @@ pub(crate) fn participant_command(args: &viewer::cli::ExperimentRunArgs) -> Exit
             EXIT_BAD_SETUP,
         );
     }
+    // A bad device file is refused before the run's folder is touched.
+    let spec = match crate::device_spec(args.device_spec.as_deref()) {
+        Ok(spec) => spec,
+        Err(code) => return code,
+    };
     let plan = match Plan::load(&args.plan)
         .with_context(|| format!("invalid plan {}", args.plan.display()))
     {
@@ -146,7 +159,7 @@ pub(crate) fn participant_command(args: &viewer::cli::ExperimentRunArgs) -> Exit
     // Ctrl-C or SIGTERM pauses the run and closes the window, as Quit does; the answers so
     // far are in trials.csv and the same command resumes.
     let interrupt = interrupt_or_default("experiment run");
-    match run_window(run, args.device.0.clone(), Some(interrupt.clone())) {
+    match run_window(run, args.device.0.clone(), spec, Some(interrupt.clone())) {
         Ok(outcome) => {
             println!(
                 "experiment run: {} trials answered{}",

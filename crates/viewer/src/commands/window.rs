@@ -38,7 +38,12 @@ pub(crate) fn gui_command(args: &GuiArgs) -> ExitCode {
     {
         return fail(&e, EXIT_BAD_SETUP);
     }
+    let spec = match crate::device_spec(args.device_spec.as_deref()) {
+        Ok(spec) => spec,
+        Err(code) => return code,
+    };
     let options = viewer::gui::GuiOptions {
+        spec,
         scene: args.scene.clone(),
         record: args.record.clone(),
         quit_after_frames: args.quit_after_frames,

@@ -231,6 +231,8 @@ pub struct GuiOptions {
     pub device: Option<host::devices::Target>,
     /// An OBJ mesh to open instead of the scene.
     pub mesh: Option<PathBuf>,
+    /// The simulated pantograph's description (a `device/1` file's, or the default).
+    pub spec: device::spec::DeviceSpec,
     /// Close the window when this rises (Ctrl-C or SIGTERM: [`Interrupt::install`]), as if
     /// the user had closed it: the loops stop and the recording is completed.
     pub interrupt: Option<Interrupt>,
@@ -424,7 +426,7 @@ pub fn run(options: GuiOptions) -> anyhow::Result<Summary> {
         }
         None => (None, None),
     };
-    let mut state = AppState::new(&label, scene, true, record_tx)?;
+    let mut state = AppState::on(options.spec, &label, scene, true, record_tx)?;
     if let Some(path) = &options.mesh {
         state.open_obj(path);
         if let Some(e) = state.files.error.take() {

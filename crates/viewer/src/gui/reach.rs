@@ -30,7 +30,12 @@ pub struct Reach {
 impl Reach {
     /// The reach of the default device on a 2 mm grid.
     pub fn of_default_device() -> Self {
-        let spec = DeviceSpec::default();
+        Self::of_device(&DeviceSpec::default())
+    }
+
+    /// The reach of the device `spec` on a 2 mm grid.
+    pub fn of_device(spec: &DeviceSpec) -> Self {
+        let spec = *spec;
         let arm = spec.pantograph().ok();
         let cell_m = 0.002;
         let origin = Vec2::new(-0.16, -0.02);

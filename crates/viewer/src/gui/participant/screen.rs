@@ -438,19 +438,20 @@ pub struct Outcome {
 }
 
 /// The app's state for a participant's window: the loop on its thread on the plan's first
-/// stimulus with the forces off, driving `device` (the simulated pantograph in the app when
-/// `None`; a device's link set up as `viewer gui --device` sets it up, its forces turned off
+/// stimulus with the forces off, driving `device` (the simulated pantograph `spec` in the
+/// app when `None`; a device's link set up as `viewer gui --device` sets it up, its forces turned off
 /// after the set-up's), so that nothing is felt before the first trial.
 pub fn participant_state(
     plan: &Plan,
     device: Option<host::devices::Target>,
+    spec: device::spec::DeviceSpec,
 ) -> anyhow::Result<AppState> {
     use anyhow::Context;
     let scene = plan
         .scene(0)
         .cloned()
         .context("the plan has no scene for its first stimulus")?;
-    let mut state = AppState::new("participant", scene, true, None)?;
+    let mut state = AppState::on(spec, "participant", scene, true, None)?;
     state.set_forces(false);
     if let Some(target) = device {
         state.connect(target);
@@ -466,9 +467,10 @@ pub fn participant_state(
 pub fn run_window(
     run: ParticipantRun,
     device: Option<host::devices::Target>,
+    spec: device::spec::DeviceSpec,
     interrupt: Option<crate::interrupt::Interrupt>,
 ) -> anyhow::Result<Outcome> {
-    let state = participant_state(run.session().plan(), device)?;
+    let state = participant_state(run.session().plan(), device, spec)?;
     let outcome = std::sync::Arc::new(std::sync::Mutex::new(Outcome::default()));
     let app = ParticipantApp {
         ui: ParticipantUi::new(state, run),

@@ -87,6 +87,8 @@ pub struct AppState {
     record: Option<RecordTx>,
     /// The scene being rendered.
     pub scene: SceneView,
+    /// The simulated device's description (a `device/1` file's, or the default).
+    pub spec: device::spec::DeviceSpec,
     /// The device's reach.
     pub reach: Reach,
     /// The telemetry: the last [`HISTORY_S`] seconds of samples (the live loop's, or the
@@ -139,7 +141,25 @@ impl AppState {
         threaded: bool,
         record: Option<RecordTx>,
     ) -> anyhow::Result<Self> {
-        let session = PlanarSession::new(scene.clone())?;
+        Self::on(
+            device::spec::DeviceSpec::default(),
+            label,
+            scene,
+            threaded,
+            record,
+        )
+    }
+
+    /// [`AppState::new`] with the simulated device described by `spec` (a `device/1`
+    /// file's): its arm, controller and reach.
+    pub fn on(
+        spec: device::spec::DeviceSpec,
+        label: &str,
+        scene: Scene,
+        threaded: bool,
+        record: Option<RecordTx>,
+    ) -> anyhow::Result<Self> {
+        let session = PlanarSession::new_on(spec, scene.clone())?;
         let view = SceneView::new(label, &scene, session.object());
         let haptic = HapticLoop::new(session, START_HIP)?;
         let spatial = if view.is_planar() {
@@ -171,7 +191,8 @@ impl AppState {
             replay: None,
             record,
             scene: view,
-            reach: Reach::of_default_device(),
+            spec,
+            reach: Reach::of_device(&spec),
             telemetry: Telemetry::default(),
             running_material,
             hand_target: START_HIP,
@@ -457,7 +478,7 @@ impl AppState {
 
     /// Drives the simulated pantograph in this process again, on the running scene.
     pub fn use_simulated(&mut self) {
-        let rebuilt = PlanarSession::new(self.scene.model.clone())
+        let rebuilt = PlanarSession::new_on(self.spec, self.scene.model.clone())
             .map_err(anyhow::Error::from)
             .and_then(|s| Ok(HapticLoop::new(s, START_HIP)?))
             .and_then(|h| Ok(Backend::start(h, true, self.record.clone())?));
@@ -751,9 +772,9 @@ impl AppState {
                 .is_some_and(super::surface_scene::can_be_felt)
         });
         let built = match (object, felt_in_3d) {
-            (_, Some(_)) => PlanarSession::with_object(scene.clone(), None),
-            (Some(i), None) => PlanarSession::with_object(scene.clone(), Some(i)),
-            (None, None) => PlanarSession::new(scene.clone()),
+            (_, Some(_)) => PlanarSession::on(self.spec, scene.clone(), None),
+            (Some(i), None) => PlanarSession::on(self.spec, scene.clone(), Some(i)),
+            (None, None) => PlanarSession::new_on(self.spec, scene.clone()),
         };
         let session = built.map_err(|e| format!("{label}: {e}; the running scene is unchanged"))?;
         let view = SceneView::new(&self.scene_label(label, edited), &scene, session.object());
@@ -887,7 +908,7 @@ impl AppState {
         else {
             return;
         };
-        if let Ok(idle) = PlanarSession::with_object(idle_scene.clone(), None) {
+        if let Ok(idle) = PlanarSession::on(self.spec, idle_scene.clone(), None) {
             self.command(LoopCommand::Swap(Box::new(idle)));
         }
         self.pending = None;
