@@ -1087,6 +1087,14 @@ fn identify_and_monitor_take_a_device_file() {
             &bad,
         ],
         vec!["device", "identify", "--sim", "--device-spec", &bad],
+        vec![
+            "device",
+            "sim-pty",
+            "--seconds",
+            "0.1",
+            "--device-spec",
+            &bad,
+        ],
         // Refused before a window opens or the run's folder is made.
         vec!["gui", "--device-spec", &bad],
         vec![

@@ -114,6 +114,10 @@ pub struct SimPtyArgs {
     /// Stop after this many seconds (finite, >= 0); without it, run until interrupted.
     #[arg(long, value_name = "S", value_parser = seconds, allow_negative_numbers = true)]
     pub seconds: Option<Duration>,
+    /// The simulated pantograph served, a `device/1` file (`viewer device spec` prints the
+    /// default).
+    #[arg(long, value_name = "FILE")]
+    pub device_spec: Option<PathBuf>,
 }
 
 const DEVICE_LIST_AFTER: &str = "\

@@ -50,12 +50,21 @@ pub(crate) fn device_sim_pty(args: &viewer::cli::SimPtyArgs) -> ExitCode {
     use protocol::host_side::{SimConfig, SimLink};
     use std::sync::Arc;
     use std::sync::atomic::{AtomicBool, Ordering};
+    let spec = match crate::device_spec(args.device_spec.as_deref()) {
+        Ok(spec) => spec,
+        Err(code) => return code,
+    };
     let pty = match protocol::host_side::pseudo_terminal().context("cannot open a pseudo-terminal")
     {
         Ok(pty) => pty,
         Err(e) => return fail(&e, EXIT_BAD_SETUP),
     };
-    let sim = match SimLink::spawn(SimConfig::default()).context("cannot start the simulator") {
+    let sim = match SimLink::spawn(SimConfig {
+        spec,
+        ..SimConfig::default()
+    })
+    .context("cannot start the simulator")
+    {
         Ok(sim) => sim,
         Err(e) => return fail(&e, EXIT_BAD_SETUP),
     };
